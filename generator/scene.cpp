@@ -1,0 +1,353 @@
+#include "scene.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <fstream>
+#include <regex>
+#include <sstream>
+
+namespace spacearm {
+
+namespace {
+
+const std::vector<std::pair<Output, const char*>>& output_names() {
+  static const std::vector<std::pair<Output, const char*>> names = {
+      {Output::mass_matrix, "mass_matrix"},
+      {Output::coriolis_matrix, "coriolis_matrix"},
+      {Output::bias_forces, "bias_forces"},
+      {Output::kinetic_energy, "kinetic_energy"},
+      {Output::momentum, "momentum"},
+      {Output::end_effector_pose, "end_effector_pose"},
+      {Output::end_effector_jacobian, "end_effector_jacobian"},
+  };
+  return names;
+}
+
+bool is_identifier(const std::string& s) {
+  static const std::regex re("[A-Za-z][A-Za-z0-9_]*");
+  return std::regex_match(s, re);
+}
+
+bool is_decimal(const std::string& s) {
+  static const std::regex re(R"([+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?)");
+  return std::regex_match(s, re);
+}
+
+// Reads one scene file, collecting the context (file, field path) for error messages.
+class Reader {
+ public:
+  explicit Reader(std::string source) : source_(std::move(source)) {}
+
+  [[noreturn]] void fail(const std::string& field, const std::string& what,
+                         const YAML::Node& node = YAML::Node()) const {
+    std::ostringstream msg;
+    msg << "scene '" << source_ << "'";
+    if (node.IsDefined() && node.Mark().line >= 0) msg << " line " << node.Mark().line + 1;
+    if (!field.empty()) msg << ", field '" << field << "'";
+    msg << ": " << what;
+    throw SceneError(msg.str());
+  }
+
+  // Rejects keys that are not in `allowed` and keys given twice.
+  void check_keys(const YAML::Node& map, const std::string& field,
+                  const std::set<std::string>& allowed) const {
+    if (!map.IsMap()) fail(field, "expected a mapping", map);
+    std::set<std::string> seen;
+    for (const auto& kv : map) {
+      const std::string key = kv.first.as<std::string>();
+      const std::string path = field.empty() ? key : field + "." + key;
+      if (!allowed.count(key)) {
+        std::string list;
+        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        fail(path, "unknown field (allowed here: " + list + ")", kv.first);
+      }
+      if (!seen.insert(key).second) fail(path, "given more than once", kv.first);
+    }
+  }
+
+  YAML::Node require(const YAML::Node& map, const std::string& key,
+                     const std::string& field) const {
+    YAML::Node n = map[key];
+    if (!n.IsDefined() || n.IsNull())
+      fail(field.empty() ? key : field + "." + key, "missing required field", map);
+    return n;
+  }
+
+  Quantity quantity(const YAML::Node& n, const std::string& field) const {
+    if (!n.IsScalar()) fail(field, "expected a number or a parameter name", n);
+    const std::string text = n.Scalar();
+    Quantity q;
+    if (is_decimal(text)) {
+      q.literal = text;
+      q.value = std::strtod(text.c_str(), nullptr);
+      if (!std::isfinite(q.value)) fail(field, "value '" + text + "' is not finite", n);
+    } else if (is_identifier(text)) {
+      if (text == "nan" || text == "NaN" || text == "inf" || text == "Inf")
+        fail(field, "value '" + text + "' is not finite", n);
+      q.parameter = text;
+    } else {
+      fail(field, "value '" + text + "' is neither a decimal number nor a parameter name", n);
+    }
+    return q;
+  }
+
+  const std::string& source() const { return source_; }
+
+ private:
+  std::string source_;
+};
+
+void read_pair(const Reader& r, const YAML::Node& n, const std::string& field, Quantity out[2]) {
+  if (!n.IsSequence() || n.size() != 2)
+    r.fail(field, "expected a list of two numbers [x, y]", n);
+  out[0] = r.quantity(n[0], field + "[0]");
+  out[1] = r.quantity(n[1], field + "[1]");
+}
+
+Gear read_gear(const Reader& r, const YAML::Node& n, const std::string& field) {
+  r.check_keys(n, field, {"ratio", "motor_inertia", "compensate_link_inertia"});
+  Gear g;
+  g.ratio = r.quantity(r.require(n, "ratio", field), field + ".ratio");
+  g.motor_inertia = r.quantity(r.require(n, "motor_inertia", field), field + ".motor_inertia");
+  if (n["compensate_link_inertia"].IsDefined()) {
+    const auto& c = n["compensate_link_inertia"];
+    try {
+      g.compensate_link_inertia = c.as<bool>();
+    } catch (const YAML::Exception&) {
+      r.fail(field + ".compensate_link_inertia", "expected true or false, got '" +
+                 (c.IsScalar() ? c.Scalar() : std::string("a non-scalar")) + "'", c);
+    }
+  }
+  return g;
+}
+
+}  // namespace
+
+const std::vector<Output>& all_outputs() {
+  static const std::vector<Output> all = [] {
+    std::vector<Output> v;
+    for (const auto& [o, name] : output_names()) v.push_back(o);
+    return v;
+  }();
+  return all;
+}
+
+std::string to_string(Output output) {
+  for (const auto& [o, name] : output_names())
+    if (o == output) return name;
+  return "?";
+}
+
+std::optional<Output> output_from_string(const std::string& name) {
+  for (const auto& [o, n] : output_names())
+    if (name == n) return o;
+  return std::nullopt;
+}
+
+std::vector<std::string> Scene::coordinate_names() const {
+  std::vector<std::string> names;
+  if (free_floating()) names = {"x0", "y0", "q0"};
+  for (int i = 1; i <= num_links(); ++i)
+    names.push_back((geared() ? "qm" : "q") + std::to_string(i));
+  return names;
+}
+
+std::string content_hash(const std::string& text) {
+  std::uint64_t h = 14695981039346656037ull;
+  for (unsigned char c : text) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
+
+Scene parse_scene(const std::string& yaml_text, const std::string& source_name) {
+  Reader r(source_name);
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    r.fail("", std::string("not valid YAML: ") + e.what());
+  }
+  if (!root.IsMap()) r.fail("", "expected a mapping at the top level");
+  r.check_keys(root, "", {"name", "description", "base", "links", "gears", "parameters", "outputs"});
+
+  Scene s;
+  s.source_path = source_name;
+  s.content = yaml_text;
+
+  const YAML::Node name = r.require(root, "name", "");
+  if (!name.IsScalar() || !is_identifier(name.Scalar()))
+    r.fail("name", "expected a C++ identifier (letters, digits, _), got '" +
+               (name.IsScalar() ? name.Scalar() : std::string("a non-scalar")) + "'", name);
+  s.name = name.Scalar();
+  if (root["description"].IsDefined()) {
+    if (!root["description"].IsScalar()) r.fail("description", "expected text", root["description"]);
+    s.description = root["description"].Scalar();
+  }
+
+  // Parameters first: fields may refer to them.
+  std::map<std::string, int> parameter_index;
+  if (root["parameters"].IsDefined() && !root["parameters"].IsNull()) {
+    const YAML::Node ps = root["parameters"];
+    if (!ps.IsMap())
+      r.fail("parameters", "expected a mapping of parameter name to nominal value, e.g. {p: 1.0}", ps);
+    for (const auto& kv : ps) {
+      const std::string pname = kv.first.as<std::string>();
+      const std::string field = "parameters." + pname;
+      if (!is_identifier(pname)) r.fail(field, "parameter name '" + pname + "' is not an identifier", kv.first);
+      if (parameter_index.count(pname)) r.fail(field, "parameter '" + pname + "' given more than once", kv.first);
+      Parameter p{pname, r.quantity(kv.second, field)};
+      if (p.nominal.is_parameter())
+        r.fail(field, "nominal value must be a number, got '" + p.nominal.parameter + "'", kv.second);
+      parameter_index[pname] = static_cast<int>(s.parameters.size());
+      s.parameters.push_back(p);
+    }
+  }
+  std::set<std::string> used_parameters;
+
+  // Resolves a quantity's value and checks its range; `positive` false allows zero.
+  auto checked = [&](Quantity q, const std::string& field, const YAML::Node& node, bool positive,
+                     bool allow_negative = false) {
+    if (q.is_parameter()) {
+      auto it = parameter_index.find(q.parameter);
+      if (it == parameter_index.end())
+        r.fail(field, "refers to parameter '" + q.parameter + "', which is not declared under 'parameters'", node);
+      q.value = s.parameters[it->second].nominal.value;
+      used_parameters.insert(q.parameter);
+    }
+    const std::string shown = q.is_parameter() ? q.parameter + " = " + s.parameters[parameter_index[q.parameter]].nominal.literal : q.literal;
+    if (!allow_negative) {
+      if (positive && !(q.value > 0)) r.fail(field, "must be positive, got " + shown, node);
+      if (!positive && !(q.value >= 0)) r.fail(field, "must not be negative, got " + shown, node);
+    }
+    return q;
+  };
+  auto number = [&](const YAML::Node& map, const std::string& key, const std::string& field,
+                    bool positive, bool allow_negative = false) {
+    const YAML::Node n = r.require(map, key, field);
+    const std::string path = field + "." + key;
+    return checked(r.quantity(n, path), path, n, positive, allow_negative);
+  };
+  auto pair = [&](const YAML::Node& map, const std::string& key, const std::string& field, Quantity out[2]) {
+    const YAML::Node n = r.require(map, key, field);
+    const std::string path = field + "." + key;
+    read_pair(r, n, path, out);
+    for (int k = 0; k < 2; ++k) out[k] = checked(out[k], path + "[" + std::to_string(k) + "]", n[k], false, true);
+  };
+
+  // Base.
+  const YAML::Node base = r.require(root, "base", "");
+  r.check_keys(base, "base", {"type", "mass", "inertia", "mount"});
+  const YAML::Node type = r.require(base, "type", "base");
+  const std::string type_name = type.IsScalar() ? type.Scalar() : "";
+  if (type_name == "free_floating") {
+    s.base.type = BaseType::free_floating;
+    s.base.mass = number(base, "mass", "base", true);
+    s.base.inertia = number(base, "inertia", "base", true);
+  } else if (type_name == "fixed") {
+    s.base.type = BaseType::fixed;
+    if (base["mass"].IsDefined()) s.base.mass = number(base, "mass", "base", true);
+    if (base["inertia"].IsDefined()) s.base.inertia = number(base, "inertia", "base", true);
+  } else {
+    r.fail("base.type", "expected 'free_floating' or 'fixed', got '" + type_name + "'", type);
+  }
+  pair(base, "mount", "base", s.base.mount);
+
+  // Links.
+  const YAML::Node links = r.require(root, "links", "");
+  if (!links.IsSequence()) r.fail("links", "expected a list of links", links);
+  if (links.size() == 0) r.fail("links", "needs at least one link, got 0", links);
+  if (links.size() > static_cast<size_t>(kMaxLinks))
+    r.fail("links", "at most " + std::to_string(kMaxLinks) + " links are supported, got " +
+               std::to_string(links.size()), links);
+  for (size_t i = 0; i < links.size(); ++i) {
+    const std::string field = "links[" + std::to_string(i) + "]";
+    const YAML::Node l = links[i];
+    r.check_keys(l, field, {"mass", "inertia", "length", "com"});
+    Link link;
+    link.mass = number(l, "mass", field, true);
+    link.inertia = number(l, "inertia", field, true);
+    link.length = number(l, "length", field, true);
+    pair(l, "com", field, link.com);
+    s.links.push_back(link);
+  }
+
+  // Gears: one mapping for all joints, or a list with one entry per joint.
+  if (root["gears"].IsDefined() && !root["gears"].IsNull()) {
+    const YAML::Node g = root["gears"];
+    std::vector<std::pair<Gear, std::string>> read;
+    if (g.IsMap()) {
+      Gear one = read_gear(r, g, "gears");
+      for (size_t i = 0; i < links.size(); ++i) read.push_back({one, "gears"});
+    } else if (g.IsSequence()) {
+      if (g.size() != links.size())
+        r.fail("gears", "expected one entry per link (" + std::to_string(links.size()) + "), got " +
+                   std::to_string(g.size()), g);
+      for (size_t i = 0; i < g.size(); ++i) {
+        const std::string field = "gears[" + std::to_string(i) + "]";
+        read.push_back({read_gear(r, g[i], field), field});
+      }
+    } else {
+      r.fail("gears", "expected a mapping (all joints) or a list (one per joint)", g);
+    }
+    for (size_t i = 0; i < read.size(); ++i) {
+      auto [gear, field] = read[i];
+      const YAML::Node node = g.IsMap() ? g : g[i];
+      gear.ratio = checked(gear.ratio, field + ".ratio", node["ratio"], true);
+      if (gear.ratio.value < 1.0)
+        std::fprintf(stderr, "warning: scene '%s', field '%s.ratio': %g < 1 (a speed-up, not a reduction)\n",
+                     source_name.c_str(), field.c_str(), gear.ratio.value);
+      gear.motor_inertia = checked(gear.motor_inertia, field + ".motor_inertia", node["motor_inertia"], false);
+      if (gear.compensate_link_inertia && !(gear.motor_inertia.value < s.links[i].inertia.value))
+        r.fail(field + ".motor_inertia",
+               "motor inertia " + std::to_string(gear.motor_inertia.value) +
+                   " must be smaller than the inertia of link " + std::to_string(i + 1) + " (" +
+                   std::to_string(s.links[i].inertia.value) + ") that it compensates",
+               node);
+      s.gears.push_back(gear);
+    }
+  }
+
+  // Outputs: all unless the scene lists a subset.
+  if (root["outputs"].IsDefined()) {
+    const YAML::Node outs = root["outputs"];
+    if (!outs.IsSequence() || outs.size() == 0)
+      r.fail("outputs", "expected a non-empty list of output names", outs);
+    for (size_t i = 0; i < outs.size(); ++i) {
+      const std::string n = outs[i].IsScalar() ? outs[i].Scalar() : "";
+      auto o = output_from_string(n);
+      if (!o) {
+        std::string list;
+        for (Output a : all_outputs()) list += (list.empty() ? "" : ", ") + to_string(a);
+        r.fail("outputs[" + std::to_string(i) + "]", "unknown output '" + n + "' (known: " + list + ")", outs[i]);
+      }
+      if (!s.outputs.insert(*o).second)
+        r.fail("outputs[" + std::to_string(i) + "]", "output '" + n + "' listed twice", outs[i]);
+    }
+  } else {
+    s.outputs.insert(all_outputs().begin(), all_outputs().end());
+  }
+  if (s.wants(Output::momentum) && !s.free_floating())
+    r.fail("outputs", "'momentum' is only defined for a free_floating base", root["outputs"]);
+
+  for (const auto& p : s.parameters)
+    if (!used_parameters.count(p.name))
+      r.fail("parameters." + p.name, "parameter '" + p.name + "' is declared but never used", root["parameters"]);
+  return s;
+}
+
+Scene load_scene(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw SceneError("scene '" + path + "': cannot open file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse_scene(text.str(), path);
+}
+
+}  // namespace spacearm

@@ -1,0 +1,216 @@
+#include "straight_line.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <stdexcept>
+
+namespace spacearm {
+
+SRef Program::intern(Node node) {
+  auto key = std::make_tuple(static_cast<int>(node.kind), node.args, node.text);
+  auto it = index_.find(key);
+  if (it != index_.end()) return {it->second, false};
+  nodes_.push_back(std::move(node));
+  const int id = static_cast<int>(nodes_.size()) - 1;
+  index_[key] = id;
+  return {id, false};
+}
+
+SRef Program::input(const std::string& text) { return intern({Kind::input, {}, text, 0}); }
+
+SRef Program::constant(double value) {
+  if (value == 0 || !std::isfinite(value)) throw std::logic_error("constant must be finite and non-zero");
+  char buf[64];
+  // Shortest text that reads back as the same double.
+  for (int digits = 15; digits <= 17; ++digits) {
+    std::snprintf(buf, sizeof buf, "%.*g", digits, std::fabs(value));
+    if (std::strtod(buf, nullptr) == std::fabs(value)) break;
+  }
+  SRef r = intern({Kind::constant, {}, buf, std::fabs(value)});
+  r.neg = value < 0;
+  return r;
+}
+
+SRef Program::add(std::vector<SRef> terms) {
+  terms.erase(std::remove_if(terms.begin(), terms.end(), [](const SRef& t) { return t.id < 0; }), terms.end());
+  if (terms.empty()) return zero();
+  if (terms.size() == 1) return terms[0];
+  std::sort(terms.begin(), terms.end());
+  // Keep a positive term available to lead the sum; pull the sign out if none is.
+  const bool all_negative = std::all_of(terms.begin(), terms.end(), [](const SRef& t) { return t.neg; });
+  if (all_negative)
+    for (auto& t : terms) t.neg = false;
+  SRef r = intern({Kind::add, terms, "", 0});
+  r.neg = all_negative;
+  return r;
+}
+
+SRef Program::mul(std::vector<SRef> factors) {
+  bool neg = false;
+  std::vector<SRef> f;
+  for (SRef x : factors) {
+    if (x.id < 0) return zero();
+    neg ^= x.neg;
+    x.neg = false;
+    // Multiplying by the constant 1 is no operation.
+    if (nodes_[x.id].kind == Kind::constant && nodes_[x.id].value == 1.0) continue;
+    f.push_back(x);
+  }
+  SRef r;
+  if (f.empty()) {
+    r = constant(1.0);
+  } else if (f.size() == 1) {
+    r = f[0];
+  } else {
+    std::sort(f.begin(), f.end());
+    r = intern({Kind::mul, f, "", 0});
+  }
+  r.neg ^= neg;
+  return r;
+}
+
+SRef Program::div(SRef numerator, SRef denominator) {
+  if (denominator.id < 0) throw std::logic_error("division by zero in generated code");
+  if (numerator.id < 0) return zero();
+  const bool neg = numerator.neg != denominator.neg;
+  numerator.neg = denominator.neg = false;
+  SRef r = intern({Kind::div, {numerator, denominator}, "", 0});
+  r.neg = neg;
+  return r;
+}
+
+SRef Program::sin(SRef angle) {
+  if (angle.id < 0) return zero();
+  SRef r = intern({Kind::sin, {{angle.id, false}}, "", 0});
+  r.neg = angle.neg;  // sin(-x) = -sin(x)
+  return r;
+}
+
+SRef Program::cos(SRef angle) {
+  if (angle.id < 0) return constant(1.0);
+  return intern({Kind::cos, {{angle.id, false}}, "", 0});
+}
+
+void Program::extract_common_pairs(const std::vector<SRef>& roots) {
+  extract_pass(Kind::mul, roots);
+  extract_pass(Kind::add, roots);
+}
+
+// Repeatedly finds the pair of operands that occurs in the most sums (products) and turns
+// it into a node of its own. For sums, a pair and its negation count as one: (a - b)
+// shares with (b - a). Deterministic: ties go to the smallest pair.
+void Program::extract_pass(Kind kind, const std::vector<SRef>& roots) {
+  using Pair = std::pair<SRef, SRef>;
+  auto canonical = [](SRef a, SRef b, bool& flipped) {
+    if (b < a) std::swap(a, b);
+    flipped = a.neg;
+    if (flipped) {
+      a.neg = !a.neg;
+      b.neg = !b.neg;
+    }
+    return Pair{a, b};
+  };
+  for (;;) {
+    std::vector<int> nodes;
+    for (int id : schedule(roots))
+      if (nodes_[id].kind == kind && nodes_[id].args.size() >= 2) nodes.push_back(id);
+    std::map<Pair, int> counts;
+    for (int id : nodes) {
+      const auto& a = nodes_[id].args;
+      std::set<Pair> seen;
+      for (size_t i = 0; i < a.size(); ++i)
+        for (size_t j = i + 1; j < a.size(); ++j) {
+          bool flipped;
+          seen.insert(canonical(a[i], a[j], flipped));
+        }
+      for (const auto& p : seen) ++counts[p];
+    }
+    Pair best;
+    int best_count = 1;
+    for (const auto& [p, c] : counts)
+      if (c > best_count) {
+        best = p;
+        best_count = c;
+      }
+    if (best_count < 2) return;
+
+    // The new node (or an existing two-operand node equal to it).
+    SRef shared = kind == Kind::add ? add({best.first, best.second}) : mul({best.first, best.second});
+    for (int id : nodes) {
+      if (id == shared.id) continue;
+      auto& args = nodes_[id].args;
+      for (size_t i = 0; i < args.size(); ++i)
+        for (size_t j = i + 1; j < args.size(); ++j) {
+          bool flipped;
+          if (canonical(args[i], args[j], flipped) != best) continue;
+          SRef repl = shared;
+          repl.neg ^= flipped;
+          args.erase(args.begin() + j);
+          args.erase(args.begin() + i);
+          args.push_back(repl);
+          i = args.size();  // one replacement per node and pass
+          break;
+        }
+    }
+  }
+}
+
+std::vector<int> Program::schedule(const std::vector<SRef>& roots) const {
+  std::vector<int> order;
+  std::vector<char> state(nodes_.size(), 0);  // 0 new, 1 on stack, 2 done
+  std::vector<std::pair<int, size_t>> stack;
+  for (const SRef& r : roots) {
+    if (r.id < 0 || state[r.id]) continue;
+    stack.push_back({r.id, 0});
+    state[r.id] = 1;
+    while (!stack.empty()) {
+      auto& [id, next] = stack.back();
+      const auto& args = nodes_[id].args;
+      if (next < args.size()) {
+        const int child = args[next++].id;
+        if (child >= 0 && !state[child]) {
+          state[child] = 1;
+          stack.push_back({child, 0});
+        }
+      } else {
+        state[id] = 2;
+        order.push_back(id);
+        stack.pop_back();
+      }
+    }
+  }
+  return order;
+}
+
+OpCounts Program::count(const std::vector<SRef>& roots) const {
+  OpCounts c;
+  for (int id : schedule(roots)) {
+    const Node& n = nodes_[id];
+    switch (n.kind) {
+      case Kind::add:
+        c.adds += static_cast<int>(n.args.size()) - 1;
+        // A sum of only negated terms starts with a negation.
+        if (std::all_of(n.args.begin(), n.args.end(), [](const SRef& a) { return a.neg; })) c.adds += 1;
+        break;
+      case Kind::mul:
+        c.muls += static_cast<int>(n.args.size()) - 1;
+        break;
+      case Kind::div:
+        c.divs += 1;
+        break;
+      case Kind::sin:
+      case Kind::cos:
+        c.trig += 1;
+        break;
+      default:
+        break;
+    }
+  }
+  // A negated result costs a negation where it is stored.
+  for (const SRef& r : roots)
+    if (r.id >= 0 && r.neg) c.adds += 1;
+  return c;
+}
+
+}  // namespace spacearm

@@ -1,0 +1,69 @@
+// Straight-line code as a DAG of arithmetic nodes, with common-subexpression elimination.
+//
+// Hand-written because GiNaC has no CSE: it hash-conses nothing across expressions and
+// re-expands products, so printing its expressions directly repeats every shared term.
+// Here identical nodes are created once (hash-consing), and a greedy pass factors out the
+// pairs of operands that several sums or products share (as SymPy's cse does).
+#pragma once
+
+#include <map>
+#include <string>
+#include <tuple>
+#include <vector>
+
+namespace spacearm {
+
+// A reference to a node, possibly negated.
+struct SRef {
+  int id = -1;
+  bool neg = false;
+  SRef operator-() const { return {id, !neg}; }
+  bool operator<(const SRef& o) const { return std::tie(id, neg) < std::tie(o.id, o.neg); }
+  bool operator==(const SRef& o) const { return id == o.id && neg == o.neg; }
+};
+
+struct OpCounts {
+  int adds = 0;  // additions, subtractions and negations
+  int muls = 0;
+  int divs = 0;
+  int trig = 0;  // sin and cos calls (a sin/cos pair of one angle counts 2)
+  int total_arithmetic() const { return adds + muls + divs; }
+};
+
+class Program {
+ public:
+  enum class Kind { input, constant, add, mul, div, sin, cos };
+  struct Node {
+    Kind kind;
+    std::vector<SRef> args;  // add: signed terms; mul: factors (never negated); div: {num, den}
+    std::string text;        // input: expression text; constant: literal
+    double value = 0;        // constant value (> 0)
+  };
+
+  SRef input(const std::string& text);
+  SRef constant(double value);  // any sign; zero is not allowed (fold it away instead)
+  SRef add(std::vector<SRef> terms);
+  SRef mul(std::vector<SRef> factors);
+  SRef div(SRef numerator, SRef denominator);
+  SRef sin(SRef angle);
+  SRef cos(SRef angle);
+  SRef zero() const { return {-1, false}; }  // id -1: the constant 0
+
+  // Greedy common-pair extraction over all sums and products reachable from roots.
+  void extract_common_pairs(const std::vector<SRef>& roots);
+
+  // Nodes reachable from roots in an order where operands come first.
+  std::vector<int> schedule(const std::vector<SRef>& roots) const;
+  OpCounts count(const std::vector<SRef>& roots) const;
+
+  const Node& node(int id) const { return nodes_[id]; }
+  size_t size() const { return nodes_.size(); }
+
+ private:
+  SRef intern(Node node);
+  void extract_pass(Kind kind, const std::vector<SRef>& roots);
+  std::vector<Node> nodes_;
+  std::map<std::tuple<int, std::vector<SRef>, std::string>, int> index_;
+};
+
+}  // namespace spacearm

@@ -1,0 +1,308 @@
+#include "symbolic_model.hpp"
+
+#include <cmath>
+#include <regex>
+#include <stdexcept>
+
+namespace spacearm {
+
+using GiNaC::ex;
+using GiNaC::lst;
+using GiNaC::matrix;
+using GiNaC::numeric;
+using GiNaC::symbol;
+
+numeric exact_decimal(const std::string& literal) {
+  static const std::regex re(R"(([+-]?)(\d*)(?:\.(\d*))?(?:[eE]([+-]?\d+))?)");
+  std::smatch m;
+  if (!std::regex_match(literal, m, re)) throw std::invalid_argument("not a decimal: " + literal);
+  std::string digits = m[2].str() + m[3].str();
+  if (digits.empty()) digits = "0";
+  const long exponent = (m[4].matched ? std::stol(m[4].str()) : 0) - static_cast<long>(m[3].length());
+  numeric value(digits.c_str());
+  value = value * GiNaC::pow(numeric(10), numeric(exponent));
+  return m[1].str() == "-" ? -value : value;
+}
+
+namespace {
+
+// Everything the derivation needs about one scene, as GiNaC expressions.
+struct Builder {
+  const Scene& scene;
+  SymbolicModel& model;
+  std::map<std::string, ex> parameter_symbols;
+
+  ex value(const Quantity& q) const {
+    if (q.is_parameter()) return parameter_symbols.at(q.parameter);
+    return exact_decimal(q.literal);
+  }
+
+  // d/dt of an expression of q along qd (qdd = 0 is all we ever need it for).
+  ex time_derivative(const ex& e) const {
+    ex result = 0;
+    for (int i = 0; i < model.n(); ++i) result += e.diff(model.q[i]) * model.qd[i];
+    return result;
+  }
+};
+
+struct Vec2 {
+  ex x, y;
+};
+
+// R(theta) J u with J the rotation by +90 degrees: d/dtheta of R(theta) u.
+Vec2 rotated_perp(const ex& theta, const Vec2& u) {
+  return {-GiNaC::cos(theta) * u.y - GiNaC::sin(theta) * u.x,
+          GiNaC::cos(theta) * u.x - GiNaC::sin(theta) * u.y};
+}
+
+Vec2 rotated(const ex& theta, const Vec2& u) {
+  return {GiNaC::cos(theta) * u.x - GiNaC::sin(theta) * u.y,
+          GiNaC::sin(theta) * u.x + GiNaC::cos(theta) * u.y};
+}
+
+}  // namespace
+
+bool SymbolicModel::atom_of(const ex& call, TrigAtom& atom) const {
+  if (!GiNaC::is_a<GiNaC::function>(call) || call.nops() != 1) return false;
+  const std::string name = GiNaC::ex_to<GiNaC::function>(call).get_name();
+  if (name != "cos" && name != "sin") return false;
+  auto it = angle_table.find(call.op(0).expand());
+  if (it == angle_table.end()) return false;
+  atom.is_cos = name == "cos";
+  atom.from = it->second.first;
+  atom.to = it->second.second;
+  return true;
+}
+
+SymbolicModel derive(const Scene& scene, const DeriveOptions& options) {
+  SymbolicModel model;
+  model.scene = scene;
+  Builder b{scene, model, {}};
+  const int N = scene.num_links();
+  const bool free = scene.free_floating();
+  const bool geared = scene.geared();
+
+  // Symbols in a fixed order: coordinates, velocities, parameters.
+  for (const auto& name : scene.coordinate_names()) model.q.emplace_back(name);
+  for (const auto& name : scene.coordinate_names()) model.qd.emplace_back(name + "d");
+  for (const auto& p : scene.parameters) {
+    model.parameters.emplace_back(p.name);
+    b.parameter_symbols[p.name] = model.parameters.back();
+  }
+  const int n = model.n();
+  const int first_joint = free ? 3 : 0;
+
+  // Base pose and absolute angles theta_k = q0 + sum_{j<=k} q_j (eq. 4); in motor
+  // coordinates q_j = q_m_j / p_j (eq. 9 integrated with q_m(0) = p q(0)).
+  Vec2 r0{0, 0}, r0d{0, 0};
+  ex theta0 = 0;
+  if (free) {
+    r0 = {model.q[0], model.q[1]};
+    r0d = {model.qd[0], model.qd[1]};
+    theta0 = model.q[2];
+  }
+  model.gear_map = matrix(n, n);
+  for (int i = 0; i < n; ++i) model.gear_map(i, i) = 1;
+  std::vector<ex> p(N + 1, 1), Im(N + 1, 0);
+  for (int j = 1; j <= N; ++j) {
+    if (geared) {
+      p[j] = b.value(scene.gears[j - 1].ratio);
+      Im[j] = b.value(scene.gears[j - 1].motor_inertia);
+      model.gear_map(first_joint + j - 1, first_joint + j - 1) = 1 / p[j];
+    }
+  }
+  model.theta.push_back(theta0);
+  for (int j = 1; j <= N; ++j)
+    model.theta.push_back(model.theta.back() + model.q[first_joint + j - 1] / p[j]);
+  for (const ex& th : model.theta) model.omega.push_back(b.time_derivative(th).expand());
+  for (int k = 0; k <= N; ++k) {
+    model.angle_table[model.theta[k].expand()] = {-1, k};
+    for (int l = k + 1; l <= N; ++l) model.angle_table[(model.theta[l] - model.theta[k]).expand()] = {k, l};
+  }
+  const auto& theta = model.theta;
+  const auto& Omega = model.omega;
+
+  // Kinetic energy, eq. 3. With d_i = CoM_i - r0 = sum_k R(theta_k) u_ki, the CoM velocity
+  // is v_i = r0d + sum_k Omega_k R(theta_k) J u_ki and
+  // |v_i|^2 = |r0d|^2 + 2 sum_k Omega_k r0d.(R_k J u_k) + sum_kl Omega_k Omega_l u_k^T R(theta_l - theta_k) u_l,
+  // written with the relative angles so the closed form stays compact (no trig identities
+  // are needed afterwards).
+  ex T = 0;
+  const ex m0 = free ? b.value(scene.base.mass) : ex(0);
+  const ex I0 = free ? b.value(scene.base.inertia) : ex(0);
+  T += m0 * (r0d.x * r0d.x + r0d.y * r0d.y) / 2 + I0 * Omega[0] * Omega[0] / 2;
+  const Vec2 mount{b.value(scene.base.mount[0]), b.value(scene.base.mount[1])};
+  for (int i = 1; i <= N; ++i) {
+    const Link& link = scene.links[i - 1];
+    std::vector<Vec2> u;  // u_ki, k = 0..i
+    u.push_back(mount);
+    for (int k = 1; k < i; ++k) u.push_back({b.value(scene.links[k - 1].length), 0});
+    u.push_back({b.value(link.com[0]), b.value(link.com[1])});
+    ex v2 = r0d.x * r0d.x + r0d.y * r0d.y;
+    for (int k = 0; k <= i; ++k) {
+      const Vec2 w = rotated_perp(theta[k], u[k]);
+      v2 += 2 * Omega[k] * (r0d.x * w.x + r0d.y * w.y);
+      v2 += Omega[k] * Omega[k] * (u[k].x * u[k].x + u[k].y * u[k].y);
+      for (int l = k + 1; l <= i; ++l) {
+        const ex delta = theta[l] - theta[k];
+        // u_k^T R(delta) u_l = (u_k . u_l) cos(delta) + (u_ky u_lx - u_kx u_ly) sin(delta)
+        const ex dot = u[k].x * u[l].x + u[k].y * u[l].y;
+        const ex cross = u[k].y * u[l].x - u[k].x * u[l].y;
+        v2 += 2 * Omega[k] * Omega[l] * (dot * GiNaC::cos(delta) + cross * GiNaC::sin(delta));
+      }
+    }
+    ex I_link = b.value(link.inertia);
+    if (geared && scene.gears[i - 1].compensate_link_inertia) I_link -= Im[i];
+    T += b.value(link.mass) * v2 / 2 + I_link * Omega[i] * Omega[i] / 2;
+    if (geared) {
+      // Motor i turns with the previous body plus its own rate (eq. 11), 1/2 I_m w^2 (eq. 10).
+      const ex omega_m = Omega[i - 1] + model.qd[first_joint + i - 1];
+      T += Im[i] * omega_m * omega_m / 2;
+    }
+  }
+  model.kinetic_energy = T.expand();
+
+  const bool want_all = options.all_outputs;
+  auto wants = [&](Output o) { return want_all || scene.wants(o); };
+
+  // Mass matrix, eq. 6: M_ij = d^2 T / dqd_i dqd_j.
+  std::vector<ex> dT_dqd(n);
+  for (int i = 0; i < n; ++i) dT_dqd[i] = model.kinetic_energy.diff(model.qd[i]);
+  if (wants(Output::mass_matrix) || wants(Output::coriolis_matrix)) {
+    model.mass_matrix = matrix(n, n);
+    for (int i = 0; i < n; ++i)
+      for (int j = i; j < n; ++j) {
+        const ex Mij = dT_dqd[i].diff(model.qd[j]).expand();
+        model.mass_matrix(i, j) = Mij;
+        model.mass_matrix(j, i) = Mij;
+      }
+  }
+
+  // Coriolis matrix exactly as eq. 7: C = (Mdot - 1/2 d(M qd)/dq)^T, i.e.
+  // C_ij = sum_k dM_ij/dq_k qd_k - 1/2 sum_k dM_jk/dq_i qd_k.
+  if (wants(Output::coriolis_matrix)) {
+    model.coriolis_matrix = matrix(n, n);
+    std::vector<ex> M_qd(n);  // (M qd)_j
+    for (int j = 0; j < n; ++j) {
+      ex s = 0;
+      for (int k = 0; k < n; ++k) s += model.mass_matrix(j, k) * model.qd[k];
+      M_qd[j] = s.expand();
+    }
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        const ex Mdot_ij = b.time_derivative(model.mass_matrix(i, j));
+        model.coriolis_matrix(i, j) = (Mdot_ij - M_qd[j].diff(model.q[i]) / 2).expand();
+      }
+  }
+
+  // Bias C qd, emitted directly from the Euler-Lagrange terms at qdd = 0 (cheaper than C).
+  if (wants(Output::bias_forces)) {
+    model.bias_forces = matrix(n, 1);
+    for (int i = 0; i < n; ++i)
+      model.bias_forces(i, 0) =
+          (b.time_derivative(dT_dqd[i]) - model.kinetic_energy.diff(model.q[i])).expand();
+  }
+
+  // Momentum: P = dT/d(r0d); angular momentum about the world origin
+  // L = dT/dq0d + r0 x P (dT/dq0d is the angular momentum about the base CoM).
+  if (wants(Output::momentum) && free) {
+    model.momentum = matrix(3, 1);
+    model.momentum(0, 0) = dT_dqd[0].expand();
+    model.momentum(1, 0) = dT_dqd[1].expand();
+    model.momentum(2, 0) = (dT_dqd[2] + r0.x * dT_dqd[1] - r0.y * dT_dqd[0]).expand();
+  }
+
+  // End-effector: tip of the last link, orientation of the last link.
+  if (wants(Output::end_effector_pose) || wants(Output::end_effector_jacobian)) {
+    Vec2 tip = r0;
+    const Vec2 m0vec = rotated(theta[0], mount);
+    tip = {tip.x + m0vec.x, tip.y + m0vec.y};
+    for (int k = 1; k <= N; ++k) {
+      const Vec2 seg = rotated(theta[k], {b.value(scene.links[k - 1].length), 0});
+      tip = {tip.x + seg.x, tip.y + seg.y};
+    }
+    model.end_effector_pose = matrix(3, 1);
+    model.end_effector_pose(0, 0) = tip.x.expand();
+    model.end_effector_pose(1, 0) = tip.y.expand();
+    model.end_effector_pose(2, 0) = theta[N].expand();
+    model.end_effector_jacobian = matrix(3, n);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < n; ++c)
+        model.end_effector_jacobian(r, c) = model.end_effector_pose(r, 0).diff(model.q[c]).expand();
+  }
+  return model;
+}
+
+GiNaC::ex symbolic_entry(const SymbolicModel& model, const std::string& entry) {
+  static const std::regex re(R"(\s*([A-Za-z]+)\s*(?:\[\s*(\d+)\s*\])?\s*(?:\[\s*(\d+)\s*\])?\s*)");
+  std::smatch m;
+  if (!std::regex_match(entry, m, re))
+    throw std::invalid_argument("entry '" + entry + "': expected e.g. T, M[3][4], C[0][3], b[2], h[0], x[1], J[0][3]");
+  const std::string what = m[1].str();
+  const int n = model.n();
+  auto index = [&](int group, int limit, const char* name) {
+    if (!m[group].matched) throw std::invalid_argument("entry '" + entry + "': missing index for " + name);
+    const int i = std::stoi(m[group].str());
+    if (i < 0 || i >= limit)
+      throw std::invalid_argument("entry '" + entry + "': index " + std::to_string(i) + " out of range 0.." +
+                                  std::to_string(limit - 1));
+    return i;
+  };
+  auto need = [&](const matrix& mat, const char* output) {
+    if (mat.rows() == 0) throw std::invalid_argument("entry '" + entry + "': the model has no " + output);
+  };
+  if (what == "T") return model.kinetic_energy;
+  if (what == "M") {
+    need(model.mass_matrix, "mass matrix");
+    return model.mass_matrix(index(2, n, "row"), index(3, n, "column"));
+  }
+  if (what == "C") {
+    need(model.coriolis_matrix, "Coriolis matrix");
+    return model.coriolis_matrix(index(2, n, "row"), index(3, n, "column"));
+  }
+  if (what == "b") {
+    need(model.bias_forces, "bias forces");
+    return model.bias_forces(index(2, n, "row"), 0);
+  }
+  if (what == "h") {
+    need(model.momentum, "momentum (free-floating base only)");
+    return model.momentum(index(2, 3, "row"), 0);
+  }
+  if (what == "x") {
+    need(model.end_effector_pose, "end-effector pose");
+    return model.end_effector_pose(index(2, 3, "row"), 0);
+  }
+  if (what == "J") {
+    need(model.end_effector_jacobian, "end-effector Jacobian");
+    return model.end_effector_jacobian(index(2, 3, "row"), index(3, n, "column"));
+  }
+  throw std::invalid_argument("entry '" + entry + "': unknown quantity '" + what +
+                              "' (known: T, M, C, b, h, x, J)");
+}
+
+double evaluate(const SymbolicModel& model, const GiNaC::ex& e, const std::vector<double>& q,
+                const std::vector<double>& qd, const std::vector<double>& params) {
+  lst subs;
+  // Doubles are converted exactly to rationals so the evaluation itself adds no rounding.
+  auto exact = [](double v) {
+    int exponent = 0;
+    const double mantissa = std::frexp(v, &exponent);  // v = mantissa 2^exponent
+    const long integer = static_cast<long>(std::ldexp(mantissa, 53));
+    return GiNaC::numeric(integer) * GiNaC::pow(GiNaC::numeric(2), exponent - 53);
+  };
+  const int saved_digits = GiNaC::Digits;
+  GiNaC::Digits = 40;
+  for (int i = 0; i < model.n(); ++i) {
+    subs.append(model.q[i] == exact(q.at(i)));
+    subs.append(model.qd[i] == exact(qd.at(i)));
+  }
+  for (size_t i = 0; i < model.parameters.size(); ++i)
+    subs.append(model.parameters[i] ==
+                exact(params.empty() ? model.scene.parameters[i].nominal.value : params.at(i)));
+  const ex value = GiNaC::evalf(e.subs(subs));
+  GiNaC::Digits = saved_digits;
+  if (!GiNaC::is_a<numeric>(value)) throw std::runtime_error("expression did not evaluate to a number");
+  return GiNaC::ex_to<numeric>(value).to_double();
+}
+
+}  // namespace spacearm
