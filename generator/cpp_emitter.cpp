@@ -16,6 +16,37 @@ using GiNaC::is_a;
 
 namespace {
 
+// A text key of an expression that does not depend on GiNaC's internal operand order
+// (which follows type-info addresses and so can change between runs): operands of sums
+// and products are sorted by their own keys. Used to build nodes in a reproducible order.
+std::string canonical_key(const ex& e) {
+  std::ostringstream s;
+  if (is_a<GiNaC::symbol>(e) || is_a<GiNaC::numeric>(e)) {
+    s << e;
+    return s.str();
+  }
+  std::vector<std::string> parts;
+  for (size_t i = 0; i < e.nops(); ++i) parts.push_back(canonical_key(e.op(i)));
+  const bool commutative = is_a<GiNaC::add>(e) || is_a<GiNaC::mul>(e);
+  if (commutative) std::sort(parts.begin(), parts.end());
+  std::string name = is_a<GiNaC::add>(e) ? "+" : is_a<GiNaC::mul>(e) ? "*" : is_a<GiNaC::power>(e) ? "^"
+                     : is_a<GiNaC::function>(e) ? ex_to<GiNaC::function>(e).get_name() : "?";
+  s << name << "(";
+  for (const auto& p : parts) s << p << ",";
+  s << ")";
+  return s.str();
+}
+
+// Operands of a sum or product in canonical order.
+std::vector<ex> sorted_operands(const ex& e) {
+  std::vector<std::pair<std::string, ex>> keyed;
+  for (size_t i = 0; i < e.nops(); ++i) keyed.push_back({canonical_key(e.op(i)), e.op(i)});
+  std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<ex> ops;
+  for (auto& k : keyed) ops.push_back(k.second);
+  return ops;
+}
+
 struct Term {
   ex coeff;                             // numeric or an expression of run-time parameters
   std::vector<std::pair<int, int>> mono;  // (variable, exponent > 0), sorted by variable
@@ -148,12 +179,12 @@ class FunctionBuilder {
       if (e.is_equal(m_.qd[i])) return prog.input("qd(" + std::to_string(i) + ")");
     if (is_a<GiNaC::add>(e)) {
       std::vector<SRef> terms;
-      for (size_t i = 0; i < e.nops(); ++i) terms.push_back(from_ex(e.op(i)));
+      for (const ex& op : sorted_operands(e)) terms.push_back(from_ex(op));
       return prog.add(terms);
     }
     if (is_a<GiNaC::mul>(e)) {
       std::vector<SRef> factors;
-      for (size_t i = 0; i < e.nops(); ++i) factors.push_back(from_ex(e.op(i)));
+      for (const ex& op : sorted_operands(e)) factors.push_back(from_ex(op));
       return prog.mul(factors);
     }
     if (is_a<GiNaC::power>(e) && is_a<GiNaC::numeric>(e.op(1)) && ex_to<GiNaC::numeric>(e.op(1)).is_integer()) {
@@ -534,6 +565,32 @@ EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
       << signature(f, "T", true) << " {\n  using std::cos;\n  using std::sin;\n"
       << best_body << "}\n";
   }
+  // The model as a type, so generic code (runtime, tests, benchmarks) can take it as a
+  // template argument.
+  h << "\n// The model as a type for generic code: constants and forwarding functions.\nstruct Model {\n"
+    << "  static constexpr const char* kName = \"" << scene.name << "\";\n"
+    << "  static constexpr int kNq = " << ns << "::kNq;\n"
+    << "  static constexpr int kNumLinks = " << ns << "::kNumLinks;\n"
+    << "  static constexpr int kNumParams = " << ns << "::kNumParams;\n"
+    << "  static constexpr bool kFreeFloating = " << ns << "::kFreeFloating;\n"
+    << "  static constexpr bool kGeared = " << ns << "::kGeared;\n";
+  for (Output o : all_outputs())
+    h << "  static constexpr bool kHas_" << to_string(o) << " = " << ns << "::kHas_" << to_string(o) << ";\n";
+  h << "  template <typename T> using Coordinates = " << ns << "::Coordinates<T>;\n"
+    << "  template <typename T> using Parameters = " << ns << "::Parameters<T>;\n"
+    << "  template <typename T> using MassMatrix = " << ns << "::MassMatrix<T>;\n"
+    << "  template <typename T> using Vector3 = " << ns << "::Vector3<T>;\n"
+    << "  template <typename T> using PoseJacobian = " << ns << "::PoseJacobian<T>;\n"
+    << "  static constexpr const std::array<const char*, kNq>& coordinate_names() { return kCoordinateNames; }\n"
+    << "  static constexpr const std::array<const char*, kNumParams>& parameter_names() { return kParameterNames; }\n"
+    << "  static constexpr const std::array<double, kNumParams>& nominal_parameters() { return kNominalParameters; }\n";
+  for (const auto& f : functions) {
+    std::string call;
+    for (const auto& a : f.args) call += (call.empty() ? "" : ", ") + a.name;
+    h << "  template <typename T>\n  static " << signature(f, "T", true) << " {\n    return " << ns
+      << "::" << f.name << "<T>(" << call << ");\n  }\n";
+  }
+  h << "};\n";
   s << "\n// Explicit instantiations.\n";
   for (const char* scalar : {"float", "double", "long double"})
     for (const auto& f : functions) s << "template " << signature(f, scalar, false) << ";\n";
@@ -560,6 +617,19 @@ void write_files(const EmittedModel& emitted, const std::string& dir) {
     staged.push_back({tmp, final_path});
   }
   for (const auto& [tmp, final_path] : staged) fs::rename(tmp, final_path);
+}
+
+std::vector<std::string> stale_files(const EmittedModel& emitted, const std::string& dir) {
+  std::vector<std::string> stale;
+  for (const auto& [name, text] : {std::make_pair(emitted.header_name, &emitted.header),
+                                   std::make_pair(emitted.source_name, &emitted.source)}) {
+    const std::string path = dir + "/" + name;
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream existing;
+    existing << in.rdbuf();
+    if (!in || existing.str() != *text) stale.push_back(path);
+  }
+  return stale;
 }
 
 }  // namespace spacearm

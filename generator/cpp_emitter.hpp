@@ -36,4 +36,7 @@ EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options);
 // run leaves no half-written output.
 void write_files(const EmittedModel& emitted, const std::string& dir);
 
+// The files in dir that are missing or differ from `emitted` (byte for byte).
+std::vector<std::string> stale_files(const EmittedModel& emitted, const std::string& dir);
+
 }  // namespace spacearm

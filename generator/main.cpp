@@ -37,6 +37,9 @@ int main(int argc, char** argv) {
   generate->add_option("scene", scene_path, "Scene file (YAML)")->required();
   generate->add_option("-o,--output", out_dir, "Output folder")->required();
   generate->add_flag("--stats", stats, "Print adds, multiplies, divisions and sin/cos calls per function");
+  bool check = false;
+  generate->add_flag("--check", check,
+                     "Write nothing; exit 1 if the files in the output folder differ from what would be generated");
 
   auto* inspect = app.add_subcommand("inspect", "Print one symbolic entry of the derived model");
   inspect->add_option("scene", scene_path, "Scene file (YAML)")->required();
@@ -58,6 +61,17 @@ int main(int argc, char** argv) {
       options.scene_path = scene_path;
       options.command = "spacearm generate " + scene_path + " -o " + out_dir;
       const auto emitted = spacearm::emit_cpp(model, options);
+      if (check) {
+        const auto stale = spacearm::stale_files(emitted, out_dir);
+        for (const auto& f : stale) std::cerr << "spacearm: stale generated file: " << f << "\n";
+        if (!stale.empty()) {
+          std::cerr << "spacearm: regenerate with: " << options.command << "\n";
+          return 1;
+        }
+        std::cout << "up to date: " << out_dir << "/" << emitted.header_name << ", " << out_dir << "/"
+                  << emitted.source_name << "\n";
+        return 0;
+      }
       spacearm::write_files(emitted, out_dir);
       const auto t2 = clock::now();
       auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
