@@ -40,35 +40,35 @@ template <typename T> using PoseJacobian = Eigen::Matrix<T, 3, kNq>;
 
 // Mass matrix M(q) (n x n, symmetric positive definite), paper eq. 6.
 template <typename T>
-void mass_matrix(const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, MassMatrix<T>& M);
+void mass_matrix(const Coordinates<T>& q, const Parameters<T>& params, MassMatrix<T>& M);
 
 // Coriolis/centrifugal matrix C(q, qd) (n x n) exactly as paper eq. 7; C qd is the bias. Not the Christoffel form: Mdot - 2C is not skew-symmetric.
 template <typename T>
-void coriolis_matrix(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params, MassMatrix<T>& C);
+void coriolis_matrix(const Coordinates<T>& q, const Coordinates<T>& qd, const Parameters<T>& params, MassMatrix<T>& C);
 
 // Bias b = C(q, qd) qd (n), so that M qdd + b = Q (paper eq. 5).
 template <typename T>
-void bias_forces(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params, Coordinates<T>& b);
+void bias_forces(const Coordinates<T>& q, const Coordinates<T>& qd, const Parameters<T>& params, Coordinates<T>& b);
 
 // M and b together, sharing the sin/cos and common terms.
 template <typename T>
-void mass_matrix_and_bias(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params, MassMatrix<T>& M, Coordinates<T>& b);
+void mass_matrix_and_bias(const Coordinates<T>& q, const Coordinates<T>& qd, const Parameters<T>& params, MassMatrix<T>& M, Coordinates<T>& b);
 
 // Kinetic energy T = 1/2 qd^T M qd (paper eqs. 3 and 10).
 template <typename T>
-T kinetic_energy(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params);
+T kinetic_energy(const Coordinates<T>& q, const Coordinates<T>& qd, const Parameters<T>& params);
 
 // Momentum h = [Px, Py, L]: linear momentum and angular momentum about the world origin.
 template <typename T>
-void momentum(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params, Vector3<T>& h);
+void momentum(const Coordinates<T>& q, const Coordinates<T>& qd, const Parameters<T>& params, Vector3<T>& h);
 
 // End-effector pose [x, y, phi]: tip of the last link, absolute angle of the last link.
 template <typename T>
-void end_effector_pose(const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Vector3<T>& x);
+void end_effector_pose(const Coordinates<T>& q, const Parameters<T>& params, Vector3<T>& x);
 
 // Jacobian of the end-effector pose, d[x, y, phi]/dq (3 x n).
 template <typename T>
-void end_effector_jacobian(const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, PoseJacobian<T>& J);
+void end_effector_jacobian(const Coordinates<T>& q, const Parameters<T>& params, PoseJacobian<T>& J);
 
 // The model as a type for generic code: constants and forwarding functions.
 struct Model {
@@ -94,35 +94,35 @@ struct Model {
   static constexpr const std::array<const char*, kNumParams>& parameter_names() { return kParameterNames; }
   static constexpr const std::array<double, kNumParams>& nominal_parameters() { return kNominalParameters; }
   template <typename T>
-  static void mass_matrix(const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, MassMatrix<T>& M) {
+  static void mass_matrix(const Coordinates<T>& q, const Parameters<T>& params, MassMatrix<T>& M) {
     return spacearm::models::paper_geared::mass_matrix<T>(q, params, M);
   }
   template <typename T>
-  static void coriolis_matrix(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params, MassMatrix<T>& C) {
+  static void coriolis_matrix(const Coordinates<T>& q, const Coordinates<T>& qd, const Parameters<T>& params, MassMatrix<T>& C) {
     return spacearm::models::paper_geared::coriolis_matrix<T>(q, qd, params, C);
   }
   template <typename T>
-  static void bias_forces(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params, Coordinates<T>& b) {
+  static void bias_forces(const Coordinates<T>& q, const Coordinates<T>& qd, const Parameters<T>& params, Coordinates<T>& b) {
     return spacearm::models::paper_geared::bias_forces<T>(q, qd, params, b);
   }
   template <typename T>
-  static void mass_matrix_and_bias(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params, MassMatrix<T>& M, Coordinates<T>& b) {
+  static void mass_matrix_and_bias(const Coordinates<T>& q, const Coordinates<T>& qd, const Parameters<T>& params, MassMatrix<T>& M, Coordinates<T>& b) {
     return spacearm::models::paper_geared::mass_matrix_and_bias<T>(q, qd, params, M, b);
   }
   template <typename T>
-  static T kinetic_energy(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params) {
+  static T kinetic_energy(const Coordinates<T>& q, const Coordinates<T>& qd, const Parameters<T>& params) {
     return spacearm::models::paper_geared::kinetic_energy<T>(q, qd, params);
   }
   template <typename T>
-  static void momentum(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params, Vector3<T>& h) {
+  static void momentum(const Coordinates<T>& q, const Coordinates<T>& qd, const Parameters<T>& params, Vector3<T>& h) {
     return spacearm::models::paper_geared::momentum<T>(q, qd, params, h);
   }
   template <typename T>
-  static void end_effector_pose(const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Vector3<T>& x) {
+  static void end_effector_pose(const Coordinates<T>& q, const Parameters<T>& params, Vector3<T>& x) {
     return spacearm::models::paper_geared::end_effector_pose<T>(q, params, x);
   }
   template <typename T>
-  static void end_effector_jacobian(const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, PoseJacobian<T>& J) {
+  static void end_effector_jacobian(const Coordinates<T>& q, const Parameters<T>& params, PoseJacobian<T>& J) {
     return spacearm::models::paper_geared::end_effector_jacobian<T>(q, params, J);
   }
 };

@@ -11,7 +11,7 @@ namespace spacearm::models::paper_reference {
 // Mass matrix M(q) (n x n, symmetric positive definite), paper eq. 6.
 // Operations: 54 add, 56 mul, 0 div, 8 sin/cos.
 template <typename T>
-void mass_matrix(const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, MassMatrix<T>& M) {
+void mass_matrix([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, MassMatrix<T>& M) {
   using std::cos;
   using std::sin;
   const T t0 = cos(q(2));
@@ -93,7 +93,7 @@ void mass_matrix(const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& 
 // Coriolis/centrifugal matrix C(q, qd) (n x n) exactly as paper eq. 7; C qd is the bias. Not the Christoffel form: Mdot - 2C is not skew-symmetric.
 // Operations: 205 add, 161 mul, 0 div, 8 sin/cos.
 template <typename T>
-void coriolis_matrix(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params, MassMatrix<T>& C) {
+void coriolis_matrix([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params, MassMatrix<T>& C) {
   using std::cos;
   using std::sin;
   const T t0 = cos(q(2));
@@ -234,7 +234,7 @@ void coriolis_matrix(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_
 // Bias b = C(q, qd) qd (n), so that M qdd + b = Q (paper eq. 5).
 // Operations: 57 add, 81 mul, 0 div, 8 sin/cos.
 template <typename T>
-void bias_forces(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params, Coordinates<T>& b) {
+void bias_forces([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params, Coordinates<T>& b) {
   using std::cos;
   using std::sin;
   const T t0 = cos(q(2));
@@ -277,7 +277,7 @@ void bias_forces(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unus
 // M and b together, sharing the sin/cos and common terms.
 // Operations: 95 add, 107 mul, 0 div, 8 sin/cos.
 template <typename T>
-void mass_matrix_and_bias(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params, MassMatrix<T>& M, Coordinates<T>& b) {
+void mass_matrix_and_bias([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params, MassMatrix<T>& M, Coordinates<T>& b) {
   using std::cos;
   using std::sin;
   const T t0 = cos(q(2));
@@ -389,7 +389,7 @@ void mass_matrix_and_bias(const Coordinates<T>& q, const Coordinates<T>& qd, [[m
 // Kinetic energy T = 1/2 qd^T M qd (paper eqs. 3 and 10).
 // Operations: 45 add, 71 mul, 0 div, 8 sin/cos.
 template <typename T>
-T kinetic_energy(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params) {
+T kinetic_energy([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params) {
   using std::cos;
   using std::sin;
   const T t0 = cos(q(2));
@@ -412,7 +412,7 @@ T kinetic_energy(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unus
 // Momentum h = [Px, Py, L]: linear momentum and angular momentum about the world origin.
 // Operations: 68 add, 71 mul, 0 div, 8 sin/cos.
 template <typename T>
-void momentum(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params, Vector3<T>& h) {
+void momentum([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Coordinates<T>& qd, [[maybe_unused]] const Parameters<T>& params, Vector3<T>& h) {
   using std::cos;
   using std::sin;
   const T t0 = cos(q(2));
@@ -451,7 +451,7 @@ void momentum(const Coordinates<T>& q, const Coordinates<T>& qd, [[maybe_unused]
 // End-effector pose [x, y, phi]: tip of the last link, absolute angle of the last link.
 // Operations: 13 add, 10 mul, 0 div, 8 sin/cos.
 template <typename T>
-void end_effector_pose(const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Vector3<T>& x) {
+void end_effector_pose([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Vector3<T>& x) {
   using std::cos;
   using std::sin;
   const T t0 = cos(q(2));
@@ -473,7 +473,7 @@ void end_effector_pose(const Coordinates<T>& q, [[maybe_unused]] const Parameter
 // Jacobian of the end-effector pose, d[x, y, phi]/dq (3 x n).
 // Operations: 15 add, 10 mul, 0 div, 8 sin/cos.
 template <typename T>
-void end_effector_jacobian(const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, PoseJacobian<T>& J) {
+void end_effector_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, PoseJacobian<T>& J) {
   using std::cos;
   using std::sin;
   const T t0 = cos(q(2));
@@ -514,29 +514,29 @@ void end_effector_jacobian(const Coordinates<T>& q, [[maybe_unused]] const Param
 }
 
 // Explicit instantiations.
-template void mass_matrix<float>(const Coordinates<float>&, [[maybe_unused]] const Parameters<float>&, MassMatrix<float>&);
-template void coriolis_matrix<float>(const Coordinates<float>&, const Coordinates<float>&, [[maybe_unused]] const Parameters<float>&, MassMatrix<float>&);
-template void bias_forces<float>(const Coordinates<float>&, const Coordinates<float>&, [[maybe_unused]] const Parameters<float>&, Coordinates<float>&);
-template void mass_matrix_and_bias<float>(const Coordinates<float>&, const Coordinates<float>&, [[maybe_unused]] const Parameters<float>&, MassMatrix<float>&, Coordinates<float>&);
-template float kinetic_energy<float>(const Coordinates<float>&, const Coordinates<float>&, [[maybe_unused]] const Parameters<float>&);
-template void momentum<float>(const Coordinates<float>&, const Coordinates<float>&, [[maybe_unused]] const Parameters<float>&, Vector3<float>&);
-template void end_effector_pose<float>(const Coordinates<float>&, [[maybe_unused]] const Parameters<float>&, Vector3<float>&);
-template void end_effector_jacobian<float>(const Coordinates<float>&, [[maybe_unused]] const Parameters<float>&, PoseJacobian<float>&);
-template void mass_matrix<double>(const Coordinates<double>&, [[maybe_unused]] const Parameters<double>&, MassMatrix<double>&);
-template void coriolis_matrix<double>(const Coordinates<double>&, const Coordinates<double>&, [[maybe_unused]] const Parameters<double>&, MassMatrix<double>&);
-template void bias_forces<double>(const Coordinates<double>&, const Coordinates<double>&, [[maybe_unused]] const Parameters<double>&, Coordinates<double>&);
-template void mass_matrix_and_bias<double>(const Coordinates<double>&, const Coordinates<double>&, [[maybe_unused]] const Parameters<double>&, MassMatrix<double>&, Coordinates<double>&);
-template double kinetic_energy<double>(const Coordinates<double>&, const Coordinates<double>&, [[maybe_unused]] const Parameters<double>&);
-template void momentum<double>(const Coordinates<double>&, const Coordinates<double>&, [[maybe_unused]] const Parameters<double>&, Vector3<double>&);
-template void end_effector_pose<double>(const Coordinates<double>&, [[maybe_unused]] const Parameters<double>&, Vector3<double>&);
-template void end_effector_jacobian<double>(const Coordinates<double>&, [[maybe_unused]] const Parameters<double>&, PoseJacobian<double>&);
-template void mass_matrix<long double>(const Coordinates<long double>&, [[maybe_unused]] const Parameters<long double>&, MassMatrix<long double>&);
-template void coriolis_matrix<long double>(const Coordinates<long double>&, const Coordinates<long double>&, [[maybe_unused]] const Parameters<long double>&, MassMatrix<long double>&);
-template void bias_forces<long double>(const Coordinates<long double>&, const Coordinates<long double>&, [[maybe_unused]] const Parameters<long double>&, Coordinates<long double>&);
-template void mass_matrix_and_bias<long double>(const Coordinates<long double>&, const Coordinates<long double>&, [[maybe_unused]] const Parameters<long double>&, MassMatrix<long double>&, Coordinates<long double>&);
-template long double kinetic_energy<long double>(const Coordinates<long double>&, const Coordinates<long double>&, [[maybe_unused]] const Parameters<long double>&);
-template void momentum<long double>(const Coordinates<long double>&, const Coordinates<long double>&, [[maybe_unused]] const Parameters<long double>&, Vector3<long double>&);
-template void end_effector_pose<long double>(const Coordinates<long double>&, [[maybe_unused]] const Parameters<long double>&, Vector3<long double>&);
-template void end_effector_jacobian<long double>(const Coordinates<long double>&, [[maybe_unused]] const Parameters<long double>&, PoseJacobian<long double>&);
+template void mass_matrix<float>(const Coordinates<float>&, const Parameters<float>&, MassMatrix<float>&);
+template void coriolis_matrix<float>(const Coordinates<float>&, const Coordinates<float>&, const Parameters<float>&, MassMatrix<float>&);
+template void bias_forces<float>(const Coordinates<float>&, const Coordinates<float>&, const Parameters<float>&, Coordinates<float>&);
+template void mass_matrix_and_bias<float>(const Coordinates<float>&, const Coordinates<float>&, const Parameters<float>&, MassMatrix<float>&, Coordinates<float>&);
+template float kinetic_energy<float>(const Coordinates<float>&, const Coordinates<float>&, const Parameters<float>&);
+template void momentum<float>(const Coordinates<float>&, const Coordinates<float>&, const Parameters<float>&, Vector3<float>&);
+template void end_effector_pose<float>(const Coordinates<float>&, const Parameters<float>&, Vector3<float>&);
+template void end_effector_jacobian<float>(const Coordinates<float>&, const Parameters<float>&, PoseJacobian<float>&);
+template void mass_matrix<double>(const Coordinates<double>&, const Parameters<double>&, MassMatrix<double>&);
+template void coriolis_matrix<double>(const Coordinates<double>&, const Coordinates<double>&, const Parameters<double>&, MassMatrix<double>&);
+template void bias_forces<double>(const Coordinates<double>&, const Coordinates<double>&, const Parameters<double>&, Coordinates<double>&);
+template void mass_matrix_and_bias<double>(const Coordinates<double>&, const Coordinates<double>&, const Parameters<double>&, MassMatrix<double>&, Coordinates<double>&);
+template double kinetic_energy<double>(const Coordinates<double>&, const Coordinates<double>&, const Parameters<double>&);
+template void momentum<double>(const Coordinates<double>&, const Coordinates<double>&, const Parameters<double>&, Vector3<double>&);
+template void end_effector_pose<double>(const Coordinates<double>&, const Parameters<double>&, Vector3<double>&);
+template void end_effector_jacobian<double>(const Coordinates<double>&, const Parameters<double>&, PoseJacobian<double>&);
+template void mass_matrix<long double>(const Coordinates<long double>&, const Parameters<long double>&, MassMatrix<long double>&);
+template void coriolis_matrix<long double>(const Coordinates<long double>&, const Coordinates<long double>&, const Parameters<long double>&, MassMatrix<long double>&);
+template void bias_forces<long double>(const Coordinates<long double>&, const Coordinates<long double>&, const Parameters<long double>&, Coordinates<long double>&);
+template void mass_matrix_and_bias<long double>(const Coordinates<long double>&, const Coordinates<long double>&, const Parameters<long double>&, MassMatrix<long double>&, Coordinates<long double>&);
+template long double kinetic_energy<long double>(const Coordinates<long double>&, const Coordinates<long double>&, const Parameters<long double>&);
+template void momentum<long double>(const Coordinates<long double>&, const Coordinates<long double>&, const Parameters<long double>&, Vector3<long double>&);
+template void end_effector_pose<long double>(const Coordinates<long double>&, const Parameters<long double>&, Vector3<long double>&);
+template void end_effector_jacobian<long double>(const Coordinates<long double>&, const Parameters<long double>&, PoseJacobian<long double>&);
 
 }  // namespace spacearm::models::paper_reference

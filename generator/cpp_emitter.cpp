@@ -396,7 +396,9 @@ class Printer {
   }
 };
 
-std::string signature(const FunctionSpec& f, const std::string& scalar, bool with_names) {
+// with_names: a declaration or definition (definition: inputs may be unused, e.g. a
+// constant mass matrix); otherwise the form of an explicit instantiation.
+std::string signature(const FunctionSpec& f, const std::string& scalar, bool with_names, bool definition = false) {
   auto subst = [&](std::string s) {
     const std::string with = "<" + scalar + ">";
     for (size_t pos = 0; (pos = s.find("<T>", pos)) != std::string::npos; pos += with.size()) s.replace(pos, 3, with);
@@ -406,6 +408,8 @@ std::string signature(const FunctionSpec& f, const std::string& scalar, bool wit
                   (with_names ? "" : "<" + scalar + ">") + "(";
   for (size_t i = 0; i < f.args.size(); ++i) {
     if (i) s += ", ";
+    const bool input = f.args[i].type.rfind("const ", 0) == 0;
+    if (definition && input) s += "[[maybe_unused]] ";
     s += subst(f.args[i].type);
     if (with_names) s += " " + f.args[i].name;
   }
@@ -440,7 +444,7 @@ EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
   result.source_name = scene.name + ".cpp";
 
   const Argument q{"const Coordinates<T>&", "q"}, qd{"const Coordinates<T>&", "qd"},
-      params{"[[maybe_unused]] const Parameters<T>&", "params"};
+      params{"const Parameters<T>&", "params"};
   std::vector<FunctionSpec> functions;
   auto matrix_outputs = [&](const GiNaC::matrix& mat, const std::string& name, bool symmetric) {
     std::vector<std::pair<std::string, ex>> outs;
@@ -562,7 +566,7 @@ EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
     s << "\n// " << f.doc << "\n// Operations: " << best_ops.adds << " add, " << best_ops.muls << " mul, "
       << best_ops.divs << " div, " << best_ops.trig << " sin/cos.\n"
       << "template <typename T>\n"
-      << signature(f, "T", true) << " {\n  using std::cos;\n  using std::sin;\n"
+      << signature(f, "T", true, true) << " {\n  using std::cos;\n  using std::sin;\n"
       << best_body << "}\n";
   }
   // The model as a type, so generic code (runtime, tests, benchmarks) can take it as a

@@ -332,6 +332,7 @@ Scene parse_scene(const std::string& yaml_text, const std::string& source_name) 
     }
   } else {
     s.outputs.insert(all_outputs().begin(), all_outputs().end());
+    if (!s.free_floating()) s.outputs.erase(Output::momentum);
   }
   if (s.wants(Output::momentum) && !s.free_floating())
     r.fail("outputs", "'momentum' is only defined for a free_floating base", root["outputs"]);

@@ -1,0 +1,179 @@
+// An independent numeric reference for the symbolic models: forward kinematics and the
+// kinetic energy of eq. 3 (+ eq. 10 for motors) evaluated body by body in plain floating
+// point, with M by polarization of T and the Euler-Lagrange bias by finite differences.
+// It shares no code with the generator: tests use it as an oracle.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+namespace spacearm {
+
+struct ChainParameters {
+  struct Link {
+    double mass, inertia, length;
+    Eigen::Vector2d com;
+  };
+  struct Gear {
+    double ratio, motor_inertia;
+    bool compensate_link_inertia;
+  };
+  bool free_floating = true;
+  double base_mass = 0, base_inertia = 0;
+  Eigen::Vector2d mount = Eigen::Vector2d::Zero();
+  std::vector<Link> links;
+  std::vector<Gear> gears;  // empty: reference model
+
+  int num_coordinates() const { return (free_floating ? 3 : 0) + static_cast<int>(links.size()); }
+};
+
+class NumericLagrangian {
+ public:
+  using Vector = Eigen::VectorXd;
+  using Matrix = Eigen::MatrixXd;
+
+  explicit NumericLagrangian(ChainParameters chain) : c_(std::move(chain)) {}
+
+  int n() const { return c_.num_coordinates(); }
+
+  struct BodyState {
+    std::vector<Eigen::Vector2d> com, com_velocity;  // base first, then links
+    std::vector<double> angle, rate;                 // absolute angle and rate per body
+    std::vector<double> motor_rate;                  // absolute motor rate per joint
+    Eigen::Vector2d tip;
+  };
+
+  // Forward kinematics and velocities, propagated joint by joint.
+  BodyState bodies(const Vector& q, const Vector& qd) const {
+    check(q, qd);
+    const int N = static_cast<int>(c_.links.size());
+    const int j0 = c_.free_floating ? 3 : 0;
+    BodyState s;
+    Eigen::Vector2d r0 = Eigen::Vector2d::Zero(), v0 = Eigen::Vector2d::Zero();
+    double theta = 0, omega = 0;
+    if (c_.free_floating) {
+      r0 = {q[0], q[1]};
+      v0 = {qd[0], qd[1]};
+      theta = q[2];
+      omega = qd[2];
+    }
+    s.com.push_back(r0);
+    s.com_velocity.push_back(v0);
+    s.angle.push_back(theta);
+    s.rate.push_back(omega);
+    Eigen::Vector2d joint = r0 + rotate(theta, c_.mount);
+    Eigen::Vector2d joint_velocity = v0 + cross(omega, joint - r0);
+    for (int i = 0; i < N; ++i) {
+      const double p = c_.gears.empty() ? 1.0 : c_.gears[i].ratio;
+      // In motor coordinates the link angle is qm / p and its rate qmd / p (eq. 9).
+      const double previous_rate = omega;
+      theta += q[j0 + i] / p;
+      omega += qd[j0 + i] / p;
+      s.motor_rate.push_back(previous_rate + qd[j0 + i]);  // eq. 11
+      const auto& link = c_.links[i];
+      const Eigen::Vector2d com = joint + rotate(theta, link.com);
+      s.com.push_back(com);
+      s.com_velocity.push_back(joint_velocity + cross(omega, com - joint));
+      s.angle.push_back(theta);
+      s.rate.push_back(omega);
+      const Eigen::Vector2d next = joint + rotate(theta, {link.length, 0});
+      joint_velocity = joint_velocity + cross(omega, next - joint);
+      joint = next;
+    }
+    s.tip = joint;
+    return s;
+  }
+
+  double kinetic_energy(const Vector& q, const Vector& qd) const {
+    const BodyState s = bodies(q, qd);
+    double T = 0;
+    if (c_.free_floating) T += 0.5 * c_.base_mass * s.com_velocity[0].squaredNorm() + 0.5 * c_.base_inertia * s.rate[0] * s.rate[0];
+    for (size_t i = 0; i < c_.links.size(); ++i) {
+      const auto& link = c_.links[i];
+      double inertia = link.inertia;
+      if (!c_.gears.empty() && c_.gears[i].compensate_link_inertia) inertia -= c_.gears[i].motor_inertia;
+      T += 0.5 * link.mass * s.com_velocity[i + 1].squaredNorm() + 0.5 * inertia * s.rate[i + 1] * s.rate[i + 1];
+      if (!c_.gears.empty()) T += 0.5 * c_.gears[i].motor_inertia * s.motor_rate[i] * s.motor_rate[i];
+    }
+    return T;
+  }
+
+  // T is a quadratic form in qd, so M_ij = T(e_i + e_j) - T(e_i) - T(e_j) exactly.
+  Matrix mass_matrix(const Vector& q) const {
+    const int n = this->n();
+    Matrix M(n, n);
+    Vector e = Vector::Zero(n);
+    Vector diag(n);
+    for (int i = 0; i < n; ++i) {
+      e.setZero();
+      e[i] = 1;
+      diag[i] = kinetic_energy(q, e);
+      M(i, i) = 2 * diag[i];
+    }
+    for (int i = 0; i < n; ++i)
+      for (int j = i + 1; j < n; ++j) {
+        e.setZero();
+        e[i] = e[j] = 1;
+        M(i, j) = M(j, i) = kinetic_energy(q, e) - diag[i] - diag[j];
+      }
+    return M;
+  }
+
+  // Euler-Lagrange terms at qdd = 0: d/dt dT/dqd - dT/dq = (dM/dt) qd - dT/dq, both by
+  // central differences (step h relative to the scale of q).
+  Vector bias_forces(const Vector& q, const Vector& qd, double h = 1e-6) const {
+    const int n = this->n();
+    const Vector Mdot_qd = (mass_matrix(q + h * qd) * qd - mass_matrix(q - h * qd) * qd) / (2 * h);
+    Vector dT_dq(n);
+    for (int i = 0; i < n; ++i) {
+      Vector dq = Vector::Zero(n);
+      dq[i] = h;
+      dT_dq[i] = (kinetic_energy(q + dq, qd) - kinetic_energy(q - dq, qd)) / (2 * h);
+    }
+    return Mdot_qd - dT_dq;
+  }
+
+  // [Px, Py, L]: sum of m v, and of r x m v + I omega (+ motors) about the world origin.
+  Eigen::Vector3d momentum(const Vector& q, const Vector& qd) const {
+    const BodyState s = bodies(q, qd);
+    Eigen::Vector3d h = Eigen::Vector3d::Zero();
+    for (size_t b = 0; b < s.com.size(); ++b) {
+      const bool base = b == 0;
+      if (base && !c_.free_floating) continue;
+      const double m = base ? c_.base_mass : c_.links[b - 1].mass;
+      double inertia = base ? c_.base_inertia : c_.links[b - 1].inertia;
+      if (!base && !c_.gears.empty() && c_.gears[b - 1].compensate_link_inertia)
+        inertia -= c_.gears[b - 1].motor_inertia;
+      const Eigen::Vector2d p = m * s.com_velocity[b];
+      h.head<2>() += p;
+      h[2] += s.com[b].x() * p.y() - s.com[b].y() * p.x() + inertia * s.rate[b];
+    }
+    for (size_t i = 0; i < c_.gears.size(); ++i) h[2] += c_.gears[i].motor_inertia * s.motor_rate[i];
+    return h;
+  }
+
+  Eigen::Vector3d end_effector_pose(const Vector& q) const {
+    const BodyState s = bodies(q, Vector::Zero(n()));
+    return {s.tip.x(), s.tip.y(), s.angle.back()};
+  }
+
+ private:
+  ChainParameters c_;
+
+  static Eigen::Vector2d rotate(double angle, const Eigen::Vector2d& v) {
+    const double c = std::cos(angle), s = std::sin(angle);
+    return {c * v.x() - s * v.y(), s * v.x() + c * v.y()};
+  }
+  static Eigen::Vector2d cross(double omega, const Eigen::Vector2d& r) { return {-omega * r.y(), omega * r.x()}; }
+
+  void check(const Vector& q, const Vector& qd) const {
+    if (q.size() != n() || qd.size() != n())
+      throw std::invalid_argument("NumericLagrangian: expected q and qd of size " + std::to_string(n()) + ", got " +
+                                  std::to_string(q.size()) + " and " + std::to_string(qd.size()));
+  }
+};
+
+}  // namespace spacearm

@@ -1,0 +1,304 @@
+// The compiled generated code: equal to GiNaC's evaluation of the same expressions, and
+// checked against invariants and the independent numeric oracle. Covers the checked-in
+// paper models and test models generated at build time from tests/scenes.
+#include <Eigen/Cholesky>
+
+#include "fixed_n1.hpp"
+#include "fixed_n5_geared_params.hpp"
+#include "free_n2_geared.hpp"
+#include "free_n8.hpp"
+#include "paper_geared.hpp"
+#include "paper_reference.hpp"
+#include "support.hpp"
+#include "symbolic_model.hpp"
+
+namespace spacearm {
+namespace {
+
+namespace ref = models::paper_reference;
+namespace geo = models::paper_geared;
+
+template <class Model>
+using Vec = typename Model::template Coordinates<double>;
+template <class Model>
+using Params = typename Model::template Parameters<double>;
+
+Eigen::MatrixXd evaluate_matrix(const SymbolicModel& m, const GiNaC::matrix& mat, const Eigen::VectorXd& q,
+                                const Eigen::VectorXd& qd, const std::vector<double>& params) {
+  const std::vector<double> qv(q.data(), q.data() + q.size()), qdv(qd.data(), qd.data() + qd.size());
+  Eigen::MatrixXd out(mat.rows(), mat.cols());
+  for (unsigned i = 0; i < mat.rows(); ++i)
+    for (unsigned j = 0; j < mat.cols(); ++j) out(i, j) = evaluate(m, mat(i, j), qv, qdv, params);
+  return out;
+}
+
+// Relative to the largest entry of the symbolic value; an identically zero symbolic
+// value must come out exactly zero.
+void expect_equal_to_symbolic(const Eigen::MatrixXd& compiled, const Eigen::MatrixXd& symbolic, const char* what) {
+  SCOPED_TRACE(what);
+  if (symbolic.cwiseAbs().maxCoeff() == 0) {
+    EXPECT_EQ(compiled.cwiseAbs().maxCoeff(), 0.0);
+    return;
+  }
+  EXPECT_MATRIX_NEAR(compiled, symbolic, 1e-12);
+}
+
+template <class Model>
+void check_against_symbolic(const std::string& scene_path, const std::vector<std::vector<double>>& parameter_sets) {
+  SCOPED_TRACE(scene_path);
+  const SymbolicModel sym = derive(load_scene(scene_path));
+  ASSERT_EQ(sym.n(), Model::kNq);
+  std::mt19937 rng(42);
+  int nontrivial = 0;
+  for (const auto& pv : parameter_sets) {
+    ASSERT_EQ(static_cast<int>(pv.size()), Model::kNumParams);
+    Params<Model> params;
+    for (int i = 0; i < Model::kNumParams; ++i) params[i] = pv[i];
+    for (int trial = 0; trial < 3; ++trial) {
+      const Vec<Model> q = test::random_vector(rng, Model::kNq, 3.0), qd = test::random_vector(rng, Model::kNq, 2.0);
+      if constexpr (Model::kHas_mass_matrix) {
+        typename Model::template MassMatrix<double> M;
+        Model::mass_matrix(q, params, M);
+        expect_equal_to_symbolic(M, evaluate_matrix(sym, sym.mass_matrix, q, qd, pv), "mass_matrix");
+        ++nontrivial;
+      }
+      if constexpr (Model::kHas_coriolis_matrix) {
+        typename Model::template MassMatrix<double> C;
+        Model::coriolis_matrix(q, qd, params, C);
+        expect_equal_to_symbolic(C, evaluate_matrix(sym, sym.coriolis_matrix, q, qd, pv), "coriolis_matrix");
+      }
+      if constexpr (Model::kHas_bias_forces) {
+        Vec<Model> b;
+        Model::bias_forces(q, qd, params, b);
+        expect_equal_to_symbolic(b, evaluate_matrix(sym, sym.bias_forces, q, qd, pv), "bias_forces");
+      }
+      if constexpr (Model::kHas_mass_matrix && Model::kHas_bias_forces) {
+        typename Model::template MassMatrix<double> M, M2;
+        Vec<Model> b, b2;
+        Model::mass_matrix(q, params, M);
+        Model::bias_forces(q, qd, params, b);
+        Model::mass_matrix_and_bias(q, qd, params, M2, b2);
+        // Same expressions, differently shared: equal to rounding.
+        EXPECT_MATRIX_NEAR(M2, M, 1e-14);
+        if (b.norm() > 0) EXPECT_MATRIX_NEAR(b2, b, 1e-13);
+      }
+      if constexpr (Model::kHas_kinetic_energy) {
+        Eigen::Matrix<double, 1, 1> T;
+        T(0) = Model::kinetic_energy(q, qd, params);
+        expect_equal_to_symbolic(T, evaluate_matrix(sym, GiNaC::matrix{{sym.kinetic_energy}}, q, qd, pv),
+                                 "kinetic_energy");
+      }
+      if constexpr (Model::kHas_momentum) {
+        typename Model::template Vector3<double> h;
+        Model::momentum(q, qd, params, h);
+        expect_equal_to_symbolic(h, evaluate_matrix(sym, sym.momentum, q, qd, pv), "momentum");
+      }
+      if constexpr (Model::kHas_end_effector_pose) {
+        typename Model::template Vector3<double> x;
+        Model::end_effector_pose(q, params, x);
+        expect_equal_to_symbolic(x, evaluate_matrix(sym, sym.end_effector_pose, q, qd, pv), "end_effector_pose");
+      }
+      if constexpr (Model::kHas_end_effector_jacobian) {
+        typename Model::template PoseJacobian<double> J;
+        Model::end_effector_jacobian(q, params, J);
+        expect_equal_to_symbolic(J, evaluate_matrix(sym, sym.end_effector_jacobian, q, qd, pv),
+                                 "end_effector_jacobian");
+      }
+    }
+  }
+  EXPECT_GT(nontrivial, 0);
+}
+
+std::string scene(const std::string& relative) { return std::string(SPACEARM_SOURCE_DIR) + "/" + relative; }
+
+TEST(CompiledEqualsSymbolic, PaperReference) { check_against_symbolic<ref::Model>(scene("models/paper_reference.yaml"), {{}}); }
+TEST(CompiledEqualsSymbolic, PaperGeared) {
+  check_against_symbolic<geo::Model>(scene("models/paper_geared.yaml"),
+                                     {{1.0, 1e-5}, {1.05, 1e-5}, {10, 1e-5}, {1000, 1e-5}, {50, 0.0}});
+}
+TEST(CompiledEqualsSymbolic, FixedOneLink) {
+  check_against_symbolic<models::fixed_n1::Model>(scene("tests/scenes/fixed_n1.yaml"), {{}});
+}
+TEST(CompiledEqualsSymbolic, FreeTwoLinksPerJointGears) {
+  check_against_symbolic<models::free_n2_geared::Model>(scene("tests/scenes/free_n2_geared.yaml"), {{}});
+}
+TEST(CompiledEqualsSymbolic, FixedFiveGearedLinksWithParameters) {
+  check_against_symbolic<models::fixed_n5_geared_params::Model>(scene("tests/scenes/fixed_n5_geared_params.yaml"),
+                                                                {{20, 1e-4, 1.5}, {2, 0, 3.0}});
+}
+TEST(CompiledEqualsSymbolic, FreeEightLinks) {
+  check_against_symbolic<models::free_n8::Model>(scene("tests/scenes/free_n8.yaml"), {{}});
+}
+
+// ---------------------------------------------------------------------------------------
+// Paper models: invariants and cross-model relations.
+
+struct PaperFixture : testing::Test {
+  std::mt19937 rng{7};
+  ref::Coordinates<double> random_q() { return test::random_vector(rng, 6, 3.0); }
+  ref::Coordinates<double> random_qd() { return test::random_vector(rng, 6, 2.0); }
+  static geo::Parameters<double> geared_params(double p, double Im) { return {p, Im}; }
+};
+
+TEST_F(PaperFixture, GearedAtUnitRatioIsTheReferenceModel) {
+  const ref::Parameters<double> none;
+  for (int trial = 0; trial < 20; ++trial) {
+    const auto q = random_q(), qd = random_qd();
+    ref::MassMatrix<double> M_ref, M_g, C_ref, C_g;
+    ref::mass_matrix(q, none, M_ref);
+    geo::mass_matrix(q, geared_params(1.0, 1e-5), M_g);
+    ref::coriolis_matrix(q, qd, none, C_ref);
+    geo::coriolis_matrix(q, qd, geared_params(1.0, 1e-5), C_g);
+    EXPECT_MATRIX_NEAR(M_g, M_ref, 1e-15);
+    EXPECT_MATRIX_NEAR(C_g, C_ref, 1e-14);
+  }
+}
+
+// M_g(qm) = G^T M_ref(q) G - sum_i Im (b_i G)^T (b_i G) + sum_i Im a_i^T a_i with q = G qm,
+// G = diag(1, 1, 1, 1/p, ...); b_i maps qd to the rate of link i (its inertia is reduced
+// by Im) and a_i maps qd_g to the rate of motor i (eq. 11).
+TEST_F(PaperFixture, GearedMassMatrixIsMappedReferencePlusRotors) {
+  const double Im = 1e-5;
+  for (double p : {1.05, 10.0, 1000.0}) {
+    SCOPED_TRACE("p = " + std::to_string(p));
+    Eigen::Matrix<double, 6, 6> G = Eigen::Matrix<double, 6, 6>::Identity();
+    for (int j = 3; j < 6; ++j) G(j, j) = 1 / p;
+    for (int trial = 0; trial < 10; ++trial) {
+      const auto qm = random_q();
+      const ref::Coordinates<double> q = G * qm;
+      ref::MassMatrix<double> M_ref, M_g;
+      ref::mass_matrix(q, {}, M_ref);
+      geo::mass_matrix(qm, geared_params(p, Im), M_g);
+      Eigen::Matrix<double, 6, 6> expected = G.transpose() * M_ref * G;
+      Eigen::Matrix<double, 6, 6> rotors = Eigen::Matrix<double, 6, 6>::Zero();
+      for (int i = 1; i <= 3; ++i) {
+        Eigen::Matrix<double, 1, 6> b = Eigen::Matrix<double, 1, 6>::Zero(), a = b;
+        b(2) = 1;
+        for (int j = 1; j <= i; ++j) b(2 + j) = 1;
+        a(2) = 1;
+        for (int j = 1; j < i; ++j) a(2 + j) = 1;
+        const Eigen::Matrix<double, 1, 6> bG = b * G;
+        Eigen::Matrix<double, 1, 6> aG = a * G;
+        aG(2 + i) = 1;  // the motor's own rate qmd_i enters unscaled
+        rotors += Im * (aG.transpose() * aG - bG.transpose() * bG);
+      }
+      ASSERT_GT(rotors.cwiseAbs().maxCoeff(), 0.0);
+      expected += rotors;
+      EXPECT_MATRIX_NEAR(M_g, expected, 1e-12);
+      // In motor coordinates the link inertia is divided by p^2, so at large p the rotor
+      // dominates the motor's own diagonal entry.
+      if (p == 1000.0) EXPECT_GT(rotors(5, 5), 0.9 * M_g(5, 5));
+    }
+  }
+}
+
+template <class Model>
+void check_dynamics_invariants(const typename Model::template Parameters<double>& params,
+                               const NumericLagrangian& oracle) {
+  std::mt19937 rng(3);
+  for (int trial = 0; trial < 10; ++trial) {
+    const Vec<Model> q = test::random_vector(rng, Model::kNq, 3.0), qd = test::random_vector(rng, Model::kNq, 2.0);
+    typename Model::template MassMatrix<double> M, C;
+    Vec<Model> b;
+    Model::mass_matrix(q, params, M);
+    Model::coriolis_matrix(q, qd, params, C);
+    Model::bias_forces(q, qd, params, b);
+    // M symmetric positive definite.
+    EXPECT_EQ(M, M.transpose());
+    EXPECT_EQ(Eigen::LLT<typename Model::template MassMatrix<double>>(M).info(), Eigen::Success);
+    // C qd from eq. 7 is the bias and the Euler-Lagrange terms (finite differences).
+    ASSERT_GT(b.norm(), 0.0);
+    EXPECT_MATRIX_NEAR(C * qd, b, 1e-12);
+    EXPECT_MATRIX_NEAR(C * qd, oracle.bias_forces(q, qd), 1e-6);
+    EXPECT_MATRIX_NEAR(M, oracle.mass_matrix(q), 1e-12);
+    // C(q, 0) = 0.
+    Model::template coriolis_matrix<double>(q, Vec<Model>::Zero(), params, C);
+    EXPECT_EQ(C.cwiseAbs().maxCoeff(), 0.0);
+    // T = 1/2 qd^T M qd.
+    const double T = Model::kinetic_energy(q, qd, params);
+    ASSERT_GT(T, 0.0);
+    EXPECT_NEAR(T, 0.5 * qd.dot(M * qd), 1e-13 * T);
+    EXPECT_NEAR(T, oracle.kinetic_energy(q, qd), 1e-13 * T);
+    // Momentum: P = dT/d(r0d), L = dT/dq0d + x0 Py - y0 Px. T is quadratic in qd, so the
+    // central difference with unit step is exact.
+    auto dT = [&](int i) {
+      Vec<Model> e = Vec<Model>::Zero();
+      e[i] = 1;
+      return (Model::template kinetic_energy<double>(q, qd + e, params) -
+              Model::template kinetic_energy<double>(q, qd - e, params)) / 2;
+    };
+    typename Model::template Vector3<double> h;
+    Model::momentum(q, qd, params, h);
+    const Eigen::Vector3d from_T(dT(0), dT(1), dT(2) + q[0] * dT(1) - q[1] * dT(0));
+    EXPECT_MATRIX_NEAR(h, from_T, 1e-12);
+    EXPECT_MATRIX_NEAR(h, oracle.momentum(q, qd), 1e-12);
+    // End-effector pose and its Jacobian (central differences).
+    typename Model::template Vector3<double> x;
+    typename Model::template PoseJacobian<double> J, J_fd;
+    Model::end_effector_pose(q, params, x);
+    Model::end_effector_jacobian(q, params, J);
+    EXPECT_MATRIX_NEAR(x, oracle.end_effector_pose(q), 1e-13);
+    for (int i = 0; i < Model::kNq; ++i) {
+      Vec<Model> dq = Vec<Model>::Zero();
+      dq[i] = 1e-6;
+      typename Model::template Vector3<double> xp, xm;
+      Model::template end_effector_pose<double>(q + dq, params, xp);
+      Model::template end_effector_pose<double>(q - dq, params, xm);
+      J_fd.col(i) = (xp - xm) / 2e-6;
+    }
+    EXPECT_MATRIX_NEAR(J, J_fd, 1e-8);
+  }
+}
+
+TEST(PaperModels, ReferenceInvariants) {
+  const Scene s = load_scene(scene("models/paper_reference.yaml"));
+  check_dynamics_invariants<ref::Model>({}, NumericLagrangian(test::chain_parameters(s)));
+}
+
+TEST(PaperModels, GearedInvariants) {
+  const Scene s = load_scene(scene("models/paper_geared.yaml"));
+  for (double p : {1.05, 10.0, 1000.0}) {
+    SCOPED_TRACE("p = " + std::to_string(p));
+    check_dynamics_invariants<geo::Model>({p, 1e-5},
+                                          NumericLagrangian(test::chain_parameters(s, {{"p", p}, {"Im", 1e-5}})));
+  }
+}
+
+TEST(PaperModels, ZeroMotorInertiaMakesTheGearAChangeOfCoordinates) {
+  // With Im = 0 the geared model is the reference model in other coordinates for every p:
+  // M_g = G^T M_ref G and b_g = G^T b_ref(q, G qd_g).
+  std::mt19937 rng(11);
+  for (double p : {1.5, 100.0}) {
+    Eigen::Matrix<double, 6, 6> G = Eigen::Matrix<double, 6, 6>::Identity();
+    for (int j = 3; j < 6; ++j) G(j, j) = 1 / p;
+    const ref::Coordinates<double> qm = test::random_vector(rng, 6, 3.0), qdm = test::random_vector(rng, 6, 2.0);
+    ref::MassMatrix<double> M_ref, M_g;
+    ref::Coordinates<double> b_ref, b_g;
+    ref::mass_matrix_and_bias<double>(G * qm, G * qdm, {}, M_ref, b_ref);
+    geo::mass_matrix_and_bias(qm, qdm, geo::Parameters<double>(p, 0.0), M_g, b_g);
+    EXPECT_MATRIX_NEAR(M_g, G.transpose() * M_ref * G, 1e-13);
+    EXPECT_MATRIX_NEAR(b_g, G.transpose() * b_ref, 1e-12);
+  }
+}
+
+TEST(PaperModels, OtherScalarTypesAgreeWithDouble) {
+  std::mt19937 rng(5);
+  const ref::Coordinates<double> q = test::random_vector(rng, 6, 3.0), qd = test::random_vector(rng, 6, 2.0);
+  geo::MassMatrix<double> M;
+  geo::Coordinates<double> b;
+  geo::mass_matrix_and_bias(q, qd, geo::Parameters<double>(10, 1e-5), M, b);
+  geo::MassMatrix<float> Mf;
+  geo::Coordinates<float> bf;
+  geo::mass_matrix_and_bias<float>(q.cast<float>(), qd.cast<float>(), geo::Parameters<float>(10, 1e-5f), Mf, bf);
+  EXPECT_MATRIX_NEAR(Mf.cast<double>(), M, 1e-5);
+  EXPECT_MATRIX_NEAR(bf.cast<double>(), b, 1e-4);
+  geo::MassMatrix<long double> Ml;
+  geo::Coordinates<long double> bl;
+  geo::mass_matrix_and_bias<long double>(q.cast<long double>(), qd.cast<long double>(),
+                                         geo::Parameters<long double>(10, 1e-5L), Ml, bl);
+  EXPECT_MATRIX_NEAR(Ml.cast<double>(), M, 1e-14);
+  EXPECT_MATRIX_NEAR(bl.cast<double>(), b, 1e-14);
+}
+
+}  // namespace
+}  // namespace spacearm

@@ -1,0 +1,114 @@
+// Scene files: the paper's scenes parse; bad input gets an error naming field and value.
+#include <gtest/gtest.h>
+
+#include "scene.hpp"
+
+namespace spacearm {
+namespace {
+
+const char* kValid = R"(
+name: two_links
+base: {type: free_floating, mass: 10, inertia: 1, mount: [0.1, 0]}
+links:
+  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.25, 0]}
+  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.25, 0]}
+)";
+
+std::string error_of(const std::string& yaml) {
+  try {
+    parse_scene(yaml, "test.yaml");
+  } catch (const SceneError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::string replaced(std::string text, const std::string& from, const std::string& to) {
+  const auto pos = text.find(from);
+  EXPECT_NE(pos, std::string::npos) << from;
+  return text.replace(pos, from.size(), to);
+}
+
+TEST(Scene, PaperScenesParse) {
+  const Scene ref = load_scene(SPACEARM_SOURCE_DIR "/models/paper_reference.yaml");
+  EXPECT_EQ(ref.name, "paper_reference");
+  EXPECT_TRUE(ref.free_floating());
+  EXPECT_FALSE(ref.geared());
+  ASSERT_EQ(ref.num_links(), 3);
+  EXPECT_DOUBLE_EQ(ref.base.mass.value, 64.859);
+  EXPECT_DOUBLE_EQ(ref.links[2].com[1].value, -0.002);
+  EXPECT_EQ(ref.coordinate_names(), (std::vector<std::string>{"x0", "y0", "q0", "q1", "q2", "q3"}));
+
+  const Scene geared = load_scene(SPACEARM_SOURCE_DIR "/models/paper_geared.yaml");
+  ASSERT_TRUE(geared.geared());
+  ASSERT_EQ(geared.gears.size(), 3u);
+  EXPECT_EQ(geared.gears[1].ratio.parameter, "p");
+  EXPECT_EQ(geared.parameters.size(), 2u);
+  EXPECT_EQ(geared.coordinate_names()[3], "qm1");
+}
+
+TEST(Scene, DefaultsToAllOutputsAndFixedBaseHasNoMomentum) {
+  const Scene s = parse_scene(kValid, "t.yaml");
+  EXPECT_EQ(s.outputs.size(), all_outputs().size());
+  const Scene fixed = parse_scene(replaced(kValid, "type: free_floating", "type: fixed"), "t.yaml");
+  EXPECT_FALSE(fixed.wants(Output::momentum));
+  EXPECT_EQ(fixed.num_coordinates(), 2);
+}
+
+TEST(Scene, ErrorsNameTheFieldAndValue) {
+  struct Case {
+    std::string from, to, expected;
+  };
+  const std::vector<Case> cases = {
+      {"mass: 10", "mass: -10", "field 'base.mass': must be positive, got -10"},
+      {"inertia: 0.1, length: 0.5, com: [0.25, 0]}\n  - {mass: 1", "inertia: 0.1, length: 0, com: [0.25, 0]}\n  - {mass: 1",
+       "field 'links[0].length': must be positive, got 0"},
+      {"mass: 10", "mass: .nan", "field 'base.mass'"},
+      {"mass: 10", "mass: heavy", "refers to parameter 'heavy'"},
+      {"type: free_floating", "type: floating", "expected 'free_floating' or 'fixed', got 'floating'"},
+      {"name: two_links", "name: two links", "field 'name'"},
+      {"mount: [0.1, 0]", "mount: [0.1]", "field 'base.mount'"},
+      {"mount: [0.1, 0]", "mount: [0.1, 0], colour: red", "field 'base.colour': unknown field"},
+  };
+  for (const auto& c : cases) {
+    const std::string err = error_of(replaced(kValid, c.from, c.to));
+    EXPECT_NE(err.find(c.expected), std::string::npos) << "got: '" << err << "', expected to contain: " << c.expected;
+    EXPECT_NE(err.find("test.yaml"), std::string::npos) << err;
+  }
+}
+
+TEST(Scene, GearAndParameterErrors) {
+  const std::string geared = std::string(kValid) + "gears: {ratio: p, motor_inertia: 1.0e-5}\nparameters: {p: 0}\n";
+  EXPECT_NE(error_of(geared).find("field 'gears.ratio': must be positive, got p = 0"), std::string::npos)
+      << error_of(geared);
+  const std::string big_motor = std::string(kValid) + "gears: {ratio: 10, motor_inertia: 0.5}\n";
+  EXPECT_NE(error_of(big_motor).find("must be smaller than the inertia of link 1"), std::string::npos)
+      << error_of(big_motor);
+  const std::string unused = std::string(kValid) + "parameters: {k: 1}\n";
+  EXPECT_NE(error_of(unused).find("parameter 'k' is declared but never used"), std::string::npos) << error_of(unused);
+  const std::string wrong_count = std::string(kValid) + "gears:\n  - {ratio: 10, motor_inertia: 0}\n";
+  EXPECT_NE(error_of(wrong_count).find("expected one entry per link (2), got 1"), std::string::npos)
+      << error_of(wrong_count);
+  const std::string bad_output = std::string(kValid) + "outputs: [mass_matrix, jerk]\n";
+  EXPECT_NE(error_of(bad_output).find("unknown output 'jerk'"), std::string::npos) << error_of(bad_output);
+}
+
+TEST(Scene, LinkCountLimits) {
+  EXPECT_NE(error_of(replaced(kValid, "links:\n  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.25, 0]}\n  - {mass: 1, "
+                                      "inertia: 0.1, length: 0.5, com: [0.25, 0]}\n",
+                              "links: []\n"))
+                .find("needs at least one link, got 0"),
+            std::string::npos);
+  std::string many = "name: many\nbase: {type: fixed, mount: [0, 0]}\nlinks:\n";
+  for (int i = 0; i <= kMaxLinks; ++i) many += "  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.25, 0]}\n";
+  EXPECT_NE(error_of(many).find("at most 30 links are supported, got 31"), std::string::npos) << error_of(many);
+}
+
+TEST(Scene, ContentHashIsStable) {
+  EXPECT_EQ(content_hash(""), "cbf29ce484222325");  // FNV-1a 64 offset basis
+  EXPECT_EQ(content_hash("a"), "af63dc4c8601ec8c");  // published FNV-1a 64 test vector
+  EXPECT_NE(content_hash(kValid), content_hash(std::string(kValid) + " "));
+}
+
+}  // namespace
+}  // namespace spacearm

@@ -1,0 +1,159 @@
+// The derived symbolic model against invariants and against the independent numeric
+// oracle (numeric_lagrangian.hpp), for N = 1..8, free-floating and fixed base, with and
+// without gears. Evaluation here is GiNaC's own; test_generated_models checks the
+// compiled code.
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+
+#include "support.hpp"
+#include "symbolic_model.hpp"
+
+namespace spacearm {
+namespace {
+
+using test::ChainSpec;
+
+enum class Gearing { none, numeric_per_joint, parameters };
+
+struct Config {
+  int links;
+  bool free_floating;
+  Gearing gearing;
+};
+
+std::string config_name(const testing::TestParamInfo<Config>& info) {
+  const Config& c = info.param;
+  return "N" + std::to_string(c.links) + (c.free_floating ? "_free" : "_fixed") +
+         (c.gearing == Gearing::none ? "" : c.gearing == Gearing::parameters ? "_geared_params" : "_geared");
+}
+
+ChainSpec spec_of(const Config& c) {
+  ChainSpec spec;
+  spec.links = c.links;
+  spec.free_floating = c.free_floating;
+  spec.geared = c.gearing != Gearing::none;
+  spec.gear_parameters = c.gearing == Gearing::parameters;
+  spec.seed = 100 * c.links + (c.free_floating ? 1 : 2) + 10 * static_cast<int>(c.gearing);
+  spec.outputs = c.free_floating ? "[mass_matrix, bias_forces, kinetic_energy, momentum, end_effector_pose]"
+                                 : "[mass_matrix, bias_forces, kinetic_energy, end_effector_pose]";
+  return spec;
+}
+
+Eigen::MatrixXd evaluate_matrix(const SymbolicModel& m, const GiNaC::matrix& mat, const Eigen::VectorXd& q,
+                                const Eigen::VectorXd& qd) {
+  const std::vector<double> qv(q.data(), q.data() + q.size()), qdv(qd.data(), qd.data() + qd.size());
+  Eigen::MatrixXd out(mat.rows(), mat.cols());
+  for (unsigned i = 0; i < mat.rows(); ++i)
+    for (unsigned j = 0; j < mat.cols(); ++j) out(i, j) = evaluate(m, mat(i, j), qv, qdv);
+  return out;
+}
+
+class SymbolicModelTest : public testing::TestWithParam<Config> {};
+
+TEST_P(SymbolicModelTest, MatchesIndependentNumericDerivation) {
+  const ChainSpec spec = spec_of(GetParam());
+  const Scene scene = parse_scene(test::random_scene_yaml(spec), "random.yaml");
+  const SymbolicModel model = derive(scene);
+  const NumericLagrangian oracle(test::chain_parameters(scene));
+  std::mt19937 rng(spec.seed);
+  const int n = model.n();
+  for (int trial = 0; trial < 2; ++trial) {
+    const Eigen::VectorXd q = test::random_vector(rng, n, 3.0), qd = test::random_vector(rng, n, 2.0);
+    const Eigen::MatrixXd M = evaluate_matrix(model, model.mass_matrix, q, qd);
+
+    // M symmetric positive definite.
+    EXPECT_EQ((M - M.transpose()).cwiseAbs().maxCoeff(), 0.0);
+    Eigen::LLT<Eigen::MatrixXd> llt(M);
+    ASSERT_EQ(llt.info(), Eigen::Success) << "M not positive definite at q = " << q.transpose();
+    EXPECT_GT(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M).eigenvalues().minCoeff(), 0.0);
+
+    // Against the body-by-body oracle.
+    EXPECT_MATRIX_NEAR(M, oracle.mass_matrix(q), 1e-10);
+    const double T = evaluate(model, model.kinetic_energy, {q.data(), q.data() + n}, {qd.data(), qd.data() + n});
+    EXPECT_NEAR(T, oracle.kinetic_energy(q, qd), 1e-12 * std::abs(T));
+    EXPECT_NEAR(T, 0.5 * qd.dot(M * qd), 1e-12 * std::abs(T));
+    // C qd (the bias) against the Euler-Lagrange terms by finite differences. A single link
+    // on a fixed base has a constant M and so no bias at all: then the oracle must agree
+    // to its own rounding, about eps |M| |qd| / h (polarization and differences of M).
+    const Eigen::MatrixXd b = evaluate_matrix(model, model.bias_forces, q, qd);
+    bool identically_zero = true;
+    for (int i = 0; i < n; ++i) identically_zero &= model.bias_forces(i, 0).is_zero();
+    if (identically_zero) {
+      EXPECT_TRUE(!spec.free_floating && spec.links == 1);
+      EXPECT_LT(oracle.bias_forces(q, qd).cwiseAbs().maxCoeff(),
+                1e-8 * M.norm() * std::max(qd.norm(), qd.squaredNorm()));
+    } else {
+      EXPECT_MATRIX_NEAR(b, oracle.bias_forces(q, qd), 1e-6);
+    }
+    EXPECT_MATRIX_NEAR(evaluate_matrix(model, model.end_effector_pose, q, qd), oracle.end_effector_pose(q), 1e-12);
+    if (spec.free_floating)
+      EXPECT_MATRIX_NEAR(evaluate_matrix(model, model.momentum, q, qd), oracle.momentum(q, qd), 1e-10);
+  }
+}
+
+std::vector<Config> all_configs() {
+  std::vector<Config> configs;
+  for (int links = 1; links <= 8; ++links)
+    for (bool free : {true, false})
+      for (Gearing g : {Gearing::none, Gearing::numeric_per_joint, Gearing::parameters}) {
+        if (links > 5 && g == Gearing::numeric_per_joint) continue;  // same algebra as parameters
+        configs.push_back({links, free, g});
+      }
+  return configs;
+}
+
+INSTANTIATE_TEST_SUITE_P(Chains, SymbolicModelTest, testing::ValuesIn(all_configs()), config_name);
+
+// Exact identities, checked symbolically (expanded difference is identically zero).
+TEST(SymbolicIdentities, KineticEnergyIsHalfQdMQdAndCqdIsTheBias) {
+  for (bool geared : {false, true}) {
+    ChainSpec spec;
+    spec.links = 3;
+    spec.geared = geared;
+    spec.gear_parameters = true;
+    spec.outputs = "[mass_matrix, coriolis_matrix, bias_forces, kinetic_energy, momentum]";
+    const SymbolicModel m = derive(parse_scene(test::random_scene_yaml(spec), "random.yaml"));
+    const int n = m.n();
+    GiNaC::matrix qd(n, 1);
+    for (int i = 0; i < n; ++i) qd(i, 0) = m.qd[i];
+    const GiNaC::ex quad = (qd.transpose().mul(m.mass_matrix).mul(qd))(0, 0);
+    ASSERT_FALSE(m.kinetic_energy.is_zero());
+    EXPECT_TRUE((m.kinetic_energy - quad / 2).expand().is_zero());
+    const GiNaC::matrix Cqd = m.coriolis_matrix.mul(qd);
+    for (int i = 0; i < n; ++i) {
+      EXPECT_TRUE((Cqd(i, 0) - m.bias_forces(i, 0)).expand().is_zero()) << "row " << i;
+      // C(q, 0) = 0: every entry of C is linear in qd.
+      GiNaC::exmap zero;
+      for (int k = 0; k < n; ++k) zero[m.qd[k]] = 0;
+      for (int j = 0; j < n; ++j) EXPECT_TRUE(m.coriolis_matrix(i, j).subs(zero).expand().is_zero());
+    }
+    // Momentum: P is the gradient of T with respect to the base velocities.
+    ASSERT_FALSE(m.momentum(0, 0).is_zero());
+    EXPECT_TRUE((m.momentum(0, 0) - m.kinetic_energy.diff(m.qd[0])).expand().is_zero());
+    EXPECT_TRUE((m.momentum(1, 0) - m.kinetic_energy.diff(m.qd[1])).expand().is_zero());
+  }
+}
+
+TEST(SymbolicEntries, GearRatiosAppearAsTheyShould) {
+  const SymbolicModel m = derive(parse_scene(test::random_scene_yaml([] {
+    ChainSpec s;
+    s.geared = s.gear_parameters = true;
+    return s;
+  }()), "r.yaml"));
+  const GiNaC::symbol& p = m.parameters[0];
+  // Joint-joint block scales as 1/(p_i p_j), base-joint block as 1/p (MODEL-NOTES).
+  EXPECT_EQ(m.mass_matrix(0, 3).degree(p), -1);
+  EXPECT_EQ(m.mass_matrix(0, 3).ldegree(p), -1);
+  EXPECT_EQ(m.mass_matrix(4, 5).ldegree(p), -2);
+  // The rotor of joint 3 couples to the rotation of body 2 (eq. 11): Im/p.
+  EXPECT_EQ(m.mass_matrix(4, 5).degree(p), -1);
+  // The motor's own rotor inertia Im is not scaled at all.
+  EXPECT_EQ(m.mass_matrix(5, 5).degree(p), 0);
+  EXPECT_EQ(m.mass_matrix(5, 5).ldegree(p), -2);
+  EXPECT_THROW(symbolic_entry(m, "M[6][0]"), std::invalid_argument);
+  EXPECT_THROW(symbolic_entry(m, "Q[0]"), std::invalid_argument);
+  EXPECT_TRUE(symbolic_entry(m, "M[4][5]").is_equal(m.mass_matrix(4, 5)));
+}
+
+}  // namespace
+}  // namespace spacearm
