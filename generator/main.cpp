@@ -88,7 +88,12 @@ int main(int argc, char** argv) {
     options.all_outputs = true;
     const spacearm::SymbolicModel model = spacearm::derive(scene, options);
     GiNaC::ex e = spacearm::symbolic_entry(model, entry);
+    // Group by velocities and run-time parameters, so that p, p^2 and p_i p_j stand out.
+    GiNaC::lst group_by;
+    for (const auto& v : model.qd) group_by.append(v);
+    for (const auto& p : model.parameters) group_by.append(p);
     if (expanded) e = GiNaC::evalf(e);
+    e = GiNaC::collect(e, group_by, true);
     if (latex)
       std::cout << GiNaC::latex << e << GiNaC::dflt << "\n";
     else

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Installs what spacearm needs (Debian packages, only those missing), configures and builds.
+# Usage: scripts/setup.sh [BUILD_DIR]   (default: build)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build_dir=${1:-build}
+
+packages=(g++ cmake ninja-build pkg-config libginac-dev libeigen3-dev libyaml-cpp-dev libcli11-dev
+          libgtest-dev)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "spacearm: installing ${missing[*]}"
+  if [[ $(id -u) -ne 0 ]]; then
+    echo "spacearm: run as root (or install these packages first): ${missing[*]}" >&2
+    exit 1
+  fi
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq "${missing[@]}" >/dev/null
+fi
+
+cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build "$build_dir" -j "${JOBS:-2}"
