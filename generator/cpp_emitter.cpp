@@ -1,6 +1,7 @@
 #include "cpp_emitter.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -434,6 +435,37 @@ std::string quoted_list(const std::vector<std::string>& items) {
   return s;
 }
 
+// The generator checks itself before it emits: the optimized straight-line program must
+// reproduce GiNaC's evaluation of the derived expressions at a fixed pseudo-random state
+// (nominal parameters), else it names the entry that fails.
+void self_check(const SymbolicModel& model, const std::string& function, const Program& prog,
+                const std::vector<SRef>& roots, const std::vector<std::pair<std::string, ex>>& outputs) {
+  const int n = model.n();
+  std::vector<double> q(n), qd(n), params;
+  for (int i = 0; i < n; ++i) {
+    q[i] = 0.3 + 0.7 * std::sin(1.3 * i + 0.4);
+    qd[i] = 0.5 - 0.9 * std::cos(0.7 * i + 1.1);
+  }
+  for (const auto& p : model.scene.parameters) params.push_back(p.nominal.value);
+  const auto values = prog.evaluate(roots, [&](const std::string& text) {
+    int i = 0;
+    if (std::sscanf(text.c_str(), "q(%d)", &i) == 1) return q.at(i);
+    if (std::sscanf(text.c_str(), "qd(%d)", &i) == 1) return qd.at(i);
+    if (std::sscanf(text.c_str(), "params(%d)", &i) == 1) return params.at(i);
+    throw std::logic_error("self-check: unknown input " + text);
+  });
+  double scale = 0;
+  std::vector<double> expected;
+  for (const auto& [target, e] : outputs) {
+    expected.push_back(evaluate(model, e, q, qd, params));
+    scale = std::max(scale, std::abs(expected.back()));
+  }
+  for (size_t i = 0; i < outputs.size(); ++i)
+    if (!(std::abs(values[i] - expected[i]) <= 1e-9 * std::max(scale, 1e-300)))
+      throw std::logic_error("generator self-check failed in " + function + ", entry " + outputs[i].first + ": " +
+                             std::to_string(values[i]) + " emitted vs " + std::to_string(expected[i]) + " derived");
+}
+
 }  // namespace
 
 EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
@@ -544,6 +576,7 @@ EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
       std::vector<SRef> roots;
       for (const auto& [target, e] : f.outputs) roots.push_back(fb.build(e));
       fb.prog.extract_common_pairs(roots);
+      self_check(model, f.name, fb.prog, roots, f.outputs);
       const OpCounts ops = fb.prog.count(roots);
       if (!best_body.empty() && ops.total_arithmetic() + ops.trig >= best_ops.total_arithmetic() + best_ops.trig)
         continue;

@@ -213,4 +213,42 @@ OpCounts Program::count(const std::vector<SRef>& roots) const {
   return c;
 }
 
+std::vector<double> Program::evaluate(const std::vector<SRef>& roots,
+                                      const std::function<double(const std::string&)>& input_value) const {
+  std::vector<double> v(nodes_.size(), 0.0);
+  auto value = [&](const SRef& r) { return r.id < 0 ? 0.0 : (r.neg ? -v[r.id] : v[r.id]); };
+  for (int id : schedule(roots)) {
+    const Node& n = nodes_[id];
+    double x = 0;
+    switch (n.kind) {
+      case Kind::input:
+        x = input_value(n.text);
+        break;
+      case Kind::constant:
+        x = n.value;
+        break;
+      case Kind::add:
+        for (const SRef& a : n.args) x += value(a);
+        break;
+      case Kind::mul:
+        x = 1;
+        for (const SRef& a : n.args) x *= value(a);
+        break;
+      case Kind::div:
+        x = value(n.args[0]) / value(n.args[1]);
+        break;
+      case Kind::sin:
+        x = std::sin(value(n.args[0]));
+        break;
+      case Kind::cos:
+        x = std::cos(value(n.args[0]));
+        break;
+    }
+    v[id] = x;
+  }
+  std::vector<double> out;
+  for (const SRef& r : roots) out.push_back(value(r));
+  return out;
+}
+
 }  // namespace spacearm

@@ -6,6 +6,7 @@
 // pairs of operands that several sums or products share (as SymPy's cse does).
 #pragma once
 
+#include <functional>
 #include <map>
 #include <string>
 #include <tuple>
@@ -55,6 +56,9 @@ class Program {
   // Nodes reachable from roots in an order where operands come first.
   std::vector<int> schedule(const std::vector<SRef>& roots) const;
   OpCounts count(const std::vector<SRef>& roots) const;
+  // Numeric value of each root, inputs looked up by their text (the generator's self-check).
+  std::vector<double> evaluate(const std::vector<SRef>& roots,
+                               const std::function<double(const std::string&)>& input_value) const;
 
   const Node& node(int id) const { return nodes_[id]; }
   size_t size() const { return nodes_.size(); }
