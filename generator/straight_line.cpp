@@ -99,7 +99,9 @@ void Program::extract_common_pairs(const std::vector<SRef>& roots) {
 
 // Repeatedly finds the pair of operands that occurs in the most sums (products) and turns
 // it into a node of its own. For sums, a pair and its negation count as one: (a - b)
-// shares with (b - a). Deterministic: ties go to the smallest pair.
+// shares with (b - a). Lazy greedy: candidate counts live in an ordered set and are
+// re-verified when taken, so each step costs about the size of the nodes it touches.
+// Deterministic: ties go to the smallest pair.
 void Program::extract_pass(Kind kind, const std::vector<SRef>& roots) {
   using Pair = std::pair<SRef, SRef>;
   auto canonical = [](SRef a, SRef b, bool& flipped) {
@@ -111,48 +113,78 @@ void Program::extract_pass(Kind kind, const std::vector<SRef>& roots) {
     }
     return Pair{a, b};
   };
-  for (;;) {
-    std::vector<int> nodes;
-    for (int id : schedule(roots))
-      if (nodes_[id].kind == kind && nodes_[id].args.size() >= 2) nodes.push_back(id);
-    std::map<Pair, int> counts;
-    for (int id : nodes) {
-      const auto& a = nodes_[id].args;
-      std::set<Pair> seen;
-      for (size_t i = 0; i < a.size(); ++i)
-        for (size_t j = i + 1; j < a.size(); ++j) {
-          bool flipped;
-          seen.insert(canonical(a[i], a[j], flipped));
+  // Position of the pair in a node's operands, as (i, j, flipped), or i = -1.
+  auto find_pair = [&](const std::vector<SRef>& args, const Pair& pair, bool& flipped) -> std::pair<int, int> {
+    for (size_t i = 0; i < args.size(); ++i) {
+      if (args[i].id != pair.first.id && args[i].id != pair.second.id) continue;
+      for (size_t j = i + 1; j < args.size(); ++j) {
+        bool f;
+        if (canonical(args[i], args[j], f) == pair) {
+          flipped = f;
+          return {static_cast<int>(i), static_cast<int>(j)};
         }
-      for (const auto& p : seen) ++counts[p];
-    }
-    Pair best;
-    int best_count = 1;
-    for (const auto& [p, c] : counts)
-      if (c > best_count) {
-        best = p;
-        best_count = c;
       }
-    if (best_count < 2) return;
+    }
+    return {-1, -1};
+  };
 
-    // The new node (or an existing two-operand node equal to it).
-    SRef shared = kind == Kind::add ? add({best.first, best.second}) : mul({best.first, best.second});
-    for (int id : nodes) {
+  std::vector<int> containers;
+  for (int id : schedule(roots))
+    if (nodes_[id].kind == kind && nodes_[id].args.size() >= 2) containers.push_back(id);
+  std::map<Pair, std::vector<int>> index;  // pair -> nodes that (may) contain it
+  for (int id : containers) {
+    const auto& a = nodes_[id].args;
+    for (size_t i = 0; i < a.size(); ++i)
+      for (size_t j = i + 1; j < a.size(); ++j) {
+        bool flipped;
+        auto& list = index[canonical(a[i], a[j], flipped)];
+        if (list.empty() || list.back() != id) list.push_back(id);
+      }
+  }
+  std::set<std::pair<int, Pair>> queue;  // (-count, pair)
+  for (const auto& [pair, list] : index)
+    if (list.size() >= 2) queue.insert({-static_cast<int>(list.size()), pair});
+
+  while (!queue.empty()) {
+    const auto [neg_count, pair] = *queue.begin();
+    queue.erase(queue.begin());
+    // Verify: which of the listed nodes still hold the pair?
+    auto& list = index[pair];
+    std::vector<int> holders;
+    for (int id : list) {
+      bool flipped;
+      if (find_pair(nodes_[id].args, pair, flipped).first >= 0) holders.push_back(id);
+    }
+    list = holders;
+    if (static_cast<int>(holders.size()) < 2) continue;
+    if (static_cast<int>(holders.size()) < -neg_count) {
+      queue.insert({-static_cast<int>(holders.size()), pair});
+      continue;
+    }
+    const SRef shared = kind == Kind::add ? add({pair.first, pair.second}) : mul({pair.first, pair.second});
+    std::set<Pair> touched;
+    for (int id : holders) {
       if (id == shared.id) continue;
       auto& args = nodes_[id].args;
-      for (size_t i = 0; i < args.size(); ++i)
-        for (size_t j = i + 1; j < args.size(); ++j) {
-          bool flipped;
-          if (canonical(args[i], args[j], flipped) != best) continue;
-          SRef repl = shared;
-          repl.neg ^= flipped;
-          args.erase(args.begin() + j);
-          args.erase(args.begin() + i);
-          args.push_back(repl);
-          i = args.size();  // one replacement per node and pass
-          break;
-        }
+      bool flipped = false;
+      const auto [i, j] = find_pair(args, pair, flipped);
+      SRef repl = shared;
+      repl.neg ^= flipped;
+      args.erase(args.begin() + j);
+      args.erase(args.begin() + i);
+      // New pairs of the replacement with the remaining operands.
+      for (const SRef& x : args) {
+        bool f;
+        const Pair p = canonical(repl, x, f);
+        auto& l = index[p];
+        if (l.empty() || l.back() != id) l.push_back(id);
+        touched.insert(p);
+      }
+      args.push_back(repl);
     }
+    list.clear();
+    for (const Pair& p : touched)
+      if (index[p].size() >= 2) queue.insert({-static_cast<int>(index[p].size()), p});
   }
 }
 
