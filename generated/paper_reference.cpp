@@ -513,6 +513,17 @@ void end_effector_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unu
   J(2, 5) = T(1);
 }
 
+// Gear ratio p_i of each joint (1 for the reference model): Q_g = tau / p (eq. 14).
+// Operations: 0 add, 0 mul, 0 div, 0 sin/cos.
+template <typename T>
+void gear_ratios([[maybe_unused]] const Parameters<T>& params, JointVector<T>& p) {
+  using std::cos;
+  using std::sin;
+  p(0) = T(1);
+  p(1) = T(1);
+  p(2) = T(1);
+}
+
 // Explicit instantiations.
 template void mass_matrix<float>(const Coordinates<float>&, const Parameters<float>&, MassMatrix<float>&);
 template void coriolis_matrix<float>(const Coordinates<float>&, const Coordinates<float>&, const Parameters<float>&, MassMatrix<float>&);
@@ -522,6 +533,7 @@ template float kinetic_energy<float>(const Coordinates<float>&, const Coordinate
 template void momentum<float>(const Coordinates<float>&, const Coordinates<float>&, const Parameters<float>&, Vector3<float>&);
 template void end_effector_pose<float>(const Coordinates<float>&, const Parameters<float>&, Vector3<float>&);
 template void end_effector_jacobian<float>(const Coordinates<float>&, const Parameters<float>&, PoseJacobian<float>&);
+template void gear_ratios<float>(const Parameters<float>&, JointVector<float>&);
 template void mass_matrix<double>(const Coordinates<double>&, const Parameters<double>&, MassMatrix<double>&);
 template void coriolis_matrix<double>(const Coordinates<double>&, const Coordinates<double>&, const Parameters<double>&, MassMatrix<double>&);
 template void bias_forces<double>(const Coordinates<double>&, const Coordinates<double>&, const Parameters<double>&, Coordinates<double>&);
@@ -530,6 +542,7 @@ template double kinetic_energy<double>(const Coordinates<double>&, const Coordin
 template void momentum<double>(const Coordinates<double>&, const Coordinates<double>&, const Parameters<double>&, Vector3<double>&);
 template void end_effector_pose<double>(const Coordinates<double>&, const Parameters<double>&, Vector3<double>&);
 template void end_effector_jacobian<double>(const Coordinates<double>&, const Parameters<double>&, PoseJacobian<double>&);
+template void gear_ratios<double>(const Parameters<double>&, JointVector<double>&);
 template void mass_matrix<long double>(const Coordinates<long double>&, const Parameters<long double>&, MassMatrix<long double>&);
 template void coriolis_matrix<long double>(const Coordinates<long double>&, const Coordinates<long double>&, const Parameters<long double>&, MassMatrix<long double>&);
 template void bias_forces<long double>(const Coordinates<long double>&, const Coordinates<long double>&, const Parameters<long double>&, Coordinates<long double>&);
@@ -538,5 +551,6 @@ template long double kinetic_energy<long double>(const Coordinates<long double>&
 template void momentum<long double>(const Coordinates<long double>&, const Coordinates<long double>&, const Parameters<long double>&, Vector3<long double>&);
 template void end_effector_pose<long double>(const Coordinates<long double>&, const Parameters<long double>&, Vector3<long double>&);
 template void end_effector_jacobian<long double>(const Coordinates<long double>&, const Parameters<long double>&, PoseJacobian<long double>&);
+template void gear_ratios<long double>(const Parameters<long double>&, JointVector<long double>&);
 
 }  // namespace spacearm::models::paper_reference

@@ -35,6 +35,7 @@ template <typename T> using Parameters = Eigen::Matrix<T, kNumParams, 1>;
 template <typename T> using MassMatrix = Eigen::Matrix<T, kNq, kNq>;
 template <typename T> using Vector3 = Eigen::Matrix<T, 3, 1>;
 template <typename T> using PoseJacobian = Eigen::Matrix<T, 3, kNq>;
+template <typename T> using JointVector = Eigen::Matrix<T, kNumLinks, 1>;
 
 // All functions write into caller-provided fixed-size outputs and never allocate.
 
@@ -70,6 +71,10 @@ void end_effector_pose(const Coordinates<T>& q, const Parameters<T>& params, Vec
 template <typename T>
 void end_effector_jacobian(const Coordinates<T>& q, const Parameters<T>& params, PoseJacobian<T>& J);
 
+// Gear ratio p_i of each joint (1 for the reference model): Q_g = tau / p (eq. 14).
+template <typename T>
+void gear_ratios(const Parameters<T>& params, JointVector<T>& p);
+
 // The model as a type for generic code: constants and forwarding functions.
 struct Model {
   static constexpr const char* kName = "paper_reference";
@@ -90,6 +95,7 @@ struct Model {
   template <typename T> using MassMatrix = spacearm::models::paper_reference::MassMatrix<T>;
   template <typename T> using Vector3 = spacearm::models::paper_reference::Vector3<T>;
   template <typename T> using PoseJacobian = spacearm::models::paper_reference::PoseJacobian<T>;
+  template <typename T> using JointVector = spacearm::models::paper_reference::JointVector<T>;
   static constexpr const std::array<const char*, kNq>& coordinate_names() { return kCoordinateNames; }
   static constexpr const std::array<const char*, kNumParams>& parameter_names() { return kParameterNames; }
   static constexpr const std::array<double, kNumParams>& nominal_parameters() { return kNominalParameters; }
@@ -124,6 +130,10 @@ struct Model {
   template <typename T>
   static void end_effector_jacobian(const Coordinates<T>& q, const Parameters<T>& params, PoseJacobian<T>& J) {
     return spacearm::models::paper_reference::end_effector_jacobian<T>(q, params, J);
+  }
+  template <typename T>
+  static void gear_ratios(const Parameters<T>& params, JointVector<T>& p) {
+    return spacearm::models::paper_reference::gear_ratios<T>(params, p);
   }
 };
 

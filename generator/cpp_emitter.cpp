@@ -523,6 +523,15 @@ EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
     functions.push_back({"end_effector_jacobian", "Jacobian of the end-effector pose, d[x, y, phi]/dq (3 x n).",
                          "void", {q, params, {"PoseJacobian<T>&", "J"}},
                          matrix_outputs(model.end_effector_jacobian, "J", false), false});
+  {
+    // Always emitted: the runtime maps joint torques to generalized forces tau / p (eq. 14).
+    GiNaC::matrix ratios(scene.num_links(), 1);
+    const int first_joint = scene.free_floating() ? 3 : 0;
+    for (int j = 0; j < scene.num_links(); ++j)
+      ratios(j, 0) = (1 / model.gear_map(first_joint + j, first_joint + j)).normal();
+    functions.push_back({"gear_ratios", "Gear ratio p_i of each joint (1 for the reference model): Q_g = tau / p (eq. 14).",
+                         "void", {params, {"JointVector<T>&", "p"}}, matrix_outputs(ratios, "p", false), false});
+  }
 
   // Header.
   const std::string ns = "spacearm::models::" + scene.name;
@@ -558,7 +567,8 @@ EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
     << "template <typename T> using Parameters = Eigen::Matrix<T, kNumParams, 1>;\n"
     << "template <typename T> using MassMatrix = Eigen::Matrix<T, kNq, kNq>;\n"
     << "template <typename T> using Vector3 = Eigen::Matrix<T, 3, 1>;\n"
-    << "template <typename T> using PoseJacobian = Eigen::Matrix<T, 3, kNq>;\n\n";
+    << "template <typename T> using PoseJacobian = Eigen::Matrix<T, 3, kNq>;\n"
+    << "template <typename T> using JointVector = Eigen::Matrix<T, kNumLinks, 1>;\n\n";
   h << "// All functions write into caller-provided fixed-size outputs and never allocate.\n";
 
   // Source.
@@ -618,6 +628,7 @@ EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
     << "  template <typename T> using MassMatrix = " << ns << "::MassMatrix<T>;\n"
     << "  template <typename T> using Vector3 = " << ns << "::Vector3<T>;\n"
     << "  template <typename T> using PoseJacobian = " << ns << "::PoseJacobian<T>;\n"
+    << "  template <typename T> using JointVector = " << ns << "::JointVector<T>;\n"
     << "  static constexpr const std::array<const char*, kNq>& coordinate_names() { return kCoordinateNames; }\n"
     << "  static constexpr const std::array<const char*, kNumParams>& parameter_names() { return kParameterNames; }\n"
     << "  static constexpr const std::array<double, kNumParams>& nominal_parameters() { return kNominalParameters; }\n";
