@@ -523,6 +523,10 @@ EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
     functions.push_back({"end_effector_jacobian", "Jacobian of the end-effector pose, d[x, y, phi]/dq (3 x n).",
                          "void", {q, params, {"PoseJacobian<T>&", "J"}},
                          matrix_outputs(model.end_effector_jacobian, "J", false), false});
+  if (scene.wants(Output::joint_positions))
+    functions.push_back({"joint_positions", "World positions of joints 1..N (columns) and of the tip (last column).",
+                         "void", {q, params, {"JointPositions<T>&", "P"}},
+                         matrix_outputs(model.joint_positions, "P", false), false});
   {
     // Always emitted: the runtime maps joint torques to generalized forces tau / p (eq. 14).
     GiNaC::matrix ratios(scene.num_links(), 1);
@@ -568,7 +572,8 @@ EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
     << "template <typename T> using MassMatrix = Eigen::Matrix<T, kNq, kNq>;\n"
     << "template <typename T> using Vector3 = Eigen::Matrix<T, 3, 1>;\n"
     << "template <typename T> using PoseJacobian = Eigen::Matrix<T, 3, kNq>;\n"
-    << "template <typename T> using JointVector = Eigen::Matrix<T, kNumLinks, 1>;\n\n";
+    << "template <typename T> using JointVector = Eigen::Matrix<T, kNumLinks, 1>;\n"
+    << "template <typename T> using JointPositions = Eigen::Matrix<T, 2, kNumLinks + 1>;\n\n";
   h << "// All functions write into caller-provided fixed-size outputs and never allocate.\n";
 
   // Source.
@@ -629,6 +634,7 @@ EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
     << "  template <typename T> using Vector3 = " << ns << "::Vector3<T>;\n"
     << "  template <typename T> using PoseJacobian = " << ns << "::PoseJacobian<T>;\n"
     << "  template <typename T> using JointVector = " << ns << "::JointVector<T>;\n"
+    << "  template <typename T> using JointPositions = " << ns << "::JointPositions<T>;\n"
     << "  static constexpr const std::array<const char*, kNq>& coordinate_names() { return kCoordinateNames; }\n"
     << "  static constexpr const std::array<const char*, kNumParams>& parameter_names() { return kParameterNames; }\n"
     << "  static constexpr const std::array<double, kNumParams>& nominal_parameters() { return kNominalParameters; }\n";

@@ -22,6 +22,7 @@ const std::vector<std::pair<Output, const char*>>& output_names() {
       {Output::momentum, "momentum"},
       {Output::end_effector_pose, "end_effector_pose"},
       {Output::end_effector_jacobian, "end_effector_jacobian"},
+      {Output::joint_positions, "joint_positions"},
   };
   return names;
 }

@@ -67,6 +67,7 @@ enum class Output {
   momentum,
   end_effector_pose,
   end_effector_jacobian,
+  joint_positions,  // world positions of joints 1..N and of the tip (for drawing the arm)
 };
 const std::vector<Output>& all_outputs();
 std::string to_string(Output output);

@@ -213,14 +213,19 @@ SymbolicModel derive(const Scene& scene, const DeriveOptions& options) {
   }
 
   // End-effector: tip of the last link, orientation of the last link.
-  if (wants(Output::end_effector_pose) || wants(Output::end_effector_jacobian)) {
+  if (wants(Output::end_effector_pose) || wants(Output::end_effector_jacobian) || wants(Output::joint_positions)) {
     Vec2 tip = r0;
     const Vec2 m0vec = rotated(theta[0], mount);
     tip = {tip.x + m0vec.x, tip.y + m0vec.y};
+    model.joint_positions = matrix(2, N + 1);
     for (int k = 1; k <= N; ++k) {
+      model.joint_positions(0, k - 1) = tip.x.expand();
+      model.joint_positions(1, k - 1) = tip.y.expand();
       const Vec2 seg = rotated(theta[k], {b.value(scene.links[k - 1].length), 0});
       tip = {tip.x + seg.x, tip.y + seg.y};
     }
+    model.joint_positions(0, N) = tip.x.expand();
+    model.joint_positions(1, N) = tip.y.expand();
     model.end_effector_pose = matrix(3, 1);
     model.end_effector_pose(0, 0) = tip.x.expand();
     model.end_effector_pose(1, 0) = tip.y.expand();

@@ -40,6 +40,7 @@ struct SymbolicModel {
   GiNaC::matrix momentum;             // 3 x 1, [Px, Py, L about the world origin]
   GiNaC::matrix end_effector_pose;    // 3 x 1, [x, y, phi] of the last link's tip
   GiNaC::matrix end_effector_jacobian;  // 3 x n, d pose / d q
+  GiNaC::matrix joint_positions;        // 2 x (N + 1): joints 1..N, then the tip
 
   int n() const { return static_cast<int>(q.size()); }
   // Maps cos/sin(theta_k) and cos/sin(theta_l - theta_k) to their atoms; see atom_of().

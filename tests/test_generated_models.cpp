@@ -104,6 +104,16 @@ void check_against_symbolic(const std::string& scene_path, const std::vector<std
         expect_equal_to_symbolic(J, evaluate_matrix(sym, sym.end_effector_jacobian, q, qd, pv),
                                  "end_effector_jacobian");
       }
+      if constexpr (Model::kHas_joint_positions) {
+        typename Model::template JointPositions<double> P;
+        Model::joint_positions(q, params, P);
+        expect_equal_to_symbolic(P, evaluate_matrix(sym, sym.joint_positions, q, qd, pv), "joint_positions");
+        if constexpr (Model::kHas_end_effector_pose) {
+          typename Model::template Vector3<double> x;
+          Model::end_effector_pose(q, params, x);
+          EXPECT_NEAR((P.col(Model::kNumLinks) - x.template head<2>()).norm(), 0.0, 1e-14 * x.norm());
+        }
+      }
     }
   }
   EXPECT_GT(nontrivial, 0);

@@ -1,0 +1,149 @@
+// Model interface over any generated model (`spacearm::models::<name>::Model`): dimensions,
+// run-time parameters, mass matrix, bias, energy, momentum, end-effector pose/Jacobian,
+// generalized forces from joint torques (eq. 14) and forward dynamics (eq. 8) through a
+// fixed-size Cholesky factorization. Eigen only; no allocation after construction.
+#pragma once
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+namespace spacearm {
+
+// A failure of the dynamics at run time (bad input, mass matrix not positive definite);
+// the message says what, where (time, state) is added by the caller that knows it.
+class DynamicsError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+template <class Generated>
+class Model {
+ public:
+  static constexpr int kNq = Generated::kNq;
+  static constexpr int kNumLinks = Generated::kNumLinks;
+  static constexpr int kNumParams = Generated::kNumParams;
+  static constexpr bool kFreeFloating = Generated::kFreeFloating;
+  static constexpr int kFirstJoint = kFreeFloating ? 3 : 0;
+  using Vector = Eigen::Matrix<double, kNq, 1>;
+  using Matrix = Eigen::Matrix<double, kNq, kNq>;
+  using Params = Eigen::Matrix<double, kNumParams, 1>;
+  using JointVector = Eigen::Matrix<double, kNumLinks, 1>;
+  using Vector3 = Eigen::Matrix<double, 3, 1>;
+  using PoseJacobian = Eigen::Matrix<double, 3, kNq>;
+
+  Model() {
+    for (int i = 0; i < kNumParams; ++i) params_[i] = Generated::nominal_parameters()[i];
+    update();
+  }
+
+  static const char* name() { return Generated::kName; }
+  static const std::array<const char*, kNq>& coordinate_names() { return Generated::coordinate_names(); }
+
+  const Params& parameters() const { return params_; }
+  void set_parameter(const std::string& name, double value) {
+    for (int i = 0; i < kNumParams; ++i)
+      if (name == Generated::parameter_names()[i]) {
+        if (!std::isfinite(value))
+          throw std::invalid_argument(std::string("model ") + Generated::kName + ": parameter '" + name +
+                                      "' must be finite, got " + std::to_string(value));
+        params_[i] = value;
+        update();
+        return;
+      }
+    std::string known;
+    for (int i = 0; i < kNumParams; ++i) known += (i ? ", " : "") + std::string(Generated::parameter_names()[i]);
+    throw std::invalid_argument(std::string("model ") + Generated::kName + ": unknown parameter '" + name +
+                                "' (known: " + (known.empty() ? "none" : known) + ")");
+  }
+
+  // Gear ratio per joint (1 for the reference model), eq. 9.
+  const JointVector& gear_ratios() const { return ratios_; }
+
+  Matrix mass_matrix(const Vector& q) const {
+    Matrix M;
+    Generated::mass_matrix(q, params_, M);
+    return M;
+  }
+  Vector bias_forces(const Vector& q, const Vector& qd) const {
+    Vector b;
+    Generated::bias_forces(q, qd, params_, b);
+    return b;
+  }
+  void mass_matrix_and_bias(const Vector& q, const Vector& qd, Matrix& M, Vector& b) const {
+    Generated::mass_matrix_and_bias(q, qd, params_, M, b);
+  }
+  double kinetic_energy(const Vector& q, const Vector& qd) const { return Generated::kinetic_energy(q, qd, params_); }
+  Vector3 momentum(const Vector& q, const Vector& qd) const {
+    Vector3 h;
+    Generated::momentum(q, qd, params_, h);
+    return h;
+  }
+  Vector3 end_effector_pose(const Vector& q) const {
+    Vector3 x;
+    Generated::end_effector_pose(q, params_, x);
+    return x;
+  }
+  PoseJacobian end_effector_jacobian(const Vector& q) const {
+    PoseJacobian J;
+    Generated::end_effector_jacobian(q, params_, J);
+    return J;
+  }
+
+  // Generalized forces for joint torques tau applied at the joints (the reference model)
+  // or at the motors (the geared model, Q_g = tau / p, eq. 14); no force on the base.
+  Vector generalized_forces(const JointVector& tau) const {
+    Vector Q = Vector::Zero();
+    Q.template tail<kNumLinks>() = tau.cwiseQuotient(ratios_);
+    return Q;
+  }
+
+  // qdd = M^-1 (Q - C qd), eq. 8 (eq. 15 with the sign corrected). Throws DynamicsError on
+  // non-finite input or a mass matrix that is not positive definite.
+  Vector forward_dynamics(const Vector& q, const Vector& qd, const Vector& Q) const {
+    if (!q.allFinite() || !qd.allFinite() || !Q.allFinite()) throw DynamicsError(describe_non_finite(q, qd, Q));
+    Matrix M;
+    Vector b;
+    Generated::mass_matrix_and_bias(q, qd, params_, M, b);
+    Eigen::LLT<Matrix> llt(M);
+    if (llt.info() != Eigen::Success)
+      throw DynamicsError(std::string("model ") + Generated::kName + ": mass matrix is not positive definite");
+    return llt.solve(Q - b);
+  }
+
+  // 2-norm condition number of M(q) (symmetric positive definite: ratio of eigenvalues).
+  double condition_number(const Vector& q) const {
+    const Eigen::SelfAdjointEigenSolver<Matrix> eig(mass_matrix(q), Eigen::EigenvaluesOnly);
+    return eig.eigenvalues().maxCoeff() / eig.eigenvalues().minCoeff();
+  }
+
+ private:
+  Params params_;
+  JointVector ratios_;
+
+  void update() {
+    Generated::gear_ratios(params_, ratios_);
+    for (int i = 0; i < kNumLinks; ++i)
+      if (!(ratios_[i] > 0))
+        throw std::invalid_argument(std::string("model ") + Generated::kName + ": gear ratio of joint " +
+                                    std::to_string(i + 1) + " must be positive, got " + std::to_string(ratios_[i]));
+  }
+
+  static std::string describe_non_finite(const Vector& q, const Vector& qd, const Vector& Q) {
+    std::ostringstream msg;
+    msg << "model " << Generated::kName << ": non-finite input";
+    for (int i = 0; i < kNq; ++i) {
+      if (!std::isfinite(q[i])) msg << " q[" << i << "] (" << Generated::coordinate_names()[i] << ") = " << q[i];
+      if (!std::isfinite(qd[i])) msg << " qd[" << i << "] = " << qd[i];
+      if (!std::isfinite(Q[i])) msg << " Q[" << i << "] = " << Q[i];
+    }
+    return msg.str();
+  }
+};
+
+}  // namespace spacearm

@@ -1,0 +1,63 @@
+// Simulation: integrates the forward dynamics of a model driven by joint torques and
+// records the trajectory with its diagnostics (momentum, energy balance, cond(M)).
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "integrators.hpp"
+#include "model.hpp"
+
+namespace spacearm {
+
+template <class G>
+struct Trajectory {
+  using M = Model<G>;
+  std::vector<double> t;
+  std::vector<typename M::Vector> q, qd;
+  std::vector<typename M::Vector3> end_effector, momentum;
+  std::vector<double> kinetic_energy;
+  std::vector<double> work;  // work done by the joint torques since t0 (trapezoidal in time)
+  IntegrationStats stats;
+};
+
+// Integrates from (q0, qd0) at t = 0 to t_end, sampling every dt_out. tau(t) gives the joint
+// (or motor) torques; they enter as generalized forces through Model::generalized_forces.
+template <class G>
+Trajectory<G> simulate(const Model<G>& model, const typename Model<G>::Vector& q0,
+                       const typename Model<G>::Vector& qd0,
+                       const std::function<typename Model<G>::JointVector(double)>& tau, double t_end,
+                       double dt_out, const IntegratorOptions& options) {
+  using M = Model<G>;
+  constexpr int n = M::kNq;
+  using State = Eigen::Matrix<double, 2 * n, 1>;
+  State x;
+  x << q0, qd0;
+  Trajectory<G> traj;
+  auto f = [&](const State& s, State& dsdt, double t) {
+    const typename M::Vector q = s.template head<n>(), qd = s.template tail<n>();
+    dsdt.template head<n>() = qd;
+    try {
+      dsdt.template tail<n>() = model.forward_dynamics(q, qd, model.generalized_forces(tau(t)));
+    } catch (const DynamicsError& e) {
+      throw DynamicsError(std::string(e.what()) + " at t = " + std::to_string(t));
+    }
+  };
+  double power_prev = 0;
+  auto observe = [&](const State& s, double t) {
+    const typename M::Vector q = s.template head<n>(), qd = s.template tail<n>();
+    traj.t.push_back(t);
+    traj.q.push_back(q);
+    traj.qd.push_back(qd);
+    traj.end_effector.push_back(model.end_effector_pose(q));
+    if constexpr (G::kHas_momentum) traj.momentum.push_back(model.momentum(q, qd));
+    traj.kinetic_energy.push_back(model.kinetic_energy(q, qd));
+    const double power = model.generalized_forces(tau(t)).dot(qd);
+    traj.work.push_back(traj.work.empty() ? 0.0 : traj.work.back() + 0.5 * (power + power_prev) * (t - traj.t[traj.t.size() - 2]));
+    power_prev = power;
+  };
+  traj.stats = integrate(options, f, x, 0.0, t_end, dt_out, observe);
+  return traj;
+}
+
+}  // namespace spacearm
