@@ -1,18 +1,16 @@
 #!/usr/bin/env bash
-# The main job: set up, then derive and emit the paper's two models with operation counts,
-# and show where the gear ratio enters the geared mass and Coriolis matrices.
-# (The paper's simulation experiment, Table 2 and the figures come with the runtime.)
+# The main job: set up (packages, configure, build), run the paper's experiment (plan a
+# straight line, replay the torques into geared models, Table 2) and draw Figures 3-8.
+# Usage: scripts/run-paper.sh [options of examples/paper_experiment, e.g. --elbow -1]
+# Output folder: out/paper (override with OUT_DIR=...).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-build_dir=${1:-build}
-scripts/setup.sh "$build_dir" >/dev/null
-spacearm="$build_dir/generator/spacearm"
-out="${OUT_DIR:-out}/generated"
+scripts/setup.sh build >/dev/null
+out="${OUT_DIR:-out/paper}"
+echo "== operation counts of the paper's generated models"
 for scene in models/paper_reference.yaml models/paper_geared.yaml; do
-  echo "== $scene"
-  "$spacearm" generate "$scene" -o "$out" --stats
+  build/generator/spacearm generate "$scene" -o "$out/generated" --stats | grep -E "^(function|mass_matrix|bias)"
 done
-echo "== geared model, M[3][4] (qm1, qm2 entry):"
-"$spacearm" inspect models/paper_geared.yaml 'M[3][4]' --decimal
-echo "== geared model, C[0][3] in LaTeX:"
-"$spacearm" inspect models/paper_geared.yaml 'C[0][3]' --latex --decimal
+echo
+build/examples/paper_experiment --out "$out" "$@"
+scripts/plot_paper.sh "$out"
