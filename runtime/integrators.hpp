@@ -87,21 +87,28 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
       break;
     }
     case Method::dopri5: {
+      // Dense output: steps of the controller's own size, states at the outputs by the
+      // method's continuous extension.
       auto stepper = odeint::make_dense_output(
           opt.atol, opt.rtol, odeint::runge_kutta_dopri5<State, double, State, double, odeint::vector_space_algebra>());
-      long k = 1;
-      odeint::integrate_const(stepper, rhs, x, t0, t1 + 0.5 * dt_out, dt_out, [&](const State& s, double t) {
-        if (t > t0) observe(s, t0 + (k++) * dt_out);
-      });
+      stepper.initialize(x, t0, std::min(dt_out, 0.01));
+      State out = x;
+      for (long k = 1; k <= outputs; ++k) {
+        const double t_out = t0 + k * dt_out;
+        while (stepper.current_time() < t_out) stepper.do_step(rhs);
+        stepper.calc_state(t_out, out);
+        observe(out, t_out);
+      }
+      x = out;
       break;
     }
     case Method::rkf78: {
       auto stepper = odeint::make_controlled(
           opt.atol, opt.rtol,
           odeint::runge_kutta_fehlberg78<State, double, State, double, odeint::vector_space_algebra>());
+      double dt = std::min(dt_out, 0.01);  // kept across outputs: the controller adapts it
       for (long k = 0; k < outputs; ++k) {
         double t = t0 + k * dt_out;
-        double dt = std::min(dt_out, 0.01);
         odeint::integrate_adaptive(stepper, rhs, x, t, t0 + (k + 1) * dt_out, dt);
         observe(x, t0 + (k + 1) * dt_out);
       }
