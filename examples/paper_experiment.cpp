@@ -30,7 +30,7 @@ struct Run {
 
 void write_series(const std::string& path, const Trajectory<models::paper_geared::Model>& tr, const Geared& g) {
   std::ofstream out(path);
-  out << "t,ee_x,ee_y,ee_phi,x0,y0,q0,qd1,qd2,qd3,Px,Py,L,kinetic_energy,work\n";
+  out << "t,ee_x,ee_y,ee_phi,x0,y0,q0,qd1,qd2,qd3,Px,Py,L,kinetic_energy,work,cond_M\n";
   out.precision(12);
   for (size_t k = 0; k < tr.t.size(); ++k) {
     const auto& q = tr.q[k];
@@ -40,7 +40,8 @@ void write_series(const std::string& path, const Trajectory<models::paper_geared
     out << tr.t[k] << "," << x[0] << "," << x[1] << "," << x[2] << "," << q[0] << "," << q[1] << "," << q[2];
     // Link-side joint velocities qd = qd_m / p.
     for (int j = 0; j < 3; ++j) out << "," << qd[3 + j] / g.gear_ratios()[j];
-    out << "," << h[0] << "," << h[1] << "," << h[2] << "," << tr.kinetic_energy[k] << "," << tr.work[k] << "\n";
+    out << "," << h[0] << "," << h[1] << "," << h[2] << "," << tr.kinetic_energy[k] << "," << tr.work[k] << ","
+        << tr.condition_number[k] << "\n";
   }
 }
 

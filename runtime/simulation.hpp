@@ -18,6 +18,7 @@ struct Trajectory {
   std::vector<typename M::Vector3> end_effector, momentum;
   std::vector<double> kinetic_energy;
   std::vector<double> work;  // work done by the joint torques since t0 (trapezoidal in time)
+  std::vector<double> condition_number;  // cond(M(q)), 2-norm
   IntegrationStats stats;
 };
 
@@ -52,6 +53,7 @@ Trajectory<G> simulate(const Model<G>& model, const typename Model<G>::Vector& q
     traj.end_effector.push_back(model.end_effector_pose(q));
     if constexpr (G::kHas_momentum) traj.momentum.push_back(model.momentum(q, qd));
     traj.kinetic_energy.push_back(model.kinetic_energy(q, qd));
+    traj.condition_number.push_back(model.condition_number(q));
     const double power = model.generalized_forces(tau(t)).dot(qd);
     traj.work.push_back(traj.work.empty() ? 0.0 : traj.work.back() + 0.5 * (power + power_prev) * (t - traj.t[traj.t.size() - 2]));
     power_prev = power;
