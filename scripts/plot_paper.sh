@@ -10,6 +10,9 @@ set terminal pngcairo size 900,650 font "sans,11"
 set datafile separator ","
 set grid
 set key outside right
+# Nine distinct colours (one per default gear ratio), then repeat.
+set linetype 9 lc rgb "#8b4513"
+set linetype cycle 9
 ratios = "$ratios"
 
 set output "fig3_path.png"
@@ -49,7 +52,9 @@ set key outside right
 set output "fig7_joint_velocities.png"
 set multiplot layout 3,1 title "Fig. 7: joint (link-side) velocities"
 unset title
+set key outside right top vertical
 do for [j=1:3] {
+  if (j > 1) { unset key }
   set ylabel sprintf("qd%d [rad/s]", j)
   set xlabel (j == 3 ? "t [s]" : "")
   plot for [p in ratios] sprintf("replay_p%s.csv", p) using 1:(column(7+j)) with lines lw 1.5 title sprintf("p = %s", p)
@@ -60,7 +65,9 @@ set output "fig8_base.png"
 set multiplot layout 3,1 title "Fig. 8: base position and orientation"
 names = "x0 y0 q0"
 units = "m m rad"
+set key outside right top vertical
 do for [j=1:3] {
+  if (j > 1) { unset key }
   set ylabel sprintf("%s [%s]", word(names, j), word(units, j))
   set xlabel (j == 3 ? "t [s]" : "")
   plot for [p in ratios] sprintf("replay_p%s.csv", p) using 1:(column(4+j)) with lines lw 1.5 title sprintf("p = %s", p)
