@@ -166,33 +166,33 @@ void coriolis_matrix([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] 
   const T t67 = t54 * T(0.58089375);
   const T t68 = t67 + t49;
   const T t69 = qd(0) * t34;
-  const T t70 = qd(1) * -t36;
+  const T t70 = qd(1) * (-t36);
   const T t71 = t2 * (t67 - t65);
   const T t72 = t47 * T(0.0015291) - t48 * T(0.07874865);
   const T t73 = t72 + t65;
   const T t74 = t23 * qd(0);
-  const T t75 = qd(1) * -t30;
-  const T t76 = t3 * -t72;
-  const T t77 = t2 * -t65 + t76;
+  const T t75 = qd(1) * (-t30);
+  const T t76 = t3 * (-t72);
+  const T t77 = t2 * (-t65) + t76;
   const T t78 = t44 * T(0.0021483855) - t45 * T(0.097118238);
   const T t79 = t78 + t41 * T(0.001940625) - t42 * T(0.71803125);
   const T t80 = t44 * T(0.0007161285) - t45 * T(0.032372746);
   const T t81 = t38 * T(0.001239079) - t39 * T(0.45845923);
   const T t82 = t41 * T(0.000646875) - t42 * T(0.23934375);
   const T t83 = t80 + t82;
-  const T t84 = qd(2) * -t83;
-  const T t85 = qd(2) * -t80;
+  const T t84 = qd(2) * (-t83);
+  const T t85 = qd(2) * (-t80);
   const T t86 = t50 * T(0.000762851) - t51 * T(0.0392868265);
   const T t87 = t49 + t86;
   const T t88 = t54 * T(0.290446875);
   const T t89 = t88 + t49;
   const T t90 = t50 * T(0.002288553) - t51 * T(0.1178604795);
   const T t91 = t2 * (t54 * T(0.871340625) - t90);
-  const T t92 = t2 * -t86;
+  const T t92 = t2 * (-t86);
   const T t93 = t47 * T(0.00076455) - t48 * T(0.039374325);
   const T t94 = t93 + t86;
   const T t95 = t3 * (t48 * T(0.118122975) - t47 * T(0.00229365));
-  const T t96 = t2 * -t90 + t95;
+  const T t96 = t2 * (-t90) + t95;
   C(0, 0) = T(0);
   C(0, 1) = T(0);
   C(0, 2) = qd(2) * (T(0.007258) * t1 - T(2.68546) * t0) - t16;
@@ -205,30 +205,30 @@ void coriolis_matrix([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] 
   C(1, 3) = t21;
   C(1, 4) = t17 - t20;
   C(1, 5) = t17;
-  C(2, 0) = qd(2) * -t22 - t28;
+  C(2, 0) = qd(2) * (-t22) - t28;
   C(2, 1) = t33 - qd(2) * t29;
   C(2, 2) = qd(0) * (t22 + t35) + qd(1) * (t29 + t37) + qd(2) * (-t40 - t43 - t46) + t4 * (t53 + t46) + t2 * (t56 + t40) + t3 * (t43 - t57);
   C(2, 3) = qd(2) * (-t58 - t61) + t4 * (t59 + t53) + t2 * (t56 + t58) + t3 * (t60 - t57) + t64;
-  C(2, 4) = t4 * (t59 + t66) + t3 * (t60 - t68) + qd(2) * -t61 + t69 + t70 + t71;
-  C(2, 5) = t4 * (t59 + t73) + t74 + t75 + qd(2) * -t59 + t77;
+  C(2, 4) = t4 * (t59 + t66) + t3 * (t60 - t68) + qd(2) * (-t61) + t69 + t70 + t71;
+  C(2, 5) = t4 * (t59 + t73) + t74 + t75 + qd(2) * (-t59) + t77;
   C(3, 0) = -t28;
   C(3, 1) = t33;
   C(3, 2) = qd(2) * (t39 * T(1.37537769) - t38 * T(0.003717237) - t79) + t4 * (t80 + t53) + t2 * (t56 + t81) + t64 + t3 * (t82 - t57);
-  C(3, 3) = qd(2) * (-t81 - t83) + t62 + t63 + t4 * t53 + t2 * t56 + t3 * -t57;
-  C(3, 4) = t84 + t4 * t66 + t69 + t70 + t71 + t3 * -t68;
+  C(3, 3) = qd(2) * (-t81 - t83) + t62 + t63 + t4 * t53 + t2 * t56 + t3 * (-t57);
+  C(3, 4) = t84 + t4 * t66 + t69 + t70 + t71 + t3 * (-t68);
   C(3, 5) = t4 * t73 + t74 + t75 + t77 + t85;
   C(4, 0) = -(t24 + t27);
   C(4, 1) = t31 - t32;
-  C(4, 2) = t4 * (t80 + t87) + t3 * (t82 - t89) + qd(2) * -t79 + t69 + t70 + t91;
-  C(4, 3) = t84 + t4 * t87 + t69 + t70 + t91 + t3 * -t89;
-  C(4, 4) = t84 + t69 + t70 + t2 * (t88 - t86) + t3 * -t49 + t4 * t49;
+  C(4, 2) = t4 * (t80 + t87) + t3 * (t82 - t89) + qd(2) * (-t79) + t69 + t70 + t91;
+  C(4, 3) = t84 + t4 * t87 + t69 + t70 + t91 + t3 * (-t89);
+  C(4, 4) = t84 + t69 + t70 + t2 * (t88 - t86) + t3 * (-t49) + t4 * t49;
   C(4, 5) = t74 + t75 + t85 + t92 + t76 + t4 * t72;
   C(5, 0) = -t24;
   C(5, 1) = t31;
-  C(5, 2) = t4 * (t80 + t94) + t74 + t75 + qd(2) * -t78 + t96;
+  C(5, 2) = t4 * (t80 + t94) + t74 + t75 + qd(2) * (-t78) + t96;
   C(5, 3) = t4 * t94 + t74 + t75 + t85 + t96;
   C(5, 4) = t74 + t75 + t85 + t92 + t95 + t4 * t93;
-  C(5, 5) = t74 + t75 + t85 + t92 + t3 * -t93;
+  C(5, 5) = t74 + t75 + t85 + t92 + t3 * (-t93);
 }
 
 // Bias b = C(q, qd) qd (n), so that M qdd + b = Q (paper eq. 5).
@@ -265,13 +265,13 @@ void bias_forces([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] cons
   const T t25 = t24 - t22;
   const T t26 = t24 + t21;
   const T t27 = t2 * t2 * t25;
-  const T t28 = t3 * t3 * -t21;
+  const T t28 = t3 * t3 * (-t21);
   b(0) = qd(2) * qd(2) * (T(0.007258) * t1 - T(2.68546) * t0) - (t4 * t4 * (T(0.174997) * t8 + T(0.003398) * t9) + t10 * t11 + t12 * t13);
   b(1) = t4 * t4 * (t8 * T(0.003398) - T(0.174997) * t9) - (t14 * t11 + t15 * t13) - qd(2) * qd(2) * (t0 * T(0.007258) + T(2.68546) * t1);
   b(2) = t20 + t4 * t4 * (t17 + t23) + t2 * t2 * (t16 + t25) + t3 * t3 * (t18 - t26);
-  b(3) = t20 + t4 * t4 * t23 + t27 + t3 * t3 * -t26;
-  b(4) = qd(2) * qd(2) * -t19 + t27 + t28 + t4 * t4 * t21;
-  b(5) = qd(2) * qd(2) * -t17 + t28 + t2 * t2 * -t22;
+  b(3) = t20 + t4 * t4 * t23 + t27 + t3 * t3 * (-t26);
+  b(4) = qd(2) * qd(2) * (-t19) + t27 + t28 + t4 * t4 * t21;
+  b(5) = qd(2) * qd(2) * (-t17) + t28 + t2 * t2 * (-t22);
 }
 
 // M and b together, sharing the sin/cos and common terms.
@@ -341,7 +341,7 @@ void mass_matrix_and_bias([[maybe_unused]] const Coordinates<T>& q, [[maybe_unus
   const T t58 = t57 - t55;
   const T t59 = t57 + t54;
   const T t60 = t44 * t44 * t58;
-  const T t61 = t45 * t45 * -t54;
+  const T t61 = t45 * t45 * (-t54);
   M(0, 0) = T(72.117);
   M(0, 1) = T(0);
   M(0, 2) = -t2 - t14;
@@ -363,12 +363,12 @@ void mass_matrix_and_bias([[maybe_unused]] const Coordinates<T>& q, [[maybe_unus
   M(4, 4) = t39;
   M(4, 5) = t42;
   M(5, 5) = T(0.040031487);
-  b(0) = qd(2) * qd(2) * -t15 - (t46 * t20 * t46 + t47 * t17 + t48 * t19);
+  b(0) = qd(2) * qd(2) * (-t15) - (t46 * t20 * t46 + t47 * t17 + t48 * t19);
   b(1) = t46 * t12 * t46 - (t47 * t5 + t48 * t8) - qd(2) * qd(2) * t2;
   b(2) = t53 + t46 * t46 * (t50 + t56) + t44 * t44 * (t49 + t58) + t45 * t45 * (t51 - t59);
-  b(3) = t53 + t46 * t46 * t56 + t60 + t45 * t45 * -t59;
-  b(4) = qd(2) * qd(2) * -t52 + t60 + t61 + t46 * t46 * t54;
-  b(5) = qd(2) * qd(2) * -t50 + t61 + t44 * t44 * -t55;
+  b(3) = t53 + t46 * t46 * t56 + t60 + t45 * t45 * (-t59);
+  b(4) = qd(2) * qd(2) * (-t52) + t60 + t61 + t46 * t46 * t54;
+  b(5) = qd(2) * qd(2) * (-t50) + t61 + t44 * t44 * (-t55);
   M(1, 0) = T(0);
   M(2, 0) = -t2 - t14;
   M(3, 0) = -t14;
@@ -445,7 +445,7 @@ void momentum([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const C
   const T t27 = T(0.58089375) * (t18 * t20 + t12 * t14);
   h(0) = t5 * t11 + T(72.117) * qd(0) - t3 * t13 - t4 * t15 - qd(2) * t2;
   h(1) = qd(2) * t16 + t5 * t17 + T(72.117) * qd(1) + t3 * t19 + t4 * t21;
-  h(2) = qd(2) * (t16 * q(0) + t2 * q(1) + T(3.688627458) + t22 + t23 + t24) + t5 * (t17 * q(0) + q(1) * -t11 + T(0.040031487) + t24 + t25 + t26) + t3 * (T(1.062389138) + q(0) * t19 + q(1) * t13 + t27 + t22 + t25) + t4 * (t27 + T(0.5308875) + q(0) * t21 + q(1) * t15 + t23 + t26) + qd(0) * (t11 - T(72.117) * q(1) - t13 - t15 - t2) + qd(1) * (T(72.117) * q(0) + t19 + t21 + t16 + t17);
+  h(2) = qd(2) * (t16 * q(0) + t2 * q(1) + T(3.688627458) + t22 + t23 + t24) + t5 * (t17 * q(0) + q(1) * (-t11) + T(0.040031487) + t24 + t25 + t26) + t3 * (T(1.062389138) + q(0) * t19 + q(1) * t13 + t27 + t22 + t25) + t4 * (t27 + T(0.5308875) + q(0) * t21 + q(1) * t15 + t23 + t26) + qd(0) * (t11 - T(72.117) * q(1) - t13 - t15 - t2) + qd(1) * (T(72.117) * q(0) + t19 + t21 + t16 + t17);
 }
 
 // End-effector pose [x, y, phi]: tip of the last link, absolute angle of the last link.

@@ -354,11 +354,20 @@ class Printer {
 
   // precedence: 0 sum context, 1 product, 2 divisor/negation
   std::string wrap(int id, int context) const {
+    const auto& n = p_.node(id);
+    // A sum left with one operand by the CSE pass is that operand, possibly negated.
+    if (!names_.count(id) && n.kind == Program::Kind::add && n.args.size() == 1) {
+      const SRef a = n.args[0];
+      if (!a.neg) return wrap(a.id, context);
+      const std::string neg = "-" + wrap(a.id, 2);
+      return context >= 1 ? "(" + neg + ")" : neg;
+    }
     const std::string s = ref(id);
     if (names_.count(id)) return s;
-    const auto k = p_.node(id).kind;
-    const bool needs = (k == Program::Kind::add && p_.node(id).args.size() > 1 && context >= 1) ||
-                       ((k == Program::Kind::mul || k == Program::Kind::div) && context >= 2);
+    const auto k = n.kind;
+    const bool needs = (k == Program::Kind::add && n.args.size() > 1 && context >= 1) ||
+                       ((k == Program::Kind::mul || k == Program::Kind::div) && context >= 2) ||
+                       (context >= 1 && !s.empty() && s[0] == '-');
     return needs ? "(" + s + ")" : s;
   }
 

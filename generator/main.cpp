@@ -2,11 +2,15 @@
 //   spacearm generate SCENE -o DIR [--stats]   emit optimized C++ for a scene
 //   spacearm inspect SCENE ENTRY [--latex]     print one symbolic entry, e.g. M[3][4]
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <sstream>
 
+#include "compiled_model.hpp"
 #include "cpp_emitter.hpp"
 #include "scene.hpp"
 #include "symbolic_model.hpp"
@@ -23,6 +27,56 @@ void print_stats(const spacearm::EmittedModel& emitted, std::ostream& out) {
     out << line;
   }
 }
+
+// Parses "a,b,c" for option `name` into exactly n finite numbers.
+Eigen::VectorXd parse_vector(const std::string& text, const std::string& name, int n) {
+  std::vector<double> values;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    char* end = nullptr;
+    const double v = std::strtod(item.c_str(), &end);
+    if (item.empty() || end == item.c_str() || *end != '\0')
+      throw std::invalid_argument(name + "[" + std::to_string(values.size()) + "]: '" + item + "' is not a number");
+    if (!std::isfinite(v))
+      throw std::invalid_argument(name + "[" + std::to_string(values.size()) + "] is not finite: '" + item + "'");
+    values.push_back(v);
+  }
+  if (static_cast<int>(values.size()) != n)
+    throw std::invalid_argument(name + ": expected " + std::to_string(n) + " comma-separated values, got " +
+                                std::to_string(values.size()));
+  return Eigen::Map<Eigen::VectorXd>(values.data(), n);
+}
+
+// --param name=value pairs over the nominal values.
+Eigen::VectorXd parse_parameters(const std::vector<std::string>& assignments, const std::vector<std::string>& names,
+                                 const std::vector<double>& nominal) {
+  Eigen::VectorXd p = Eigen::Map<const Eigen::VectorXd>(nominal.data(), static_cast<int>(nominal.size()));
+  for (const auto& a : assignments) {
+    const auto eq = a.find('=');
+    if (eq == std::string::npos) throw std::invalid_argument("--param '" + a + "': expected name=value");
+    const std::string name = a.substr(0, eq);
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it == names.end()) {
+      std::string known;
+      for (const auto& n : names) known += (known.empty() ? "" : ", ") + n;
+      throw std::invalid_argument("--param: unknown parameter '" + name + "' (known: " + (known.empty() ? "none" : known) + ")");
+    }
+    p[it - names.begin()] = parse_vector(a.substr(eq + 1), "--param " + name, 1)[0];
+  }
+  return p;
+}
+
+nlohmann::json to_json(const Eigen::MatrixXd& m) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (Eigen::Index i = 0; i < m.rows(); ++i) {
+    nlohmann::json row = nlohmann::json::array();
+    for (Eigen::Index j = 0; j < m.cols(); ++j) row.push_back(m(i, j));
+    rows.push_back(row);
+  }
+  return rows;
+}
+nlohmann::json to_json(const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); }
 
 }  // namespace
 
@@ -48,7 +102,91 @@ int main(int argc, char** argv) {
   inspect->add_flag("--latex", latex, "Print LaTeX instead of plain text");
   inspect->add_flag("--decimal", expanded, "Show numeric coefficients as decimals instead of exact fractions");
 
+  auto* eval = app.add_subcommand("eval", "Evaluate a scene's quantities at a state (compiled and cached, or --symbolic)");
+  std::string q_text, qd_text, cache_dir;
+  std::vector<std::string> param_assignments;
+  bool json = false, symbolic = false, verbose = false;
+  eval->add_option("scene", scene_path, "Scene file (YAML)")->required();
+  eval->add_option("--q", q_text, "Coordinates, comma-separated")->required();
+  eval->add_option("--qd", qd_text, "Velocities, comma-separated (default: zeros)");
+  eval->add_option("--param", param_assignments, "Run-time parameter name=value (repeatable)");
+  eval->add_flag("--json", json, "Compact JSON on one line (default: indented JSON)");
+  eval->add_flag("--symbolic", symbolic, "Evaluate GiNaC's expressions instead of the compiled code");
+  eval->add_flag("--verbose", verbose, "Report the time of each stage on stderr");
+  eval->add_option("--cache-dir", cache_dir, "Cache folder for compiled models");
+
   CLI11_PARSE(app, argc, argv);
+
+  if (*eval) {
+    try {
+      using clock = std::chrono::steady_clock;
+      auto t0 = clock::now();
+      const spacearm::Scene scene = spacearm::load_scene(scene_path);
+      const int n = scene.num_coordinates();
+      const Eigen::VectorXd q = parse_vector(q_text, "--q", n);
+      const Eigen::VectorXd qd = qd_text.empty() ? Eigen::VectorXd::Zero(n) : parse_vector(qd_text, "--qd", n);
+      std::vector<std::string> pnames;
+      std::vector<double> nominal;
+      for (const auto& p : scene.parameters) {
+        pnames.push_back(p.name);
+        nominal.push_back(p.nominal.value);
+      }
+      const Eigen::VectorXd params = parse_parameters(param_assignments, pnames, nominal);
+      nlohmann::json out;
+      auto ms = [](auto a) { return std::chrono::duration<double, std::milli>(clock::now() - a).count(); };
+      if (symbolic) {
+        const spacearm::SymbolicModel model = spacearm::derive(scene);
+        if (verbose) std::fprintf(stderr, "spacearm: derive %.1f ms\n", ms(t0));
+        t0 = clock::now();
+        const std::vector<double> qv(q.data(), q.data() + n), qdv(qd.data(), qd.data() + n),
+            pv(params.data(), params.data() + params.size());
+        auto mat = [&](const GiNaC::matrix& m) {
+          Eigen::MatrixXd r(m.rows(), m.cols());
+          for (unsigned i = 0; i < m.rows(); ++i)
+            for (unsigned j = 0; j < m.cols(); ++j) r(i, j) = spacearm::evaluate(model, m(i, j), qv, qdv, pv);
+          return r;
+        };
+        using spacearm::Output;
+        if (scene.wants(Output::mass_matrix)) out["M"] = to_json(mat(model.mass_matrix));
+        if (scene.wants(Output::coriolis_matrix)) out["C"] = to_json(mat(model.coriolis_matrix));
+        if (scene.wants(Output::bias_forces)) out["bias"] = to_json(Eigen::VectorXd(mat(model.bias_forces)));
+        if (scene.wants(Output::kinetic_energy)) out["kinetic_energy"] = spacearm::evaluate(model, model.kinetic_energy, qv, qdv, pv);
+        if (scene.wants(Output::momentum)) out["momentum"] = to_json(Eigen::VectorXd(mat(model.momentum)));
+        if (scene.wants(Output::end_effector_pose))
+          out["end_effector"] = to_json(Eigen::VectorXd(mat(model.end_effector_pose)));
+        if (verbose) std::fprintf(stderr, "spacearm: evaluate (GiNaC) %.1f ms\n", ms(t0));
+      } else {
+        spacearm::CompileOptions options;
+        options.cache_dir = cache_dir;
+        options.progress = [](const std::string& m) { std::fprintf(stderr, "spacearm: %s\n", m.c_str()); };
+        if (!verbose) options.progress = [](const std::string& m) {
+          if (m.rfind("compiling", 0) == 0 || m.rfind("deriving", 0) == 0) std::fprintf(stderr, "spacearm: %s ...\n", m.c_str());
+        };
+        spacearm::StageReport rep;
+        const auto model = spacearm::CompiledModel::load(scene, options, &rep);
+        if (verbose)
+          std::fprintf(stderr,
+                       "spacearm: cache %s (%s)\nspacearm: derive %.1f ms, emit %.1f ms, compile %.1f ms, load %.1f ms\n",
+                       rep.cache_entry.c_str(), rep.compiled ? "built" : "hit", rep.derive_ms, rep.emit_ms,
+                       rep.compile_ms, rep.load_ms);
+        t0 = clock::now();
+        using spacearm::Output;
+        if (model.has(Output::mass_matrix)) out["M"] = to_json(model.mass_matrix(q, params));
+        if (model.has(Output::coriolis_matrix)) out["C"] = to_json(model.coriolis_matrix(q, qd, params));
+        if (model.has(Output::bias_forces)) out["bias"] = to_json(model.bias_forces(q, qd, params));
+        if (model.has(Output::kinetic_energy)) out["kinetic_energy"] = model.kinetic_energy(q, qd, params);
+        if (model.has(Output::momentum)) out["momentum"] = to_json(Eigen::VectorXd(model.momentum(q, qd, params)));
+        if (model.has(Output::end_effector_pose))
+          out["end_effector"] = to_json(Eigen::VectorXd(model.end_effector_pose(q, params)));
+        if (verbose) std::fprintf(stderr, "spacearm: run %.3f ms\n", ms(t0));
+      }
+      std::cout << (json ? out.dump() : out.dump(2)) << "\n";
+      return 0;
+    } catch (const std::exception& e) {
+      std::cerr << "spacearm: error: " << e.what() << "\n";
+      return 1;
+    }
+  }
 
   try {
     using clock = std::chrono::steady_clock;

@@ -32,6 +32,25 @@ bool is_identifier(const std::string& s) {
   return std::regex_match(s, re);
 }
 
+// Names the emitted code or the emitter uses itself (coordinates, velocities, trig and
+// rate symbols, temporaries) and C++ keywords: not allowed as scene or parameter names.
+bool is_reserved(const std::string& s) {
+  static const std::regex generated(
+      "(x0|y0|x0d|y0d|q|qd|T|params|q[0-9]+d?|qm[0-9]+d?|c[0-9]+(_[0-9]+)?|s[0-9]+(_[0-9]+)?|Omega[0-9]+|t[0-9]+)");
+  static const std::set<std::string> keywords = {
+      "alignas", "alignof", "and", "and_eq", "asm", "auto", "bitand", "bitor", "bool", "break", "case", "catch",
+      "char", "char16_t", "char32_t", "char8_t", "class", "compl", "concept", "const", "consteval", "constexpr",
+      "constinit", "const_cast", "continue", "co_await", "co_return", "co_yield", "decltype", "default", "delete",
+      "do", "double", "dynamic_cast", "else", "enum", "explicit", "export", "extern", "false", "float", "for",
+      "friend", "goto", "if", "inline", "int", "long", "mutable", "namespace", "new", "noexcept", "not", "not_eq",
+      "nullptr", "operator", "or", "or_eq", "private", "protected", "public", "register", "reinterpret_cast",
+      "requires", "return", "short", "signed", "sizeof", "static", "static_assert", "static_cast", "struct",
+      "switch", "template", "this", "thread_local", "throw", "true", "try", "typedef", "typeid", "typename",
+      "union", "unsigned", "using", "virtual", "void", "volatile", "wchar_t", "while", "xor", "xor_eq", "std",
+      "Eigen", "spacearm", "models", "Model", "I", "Pi", "Euler", "Catalan", "sin", "cos", "pow", "sqrt"};
+  return std::regex_match(s, generated) || keywords.count(s) != 0;
+}
+
 bool is_decimal(const std::string& s) {
   static const std::regex re(R"([+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?)");
   return std::regex_match(s, re);
@@ -187,6 +206,7 @@ Scene parse_scene(const std::string& yaml_text, const std::string& source_name) 
     r.fail("name", "expected a C++ identifier (letters, digits, _), got '" +
                (name.IsScalar() ? name.Scalar() : std::string("a non-scalar")) + "'", name);
   s.name = name.Scalar();
+  if (is_reserved(s.name)) r.fail("name", "'" + s.name + "' is reserved (a C++ keyword or a generated name)", name);
   if (root["description"].IsDefined()) {
     if (!root["description"].IsScalar()) r.fail("description", "expected text", root["description"]);
     s.description = root["description"].Scalar();
@@ -202,6 +222,9 @@ Scene parse_scene(const std::string& yaml_text, const std::string& source_name) 
       const std::string pname = kv.first.as<std::string>();
       const std::string field = "parameters." + pname;
       if (!is_identifier(pname)) r.fail(field, "parameter name '" + pname + "' is not an identifier", kv.first);
+      if (is_reserved(pname))
+        r.fail(field, "parameter name '" + pname + "' is reserved (a coordinate, a generated symbol or a C++ keyword)",
+               kv.first);
       if (parameter_index.count(pname)) r.fail(field, "parameter '" + pname + "' given more than once", kv.first);
       Parameter p{pname, r.quantity(kv.second, field)};
       if (p.nominal.is_parameter())

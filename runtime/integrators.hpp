@@ -103,14 +103,31 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
       break;
     }
     case Method::rkf78: {
+      // Controlled steps; the step size the controller chose is kept across outputs (a step
+      // shortened to land on an output time does not shrink the next one).
       auto stepper = odeint::make_controlled(
           opt.atol, opt.rtol,
           odeint::runge_kutta_fehlberg78<State, double, State, double, odeint::vector_space_algebra>());
-      double dt = std::min(dt_out, 0.01);  // kept across outputs: the controller adapts it
-      for (long k = 0; k < outputs; ++k) {
-        double t = t0 + k * dt_out;
-        odeint::integrate_adaptive(stepper, rhs, x, t, t0 + (k + 1) * dt_out, dt);
-        observe(x, t0 + (k + 1) * dt_out);
+      double dt = std::min(dt_out, 0.01), t = t0;
+      for (long k = 1; k <= outputs; ++k) {
+        const double t_out = t0 + k * dt_out;
+        int rejected = 0;
+        while (t < t_out - 1e-12 * std::max(1.0, std::abs(t_out))) {
+          const double natural = dt;
+          const bool clamped = t + dt > t_out;
+          double step = clamped ? t_out - t : dt;
+          if (stepper.try_step(rhs, x, t, step) == odeint::success) {
+            rejected = 0;
+            dt = clamped ? std::max(natural, step) : step;
+          } else {
+            dt = step;
+            if (++rejected > 500 || dt < 1e-14 * std::max(1.0, std::abs(t)))
+              throw std::runtime_error("rkf78: step size underflow at t = " + std::to_string(t) +
+                                       " (tolerance cannot be met)");
+          }
+        }
+        t = t_out;
+        observe(x, t_out);
       }
       break;
     }

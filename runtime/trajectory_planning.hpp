@@ -132,9 +132,11 @@ Plan<G> plan_straight_line(const Model<G>& model, const StraightLineTask& task) 
     const Vector qd = velocity(qk, t);
     Eigen::Vector3d x, v, a;
     desired(t, x, v, a);
-    // d/dt of A qd = [v; 0]: A qdd = [a - Jdot qd; -(Mdot qd)_base], with
-    // (Mdot qd)_base = b_base (T does not depend on the base pose) and Jdot qd by
-    // central differences of J along qd.
+    // d/dt of A qd = [v; 0]: A qdd = [a - Jdot qd; -(Mdot qd)_base]. The base rows are
+    // imposed as M_base qdd = -b_base, i.e. no force on the base (eq. 5); this equals
+    // -(Mdot qd)_base because b_base - (Mdot qd)_base = -dT/dq_base, which is zero on a
+    // zero-momentum motion (dT/dx0 = dT/dy0 = 0, dT/dq0 = -r0d x P). Jdot qd by central
+    // differences of J along qd.
     Matrix Mk;
     Vector b;
     model.mass_matrix_and_bias(qk, qd, Mk, b);

@@ -6,7 +6,7 @@ cd "$(dirname "$0")/.."
 build_dir=${1:-build}
 
 packages=(g++ cmake ninja-build pkg-config libginac-dev libeigen3-dev libyaml-cpp-dev libcli11-dev
-          libgtest-dev libboost-dev gnuplot-nox)
+          libgtest-dev libboost-dev gnuplot-nox nlohmann-json3-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing+=("$p")

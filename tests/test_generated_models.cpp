@@ -219,8 +219,30 @@ void check_dynamics_invariants(const typename Model::template Parameters<double>
     // C qd from eq. 7 is the bias and the Euler-Lagrange terms (finite differences).
     ASSERT_GT(b.norm(), 0.0);
     EXPECT_MATRIX_NEAR(C * qd, b, 1e-12);
+    // Finite differences: rounding ~eps/h of the largest terms of M (see test_symbolic_model).
     EXPECT_MATRIX_NEAR(C * qd, oracle.bias_forces(q, qd), 1e-6);
     EXPECT_MATRIX_NEAR(M, oracle.mass_matrix(q), 1e-12);
+    // C is exactly eq. 7, C = (Mdot - 1/2 d(M qd)/dq)^T, with dM/dq by central differences
+    // of the compiled M (this pins the factorization: the Christoffel C has the same C qd).
+    {
+      std::vector<typename Model::template MassMatrix<double>> dM(Model::kNq);
+      for (int k = 0; k < Model::kNq; ++k) {
+        Vec<Model> dq = Vec<Model>::Zero();
+        dq[k] = 1e-6;
+        typename Model::template MassMatrix<double> Mp, Mm;
+        Model::template mass_matrix<double>(q + dq, params, Mp);
+        Model::template mass_matrix<double>(q - dq, params, Mm);
+        dM[k] = (Mp - Mm) / 2e-6;
+      }
+      typename Model::template MassMatrix<double> C7 = Model::template MassMatrix<double>::Zero(), Mdot = C7;
+      for (int k = 0; k < Model::kNq; ++k) Mdot += dM[k] * qd[k];
+      for (int i = 0; i < Model::kNq; ++i)
+        for (int j = 0; j < Model::kNq; ++j) C7(i, j) = Mdot(i, j) - 0.5 * dM[i].row(j).dot(qd);
+      EXPECT_MATRIX_NEAR(C, C7, 1e-7);
+      // Eq. 7's C is not the Christoffel form: Mdot - 2C is not skew-symmetric.
+      const typename Model::template MassMatrix<double> N = Mdot - 2 * C;
+      EXPECT_GT((N + N.transpose()).norm(), 1e-3 * N.norm());
+    }
     // C(q, 0) = 0.
     Model::template coriolis_matrix<double>(q, Vec<Model>::Zero(), params, C);
     EXPECT_EQ(C.cwiseAbs().maxCoeff(), 0.0);

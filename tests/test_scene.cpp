@@ -69,6 +69,7 @@ TEST(Scene, ErrorsNameTheFieldAndValue) {
       {"name: two_links", "name: two links", "field 'name'"},
       {"mount: [0.1, 0]", "mount: [0.1]", "field 'base.mount'"},
       {"mount: [0.1, 0]", "mount: [0.1, 0], colour: red", "field 'base.colour': unknown field"},
+      {"name: two_links", "name: new", "'new' is reserved"},
   };
   for (const auto& c : cases) {
     const std::string err = error_of(replaced(kValid, c.from, c.to));
@@ -89,6 +90,8 @@ TEST(Scene, GearAndParameterErrors) {
   const std::string wrong_count = std::string(kValid) + "gears:\n  - {ratio: 10, motor_inertia: 0}\n";
   EXPECT_NE(error_of(wrong_count).find("expected one entry per link (2), got 1"), std::string::npos)
       << error_of(wrong_count);
+  const std::string reserved = std::string(kValid) + "gears: {ratio: q1, motor_inertia: 0}\nparameters: {q1: 2}\n";
+  EXPECT_NE(error_of(reserved).find("parameter name 'q1' is reserved"), std::string::npos) << error_of(reserved);
   const std::string bad_output = std::string(kValid) + "outputs: [mass_matrix, jerk]\n";
   EXPECT_NE(error_of(bad_output).find("unknown output 'jerk'"), std::string::npos) << error_of(bad_output);
 }

@@ -72,7 +72,10 @@ TEST_P(SymbolicModelTest, MatchesIndependentNumericDerivation) {
     const double T = evaluate(model, model.kinetic_energy, {q.data(), q.data() + n}, {qd.data(), qd.data() + n});
     EXPECT_NEAR(T, oracle.kinetic_energy(q, qd), 1e-12 * std::abs(T));
     EXPECT_NEAR(T, 0.5 * qd.dot(M * qd), 1e-12 * std::abs(T));
-    // C qd (the bias) against the Euler-Lagrange terms by finite differences. A single link
+    // C qd (the bias) against the Euler-Lagrange terms by central differences (step 1e-6).
+    // Their rounding error is ~eps/h ~1e-10 of the largest terms of T and M (base mass,
+    // |qd| up to 2), while the bias can be 1e-3 of those: hence 1e-6 relative to max |b|
+    // (measured up to 1.2e-7 for geared chains). A single link
     // on a fixed base has a constant M and so no bias at all: then the oracle must agree
     // to its own rounding, about eps |M| |qd| / h (polarization and differences of M).
     const Eigen::MatrixXd b = evaluate_matrix(model, model.bias_forces, q, qd);
@@ -127,10 +130,8 @@ TEST(SymbolicIdentities, KineticEnergyIsHalfQdMQdAndCqdIsTheBias) {
       for (int k = 0; k < n; ++k) zero[m.qd[k]] = 0;
       for (int j = 0; j < n; ++j) EXPECT_TRUE(m.coriolis_matrix(i, j).subs(zero).expand().is_zero());
     }
-    // Momentum: P is the gradient of T with respect to the base velocities.
-    ASSERT_FALSE(m.momentum(0, 0).is_zero());
-    EXPECT_TRUE((m.momentum(0, 0) - m.kinetic_energy.diff(m.qd[0])).expand().is_zero());
-    EXPECT_TRUE((m.momentum(1, 0) - m.kinetic_energy.diff(m.qd[1])).expand().is_zero());
+    // (Momentum is checked against sum m v and sum r x m v + I w by the numeric oracle above,
+    // and against finite differences of the compiled T in test_generated_models.)
   }
 }
 

@@ -53,8 +53,9 @@ TEST(TrajectoryPlanning, StraightLineConstantOrientationZeroMomentum) {
     ASSERT_EQ(plan.t.size(), 1001u);
     EXPECT_LT(plan.max_path_error, 1e-10);
     EXPECT_LT(plan.max_momentum, 1e-12);
-    // Forces on the base from eq. 5 with qdd by central differences: O(dt^2) only.
-    EXPECT_LT(plan.max_base_residual, 1e-5);
+    // Forces on the base from eq. 5 with qdd by central differences: O(dt^2) only
+    // (measured 7.0e-7 and 7.6e-7 N for the two branches).
+    EXPECT_LT(plan.max_base_residual, 1e-6);
     // The end-effector did travel 0.4 m, the base rotated (13 deg or -6 deg, MODEL-NOTES).
     EXPECT_NEAR(ref.end_effector_pose(plan.q.back())[0], 1.1, 1e-10);
     const double base_turn = plan.q.back()[2] * 180 / M_PI;

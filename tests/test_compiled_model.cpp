@@ -1,0 +1,201 @@
+// generator/compiled_model.hpp and `spacearm eval`: compile-and-load with a cache; the
+// JSON of eval equals the checked-in generated code; --symbolic agrees with the compiled
+// path; the cache is reused for an unchanged scene and rebuilt for a changed one.
+#include "compiled_model.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "paper_geared.hpp"
+#include "paper_reference.hpp"
+#include "support.hpp"
+
+namespace spacearm {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path fresh_cache(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("spacearm-test-cache-" + name + "-" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+std::string run(const std::string& command, int* status = nullptr) {
+  std::string out;
+  if (FILE* p = popen(command.c_str(), "r")) {
+    char buf[4096];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
+    const int st = pclose(p);
+    if (status) *status = st;
+  }
+  return out;
+}
+
+Eigen::MatrixXd matrix_of(const nlohmann::json& j) {
+  Eigen::MatrixXd m(j.size(), j[0].size());
+  for (size_t i = 0; i < j.size(); ++i)
+    for (size_t k = 0; k < j[i].size(); ++k) m(i, k) = j[i][k].get<double>();
+  return m;
+}
+Eigen::VectorXd vector_of(const nlohmann::json& j) {
+  Eigen::VectorXd v(j.size());
+  for (size_t i = 0; i < j.size(); ++i) v[i] = j[i].get<double>();
+  return v;
+}
+
+TEST(CompiledModel, CachedSecondLoadNeitherGeneratesNorCompiles) {
+  const fs::path cache = fresh_cache("reuse");
+  CompileOptions options;
+  options.cache_dir = cache.string();
+  const Scene scene = load_scene(SPACEARM_SOURCE_DIR "/models/paper_reference.yaml");
+  StageReport first, second;
+  const CompiledModel a = CompiledModel::load(scene, options, &first);
+  EXPECT_TRUE(first.generated);
+  EXPECT_TRUE(first.compiled);
+  EXPECT_TRUE(fs::exists(fs::path(first.cache_entry) / "COMPLETE"));
+  const CompiledModel b = CompiledModel::load(scene, options, &second);
+  EXPECT_FALSE(second.generated);
+  EXPECT_FALSE(second.compiled);
+  EXPECT_EQ(first.cache_entry, second.cache_entry);
+
+  // The loaded code computes what the checked-in generated code computes.
+  std::mt19937 rng(9);
+  for (int trial = 0; trial < 5; ++trial) {
+    const Eigen::VectorXd q = test::random_vector(rng, 6, 3), qd = test::random_vector(rng, 6, 2);
+    models::paper_reference::MassMatrix<double> M;
+    models::paper_reference::Coordinates<double> bias;
+    models::paper_reference::mass_matrix<double>(q, {}, M);
+    models::paper_reference::bias_forces<double>(q, qd, {}, bias);
+    EXPECT_MATRIX_NEAR(b.mass_matrix(q, Eigen::VectorXd()), M, 1e-14);
+    EXPECT_MATRIX_NEAR(b.bias_forces(q, qd, Eigen::VectorXd()), bias, 1e-13);
+  }
+  EXPECT_THROW(b.mass_matrix(Eigen::VectorXd::Zero(5), Eigen::VectorXd()), std::invalid_argument);
+  fs::remove_all(cache);
+}
+
+TEST(CompiledModel, ChangedSceneIsRebuilt) {
+  const fs::path cache = fresh_cache("rebuild");
+  CompileOptions options;
+  options.cache_dir = cache.string();
+  std::ifstream in(SPACEARM_SOURCE_DIR "/models/paper_geared.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  const Scene original = parse_scene(text.str(), "geared.yaml");
+  std::string changed_text = text.str();
+  changed_text.replace(changed_text.find("p: 1.0"), 6, "p: 2.0");
+  const Scene changed = parse_scene(changed_text, "geared.yaml");
+  StageReport r1, r2, r3;
+  CompiledModel::load(original, options, &r1);
+  CompiledModel::load(changed, options, &r2);
+  CompiledModel::load(original, options, &r3);
+  EXPECT_TRUE(r1.compiled);
+  EXPECT_TRUE(r2.compiled);
+  EXPECT_NE(r1.cache_entry, r2.cache_entry);
+  EXPECT_FALSE(r3.compiled);  // both entries stay valid
+  fs::remove_all(cache);
+}
+
+TEST(CompiledModel, CompileFailureReportsTheCompilerMessage) {
+  const fs::path cache = fresh_cache("fail");
+  CompileOptions options;
+  options.cache_dir = cache.string();
+  options.flags = "-O2 -std=c++17 -fPIC -shared -include spacearm_missing_header.h";
+  const Scene scene = load_scene(SPACEARM_SOURCE_DIR "/models/paper_reference.yaml");
+  try {
+    CompiledModel::load(scene, options);
+    FAIL() << "compiled with a broken flag";
+  } catch (const CompileError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("error"), std::string::npos) << what;
+    EXPECT_NE(what.find("sources and command: " + (cache / "failed").string()), std::string::npos) << what;
+  }
+  // The cache holds no valid entry for it: the next good build compiles.
+  options.flags = CompileOptions().flags;
+  StageReport r;
+  CompiledModel::load(scene, options, &r);
+  EXPECT_TRUE(r.compiled);
+  fs::remove_all(cache);
+}
+
+class EvalCli : public testing::Test {
+ protected:
+  fs::path cache = fresh_cache("cli");
+  std::string cli = std::string(SPACEARM_CLI) + " eval --cache-dir " + cache.string() + " ";
+  void TearDown() override { fs::remove_all(cache); }
+};
+
+TEST_F(EvalCli, JsonEqualsGeneratedCodeAndSymbolicAgrees) {
+  const std::string q = "0.1,-0.2,0.3,0.5,1.1,-0.7", qd = "0.01,0.02,-0.1,0.3,-0.2,0.4";
+  const std::string args = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml --q " + q + " --qd " + qd +
+                           " --param p=10 --param Im=2e-5 --json";
+  int status = 0;
+  const auto compiled = nlohmann::json::parse(run(cli + args, &status));
+  ASSERT_EQ(status, 0);
+  const auto symbolic = nlohmann::json::parse(run(cli + args + " --symbolic", &status));
+  ASSERT_EQ(status, 0);
+  for (const char* key : {"M", "C", "bias", "momentum", "end_effector", "kinetic_energy"}) {
+    ASSERT_TRUE(compiled.contains(key)) << key;
+    ASSERT_TRUE(symbolic.contains(key)) << key;
+  }
+
+  namespace g = models::paper_geared;
+  const g::Coordinates<double> qv = (g::Coordinates<double>() << 0.1, -0.2, 0.3, 0.5, 1.1, -0.7).finished();
+  const g::Coordinates<double> qdv = (g::Coordinates<double>() << 0.01, 0.02, -0.1, 0.3, -0.2, 0.4).finished();
+  const g::Parameters<double> pv(10, 2e-5);
+  g::MassMatrix<double> M, C;
+  g::Coordinates<double> b;
+  g::Vector3<double> h, x;
+  g::mass_matrix(qv, pv, M);
+  g::coriolis_matrix(qv, qdv, pv, C);
+  g::bias_forces(qv, qdv, pv, b);
+  g::momentum(qv, qdv, pv, h);
+  g::end_effector_pose(qv, pv, x);
+  EXPECT_MATRIX_NEAR(matrix_of(compiled["M"]), M, 1e-14);
+  EXPECT_MATRIX_NEAR(matrix_of(compiled["C"]), C, 1e-13);
+  EXPECT_MATRIX_NEAR(vector_of(compiled["bias"]), b, 1e-13);
+  EXPECT_MATRIX_NEAR(vector_of(compiled["momentum"]), h, 1e-14);
+  EXPECT_MATRIX_NEAR(vector_of(compiled["end_effector"]), x, 1e-15);
+  EXPECT_NEAR(compiled["kinetic_energy"].get<double>(), g::kinetic_energy(qv, qdv, pv), 1e-14);
+
+  EXPECT_MATRIX_NEAR(matrix_of(symbolic["M"]), matrix_of(compiled["M"]), 1e-12);
+  EXPECT_MATRIX_NEAR(matrix_of(symbolic["C"]), matrix_of(compiled["C"]), 1e-12);
+  EXPECT_MATRIX_NEAR(vector_of(symbolic["bias"]), vector_of(compiled["bias"]), 1e-12);
+  EXPECT_MATRIX_NEAR(vector_of(symbolic["momentum"]), vector_of(compiled["momentum"]), 1e-12);
+}
+
+TEST_F(EvalCli, VerboseReportShowsTheCacheHit) {
+  const std::string args = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_reference.yaml --q 0,0,0,0.1,0.2,0.3 --verbose 2>&1";
+  const std::string first = run(cli + args);
+  const std::string second = run(cli + args);
+  EXPECT_NE(first.find("(built)"), std::string::npos) << first;
+  EXPECT_NE(second.find("(hit)"), std::string::npos) << second;
+  EXPECT_NE(second.find("compile 0.0 ms"), std::string::npos) << second;
+}
+
+TEST_F(EvalCli, BadInputsGetClearErrors) {
+  struct Case {
+    std::string args, message;
+  };
+  const std::string ref = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_reference.yaml";
+  const std::string geared = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml";
+  for (const Case& c : std::vector<Case>{
+           {ref + " --q 1,2,3", "--q: expected 6 comma-separated values, got 3"},
+           {ref + " --q 1,2,3,4,5,nan", "--q[5] is not finite: 'nan'"},
+           {ref + " --q 1,2,3,4,5,x", "--q[5]: 'x' is not a number"},
+           {geared + " --q 0,0,0,0,0,0 --param k=3", "--param: unknown parameter 'k' (known: p, Im)"},
+           {geared + " --q 0,0,0,0,0,0 --param p=inf", "--param p[0] is not finite"},
+       }) {
+    int status = 0;
+    const std::string out = run(cli + c.args + " 2>&1", &status);
+    EXPECT_NE(status, 0) << c.args;
+    EXPECT_NE(out.find(c.message), std::string::npos) << "args: " << c.args << "\noutput: " << out;
+  }
+}
+
+}  // namespace
+}  // namespace spacearm
