@@ -481,8 +481,9 @@ EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
   const Scene& scene = model.scene;
   const int n = model.n();
   EmittedModel result;
-  result.header_name = scene.name + ".hpp";
-  result.source_name = scene.name + ".cpp";
+  const std::string stem = options.file_stem.empty() ? scene.name : options.file_stem;
+  result.header_name = stem + ".hpp";
+  result.source_name = stem + ".cpp";
 
   const Argument q{"const Coordinates<T>&", "q"}, qd{"const Coordinates<T>&", "qd"},
       params{"const Parameters<T>&", "params"};

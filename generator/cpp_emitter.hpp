@@ -16,6 +16,7 @@ inline constexpr const char* kGeneratorVersion = "0.1.0";
 struct EmitOptions {
   std::string scene_path;  // as shown in the banner (keep it relative for reproducibility)
   std::string command;     // the regeneration command shown in the banner
+  std::string file_stem;   // file names STEM.hpp/STEM.cpp; empty: the scene's name
 };
 
 struct FunctionStats {

@@ -92,6 +92,9 @@ int main(int argc, char** argv) {
   generate->add_option("-o,--output", out_dir, "Output folder")->required();
   generate->add_flag("--stats", stats, "Print adds, multiplies, divisions and sin/cos calls per function");
   bool check = false;
+  std::string file_stem;
+  generate->add_option("--file-stem", file_stem,
+                       "Name the files STEM.hpp/STEM.cpp instead of after the scene (the namespace keeps the scene name)");
   generate->add_flag("--check", check,
                      "Write nothing; exit 1 if the files in the output folder differ from what would be generated");
 
@@ -197,7 +200,9 @@ int main(int argc, char** argv) {
       const auto t1 = clock::now();
       spacearm::EmitOptions options;
       options.scene_path = scene_path;
-      options.command = "spacearm generate " + scene_path + " -o " + out_dir;
+      options.command = "spacearm generate " + scene_path + " -o " + out_dir +
+                        (file_stem.empty() ? "" : " --file-stem " + file_stem);
+      options.file_stem = file_stem;
       const auto emitted = spacearm::emit_cpp(model, options);
       if (check) {
         const auto stale = spacearm::stale_files(emitted, out_dir);

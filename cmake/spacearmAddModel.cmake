@@ -1,0 +1,26 @@
+# spacearm_add_model(<target> SCENE <scene.yaml>)
+#
+# Creates a static library <target> from the code spacearm generates for the scene. The
+# sources are regenerated at build time whenever the scene file or the generator changes,
+# and only then. Include "<target>.hpp"; the namespace is spacearm::models::<scene name>.
+function(spacearm_add_model target)
+  cmake_parse_arguments(ARG "" "SCENE" "" ${ARGN})
+  if(NOT ARG_SCENE)
+    message(FATAL_ERROR "spacearm_add_model(${target}): SCENE <file> is required")
+  endif()
+  get_filename_component(scene "${ARG_SCENE}" ABSOLUTE BASE_DIR "${CMAKE_CURRENT_SOURCE_DIR}")
+  if(NOT EXISTS "${scene}")
+    message(FATAL_ERROR "spacearm_add_model(${target}): scene '${scene}' does not exist")
+  endif()
+  set(dir "${CMAKE_CURRENT_BINARY_DIR}/spacearm_models/${target}")
+  add_custom_command(
+    OUTPUT "${dir}/${target}.hpp" "${dir}/${target}.cpp"
+    COMMAND spacearm::spacearm generate "${scene}" -o "${dir}" --file-stem "${target}"
+    DEPENDS "${scene}" "$<TARGET_FILE:spacearm::spacearm>"
+    COMMENT "spacearm: generating model ${target} from ${ARG_SCENE}"
+    VERBATIM)
+  add_library(${target} STATIC "${dir}/${target}.cpp" "${dir}/${target}.hpp")
+  target_include_directories(${target} PUBLIC "$<BUILD_INTERFACE:${dir}>")
+  target_link_libraries(${target} PUBLIC Eigen3::Eigen)
+  target_compile_features(${target} PUBLIC cxx_std_17)
+endfunction()
