@@ -11,6 +11,10 @@
 #include <sstream>
 
 #include "compiled_model.hpp"
+#include "integrators.hpp"
+#include "torque_signal.hpp"
+#include <Eigen/Cholesky>
+#include <fstream>
 #include "cpp_emitter.hpp"
 #include "scene.hpp"
 #include "symbolic_model.hpp"
@@ -118,7 +122,172 @@ int main(int argc, char** argv) {
   eval->add_flag("--verbose", verbose, "Report the time of each stage on stderr");
   eval->add_option("--cache-dir", cache_dir, "Cache folder for compiled models");
 
+  auto* simulate = app.add_subcommand("simulate", "Integrate a scene's dynamics under joint torques and write CSV");
+  std::string torque_file, integrator = "rk4", output_file, q0_text, qd0_text, interpolation = "linear";
+  bool zero_torque = false;
+  double t_end = 0, dt = 0.01, rtol = 1e-8, atol = 1e-10, dt_out = 0;
+  simulate->add_option("scene", scene_path, "Scene file (YAML)")->required();
+  auto* torques_opt = simulate->add_option("--torques", torque_file,
+                                           "CSV of joint torques: header, then t,tau1..tauN on a uniform grid");
+  simulate->add_flag("--zero", zero_torque, "No torques (free motion)")->excludes(torques_opt);
+  simulate->add_option("--t-end", t_end, "End time [s]")->required()->check(CLI::PositiveNumber);
+  simulate->add_option("--integrator", integrator, "rk4, dopri5, rkf78 or implicit_midpoint");
+  simulate->add_option("--dt", dt, "Step of the fixed-step methods [s]")->check(CLI::PositiveNumber);
+  simulate->add_option("--dt-out", dt_out, "Output interval [s] (default: --dt)")->check(CLI::PositiveNumber);
+  simulate->add_option("--rtol", rtol, "Relative tolerance of the adaptive methods")->check(CLI::PositiveNumber);
+  simulate->add_option("--atol", atol, "Absolute tolerance of the adaptive methods")->check(CLI::PositiveNumber);
+  simulate->add_option("--q0", q0_text, "Initial coordinates (default: zeros)");
+  simulate->add_option("--qd0", qd0_text, "Initial velocities (default: zeros)");
+  simulate->add_option("--param", param_assignments, "Run-time parameter name=value (repeatable)");
+  simulate->add_option("--interpolation", interpolation, "Torque between samples: linear or hold");
+  simulate->add_option("-o,--output", output_file, "CSV output (default: standard output)");
+  simulate->add_option("--cache-dir", cache_dir, "Cache folder for compiled models");
+  simulate->add_flag("--verbose", verbose, "Report the time of each stage on stderr");
+
   CLI11_PARSE(app, argc, argv);
+
+  if (*simulate) {
+    try {
+      if (!zero_torque && torque_file.empty()) throw std::invalid_argument("simulate: give --torques FILE or --zero");
+      const spacearm::Scene scene = spacearm::load_scene(scene_path);
+      using spacearm::Output;
+      if (!scene.wants(Output::mass_matrix) || !scene.wants(Output::bias_forces))
+        throw std::invalid_argument("simulate: the scene must emit mass_matrix and bias_forces (field 'outputs')");
+      const int n = scene.num_coordinates(), N = scene.num_links();
+      const Eigen::VectorXd q0 = q0_text.empty() ? Eigen::VectorXd::Zero(n) : parse_vector(q0_text, "--q0", n);
+      const Eigen::VectorXd qd0 = qd0_text.empty() ? Eigen::VectorXd::Zero(n) : parse_vector(qd0_text, "--qd0", n);
+      std::vector<std::string> pnames;
+      std::vector<double> nominal;
+      for (const auto& p : scene.parameters) {
+        pnames.push_back(p.name);
+        nominal.push_back(p.nominal.value);
+      }
+      const Eigen::VectorXd params = parse_parameters(param_assignments, pnames, nominal);
+      spacearm::IntegratorOptions opt;
+      opt.method = spacearm::method_from_string(integrator);
+      opt.dt = dt;
+      opt.rtol = rtol;
+      opt.atol = atol;
+      if (dt_out == 0) dt_out = dt;
+
+      // Torques: a CSV on a uniform grid, held or interpolated.
+      using Joint = Eigen::Matrix<double, Eigen::Dynamic, 1>;
+      std::vector<Joint> samples{Joint::Zero(N)};
+      double t0_samples = 0, dt_samples = t_end;
+      if (!zero_torque) {
+        std::ifstream in(torque_file);
+        if (!in) throw std::invalid_argument("--torques: cannot open '" + torque_file + "'");
+        std::string line;
+        std::getline(in, line);  // header
+        std::vector<double> times;
+        samples.clear();
+        for (int row = 2; std::getline(in, line); ++row) {
+          if (line.empty()) continue;
+          const long cols = std::count(line.begin(), line.end(), ',') + 1;
+          if (cols != N + 1)
+            throw std::invalid_argument("--torques '" + torque_file + "' line " + std::to_string(row) + ": expected " +
+                                        std::to_string(N + 1) + " columns (t, tau1..tau" + std::to_string(N) +
+                                        "), got " + std::to_string(cols));
+          const Eigen::VectorXd v = parse_vector(line, "--torques line " + std::to_string(row), N + 1);
+          times.push_back(v[0]);
+          samples.push_back(v.tail(N));
+        }
+        if (times.size() < 2) throw std::invalid_argument("--torques '" + torque_file + "': needs at least two rows");
+        t0_samples = times.front();
+        dt_samples = times[1] - times[0];
+        for (size_t k = 1; k < times.size(); ++k)
+          if (!(std::abs(times[k] - times[k - 1] - dt_samples) <= 1e-9 * std::max(1.0, std::abs(times[k]))))
+            throw std::invalid_argument("--torques '" + torque_file + "': time grid not uniform at row " +
+                                        std::to_string(k + 2));
+      }
+      const spacearm::TorqueSignal<Eigen::Dynamic> tau(t0_samples, dt_samples, samples,
+                                                       spacearm::interpolation_from_string(interpolation));
+
+      spacearm::CompileOptions options;
+      options.cache_dir = cache_dir;
+      options.progress = [&](const std::string& m) {
+        if (verbose || m.rfind("compiling", 0) == 0) std::fprintf(stderr, "spacearm: %s\n", m.c_str());
+      };
+      spacearm::StageReport rep;
+      const auto model = spacearm::CompiledModel::load(scene, options, &rep);
+      if (verbose)
+        std::fprintf(stderr, "spacearm: cache %s (%s); derive %.1f ms, emit %.1f ms, compile %.1f ms, load %.1f ms\n",
+                     rep.cache_entry.c_str(), rep.compiled ? "built" : "hit", rep.derive_ms, rep.emit_ms,
+                     rep.compile_ms, rep.load_ms);
+      const Eigen::VectorXd ratios = model.gear_ratios(params);
+
+      std::ofstream file;
+      if (!output_file.empty()) {
+        file.open(output_file);
+        if (!file) throw std::invalid_argument("-o: cannot write '" + output_file + "'");
+      }
+      std::ostream& out = output_file.empty() ? std::cout : file;
+      out.precision(17);
+      out << "t";
+      for (const auto& c : model.coordinate_names()) out << "," << c;
+      for (const auto& c : model.coordinate_names()) out << "," << c << "d";
+      if (model.has(Output::end_effector_pose)) out << ",ee_x,ee_y,ee_phi";
+      if (model.has(Output::kinetic_energy)) out << ",kinetic_energy";
+      if (model.has(Output::momentum)) out << ",Px,Py,L";
+      out << "\n";
+
+      using State = Eigen::VectorXd;
+      auto tau_of = [&](double t) {
+        Eigen::VectorXd Q = Eigen::VectorXd::Zero(n);
+        Q.tail(N) = tau(t).cwiseQuotient(ratios);  // eq. 14
+        return Q;
+      };
+      auto f = [&](const State& x, State& dxdt, double t) {
+        const Eigen::VectorXd q = x.head(n), qd = x.tail(n);
+        dxdt.resize(2 * n);
+        dxdt.head(n) = qd;
+        Eigen::LLT<Eigen::MatrixXd> llt(model.mass_matrix(q, params));
+        if (llt.info() != Eigen::Success || !x.allFinite())
+          throw std::runtime_error("mass matrix not positive definite or state not finite at t = " + std::to_string(t));
+        dxdt.tail(n) = llt.solve(tau_of(t) - model.bias_forces(q, qd, params));
+      };
+      const auto wall0 = std::chrono::steady_clock::now();
+      int last_percent = 0;
+      auto observe = [&](const State& x, double t) {
+        const Eigen::VectorXd q = x.head(n), qd = x.tail(n);
+        out << t;
+        for (int i = 0; i < 2 * n; ++i) out << "," << x[i];
+        if (model.has(Output::end_effector_pose)) {
+          const Eigen::Vector3d e = model.end_effector_pose(q, params);
+          out << "," << e[0] << "," << e[1] << "," << e[2];
+        }
+        if (model.has(Output::kinetic_energy)) out << "," << model.kinetic_energy(q, qd, params);
+        if (model.has(Output::momentum)) {
+          const Eigen::Vector3d h = model.momentum(q, qd, params);
+          out << "," << h[0] << "," << h[1] << "," << h[2];
+        }
+        out << "\n";
+        // Progress on long runs (after 2 s of wall time, every 10 %).
+        const int percent = static_cast<int>(100 * t / t_end);
+        if (percent >= last_percent + 10 &&
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count() > 2) {
+          last_percent = percent - percent % 10;
+          std::fprintf(stderr, "spacearm: simulated %d %% (t = %g s)\n", last_percent, t);
+        }
+      };
+      State x(2 * n);
+      x << q0, qd0;
+      try {
+        const auto stats = spacearm::integrate(opt, f, x, 0.0, t_end, dt_out, observe);
+        if (verbose)
+          std::fprintf(stderr, "spacearm: run %.1f ms, %ld right-hand-side evaluations\n",
+                       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - wall0).count(),
+                       stats.rhs_evaluations);
+      } catch (...) {
+        out.flush();  // what was computed so far stays in the CSV
+        throw;
+      }
+      return 0;
+    } catch (const std::exception& e) {
+      std::cerr << "spacearm: error: " << e.what() << "\n";
+      return 1;
+    }
+  }
 
   if (*eval) {
     try {

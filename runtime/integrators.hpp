@@ -147,24 +147,25 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
 // simplified Newton on k = (x1 - x0)/h with the Jacobian of f by forward differences.
 template <class State, class Rhs>
 void implicit_midpoint_step(Rhs&& rhs, State& x, double t, double h) {
-  constexpr int n = State::RowsAtCompileTime;
-  using Matrix = Eigen::Matrix<double, n, n>;
+  constexpr int N = State::RowsAtCompileTime;  // Eigen::Dynamic for run-time sizes
+  using Matrix = Eigen::Matrix<double, N, N>;
+  const int n = static_cast<int>(x.size());
   const double tm = t + h / 2;
-  State k, f0;
+  State k(x.size()), f0(x.size());
   rhs(x, k, tm);  // explicit guess
   f0 = k;
-  Matrix J;
+  Matrix J(n, n);
   for (int j = 0; j < n; ++j) {
     State xp = x;
     const double e = 1e-7 * std::max(1.0, std::abs(x[j]));
     xp[j] += e;
-    State fp;
+    State fp(x.size());
     rhs(xp, fp, tm);
     J.col(j) = (fp - f0) / e;
   }
-  const Eigen::PartialPivLU<Matrix> lu(Matrix::Identity() - (h / 2) * J);
+  const Eigen::PartialPivLU<Matrix> lu(Matrix::Identity(n, n) - (h / 2) * J);
   for (int it = 0; it < 50; ++it) {
-    State fk;
+    State fk(x.size());
     rhs(State(x + (h / 2) * k), fk, tm);
     const State delta = lu.solve(fk - k);
     k += delta;

@@ -32,7 +32,7 @@ class TorqueSignal {
   Joint operator()(double t) const {
     const double s = (t - t0_) / dt_;
     const double last = static_cast<double>(samples_.size() - 1);
-    if (s < -1e-9 || s > last + 1e-9) return Joint::Zero();
+    if (s < -1e-9 || s > last + 1e-9) return Joint::Zero(samples_.front().size());
     // Tolerate rounding of t at the sample times.
     long k = static_cast<long>(std::floor(s + 1e-9));
     k = std::clamp(k, 0L, static_cast<long>(samples_.size()) - 1);
