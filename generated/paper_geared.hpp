@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 
 #include <array>
+#include <cmath>
 
 // Wojtunik & Seweryn, planar free-floating base + 3 geared revolute joints (Table 1), p and Im at run time
 // Coordinates q = [x0, y0, q0, qm1, qm2, qm3] (motor angles qm = p q, paper eq. 12).
@@ -22,6 +23,23 @@ inline constexpr std::array<const char*, kNq> kCoordinateNames = {"x0", "y0", "q
 inline constexpr std::array<const char*, kNumParams> kParameterNames = {"p", "Im"};
 inline constexpr std::array<double, kNumParams> kNominalParameters = {1.0, 1.0e-5};
 inline constexpr const char* kSceneHash = "fnv1a64:cde2243fb00b9506";
+
+// nullptr if the run-time parameters describe a physical system, else what is wrong
+// (the scene's range checks, repeated for the parameters' values).
+inline const char* parameter_error([[maybe_unused]] const Eigen::Matrix<double, kNumParams, 1>& params) {
+  if (!std::isfinite(params(0))) return "parameter 'p' is not finite";
+  if (!std::isfinite(params(1))) return "parameter 'Im' is not finite";
+  if (!(params(0) > 0)) return "gears[0].ratio must be positive";
+  if (!(params(1) >= 0)) return "gears[0].motor_inertia must not be negative";
+  if (!((0.091) - params(1) > 0)) return "gears[0].motor_inertia must be smaller than the inertia of link 1 it compensates";
+  if (!(params(0) > 0)) return "gears[1].ratio must be positive";
+  if (!(params(1) >= 0)) return "gears[1].motor_inertia must not be negative";
+  if (!((0.081) - params(1) > 0)) return "gears[1].motor_inertia must be smaller than the inertia of link 2 it compensates";
+  if (!(params(0) > 0)) return "gears[2].ratio must be positive";
+  if (!(params(1) >= 0)) return "gears[2].motor_inertia must not be negative";
+  if (!((0.022) - params(1) > 0)) return "gears[2].motor_inertia must be smaller than the inertia of link 3 it compensates";
+  return nullptr;
+}
 inline constexpr bool kHas_mass_matrix = true;
 inline constexpr bool kHas_coriolis_matrix = true;
 inline constexpr bool kHas_bias_forces = true;
@@ -107,6 +125,9 @@ struct Model {
   static constexpr const std::array<const char*, kNq>& coordinate_names() { return kCoordinateNames; }
   static constexpr const std::array<const char*, kNumParams>& parameter_names() { return kParameterNames; }
   static constexpr const std::array<double, kNumParams>& nominal_parameters() { return kNominalParameters; }
+  static const char* parameter_error(const Eigen::Matrix<double, kNumParams, 1>& params) {
+    return spacearm::models::paper_geared::parameter_error(params);
+  }
   template <typename T>
   static void mass_matrix(const Coordinates<T>& q, const Parameters<T>& params, MassMatrix<T>& M) {
     return spacearm::models::paper_geared::mass_matrix<T>(q, params, M);

@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 
 #include <array>
+#include <cmath>
 
 // Wojtunik & Seweryn, planar free-floating base + 3 revolute links (Table 1), reference model
 // Coordinates q = [x0, y0, q0, q1, q2, q3].
@@ -22,6 +23,12 @@ inline constexpr std::array<const char*, kNq> kCoordinateNames = {"x0", "y0", "q
 inline constexpr std::array<const char*, kNumParams> kParameterNames = {};
 inline constexpr std::array<double, kNumParams> kNominalParameters = {};
 inline constexpr const char* kSceneHash = "fnv1a64:11e226445aaec366";
+
+// nullptr if the run-time parameters describe a physical system, else what is wrong
+// (the scene's range checks, repeated for the parameters' values).
+inline const char* parameter_error([[maybe_unused]] const Eigen::Matrix<double, kNumParams, 1>& params) {
+  return nullptr;
+}
 inline constexpr bool kHas_mass_matrix = true;
 inline constexpr bool kHas_coriolis_matrix = true;
 inline constexpr bool kHas_bias_forces = true;
@@ -107,6 +114,9 @@ struct Model {
   static constexpr const std::array<const char*, kNq>& coordinate_names() { return kCoordinateNames; }
   static constexpr const std::array<const char*, kNumParams>& parameter_names() { return kParameterNames; }
   static constexpr const std::array<double, kNumParams>& nominal_parameters() { return kNominalParameters; }
+  static const char* parameter_error(const Eigen::Matrix<double, kNumParams, 1>& params) {
+    return spacearm::models::paper_reference::parameter_error(params);
+  }
   template <typename T>
   static void mass_matrix(const Coordinates<T>& q, const Parameters<T>& params, MassMatrix<T>& M) {
     return spacearm::models::paper_reference::mass_matrix<T>(q, params, M);

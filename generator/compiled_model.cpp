@@ -31,11 +31,12 @@ struct CompiledModel::Api {
   Vec mass_matrix = nullptr, end_effector_pose = nullptr;
   double (*kinetic_energy)(const double*, const double*, const double*) = nullptr;
   void (*gear_ratios)(const double*, double*) = nullptr;
+  const char* (*parameter_error)(const double*) = nullptr;
 };
 
 namespace {
 
-constexpr int kAbiVersion = 1;
+constexpr int kAbiVersion = 2;
 
 std::string c_api_source(const Scene& scene, const std::string& header) {
   const std::string ns = "spacearm::models::" + scene.name;
@@ -57,6 +58,7 @@ std::string c_api_source(const Scene& scene, const std::string& header) {
   for (Output o : all_outputs())
     if (scene.wants(o)) mask |= 1u << static_cast<unsigned>(o);
   s << "unsigned spacearm_outputs() { return " << mask << "u; }\n";
+  s << "const char* spacearm_parameter_error(const double* p) { return m::parameter_error(P(p)); }\n";
   s << "void spacearm_gear_ratios(const double* p, double* r) {\n"
     << "  m::JointVector<double> out; m::gear_ratios<double>(P(p), out); Eigen::Map<m::JointVector<double>>{r} = out;\n}\n";
   if (scene.wants(Output::mass_matrix))
@@ -236,6 +238,7 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
   m.api_->kinetic_energy = reinterpret_cast<double (*)(const double*, const double*, const double*)>(
       sym("spacearm_kinetic_energy"));
   m.api_->gear_ratios = reinterpret_cast<void (*)(const double*, double*)>(sym("spacearm_gear_ratios"));
+  m.api_->parameter_error = reinterpret_cast<const char* (*)(const double*)>(sym("spacearm_parameter_error"));
   rep.load_ms = ms_since(t0);
   return m;
 }
@@ -266,6 +269,9 @@ void CompiledModel::check(const char* what, const Eigen::VectorXd& v, int size) 
     if (!std::isfinite(v[i]))
       throw std::invalid_argument(std::string(what) + "[" + std::to_string(i) + "] is not finite: " +
                                   std::to_string(v[i]));
+  if (std::string(what) == "params")
+    if (const char* error = api_->parameter_error(v.data()))
+      throw std::invalid_argument(std::string("parameters: ") + error);
 }
 
 void CompiledModel::require(Output o) const {

@@ -475,6 +475,47 @@ void self_check(const SymbolicModel& model, const std::string& function, const P
                              std::to_string(values[i]) + " emitted vs " + std::to_string(expected[i]) + " derived");
 }
 
+// The scene's range checks (positive mass, inertia, length and ratio, non-negative motor
+// inertia, positive compensated link inertia) for quantities that depend on run-time
+// parameters, as C++ conditions on params(i): the validation the scene parser does for
+// literals, repeated at run time for the parameters' actual values.
+std::string parameter_checks(const SymbolicModel& model) {
+  const Scene& scene = model.scene;
+  std::map<std::string, int> index;
+  for (size_t i = 0; i < scene.parameters.size(); ++i) index[scene.parameters[i].name] = static_cast<int>(i);
+  auto code = [&](const Quantity& q) {
+    return q.is_parameter() ? "params(" + std::to_string(index.at(q.parameter)) + ")" : "(" + q.literal + ")";
+  };
+  std::ostringstream s;
+  auto check = [&](bool uses_parameter, const std::string& condition, const std::string& what) {
+    if (uses_parameter) s << "  if (!(" << condition << ")) return \"" << what << "\";\n";
+  };
+  for (size_t i = 0; i < scene.parameters.size(); ++i)
+    s << "  if (!std::isfinite(params(" << i << "))) return \"parameter '" << scene.parameters[i].name
+      << "' is not finite\";\n";
+  if (scene.free_floating()) {
+    check(scene.base.mass.is_parameter(), code(scene.base.mass) + " > 0", "base.mass must be positive");
+    check(scene.base.inertia.is_parameter(), code(scene.base.inertia) + " > 0", "base.inertia must be positive");
+  }
+  for (int i = 0; i < scene.num_links(); ++i) {
+    const Link& l = scene.links[i];
+    const std::string f = "links[" + std::to_string(i) + "]";
+    check(l.mass.is_parameter(), code(l.mass) + " > 0", f + ".mass must be positive");
+    check(l.inertia.is_parameter(), code(l.inertia) + " > 0", f + ".inertia must be positive");
+    check(l.length.is_parameter(), code(l.length) + " > 0", f + ".length must be positive");
+    if (!scene.geared()) continue;
+    const Gear& g = scene.gears[i];
+    const std::string gf = "gears[" + std::to_string(i) + "]";
+    check(g.ratio.is_parameter(), code(g.ratio) + " > 0", gf + ".ratio must be positive");
+    check(g.motor_inertia.is_parameter(), code(g.motor_inertia) + " >= 0", gf + ".motor_inertia must not be negative");
+    if (g.compensate_link_inertia)
+      check(g.motor_inertia.is_parameter() || l.inertia.is_parameter(),
+            code(l.inertia) + " - " + code(g.motor_inertia) + " > 0",
+            gf + ".motor_inertia must be smaller than the inertia of link " + std::to_string(i + 1) + " it compensates");
+  }
+  return s.str();
+}
+
 }  // namespace
 
 EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
@@ -550,7 +591,7 @@ EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
   // Header.
   const std::string ns = "spacearm::models::" + scene.name;
   std::ostringstream h;
-  h << banner(model, options) << "#pragma once\n\n#include <Eigen/Core>\n\n#include <array>\n\n";
+  h << banner(model, options) << "#pragma once\n\n#include <Eigen/Core>\n\n#include <array>\n#include <cmath>\n\n";
   h << "// " << (scene.description.empty() ? scene.name : scene.description) << "\n";
   h << "// Coordinates q = [" << [&] {
     std::string s;
@@ -575,6 +616,10 @@ EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
   h << "inline constexpr std::array<const char*, kNumParams> kParameterNames = {" << quoted_list(pnames) << "};\n";
   h << "inline constexpr std::array<double, kNumParams> kNominalParameters = {" << nominal << "};\n";
   h << "inline constexpr const char* kSceneHash = \"fnv1a64:" << content_hash(scene.content) << "\";\n";
+  h << "\n// nullptr if the run-time parameters describe a physical system, else what is wrong\n"
+    << "// (the scene's range checks, repeated for the parameters' values).\n"
+    << "inline const char* parameter_error([[maybe_unused]] const Eigen::Matrix<double, kNumParams, 1>& params) {\n"
+    << parameter_checks(model) << "  return nullptr;\n}\n";
   for (Output o : all_outputs())
     h << "inline constexpr bool kHas_" << to_string(o) << " = " << (scene.wants(o) ? "true" : "false") << ";\n";
   h << "\ntemplate <typename T> using Coordinates = Eigen::Matrix<T, kNq, 1>;\n"
@@ -647,7 +692,9 @@ EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
     << "  template <typename T> using JointPositions = " << ns << "::JointPositions<T>;\n"
     << "  static constexpr const std::array<const char*, kNq>& coordinate_names() { return kCoordinateNames; }\n"
     << "  static constexpr const std::array<const char*, kNumParams>& parameter_names() { return kParameterNames; }\n"
-    << "  static constexpr const std::array<double, kNumParams>& nominal_parameters() { return kNominalParameters; }\n";
+    << "  static constexpr const std::array<double, kNumParams>& nominal_parameters() { return kNominalParameters; }\n"
+    << "  static const char* parameter_error(const Eigen::Matrix<double, kNumParams, 1>& params) {\n"
+    << "    return " << ns << "::parameter_error(params);\n  }\n";
   for (const auto& f : functions) {
     std::string call;
     for (const auto& a : f.args) call += (call.empty() ? "" : ", ") + a.name;

@@ -52,8 +52,15 @@ class Model {
         if (!std::isfinite(value))
           throw std::invalid_argument(std::string("model ") + Generated::kName + ": parameter '" + name +
                                       "' must be finite, got " + std::to_string(value));
+        const double previous = params_[i];
         params_[i] = value;
-        update();
+        try {
+          update();
+        } catch (const std::invalid_argument& e) {
+          params_[i] = previous;  // the model stays valid
+          throw std::invalid_argument(std::string(e.what()) + " (after setting " + name + " = " +
+                                      std::to_string(value) + ")");
+        }
         return;
       }
     std::string known;
@@ -127,6 +134,8 @@ class Model {
   JointVector ratios_;
 
   void update() {
+    if (const char* error = Generated::parameter_error(params_))
+      throw std::invalid_argument(std::string("model ") + Generated::kName + ": " + error);
     Generated::gear_ratios(params_, ratios_);
     for (int i = 0; i < kNumLinks; ++i)
       if (!(ratios_[i] > 0))

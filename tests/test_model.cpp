@@ -40,9 +40,20 @@ TEST(Model, BadInputGetsAClearError) {
     g.set_parameter("p", -1);
     FAIL() << "p = -1 accepted";
   } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("gear ratio of joint 1 must be positive, got -1"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("gears[0].ratio must be positive"), std::string::npos)
         << e.what();
   }
+  // The scene's range checks hold for run-time values too: I_m must stay below the link
+  // inertia it compensates (link 3: 0.022 kg m^2), and a failed set leaves the model valid.
+  try {
+    g.set_parameter("Im", 0.03);
+    FAIL() << "Im = 0.03 accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("gears[2].motor_inertia must be smaller than the inertia of link 3"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(g.parameters()[1], 1e-5);
   Geared::Vector q = Geared::Vector::Zero();
   q[4] = std::nan("");
   try {
