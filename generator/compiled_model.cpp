@@ -118,6 +118,13 @@ std::string shell_quote(const std::string& s) {
   return q + "'";
 }
 
+// Identity of the running generator: a hash of its own executable, so that a rebuilt
+// generator (which may emit different code under the same version number) gets new entries.
+const std::string& generator_identity() {
+  static const std::string id = content_hash(read_file("/proc/self/exe")) + "-abi" + std::to_string(kAbiVersion);
+  return id;
+}
+
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -143,7 +150,8 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
   const std::string compiler_id = first_line_of_command(shell_quote(compiler) + " --version 2>/dev/null");
   if (compiler_id.empty()) throw CompileError("C++ compiler '" + compiler + "' not found (set CXX)");
 
-  const std::string key = content_hash(scene.content + '\0' + kGeneratorVersion + '\0' + compiler_id + '\0' +
+  const std::string key = content_hash(scene.content + '\0' + kGeneratorVersion + '\0' + generator_identity() + '\0' +
+                                       compiler_id + '\0' +
                                        options.flags + '\0' + SPACEARM_EIGEN_INCLUDE_DIR);
   const fs::path cache = cache_directory(options);
   const fs::path entry = cache / (scene.name + "-" + key);
