@@ -52,10 +52,14 @@ Eigen::VectorXd parse_vector(const std::string& text, const std::string& name, i
   return Eigen::Map<Eigen::VectorXd>(values.data(), n);
 }
 
-// --param name=value pairs over the nominal values.
-Eigen::VectorXd parse_parameters(const std::vector<std::string>& assignments, const std::vector<std::string>& names,
-                                 const std::vector<double>& nominal) {
-  Eigen::VectorXd p = Eigen::Map<const Eigen::VectorXd>(nominal.data(), static_cast<int>(nominal.size()));
+// --param name=value pairs over the scene's nominal parameter values.
+Eigen::VectorXd parse_parameters(const std::vector<std::string>& assignments, const spacearm::Scene& scene) {
+  std::vector<std::string> names;
+  Eigen::VectorXd p(static_cast<int>(scene.parameters.size()));
+  for (const auto& param : scene.parameters) {
+    p[static_cast<int>(names.size())] = param.nominal.value;
+    names.push_back(param.name);
+  }
   for (const auto& a : assignments) {
     const auto eq = a.find('=');
     if (eq == std::string::npos) throw std::invalid_argument("--param '" + a + "': expected name=value");
@@ -156,13 +160,7 @@ int main(int argc, char** argv) {
       const int n = scene.num_coordinates(), N = scene.num_links();
       const Eigen::VectorXd q0 = q0_text.empty() ? Eigen::VectorXd::Zero(n) : parse_vector(q0_text, "--q0", n);
       const Eigen::VectorXd qd0 = qd0_text.empty() ? Eigen::VectorXd::Zero(n) : parse_vector(qd0_text, "--qd0", n);
-      std::vector<std::string> pnames;
-      std::vector<double> nominal;
-      for (const auto& p : scene.parameters) {
-        pnames.push_back(p.name);
-        nominal.push_back(p.nominal.value);
-      }
-      const Eigen::VectorXd params = parse_parameters(param_assignments, pnames, nominal);
+      const Eigen::VectorXd params = parse_parameters(param_assignments, scene);
       spacearm::IntegratorOptions opt;
       opt.method = spacearm::method_from_string(integrator);
       opt.dt = dt;
@@ -297,13 +295,7 @@ int main(int argc, char** argv) {
       const int n = scene.num_coordinates();
       const Eigen::VectorXd q = parse_vector(q_text, "--q", n);
       const Eigen::VectorXd qd = qd_text.empty() ? Eigen::VectorXd::Zero(n) : parse_vector(qd_text, "--qd", n);
-      std::vector<std::string> pnames;
-      std::vector<double> nominal;
-      for (const auto& p : scene.parameters) {
-        pnames.push_back(p.name);
-        nominal.push_back(p.nominal.value);
-      }
-      const Eigen::VectorXd params = parse_parameters(param_assignments, pnames, nominal);
+      const Eigen::VectorXd params = parse_parameters(param_assignments, scene);
       nlohmann::json out;
       auto ms = [](auto a) { return std::chrono::duration<double, std::milli>(clock::now() - a).count(); };
       if (symbolic) {
