@@ -120,6 +120,13 @@ class Model {
     Eigen::LLT<Matrix> llt(M);
     if (llt.info() != Eigen::Success)
       throw DynamicsError(std::string("model ") + Generated::kName + ": mass matrix is not positive definite");
+    // (max L_ii / min L_ii)^2 is a cheap lower bound of cond(M): past 1e14 the solve has no
+    // correct digit left, so report it instead of returning noise.
+    const auto d = llt.matrixLLT().diagonal().cwiseAbs();
+    const double cond_bound = (d.maxCoeff() / d.minCoeff()) * (d.maxCoeff() / d.minCoeff());
+    if (!(cond_bound < 1e14))
+      throw DynamicsError(std::string("model ") + Generated::kName + ": mass matrix numerically singular (cond >= " +
+                          std::to_string(cond_bound) + ")");
     return llt.solve(Q - b);
   }
 

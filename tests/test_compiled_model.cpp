@@ -128,6 +128,13 @@ class EvalCli : public testing::Test {
   fs::path cache = fresh_cache("cli");
   std::string cli = std::string(SPACEARM_CLI) + " eval --cache-dir " + cache.string() + " ";
   void TearDown() override { fs::remove_all(cache); }
+  std::string unknown_field_scene() {
+    fs::create_directories(cache);
+    const fs::path p = cache / "unknown_field.yaml";
+    std::ofstream(p) << "name: x\nbase: {type: fixed, mount: [0, 0]}\n"
+                        "links:\n  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.2, 0], colour: red}\n";
+    return p.string();
+  }
 };
 
 TEST_F(EvalCli, JsonEqualsGeneratedCodeAndSymbolicAgrees) {
@@ -190,6 +197,8 @@ TEST_F(EvalCli, BadInputsGetClearErrors) {
            {ref + " --q 1,2,3,4,5,x", "--q[5]: 'x' is not a number"},
            {geared + " --q 0,0,0,0,0,0 --param k=3", "--param: unknown parameter 'k' (known: p, Im)"},
            {geared + " --q 0,0,0,0,0,0 --param p=inf", "--param p[0] is not finite"},
+           {geared + " --q 0,0,0,0,0,0 --param Im=1", "gears[0].motor_inertia must be smaller than the inertia"},
+           {unknown_field_scene() + " --q 0", "field 'links[0].colour': unknown field"},
        }) {
     int status = 0;
     const std::string out = run(cli + c.args + " 2>&1", &status);
