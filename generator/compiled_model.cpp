@@ -159,7 +159,9 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
   const fs::path library = entry / "libmodel.so";
   const fs::path complete = entry / "COMPLETE";
 
-  // An entry is valid only with its COMPLETE marker (written last) and the library.
+  // An entry is valid only with its COMPLETE marker (written last) and a library that
+  // loads; a corrupted entry is removed and built again, once.
+  for (int attempt = 0;; ++attempt) {
   if (!(fs::exists(complete) && fs::exists(library))) {
     fs::create_directories(cache);
     // Build in a private folder, then rename into place: a failed or concurrent build never
@@ -204,8 +206,11 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
                          "sources and command: " + failed.string());
     }
     rep.compiled = true;
-    write_file(work / "COMPLETE", "scene " + scene.source_path + "\ngenerator " + kGeneratorVersion +
-                                      "\ncompiler " + compiler_id + "\nflags " + options.flags + "\n");
+    // The marker records the library's hash: a truncated or altered library is detected
+    // before dlopen (mapping a truncated ELF file can crash the process instead of failing).
+    write_file(work / "COMPLETE", "library " + content_hash(read_file(work / "libmodel.so")) + "\nscene " +
+                                      scene.source_path + "\ngenerator " + kGeneratorVersion + "\ncompiler " +
+                                      compiler_id + "\nflags " + options.flags + "\n");
     std::error_code ec;
     fs::remove_all(entry, ec);  // an incomplete entry left by a crash
     fs::rename(work, entry, ec);
@@ -216,15 +221,30 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
     }
   }
 
+  const std::string marker = read_file(complete);
+  if (marker.rfind("library " + content_hash(read_file(library)) + "\n", 0) != 0) {
+    if (attempt == 0 && !rep.compiled) {
+      say("cache entry " + entry.string() + " is corrupted (library does not match its hash): rebuilding");
+      fs::remove_all(entry);
+      continue;
+    }
+    throw CompileError("cache entry '" + entry.string() + "' is corrupted and could not be rebuilt");
+  }
   say("loading " + library.string());
   const auto t0 = std::chrono::steady_clock::now();
   CompiledModel m;
   m.handle_ = dlopen(library.c_str(), RTLD_NOW | RTLD_LOCAL);
-  if (!m.handle_) throw CompileError(std::string("cannot load '") + library.string() + "': " + dlerror());
-  auto sym = [&](const char* name) { return dlsym(m.handle_, name); };
+  auto sym = [&](const char* name) { return m.handle_ ? dlsym(m.handle_, name) : nullptr; };
   auto abi = reinterpret_cast<int (*)()>(sym("spacearm_abi_version"));
-  if (!abi || abi() != kAbiVersion)
-    throw CompileError("cache entry '" + entry.string() + "' has another interface version; delete it");
+  if (!m.handle_ || !abi || abi() != kAbiVersion) {
+    const std::string why = m.handle_ ? "wrong interface version" : dlerror();
+    if (attempt == 0 && !rep.compiled) {
+      say("cache entry " + entry.string() + " is corrupted (" + why + "): rebuilding");
+      fs::remove_all(entry);
+      continue;
+    }
+    throw CompileError("cannot load '" + library.string() + "': " + why);
+  }
   m.nq_ = reinterpret_cast<int (*)()>(sym("spacearm_nq"))();
   m.num_links_ = reinterpret_cast<int (*)()>(sym("spacearm_num_links"))();
   m.outputs_ = reinterpret_cast<unsigned (*)()>(sym("spacearm_outputs"))();
@@ -249,6 +269,7 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
   m.api_->parameter_error = reinterpret_cast<const char* (*)(const double*)>(sym("spacearm_parameter_error"));
   rep.load_ms = ms_since(t0);
   return m;
+  }
 }
 
 CompiledModel::~CompiledModel() {

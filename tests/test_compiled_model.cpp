@@ -79,6 +79,57 @@ TEST(CompiledModel, CachedSecondLoadNeitherGeneratesNorCompiles) {
   fs::remove_all(cache);
 }
 
+// Across processes, as in real use (within one process glibc keeps a loaded library mapped
+// under its path, so a library cannot be replaced under a running process anyway).
+TEST(CompiledModel, CorruptedEntryIsDetectedAndRebuilt) {
+  const fs::path cache = fresh_cache("corrupt");
+  const std::string cmd = std::string(SPACEARM_CLI) + " eval --json --verbose --cache-dir " + cache.string() + " " +
+                          SPACEARM_SOURCE_DIR + "/models/paper_reference.yaml --q 0,0,0,0.1,0.2,0.3 2>&1";
+  const std::string first = run(cmd);
+  ASSERT_NE(first.find("(built)"), std::string::npos) << first;
+  fs::path entry;
+  for (const auto& e : fs::directory_iterator(cache))
+    if (fs::exists(e.path() / "COMPLETE")) entry = e.path();
+  ASSERT_FALSE(entry.empty());
+  // A half-written library (as after a crash or a full disk): detected, rebuilt, and right.
+  fs::resize_file(entry / "libmodel.so", fs::file_size(entry / "libmodel.so") / 3);
+  int status = 0;
+  const std::string second = run(cmd, &status);
+  EXPECT_EQ(status, 0) << second;
+  EXPECT_NE(second.find("is corrupted"), std::string::npos) << second;
+  EXPECT_NE(second.find("(built)"), std::string::npos) << second;
+  EXPECT_NE(second.find("\"M\":"), std::string::npos) << second;
+  // A missing COMPLETE marker (a build that never finished) also means: build again.
+  fs::remove(entry / "COMPLETE");
+  const std::string third = run(cmd);
+  EXPECT_NE(third.find("(built)"), std::string::npos) << third;
+  // And an intact entry is simply used.
+  EXPECT_NE(run(cmd).find("(hit)"), std::string::npos);
+  fs::remove_all(cache);
+}
+
+TEST(CompiledModel, ConcurrentBuildsOfOneModelDoNotCorruptTheCache) {
+  const fs::path cache = fresh_cache("concurrent");
+  const std::string cmd = std::string(SPACEARM_CLI) + " eval --json --cache-dir " + cache.string() + " " +
+                          SPACEARM_SOURCE_DIR + "/models/paper_reference.yaml --q 0,0,0,0.1,0.2,0.3";
+  // Three processes start on an empty cache at once.
+  const std::string out = run("(" + cmd + " > " + cache.string() + ".a & " + cmd + " > " + cache.string() + ".b & " +
+                              cmd + " > " + cache.string() + ".c & wait) 2>&1; cat " + cache.string() + ".a " +
+                              cache.string() + ".b " + cache.string() + ".c");
+  size_t results = 0;
+  for (size_t pos = 0; (pos = out.find("\"M\":", pos)) != std::string::npos; ++pos) ++results;
+  EXPECT_EQ(results, 3u) << out;
+  // One valid entry, no leftovers of the private build folders.
+  int entries = 0;
+  for (const auto& e : fs::directory_iterator(cache)) {
+    EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
+    if (fs::exists(e.path() / "COMPLETE")) ++entries;
+  }
+  EXPECT_EQ(entries, 1);
+  for (const char* s : {".a", ".b", ".c"}) fs::remove(cache.string() + s);
+  fs::remove_all(cache);
+}
+
 TEST(CompiledModel, ChangedSceneIsRebuilt) {
   const fs::path cache = fresh_cache("rebuild");
   CompileOptions options;

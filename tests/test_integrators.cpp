@@ -82,6 +82,22 @@ TEST(Integrators, AdaptiveMethodsMeetTheirTolerance) {
   }
 }
 
+TEST(Integrators, SimulationsAreBitReproducible) {
+  for (Method m : {Method::rk4, Method::dopri5, Method::rkf78, Method::implicit_midpoint}) {
+    Rollout a, b;
+    IntegratorOptions opt;
+    opt.method = m;
+    const auto ta = simulate<G>(a.model, a.q0, a.qd0, &Rollout::torque, 2.0, 0.1, opt);
+    const auto tb = simulate<G>(b.model, b.q0, b.qd0, &Rollout::torque, 2.0, 0.1, opt);
+    ASSERT_EQ(ta.q.size(), tb.q.size());
+    for (size_t k = 0; k < ta.q.size(); ++k) {
+      EXPECT_EQ(ta.q[k], tb.q[k]) << to_string(m) << " sample " << k;
+      EXPECT_EQ(ta.qd[k], tb.qd[k]) << to_string(m) << " sample " << k;
+    }
+    EXPECT_NE(ta.q.back(), a.q0);
+  }
+}
+
 TEST(Integrators, ZeroTorqueFromRestNothingMoves) {
   Rollout s;
   for (Method m : {Method::rk4, Method::dopri5, Method::implicit_midpoint}) {
