@@ -64,6 +64,22 @@ TEST(Model, BadInputGetsAClearError) {
   }
 }
 
+TEST(Model, NumericallySingularMassMatrixIsReported) {
+  // Im = 0 and a huge ratio: cond(M_g) ~ p^2 passes 1e14, the solve would return noise.
+  Geared g;
+  g.set_parameter("Im", 0);
+  g.set_parameter("p", 1e9);
+  const Geared::Vector q = (Geared::Vector() << 0, 0, 0, 3e8, 1.2e9, -5e8).finished();
+  try {
+    g.forward_dynamics(q, Geared::Vector::Zero(), Geared::Vector::Zero());
+    FAIL() << "no error for cond(M) = " << g.condition_number(q);
+  } catch (const DynamicsError& e) {
+    EXPECT_NE(std::string(e.what()).find("numerically singular"), std::string::npos) << e.what();
+  }
+  g.set_parameter("p", 100);  // well conditioned again
+  EXPECT_NO_THROW(g.forward_dynamics(q / 1e7, Geared::Vector::Zero(), Geared::Vector::Zero()));
+}
+
 TEST(Model, ConditionNumberGrowsAsPSquaredWithoutMotorInertia) {
   // MODEL-NOTES: cond(M_g) grows as p^2 when I_m = 0; with I_m the rotor bounds it.
   Geared g;

@@ -70,6 +70,8 @@ TEST(Scene, ErrorsNameTheFieldAndValue) {
       {"mount: [0.1, 0]", "mount: [0.1]", "field 'base.mount'"},
       {"mount: [0.1, 0]", "mount: [0.1, 0], colour: red", "field 'base.colour': unknown field"},
       {"name: two_links", "name: new", "'new' is reserved"},
+      {"inertia: 1, mount", "mount", "field 'base.inertia': missing required field"},
+      {"mass: 10,", "mass: 10, mass: 11,", "field 'base.mass': given more than once"},
   };
   for (const auto& c : cases) {
     const std::string err = error_of(replaced(kValid, c.from, c.to));
@@ -85,6 +87,10 @@ TEST(Scene, GearAndParameterErrors) {
   const std::string big_motor = std::string(kValid) + "gears: {ratio: 10, motor_inertia: 0.5}\n";
   EXPECT_NE(error_of(big_motor).find("must be smaller than the inertia of link 1"), std::string::npos)
       << error_of(big_motor);
+  const std::string negative_motor = std::string(kValid) + "gears: {ratio: 10, motor_inertia: -1.0e-5}\n";
+  EXPECT_NE(error_of(negative_motor).find("field 'gears.motor_inertia': must not be negative, got -1.0e-5"),
+            std::string::npos)
+      << error_of(negative_motor);
   const std::string unused = std::string(kValid) + "parameters: {k: 1}\n";
   EXPECT_NE(error_of(unused).find("parameter 'k' is declared but never used"), std::string::npos) << error_of(unused);
   const std::string wrong_count = std::string(kValid) + "gears:\n  - {ratio: 10, motor_inertia: 0}\n";
