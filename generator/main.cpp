@@ -305,10 +305,9 @@ int main(int argc, char** argv) {
         const std::vector<double> qv(q.data(), q.data() + n), qdv(qd.data(), qd.data() + n),
             pv(params.data(), params.data() + params.size());
         auto mat = [&](const GiNaC::matrix& m) {
-          Eigen::MatrixXd r(m.rows(), m.cols());
-          for (unsigned i = 0; i < m.rows(); ++i)
-            for (unsigned j = 0; j < m.cols(); ++j) r(i, j) = spacearm::evaluate(model, m(i, j), qv, qdv, pv);
-          return r;
+          const auto values = spacearm::evaluate(model, m, qv, qdv, pv);
+          return Eigen::MatrixXd(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+              values.data(), m.rows(), m.cols()));
         };
         using spacearm::Output;
         if (scene.wants(Output::mass_matrix)) out["M"] = to_json(mat(model.mass_matrix));

@@ -310,4 +310,12 @@ double evaluate(const SymbolicModel& model, const GiNaC::ex& e, const std::vecto
   return GiNaC::ex_to<numeric>(value).to_double();
 }
 
+std::vector<double> evaluate(const SymbolicModel& model, const GiNaC::matrix& m, const std::vector<double>& q,
+                             const std::vector<double>& qd, const std::vector<double>& params) {
+  std::vector<double> values;
+  for (unsigned i = 0; i < m.rows(); ++i)
+    for (unsigned j = 0; j < m.cols(); ++j) values.push_back(evaluate(model, m(i, j), q, qd, params));
+  return values;
+}
+
 }  // namespace spacearm

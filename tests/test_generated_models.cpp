@@ -24,12 +24,10 @@ template <class Model>
 using Params = typename Model::template Parameters<double>;
 
 Eigen::MatrixXd evaluate_matrix(const SymbolicModel& m, const GiNaC::matrix& mat, const Eigen::VectorXd& q,
-                                const Eigen::VectorXd& qd, const std::vector<double>& params) {
-  const std::vector<double> qv(q.data(), q.data() + q.size()), qdv(qd.data(), qd.data() + qd.size());
-  Eigen::MatrixXd out(mat.rows(), mat.cols());
-  for (unsigned i = 0; i < mat.rows(); ++i)
-    for (unsigned j = 0; j < mat.cols(); ++j) out(i, j) = evaluate(m, mat(i, j), qv, qdv, params);
-  return out;
+                                const Eigen::VectorXd& qd, const std::vector<double>& params = {}) {
+  const auto values = evaluate(m, mat, {q.data(), q.data() + q.size()}, {qd.data(), qd.data() + qd.size()}, params);
+  return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+      values.data(), mat.rows(), mat.cols());
 }
 
 // Relative to the largest entry of the symbolic value; an identically zero symbolic

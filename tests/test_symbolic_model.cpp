@@ -40,12 +40,10 @@ ChainSpec spec_of(const Config& c) {
 }
 
 Eigen::MatrixXd evaluate_matrix(const SymbolicModel& m, const GiNaC::matrix& mat, const Eigen::VectorXd& q,
-                                const Eigen::VectorXd& qd) {
-  const std::vector<double> qv(q.data(), q.data() + q.size()), qdv(qd.data(), qd.data() + qd.size());
-  Eigen::MatrixXd out(mat.rows(), mat.cols());
-  for (unsigned i = 0; i < mat.rows(); ++i)
-    for (unsigned j = 0; j < mat.cols(); ++j) out(i, j) = evaluate(m, mat(i, j), qv, qdv);
-  return out;
+                                const Eigen::VectorXd& qd, const std::vector<double>& params = {}) {
+  const auto values = evaluate(m, mat, {q.data(), q.data() + q.size()}, {qd.data(), qd.data() + qd.size()}, params);
+  return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+      values.data(), mat.rows(), mat.cols());
 }
 
 class SymbolicModelTest : public testing::TestWithParam<Config> {};
