@@ -23,11 +23,6 @@ using Geared = Model<models::paper_geared::Model>;
 
 namespace {
 
-struct Run {
-  double p;
-  Trajectory<models::paper_geared::Model> traj;
-};
-
 void write_series(const std::string& path, const Trajectory<models::paper_geared::Model>& tr, const Geared& g) {
   std::ofstream out(path);
   out << "t,ee_x,ee_y,ee_phi,x0,y0,q0,qd1,qd2,qd3,Px,Py,L,kinetic_energy,work,cond_M\n";
@@ -48,8 +43,6 @@ void write_series(const std::string& path, const Trajectory<models::paper_geared
 // Arm drawn as a polyline: base CoM, joints 1..3, tip; one block per configuration.
 template <class M>
 void write_arm(std::ostream& out, const M& model, const typename M::Vector& q, const std::string& label) {
-  typename M::Vector3 unused;
-  (void)unused;
   Eigen::Matrix<double, 2, 4> P;
   using G = std::conditional_t<std::is_same_v<M, Ref>, models::paper_reference::Model, models::paper_geared::Model>;
   G::joint_positions(q, model.parameters(), P);
@@ -129,7 +122,6 @@ int main(int argc, char** argv) {
                 (ref_end - plan_end).head<2>().norm());
 
     // 3. Geared replays: q_m(0) = p q(0), torques tau / p.
-    std::vector<Run> runs;
     std::ofstream table(out_dir + "/table2.csv");
     table << "p,x_error_m,y_error_m,error_norm_m,base_x_dev_m,base_y_dev_m,base_angle_dev_rad,max_momentum_drift\n";
     std::printf("%8s %14s %14s %14s %12s %12s %12s %12s\n", "p", "X error [m]", "Y error [m]", "norm [m]",
@@ -140,7 +132,7 @@ int main(int argc, char** argv) {
       g.set_parameter("Im", motor_inertia);
       Geared::Vector qm = q_start;
       qm.tail<3>() *= p;
-      auto traj = simulate<models::paper_geared::Model>(g, qm, Geared::Vector::Zero(), std::cref(tau), task.duration,
+      const auto traj = simulate<models::paper_geared::Model>(g, qm, Geared::Vector::Zero(), std::cref(tau), task.duration,
                                                         task.dt, opt);
       const Eigen::Vector3d e = traj.end_effector.back() - ref_end;
       const auto& qf = traj.q.back();
@@ -158,7 +150,6 @@ int main(int argc, char** argv) {
         std::ofstream arm(out_dir + "/arm_final.dat", p == ratios.front() ? std::ios::trunc : std::ios::app);
         write_arm(arm, g, qf, "p = " + std::to_string(p));
       }
-      runs.push_back({p, std::move(traj)});
     }
     table.close();
     std::printf("\nwrote %s/table2.csv, plan.csv, replay_p*.csv\n", out_dir.c_str());
