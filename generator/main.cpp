@@ -239,10 +239,13 @@ int main(int argc, char** argv) {
         const Eigen::VectorXd q = x.head(n), qd = x.tail(n);
         dxdt.resize(2 * n);
         dxdt.head(n) = qd;
+        if (!x.allFinite()) throw std::runtime_error("state not finite at t = " + std::to_string(t));
         Eigen::LLT<Eigen::MatrixXd> llt(model.mass_matrix(q, params));
-        if (llt.info() != Eigen::Success || !x.allFinite())
-          throw std::runtime_error("mass matrix not positive definite or state not finite at t = " + std::to_string(t));
+        if (llt.info() != Eigen::Success)
+          throw std::runtime_error("mass matrix not positive definite at t = " + std::to_string(t));
         dxdt.tail(n) = llt.solve(tau_of(t) - model.bias_forces(q, qd, params));
+        if (!dxdt.allFinite())
+          throw std::runtime_error("accelerations not finite (overflow) at t = " + std::to_string(t));
       };
       const auto wall0 = std::chrono::steady_clock::now();
       int last_percent = 0;

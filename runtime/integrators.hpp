@@ -14,7 +14,10 @@
 #include <boost/numeric/odeint/external/eigen/eigen.hpp>
 
 #include <cmath>
+#include <algorithm>
 #include <functional>
+#include <limits>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -53,6 +56,46 @@ struct IntegrationStats {
   long rhs_evaluations = 0;
 };
 
+// An integration that cannot go on (the right-hand side failed, or an adaptive method cannot
+// meet its tolerance). Carries the last accepted time and state; everything observed up to
+// then has already been passed to the observer.
+class IntegrationError : public std::runtime_error {
+ public:
+  IntegrationError(const std::string& what, double t, Eigen::VectorXd state)
+      : std::runtime_error(what), t_(t), state_(std::move(state)) {}
+  double t() const { return t_; }
+  const Eigen::VectorXd& state() const { return state_; }
+
+ private:
+  double t_;
+  Eigen::VectorXd state_;
+};
+
+namespace detail {
+inline std::string format(double v) {
+  std::ostringstream s;
+  s.precision(3);
+  s << v;
+  return s.str();
+}
+template <class State>
+IntegrationError integration_error(Method m, const std::string& why, double t, const State& x) {
+  std::ostringstream msg;
+  msg.precision(17);
+  msg << to_string(m) << ": " << why << "; last accepted state at t = " << t << ": [";
+  for (Eigen::Index i = 0; i < x.size(); ++i) msg << (i ? ", " : "") << x[i];
+  msg << "]";
+  return IntegrationError(msg.str(), t, Eigen::VectorXd(x));
+}
+// Smallest step allowed: 16 ulps of the largest time in the span (MATLAB's ode45 rule, with
+// the span's end instead of t so that it is not zero at t = 0). Below it a controller is
+// only chasing rounding, and t barely advances.
+inline bool below_minimum_step(double dt, double t, double t0, double t1) {
+  const double scale = std::max({std::abs(t), std::abs(t0), std::abs(t1)});
+  return !(std::abs(dt) >= 16 * std::numeric_limits<double>::epsilon() * scale);
+}
+}  // namespace detail
+
 // Integrates dx/dt = f(x, t) from t0 to t1, calling observe(x, t) at t0 + k * dt_out
 // (and at t1). The fixed-step methods need dt_out to be a multiple of opt.dt.
 template <class State, class System, class Observer>
@@ -68,6 +111,17 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
   if (outputs < 1 || std::abs(t0 + outputs * dt_out - t1) > 1e-9 * std::max(1.0, std::abs(t1)))
     throw std::invalid_argument("integrate: (t1 - t0) = " + std::to_string(t1 - t0) +
                                 " must be a positive multiple of dt_out = " + std::to_string(dt_out));
+  if (opt.method == Method::dopri5 || opt.method == Method::rkf78) {
+    // As ode45 does: a relative tolerance below 100 ulps cannot be met in double precision.
+    const double rtol_min = 100 * std::numeric_limits<double>::epsilon();
+    if (!(opt.rtol >= rtol_min) || !std::isfinite(opt.rtol))
+      throw std::invalid_argument("integrate: rtol = " + detail::format(opt.rtol) + " must be at least " +
+                                  detail::format(rtol_min) + " (100 x machine epsilon)");
+    if (!(opt.atol >= 0) || !std::isfinite(opt.atol))
+      throw std::invalid_argument("integrate: atol = " + detail::format(opt.atol) + " must be >= 0");
+  } else if (!(opt.dt > 0) || !std::isfinite(opt.dt)) {
+    throw std::invalid_argument("integrate: dt = " + detail::format(opt.dt) + " must be positive");
+  }
   auto check_fixed = [&] {
     const long per = std::lround(dt_out / opt.dt);
     if (per < 1 || std::abs(per * opt.dt - dt_out) > 1e-9 * dt_out)
@@ -76,12 +130,23 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
     return per;
   };
   observe(x, t0);
+  // Last accepted step, for the error report: a failing step leaves x unspecified.
+  double t_ok = t0;
+  State x_ok = x;
+  auto accept = [&](double t) {
+    t_ok = t;
+    x_ok = x;
+  };
+  try {
   switch (opt.method) {
     case Method::rk4: {
       const long per = check_fixed();
       odeint::runge_kutta4<State, double, State, double, odeint::vector_space_algebra> stepper;
       for (long k = 0; k < outputs; ++k) {
-        for (long s = 0; s < per; ++s) stepper.do_step(rhs, x, t0 + (k * per + s) * opt.dt, opt.dt);
+        for (long s = 0; s < per; ++s) {
+          stepper.do_step(rhs, x, t0 + (k * per + s) * opt.dt, opt.dt);
+          accept(t0 + (k * per + s + 1) * opt.dt);
+        }
         observe(x, t0 + (k + 1) * dt_out);
       }
       break;
@@ -95,7 +160,16 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
       State out = x;
       for (long k = 1; k <= outputs; ++k) {
         const double t_out = t0 + k * dt_out;
-        while (stepper.current_time() < t_out) stepper.do_step(rhs);
+        while (stepper.current_time() < t_out) {
+          stepper.do_step(rhs);  // odeint throws step_adjustment_error after 500 rejections
+          t_ok = stepper.current_time();
+          x_ok = stepper.current_state();
+          if (detail::below_minimum_step(stepper.current_time_step(), t_ok, t0, t1))
+            throw detail::integration_error(opt.method,
+                                            "step size " + detail::format(stepper.current_time_step()) +
+                                                " below the minimum, tolerance cannot be met",
+                                            t_ok, x_ok);
+        }
         stepper.calc_state(t_out, out);
         observe(out, t_out);
       }
@@ -117,13 +191,14 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
           const bool clamped = t + dt > t_out;
           double step = clamped ? t_out - t : dt;
           if (stepper.try_step(rhs, x, t, step) == odeint::success) {
+            accept(t);
             rejected = 0;
             dt = clamped ? std::max(natural, step) : step;
           } else {
             dt = step;
-            if (++rejected > 500 || dt < 1e-14 * std::max(1.0, std::abs(t)))
-              throw std::runtime_error("rkf78: step size underflow at t = " + std::to_string(t) +
-                                       " (tolerance cannot be met)");
+            if (++rejected > 500 || detail::below_minimum_step(dt, t, t0, t1))
+              throw detail::integration_error(
+                  opt.method, "step size " + detail::format(dt) + " below the minimum, tolerance cannot be met", t, x);
           }
         }
         t = t_out;
@@ -134,11 +209,21 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
     case Method::implicit_midpoint: {
       const long per = check_fixed();
       for (long k = 0; k < outputs; ++k) {
-        for (long s = 0; s < per; ++s) implicit_midpoint_step(rhs, x, t0 + (k * per + s) * opt.dt, opt.dt);
+        for (long s = 0; s < per; ++s) {
+          implicit_midpoint_step(rhs, x, t0 + (k * per + s) * opt.dt, opt.dt);
+          accept(t0 + (k * per + s + 1) * opt.dt);
+        }
         observe(x, t0 + (k + 1) * dt_out);
       }
       break;
     }
+  }
+  } catch (const IntegrationError&) {
+    x = x_ok;
+    throw;
+  } catch (const std::runtime_error& e) {  // the right-hand side's or odeint's
+    x = x_ok;
+    throw detail::integration_error(opt.method, e.what(), t_ok, x_ok);
   }
   return stats;
 }

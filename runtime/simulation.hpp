@@ -22,19 +22,21 @@ struct Trajectory {
   IntegrationStats stats;
 };
 
-// Integrates from (q0, qd0) at t = 0 to t_end, sampling every dt_out. tau(t) gives the joint
-// (or motor) torques; they enter as generalized forces through Model::generalized_forces.
+// Integrates from (q0, qd0) at t = 0 to t_end, sampling every dt_out into traj. tau(t) gives
+// the joint (or motor) torques; they enter as generalized forces through
+// Model::generalized_forces. On failure it throws IntegrationError (time and state of the
+// last accepted step) and traj keeps every sample taken up to then.
 template <class G>
-Trajectory<G> simulate(const Model<G>& model, const typename Model<G>::Vector& q0,
-                       const typename Model<G>::Vector& qd0,
-                       const std::function<typename Model<G>::JointVector(double)>& tau, double t_end,
-                       double dt_out, const IntegratorOptions& options) {
+void simulate(Trajectory<G>& traj, const Model<G>& model, const typename Model<G>::Vector& q0,
+              const typename Model<G>::Vector& qd0,
+              const std::function<typename Model<G>::JointVector(double)>& tau, double t_end, double dt_out,
+              const IntegratorOptions& options) {
   using M = Model<G>;
   constexpr int n = M::kNq;
   using State = Eigen::Matrix<double, 2 * n, 1>;
   State x;
   x << q0, qd0;
-  Trajectory<G> traj;
+  traj = Trajectory<G>();
   auto f = [&](const State& s, State& dsdt, double t) {
     const typename M::Vector q = s.template head<n>(), qd = s.template tail<n>();
     dsdt.template head<n>() = qd;
@@ -59,6 +61,15 @@ Trajectory<G> simulate(const Model<G>& model, const typename Model<G>::Vector& q
     power_prev = power;
   };
   traj.stats = integrate(options, f, x, 0.0, t_end, dt_out, observe);
+}
+
+template <class G>
+Trajectory<G> simulate(const Model<G>& model, const typename Model<G>::Vector& q0,
+                       const typename Model<G>::Vector& qd0,
+                       const std::function<typename Model<G>::JointVector(double)>& tau, double t_end,
+                       double dt_out, const IntegratorOptions& options) {
+  Trajectory<G> traj;
+  simulate(traj, model, q0, qd0, tau, t_end, dt_out, options);
   return traj;
 }
 

@@ -12,6 +12,17 @@
 #include "numeric_lagrangian.hpp"
 #include "scene.hpp"
 
+// Expects `statement` to throw `type` with a message containing `text`.
+#define EXPECT_THROW_MESSAGE(statement, type, text)                                                  \
+  do {                                                                                              \
+    try {                                                                                           \
+      statement;                                                                                    \
+      ADD_FAILURE() << #statement " did not throw";                                                 \
+    } catch (const type& e_) {                                                                      \
+      EXPECT_NE(std::string(e_.what()).find(text), std::string::npos) << "message: " << e_.what(); \
+    }                                                                                               \
+  } while (0)
+
 namespace spacearm::test {
 
 struct ChainSpec {

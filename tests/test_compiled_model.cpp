@@ -298,6 +298,35 @@ TEST_F(SimulateCli, ZeroTorqueFromRestStaysPutAndTorquesMoveTheArm) {
   fs::remove(torques);
 }
 
+// A run that fails half way (torques so large that the velocities overflow after t = 0.5)
+// reports where, with the state, exits non-zero, and leaves a valid CSV of every sample
+// computed before the failure.
+TEST_F(SimulateCli, FailureMidRunKeepsTheSamplesComputedSoFar) {
+  const fs::path torques = cache.parent_path() / ("huge-torques-" + std::to_string(getpid()) + ".csv");
+  const fs::path csv = cache.parent_path() / ("partial-" + std::to_string(getpid()) + ".csv");
+  std::ofstream(torques) << "t,tau1,tau2,tau3\n0,0,0,0\n0.5,1e300,0,0\n1,1e300,0,0\n";
+  int status = 0;
+  const std::string err = run(sim + "--torques " + torques.string() + " --interpolation hold --t-end 1 --dt-out 0.1 -o " +
+                                  csv.string() + " 2>&1",
+                              &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(err.find("rk4: "), std::string::npos) << err;
+  EXPECT_NE(err.find("not finite"), std::string::npos) << err;
+  EXPECT_NE(err.find("last accepted state at t = 0.5"), std::string::npos) << err;
+  std::ifstream in(csv);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_FALSE(text.empty());
+  EXPECT_EQ(text.back(), '\n');  // no half-written row
+  const auto samples = rows(text);
+  ASSERT_EQ(samples.size(), 6u);  // t = 0, 0.1, ..., 0.5
+  for (size_t k = 0; k < samples.size(); ++k) {
+    EXPECT_EQ(samples[k].size(), 1u + 12 + 3 + 1 + 3);  // t, q, qd, end effector, energy, momentum
+    EXPECT_NEAR(samples[k][0], 0.1 * k, 1e-12);
+  }
+  fs::remove(torques);
+  fs::remove(csv);
+}
+
 TEST_F(SimulateCli, BadInputsGetClearErrors) {
   const fs::path torques = cache.parent_path() / ("bad-torques-" + std::to_string(getpid()) + ".csv");
   std::ofstream(torques) << "t,tau1,tau2\n0,0.1,0\n";

@@ -195,7 +195,9 @@ TEST_F(PaperFixture, GearedMassMatrixIsMappedReferencePlusRotors) {
       EXPECT_MATRIX_NEAR(M_g, expected, 1e-12);
       // In motor coordinates the link inertia is divided by p^2, so at large p the rotor
       // dominates the motor's own diagonal entry.
-      if (p == 1000.0) EXPECT_GT(rotors(5, 5), 0.9 * M_g(5, 5));
+      if (p == 1000.0) {
+        EXPECT_GT(rotors(5, 5), 0.9 * M_g(5, 5));
+      }
     }
   }
 }

@@ -82,6 +82,95 @@ TEST(Integrators, AdaptiveMethodsMeetTheirTolerance) {
   }
 }
 
+// x' = x^2, x(0) = 1 blows up at t = 1: no step size meets the tolerance there. The adaptive
+// methods say so, with the time and state of the last accepted step, instead of crawling on
+// with steps that no longer advance t.
+TEST(Integrators, AdaptiveMethodsReportAToleranceTheyCannotMeet) {
+  for (Method m : {Method::dopri5, Method::rkf78}) {
+    SCOPED_TRACE(to_string(m));
+    IntegratorOptions opt;
+    opt.method = m;
+    opt.rtol = opt.atol = 1e-10;
+    Eigen::Matrix<double, 1, 1> x;
+    x << 1.0;
+    auto f = [](const Eigen::Matrix<double, 1, 1>& s, Eigen::Matrix<double, 1, 1>& d, double) { d = s * s[0]; };
+    int observed = 0;
+    try {
+      integrate(opt, f, x, 0.0, 2.0, 0.5, [&](const Eigen::Matrix<double, 1, 1>&, double) { ++observed; });
+      ADD_FAILURE() << "no error";
+    } catch (const IntegrationError& e) {
+      EXPECT_NE(std::string(e.what()).find(to_string(m) + ": step size "), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("tolerance cannot be met"), std::string::npos) << e.what();
+      // It stopped at the blow-up: the numerical solution's blow-up time differs from 1 by
+      // the global error (about 1e-10 relative here), so t may lie on either side of 1.
+      EXPECT_NEAR(e.t(), 1.0, 1e-6);
+      ASSERT_EQ(e.state().size(), 1);
+      EXPECT_GT(e.state()[0], 1e9);
+      EXPECT_TRUE(std::isfinite(e.state()[0]));
+      EXPECT_EQ(Eigen::VectorXd(x), e.state());  // the caller's state is the last accepted one
+      EXPECT_EQ(observed, e.t() >= 1.0 ? 3 : 2);  // t = 0, 0.5 (and 1 if reached)
+    }
+  }
+}
+
+TEST(Integrators, ToleranceBelowRoundingAndBadStepsAreRejected) {
+  Eigen::Vector2d x(1, 0);
+  auto f = [](const Eigen::Vector2d& s, Eigen::Vector2d& d, double) { d << s[1], -s[0]; };
+  auto none = [](const Eigen::Vector2d&, double) {};
+  IntegratorOptions opt;
+  opt.method = Method::dopri5;
+  opt.rtol = 1e-20;
+  EXPECT_THROW_MESSAGE(integrate(opt, f, x, 0.0, 1.0, 0.5, none), std::invalid_argument, "rtol = 1e-20 must be at least");
+  opt.rtol = 1e-8;
+  opt.atol = -1;
+  EXPECT_THROW_MESSAGE(integrate(opt, f, x, 0.0, 1.0, 0.5, none), std::invalid_argument, "atol = -1 must be >= 0");
+  opt.method = Method::rk4;
+  opt.dt = std::nan("");
+  EXPECT_THROW_MESSAGE(integrate(opt, f, x, 0.0, 1.0, 0.5, none), std::invalid_argument, "dt = nan must be positive");
+  opt.dt = 0.3;
+  EXPECT_THROW_MESSAGE(integrate(opt, f, x, 0.0, 1.0, 0.5, none), std::invalid_argument, "must be a multiple of the step");
+}
+
+// A failure of the dynamics half way (here a NaN torque from t > 0.55) stops the run with an
+// IntegrationError at the last accepted step; the trajectory keeps every earlier sample.
+TEST(Integrators, SimulationFailureKeepsTheTrajectorySoFar) {
+  for (Method m : {Method::rk4, Method::dopri5, Method::rkf78, Method::implicit_midpoint}) {
+    SCOPED_TRACE(to_string(m));
+    Rollout s;
+    IntegratorOptions opt;
+    opt.method = m;
+    auto tau = [](double t) {
+      return t > 0.55 ? Geared::JointVector::Constant(std::nan("")).eval() : Rollout::torque(t);
+    };
+    Trajectory<G> tr;
+    try {
+      simulate<G>(tr, s.model, s.q0, s.qd0, tau, 2.0, 0.1, opt);
+      ADD_FAILURE() << "no error";
+    } catch (const IntegrationError& e) {
+      EXPECT_NE(std::string(e.what()).find("non-finite input Q[3] = nan"), std::string::npos) << e.what();
+      EXPECT_LE(e.t(), 0.55 + 1e-12);
+      EXPECT_GT(e.t(), 0.3);
+      ASSERT_EQ(e.state().size(), 12);
+      EXPECT_TRUE(e.state().allFinite());
+      // Every output up to the last accepted step was taken (t = 0, 0.1, ... <= e.t()).
+      const size_t samples = static_cast<size_t>(std::floor(e.t() / 0.1 + 1e-9)) + 1;
+      ASSERT_EQ(tr.t.size(), samples);
+      EXPECT_NEAR(tr.t.back(), 0.1 * (samples - 1), 1e-12);
+      EXPECT_EQ(tr.q.size(), samples);
+      EXPECT_EQ(tr.kinetic_energy.size(), samples);
+      if (m == Method::rk4) {
+        EXPECT_EQ(samples, 6u);
+        // The reported state is the state at that time: the same steps, run to it, give it.
+        const auto ok = simulate<G>(s.model, s.q0, s.qd0, &Rollout::torque, 0.55, 0.05, opt);
+        EXPECT_NEAR(e.t(), 0.55, 1e-12);
+        Eigen::VectorXd expected(12);
+        expected << ok.q.back(), ok.qd.back();
+        EXPECT_EQ(e.state(), expected);
+      }
+    }
+  }
+}
+
 TEST(Integrators, SimulationsAreBitReproducible) {
   for (Method m : {Method::rk4, Method::dopri5, Method::rkf78, Method::implicit_midpoint}) {
     Rollout a, b;
