@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Installs what spacearm needs (Debian packages, only those missing), configures and builds.
-# Usage: scripts/setup.sh [BUILD_DIR]   (default: build)
+# Usage: scripts/setup.sh [BUILD_DIR [CMAKE_ARGS...]]   (default: build, Release)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir=${1:-build}
+shift || true
 
 packages=(g++ cmake ninja-build pkg-config libginac-dev libeigen3-dev libyaml-cpp-dev libcli11-dev
           libgtest-dev libboost-dev gnuplot-nox nlohmann-json3-dev)
@@ -22,5 +23,5 @@ if ((${#missing[@]})); then
   apt-get install -y -qq "${missing[@]}" >/dev/null
 fi
 
-cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
 cmake --build "$build_dir" -j "${JOBS:-2}"

@@ -1,7 +1,11 @@
 // Scene files: the paper's scenes parse; bad input gets an error naming field and value.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
+
 #include "scene.hpp"
+#include "scene_fuzz_target.hpp"
 
 namespace spacearm {
 namespace {
@@ -72,6 +76,10 @@ TEST(Scene, ErrorsNameTheFieldAndValue) {
       {"name: two_links", "name: new", "'new' is reserved"},
       {"inertia: 1, mount", "mount", "field 'base.inertia': missing required field"},
       {"mass: 10,", "mass: 10, mass: 11,", "field 'base.mass': given more than once"},
+      // Found by the fuzzer (fuzz/regressions/non_scalar_key.yaml): a key that is not a name.
+      {"mass: 10,", "[mass]: 10,", "field 'base': expected a field name, got a list"},
+      {"name: two_links", "name: two_links\n? {a: 1}\n: 2", "expected a field name, got a mapping"},
+      {"mass: 10", "mass: 1" + std::string(300, '0'), "field 'base.mass': value is too long (301 characters"},
   };
   for (const auto& c : cases) {
     const std::string err = error_of(replaced(kValid, c.from, c.to));
@@ -111,6 +119,33 @@ TEST(Scene, LinkCountLimits) {
   std::string many = "name: many\nbase: {type: fixed, mount: [0, 0]}\nlinks:\n";
   for (int i = 0; i <= kMaxLinks; ++i) many += "  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.25, 0]}\n";
   EXPECT_NE(error_of(many).find("at most 30 links are supported, got 31"), std::string::npos) << error_of(many);
+}
+
+// Every file the fuzzer starts from or has recorded a crash for (fuzz/), and the shipped and
+// test scenes: each is accepted as a scene that keeps the rules or rejected with an error that
+// names the file; nothing else escapes (scene_fuzz_target.hpp).
+TEST(Scene, FuzzCorpusAndRegressionsReplay) {
+  namespace fs = std::filesystem;
+  int accepted = 0, rejected = 0;
+  for (const char* folder : {"fuzz/seeds", "fuzz/regressions", "models", "tests/scenes"}) {
+    for (const auto& entry : fs::directory_iterator(fs::path(SPACEARM_SOURCE_DIR) / folder)) {
+      std::ifstream in(entry.path(), std::ios::binary);
+      const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      SCOPED_TRACE(entry.path().string());
+      try {
+        const auto verdict = fuzz::check_scene_text(text);
+        (verdict == fuzz::Verdict::accepted ? accepted : rejected)++;
+        const std::string f = folder;
+        if (f == "models" || f == "tests/scenes") {
+          EXPECT_EQ(verdict, fuzz::Verdict::accepted);
+        }
+      } catch (const std::exception& e) {
+        ADD_FAILURE() << e.what();
+      }
+    }
+  }
+  EXPECT_GT(accepted, 5);
+  EXPECT_GT(rejected, 3);
 }
 
 TEST(Scene, ContentHashIsStable) {

@@ -1,0 +1,65 @@
+// The check the scene fuzzer runs on every input, shared with the replay test
+// (tests/test_scene_fuzz_corpus.cpp) so that every recorded crash stays a regression test.
+// A scene text must either be rejected with a SceneError that names its source, or be
+// accepted as a scene that keeps every documented rule; anything else (another exception,
+// a crash, a sanitizer report) is a bug.
+#pragma once
+
+#include <cmath>
+#include <string>
+
+#include "scene.hpp"
+
+namespace spacearm::fuzz {
+
+// Empty when the accepted scene keeps the rules, else the rule it breaks.
+inline std::string broken_rule(const Scene& s) {
+  auto finite = [](const Quantity& q) { return std::isfinite(q.value); };
+  if (s.links.empty() || s.num_links() > kMaxLinks) return "number of links out of range";
+  if (s.free_floating() && !(s.base.mass.value > 0 && s.base.inertia.value > 0)) return "base mass/inertia";
+  if (!finite(s.base.mount[0]) || !finite(s.base.mount[1])) return "base mount not finite";
+  for (const Link& l : s.links) {
+    if (!(l.mass.value > 0 && l.inertia.value > 0 && l.length.value > 0)) return "link mass/inertia/length";
+    if (!finite(l.mass) || !finite(l.inertia) || !finite(l.length) || !finite(l.com[0]) || !finite(l.com[1]))
+      return "link value not finite";
+  }
+  if (s.geared() && s.gears.size() != s.links.size()) return "gear count";
+  for (size_t i = 0; i < s.gears.size(); ++i) {
+    const Gear& g = s.gears[i];
+    if (!(g.ratio.value > 0) || !finite(g.ratio)) return "gear ratio";
+    if (!(g.motor_inertia.value >= 0) || !finite(g.motor_inertia)) return "motor inertia";
+    if (g.compensate_link_inertia && !(g.motor_inertia.value < s.links[i].inertia.value))
+      return "motor inertia not below the link inertia it compensates";
+  }
+  for (size_t i = 0; i < s.parameters.size(); ++i)
+    for (size_t j = i + 1; j < s.parameters.size(); ++j)
+      if (s.parameters[i].name == s.parameters[j].name) return "duplicate parameter";
+  if (s.outputs.empty()) return "no outputs";
+  if (static_cast<int>(s.coordinate_names().size()) != s.num_coordinates()) return "coordinate names";
+  return "";
+}
+
+enum class Verdict { accepted, rejected };
+
+// Throws std::logic_error for a broken rule or an unnamed rejection; lets any other
+// exception escape (the fuzzer reports it as a crash).
+inline Verdict check_scene_text(const std::string& text) {
+  const std::string source = "fuzz-input.yaml";
+  try {
+    const Scene s = parse_scene(text, source);
+    const std::string rule = broken_rule(s);
+    if (!rule.empty()) throw std::logic_error("accepted a scene that breaks a rule: " + rule);
+    if (content_hash(text).size() != 16) throw std::logic_error("content hash");
+    return Verdict::accepted;
+  } catch (const SceneError& e) {
+    // Prefixes, not substrings: messages echo the offending input.
+    const std::string what = e.what();
+    if (what.rfind("scene '" + source + "'", 0) != 0)
+      throw std::logic_error("rejection does not start with the file name: " + what);
+    if (what.rfind("scene '" + source + "': unexpected YAML structure", 0) == 0)
+      throw std::logic_error("a YAML exception reached the fallback: " + what);
+    return Verdict::rejected;
+  }
+}
+
+}  // namespace spacearm::fuzz
