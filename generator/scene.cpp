@@ -152,7 +152,7 @@ void read_pair(const Reader& r, const YAML::Node& n, const std::string& field, Q
 }
 
 Gear read_gear(const Reader& r, const YAML::Node& n, const std::string& field) {
-  r.check_keys(n, field, {"ratio", "motor_inertia", "compensate_link_inertia"});
+  r.check_keys(n, field, {"ratio", "motor_inertia", "compensate_link_inertia", "rotor_coupling"});
   Gear g;
   g.ratio = r.quantity(r.require(n, "ratio", field), field + ".ratio");
   g.motor_inertia = r.quantity(r.require(n, "motor_inertia", field), field + ".motor_inertia");
@@ -164,6 +164,14 @@ Gear read_gear(const Reader& r, const YAML::Node& n, const std::string& field) {
       r.fail(field + ".compensate_link_inertia", "expected true or false, got '" +
                  (c.IsScalar() ? c.Scalar() : std::string("a non-scalar")) + "'", c);
     }
+  }
+  if (n["rotor_coupling"].IsDefined()) {
+    const auto& c = n["rotor_coupling"];
+    const std::string v = c.IsScalar() ? c.Scalar() : "";
+    if (v != "exact" && v != "armature")
+      r.fail(field + ".rotor_coupling", "expected 'exact' or 'armature', got '" +
+                 (c.IsScalar() ? v : std::string("a non-scalar")) + "'", c);
+    g.armature = v == "armature";
   }
   return g;
 }

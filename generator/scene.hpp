@@ -56,6 +56,11 @@ struct Gear {
   Quantity motor_inertia;  // I_m_i >= 0 [kg m^2]
   // Reduce the link inertia by I_m so that p = 1 reproduces the reference model exactly.
   bool compensate_link_inertia = true;
+  // rotor_coupling: exact (default) gives the motor 1/2 I_m (Omega_prev + qd_m)^2 (eqs. 10,
+  // 11); armature keeps only 1/2 I_m qd_m^2, i.e. the reflected inertia I_m p^2 on the
+  // joint's diagonal as MuJoCo, Drake and Pinocchio model it, without the coupling to the
+  // previous body's rotation.
+  bool armature = false;
 };
 
 // What the generator may emit; a scene asks for a subset.

@@ -155,8 +155,10 @@ SymbolicModel derive(const Scene& scene, const DeriveOptions& options) {
     if (geared && scene.gears[i - 1].compensate_link_inertia) I_link -= Im[i];
     T += b.value(link.mass) * v2 / 2 + I_link * Omega[i] * Omega[i] / 2;
     if (geared) {
-      // Motor i turns with the previous body plus its own rate (eq. 11), 1/2 I_m w^2 (eq. 10).
-      const ex omega_m = Omega[i - 1] + model.qd[first_joint + i - 1];
+      // Motor i turns with the previous body plus its own rate (eq. 11), 1/2 I_m w^2 (eq. 10);
+      // the armature approximation keeps only the motor's own rate.
+      const ex& qd_m = model.qd[first_joint + i - 1];
+      const ex omega_m = scene.gears[i - 1].armature ? qd_m : Omega[i - 1] + qd_m;
       T += Im[i] * omega_m * omega_m / 2;
     }
   }

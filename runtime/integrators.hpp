@@ -2,7 +2,9 @@
 //   rk4                fixed step, classical Runge-Kutta (the paper's Simulink "ode4")
 //   dopri5             adaptive Dormand-Prince 5(4), error control, dense output
 //   rkf78              adaptive Runge-Kutta-Fehlberg 7(8), for reference solutions
-//   implicit_midpoint  fixed step, symplectic and symmetric, for long horizons
+//   implicit_midpoint  fixed step, implicit, symmetric (time-reversible), second order. It
+//                      is applied to (q, qd), not to canonical (q, p = M qd), so it is not
+//                      symplectic here and does not conserve momentum exactly.
 // The explicit methods are Boost.Odeint's (with Eigen fixed-size states). Odeint has no
 // implicit midpoint rule for a general (non-separable) system, so that one is written
 // here: a simplified Newton iteration with a finite-difference Jacobian per step.
@@ -134,6 +136,9 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
   double t_ok = t0;
   State x_ok = x;
   auto accept = [&](double t) {
+    // A right-hand side that returns inf or NaN instead of throwing must not go on silently.
+    if (!x.allFinite()) throw detail::integration_error(opt.method, "state not finite after the step to t = " +
+                                                                        detail::format(t), t_ok, x_ok);
     t_ok = t;
     x_ok = x;
   };
@@ -162,6 +167,8 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
         const double t_out = t0 + k * dt_out;
         while (stepper.current_time() < t_out) {
           stepper.do_step(rhs);  // odeint throws step_adjustment_error after 500 rejections
+          if (!stepper.current_state().allFinite())
+            throw detail::integration_error(opt.method, "state not finite after the step", t_ok, x_ok);
           t_ok = stepper.current_time();
           x_ok = stepper.current_state();
           if (detail::below_minimum_step(stepper.current_time_step(), t_ok, t0, t1))
@@ -249,16 +256,21 @@ void implicit_midpoint_step(Rhs&& rhs, State& x, double t, double h) {
     J.col(j) = (fp - f0) / e;
   }
   const Eigen::PartialPivLU<Matrix> lu(Matrix::Identity(n, n) - (h / 2) * J);
+  double previous = std::numeric_limits<double>::infinity();
   for (int it = 0; it < 50; ++it) {
     State fk(x.size());
     rhs(State(x + (h / 2) * k), fk, tm);
     const State delta = lu.solve(fk - k);
     k += delta;
     if (!k.allFinite()) break;
-    if (delta.norm() <= 1e-14 * std::max(1.0, k.norm())) {
+    // Converged: the update is at rounding level, or it stopped shrinking while already
+    // tiny (the iteration has reached the rounding floor of f, which can lie above 1e-14).
+    const double size = delta.norm(), scale = std::max(1.0, k.norm());
+    if (size <= 1e-14 * scale || (size >= previous && size <= 1e-10 * scale)) {
       x += h * k;
       return;
     }
+    previous = size;
   }
   throw std::runtime_error("implicit midpoint: Newton iteration did not converge at t = " + std::to_string(t) +
                            " (step " + std::to_string(h) + ")");

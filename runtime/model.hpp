@@ -120,12 +120,16 @@ class Model {
     Eigen::LLT<Matrix> llt(M);
     if (llt.info() != Eigen::Success)
       throw DynamicsError(std::string("model ") + Generated::kName + ": mass matrix is not positive definite");
-    // (max L_ii / min L_ii)^2 is a cheap lower bound of cond(M): past 1e14 the solve has no
-    // correct digit left, so report it instead of returning noise.
-    const auto d = llt.matrixLLT().diagonal().cwiseAbs();
+    // Cholesky is invariant under symmetric diagonal scaling (van der Sluis): its accuracy
+    // depends on cond(S M S), S = diag(M)^-1/2, not on cond(M), which grows as p^2 in motor
+    // coordinates without any loss of accuracy. L_ii / sqrt(M_ii) are the pivots of S M S;
+    // (max / min)^2 of them is a cheap lower bound of its condition number. Past 1e14 the
+    // solve has no correct digit left: report it instead of returning noise.
+    const auto d = (llt.matrixLLT().diagonal().array() / M.diagonal().array().sqrt()).abs();
     const double cond_bound = (d.maxCoeff() / d.minCoeff()) * (d.maxCoeff() / d.minCoeff());
     if (!(cond_bound < 1e14))
-      throw DynamicsError(std::string("model ") + Generated::kName + ": mass matrix numerically singular (cond >= " +
+      throw DynamicsError(std::string("model ") + Generated::kName +
+                          ": mass matrix numerically singular (condition number of the diagonally scaled matrix >= " +
                           std::to_string(cond_bound) + ")");
     return llt.solve(Q - b);
   }
@@ -133,6 +137,14 @@ class Model {
   // 2-norm condition number of M(q) (symmetric positive definite: ratio of eigenvalues).
   double condition_number(const Vector& q) const {
     const Eigen::SelfAdjointEigenSolver<Matrix> eig(mass_matrix(q), Eigen::EigenvaluesOnly);
+    return eig.eigenvalues().maxCoeff() / eig.eigenvalues().minCoeff();
+  }
+  // The same for diag(M)^-1/2 M diag(M)^-1/2, which is what bounds the accuracy of
+  // forward_dynamics (see there); it does not grow with the units or the gear ratios.
+  double scaled_condition_number(const Vector& q) const {
+    const Matrix M = mass_matrix(q);
+    const Vector s = M.diagonal().cwiseSqrt().cwiseInverse();
+    const Eigen::SelfAdjointEigenSolver<Matrix> eig(s.asDiagonal() * M * s.asDiagonal(), Eigen::EigenvaluesOnly);
     return eig.eigenvalues().maxCoeff() / eig.eigenvalues().minCoeff();
   }
 

@@ -20,6 +20,7 @@ struct ChainParameters {
   struct Gear {
     double ratio, motor_inertia;
     bool compensate_link_inertia;
+    bool armature = false;  // rotor energy 1/2 I_m qd_m^2 only (no coupling to the previous body)
   };
   bool free_floating = true;
   double base_mass = 0, base_inertia = 0;
@@ -72,7 +73,8 @@ class NumericLagrangian {
       const double previous_rate = omega;
       theta += q[j0 + i] / p;
       omega += qd[j0 + i] / p;
-      s.motor_rate.push_back(previous_rate + qd[j0 + i]);  // eq. 11
+      const bool armature = !c_.gears.empty() && c_.gears[i].armature;
+      s.motor_rate.push_back((armature ? 0.0 : previous_rate) + qd[j0 + i]);  // eq. 11
       const auto& link = c_.links[i];
       const Eigen::Vector2d com = joint + rotate(theta, link.com);
       s.com.push_back(com);
@@ -151,7 +153,10 @@ class NumericLagrangian {
       h.head<2>() += p;
       h[2] += s.com[b].x() * p.y() - s.com[b].y() * p.x() + inertia * s.rate[b];
     }
-    for (size_t i = 0; i < c_.gears.size(); ++i) h[2] += c_.gears[i].motor_inertia * s.motor_rate[i];
+    // A rotor adds I_m w_m to the angular momentum; with the armature approximation its
+    // energy does not depend on the base rate, so it adds nothing to the conserved momentum.
+    for (size_t i = 0; i < c_.gears.size(); ++i)
+      if (!c_.gears[i].armature) h[2] += c_.gears[i].motor_inertia * s.motor_rate[i];
     return h;
   }
 

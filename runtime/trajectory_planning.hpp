@@ -110,7 +110,14 @@ Plan<G> plan_straight_line(const Model<G>& model, const StraightLineTask& task) 
     desired(t, x, v, a);
     Vector rhs;
     rhs << v, Eigen::Vector3d::Zero();
-    return Vector(system_matrix(q).partialPivLu().solve(rhs));
+    const Eigen::PartialPivLU<Matrix> lu(system_matrix(q));
+    // Near a singularity of the generalized Jacobian (e.g. the arm stretched at the edge of
+    // the workspace) the joint rates blow up: stop with a reason instead of integrating noise.
+    if (!(lu.rcond() > 1e-10))
+      throw std::runtime_error("plan_straight_line: generalized Jacobian singular (rcond " +
+                               std::to_string(lu.rcond()) + ") at t = " + std::to_string(t) +
+                               ": the path leaves the workspace or crosses a singularity");
+    return Vector(lu.solve(rhs));
   };
 
   Vector q = initial_configuration(model, task.start, task.elbow);
@@ -124,7 +131,16 @@ Plan<G> plan_straight_line(const Model<G>& model, const StraightLineTask& task) 
     plan.t.push_back(t);
     plan.q.push_back(s);
   };
-  integrate(opt, f, q, 0.0, T, task.dt, observe);
+  try {
+    integrate(opt, f, q, 0.0, T, task.dt, observe);
+  } catch (const IntegrationError& e) {
+    // Say why: the line cannot be followed past a singularity of the generalized Jacobian.
+    const Vector q_last = e.state();
+    throw std::runtime_error("plan_straight_line: cannot follow the line beyond t = " + std::to_string(e.t()) +
+                             " s: the generalized Jacobian becomes singular there (rcond " +
+                             std::to_string(system_matrix(q_last).partialPivLu().rcond()) +
+                             "; the arm is stretched or folded, or the line leaves the workspace). " + e.what());
+  }
 
   for (size_t k = 0; k < plan.t.size(); ++k) {
     const double t = plan.t[k];

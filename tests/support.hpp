@@ -56,7 +56,7 @@ inline std::string random_scene_yaml(const ChainSpec& spec) {
       y << "gears:\n";
       for (int i = 0; i < spec.links; ++i)
         y << "  - {ratio: " << u(1, 50) << ", motor_inertia: " << u(0, 5e-3) << ", compensate_link_inertia: "
-          << (i % 2 ? "false" : "true") << "}\n";
+          << (i % 2 ? "false" : "true") << (i % 3 == 2 ? ", rotor_coupling: armature" : "") << "}\n";
     }
   }
   y << "outputs: " << spec.outputs << "\n";
@@ -82,7 +82,7 @@ inline ChainParameters chain_parameters(const Scene& s, const std::map<std::stri
   }
   c.mount = {v(s.base.mount[0]), v(s.base.mount[1])};
   for (const auto& l : s.links) c.links.push_back({v(l.mass), v(l.inertia), v(l.length), {v(l.com[0]), v(l.com[1])}});
-  for (const auto& g : s.gears) c.gears.push_back({v(g.ratio), v(g.motor_inertia), g.compensate_link_inertia});
+  for (const auto& g : s.gears) c.gears.push_back({v(g.ratio), v(g.motor_inertia), g.compensate_link_inertia, g.armature});
   return c;
 }
 

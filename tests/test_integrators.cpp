@@ -202,8 +202,8 @@ TEST(Integrators, ZeroTorqueFromRestNothingMoves) {
 // Without torques, momentum and kinetic energy are invariants. Bounds, 100x above what was
 // measured (RK4 ~1.5e-12, DOPRI5 ~2e-11, implicit midpoint ~3e-8 / 2e-7): RK4 at 0.01 s
 // has a local error O(dt^5); DOPRI5 follows its 1e-10 tolerance; the implicit midpoint rule
-// (0.01 s) has no secular energy drift, only a bounded O(dt^2) oscillation, and does not
-// preserve the angular momentum exactly.
+// (0.01 s) is second order and, applied to (q, qd), conserves neither exactly.
+// (test_extremes runs 1e4 s.)
 TEST(Integrators, FreeMotionConservesMomentumAndEnergy) {
   Rollout s;
   struct Case {

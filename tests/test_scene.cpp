@@ -106,6 +106,11 @@ TEST(Scene, GearAndParameterErrors) {
       << error_of(wrong_count);
   const std::string reserved = std::string(kValid) + "gears: {ratio: q1, motor_inertia: 0}\nparameters: {q1: 2}\n";
   EXPECT_NE(error_of(reserved).find("parameter name 'q1' is reserved"), std::string::npos) << error_of(reserved);
+  const std::string coupling = std::string(kValid) + "gears: {ratio: 10, motor_inertia: 0, rotor_coupling: approx}\n";
+  EXPECT_NE(error_of(coupling).find("field 'gears.rotor_coupling': expected 'exact' or 'armature', got 'approx'"),
+            std::string::npos)
+      << error_of(coupling);
+  EXPECT_TRUE(parse_scene(replaced(coupling, "approx", "armature"), "t.yaml").gears[1].armature);
   const std::string bad_output = std::string(kValid) + "outputs: [mass_matrix, jerk]\n";
   EXPECT_NE(error_of(bad_output).find("unknown output 'jerk'"), std::string::npos) << error_of(bad_output);
 }

@@ -133,6 +133,39 @@ TEST(SymbolicIdentities, KineticEnergyIsHalfQdMQdAndCqdIsTheBias) {
   }
 }
 
+// The armature approximation drops exactly the rotor's coupling to the previous body:
+// T_exact - T_armature = sum_i I_m (Omega_{i-1} qd_m_i + Omega_{i-1}^2 / 2).
+TEST(SymbolicIdentities, ArmatureDropsOnlyTheRotorCoupling) {
+  ChainSpec spec;
+  spec.links = 3;
+  spec.geared = spec.gear_parameters = true;
+  spec.outputs = "[mass_matrix, kinetic_energy]";
+  const std::string exact = test::random_scene_yaml(spec);
+  std::string armature = exact;
+  const std::string key = "compensate_link_inertia: true}";
+  armature.replace(armature.find(key), key.size(), "compensate_link_inertia: true, rotor_coupling: armature}");
+  const SymbolicModel e = derive(parse_scene(exact, "exact.yaml"));
+  const SymbolicModel a = derive(parse_scene(armature, "armature.yaml"));
+  ASSERT_TRUE(a.scene.gears[0].armature);
+  const GiNaC::ex Im = e.parameters[1];
+  GiNaC::ex coupling = 0;
+  for (int i = 1; i <= 3; ++i) coupling += Im * (e.omega[i - 1] * e.qd[2 + i] + e.omega[i - 1] * e.omega[i - 1] / 2);
+  // Same symbol names, different symbol objects: compare through the names.
+  GiNaC::exmap to_e;
+  for (int i = 0; i < e.n(); ++i) to_e[a.q[i]] = e.q[i], to_e[a.qd[i]] = e.qd[i];
+  for (size_t i = 0; i < a.parameters.size(); ++i) to_e[a.parameters[i]] = e.parameters[i];
+  const GiNaC::ex difference = (e.kinetic_energy - a.kinetic_energy.subs(to_e) - coupling).expand();
+  EXPECT_TRUE(difference.is_zero()) << difference;
+  EXPECT_FALSE(coupling.expand().is_zero());
+  // So the last motor's diagonal entry (no later rotor rides on it) and the base's linear
+  // block are unchanged, while the base angle couples to the first motor only when exact.
+  auto same = [&](int i, int j) { return (e.mass_matrix(i, j) - a.mass_matrix(i, j).subs(to_e)).expand().is_zero(); };
+  EXPECT_TRUE(same(5, 5));
+  EXPECT_TRUE(same(0, 0) && same(0, 1) && same(1, 1));
+  EXPECT_FALSE(same(2, 3));
+  EXPECT_FALSE(same(3, 3));  // I_m / p^2 of the second rotor riding on link 1
+}
+
 TEST(SymbolicEntries, GearRatiosAppearAsTheyShould) {
   const SymbolicModel m = derive(parse_scene(test::random_scene_yaml([] {
     ChainSpec s;
