@@ -17,6 +17,10 @@ struct EmitOptions {
   std::string scene_path;  // as shown in the banner (keep it relative for reproducibility)
   std::string command;     // the regeneration command shown in the banner
   std::string file_stem;   // file names STEM.hpp/STEM.cpp; empty: the scene's name
+  // Baseline for the benchmarks: every entry printed as GiNaC's expanded expression, with no
+  // common-subexpression elimination, no Horner scheme and a sin/cos call per occurrence
+  // (what SymPy's ccode without cse gives). Namespace and file stem get the suffix "_plain".
+  bool plain = false;
 };
 
 struct FunctionStats {

@@ -103,6 +103,10 @@ int main(int argc, char** argv) {
   std::string file_stem;
   generate->add_option("--file-stem", file_stem,
                        "Name the files STEM.hpp/STEM.cpp instead of after the scene (the namespace keeps the scene name)");
+  bool plain = false;
+  generate->add_flag("--plain", plain,
+                     "Emit the benchmark baseline instead: expanded expressions without common-subexpression "
+                     "elimination (namespace and files NAME_plain)");
   generate->add_flag("--check", check,
                      "Write nothing; exit 1 if the files in the output folder differ from what would be generated");
 
@@ -364,8 +368,9 @@ int main(int argc, char** argv) {
       spacearm::EmitOptions options;
       options.scene_path = scene_path;
       options.command = "spacearm generate " + scene_path + " -o " + out_dir +
-                        (file_stem.empty() ? "" : " --file-stem " + file_stem);
+                        (file_stem.empty() ? "" : " --file-stem " + file_stem) + (plain ? " --plain" : "");
       options.file_stem = file_stem;
+      options.plain = plain;
       const auto emitted = spacearm::emit_cpp(model, options);
       if (check) {
         const auto stale = spacearm::stale_files(emitted, out_dir);

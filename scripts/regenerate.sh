@@ -3,6 +3,6 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 spacearm=${SPACEARM:-build/generator/spacearm}
-for scene in models/paper_reference.yaml models/paper_geared.yaml; do
+for scene in models/paper_reference.yaml models/paper_geared.yaml models/paper_geared_armature.yaml; do
   "$spacearm" generate "$scene" -o generated "$@"
 done

@@ -1,0 +1,201 @@
+// Work-precision of the paper's manoeuvre (issue: speed against accuracy). The straight-line
+// torques of the paper's experiment are replayed into the geared model at p = 1.05, 10 and
+// 100 by every integrator over a ladder of steps or tolerances. For each run: right-hand-
+// side evaluations, wall time, and the errors at the end of the manoeuvre against a tight
+// RKF78 reference: end-effector position, momentum (zero from rest: torques are internal)
+// and energy balance (kinetic energy minus the work of the torques, integrated with the
+// state). Then float vs double vs long double for RK4, and the armature approximation of the
+// rotors against the exact coupling (the modelling error to set against the integration
+// error). Writes work_precision.csv, precision.csv, armature.csv; scripts/work_precision.sh
+// draws the figures.
+#include <CLI/CLI.hpp>
+
+#include <Eigen/Cholesky>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include "paper_geared.hpp"
+#include "paper_geared_armature.hpp"
+#include "paper_reference.hpp"
+#include "simulation.hpp"
+#include "torque_signal.hpp"
+#include "trajectory_planning.hpp"
+
+using namespace spacearm;
+using Ref = Model<models::paper_reference::Model>;
+
+namespace {
+
+struct Outcome {
+  long evaluations = 0;
+  double seconds = 0;
+  double ee_error = 0, momentum_error = 0, energy_error = 0;
+  Eigen::Vector2d ee = Eigen::Vector2d::Zero();
+};
+
+// One run, state (q, qd, W) with dW/dt = Q . qd, so the energy balance T(t) - T(0) - W(t)
+// is known at the end without sampling. Best wall time of `repeats` identical runs.
+template <class G>
+Outcome run(const Model<G>& model, const typename Model<G>::Vector& q0, const TorqueSignal<3>& tau, double T,
+            const IntegratorOptions& opt, int repeats, double dt_out) {
+  using M = Model<G>;
+  constexpr int n = M::kNq;
+  using State = Eigen::Matrix<double, 2 * n + 1, 1>;
+  auto f = [&](const State& s, State& d, double t) {
+    const typename M::Vector qd = s.template segment<n>(n);
+    const typename M::Vector Q = model.generalized_forces(tau(t));
+    d.template head<n>() = qd;
+    d.template segment<n>(n) = model.forward_dynamics(s.template head<n>(), qd, Q);
+    d[2 * n] = Q.dot(qd);
+  };
+  Outcome o;
+  o.seconds = 1e300;
+  State x;
+  for (int r = 0; r < repeats; ++r) {
+    x.setZero();
+    x.template head<n>() = q0;
+    const auto start = std::chrono::steady_clock::now();
+    const auto stats = integrate(opt, f, x, 0.0, T, dt_out, [](const State&, double) {});
+    o.seconds = std::min(o.seconds, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    o.evaluations = stats.rhs_evaluations;
+  }
+  const typename M::Vector q = x.template head<n>(), qd = x.template segment<n>(n);
+  o.ee = model.end_effector_pose(q).template head<2>();
+  o.momentum_error = model.momentum(q, qd).cwiseAbs().maxCoeff();
+  o.energy_error = std::abs(model.kinetic_energy(q, qd) - x[2 * n]);
+  return o;
+}
+
+// RK4 in scalar S with the generated functions instantiated for S (constants stay double).
+template <class S>
+Eigen::Vector2d rk4_in(const Model<models::paper_geared::Model>& g, const Eigen::Matrix<double, 6, 1>& q0,
+                       const TorqueSignal<3>& tau, double T, double dt) {
+  namespace m = models::paper_geared;
+  using Vec = Eigen::Matrix<S, 12, 1>;
+  const m::Parameters<S> params = g.parameters().cast<S>();
+  const Eigen::Matrix<S, 3, 1> ratios = g.gear_ratios().cast<S>();
+  auto f = [&](const Vec& x, S t) {
+    m::MassMatrix<S> M;
+    m::Coordinates<S> b, Q = m::Coordinates<S>::Zero();
+    m::mass_matrix_and_bias<S>(x.template head<6>(), x.template tail<6>(), params, M, b);
+    Q.template tail<3>() = tau(static_cast<double>(t)).cast<S>().cwiseQuotient(ratios);
+    Vec d;
+    d << x.template tail<6>(), Eigen::LLT<m::MassMatrix<S>>(M).solve(Q - b);
+    return d;
+  };
+  Vec x = Vec::Zero();
+  x.template head<6>() = q0.cast<S>();
+  const long steps = std::lround(T / dt);
+  const S h = static_cast<S>(dt);
+  for (long k = 0; k < steps; ++k) {
+    const S t = static_cast<S>(k * dt);
+    const Vec k1 = f(x, t), k2 = f(x + h / S(2) * k1, t + h / S(2)), k3 = f(x + h / S(2) * k2, t + h / S(2)),
+              k4 = f(x + h * k3, t + h);
+    x += h / S(6) * (k1 + S(2) * k2 + S(2) * k3 + k4);
+  }
+  m::Vector3<S> pose;
+  m::end_effector_pose<S>(x.template head<6>(), params, pose);
+  return pose.template head<2>().template cast<double>();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Work-precision of the paper's manoeuvre with the geared model"};
+  std::vector<double> ratios{1.05, 10, 100};
+  std::string out_dir = "out/work_precision";
+  int repeats = 3;
+  bool quick = false;
+  app.add_option("--ratios", ratios, "Gear ratios")->delimiter(',');
+  app.add_option("--out", out_dir, "Output folder");
+  app.add_option("--repeats", repeats, "Runs per setting; the best wall time is kept")->check(CLI::PositiveNumber);
+  app.add_flag("--quick", quick, "A short ladder (for the test)");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    std::filesystem::create_directories(out_dir);
+    StraightLineTask task;  // the paper's manoeuvre, as in examples/paper_experiment
+    const Ref ref;
+    const auto plan = plan_straight_line(ref, task);
+    const TorqueSignal<3> tau(0.0, task.dt, plan.tau, Interpolation::linear);
+    const double T = task.duration;
+
+    const std::vector<double> steps = quick ? std::vector<double>{0.02, 0.01}
+                                            : std::vector<double>{0.04, 0.02, 0.01, 0.005, 0.0025, 0.00125};
+    const std::vector<double> tolerances =
+        quick ? std::vector<double>{1e-6, 1e-8} : std::vector<double>{1e-4, 1e-6, 1e-8, 1e-10, 1e-12};
+
+    std::ofstream csv(out_dir + "/work_precision.csv");
+    csv.precision(6);
+    csv << "p,method,setting,evaluations,wall_s,ee_error_m,momentum_error,energy_error_J\n";
+    std::ofstream precision(out_dir + "/precision.csv");
+    precision << "p,dt,float_error_m,double_error_m,long_double_error_m\n";
+    std::ofstream armature(out_dir + "/armature.csv");
+    armature << "p,armature_minus_exact_ee_m\n";
+    for (double p : ratios) {
+      Model<models::paper_geared::Model> g;
+      g.set_parameter("p", p);
+      Model<models::paper_geared_armature::Model> a;
+      a.set_parameter("p", p);
+      Eigen::Matrix<double, 6, 1> qm = plan.q.front();
+      qm.tail<3>() *= p;
+      IntegratorOptions tight;
+      tight.method = Method::rkf78;
+      tight.rtol = 1e-13;
+      tight.atol = 1e-14;
+      // The torques are linear between the plan's samples, so their derivative jumps every
+      // task.dt: the reference lands on every sample time (rkf78 shortens a step to reach an
+      // output), so that none of its steps straddles a kink. The runs below see the kinks.
+      const Outcome reference = run(g, qm, tau, T, tight, 1, task.dt);
+      std::printf("\np = %g: reference (rkf78, tolerance 1e-13): %ld evaluations, momentum %.1e, energy balance %.1e J\n",
+                  p, reference.evaluations, reference.momentum_error, reference.energy_error);
+      std::printf("%-18s %10s %12s %11s %11s %11s\n", "method", "setting", "evaluations", "wall [ms]", "ee err [m]",
+                  "energy [J]");
+      auto record = [&](const std::string& method, double setting, const Outcome& o) {
+        const double ee = (o.ee - reference.ee).norm();
+        std::printf("%-18s %10g %12ld %11.3f %11.2e %11.2e\n", method.c_str(), setting, o.evaluations, o.seconds * 1e3,
+                    ee, o.energy_error);
+        csv << p << "," << method << "," << setting << "," << o.evaluations << "," << o.seconds << "," << ee << ","
+            << o.momentum_error << "," << o.energy_error << "\n";
+      };
+      for (Method m : {Method::rk4, Method::implicit_midpoint}) {
+        for (double dt : steps) {
+          if (m == Method::implicit_midpoint && dt < 0.005 && quick) continue;
+          IntegratorOptions opt;
+          opt.method = m;
+          opt.dt = dt;
+          record(to_string(m), dt, run(g, qm, tau, T, opt, repeats, T));
+        }
+      }
+      for (Method m : {Method::dopri5, Method::rkf78})
+        for (double tol : tolerances) {
+          IntegratorOptions opt;
+          opt.method = m;
+          opt.rtol = opt.atol = tol;
+          record(to_string(m), tol, run(g, qm, tau, T, opt, repeats, T));
+        }
+      // Precision: the same RK4 steps in float, double and long double.
+      for (double dt : steps) {
+        const double ef = (rk4_in<float>(g, qm, tau, T, dt) - reference.ee).norm();
+        const double ed = (rk4_in<double>(g, qm, tau, T, dt) - reference.ee).norm();
+        const double el = (rk4_in<long double>(g, qm, tau, T, dt) - reference.ee).norm();
+        precision << p << "," << dt << "," << ef << "," << ed << "," << el << "\n";
+        std::printf("rk4 dt = %-8g end-effector error: float %.2e, double %.2e, long double %.2e m\n", dt, ef, ed, el);
+      }
+      // Modelling error of the armature approximation, both integrated tightly.
+      const Outcome arm = run(a, qm, tau, T, tight, 1, task.dt);
+      const double model_error = (arm.ee - reference.ee).norm();
+      armature << p << "," << model_error << "\n";
+      std::printf("armature approximation instead of the exact rotor coupling: end-effector differs by %.2e m\n",
+                  model_error);
+    }
+    std::printf("\nwrote %s/work_precision.csv, precision.csv, armature.csv\n", out_dir.c_str());
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "work_precision: error: " << e.what() << "\n";
+    return 1;
+  }
+}
