@@ -431,17 +431,28 @@ std::string index_pair(int i, int j) { return "(" + std::to_string(i) + ", " + s
 // The baseline body: named inputs, then each output as one expanded expression.
 std::string plain_body(const SymbolicModel& model, const FunctionSpec& f) {
   std::ostringstream out;
-  bool has_qd = false;
-  for (const auto& a : f.args) has_qd |= a.name == "qd";
-  for (int i = 0; i < model.n(); ++i) {
-    out << "  [[maybe_unused]] const T " << model.q[i].get_name() << " = q(" << i << ");\n";
-    if (has_qd) out << "  [[maybe_unused]] const T " << model.qd[i].get_name() << " = qd(" << i << ");\n";
+  bool has_q = false, has_qd = false, has_params = false;
+  for (const auto& a : f.args) {
+    has_q |= a.name == "q";
+    has_qd |= a.name == "qd";
+    has_params |= a.name == "params";
   }
-  for (size_t i = 0; i < model.parameters.size(); ++i)
-    out << "  [[maybe_unused]] const T " << model.parameters[i].get_name() << " = params(" << i << ");\n";
+  // Locals named s_<symbol>, so that no symbol (say a parameter p) shadows an argument.
+  GiNaC::exmap rename;
+  auto local = [&](const GiNaC::symbol& s, const std::string& source) {
+    const GiNaC::symbol renamed("s_" + s.get_name());
+    rename[s] = renamed;
+    out << "  [[maybe_unused]] const T " << renamed.get_name() << " = " << source << ";\n";
+  };
+  for (int i = 0; i < model.n(); ++i) {
+    if (has_q) local(model.q[i], "q(" + std::to_string(i) + ")");
+    if (has_qd) local(model.qd[i], "qd(" + std::to_string(i) + ")");
+  }
+  if (has_params)
+    for (size_t i = 0; i < model.parameters.size(); ++i) local(model.parameters[i], "params(" + std::to_string(i) + ")");
   for (const auto& [target, e] : f.outputs) {
     std::ostringstream expr;
-    expr << GiNaC::csrc_double << e;
+    expr << GiNaC::csrc_double << e.subs(rename);
     out << "  " << (target == "return" ? "return" : target + " =") << " T(" << expr.str() << ");\n";
     int r, c;
     if (std::sscanf(target.c_str(), "M(%d, %d)", &r, &c) == 2 && r != c)

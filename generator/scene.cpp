@@ -124,6 +124,10 @@ class Reader {
     if (!n.IsScalar()) fail(field, "expected a number or a parameter name", n);
     const std::string text = bounded(n, field).Scalar();
     Quantity q;
+    // YAML's spellings of infinity and NaN (.inf, -.Inf, .NaN, ...) are numbers, just not finite.
+    static const std::set<std::string> yaml_special = {".inf", ".Inf", ".INF", "+.inf", "+.Inf", "+.INF", "-.inf",
+                                                       "-.Inf", "-.INF", ".nan", ".NaN", ".NAN"};
+    if (yaml_special.count(text)) fail(field, "value '" + text + "' is not finite", n);
     if (is_decimal(text)) {
       q.literal = text;
       q.value = std::strtod(text.c_str(), nullptr);

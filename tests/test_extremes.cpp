@@ -90,7 +90,9 @@ TEST(Extremes, ZeroMotorInertiaAtLargeRatiosStaysAccurate) {
     std::printf("p = %g: cond(M) = %.2e, scaled %.2e, relative error %.1e\n", p, cond, scaled, error);
     EXPECT_LT(error, 100 * scaled * kEps) << "p = " << p;
     EXPECT_LT(scaled, 1e4) << "p = " << p;
-    if (p == 1e10) EXPECT_GT(cond, 1e20);
+    if (p == 1e10) {
+      EXPECT_GT(cond, 1e20);
+    }
   }
 }
 

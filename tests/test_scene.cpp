@@ -111,6 +111,19 @@ TEST(Scene, GearAndParameterErrors) {
             std::string::npos)
       << error_of(coupling);
   EXPECT_TRUE(parse_scene(replaced(coupling, "approx", "armature"), "t.yaml").gears[1].armature);
+  const std::string twice = std::string(kValid) + "gears: {ratio: p, motor_inertia: 0}\nparameters: {p: 2, p: 3}\n";
+  EXPECT_NE(error_of(twice).find("field 'parameters.p': parameter 'p' given more than once"), std::string::npos)
+      << error_of(twice);
+  for (const char* v : {".inf", "-.inf", "1e400", ".nan"}) {
+    const std::string err = error_of(replaced(kValid, "mass: 10", std::string("mass: ") + v));
+    EXPECT_NE(err.find("field 'base.mass': value '" + std::string(v) + "' is not finite"), std::string::npos) << err;
+  }
+  // 0 < p < 1 (a speed-up) is allowed, with a warning naming the field.
+  testing::internal::CaptureStderr();
+  const Scene speedup = parse_scene(std::string(kValid) + "gears: {ratio: 0.5, motor_inertia: 0}\n", "t.yaml");
+  const std::string warning = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(speedup.gears[0].ratio.value, 0.5);
+  EXPECT_NE(warning.find("warning: scene 't.yaml', field 'gears.ratio': 0.5 < 1"), std::string::npos) << warning;
   const std::string bad_output = std::string(kValid) + "outputs: [mass_matrix, jerk]\n";
   EXPECT_NE(error_of(bad_output).find("unknown output 'jerk'"), std::string::npos) << error_of(bad_output);
 }

@@ -1,0 +1,360 @@
+// Per-call cost of the generated code against MuJoCo (the peer) and against the same
+// Lagrangian emitted without common-subexpression elimination (the baseline), over a fixed
+// set of random states, for the paper's models and chains of N = 2 .. 12 links. Before any
+// timing, MuJoCo's M and bias are checked against ours (reference and armature models).
+// After the runs it prints the ratios peer time / our time, all measured in this process.
+//   build/bench/bench_dynamics [--benchmark_filter=...] [--benchmark_min_time=...]
+#include <benchmark/benchmark.h>
+
+#include <boost/numeric/odeint.hpp>
+#include <boost/numeric/odeint/external/eigen/eigen.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <map>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "model.hpp"
+#include "mujoco_chain.hpp"
+#include "scene.hpp"
+
+#include "paper_geared.hpp"
+#include "paper_geared_folded.hpp"
+#include "paper_geared_plain.hpp"
+#include "paper_reference.hpp"
+#include "paper_reference_plain.hpp"
+#include "chain_n2.hpp"
+#include "chain_n2_armature.hpp"
+#include "chain_n2_geared.hpp"
+#include "chain_n2_geared_plain.hpp"
+#include "chain_n2_plain.hpp"
+#include "chain_n3.hpp"
+#include "chain_n3_armature.hpp"
+#include "chain_n3_geared.hpp"
+#include "chain_n3_geared_plain.hpp"
+#include "chain_n3_plain.hpp"
+#include "chain_n4.hpp"
+#include "chain_n4_armature.hpp"
+#include "chain_n4_geared.hpp"
+#include "chain_n4_geared_plain.hpp"
+#include "chain_n4_plain.hpp"
+#include "chain_n6.hpp"
+#include "chain_n6_armature.hpp"
+#include "chain_n6_geared.hpp"
+#include "chain_n6_geared_plain.hpp"
+#include "chain_n6_plain.hpp"
+#include "chain_n8.hpp"
+#include "chain_n8_armature.hpp"
+#include "chain_n8_geared.hpp"
+#include "chain_n10.hpp"
+#include "chain_n10_armature.hpp"
+#include "chain_n10_geared.hpp"
+#include "chain_n12.hpp"
+#include "chain_n12_armature.hpp"
+#include "chain_n12_geared.hpp"
+
+namespace spacearm::bench {
+namespace {
+
+constexpr int kStates = 64;  // fixed random states, cycled through by every benchmark
+constexpr double kStep = 1e-3;
+
+// Ratio table: seconds per call by benchmark name, filled by the reporter.
+std::map<std::string, double> g_seconds;
+
+class RecordingReporter : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    for (const Run& r : runs)
+      if (r.run_type == Run::RT_Iteration && !r.error_occurred)
+        g_seconds[r.benchmark_name()] = r.real_accumulated_time / static_cast<double>(r.iterations);
+    ConsoleReporter::ReportRuns(runs);
+  }
+};
+
+template <class G>
+struct States {
+  using M = Model<G>;
+  std::vector<typename M::Vector> q, qd;
+  // Joint angles in [-pi, pi], rates in [-1, 1] rad/s (motor coordinates: times the ratio).
+  explicit States(const M& model) {
+    std::mt19937 rng(2024);
+    std::uniform_real_distribution<double> angle(-M_PI, M_PI), rate(-1, 1);
+    for (int k = 0; k < kStates; ++k) {
+      typename M::Vector a, r;
+      for (int i = 0; i < M::kNq; ++i) a[i] = angle(rng), r[i] = rate(rng);
+      if constexpr (M::kFreeFloating) {
+        for (int i = 0; i < 3; ++i) r[i] *= 0.1;
+      }
+      for (int j = 0; j < M::kNumLinks; ++j) {
+        a[M::kFirstJoint + j] *= model.gear_ratios()[j];
+        r[M::kFirstJoint + j] *= model.gear_ratios()[j];
+      }
+      q.push_back(a);
+      qd.push_back(r);
+    }
+  }
+};
+
+template <class G>
+Model<G> make_model() {
+  Model<G> m;
+  for (int i = 0; i < Model<G>::kNumParams; ++i) {
+    const std::string name = G::parameter_names()[i];
+    if (name == "p") m.set_parameter("p", 10);  // every geared benchmark at p = 10, I_m = 1e-5
+    if (name == "Im") m.set_parameter("Im", 1e-5);
+  }
+  return m;
+}
+
+// Our functions: M, C, bias, M + bias, forward dynamics, one RK4 step.
+template <class G>
+void register_ours(const std::string& prefix, const std::string& name, bool everything) {
+  using M = Model<G>;
+  auto run = [](auto&& body) {
+    return [body](benchmark::State& st) {
+      const M model = make_model<G>();
+      const States<G> s(model);
+      int k = 0;
+      for (auto _ : st) {
+        body(model, s, k);
+        k = (k + 1) % kStates;
+      }
+    };
+  };
+  benchmark::RegisterBenchmark((prefix + "/M+bias/" + name).c_str(), run([](const M& m, const States<G>& s, int k) {
+    typename M::Matrix Mq;
+    typename M::Vector b;
+    m.mass_matrix_and_bias(s.q[k], s.qd[k], Mq, b);
+    benchmark::DoNotOptimize(Mq);
+    benchmark::DoNotOptimize(b);
+  }));
+  benchmark::RegisterBenchmark((prefix + "/FD/" + name).c_str(), run([](const M& m, const States<G>& s, int k) {
+    auto qdd = m.forward_dynamics(s.q[k], s.qd[k], M::Vector::Zero());
+    benchmark::DoNotOptimize(qdd);
+  }));
+  if (!everything) return;
+  benchmark::RegisterBenchmark((prefix + "/M/" + name).c_str(), run([](const M& m, const States<G>& s, int k) {
+    auto Mq = m.mass_matrix(s.q[k]);
+    benchmark::DoNotOptimize(Mq);
+  }));
+  benchmark::RegisterBenchmark((prefix + "/bias/" + name).c_str(), run([](const M& m, const States<G>& s, int k) {
+    auto b = m.bias_forces(s.q[k], s.qd[k]);
+    benchmark::DoNotOptimize(b);
+  }));
+  if constexpr (G::kHas_coriolis_matrix) {
+    // Pruning: the bias through the full C (eq. 7) and a product, instead of emitted directly.
+    benchmark::RegisterBenchmark((prefix + "/C*qd/" + name).c_str(), run([](const M& m, const States<G>& s, int k) {
+      typename M::Matrix C;
+      G::coriolis_matrix(s.q[k], s.qd[k], m.parameters(), C);
+      typename M::Vector b = C * s.qd[k];
+      benchmark::DoNotOptimize(b);
+    }));
+  }
+  benchmark::RegisterBenchmark((prefix + "/RK4/" + name).c_str(), [](benchmark::State& st) {
+    namespace odeint = boost::numeric::odeint;
+    const M model = make_model<G>();
+    const States<G> s(model);
+    using State = Eigen::Matrix<double, 2 * M::kNq, 1>;
+    odeint::runge_kutta4<State, double, State, double, odeint::vector_space_algebra> stepper;
+    auto f = [&](const State& x, State& dx, double) {
+      dx.template head<M::kNq>() = x.template tail<M::kNq>();
+      dx.template tail<M::kNq>() =
+          model.forward_dynamics(x.template head<M::kNq>(), x.template tail<M::kNq>(), M::Vector::Zero());
+    };
+    int k = 0;
+    for (auto _ : st) {
+      State x;
+      x << s.q[k], s.qd[k];
+      stepper.do_step(f, x, 0.0, kStep);
+      benchmark::DoNotOptimize(x);
+      k = (k + 1) % kStates;
+    }
+  });
+}
+
+// MuJoCo on the same scene and states (armature for geared scenes), in joint coordinates.
+template <class G>
+void register_mujoco(const std::string& scene_file, const std::string& name) {
+  using M = Model<G>;
+  const Scene scene = load_scene(scene_file);
+  auto states = [] {
+    const M model = make_model<G>();
+    States<G> s(model);
+    for (int k = 0; k < kStates; ++k)  // to joint coordinates
+      for (int j = 0; j < M::kNumLinks; ++j) {
+        s.q[k][M::kFirstJoint + j] /= model.gear_ratios()[j];
+        s.qd[k][M::kFirstJoint + j] /= model.gear_ratios()[j];
+      }
+    return s;
+  };
+  auto load = [scene](const States<G>& s, int k, MujocoModel& mj) {
+    for (int i = 0; i < M::kNq; ++i) mj.d->qpos[i] = s.q[k][i], mj.d->qvel[i] = s.qd[k][i];
+  };
+  benchmark::RegisterBenchmark(("mujoco/M+bias/" + name).c_str(), [scene, states, load](benchmark::State& st) {
+    MujocoModel mj(scene);
+    const States<G> s = states();
+    std::vector<mjtNum> full(M::kNq * M::kNq);
+    int k = 0;
+    for (auto _ : st) {
+      load(s, k, mj);
+      mj_kinematics(mj.m.get(), mj.d.get());
+      mj_comPos(mj.m.get(), mj.d.get());
+      mj_crb(mj.m.get(), mj.d.get());
+      mj_comVel(mj.m.get(), mj.d.get());
+      mj_rne(mj.m.get(), mj.d.get(), 0, mj.d->qfrc_bias);
+      mj_fullM(mj.m.get(), full.data(), mj.d->qM);
+      benchmark::DoNotOptimize(full.data());
+      benchmark::DoNotOptimize(mj.d->qfrc_bias);
+      k = (k + 1) % kStates;
+    }
+  });
+  benchmark::RegisterBenchmark(("mujoco/FD/" + name).c_str(), [scene, states, load](benchmark::State& st) {
+    MujocoModel mj(scene);
+    const States<G> s = states();
+    int k = 0;
+    for (auto _ : st) {
+      load(s, k, mj);
+      mj_forward(mj.m.get(), mj.d.get());
+      benchmark::DoNotOptimize(mj.d->qacc);
+      k = (k + 1) % kStates;
+    }
+  });
+  benchmark::RegisterBenchmark(("mujoco/RK4/" + name).c_str(), [scene, states, load](benchmark::State& st) {
+    MujocoModel mj(scene);
+    const States<G> s = states();
+    int k = 0;
+    for (auto _ : st) {
+      load(s, k, mj);
+      mj.d->time = 0;
+      mj_step(mj.m.get(), mj.d.get());
+      benchmark::DoNotOptimize(mj.d->qpos);
+      k = (k + 1) % kStates;
+    }
+  });
+}
+
+// MuJoCo's M and bias must be ours (mapped to motor coordinates for geared scenes:
+// M_g = G M G, b_g = G b with G = diag(1, 1, 1, 1/p, ...)) before any of it is timed.
+template <class G>
+bool agrees_with_mujoco(const std::string& scene_file, const std::string& name) {
+  using M = Model<G>;
+  const M model = make_model<G>();
+  const States<G> s(model);
+  MujocoModel mj(load_scene(scene_file));
+  typename M::Vector g = M::Vector::Ones();
+  for (int j = 0; j < M::kNumLinks; ++j) g[M::kFirstJoint + j] = 1 / model.gear_ratios()[j];
+  double worst_M = 0, worst_b = 0;
+  for (int k = 0; k < kStates; ++k) {
+    const typename M::Vector q = g.cwiseProduct(s.q[k]), qd = g.cwiseProduct(s.qd[k]);
+    for (int i = 0; i < M::kNq; ++i) mj.d->qpos[i] = q[i], mj.d->qvel[i] = qd[i];
+    mj_forward(mj.m.get(), mj.d.get());
+    Eigen::Matrix<double, M::kNq, M::kNq, Eigen::RowMajor> full;
+    mj_fullM(mj.m.get(), full.data(), mj.d->qM);
+    const typename M::Matrix M_mj = g.asDiagonal() * typename M::Matrix(full) * g.asDiagonal();
+    const typename M::Vector b_mj = g.cwiseProduct(Eigen::Map<const typename M::Vector>(mj.d->qfrc_bias));
+    typename M::Matrix Mq;
+    typename M::Vector b;
+    model.mass_matrix_and_bias(s.q[k], s.qd[k], Mq, b);
+    worst_M = std::max(worst_M, (Mq - M_mj).cwiseAbs().maxCoeff() / Mq.cwiseAbs().maxCoeff());
+    worst_b = std::max(worst_b, (b - b_mj).cwiseAbs().maxCoeff() / b.cwiseAbs().maxCoeff());
+  }
+  const bool ok = worst_M < 1e-12 && worst_b < 1e-10;
+  std::printf("check %-22s MuJoCo vs ours: max relative difference M %.1e, bias %.1e  %s\n", name.c_str(), worst_M,
+              worst_b, ok ? "ok" : "DISAGREE");
+  return ok;
+}
+
+std::string scene_path(const std::string& name) {
+  return std::string(SPACEARM_SOURCE_DIR) + "/bench/scenes/" + name + ".yaml";
+}
+
+double seconds(const std::string& name) {
+  auto it = g_seconds.find(name);
+  return it == g_seconds.end() ? NAN : it->second;
+}
+
+void print_ratio_table() {
+  std::printf("\nRatios, peer time / our time (same process, same states; > 1: ours is faster)\n");
+  std::printf("%-20s %8s %8s %7s %8s %7s | %8s %8s %7s | %8s %8s %7s\n", "model", "M+b ns", "MuJoCo", "ratio", "plain",
+              "ratio", "FD ns", "MuJoCo", "ratio", "RK4 ns", "MuJoCo", "ratio");
+  for (const auto& [key, t] : g_seconds) {
+    if (key.rfind("ours/M+bias/", 0) != 0) continue;
+    const std::string model = key.substr(12);
+    std::string peer = model;  // geared exact: MuJoCo's closest model is the armature one
+    const auto geared = peer.find("_geared");
+    if (geared != std::string::npos) peer.replace(geared, 7, "_armature");
+    if (model == "paper_geared") peer = "";
+    auto ns = [](double s) { return s * 1e9; };
+    const double ours_mb = t, mj_mb = seconds("mujoco/M+bias/" + peer), plain_mb = seconds("plain/M+bias/" + model);
+    const double ours_fd = seconds("ours/FD/" + model), mj_fd = seconds("mujoco/FD/" + peer);
+    const double ours_rk = seconds("ours/RK4/" + model), mj_rk = seconds("mujoco/RK4/" + peer);
+    std::printf("%-20s %8.0f %8.0f %7.2f %8.0f %7.2f | %8.0f %8.0f %7.2f | %8.0f %8.0f %7.2f\n", model.c_str(),
+                ns(ours_mb), ns(mj_mb), mj_mb / ours_mb, ns(plain_mb), plain_mb / ours_mb, ns(ours_fd), ns(mj_fd),
+                mj_fd / ours_fd, ns(ours_rk), ns(mj_rk), mj_rk / ours_rk);
+  }
+  std::printf("\nPruning (our time / pruned time):\n");
+  for (const auto& [key, t] : g_seconds) {
+    if (key.rfind("ours/C*qd/", 0) != 0) continue;
+    const std::string model = key.substr(10);
+    std::printf("  %-20s bias through the full C %.0f ns, emitted bias %.0f ns: %.2fx\n", model.c_str(), t * 1e9,
+                seconds("ours/bias/" + model) * 1e9, t / seconds("ours/bias/" + model));
+  }
+  const double params = seconds("ours/M+bias/paper_geared"), folded = seconds("ours/M+bias/paper_geared_folded");
+  std::printf("  paper_geared M+bias with p, Im at run time %.0f ns, folded as constants %.0f ns: %.2fx\n",
+              params * 1e9, folded * 1e9, params / folded);
+}
+
+}  // namespace
+}  // namespace spacearm::bench
+
+int main(int argc, char** argv) {
+  using namespace spacearm;
+  using namespace spacearm::bench;
+  namespace m = spacearm::models;
+  bool ok = true;
+  ok &= agrees_with_mujoco<m::paper_reference::Model>(SPACEARM_SOURCE_DIR "/models/paper_reference.yaml",
+                                                      "paper_reference");
+#define SPACEARM_CHAIN(N)                                                                              \
+  ok &= agrees_with_mujoco<m::chain_n##N::Model>(scene_path("chain_n" #N), "chain_n" #N);               \
+  ok &= agrees_with_mujoco<m::chain_n##N##_armature::Model>(scene_path("chain_n" #N "_armature"),       \
+                                                            "chain_n" #N "_armature");                 \
+  register_ours<m::chain_n##N::Model>("ours", "chain_n" #N, true);                                      \
+  register_ours<m::chain_n##N##_geared::Model>("ours", "chain_n" #N "_geared", true);                   \
+  register_ours<m::chain_n##N##_armature::Model>("ours", "chain_n" #N "_armature", false);              \
+  register_mujoco<m::chain_n##N::Model>(scene_path("chain_n" #N), "chain_n" #N);                        \
+  register_mujoco<m::chain_n##N##_armature::Model>(scene_path("chain_n" #N "_armature"), "chain_n" #N "_armature");
+#define SPACEARM_PLAIN(N)                                                                              \
+  register_ours<m::chain_n##N##_plain::Model>("plain", "chain_n" #N, false);                            \
+  register_ours<m::chain_n##N##_geared_plain::Model>("plain", "chain_n" #N "_geared", false);
+  register_ours<m::paper_reference::Model>("ours", "paper_reference", true);
+  register_ours<m::paper_geared::Model>("ours", "paper_geared", true);
+  register_ours<m::paper_geared_folded::Model>("ours", "paper_geared_folded", false);
+  register_ours<m::paper_reference_plain::Model>("plain", "paper_reference", false);
+  register_ours<m::paper_geared_plain::Model>("plain", "paper_geared", false);
+  register_mujoco<m::paper_reference::Model>(SPACEARM_SOURCE_DIR "/models/paper_reference.yaml", "paper_reference");
+  SPACEARM_CHAIN(2)
+  SPACEARM_CHAIN(3)
+  SPACEARM_CHAIN(4)
+  SPACEARM_CHAIN(6)
+  SPACEARM_CHAIN(8)
+  SPACEARM_CHAIN(10)
+  SPACEARM_CHAIN(12)
+  SPACEARM_PLAIN(2)
+  SPACEARM_PLAIN(3)
+  SPACEARM_PLAIN(4)
+  SPACEARM_PLAIN(6)
+  if (!ok) {
+    std::fprintf(stderr, "bench_dynamics: MuJoCo and spacearm disagree; not timing different models\n");
+    return 1;
+  }
+  benchmark::Initialize(&argc, argv);
+  RecordingReporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  print_ratio_table();
+  benchmark::Shutdown();
+  return 0;
+}
