@@ -14,7 +14,7 @@ build/examples/work_precision --out "$out" "$@"
 cd "$out"
 ratios=$(tail -n +2 armature.csv | cut -d, -f1 | tr '\n' ' ')
 gnuplot <<GP
-set terminal pngcairo size 1400,450 font "sans,10"
+set terminal pngcairo size 1400,450 font "sans,10" noenhanced
 set datafile separator ","
 set logscale xy
 set grid
