@@ -146,6 +146,11 @@ void register_ours(const std::string& prefix, const std::string& name, bool ever
     benchmark::DoNotOptimize(b);
   }));
   if constexpr (G::kHas_coriolis_matrix) {
+    benchmark::RegisterBenchmark((prefix + "/C/" + name).c_str(), run([](const M& m, const States<G>& s, int k) {
+      typename M::Matrix C;
+      G::coriolis_matrix(s.q[k], s.qd[k], m.parameters(), C);
+      benchmark::DoNotOptimize(C);
+    }));
     // Pruning: the bias through the full C (eq. 7) and a product, instead of emitted directly.
     benchmark::RegisterBenchmark((prefix + "/C*qd/" + name).c_str(), run([](const M& m, const States<G>& s, int k) {
       typename M::Matrix C;
