@@ -147,9 +147,11 @@ int main(int argc, char** argv) {
       tight.rtol = 1e-13;
       tight.atol = 1e-14;
       // The torques are linear between the plan's samples, so their derivative jumps every
-      // task.dt: the reference lands on every sample time (rkf78 shortens a step to reach an
-      // output), so that none of its steps straddles a kink. The runs below see the kinks.
-      const Outcome reference = run(g, qm, tau, T, tight, 1, task.dt);
+      // task.dt: the reference lands on every sample time, so that none of its steps
+      // straddles a kink, and takes 8 steps per sample interval (a computation none of the
+      // runs below repeats).
+      tight.breakpoint_interval = task.dt / 8;
+      const Outcome reference = run(g, qm, tau, T, tight, 1, T);
       std::printf("\np = %g: reference (rkf78, tolerance 1e-13): %ld evaluations, momentum %.1e, energy balance %.1e J\n",
                   p, reference.evaluations, reference.momentum_error, reference.energy_error);
       std::printf("%-18s %10s %12s %11s %11s %11s\n", "method", "setting", "evaluations", "wall [ms]", "ee err [m]",
@@ -171,12 +173,15 @@ int main(int argc, char** argv) {
         }
       }
       for (Method m : {Method::dopri5, Method::rkf78})
-        for (double tol : tolerances) {
-          IntegratorOptions opt;
-          opt.method = m;
-          opt.rtol = opt.atol = tol;
-          record(to_string(m), tol, run(g, qm, tau, T, opt, repeats, T));
-        }
+        for (bool breaks : {false, true})
+          for (double tol : breaks ? std::vector<double>{1e-8} : tolerances) {  // with samples, one step each
+            IntegratorOptions opt;
+            opt.method = m;
+            opt.rtol = opt.atol = tol;
+            // "+samples": steps land on the torque samples, where the torque's slope jumps.
+            if (breaks) opt.breakpoint_interval = task.dt;
+            record(to_string(m) + (breaks ? "+samples" : ""), tol, run(g, qm, tau, T, opt, repeats, T));
+          }
       // Precision: the same RK4 steps in float, double and long double.
       for (double dt : steps) {
         const double ef = (rk4_in<float>(g, qm, tau, T, dt) - reference.ee).norm();
@@ -186,7 +191,7 @@ int main(int argc, char** argv) {
         std::printf("rk4 dt = %-8g end-effector error: float %.2e, double %.2e, long double %.2e m\n", dt, ef, ed, el);
       }
       // Modelling error of the armature approximation, both integrated tightly.
-      const Outcome arm = run(a, qm, tau, T, tight, 1, task.dt);
+      const Outcome arm = run(a, qm, tau, T, tight, 1, T);
       const double model_error = (arm.ee - reference.ee).norm();
       armature << p << "," << model_error << "\n";
       std::printf("armature approximation instead of the exact rotor coupling: end-effector differs by %.2e m\n",

@@ -204,6 +204,9 @@ int main(int argc, char** argv) {
       }
       const spacearm::TorqueSignal<Eigen::Dynamic> tau(t0_samples, dt_samples, samples,
                                                        spacearm::interpolation_from_string(interpolation));
+      // The torques change slope (linear) or jump (hold) at every sample: adaptive steps land
+      // on the samples instead of straddling them (see IntegratorOptions::breakpoint_interval).
+      if (!zero_torque && t0_samples == 0) opt.breakpoint_interval = dt_samples;
 
       spacearm::CompileOptions options;
       options.cache_dir = cache_dir;

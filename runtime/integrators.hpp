@@ -49,6 +49,10 @@ struct IntegratorOptions {
   double dt = 0.01;      // step of the fixed-step methods
   double rtol = 1e-8;    // tolerances of the adaptive methods
   double atol = 1e-10;
+  // > 0: the adaptive methods also land on t0 + k * breakpoint_interval, so that no step
+  // straddles a point where the right-hand side has a kink (e.g. torque samples joined by
+  // straight lines): a step across one loses the method's order.
+  double breakpoint_interval = 0;
 };
 
 template <class State, class Rhs>
@@ -121,6 +125,9 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
                                   detail::format(rtol_min) + " (100 x machine epsilon)");
     if (!(opt.atol >= 0) || !std::isfinite(opt.atol))
       throw std::invalid_argument("integrate: atol = " + detail::format(opt.atol) + " must be >= 0");
+    if (!(opt.breakpoint_interval >= 0) || !std::isfinite(opt.breakpoint_interval))
+      throw std::invalid_argument("integrate: breakpoint_interval = " + detail::format(opt.breakpoint_interval) +
+                                  " must be >= 0 (0: none)");
   } else if (!(opt.dt > 0) || !std::isfinite(opt.dt)) {
     throw std::invalid_argument("integrate: dt = " + detail::format(opt.dt) + " must be positive");
   }
@@ -142,6 +149,40 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
     t_ok = t;
     x_ok = x;
   };
+  // Controlled steps that land on every output time and breakpoint; the step size the
+  // controller chose is kept across them (a step shortened to land does not shrink the next).
+  auto controlled_steps = [&](auto& stepper) {
+    const double every = opt.breakpoint_interval;
+    auto next_stop = [&](double t, double t_out) {
+      if (!(every > 0)) return t_out;
+      const double b = t0 + std::floor((t - t0) / every + 1 + 1e-9) * every;
+      return std::min(t_out, b);
+    };
+    double dt = std::min(dt_out, 0.01), t = t0;
+    for (long k = 1; k <= outputs; ++k) {
+      const double t_out = t0 + k * dt_out;
+      int rejected = 0;
+      while (t < t_out - 1e-12 * std::max(1.0, std::abs(t_out))) {
+        const double stop = next_stop(t, t_out);
+        const double natural = dt;
+        const bool clamped = t + dt > stop;
+        double step = clamped ? stop - t : dt;
+        if (stepper.try_step(rhs, x, t, step) == odeint::success) {
+          if (clamped) t = stop;  // exactly on it, whatever rounding t + step gave
+          accept(t);
+          rejected = 0;
+          dt = clamped ? std::max(natural, step) : step;
+        } else {
+          dt = step;
+          if (++rejected > 500 || detail::below_minimum_step(dt, t, t0, t1))
+            throw detail::integration_error(
+                opt.method, "step size " + detail::format(dt) + " below the minimum, tolerance cannot be met", t, x);
+        }
+      }
+      t = t_out;
+      observe(x, t_out);
+    }
+  };
   try {
   switch (opt.method) {
     case Method::rk4: {
@@ -157,6 +198,12 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
       break;
     }
     case Method::dopri5: {
+      if (opt.breakpoint_interval > 0) {
+        auto stepper = odeint::make_controlled(
+            opt.atol, opt.rtol, odeint::runge_kutta_dopri5<State, double, State, double, odeint::vector_space_algebra>());
+        controlled_steps(stepper);
+        break;
+      }
       // Dense output: steps of the controller's own size, states at the outputs by the
       // method's continuous extension.
       auto stepper = odeint::make_dense_output(
@@ -184,33 +231,10 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
       break;
     }
     case Method::rkf78: {
-      // Controlled steps; the step size the controller chose is kept across outputs (a step
-      // shortened to land on an output time does not shrink the next one).
       auto stepper = odeint::make_controlled(
           opt.atol, opt.rtol,
           odeint::runge_kutta_fehlberg78<State, double, State, double, odeint::vector_space_algebra>());
-      double dt = std::min(dt_out, 0.01), t = t0;
-      for (long k = 1; k <= outputs; ++k) {
-        const double t_out = t0 + k * dt_out;
-        int rejected = 0;
-        while (t < t_out - 1e-12 * std::max(1.0, std::abs(t_out))) {
-          const double natural = dt;
-          const bool clamped = t + dt > t_out;
-          double step = clamped ? t_out - t : dt;
-          if (stepper.try_step(rhs, x, t, step) == odeint::success) {
-            accept(t);
-            rejected = 0;
-            dt = clamped ? std::max(natural, step) : step;
-          } else {
-            dt = step;
-            if (++rejected > 500 || detail::below_minimum_step(dt, t, t0, t1))
-              throw detail::integration_error(
-                  opt.method, "step size " + detail::format(dt) + " below the minimum, tolerance cannot be met", t, x);
-          }
-        }
-        t = t_out;
-        observe(x, t_out);
-      }
+      controlled_steps(stepper);
       break;
     }
     case Method::implicit_midpoint: {

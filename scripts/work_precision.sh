@@ -20,7 +20,7 @@ set logscale xy
 set grid
 set format y "%.0e"
 ratios = "$ratios"
-methods = "rk4 implicit_midpoint dopri5 rkf78"
+methods = "rk4 implicit_midpoint dopri5 rkf78 dopri5+samples rkf78+samples"
 set key bottom left
 do for [col in "4 5"] {
   c = col + 0
