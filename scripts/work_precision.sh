@@ -21,7 +21,7 @@ set grid
 set format y "%.0e"
 ratios = "$ratios"
 methods = "rk4 implicit_midpoint dopri5 rkf78 dopri5+samples rkf78+samples"
-set key bottom left
+set key top right
 do for [col in "4 5"] {
   c = col + 0
   set output (c == 4 ? "wp_evaluations.png" : "wp_time.png")
