@@ -414,8 +414,9 @@ void print_ratio_table() {
                 seconds("ours/bias/" + model) * 1e9, t / seconds("ours/bias/" + model));
   }
   const double params = seconds("ours/M+bias/paper_geared"), folded = seconds("ours/M+bias/paper_geared_folded");
-  std::printf("  paper_geared M+bias with p, Im at run time %.0f ns, folded as constants %.0f ns: %.2fx\n",
-              params * 1e9, folded * 1e9, params / folded);
+  if (std::isfinite(params) && std::isfinite(folded))  // both ran (not filtered out)
+    std::printf("  paper_geared M+bias with p, Im at run time %.0f ns, folded as constants %.0f ns: %.2fx\n",
+                params * 1e9, folded * 1e9, params / folded);
 }
 
 }  // namespace
