@@ -11,6 +11,7 @@
 #include <boost/numeric/odeint/external/eigen/eigen.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -219,50 +220,39 @@ void register_mujoco(const std::string& scene_file, const std::string& name) {
       }
     return s;
   };
-  auto load = [scene](const States<G>& s, int k, MujocoModel& mj) {
-    for (int i = 0; i < M::kNq; ++i) mj.d->qpos[i] = s.q[k][i], mj.d->qvel[i] = s.qd[k][i];
+  // Each benchmark loads the k-th state into MuJoCo's data, then runs body(mj).
+  auto run = [scene, states](auto&& body) {
+    return [scene, states, body](benchmark::State& st) {
+      MujocoModel mj(scene);
+      const States<G> s = states();
+      int k = 0;
+      for (auto _ : st) {
+        for (int i = 0; i < M::kNq; ++i) mj.d->qpos[i] = s.q[k][i], mj.d->qvel[i] = s.qd[k][i];
+        body(mj);
+        k = (k + 1) % kStates;
+      }
+    };
   };
-  benchmark::RegisterBenchmark(("mujoco/M+bias/" + name).c_str(), [scene, states, load](benchmark::State& st) {
-    MujocoModel mj(scene);
-    const States<G> s = states();
-    std::vector<mjtNum> full(M::kNq * M::kNq);
-    int k = 0;
-    for (auto _ : st) {
-      load(s, k, mj);
-      mj_kinematics(mj.m.get(), mj.d.get());
-      mj_comPos(mj.m.get(), mj.d.get());
-      mj_crb(mj.m.get(), mj.d.get());
-      mj_comVel(mj.m.get(), mj.d.get());
-      mj_rne(mj.m.get(), mj.d.get(), 0, mj.d->qfrc_bias);
-      mj_fullM(mj.m.get(), full.data(), mj.d->qM);
-      benchmark::DoNotOptimize(full.data());
-      benchmark::DoNotOptimize(mj.d->qfrc_bias);
-      k = (k + 1) % kStates;
-    }
-  });
-  benchmark::RegisterBenchmark(("mujoco/FD/" + name).c_str(), [scene, states, load](benchmark::State& st) {
-    MujocoModel mj(scene);
-    const States<G> s = states();
-    int k = 0;
-    for (auto _ : st) {
-      load(s, k, mj);
-      mj_forward(mj.m.get(), mj.d.get());
-      benchmark::DoNotOptimize(mj.d->qacc);
-      k = (k + 1) % kStates;
-    }
-  });
-  benchmark::RegisterBenchmark(("mujoco/RK4/" + name).c_str(), [scene, states, load](benchmark::State& st) {
-    MujocoModel mj(scene);
-    const States<G> s = states();
-    int k = 0;
-    for (auto _ : st) {
-      load(s, k, mj);
-      mj.d->time = 0;
-      mj_step(mj.m.get(), mj.d.get());
-      benchmark::DoNotOptimize(mj.d->qpos);
-      k = (k + 1) % kStates;
-    }
-  });
+  benchmark::RegisterBenchmark(("mujoco/M+bias/" + name).c_str(), run([](MujocoModel& mj) {
+    std::array<mjtNum, M::kNq * M::kNq> full;
+    mj_kinematics(mj.m.get(), mj.d.get());
+    mj_comPos(mj.m.get(), mj.d.get());
+    mj_crb(mj.m.get(), mj.d.get());
+    mj_comVel(mj.m.get(), mj.d.get());
+    mj_rne(mj.m.get(), mj.d.get(), 0, mj.d->qfrc_bias);
+    mj_fullM(mj.m.get(), full.data(), mj.d->qM);
+    benchmark::DoNotOptimize(full.data());
+    benchmark::DoNotOptimize(mj.d->qfrc_bias);
+  }));
+  benchmark::RegisterBenchmark(("mujoco/FD/" + name).c_str(), run([](MujocoModel& mj) {
+    mj_forward(mj.m.get(), mj.d.get());
+    benchmark::DoNotOptimize(mj.d->qacc);
+  }));
+  benchmark::RegisterBenchmark(("mujoco/RK4/" + name).c_str(), run([](MujocoModel& mj) {
+    mj.d->time = 0;
+    mj_step(mj.m.get(), mj.d.get());
+    benchmark::DoNotOptimize(mj.d->qpos);
+  }));
 }
 
 // MuJoCo's M and bias must be ours (mapped to motor coordinates for geared scenes:

@@ -41,7 +41,7 @@ struct Outcome {
 // is known at the end without sampling. Best wall time of `repeats` identical runs.
 template <class G>
 Outcome run(const Model<G>& model, const typename Model<G>::Vector& q0, const TorqueSignal<3>& tau, double T,
-            const IntegratorOptions& opt, int repeats, double dt_out) {
+            const IntegratorOptions& opt, int repeats) {
   using M = Model<G>;
   constexpr int n = M::kNq;
   using State = Eigen::Matrix<double, 2 * n + 1, 1>;
@@ -59,7 +59,7 @@ Outcome run(const Model<G>& model, const typename Model<G>::Vector& q0, const To
     x.setZero();
     x.template head<n>() = q0;
     const auto start = std::chrono::steady_clock::now();
-    const auto stats = integrate(opt, f, x, 0.0, T, dt_out, [](const State&, double) {});
+    const auto stats = integrate(opt, f, x, 0.0, T, T, [](const State&, double) {});  // only the end
     o.seconds = std::min(o.seconds, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     o.evaluations = stats.rhs_evaluations;
   }
@@ -70,7 +70,8 @@ Outcome run(const Model<G>& model, const typename Model<G>::Vector& q0, const To
   return o;
 }
 
-// RK4 in scalar S with the generated functions instantiated for S (constants stay double).
+// Odeint's RK4 in scalar S with the generated functions instantiated for S (constants stay
+// double).
 template <class S>
 Eigen::Vector2d rk4_in(const Model<models::paper_geared::Model>& g, const Eigen::Matrix<double, 6, 1>& q0,
                        const TorqueSignal<3>& tau, double T, double dt) {
@@ -78,25 +79,18 @@ Eigen::Vector2d rk4_in(const Model<models::paper_geared::Model>& g, const Eigen:
   using Vec = Eigen::Matrix<S, 12, 1>;
   const m::Parameters<S> params = g.parameters().cast<S>();
   const Eigen::Matrix<S, 3, 1> ratios = g.gear_ratios().cast<S>();
-  auto f = [&](const Vec& x, S t) {
+  auto f = [&](const Vec& x, Vec& d, S t) {
     m::MassMatrix<S> M;
     m::Coordinates<S> b, Q = m::Coordinates<S>::Zero();
     m::mass_matrix_and_bias<S>(x.template head<6>(), x.template tail<6>(), params, M, b);
     Q.template tail<3>() = tau(static_cast<double>(t)).cast<S>().cwiseQuotient(ratios);
-    Vec d;
     d << x.template tail<6>(), Eigen::LLT<m::MassMatrix<S>>(M).solve(Q - b);
-    return d;
   };
   Vec x = Vec::Zero();
   x.template head<6>() = q0.cast<S>();
+  boost::numeric::odeint::runge_kutta4<Vec, S, Vec, S, boost::numeric::odeint::vector_space_algebra> stepper;
   const long steps = std::lround(T / dt);
-  const S h = static_cast<S>(dt);
-  for (long k = 0; k < steps; ++k) {
-    const S t = static_cast<S>(k * dt);
-    const Vec k1 = f(x, t), k2 = f(x + h / S(2) * k1, t + h / S(2)), k3 = f(x + h / S(2) * k2, t + h / S(2)),
-              k4 = f(x + h * k3, t + h);
-    x += h / S(6) * (k1 + S(2) * k2 + S(2) * k3 + k4);
-  }
+  for (long k = 0; k < steps; ++k) stepper.do_step(f, x, static_cast<S>(k * dt), static_cast<S>(dt));
   m::Vector3<S> pose;
   m::end_effector_pose<S>(x.template head<6>(), params, pose);
   return pose.template head<2>().template cast<double>();
@@ -151,7 +145,7 @@ int main(int argc, char** argv) {
       // straddles a kink, and takes 8 steps per sample interval (a computation none of the
       // runs below repeats).
       tight.breakpoint_interval = task.dt / 8;
-      const Outcome reference = run(g, qm, tau, T, tight, 1, T);
+      const Outcome reference = run(g, qm, tau, T, tight, 1);
       std::printf("\np = %g: reference (rkf78, tolerance 1e-13): %ld evaluations, momentum %.1e, energy balance %.1e J\n",
                   p, reference.evaluations, reference.momentum_error, reference.energy_error);
       std::printf("%-18s %10s %12s %11s %11s %11s\n", "method", "setting", "evaluations", "wall [ms]", "ee err [m]",
@@ -169,7 +163,7 @@ int main(int argc, char** argv) {
           IntegratorOptions opt;
           opt.method = m;
           opt.dt = dt;
-          record(to_string(m), dt, run(g, qm, tau, T, opt, repeats, T));
+          record(to_string(m), dt, run(g, qm, tau, T, opt, repeats));
         }
       }
       for (Method m : {Method::dopri5, Method::rkf78})
@@ -180,7 +174,7 @@ int main(int argc, char** argv) {
             opt.rtol = opt.atol = tol;
             // "+samples": steps land on the torque samples, where the torque's slope jumps.
             if (breaks) opt.breakpoint_interval = task.dt;
-            record(to_string(m) + (breaks ? "+samples" : ""), tol, run(g, qm, tau, T, opt, repeats, T));
+            record(to_string(m) + (breaks ? "+samples" : ""), tol, run(g, qm, tau, T, opt, repeats));
           }
       // Precision: the same RK4 steps in float, double and long double.
       for (double dt : steps) {
@@ -191,7 +185,7 @@ int main(int argc, char** argv) {
         std::printf("rk4 dt = %-8g end-effector error: float %.2e, double %.2e, long double %.2e m\n", dt, ef, ed, el);
       }
       // Modelling error of the armature approximation, both integrated tightly.
-      const Outcome arm = run(a, qm, tau, T, tight, 1, T);
+      const Outcome arm = run(a, qm, tau, T, tight, 1);
       const double model_error = (arm.ee - reference.ee).norm();
       armature << p << "," << model_error << "\n";
       std::printf("armature approximation instead of the exact rotor coupling: end-effector differs by %.2e m\n",

@@ -142,12 +142,17 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
   // Last accepted step, for the error report: a failing step leaves x unspecified.
   double t_ok = t0;
   State x_ok = x;
-  auto accept = [&](double t) {
+  auto accept = [&](double t, const State& reached) {
     // A right-hand side that returns inf or NaN instead of throwing must not go on silently.
-    if (!x.allFinite()) throw detail::integration_error(opt.method, "state not finite after the step to t = " +
-                                                                        detail::format(t), t_ok, x_ok);
+    if (!reached.allFinite())
+      throw detail::integration_error(opt.method, "state not finite after the step to t = " + detail::format(t),
+                                      t_ok, x_ok);
     t_ok = t;
-    x_ok = x;
+    x_ok = reached;
+  };
+  auto step_too_small = [&](double dt) {
+    return detail::integration_error(
+        opt.method, "step size " + detail::format(dt) + " below the minimum, tolerance cannot be met", t_ok, x_ok);
   };
   // Controlled steps that land on every output time and breakpoint; the step size the
   // controller chose is kept across them (a step shortened to land does not shrink the next).
@@ -169,14 +174,12 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
         double step = clamped ? stop - t : dt;
         if (stepper.try_step(rhs, x, t, step) == odeint::success) {
           if (clamped) t = stop;  // exactly on it, whatever rounding t + step gave
-          accept(t);
+          accept(t, x);
           rejected = 0;
           dt = clamped ? std::max(natural, step) : step;
         } else {
           dt = step;
-          if (++rejected > 500 || detail::below_minimum_step(dt, t, t0, t1))
-            throw detail::integration_error(
-                opt.method, "step size " + detail::format(dt) + " below the minimum, tolerance cannot be met", t, x);
+          if (++rejected > 500 || detail::below_minimum_step(dt, t, t0, t1)) throw step_too_small(dt);
         }
       }
       t = t_out;
@@ -191,7 +194,7 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
       for (long k = 0; k < outputs; ++k) {
         for (long s = 0; s < per; ++s) {
           stepper.do_step(rhs, x, t0 + (k * per + s) * opt.dt, opt.dt);
-          accept(t0 + (k * per + s + 1) * opt.dt);
+          accept(t0 + (k * per + s + 1) * opt.dt, x);
         }
         observe(x, t0 + (k + 1) * dt_out);
       }
@@ -214,15 +217,9 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
         const double t_out = t0 + k * dt_out;
         while (stepper.current_time() < t_out) {
           stepper.do_step(rhs);  // odeint throws step_adjustment_error after 500 rejections
-          if (!stepper.current_state().allFinite())
-            throw detail::integration_error(opt.method, "state not finite after the step", t_ok, x_ok);
-          t_ok = stepper.current_time();
-          x_ok = stepper.current_state();
+          accept(stepper.current_time(), stepper.current_state());
           if (detail::below_minimum_step(stepper.current_time_step(), t_ok, t0, t1))
-            throw detail::integration_error(opt.method,
-                                            "step size " + detail::format(stepper.current_time_step()) +
-                                                " below the minimum, tolerance cannot be met",
-                                            t_ok, x_ok);
+            throw step_too_small(stepper.current_time_step());
         }
         stepper.calc_state(t_out, out);
         observe(out, t_out);
@@ -242,7 +239,7 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
       for (long k = 0; k < outputs; ++k) {
         for (long s = 0; s < per; ++s) {
           implicit_midpoint_step(rhs, x, t0 + (k * per + s) * opt.dt, opt.dt);
-          accept(t0 + (k * per + s + 1) * opt.dt);
+          accept(t0 + (k * per + s + 1) * opt.dt, x);
         }
         observe(x, t0 + (k + 1) * dt_out);
       }

@@ -135,20 +135,21 @@ class Model {
   }
 
   // 2-norm condition number of M(q) (symmetric positive definite: ratio of eigenvalues).
-  double condition_number(const Vector& q) const {
-    const Eigen::SelfAdjointEigenSolver<Matrix> eig(mass_matrix(q), Eigen::EigenvaluesOnly);
-    return eig.eigenvalues().maxCoeff() / eig.eigenvalues().minCoeff();
-  }
+  double condition_number(const Vector& q) const { return spd_condition_number(mass_matrix(q)); }
   // The same for diag(M)^-1/2 M diag(M)^-1/2, which is what bounds the accuracy of
   // forward_dynamics (see there); it does not grow with the units or the gear ratios.
   double scaled_condition_number(const Vector& q) const {
     const Matrix M = mass_matrix(q);
     const Vector s = M.diagonal().cwiseSqrt().cwiseInverse();
-    const Eigen::SelfAdjointEigenSolver<Matrix> eig(s.asDiagonal() * M * s.asDiagonal(), Eigen::EigenvaluesOnly);
-    return eig.eigenvalues().maxCoeff() / eig.eigenvalues().minCoeff();
+    return spd_condition_number(s.asDiagonal() * M * s.asDiagonal());
   }
 
  private:
+  static double spd_condition_number(const Matrix& A) {
+    const Eigen::SelfAdjointEigenSolver<Matrix> eig(A, Eigen::EigenvaluesOnly);
+    return eig.eigenvalues().maxCoeff() / eig.eigenvalues().minCoeff();
+  }
+
   Params params_;
   JointVector ratios_;
 
