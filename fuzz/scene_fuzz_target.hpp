@@ -1,5 +1,6 @@
 // The check the scene fuzzer runs on every input, shared with the replay test
-// (tests/test_scene_fuzz_corpus.cpp) so that every recorded crash stays a regression test.
+// (Scene.FuzzCorpusAndRegressionsReplay in tests/test_scene.cpp) so that every recorded
+// crash stays a regression test.
 // A scene text must either be rejected with a SceneError that names its source, or be
 // accepted as a scene that keeps every documented rule; anything else (another exception,
 // a crash, a sanitizer report) is a bug.

@@ -1,21 +1,13 @@
 #!/usr/bin/env bash
 # Builds and runs the benchmarks: per-call cost against MuJoCo, SymPy (with cse) and the
-# CSE-free baseline, with the ratio table at the end. Installs Google Benchmark, MuJoCo and SymPy when missing.
+# CSE-free baseline, with the ratio table at the end. Installs Google Benchmark, MuJoCo and
+# SymPy when missing.
 #   scripts/bench.sh [benchmark options, e.g. --benchmark_filter=chain_n3]
 # Build folder: build-bench (Release). Results vary with the machine and its load: compare
 # ratios measured in one run, not absolute times across machines.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-missing=()
-for p in libbenchmark-dev libmujoco-dev python3-sympy python3-yaml; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing+=("$p")
-done
-if ((${#missing[@]})); then
-  if [[ $(id -u) -ne 0 ]]; then echo "bench.sh: run as root to install ${missing[*]}" >&2; exit 1; fi
-  export DEBIAN_FRONTEND=noninteractive
-  apt-get update -qq
-  apt-get install -y -qq "${missing[@]}" >/dev/null
-fi
+scripts/install-packages.sh libbenchmark-dev libmujoco-dev python3-sympy python3-yaml
 # Debian's python3 and python3-sympy, not whatever python3 comes first on PATH.
 scripts/setup.sh build-bench -DSPACEARM_BUILD_BENCH=ON -DSPACEARM_BUILD_TESTS=OFF -DPython3_EXECUTABLE=/usr/bin/python3
 # Five repetitions, interleaved at random so that a slow spell of the machine does not hit one

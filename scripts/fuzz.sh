@@ -2,22 +2,13 @@
 # Builds the scene fuzzer (clang, libFuzzer + ASan + UBSan) and runs it for a bounded time
 # on the seed corpus (shipped scenes, test scenes, fuzz/seeds, fuzz/regressions).
 #   scripts/fuzz.sh [seconds] [build-dir]     (default 60 s, build-fuzz)
-# A crash input is copied to fuzz/regressions/ (commit it: tests/test_scene_fuzz_corpus
-# replays that folder in every test run) and the script fails.
+# A crash input is copied to fuzz/regressions/ (commit it: Scene.FuzzCorpusAndRegressionsReplay
+# in tests/test_scene.cpp replays that folder in every test run) and the script fails.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
 build_dir=${2:-build-fuzz}
-need=()
-command -v clang++ >/dev/null || need+=(clang)
-dpkg -s libclang-rt-14-dev >/dev/null 2>&1 || need+=(libclang-rt-14-dev)
-dpkg -s libyaml-cpp-dev >/dev/null 2>&1 || need+=(libyaml-cpp-dev)
-command -v cmake >/dev/null || need+=(cmake)
-command -v ninja >/dev/null || need+=(ninja-build)
-if ((${#need[@]})); then
-  if [ "$(id -u)" != 0 ]; then echo "fuzz.sh: missing packages: ${need[*]} (run as root to install)" >&2; exit 1; fi
-  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need[@]}"
-fi
+scripts/install-packages.sh clang libclang-rt-14-dev libyaml-cpp-dev cmake ninja-build
 CC=clang CXX=clang++ cmake -S fuzz -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 cmake --build "$build_dir"
 

@@ -8,20 +8,7 @@ shift || true
 
 packages=(g++ cmake ninja-build pkg-config libginac-dev libeigen3-dev libyaml-cpp-dev libcli11-dev
           libgtest-dev libboost-dev gnuplot-nox nlohmann-json3-dev)
-missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing+=("$p")
-done
-if ((${#missing[@]})); then
-  echo "spacearm: installing ${missing[*]}"
-  if [[ $(id -u) -ne 0 ]]; then
-    echo "spacearm: run as root (or install these packages first): ${missing[*]}" >&2
-    exit 1
-  fi
-  export DEBIAN_FRONTEND=noninteractive
-  apt-get update -qq
-  apt-get install -y -qq "${missing[@]}" >/dev/null
-fi
+scripts/install-packages.sh "${packages[@]}"
 
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
 cmake --build "$build_dir" -j "${JOBS:-2}"
