@@ -21,7 +21,7 @@ inline constexpr bool kFreeFloating = true;
 inline constexpr bool kGeared = true;
 inline constexpr std::array<const char*, kNq> kCoordinateNames = {"x0", "y0", "q0", "qm1", "qm2", "qm3"};
 inline constexpr std::array<const char*, kNumParams> kParameterNames = {"p", "Im"};
-inline constexpr std::array<double, kNumParams> kNominalParameters = {1.0, 1.0e-5};
+inline constexpr std::array<double, kNumParams> kNominalParameters = {1.0, 1e-05};
 inline constexpr const char* kSceneHash = "fnv1a64:87fc4ffc65193dd4";
 
 // nullptr if the run-time parameters describe a physical system, else what is wrong

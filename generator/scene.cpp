@@ -1,7 +1,10 @@
 #include "scene.hpp"
 
+#include "emitted_text.hpp"
+
 #include <yaml-cpp/yaml.h>
 
+#include <cfloat>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -33,22 +36,14 @@ bool is_identifier(const std::string& s) {
 }
 
 // Names the emitted code or the emitter uses itself (coordinates, velocities, trig and
-// rate symbols, temporaries) and C++ keywords: not allowed as scene or parameter names.
+// rate symbols, temporaries, namespaces), and every name C++ or the included headers'
+// macros would reinterpret: not allowed as scene or parameter names.
 bool is_reserved(const std::string& s) {
   static const std::regex generated(
       "(x0|y0|x0d|y0d|q|qd|T|params|q[0-9]+d?|qm[0-9]+d?|c[0-9]+(_[0-9]+)?|s[0-9]+(_[0-9]+)?|Omega[0-9]+|t[0-9]+)");
-  static const std::set<std::string> keywords = {
-      "alignas", "alignof", "and", "and_eq", "asm", "auto", "bitand", "bitor", "bool", "break", "case", "catch",
-      "char", "char16_t", "char32_t", "char8_t", "class", "compl", "concept", "const", "consteval", "constexpr",
-      "constinit", "const_cast", "continue", "co_await", "co_return", "co_yield", "decltype", "default", "delete",
-      "do", "double", "dynamic_cast", "else", "enum", "explicit", "export", "extern", "false", "float", "for",
-      "friend", "goto", "if", "inline", "int", "long", "mutable", "namespace", "new", "noexcept", "not", "not_eq",
-      "nullptr", "operator", "or", "or_eq", "private", "protected", "public", "register", "reinterpret_cast",
-      "requires", "return", "short", "signed", "sizeof", "static", "static_assert", "static_cast", "struct",
-      "switch", "template", "this", "thread_local", "throw", "true", "try", "typedef", "typeid", "typename",
-      "union", "unsigned", "using", "virtual", "void", "volatile", "wchar_t", "while", "xor", "xor_eq", "std",
-      "Eigen", "spacearm", "models", "Model", "I", "Pi", "Euler", "Catalan", "sin", "cos", "pow", "sqrt"};
-  return std::regex_match(s, generated) || keywords.count(s) != 0;
+  static const std::set<std::string> names = {"std",   "Eigen", "spacearm", "models", "Model", "I", "Pi",
+                                              "Euler", "Catalan", "sin",   "cos",    "pow",    "sqrt"};
+  return std::regex_match(s, generated) || names.count(s) != 0 || is_cpp_reserved(s);
 }
 
 bool is_decimal(const std::string& s) {
@@ -106,7 +101,10 @@ class Reader {
       if (!allowed.count(key)) {
         std::string list;
         for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-        fail(path, "unknown field (allowed here: " + list + ")", kv.first);
+        const bool number = is_decimal(key);
+        fail(path, "unknown field (allowed here: " + list + ")" +
+                       (number ? "; a decimal comma? write numbers with a point, e.g. 3.0 not 3,0" : ""),
+             kv.first);
       }
       if (!seen.insert(key).second) fail(path, "given more than once", kv.first);
     }
@@ -132,6 +130,11 @@ class Reader {
       q.literal = text;
       q.value = std::strtod(text.c_str(), nullptr);
       if (!std::isfinite(q.value)) fail(field, "value '" + text + "' is not finite", n);
+      // A literal that is not zero but reads as 0 or a subnormal double has lost its digits.
+      const bool nonzero_digits = text.substr(0, text.find_first_of("eE")).find_first_of("123456789") !=
+                                  std::string::npos;
+      if (nonzero_digits && !(std::abs(q.value) >= DBL_MIN))
+        fail(field, "value '" + text + "' is too small for double precision (below 2.2e-308); write 0 for zero", n);
     } else if (is_identifier(text)) {
       if (text == "nan" || text == "NaN" || text == "inf" || text == "Inf")
         fail(field, "value '" + text + "' is not finite", n);
@@ -238,10 +241,13 @@ Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yam
     r.fail("name", "expected a C++ identifier (letters, digits, _), got '" +
                (name.IsScalar() ? name.Scalar() : std::string("a non-scalar")) + "'", name);
   s.name = name.Scalar();
-  if (is_reserved(s.name)) r.fail("name", "'" + s.name + "' is reserved (a C++ keyword or a generated name)", name);
+  if (is_reserved(s.name)) r.fail("name", "'" + s.name + "' is reserved (a C++ keyword, a macro of the generated code's headers or a generated name)", name);
   if (root["description"].IsDefined()) {
     if (!root["description"].IsScalar()) r.fail("description", "expected text", root["description"]);
     s.description = root["description"].Scalar();
+    if (s.description.size() > 4000)
+      r.fail("description", "text is too long (" + std::to_string(s.description.size()) + " characters, at most 4000)",
+             root["description"]);
   }
 
   // Parameters first: fields may refer to them.
