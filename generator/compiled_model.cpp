@@ -3,7 +3,6 @@
 #include <dlfcn.h>
 #include <unistd.h>
 
-#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -36,7 +35,7 @@ struct CompiledModel::Api {
 
 namespace {
 
-constexpr int kAbiVersion = 2;
+constexpr int kAbiVersion = 3;
 
 std::string c_api_source(const Scene& scene, const std::string& header) {
   const std::string ns = "spacearm::models::" + scene.name;
@@ -88,15 +87,17 @@ std::string c_api_source(const Scene& scene, const std::string& header) {
   return s.str();
 }
 
-std::string first_line_of_command(const std::string& command) {
-  std::array<char, 512> buf{};
-  std::string out;
-  if (FILE* p = popen(command.c_str(), "r")) {
-    if (fgets(buf.data(), buf.size(), p)) out = buf.data();
-    pclose(p);
-  }
-  while (!out.empty() && (out.back() == '\n' || out.back() == '\r')) out.pop_back();
-  return out;
+// First line the compiler prints for --version (its identity in the cache key), run
+// without a shell.
+std::string compiler_identity(const std::string& compiler, const std::string& scratch) {
+  if (run_interruptible({compiler, "--version"}, scratch, nullptr) != 0) return "";
+  std::ifstream in(scratch);
+  std::string line;
+  std::getline(in, line);
+  std::error_code ec;
+  fs::remove(scratch, ec);
+  while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+  return line;
 }
 
 std::string read_file(const fs::path& p) {
@@ -109,19 +110,21 @@ std::string read_file(const fs::path& p) {
 void write_file(const fs::path& p, const std::string& text) {
   std::ofstream out(p, std::ios::binary | std::ios::trunc);
   out << text;
+  out.close();
   if (!out) throw CompileError("cannot write '" + p.string() + "'");
 }
 
-std::string shell_quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
+std::vector<std::string> split_flags(const std::string& flags) {
+  std::vector<std::string> out;
+  std::istringstream in(flags);
+  for (std::string f; in >> f;) out.push_back(f);
+  return out;
 }
 
 // Identity of the running generator: a hash of its own executable, so that a rebuilt
 // generator (which may emit different code under the same version number) gets new entries.
 const std::string& generator_identity() {
-  static const std::string id = content_hash(read_file("/proc/self/exe")) + "-abi" + std::to_string(kAbiVersion);
+  static const std::string id = sha256_hex(read_file("/proc/self/exe")) + "-abi" + std::to_string(kAbiVersion);
   return id;
 }
 
@@ -129,46 +132,27 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-}  // namespace
-
-std::string cache_directory(const CompileOptions& options) {
-  if (!options.cache_dir.empty()) return options.cache_dir;
-  if (const char* d = std::getenv("SPACEARM_CACHE_DIR"); d && *d) return d;
-  if (const char* d = std::getenv("XDG_CACHE_HOME"); d && *d) return std::string(d) + "/spacearm";
-  if (const char* h = std::getenv("HOME"); h && *h) return std::string(h) + "/.cache/spacearm";
-  return (fs::temp_directory_path() / "spacearm-cache").string();
+// The C symbols a library must export for `scene` (checked before anything is called).
+std::vector<std::string> required_symbols(const Scene& scene) {
+  std::vector<std::string> names = {"spacearm_abi_version",     "spacearm_nq",           "spacearm_num_links",
+                                    "spacearm_num_params",      "spacearm_coordinate_name", "spacearm_parameter_name",
+                                    "spacearm_nominal_parameter", "spacearm_outputs",    "spacearm_parameter_error",
+                                    "spacearm_gear_ratios"};
+  for (Output o : {Output::mass_matrix, Output::coriolis_matrix, Output::bias_forces, Output::kinetic_energy,
+                   Output::momentum, Output::end_effector_pose})
+    if (scene.wants(o)) names.push_back("spacearm_" + to_string(o));
+  return names;
 }
 
-CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& options, StageReport* report) {
-  StageReport local;
-  StageReport& rep = report ? *report : local;
+// Generates and compiles the scene into a new work folder; returns it, ready to install.
+std::string build_entry(const Scene& scene, const CacheFolder& cache, const std::string& entry,
+                        const std::string& compiler, const std::string& compiler_id, const CompileOptions& options,
+                        StageReport& rep) {
   auto say = [&](const std::string& m) {
     if (options.progress) options.progress(m);
   };
-  std::string compiler = options.compiler;
-  if (compiler.empty()) compiler = std::getenv("CXX") && *std::getenv("CXX") ? std::getenv("CXX") : "c++";
-  const std::string compiler_id = first_line_of_command(shell_quote(compiler) + " --version 2>/dev/null");
-  if (compiler_id.empty()) throw CompileError("C++ compiler '" + compiler + "' not found (set CXX)");
-
-  const std::string key = content_hash(scene.content + '\0' + kGeneratorVersion + '\0' + generator_identity() + '\0' +
-                                       compiler_id + '\0' +
-                                       options.flags + '\0' + SPACEARM_EIGEN_INCLUDE_DIR);
-  const fs::path cache = cache_directory(options);
-  const fs::path entry = cache / (scene.name + "-" + key);
-  rep.cache_entry = entry.string();
-  const fs::path library = entry / "libmodel.so";
-  const fs::path complete = entry / "COMPLETE";
-
-  // An entry is valid only with its COMPLETE marker (written last) and a library that
-  // loads; a corrupted entry is removed and built again, once.
-  for (int attempt = 0;; ++attempt) {
-  if (!(fs::exists(complete) && fs::exists(library))) {
-    fs::create_directories(cache);
-    // Build in a private folder, then rename into place: a failed or concurrent build never
-    // leaves a half-written entry behind.
-    const fs::path work = cache / (scene.name + "-" + key + ".tmp-" + std::to_string(getpid()));
-    fs::remove_all(work);
-    fs::create_directories(work);
+  const std::string work = cache.make_work_folder(entry);
+  try {
     say("deriving " + scene.name);
     auto t0 = std::chrono::steady_clock::now();
     const SymbolicModel model = derive(scene);
@@ -179,76 +163,134 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
     eo.scene_path = scene.source_path;
     eo.command = "spacearm (compile-and-load cache)";
     const EmittedModel emitted = emit_cpp(model, eo);
-    write_files(emitted, work.string());
-    write_file(work / "c_api.cpp", c_api_source(scene, emitted.header_name));
+    write_files(emitted, work);
+    write_file(fs::path(work) / "c_api.cpp", c_api_source(scene, emitted.header_name));
     rep.emit_ms = ms_since(t0);
     rep.generated = true;
 
     say("compiling with " + compiler);
     t0 = std::chrono::steady_clock::now();
-    const fs::path log = work / "compile.log";
-    const std::string command = shell_quote(compiler) + " " + options.flags + " -I" +
-                                shell_quote(SPACEARM_EIGEN_INCLUDE_DIR) + " -I" + shell_quote(work.string()) + " " +
-                                shell_quote((work / emitted.source_name).string()) + " " +
-                                shell_quote((work / "c_api.cpp").string()) + " -o " +
-                                shell_quote((work / "libmodel.so").string()) + " > " + shell_quote(log.string()) +
-                                " 2>&1";
-    write_file(work / "compile_command.txt", command + "\n");
-    const int status = std::system(command.c_str());
+    std::vector<std::string> argv{compiler};
+    for (const auto& f : split_flags(options.flags)) argv.push_back(f);
+    for (const std::string& a : {"-I" + std::string(SPACEARM_EIGEN_INCLUDE_DIR), "-I" + work,
+                                work + "/" + emitted.source_name, work + "/c_api.cpp", std::string("-o"), work + "/libmodel.so"})
+      argv.push_back(a);
+    std::string shown;
+    for (const auto& a : argv) shown += (shown.empty() ? "" : " ") + a;
+    write_file(fs::path(work) / "compile_command.txt", shown + "\n");
+    const int status = run_interruptible(argv, work + "/compile.log", [&] {
+      std::error_code ec;
+      fs::remove_all(work, ec);
+    });
     rep.compile_ms = ms_since(t0);
     if (status != 0) {
-      // Keep the failed sources for inspection, outside the valid entries.
-      const fs::path failed = cache / "failed" / (scene.name + "-" + key);
-      fs::remove_all(failed);
-      fs::create_directories(failed.parent_path());
-      fs::rename(work, failed);
-      throw CompileError("compiling model '" + scene.name + "' failed:\n" + read_file(failed / "compile.log") +
-                         "sources and command: " + failed.string());
+      const std::string log = read_file(fs::path(work) / "compile.log");
+      const std::string kept = cache.keep_failed(work, entry);
+      throw CompileError("compiling model '" + scene.name + "' failed" +
+                         (status < 0 ? " (could not run '" + compiler + "')" : "") + ":\n" + log +
+                         "sources and command: " + kept);
     }
     rep.compiled = true;
-    // The marker records the library's hash: a truncated or altered library is detected
-    // before dlopen (mapping a truncated ELF file can crash the process instead of failing).
-    write_file(work / "COMPLETE", "library " + content_hash(read_file(work / "libmodel.so")) + "\nscene " +
-                                      scene.source_path + "\ngenerator " + kGeneratorVersion + "\ncompiler " +
-                                      compiler_id + "\nflags " + options.flags + "\n");
+    // The marker, written last, records the library's SHA-256 on its first line.
+    write_file(fs::path(work) / "COMPLETE",
+               "sha256 " + sha256_hex(read_file(fs::path(work) / "libmodel.so")) + "\ngenerator " +
+                   kGeneratorVersion + "\ncompiler " + compiler_id + "\nflags " + options.flags + "\n");
+    return work;
+  } catch (...) {
     std::error_code ec;
-    fs::remove_all(entry, ec);  // an incomplete entry left by a crash
-    fs::rename(work, entry, ec);
-    if (ec) {
-      // Another process finished the same entry first: use it, drop ours.
-      fs::remove_all(work);
-      if (!fs::exists(complete)) throw CompileError("cannot install cache entry '" + entry.string() + "': " + ec.message());
-    }
+    fs::remove_all(work, ec);
+    throw;
   }
+}
 
-  const std::string marker = read_file(complete);
-  if (marker.rfind("library " + content_hash(read_file(library)) + "\n", 0) != 0) {
-    if (attempt == 0 && !rep.compiled) {
-      say("cache entry " + entry.string() + " is corrupted (library does not match its hash): rebuilding");
-      fs::remove_all(entry);
+}  // namespace
+
+std::string cache_directory(const CompileOptions& options) {
+  if (!options.cache_dir.empty()) return options.cache_dir;
+  if (const char* d = std::getenv("SPACEARM_CACHE_DIR"); d && *d) return d;
+  if (const char* d = std::getenv("XDG_CACHE_HOME"); d && *d) return std::string(d) + "/spacearm";
+  if (const char* h = std::getenv("HOME"); h && *h) return std::string(h) + "/.cache/spacearm";
+  throw CompileError(
+      "no cache folder for compiled models: set HOME, XDG_CACHE_HOME or SPACEARM_CACHE_DIR, or pass --cache-dir");
+}
+
+CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& options, StageReport* report) {
+  StageReport local;
+  StageReport& rep = report ? *report : local;
+  auto say = [&](const std::string& m) {
+    if (options.progress) options.progress(m);
+  };
+  const CacheFolder cache(cache_directory(options));
+  cache.remove_stale_work();
+  std::string compiler = options.compiler;
+  if (compiler.empty()) compiler = std::getenv("CXX") && *std::getenv("CXX") ? std::getenv("CXX") : "c++";
+  const std::string compiler_id =
+      compiler_identity(compiler, cache.path() + "/.tmp-" + std::to_string(getpid()) + "-compiler-version");
+  if (compiler_id.empty()) throw CompileError("C++ compiler '" + compiler + "' not found (set CXX)");
+
+  const std::string key = sha256_hex(scene.content + '\0' + kGeneratorVersion + '\0' + generator_identity() +
+                                     '\0' + compiler_id + '\0' + options.flags + '\0' + SPACEARM_EIGEN_INCLUDE_DIR)
+                              .substr(0, 32);
+  const std::string entry = scene.name + "-" + key;
+  rep.cache_entry = cache.path() + "/" + entry;
+
+  // A verified entry is loaded; an incomplete or corrupted one is discarded and built
+  // again, once. A racing process may install the entry first: then its entry is used.
+  for (int attempt = 0;; ++attempt) {
+    std::string problem;
+    Fd library = cache.open_library(entry, problem);
+    if (!library.valid()) {
+      if (attempt > 1 || (attempt == 1 && rep.compiled))
+        throw CompileError("cache entry '" + rep.cache_entry + "' is " + problem + " after a fresh build");
+      if (problem != "absent") {
+        say("cache entry " + rep.cache_entry + " is " + problem + ": rebuilding");
+        cache.discard(entry);
+      }
+      const std::string work = build_entry(scene, cache, entry, compiler, compiler_id, options, rep);
+      cache.install(work, entry);
       continue;
     }
-    throw CompileError("cache entry '" + entry.string() + "' is corrupted and could not be rebuilt");
+    std::string why;
+    CompiledModel m = open_verified(scene, library, rep, why);
+    if (why.empty()) return m;
+    if (attempt > 0 || rep.compiled)
+      throw CompileError("cannot load '" + rep.cache_entry + "/libmodel.so': " + why);
+    say("cache entry " + rep.cache_entry + " is corrupted (" + why + "): rebuilding");
+    cache.discard(entry);
   }
-  say("loading " + library.string());
+}
+
+// dlopen of the verified open file (through /proc/self/fd, so the bytes hashed are the
+// bytes mapped), then every symbol the scene needs is looked up before any is called.
+CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library, StageReport& rep, std::string& why) {
   const auto t0 = std::chrono::steady_clock::now();
   CompiledModel m;
-  m.handle_ = dlopen(library.c_str(), RTLD_NOW | RTLD_LOCAL);
-  auto sym = [&](const char* name) { return m.handle_ ? dlsym(m.handle_, name) : nullptr; };
-  auto abi = reinterpret_cast<int (*)()>(sym("spacearm_abi_version"));
-  if (!m.handle_ || !abi || abi() != kAbiVersion) {
-    const std::string why = m.handle_ ? "wrong interface version" : dlerror();
-    if (attempt == 0 && !rep.compiled) {
-      say("cache entry " + entry.string() + " is corrupted (" + why + "): rebuilding");
-      fs::remove_all(entry);
-      continue;
+  const std::string path = "/proc/self/fd/" + std::to_string(library.get());
+  m.handle_ = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (!m.handle_) {
+    const char* e = dlerror();
+    why = e ? e : "dlopen failed";
+    return m;
+  }
+  for (const auto& name : required_symbols(scene))
+    if (!dlsym(m.handle_, name.c_str())) {
+      why = "the library lacks the symbol " + name;
+      return m;
     }
-    throw CompileError("cannot load '" + library.string() + "': " + why);
+  auto sym = [&](const char* name) { return dlsym(m.handle_, name); };
+  if (reinterpret_cast<int (*)()>(sym("spacearm_abi_version"))() != kAbiVersion) {
+    why = "wrong interface version";
+    return m;
   }
   m.nq_ = reinterpret_cast<int (*)()>(sym("spacearm_nq"))();
   m.num_links_ = reinterpret_cast<int (*)()>(sym("spacearm_num_links"))();
   m.outputs_ = reinterpret_cast<unsigned (*)()>(sym("spacearm_outputs"))();
   const int np = reinterpret_cast<int (*)()>(sym("spacearm_num_params"))();
+  if (m.nq_ != scene.num_coordinates() || m.num_links_ != scene.num_links() ||
+      np != static_cast<int>(scene.parameters.size())) {
+    why = "its sizes do not match the scene";
+    return m;
+  }
   auto coordinate = reinterpret_cast<const char* (*)(int)>(sym("spacearm_coordinate_name"));
   auto parameter = reinterpret_cast<const char* (*)(int)>(sym("spacearm_parameter_name"));
   auto nominal = reinterpret_cast<double (*)(int)>(sym("spacearm_nominal_parameter"));
@@ -263,13 +305,12 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
   m.api_->bias_forces = reinterpret_cast<Api::VecVel>(sym("spacearm_bias_forces"));
   m.api_->momentum = reinterpret_cast<Api::VecVel>(sym("spacearm_momentum"));
   m.api_->end_effector_pose = reinterpret_cast<Api::Vec>(sym("spacearm_end_effector_pose"));
-  m.api_->kinetic_energy = reinterpret_cast<double (*)(const double*, const double*, const double*)>(
-      sym("spacearm_kinetic_energy"));
+  m.api_->kinetic_energy =
+      reinterpret_cast<double (*)(const double*, const double*, const double*)>(sym("spacearm_kinetic_energy"));
   m.api_->gear_ratios = reinterpret_cast<void (*)(const double*, double*)>(sym("spacearm_gear_ratios"));
   m.api_->parameter_error = reinterpret_cast<const char* (*)(const double*)>(sym("spacearm_parameter_error"));
   rep.load_ms = ms_since(t0);
   return m;
-  }
 }
 
 CompiledModel::~CompiledModel() {

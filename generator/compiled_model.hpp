@@ -11,14 +11,15 @@
 #include <string>
 #include <vector>
 
+#include "model_cache.hpp"
 #include "scene.hpp"
 
 namespace spacearm {
 
 struct CompileOptions {
   std::string cache_dir;  // empty: $SPACEARM_CACHE_DIR, else $XDG_CACHE_HOME/spacearm, else ~/.cache/spacearm
-  std::string compiler;   // empty: $CXX, else c++
-  std::string flags = "-O2 -std=c++17 -fPIC -shared";
+  std::string compiler;   // empty: $CXX, else c++ (one program, run without a shell)
+  std::string flags = "-O2 -std=c++17 -fPIC -shared";  // split at spaces
   std::function<void(const std::string&)> progress;  // stage messages (may be empty)
 };
 
@@ -27,11 +28,6 @@ struct StageReport {
   bool generated = false, compiled = false;
   double derive_ms = 0, emit_ms = 0, compile_ms = 0, load_ms = 0;
   std::string cache_entry;  // folder of the cached model
-};
-
-class CompileError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
 };
 
 // A generated model loaded from a shared library, with a dynamic-size interface.
@@ -68,11 +64,14 @@ class CompiledModel {
   unsigned outputs_ = 0;
   std::vector<std::string> coordinate_names_, parameter_names_;
   std::vector<double> nominal_;
+  static CompiledModel open_verified(const Scene& scene, const Fd& library, StageReport& rep, std::string& why);
   void check(const char* what, const Eigen::VectorXd& v, int size) const;
   void require(Output o) const;
 };
 
-// The cache folder in use (after the environment defaults).
+// The cache folder in use: options.cache_dir, else $SPACEARM_CACHE_DIR, else
+// $XDG_CACHE_HOME/spacearm, else $HOME/.cache/spacearm; a CompileError naming what to set if
+// none is given (there is no shared fallback under /tmp: another user could plant it).
 std::string cache_directory(const CompileOptions& options);
 
 }  // namespace spacearm

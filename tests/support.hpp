@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <cstdio>
 #include <random>
 #include <sstream>
 #include <string>
@@ -118,5 +119,18 @@ inline Difference relative_difference(const Eigen::MatrixXd& a, const Eigen::Mat
     EXPECT_LE(d_.relative, (tol)) << "worst entry (" << d_.row << ", " << d_.col << "): " #a " = "          \
                                   << a_(d_.row, d_.col) << ", " #b " = " << b_(d_.row, d_.col);             \
   } while (0)
+
+// Runs a shell command; returns its standard output and sets *status to pclose's status.
+inline std::string run_command(const std::string& command, int* status = nullptr) {
+  std::string out;
+  if (FILE* p = popen(command.c_str(), "r")) {
+    char buf[4096];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
+    const int st = pclose(p);
+    if (status) *status = st;
+  }
+  return out;
+}
 
 }  // namespace spacearm::test

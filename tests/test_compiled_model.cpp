@@ -25,17 +25,8 @@ fs::path fresh_cache(const std::string& name) {
   return dir;
 }
 
-std::string run(const std::string& command, int* status = nullptr) {
-  std::string out;
-  if (FILE* p = popen(command.c_str(), "r")) {
-    char buf[4096];
-    size_t n;
-    while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-    const int st = pclose(p);
-    if (status) *status = st;
-  }
-  return out;
-}
+using test::run_command;
+std::string run(const std::string& command, int* status = nullptr) { return run_command(command, status); }
 
 Eigen::MatrixXd matrix_of(const nlohmann::json& j) {
   Eigen::MatrixXd m(j.size(), j[0].size());

@@ -1,0 +1,232 @@
+// generator/model_cache.hpp: the compile-and-load cache cannot be planted, races between
+// first builds are harmless, a broken library is an error and not a crash, and an
+// interrupted build leaves neither a compiler nor a work folder behind.
+// Cost: one real compile (about 6 s), then fake compilers that copy or sleep.
+#include "model_cache.hpp"
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "compiled_model.hpp"
+#include "support.hpp"
+
+extern char** environ;
+
+namespace spacearm {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kScene = SPACEARM_SOURCE_DIR "/models/paper_reference.yaml";
+
+fs::path scratch(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("spacearm-cache-test-" + name + "-" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// A compiler stand-in: answers --version, then runs `action` with $out the -o argument.
+fs::path fake_compiler(const fs::path& dir, const std::string& name, const std::string& action) {
+  const fs::path p = dir / name;
+  std::ofstream(p) << "#!/bin/sh\nif [ \"$1\" = --version ]; then echo 'fake " << name << " 1'; exit 0; fi\n"
+                   << "out=; prev=; for a in \"$@\"; do [ \"$prev\" = -o ] && out=$a; prev=$a; done\n"
+                   << action << "\n";
+  fs::permissions(p, fs::perms::owner_all);
+  return p;
+}
+
+// The library a real build of the paper's reference scene gives (built once per run).
+const fs::path& real_library() {
+  static const fs::path lib = [] {
+    const fs::path dir = scratch("real");
+    CompileOptions options;
+    options.cache_dir = (dir / "cache").string();
+    StageReport rep;
+    CompiledModel::load(load_scene(kScene), options, &rep);
+    fs::copy_file(fs::path(rep.cache_entry) / "libmodel.so", dir / "libmodel.so");
+    return dir / "libmodel.so";
+  }();
+  return lib;
+}
+
+std::string eval_command(const fs::path& cache, const fs::path& compiler) {
+  return "CXX='" + compiler.string() + "' " + SPACEARM_CLI + " eval --json --cache-dir '" + cache.string() + "' " +
+         kScene + " --q 0,0,0,0.1,0.2,0.3";
+}
+
+std::string entry_of(const fs::path& cache) {
+  for (const auto& e : fs::directory_iterator(cache))
+    if (e.path().filename().string().rfind("paper_reference-", 0) == 0) return e.path().string();
+  return "";
+}
+
+TEST(ModelCache, Sha256IsTheStandardOne) {
+  EXPECT_EQ(sha256_hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  EXPECT_EQ(sha256_hex(""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+}
+
+TEST(ModelCache, TwentyConcurrentFirstBuildsAllSucceedWithAFastCompiler) {
+  const fs::path dir = scratch("race");
+  const fs::path cc = fake_compiler(dir, "copy", "cp '" + real_library().string() + "' \"$out\"");
+  const fs::path cache = dir / "cache";
+  std::string script = "cd '" + dir.string() + "' && for i in $(seq 1 20); do (" + eval_command(cache, cc) +
+                       " > out.$i 2> err.$i; echo $? > rc.$i) & done; wait";
+  ASSERT_EQ(std::system(script.c_str()), 0);
+  const std::string first = slurp(dir / "out.1");
+  ASSERT_NE(first.find("\"M\":"), std::string::npos) << slurp(dir / "err.1");
+  for (int i = 1; i <= 20; ++i) {
+    const std::string n = std::to_string(i);
+    EXPECT_EQ(slurp(dir / ("rc." + n)), "0\n") << "process " << n << ": " << slurp(dir / ("err." + n));
+    EXPECT_EQ(slurp(dir / ("out." + n)), first) << "process " << n;
+  }
+  int entries = 0;
+  for (const auto& e : fs::directory_iterator(cache)) {
+    ++entries;
+    EXPECT_EQ(e.path().filename().string().rfind(".tmp-", 0), std::string::npos) << "left behind: " << e.path();
+  }
+  EXPECT_EQ(entries, 1);
+  fs::remove_all(dir);
+}
+
+TEST(ModelCache, FolderIsPrivateAndUnsafeFoldersOrEntriesAreRefusedByName) {
+  const fs::path dir = scratch("unsafe");
+  const fs::path cc = fake_compiler(dir, "copy", "cp '" + real_library().string() + "' \"$out\"");
+  const fs::path cache = dir / "new" / "cache";
+  int status = 0;
+  test::run_command(eval_command(cache, cc) + " 2>&1", &status);
+  ASSERT_EQ(status, 0);
+  EXPECT_EQ(fs::status(cache).permissions() & fs::perms::all, fs::perms::owner_all);
+  const fs::path entry = entry_of(cache);
+  ASSERT_FALSE(entry.empty());
+
+  // An entry writable by others: refused, never loaded or silently rebuilt.
+  fs::permissions(entry / "libmodel.so", fs::perms::others_write, fs::perm_options::add);
+  std::string out = test::run_command(eval_command(cache, cc) + " 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(out.find("libmodel.so' is writable by others"), std::string::npos) << out;
+  fs::permissions(entry / "libmodel.so", fs::perms::others_write, fs::perm_options::remove);
+
+  // An entry that is a symbolic link to a folder elsewhere.
+  const fs::path elsewhere = dir / "elsewhere";
+  fs::rename(entry, elsewhere);
+  fs::create_directory_symlink(elsewhere, entry);
+  out = test::run_command(eval_command(cache, cc) + " 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(out.find("is a symbolic link"), std::string::npos) << out;
+  fs::remove(entry);
+  fs::rename(elsewhere, entry);
+
+  // A cache folder writable by others.
+  fs::permissions(cache, fs::perms::others_write, fs::perm_options::add);
+  out = test::run_command(eval_command(cache, cc) + " 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(out.find("cache folder '" + cache.string() + "' is writable by others"), std::string::npos) << out;
+  fs::permissions(cache, fs::perms::others_write, fs::perm_options::remove);
+  test::run_command(eval_command(cache, cc) + " 2>&1", &status);
+  EXPECT_EQ(status, 0);
+
+  // No HOME, XDG_CACHE_HOME or SPACEARM_CACHE_DIR: no shared /tmp fallback.
+  out = test::run_command("env -u HOME -u XDG_CACHE_HOME -u SPACEARM_CACHE_DIR " + std::string(SPACEARM_CLI) +
+                              " eval " + kScene + " --q 0,0,0,0,0,0 2>&1",
+                          &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(out.find("set HOME, XDG_CACHE_HOME or SPACEARM_CACHE_DIR, or pass --cache-dir"), std::string::npos)
+      << out;
+  fs::remove_all(dir);
+}
+
+TEST(ModelCache, EntryPlantedByAnotherUserIsRefused) {
+  if (geteuid() != 0) GTEST_SKIP() << "needs root to give a file to another user";
+  const fs::path dir = scratch("planted");
+  const fs::path cc = fake_compiler(dir, "copy", "cp '" + real_library().string() + "' \"$out\"");
+  const fs::path cache = dir / "cache";
+  int status = 0;
+  test::run_command(eval_command(cache, cc) + " 2>&1", &status);
+  ASSERT_EQ(status, 0);
+  const fs::path entry = entry_of(cache);
+  // The attacker's copy: same files, another owner (nobody).
+  for (const fs::path& p : {entry / "libmodel.so", entry / "COMPLETE", entry})
+    ASSERT_EQ(::chown(p.c_str(), 65534, 65534), 0);
+  const std::string out = test::run_command(eval_command(cache, cc) + " 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(out.find("is owned by user 65534, not by you"), std::string::npos) << out;
+  fs::remove_all(dir);
+}
+
+TEST(ModelCache, LibraryWithoutTheNeededSymbolsIsAnErrorNotACrash) {
+  const fs::path dir = scratch("symbols");
+  std::ofstream(dir / "stub.cpp") << "extern \"C\" int spacearm_abi_version() { return 3; }\n";
+  const fs::path cc = fake_compiler(dir, "stub", "c++ -shared -fPIC '" + (dir / "stub.cpp").string() + "' -o \"$out\"");
+  int status = 0;
+  const std::string out = test::run_command(eval_command(dir / "cache", cc) + " 2>&1", &status);
+  EXPECT_EQ(WEXITSTATUS(status), 1) << out;
+  EXPECT_NE(out.find("lacks the symbol spacearm_nq"), std::string::npos) << out;
+  fs::remove_all(dir);
+}
+
+pid_t spawn_shell(const std::string& command) {
+  pid_t pid = -1;
+  const char* argv[] = {"/bin/sh", "-c", command.c_str(), nullptr};
+  EXPECT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+  return pid;
+}
+
+// Running, and not a zombie waiting for a parent (in a container, PID 1 may never reap it).
+bool alive(pid_t pid) {
+  if (::kill(pid, 0) != 0) return false;
+  const std::string stat = slurp("/proc/" + std::to_string(pid) + "/stat");
+  const auto close = stat.rfind(')');
+  return close != std::string::npos && close + 2 < stat.size() && stat[close + 2] != 'Z';
+}
+
+TEST(ModelCache, InterruptDuringCompileStopsTheCompilerAndRemovesItsWorkFolder) {
+  const fs::path dir = scratch("interrupt");
+  const fs::path pid_file = dir / "compiler.pid";
+  const fs::path cc = fake_compiler(dir, "slow", "echo $$ > '" + pid_file.string() + "'; exec sleep 60");
+  const fs::path cache = dir / "cache";
+  // A work folder left by a process that no longer runs is cleaned by the next run.
+  fs::create_directories(cache / ".tmp-999999999-paper_reference-stale");
+  fs::permissions(cache, fs::perms::owner_all, fs::perm_options::replace);
+  // exec: the shell becomes spacearm, so the signal goes to it.
+  const pid_t pid = spawn_shell("CXX='" + cc.string() + "' exec " + SPACEARM_CLI + " eval --cache-dir '" +
+                                cache.string() + "' " + kScene + " --q 0,0,0,0,0,0 > /dev/null 2>&1");
+  for (int i = 0; i < 1500 && !fs::exists(pid_file); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_TRUE(fs::exists(pid_file)) << "the fake compiler never started";
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  const pid_t compiler = std::stoi(slurp(pid_file));
+  EXPECT_FALSE(fs::exists(cache / ".tmp-999999999-paper_reference-stale"));
+  ASSERT_EQ(::kill(pid, SIGINT), 0);
+  int status = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  while (::waitpid(pid, &status, WNOHANG) == 0) {
+    ASSERT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(10)) << "spacearm did not stop";
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGINT) << "status " << status;
+  for (int i = 0; i < 100 && alive(compiler); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_FALSE(alive(compiler)) << "the compiler " << compiler << " was left running";
+  for (const auto& e : fs::directory_iterator(cache))
+    EXPECT_EQ(e.path().filename().string().rfind(".tmp-", 0), std::string::npos) << "left behind: " << e.path();
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace spacearm
