@@ -114,7 +114,7 @@ int main(int argc, char** argv) {
 
     // 2. Reference replay (torques on the links).
     const auto q_start = plan.q.front();
-    const auto ref_traj = simulate<models::paper_reference::Model>(ref, q_start, Ref::Vector::Zero(), std::cref(tau),
+    const auto ref_traj = simulate<models::paper_reference::Model>(ref, q_start, Ref::Vector::Zero(), tau,
                                                                    task.duration, task.dt, opt);
     const Eigen::Vector3d ref_end = ref_traj.end_effector.back();
     const Eigen::Vector3d plan_end = ref.end_effector_pose(plan.q.back());
@@ -132,7 +132,7 @@ int main(int argc, char** argv) {
       g.set_parameter("Im", motor_inertia);
       Geared::Vector qm = q_start;
       qm.tail<3>() *= p;
-      const auto traj = simulate<models::paper_geared::Model>(g, qm, Geared::Vector::Zero(), std::cref(tau), task.duration,
+      const auto traj = simulate<models::paper_geared::Model>(g, qm, Geared::Vector::Zero(), tau, task.duration,
                                                         task.dt, opt);
       const Eigen::Vector3d e = traj.end_effector.back() - ref_end;
       const auto& qf = traj.q.back();

@@ -53,6 +53,14 @@ struct IntegratorOptions {
   // straddles a point where the right-hand side has a kink (e.g. torque samples joined by
   // straight lines): a step across one loses the method's order.
   double breakpoint_interval = 0;
+  // The breakpoints are breakpoint_origin + k * breakpoint_interval, up to breakpoint_end
+  // (e.g. the first and last torque samples); none after it.
+  double breakpoint_origin = 0;
+  double breakpoint_end = std::numeric_limits<double>::infinity();
+  // Called before every step attempt with the step's start and end times, so that a
+  // zero-order hold can give every stage of the step one sample (TorqueSignal::held_over).
+  // Not available for dopri5 without breakpoints (dense output chooses its steps itself).
+  std::function<void(double t_begin, double t_end)> step_begin;
 };
 
 template <class State, class Rhs>
@@ -96,6 +104,15 @@ IntegrationError integration_error(Method m, const std::string& why, double t, c
 // Smallest step allowed: 16 ulps of the largest time in the span (MATLAB's ode45 rule, with
 // the span's end instead of t so that it is not zero at t = 0). Below it a controller is
 // only chasing rounding, and t barely advances.
+// FSAL steppers (dopri5) reuse the last stage of a step as the first of the next: after a
+// step that lands on a breakpoint the right-hand side may jump there (a held torque), so
+// the first stage must be evaluated anew.
+template <class Stepper>
+auto reset_first_same_as_last(Stepper& s, int) -> decltype(s.reset(), void()) {
+  s.reset();
+}
+template <class Stepper>
+void reset_first_same_as_last(Stepper&, long) {}
 inline bool below_minimum_step(double dt, double t, double t0, double t1) {
   const double scale = std::max({std::abs(t), std::abs(t0), std::abs(t1)});
   return !(std::abs(dt) >= 16 * std::numeric_limits<double>::epsilon() * scale);
@@ -125,9 +142,21 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
                                   detail::format(rtol_min) + " (100 x machine epsilon)");
     if (!(opt.atol >= 0) || !std::isfinite(opt.atol))
       throw std::invalid_argument("integrate: atol = " + detail::format(opt.atol) + " must be >= 0");
-    if (!(opt.breakpoint_interval >= 0) || !std::isfinite(opt.breakpoint_interval))
+    if (!(opt.breakpoint_interval >= 0) || !std::isfinite(opt.breakpoint_interval) ||
+        !std::isfinite(opt.breakpoint_origin))
       throw std::invalid_argument("integrate: breakpoint_interval = " + detail::format(opt.breakpoint_interval) +
-                                  " must be >= 0 (0: none)");
+                                  " must be >= 0 (0: none), with a finite origin");
+    // A grid that t cannot resolve, or one with more stops than any run can take, would
+    // never finish: refuse it up front.
+    const double every = opt.breakpoint_interval;
+    const double span = std::min(t1, opt.breakpoint_end) - t0;
+    if (every > 0 && span > 0 &&
+        (detail::below_minimum_step(every, opt.breakpoint_origin, t0, t1) || span / every > 1e9))
+      throw std::invalid_argument("integrate: breakpoint_interval = " + detail::format(every) +
+                                  " (e.g. the torque grid's step) is too small for the time span [" +
+                                  detail::format(t0) + ", " + detail::format(t1) + "]");
+    if (opt.method == Method::dopri5 && every == 0 && opt.step_begin)
+      throw std::invalid_argument("integrate: step_begin needs breakpoints with dopri5 (dense output)");
   } else if (!(opt.dt > 0) || !std::isfinite(opt.dt)) {
     throw std::invalid_argument("integrate: dt = " + detail::format(opt.dt) + " must be positive");
   }
@@ -158,9 +187,11 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
   // controller chose is kept across them (a step shortened to land does not shrink the next).
   auto controlled_steps = [&](auto& stepper) {
     const double every = opt.breakpoint_interval;
+    const double origin = opt.breakpoint_origin;
     auto next_stop = [&](double t, double t_out) {
       if (!(every > 0)) return t_out;
-      const double b = t0 + std::floor((t - t0) / every + 1 + 1e-9) * every;
+      const double b = origin + std::floor((t - origin) / every + 1 + 1e-9) * every;
+      if (b > opt.breakpoint_end * (1 + 1e-12) + 1e-300) return t_out;  // past the last sample
       return std::min(t_out, b);
     };
     double dt = std::min(dt_out, 0.01), t = t0;
@@ -172,8 +203,19 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
         const double natural = dt;
         const bool clamped = t + dt > stop;
         double step = clamped ? stop - t : dt;
+        // A stop that rounding puts on t itself would give steps of zero, forever.
+        if (detail::below_minimum_step(step, t, t0, t1))
+          throw detail::integration_error(opt.method,
+                                          "no progress: the next stop at t = " + detail::format(stop) +
+                                              " is within rounding of t (breakpoint interval " +
+                                              detail::format(every) + ")",
+                                          t_ok, x_ok);
+        if (opt.step_begin) opt.step_begin(t, clamped ? stop : t + step);
         if (stepper.try_step(rhs, x, t, step) == odeint::success) {
-          if (clamped) t = stop;  // exactly on it, whatever rounding t + step gave
+          if (clamped) {
+            t = stop;  // exactly on it, whatever rounding t + step gave
+            detail::reset_first_same_as_last(stepper, 0);
+          }
           accept(t, x);
           rejected = 0;
           dt = clamped ? std::max(natural, step) : step;
@@ -193,7 +235,9 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
       odeint::runge_kutta4<State, double, State, double, odeint::vector_space_algebra> stepper;
       for (long k = 0; k < outputs; ++k) {
         for (long s = 0; s < per; ++s) {
-          stepper.do_step(rhs, x, t0 + (k * per + s) * opt.dt, opt.dt);
+          const double t = t0 + (k * per + s) * opt.dt;
+          if (opt.step_begin) opt.step_begin(t, t + opt.dt);
+          stepper.do_step(rhs, x, t, opt.dt);
           accept(t0 + (k * per + s + 1) * opt.dt, x);
         }
         observe(x, t0 + (k + 1) * dt_out);
@@ -216,6 +260,10 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
       for (long k = 1; k <= outputs; ++k) {
         const double t_out = t0 + k * dt_out;
         while (stepper.current_time() < t_out) {
+          // No step past t1: its stages would evaluate the right-hand side beyond the span
+          // (e.g. past the last torque sample), and the outputs interpolate that step.
+          const double left = t1 - stepper.current_time();
+          if (stepper.current_time_step() > left) stepper.initialize(State(stepper.current_state()), stepper.current_time(), left);
           stepper.do_step(rhs);  // odeint throws step_adjustment_error after 500 rejections
           accept(stepper.current_time(), stepper.current_state());
           if (detail::below_minimum_step(stepper.current_time_step(), t_ok, t0, t1))
@@ -238,7 +286,9 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
       const long per = check_fixed();
       for (long k = 0; k < outputs; ++k) {
         for (long s = 0; s < per; ++s) {
-          implicit_midpoint_step(rhs, x, t0 + (k * per + s) * opt.dt, opt.dt);
+          const double t = t0 + (k * per + s) * opt.dt;
+          if (opt.step_begin) opt.step_begin(t, t + opt.dt);
+          implicit_midpoint_step(rhs, x, t, opt.dt);
           accept(t0 + (k * per + s + 1) * opt.dt, x);
         }
         observe(x, t0 + (k + 1) * dt_out);

@@ -7,6 +7,7 @@
 
 #include "integrators.hpp"
 #include "model.hpp"
+#include "torque_signal.hpp"
 
 namespace spacearm {
 
@@ -63,13 +64,44 @@ void simulate(Trajectory<G>& traj, const Model<G>& model, const typename Model<G
   traj.stats = integrate(options, f, x, 0.0, t_end, dt_out, observe);
 }
 
-template <class G>
+// Replays sampled torques: adaptive steps land on every sample up to the last one (a kink
+// or a jump of the signal there), and with Interpolation::hold every stage of a step sees
+// the one sample of the interval the step lies in (a true zero-order hold). The fixed-step
+// methods then need the samples' interval to be a multiple of options.dt.
+template <class G, int N>
+void simulate(Trajectory<G>& traj, const Model<G>& model, const typename Model<G>::Vector& q0,
+              const typename Model<G>::Vector& qd0, const TorqueSignal<N>& tau, double t_end, double dt_out,
+              IntegratorOptions options) {
+  using Joint = typename Model<G>::JointVector;
+  const bool hold = tau.mode() == Interpolation::hold;
+  const bool fixed = options.method == Method::rk4 || options.method == Method::implicit_midpoint;
+  auto multiple = [](double a, double b) { return std::abs(a / b - std::round(a / b)) <= 1e-9 * std::max(1.0, a / b); };
+  if (hold && fixed && !(multiple(tau.dt(), options.dt) && multiple(tau.t_first(), options.dt)))
+    throw std::invalid_argument("simulate: a held torque with fixed steps needs the samples' interval (" +
+                                detail::format(tau.dt()) + " s) and first time to be multiples of the step dt (" +
+                                detail::format(options.dt) + " s), so that no step straddles a sample");
+  options.breakpoint_interval = tau.dt();
+  options.breakpoint_origin = tau.t_first();
+  options.breakpoint_end = tau.t_last();
+  double step_a = 0, step_b = -1;
+  options.step_begin = [&](double a, double b) {
+    step_a = a;
+    step_b = b;
+  };
+  // Inside a step: the step's sample (hold) or the value at t; at an output time: tau(t).
+  const std::function<Joint(double)> torque = [&](double t) -> Joint {
+    if (hold && t >= step_a && t <= step_b) return tau.held_over(step_a, step_b);
+    return tau(t);
+  };
+  simulate(traj, model, q0, qd0, torque, t_end, dt_out, options);
+}
+
+template <class G, class Torque>
 Trajectory<G> simulate(const Model<G>& model, const typename Model<G>::Vector& q0,
                        const typename Model<G>::Vector& qd0,
-                       const std::function<typename Model<G>::JointVector(double)>& tau, double t_end,
-                       double dt_out, const IntegratorOptions& options) {
+                       const Torque& tau, double t_end, double dt_out, const IntegratorOptions& options) {
   Trajectory<G> traj;
-  simulate(traj, model, q0, qd0, tau, t_end, dt_out, options);
+  simulate(traj, model, q0, qd0, tau, t_end, dt_out, options);  // a TorqueSignal or a function of t
   return traj;
 }
 

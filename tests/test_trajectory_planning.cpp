@@ -29,7 +29,7 @@ Replay plan_and_replay(const StraightLineTask& task, Interpolation mode = Interp
   const TorqueSignal<3> tau(0.0, task.dt, r.plan.tau, mode);
   IntegratorOptions opt;  // RK4, 0.01 s: the paper's setting
   opt.dt = task.dt;
-  r.reference = simulate<RG>(ref, r.plan.q.front(), Ref::Vector::Zero(), std::cref(tau), task.duration, task.dt, opt);
+  r.reference = simulate<RG>(ref, r.plan.q.front(), Ref::Vector::Zero(), tau, task.duration, task.dt, opt);
   return r;
 }
 
@@ -41,7 +41,7 @@ Trajectory<GG> geared_replay(const Replay& r, const StraightLineTask& task, doub
   Geared::Vector qm = r.plan.q.front();
   qm.tail<3>() *= p;  // q_m(0) = p q(0)
   const TorqueSignal<3> tau(0.0, task.dt, r.plan.tau, Interpolation::linear);
-  return simulate<GG>(g, qm, Geared::Vector::Zero(), std::cref(tau), task.duration, task.dt, opt);
+  return simulate<GG>(g, qm, Geared::Vector::Zero(), tau, task.duration, task.dt, opt);
 }
 
 TEST(TrajectoryPlanning, StraightLineConstantOrientationZeroMomentum) {
@@ -124,7 +124,7 @@ TEST(TrajectoryPlanning, DeviationsDoNotDependOnTheDuration) {
     tight.rtol = 1e-12;
     tight.atol = 1e-13;
     const TorqueSignal<3> tau(0.0, task.dt, plan.tau, Interpolation::linear);
-    Replay r{plan, simulate<RG>(ref, plan.q.front(), Ref::Vector::Zero(), std::cref(tau), T, task.dt, tight)};
+    Replay r{plan, simulate<RG>(ref, plan.q.front(), Ref::Vector::Zero(), tau, T, task.dt, tight)};
     const auto g = geared_replay(r, task, 10.0, 1e-5, tight);
     dev[i++] = (g.end_effector.back() - r.reference.end_effector.back()).head<2>();
   }

@@ -1,0 +1,126 @@
+// Joint torques from a CSV file, read so that a file means what it says: columns are found
+// by their header names (`t`, then `tau1` .. `tauN`, in any order); unknown, missing or
+// repeated names, a file without a header, a non-uniform or too fine time grid and any
+// field that is not a finite number are errors naming the file, line and column.
+// CRLF line ends and a UTF-8 byte-order mark are accepted.
+// tau_i is the torque on joint i's link side (the gear's output); a geared joint's motor
+// coordinate receives tau_i / p_i (paper eq. 14).
+#pragma once
+
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "text_numbers.hpp"
+
+namespace spacearm {
+
+struct TorqueTable {
+  double t0 = 0, dt = 0;                // uniform grid: t_k = t0 + k dt
+  std::vector<Eigen::VectorXd> samples;  // tau at t_k, one value per joint
+  double t_last() const { return t0 + dt * static_cast<double>(samples.size() - 1); }
+};
+
+namespace detail {
+inline std::vector<std::string> split_csv_line(const std::string& line) {
+  std::vector<std::string> fields;
+  size_t start = 0;
+  for (;;) {
+    const size_t comma = line.find(',', start);
+    std::string f = line.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    const size_t a = f.find_first_not_of(" \t"), b = f.find_last_not_of(" \t");
+    fields.push_back(a == std::string::npos ? "" : f.substr(a, b - a + 1));
+    if (comma == std::string::npos) return fields;
+    start = comma + 1;
+  }
+}
+}  // namespace detail
+
+// The column names a file for `num_joints` joints must have.
+inline std::vector<std::string> torque_csv_columns(int num_joints) {
+  std::vector<std::string> names{"t"};
+  for (int j = 1; j <= num_joints; ++j) names.push_back("tau" + std::to_string(j));
+  return names;
+}
+
+inline TorqueTable read_torque_csv(const std::string& text, int num_joints, const std::string& source) {
+  const std::string where = "torque file '" + source + "'";
+  auto fail = [&](long line, const std::string& what) -> std::invalid_argument {
+    return std::invalid_argument(where + (line > 0 ? " line " + std::to_string(line) : "") + ": " + what);
+  };
+  const std::vector<std::string> expected = torque_csv_columns(num_joints);
+  std::string expected_list;
+  for (const auto& n : expected) expected_list += (expected_list.empty() ? "" : ",") + n;
+
+  // Lines, without a byte-order mark and without the \r of CRLF.
+  std::vector<std::pair<long, std::string>> lines;
+  size_t start = text.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0;
+  for (long number = 1; start < text.size(); ++number) {
+    size_t end = text.find('\n', start);
+    if (end == std::string::npos) end = text.size();
+    std::string line = text.substr(start, end - start);
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.find_first_not_of(" \t") != std::string::npos) lines.push_back({number, line});
+    start = end + 1;
+  }
+  if (lines.empty()) throw fail(0, "empty; expected a header " + expected_list + " and at least two rows");
+
+  // Header: every expected name exactly once, nothing else.
+  const auto header = detail::split_csv_line(lines[0].second);
+  const long header_line = lines[0].first;
+  if (!header[0].empty() && (std::isdigit(static_cast<unsigned char>(header[0][0])) || header[0][0] == '-' ||
+                             header[0][0] == '+' || header[0][0] == '.'))
+    throw fail(header_line, "starts with data (" + quoted_text(header[0]) + "), not a header; add the header line " +
+                                expected_list);
+  std::map<std::string, size_t> column;
+  for (size_t c = 0; c < header.size(); ++c) {
+    if (std::find(expected.begin(), expected.end(), header[c]) == expected.end())
+      throw fail(header_line, "unknown column " + quoted_text(header[c]) + " (expected " + expected_list + ")");
+    if (!column.insert({header[c], c}).second)
+      throw fail(header_line, "column " + quoted_text(header[c]) + " appears twice");
+  }
+  for (const auto& n : expected)
+    if (!column.count(n)) throw fail(header_line, "missing column '" + n + "' (expected " + expected_list + ")");
+
+  // Rows.
+  TorqueTable table;
+  std::vector<double> times;
+  for (size_t r = 1; r < lines.size(); ++r) {
+    const auto& [number, line] = lines[r];
+    const auto fields = detail::split_csv_line(line);
+    if (fields.size() != header.size())
+      throw fail(number, "expected " + std::to_string(header.size()) + " fields, got " + std::to_string(fields.size()));
+    auto value = [&](const std::string& name) {
+      return parse_number(fields[column.at(name)], where + " line " + std::to_string(number) + ", column '" + name + "'");
+    };
+    times.push_back(value("t"));
+    Eigen::VectorXd tau(num_joints);
+    for (int j = 0; j < num_joints; ++j) tau[j] = value(expected[j + 1]);
+    table.samples.push_back(tau);
+  }
+  if (times.size() < 2) throw fail(0, "needs at least two rows of samples, got " + std::to_string(times.size()));
+
+  // A uniform grid, with a step that t can still resolve (16 ulps of the largest time).
+  table.t0 = times.front();
+  table.dt = (times.back() - times.front()) / static_cast<double>(times.size() - 1);
+  const double scale = std::max(std::abs(times.front()), std::abs(times.back()));
+  if (!(table.dt > 16 * std::numeric_limits<double>::epsilon() * std::max(scale, 1e-300)))
+    throw fail(0, "time step " + std::to_string(table.dt) + " is not positive or too small to resolve at t = " +
+                      std::to_string(scale));
+  for (size_t k = 1; k < times.size(); ++k) {
+    const double expected_t = table.t0 + table.dt * static_cast<double>(k);
+    if (!(std::abs(times[k] - expected_t) <= 1e-6 * table.dt))
+      throw fail(lines[k + 1].first, "time " + quoted_text(std::to_string(times[k])) +
+                                         " is off the uniform grid t0 + k dt (t0 = " + std::to_string(table.t0) +
+                                         ", dt = " + std::to_string(table.dt) + ")");
+  }
+  return table;
+}
+
+}  // namespace spacearm
