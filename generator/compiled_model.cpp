@@ -183,6 +183,7 @@ std::string build_entry(const Scene& scene, const CacheFolder& cache, const std:
       fs::remove_all(work, ec);
     });
     rep.compile_ms = ms_since(t0);
+    if (status == -2) throw CompileError("compiling model '" + scene.name + "' was interrupted");
     if (status != 0) {
       const std::string log = read_file(fs::path(work) / "compile.log");
       const std::string kept = cache.keep_failed(work, entry);

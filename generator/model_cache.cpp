@@ -225,12 +225,15 @@ int run_interruptible(const std::vector<std::string>& argv, const std::string& l
   posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETSIGMASK);
 
   // Our handlers while the compiler runs: a signal stops it instead of leaving it orphaned.
+  // A signal the caller ignores (a background job's SIGINT) stays ignored.
   struct sigaction ours {}, old_int {}, old_term {};
   ours.sa_handler = note_signal;
   sigemptyset(&ours.sa_mask);
   g_signal = 0;
-  sigaction(SIGINT, &ours, &old_int);
-  sigaction(SIGTERM, &ours, &old_term);
+  sigaction(SIGINT, nullptr, &old_int);
+  sigaction(SIGTERM, nullptr, &old_term);
+  if (old_int.sa_handler != SIG_IGN) sigaction(SIGINT, &ours, nullptr);
+  if (old_term.sa_handler != SIG_IGN) sigaction(SIGTERM, &ours, nullptr);
   pid_t pid = -1;
   const int spawned = posix_spawnp(&pid, args[0], &files, &attr, args.data(), environ);
   posix_spawn_file_actions_destroy(&files);
@@ -252,7 +255,7 @@ int run_interruptible(const std::vector<std::string>& argv, const std::string& l
     const int sig = g_signal;
     if (on_interrupt) on_interrupt();
     ::raise(sig);
-    return -1;  // a handler of the caller's took the signal
+    return -2;  // a handler of the caller's took the signal
   }
   if (spawned != 0) return -1;
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);

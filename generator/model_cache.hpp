@@ -77,8 +77,9 @@ class CacheFolder {
 
 // Runs argv[0] with argv (no shell), standard output and error into `log`, in its own
 // process group. SIGINT or SIGTERM received meanwhile stops the whole group, runs
-// `on_interrupt` (to remove temporary files) and re-raises the signal. Returns the exit
-// status (0 on success), or -1 if the program could not be started.
+// `on_interrupt` (to remove temporary files) and re-raises the signal (a signal the caller
+// ignores stays ignored). Returns the exit status (0 on success), -1 if the program could
+// not be started, -2 if interrupted and the caller's own handler returned.
 int run_interruptible(const std::vector<std::string>& argv, const std::string& log,
                       const std::function<void()>& on_interrupt);
 

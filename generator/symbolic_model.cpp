@@ -1,5 +1,6 @@
 #include "symbolic_model.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <regex>
 #include <stdexcept>
@@ -240,50 +241,74 @@ SymbolicModel derive(const Scene& scene, const DeriveOptions& options) {
   return model;
 }
 
+namespace {
+
+// An entry "NAME", "NAME[i]" or "NAME[i][j]" (spaces allowed around the parts), parsed by
+// hand in one pass: a regular expression recursed once per character on long input.
+struct EntryText {
+  std::string name;
+  std::vector<int> indices;
+};
+
+EntryText parse_entry(const std::string& entry) {
+  const std::string shown = "entry '" + (entry.size() > 40 ? entry.substr(0, 40) + "..." : entry) + "'";
+  const std::string usage = ": expected e.g. T, M[3][4], C[0][3], b[2], h[0], x[1], J[0][3]";
+  if (entry.size() > 100) throw std::invalid_argument(shown + " is too long" + usage);
+  EntryText e;
+  size_t i = 0;
+  auto skip = [&] {
+    while (i < entry.size() && entry[i] == ' ') ++i;
+  };
+  skip();
+  while (i < entry.size() && std::isalpha(static_cast<unsigned char>(entry[i]))) e.name += entry[i++];
+  if (e.name.empty()) throw std::invalid_argument(shown + usage);
+  for (skip(); i < entry.size() && entry[i] == '['; skip()) {
+    ++i;
+    skip();
+    std::string digits;
+    while (i < entry.size() && std::isdigit(static_cast<unsigned char>(entry[i]))) digits += entry[i++];
+    skip();
+    if (digits.empty() || digits.size() > 6 || i >= entry.size() || entry[i] != ']')
+      throw std::invalid_argument(shown + usage);
+    ++i;
+    e.indices.push_back(std::stoi(digits));
+  }
+  if (i != entry.size() || e.indices.size() > 2) throw std::invalid_argument(shown + usage);
+  return e;
+}
+
+}  // namespace
+
 GiNaC::ex symbolic_entry(const SymbolicModel& model, const std::string& entry) {
-  static const std::regex re(R"(\s*([A-Za-z]+)\s*(?:\[\s*(\d+)\s*\])?\s*(?:\[\s*(\d+)\s*\])?\s*)");
-  std::smatch m;
-  if (!std::regex_match(entry, m, re))
-    throw std::invalid_argument("entry '" + entry + "': expected e.g. T, M[3][4], C[0][3], b[2], h[0], x[1], J[0][3]");
-  const std::string what = m[1].str();
+  const EntryText e = parse_entry(entry);
   const int n = model.n();
-  auto index = [&](int group, int limit, const char* name) {
-    if (!m[group].matched) throw std::invalid_argument("entry '" + entry + "': missing index for " + name);
-    const int i = std::stoi(m[group].str());
-    if (i < 0 || i >= limit)
-      throw std::invalid_argument("entry '" + entry + "': index " + std::to_string(i) + " out of range 0.." +
-                                  std::to_string(limit - 1));
-    return i;
+  // Exactly `count` indices, each in range.
+  auto indices = [&](size_t count, int rows, int cols) {
+    if (e.indices.size() != count)
+      throw std::invalid_argument("entry '" + entry + "': " + e.name + " takes " + std::to_string(count) +
+                                  (count == 1 ? " index" : " indices") + ", got " + std::to_string(e.indices.size()));
+    const int limits[2] = {rows, cols};
+    for (size_t k = 0; k < count; ++k)
+      if (e.indices[k] >= limits[k])
+        throw std::invalid_argument("entry '" + entry + "': index " + std::to_string(e.indices[k]) +
+                                    " out of range 0.." + std::to_string(limits[k] - 1));
   };
-  auto need = [&](const matrix& mat, const char* output) {
+  auto from = [&](const matrix& mat, const char* output, size_t count, int rows, int cols) -> ex {
     if (mat.rows() == 0) throw std::invalid_argument("entry '" + entry + "': the model has no " + output);
+    indices(count, rows, cols);
+    return mat(e.indices[0], count == 2 ? e.indices[1] : 0);
   };
-  if (what == "T") return model.kinetic_energy;
-  if (what == "M") {
-    need(model.mass_matrix, "mass matrix");
-    return model.mass_matrix(index(2, n, "row"), index(3, n, "column"));
+  if (e.name == "T") {
+    indices(0, 0, 0);
+    return model.kinetic_energy;
   }
-  if (what == "C") {
-    need(model.coriolis_matrix, "Coriolis matrix");
-    return model.coriolis_matrix(index(2, n, "row"), index(3, n, "column"));
-  }
-  if (what == "b") {
-    need(model.bias_forces, "bias forces");
-    return model.bias_forces(index(2, n, "row"), 0);
-  }
-  if (what == "h") {
-    need(model.momentum, "momentum (free-floating base only)");
-    return model.momentum(index(2, 3, "row"), 0);
-  }
-  if (what == "x") {
-    need(model.end_effector_pose, "end-effector pose");
-    return model.end_effector_pose(index(2, 3, "row"), 0);
-  }
-  if (what == "J") {
-    need(model.end_effector_jacobian, "end-effector Jacobian");
-    return model.end_effector_jacobian(index(2, 3, "row"), index(3, n, "column"));
-  }
-  throw std::invalid_argument("entry '" + entry + "': unknown quantity '" + what +
+  if (e.name == "M") return from(model.mass_matrix, "mass matrix", 2, n, n);
+  if (e.name == "C") return from(model.coriolis_matrix, "Coriolis matrix", 2, n, n);
+  if (e.name == "b") return from(model.bias_forces, "bias forces", 1, n, 1);
+  if (e.name == "h") return from(model.momentum, "momentum (free-floating base only)", 1, 3, 1);
+  if (e.name == "x") return from(model.end_effector_pose, "end-effector pose", 1, 3, 1);
+  if (e.name == "J") return from(model.end_effector_jacobian, "end-effector Jacobian", 2, 3, n);
+  throw std::invalid_argument("entry '" + entry + "': unknown quantity '" + e.name +
                               "' (known: T, M, C, b, h, x, J)");
 }
 

@@ -23,16 +23,18 @@ inline std::string quoted_text(const std::string& text) {
 inline double parse_number(const std::string& text, const std::string& what) {
   if (text.empty()) throw std::invalid_argument(what + ": empty, expected a number");
   if (text.size() > 100) throw std::invalid_argument(what + ": " + quoted_text(text) + " is too long for a number");
-  const char c0 = text[0];
-  if (!(std::isdigit(static_cast<unsigned char>(c0)) || c0 == '+' || c0 == '-' || c0 == '.'))
-    throw std::invalid_argument(what + ": " + quoted_text(text) + " is not a number");
   errno = 0;
   char* end = nullptr;
   const double v = std::strtod(text.c_str(), &end);
-  if (end == text.c_str() || *end != '\0')
+  const bool whole = end != text.c_str() && *end == '\0';
+  if (whole && !std::isfinite(v)) throw std::invalid_argument(what + ": " + quoted_text(text) + " is not finite");
+  // Decimal only: no leading blanks and no hexadecimal (which strtod would also take).
+  const char c0 = text[0];
+  const bool decimal = (std::isdigit(static_cast<unsigned char>(c0)) || c0 == '+' || c0 == '-' || c0 == '.') &&
+                       text.find_first_of("xXpP") == std::string::npos;
+  if (!whole || !decimal)
     throw std::invalid_argument(what + ": " + quoted_text(text) + " is not a number" +
-                                (*end == ',' ? " (a decimal comma? write a point)" : ""));
-  if (!std::isfinite(v)) throw std::invalid_argument(what + ": " + quoted_text(text) + " is not finite");
+                                (whole || *end != ',' ? "" : " (a decimal comma? write a point)"));
   if (errno == ERANGE)
     throw std::invalid_argument(what + ": " + quoted_text(text) + " is out of the range of double precision");
   return v;

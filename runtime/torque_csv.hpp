@@ -113,12 +113,13 @@ inline TorqueTable read_torque_csv(const std::string& text, int num_joints, cons
   if (!(table.dt > 16 * std::numeric_limits<double>::epsilon() * std::max(scale, 1e-300)))
     throw fail(0, "time step " + std::to_string(table.dt) + " is not positive or too small to resolve at t = " +
                       std::to_string(scale));
+  // Each step equal to the first, within what a decimal file with 7 digits can hold.
+  const double first = times[1] - times[0];
   for (size_t k = 1; k < times.size(); ++k) {
-    const double expected_t = table.t0 + table.dt * static_cast<double>(k);
-    if (!(std::abs(times[k] - expected_t) <= 1e-6 * table.dt))
-      throw fail(lines[k + 1].first, "time " + quoted_text(std::to_string(times[k])) +
-                                         " is off the uniform grid t0 + k dt (t0 = " + std::to_string(table.t0) +
-                                         ", dt = " + std::to_string(table.dt) + ")");
+    const double step = times[k] - times[k - 1];
+    if (!(std::abs(step - first) <= 1e-6 * std::abs(first)))
+      throw fail(lines[k + 1].first, "time step " + std::to_string(step) + " differs from the first step " +
+                                         std::to_string(first) + " (the grid must be uniform)");
   }
   return table;
 }

@@ -9,10 +9,17 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <thread>
+
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
 
 #include "paper_geared.hpp"
 #include "paper_reference.hpp"
 #include "support.hpp"
+
+extern char** environ;
 
 namespace spacearm {
 namespace {
@@ -235,10 +242,16 @@ TEST_F(EvalCli, BadInputsGetClearErrors) {
   const std::string geared = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml";
   for (const Case& c : std::vector<Case>{
            {ref + " --q 1,2,3", "--q: expected 6 comma-separated values, got 3"},
-           {ref + " --q 1,2,3,4,5,nan", "--q[5] is not finite: 'nan'"},
+           {ref + " --q 1,2,3,4,5,nan", "--q[5]: 'nan' is not finite"},
            {ref + " --q 1,2,3,4,5,x", "--q[5]: 'x' is not a number"},
+           {ref + " --q 1,2,3,4,5,6,", "--q[6]: empty item in '1,2,3,4,5,6,' (a stray or trailing comma?)"},
+           {ref + " --q 1,2,3,4,5,1e999", "--q[5]: '1e999' is not finite"},
+           {ref + " --q 1,2,3,4,5,0x10", "--q[5]: '0x10' is not a number"},
+           {ref + " --q 1,2,3,4,5,1e-400", "--q[5]: '1e-400' is out of the range of double precision"},
+           {ref + " --q 0,0,0,0,0,1e300 --qd 0,0,0,1e200,0,0", "): the state or parameters overflow"},
+           {geared + " --q 0,0,0,0,0,0 --param p=2 --param p=3", "--param: 'p' given more than once"},
            {geared + " --q 0,0,0,0,0,0 --param k=3", "--param: unknown parameter 'k' (known: p, Im)"},
-           {geared + " --q 0,0,0,0,0,0 --param p=inf", "--param p[0] is not finite"},
+           {geared + " --q 0,0,0,0,0,0 --param p=inf", "--param p: 'inf' is not finite"},
            {geared + " --q 0,0,0,0,0,0 --param Im=1", "gears[0].motor_inertia must be smaller than the inertia"},
            {unknown_field_scene() + " --q 0", "field 'links[0].colour': unknown field"},
        }) {
@@ -263,6 +276,7 @@ class SimulateCli : public EvalCli {
       std::stringstream l(line);
       std::string cell;
       while (std::getline(l, cell, ',')) row.push_back(std::stod(cell));
+      EXPECT_FALSE(out.size() && out.back().size() != row.size()) << "a row of another length: " << line;
       out.push_back(row);
     }
     return out;
@@ -311,7 +325,9 @@ TEST_F(SimulateCli, FailureMidRunKeepsTheSamplesComputedSoFar) {
   const auto samples = rows(text);
   ASSERT_EQ(samples.size(), 6u);  // t = 0, 0.1, ..., 0.5
   for (size_t k = 0; k < samples.size(); ++k) {
-    EXPECT_EQ(samples[k].size(), 1u + 12 + 3 + 1 + 3);  // t, q, qd, end effector, energy, momentum
+    // t, qm and qm rates, link-side q and rates, tau (link side) and tau / p, end effector,
+    // energy, momentum
+    EXPECT_EQ(samples[k].size(), 1u + 12 + 6 + 3 + 3 + 3 + 1 + 3);
     EXPECT_NEAR(samples[k][0], 0.1 * k, 1e-12);
   }
   fs::remove(torques);
@@ -321,12 +337,19 @@ TEST_F(SimulateCli, FailureMidRunKeepsTheSamplesComputedSoFar) {
 TEST_F(SimulateCli, BadInputsGetClearErrors) {
   const fs::path torques = cache.parent_path() / ("bad-torques-" + std::to_string(getpid()) + ".csv");
   std::ofstream(torques) << "t,tau1,tau2\n0,0.1,0\n";
+  const fs::path grid = cache.parent_path() / ("grid-torques-" + std::to_string(getpid()) + ".csv");
+  std::ofstream(grid) << "t,tau1,tau2,tau3\n0,0,0,0\n0.03,0,0,0\n0.06,0,0,0\n";
   struct Case {
     std::string args, message;
   };
   for (const Case& c : std::vector<Case>{
-           {"--torques " + torques.string() + " --t-end 1", "line 2: expected 4 columns (t, tau1..tau3), got 3"},
-           {"--zero --t-end 1 --q0 0,0,0,0,nan,0", "--q0[4] is not finite: 'nan'"},
+           {"--torques " + torques.string() + " --t-end 1", "line 1: missing column 'tau3' (expected t,tau1,tau2,tau3)"},
+           {"--torques " + grid.string() + " --t-end 0.06 --dt 0.02 --interpolation hold",
+            "needs the torque samples' interval (0.030000 s) to be a multiple of --dt (0.020000 s)"},
+           {"--zero --t-end 1e999", "--t-end: value: '1e999' is not finite"},
+           {"--zero --t-end 1 --dt 0.1 --dt 0.2", "--dt"},
+           {"--zero --t-end 1 --extrapolate clamp", "unknown torque extrapolation 'clamp'"},
+           {"--zero --t-end 1 --q0 0,0,0,0,nan,0", "--q0[4]: 'nan' is not finite"},
            {"--zero --t-end 1 --integrator euler", "unknown integrator 'euler'"},
            {"--t-end 1", "give --torques FILE or --zero"},
        }) {
@@ -336,6 +359,118 @@ TEST_F(SimulateCli, BadInputsGetClearErrors) {
     EXPECT_NE(out.find(c.message), std::string::npos) << "args: " << c.args << "\noutput: " << out;
   }
   fs::remove(torques);
+  fs::remove(grid);
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// Columns by name in any order, CRLF and a byte-order mark: the same run as the plain file.
+// Link-side columns of a geared scene are q = qm / p, and both torque sides are written.
+TEST_F(SimulateCli, TorqueColumnsAreFoundByNameAndBothSidesAreWritten) {
+  const fs::path plain = cache.parent_path() / ("plain-" + std::to_string(getpid()) + ".csv");
+  const fs::path shuffled = cache.parent_path() / ("shuffled-" + std::to_string(getpid()) + ".csv");
+  std::ofstream(plain) << "t,tau1,tau2,tau3\n0,0.1,-0.2,0.3\n0.5,0.2,0.1,0\n1,0,0,0.4\n";
+  std::ofstream(shuffled) << "\xEF\xBB\xBFtau3, t ,tau2,tau1\r\n0.3,0,-0.2,0.1\r\n0,0.5,0.1,0.2\r\n0.4,1,0,0\r\n";
+  int status = 0;
+  const std::string a = run(sim + "--torques " + plain.string() + " --t-end 1 --param p=10", &status);
+  ASSERT_EQ(status, 0);
+  EXPECT_EQ(run(sim + "--torques " + shuffled.string() + " --t-end 1 --param p=10", &status), a);
+  const std::string header = a.substr(0, a.find('\n'));
+  EXPECT_NE(header.find(",q1,q2,q3,q1d,q2d,q3d,tau1,tau2,tau3,tau_motor1,tau_motor2,tau_motor3,"), std::string::npos)
+      << header;
+  const auto r = rows(a);
+  const auto& last = r.back();  // t, qm(6), qmd(6), q(3), qd(3), tau(3), tau_motor(3), ...
+  for (int j = 0; j < 3; ++j) {
+    EXPECT_DOUBLE_EQ(last[13 + j], last[4 + j] / 10);
+    EXPECT_DOUBLE_EQ(last[16 + j], last[10 + j] / 10);
+    EXPECT_DOUBLE_EQ(last[22 + j], last[19 + j] / 10);
+  }
+  EXPECT_DOUBLE_EQ(last[21], 0.4);  // tau3 at t = 1
+
+  struct Case {
+    std::string text, message;
+  };
+  for (const Case& c : std::vector<Case>{
+           {"t,tau1,tau2,tua3\n0,0,0,0\n1,0,0,0\n", "unknown column 'tua3' (expected t,tau1,tau2,tau3)"},
+           {"t,tau1,tau1,tau3\n0,0,0,0\n1,0,0,0\n", "column 'tau1' appears twice"},
+           {"0,0,0,0\n1,0,0,0\n", "starts with data ('0'), not a header; add the header line t,tau1,tau2,tau3"},
+           {"t,tau1,tau2,tau3\n0,0,0,0\n0.5,0,x,0\n1,0,0,0\n", "line 3, column 'tau2': 'x' is not a number"},
+           {"t,tau1,tau2,tau3\n0,0,0,0\n0.5,0,0,0\n", "covers t = 0.000000 .. 0.500000 s, the run needs 0 .. 1.000000 s"},
+           {"t,tau1,tau2,tau3\n0,0,0,0\n0.5,0,0,0\n0.7,0,0,0\n", "line 4: time step 0.200000 differs from the first step 0.500000"},
+       }) {
+    std::ofstream(plain) << c.text;
+    const std::string out = run(sim + "--torques " + plain.string() + " --t-end 1 2>&1", &status);
+    EXPECT_NE(status, 0) << c.text;
+    EXPECT_NE(out.find(c.message), std::string::npos) << c.text << "\noutput: " << out;
+  }
+  // Asked for: held after the last sample.
+  std::ofstream(plain) << "t,tau1,tau2,tau3\n0,0,0,0\n0.5,0,0,0.25\n";
+  const auto held = rows(run(sim + "--torques " + plain.string() + " --t-end 1 --extrapolate hold", &status));
+  ASSERT_EQ(status, 0);
+  EXPECT_DOUBLE_EQ(held.back()[21], 0.25);
+  fs::remove(plain);
+  fs::remove(shuffled);
+}
+
+TEST_F(SimulateCli, WriteFailuresAreErrorsNamingTheFile) {
+  int status = 0;
+  std::string out = run(sim + "--zero --t-end 1 -o /dev/full 2>&1", &status);
+  EXPECT_EQ(WEXITSTATUS(status), 1) << out;
+  EXPECT_NE(out.find("writing '/dev/full' failed: No space left on device"), std::string::npos) << out;
+  out = run(sim + "--zero --t-end 1 -o /nonexistent-folder/x.csv 2>&1", &status);
+  EXPECT_EQ(WEXITSTATUS(status), 1) << out;
+  EXPECT_NE(out.find("-o: cannot open '/nonexistent-folder/x.csv' for writing"), std::string::npos) << out;
+  EXPECT_EQ(rows(run(sim + "--zero --t-end 1 --dt-out 0.5 -o -", &status)).size(), 3u);
+  EXPECT_EQ(status, 0);
+}
+
+// A signal mid-run finishes the row being written, flushes, says where it stopped and exits
+// 128 + signal; every row in the file is whole. The run asked for is huge, which is said first.
+TEST_F(SimulateCli, SignalsFinishTheRowAndReportTheTimeReached) {
+  const fs::path csv = cache.parent_path() / ("signal-" + std::to_string(getpid()) + ".csv");
+  const fs::path err = cache.parent_path() / ("signal-" + std::to_string(getpid()) + ".err");
+  int status = 0;
+  run(sim + "--zero --t-end 0.1 > /dev/null 2>&1", &status);  // compiled before the clock starts
+  ASSERT_EQ(status, 0);
+  for (const auto& [signal, name] : std::vector<std::pair<int, std::string>>{{SIGTERM, "SIGTERM"}, {SIGINT, "SIGINT"}}) {
+    fs::remove(csv);
+    // Started directly (not as a shell's background job, whose SIGINT is ignored by design).
+    const std::string command = "exec " + sim + "--zero --t-end 1e7 --dt 1e-3 -o " + csv.string() + " 2> " + err.string();
+    pid_t pid = -1;
+    const char* argv[] = {"/bin/sh", "-c", command.c_str(), nullptr};
+    ASSERT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+    for (int i = 0; i < 600 && !(fs::exists(csv) && fs::file_size(csv) > 200000); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    ::kill(pid, signal);
+    int waited = 0;
+    while (::waitpid(pid, &status, WNOHANG) == 0 && waited++ < 400)
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    if (waited > 400) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      FAIL() << name << " did not stop the run";
+    }
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 128 + signal) << name << " status " << status;
+    const std::string e = slurp(err);
+    EXPECT_NE(e.find("note: the output will be about"), std::string::npos) << e;
+    EXPECT_NE(e.find("interrupted by " + name + "; '" + csv.string() + "' holds every row up to t = "),
+              std::string::npos)
+        << e;
+    const std::string text = slurp(csv);
+    ASSERT_FALSE(text.empty());
+    EXPECT_EQ(text.back(), '\n');
+    const auto r = rows(text);  // checks that every row has the same length
+    ASSERT_GT(r.size(), 100u);
+    const auto at = e.find("up to t = ");
+    if (at != std::string::npos) {
+      EXPECT_EQ(r.back()[0], std::stod(e.substr(at + 10)));
+    }
+  }
+  fs::remove(csv);
+  fs::remove(err);
 }
 
 }  // namespace

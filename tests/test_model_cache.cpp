@@ -54,9 +54,15 @@ fs::path fake_compiler(const fs::path& dir, const std::string& name, const std::
 }
 
 // The library a real build of the paper's reference scene gives (built once per run).
+struct RemovedAtExit {
+  fs::path dir;
+  ~RemovedAtExit() { fs::remove_all(dir); }
+};
+
 const fs::path& real_library() {
+  static const RemovedAtExit folder{scratch("real")};
   static const fs::path lib = [] {
-    const fs::path dir = scratch("real");
+    const fs::path dir = folder.dir;
     CompileOptions options;
     options.cache_dir = (dir / "cache").string();
     StageReport rep;

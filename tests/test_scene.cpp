@@ -80,6 +80,14 @@ TEST(Scene, ErrorsNameTheFieldAndValue) {
       {"mass: 10,", "[mass]: 10,", "field 'base': expected a field name, got a list"},
       {"name: two_links", "name: two_links\n? {a: 1}\n: 2", "expected a field name, got a mapping"},
       {"mass: 10", "mass: 1" + std::string(300, '0'), "field 'base.mass': value is too long (301 characters"},
+      // A decimal comma in a flow mapping makes "0" a key: say what it probably is.
+      {"mass: 10,", "mass: 10,0,", "field 'base.0': unknown field (allowed here: inertia, mass, mount, type); a decimal comma?"},
+      // Digits lost to underflow, and names the preprocessor would rewrite.
+      {"mount: [0.1, 0]", "mount: [0.1, 1e-400]", "'1e-400' is too small for double precision"},
+      {"name: two_links", "name: EOF", "'EOF' is reserved (a C++ keyword, a macro of the generated code's headers"},
+      {"name: two_links", "name: M_PI", "'M_PI' is reserved"},
+      {"name: two_links", "name: two__links", "'two__links' is reserved"},
+      {"name: two_links", "description: [a]\nname: two_links", "field 'description': expected text"},
   };
   for (const auto& c : cases) {
     const std::string err = error_of(replaced(kValid, c.from, c.to));

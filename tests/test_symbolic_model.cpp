@@ -184,6 +184,15 @@ TEST(SymbolicEntries, GearRatiosAppearAsTheyShould) {
   EXPECT_EQ(m.mass_matrix(5, 5).ldegree(p), -2);
   EXPECT_THROW(symbolic_entry(m, "M[6][0]"), std::invalid_argument);
   EXPECT_THROW(symbolic_entry(m, "Q[0]"), std::invalid_argument);
+  // Wrong index counts and hostile lengths: clear errors, no silent acceptance, no crash
+  // (the regular expression this replaced recursed once per character).
+  EXPECT_THROW_MESSAGE(symbolic_entry(m, "T[5]"), std::invalid_argument, "T takes 0 indices, got 1");
+  EXPECT_THROW_MESSAGE(symbolic_entry(m, "M[1]"), std::invalid_argument, "M takes 2 indices, got 1");
+  EXPECT_THROW_MESSAGE(symbolic_entry(m, "b[1][2]"), std::invalid_argument, "b takes 1 index, got 2");
+  EXPECT_THROW_MESSAGE(symbolic_entry(m, std::string(1000000, 'M')), std::invalid_argument, "too long");
+  EXPECT_THROW(symbolic_entry(m, "M[1][2]x"), std::invalid_argument);
+  EXPECT_THROW(symbolic_entry(m, "M[99999999][0]"), std::invalid_argument);
+  EXPECT_TRUE(symbolic_entry(m, " M [ 4 ] [5] ").is_equal(m.mass_matrix(4, 5)));
   EXPECT_TRUE(symbolic_entry(m, "M[4][5]").is_equal(m.mass_matrix(4, 5)));
 }
 

@@ -1,0 +1,51 @@
+// Command-line input shared by the subcommands: number lists and run-time parameters,
+// parsed strictly (runtime/text_numbers.hpp), errors naming the option.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "scene.hpp"
+#include "text_numbers.hpp"
+
+namespace spacearm::cli {
+
+// Parses "a,b,c" for option `name` into exactly n finite numbers (strictly: no empty
+// items, nothing out of the range of double).
+inline Eigen::VectorXd parse_vector(const std::string& text, const std::string& name, int n) {
+  std::vector<double> values = parse_number_list(text, name, n);
+  return Eigen::Map<Eigen::VectorXd>(values.data(), n);
+}
+
+// --param name=value pairs over the scene's nominal parameter values; each name once.
+inline Eigen::VectorXd parse_parameters(const std::vector<std::string>& assignments, const Scene& scene) {
+  std::vector<std::string> names;
+  Eigen::VectorXd p(static_cast<int>(scene.parameters.size()));
+  for (const auto& param : scene.parameters) {
+    p[static_cast<int>(names.size())] = param.nominal.value;
+    names.push_back(param.name);
+  }
+  std::set<std::string> given;
+  for (const auto& a : assignments) {
+    const auto eq = a.find('=');
+    if (eq == std::string::npos)
+      throw std::invalid_argument("--param " + quoted_text(a) + ": expected name=value");
+    const std::string name = a.substr(0, eq);
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it == names.end()) {
+      std::string known;
+      for (const auto& n : names) known += (known.empty() ? "" : ", ") + n;
+      throw std::invalid_argument("--param: unknown parameter " + quoted_text(name) +
+                                  " (known: " + (known.empty() ? "none" : known) + ")");
+    }
+    if (!given.insert(name).second) throw std::invalid_argument("--param: '" + name + "' given more than once");
+    p[it - names.begin()] = parse_number(a.substr(eq + 1), "--param " + name);
+  }
+  return p;
+}
+
+}  // namespace spacearm::cli

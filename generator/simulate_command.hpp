@@ -1,0 +1,24 @@
+// `spacearm simulate`: a scene's compiled model integrated under joint torques from a CSV
+// (runtime/torque_csv.hpp) or none, written as CSV rows that are never cut (row_writer.hpp).
+// SIGINT and SIGTERM finish the current row, flush, report the time reached and exit with
+// 130 and 143.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace spacearm {
+
+struct SimulateArgs {
+  std::string scene_path, torque_file, output_file, cache_dir;
+  bool zero_torque = false, verbose = false;
+  std::string integrator = "rk4", interpolation = "linear", extrapolate = "error";
+  double t_end = 0, dt = 0.01, dt_out = 0, rtol = 1e-8, atol = 1e-10;
+  std::string q0_text, qd0_text;
+  std::vector<std::string> param_assignments;
+};
+
+// Exit status: 0, 1 on an error (message on stderr), 128 + signal when interrupted.
+int run_simulate(const SimulateArgs& args);
+
+}  // namespace spacearm
