@@ -92,7 +92,8 @@ inline TorqueTable read_torque_csv(const std::string& text, int num_joints, cons
   TorqueTable table;
   std::vector<double> times;
   for (size_t r = 1; r < lines.size(); ++r) {
-    const auto& [number, line] = lines[r];
+    const long number = lines[r].first;  // not a structured binding: lambdas capture it
+    const std::string& line = lines[r].second;
     const auto fields = detail::split_csv_line(line);
     if (fields.size() != header.size())
       throw fail(number, "expected " + std::to_string(header.size()) + " fields, got " + std::to_string(fields.size()));

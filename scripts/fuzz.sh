@@ -1,9 +1,13 @@
 #!/usr/bin/env bash
-# Builds the scene fuzzer (clang, libFuzzer + ASan + UBSan) and runs it for a bounded time
-# on the seed corpus (shipped scenes, test scenes, fuzz/seeds, fuzz/regressions).
+# Builds the fuzzers (clang, libFuzzer + ASan + UBSan) and runs each for a bounded time:
+#   scene_fuzzer  scene parsing and validation, on the seed corpus (shipped scenes, test
+#                 scenes, fuzz/seeds, fuzz/regressions), for [seconds];
+#   text_fuzzer   torque CSV reader, CLI number lists, comment escaping of emitted files
+#                 (fuzz/text_seeds, fuzz/text_regressions), for half of that.
 #   scripts/fuzz.sh [seconds] [build-dir]     (default 60 s, build-fuzz)
-# A crash input is copied to fuzz/regressions/ (commit it: Scene.FuzzCorpusAndRegressionsReplay
-# in tests/test_scene.cpp replays that folder in every test run) and the script fails.
+# A crash input is copied to the fuzzer's regressions folder (commit it: the replay tests
+# Scene.FuzzCorpusAndRegressionsReplay and TorqueCsv.FuzzSeedsAndRegressionsReplay run those
+# folders in every test run) and the script fails.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
@@ -14,22 +18,32 @@ cmake --build "$build_dir"
 
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-mkdir -p "$work/corpus" "$work/artifacts"
-# Fixed seed: a CI run explores the same way each time (up to machine speed).
-set +e
-"$build_dir/scene_fuzzer" -seed=1 -max_total_time="$seconds" -max_len=4096 -timeout=10 -rss_limit_mb=2048 \
-  -dict=fuzz/scene.dict -artifact_prefix="$work/artifacts/" -print_final_stats=1 \
-  "$work/corpus" models tests/scenes fuzz/seeds fuzz/regressions 2>"$work/log"
-status=$?
-set -e
-grep -E "^(#[0-9]+.*DONE|stat::number_of_executed_units|stat::new_units_added)" "$work/log" || true
-if [ $status -ne 0 ]; then
-  tail -60 "$work/log" >&2
-  for f in "$work"/artifacts/*; do
-    [ -e "$f" ] || continue
-    cp "$f" fuzz/regressions/
-    echo "fuzz.sh: crash input saved as fuzz/regressions/$(basename "$f")" >&2
-  done
-  exit 1
-fi
-echo "fuzz.sh: no crash in ${seconds} s"
+
+# run_fuzzer NAME SECONDS REGRESSIONS_DIR [libFuzzer options and corpus folders...]
+run_fuzzer() {
+  local name=$1 time=$2 regressions=$3
+  shift 3
+  mkdir -p "$work/$name/corpus" "$work/$name/artifacts"
+  # Fixed seed: a CI run explores the same way each time (up to machine speed).
+  set +e
+  "$build_dir/$name" -seed=1 -max_total_time="$time" -max_len=4096 -timeout=10 -rss_limit_mb=2048 \
+    -artifact_prefix="$work/$name/artifacts/" -print_final_stats=1 "$@" "$work/$name/corpus" 2>"$work/$name/log"
+  local status=$?
+  set -e
+  echo "$name:"
+  grep -E "^(#[0-9]+.*DONE|stat::number_of_executed_units|stat::new_units_added)" "$work/$name/log" || true
+  if [ $status -ne 0 ]; then
+    tail -60 "$work/$name/log" >&2
+    for f in "$work/$name"/artifacts/*; do
+      [ -e "$f" ] || continue
+      cp "$f" "$regressions/"
+      echo "fuzz.sh: crash input saved as $regressions/$(basename "$f")" >&2
+    done
+    exit 1
+  fi
+  echo "fuzz.sh: $name: no crash in ${time} s"
+}
+
+run_fuzzer scene_fuzzer "$seconds" fuzz/regressions -dict=fuzz/scene.dict \
+  models tests/scenes fuzz/seeds fuzz/regressions
+run_fuzzer text_fuzzer "$((seconds / 2))" fuzz/text_regressions fuzz/text_seeds fuzz/text_regressions
