@@ -4,7 +4,7 @@
 #include <fcntl.h>
 #include <openssl/evp.h>
 #include <signal.h>
-#include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -13,8 +13,6 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
-
-extern char** environ;
 
 namespace spacearm {
 
@@ -201,6 +199,30 @@ void CacheFolder::remove_stale_work() const {
 namespace {
 volatile sig_atomic_t g_signal = 0;
 void note_signal(int sig) { g_signal = sig; }
+
+// fork + exec rather than posix_spawn, for what the child must set up itself: its own
+// process group (stopped as a whole on interrupt), default SIGINT/SIGTERM, and death with
+// its parent (PR_SET_PDEATHSIG), so that even a SIGKILL of spacearm leaves no compiler
+// running. Standard output and error go to `log`. Returns the pid, or -1.
+pid_t spawn_in_own_group(const std::vector<char*>& args, const std::string& log) {
+  const pid_t parent = ::getpid();
+  const pid_t pid = ::fork();
+  if (pid > 0) ::setpgid(pid, pid);  // also here: no window where a signal misses the group
+  if (pid != 0) return pid;
+  // Child: only async-signal-safe calls until exec.
+  ::setpgid(0, 0);
+  ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+  if (::getppid() != parent) ::_exit(127);  // the parent died before prctl
+  ::signal(SIGINT, SIG_DFL);
+  ::signal(SIGTERM, SIG_DFL);
+  sigset_t none;
+  sigemptyset(&none);
+  ::sigprocmask(SIG_SETMASK, &none, nullptr);
+  const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  if (fd < 0 || ::dup2(fd, 1) < 0 || ::dup2(fd, 2) < 0) ::_exit(127);
+  ::execvp(args[0], args.data());
+  ::_exit(127);
+}
 }  // namespace
 
 int run_interruptible(const std::vector<std::string>& argv, const std::string& log,
@@ -208,22 +230,6 @@ int run_interruptible(const std::vector<std::string>& argv, const std::string& l
   std::vector<char*> args;
   for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
-  posix_spawn_file_actions_t files;
-  posix_spawn_file_actions_init(&files);
-  posix_spawn_file_actions_addopen(&files, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-  posix_spawn_file_actions_adddup2(&files, 1, 2);
-  posix_spawnattr_t attr;
-  posix_spawnattr_init(&attr);
-  posix_spawnattr_setpgroup(&attr, 0);  // its own group: stopped as a whole on interrupt
-  sigset_t defaults, none;
-  sigemptyset(&defaults);
-  sigaddset(&defaults, SIGINT);
-  sigaddset(&defaults, SIGTERM);
-  sigemptyset(&none);
-  posix_spawnattr_setsigdefault(&attr, &defaults);
-  posix_spawnattr_setsigmask(&attr, &none);
-  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETSIGMASK);
-
   // Our handlers while the compiler runs: a signal stops it instead of leaving it orphaned.
   // A signal the caller ignores (a background job's SIGINT) stays ignored.
   struct sigaction ours {}, old_int {}, old_term {};
@@ -234,10 +240,8 @@ int run_interruptible(const std::vector<std::string>& argv, const std::string& l
   sigaction(SIGTERM, nullptr, &old_term);
   if (old_int.sa_handler != SIG_IGN) sigaction(SIGINT, &ours, nullptr);
   if (old_term.sa_handler != SIG_IGN) sigaction(SIGTERM, &ours, nullptr);
-  pid_t pid = -1;
-  const int spawned = posix_spawnp(&pid, args[0], &files, &attr, args.data(), environ);
-  posix_spawn_file_actions_destroy(&files);
-  posix_spawnattr_destroy(&attr);
+  const pid_t pid = spawn_in_own_group(args, log);
+  const int spawned = pid > 0 ? 0 : -1;
   int status = -1;
   if (spawned == 0) {
     for (int waited_after_signal = 0;;) {
@@ -257,7 +261,7 @@ int run_interruptible(const std::vector<std::string>& argv, const std::string& l
     ::raise(sig);
     return -2;  // a handler of the caller's took the signal
   }
-  if (spawned != 0) return -1;
+  if (spawned != 0 || (WIFEXITED(status) && WEXITSTATUS(status) == 127)) return -1;  // not started
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
 }
 

@@ -26,8 +26,9 @@ run_fuzzer() {
   mkdir -p "$work/$name/corpus" "$work/$name/artifacts"
   # Fixed seed: a CI run explores the same way each time (up to machine speed).
   set +e
+  # New inputs go to the first corpus folder: the scratch one, never a folder of the repository.
   "$build_dir/$name" -seed=1 -max_total_time="$time" -max_len=4096 -timeout=10 -rss_limit_mb=2048 \
-    -artifact_prefix="$work/$name/artifacts/" -print_final_stats=1 "$@" "$work/$name/corpus" 2>"$work/$name/log"
+    -artifact_prefix="$work/$name/artifacts/" -print_final_stats=1 "$@" 2>"$work/$name/log"
   local status=$?
   set -e
   echo "$name:"
@@ -44,6 +45,8 @@ run_fuzzer() {
   echo "fuzz.sh: $name: no crash in ${time} s"
 }
 
+mkdir -p "$work/scene_fuzzer/corpus" "$work/text_fuzzer/corpus"
 run_fuzzer scene_fuzzer "$seconds" fuzz/regressions -dict=fuzz/scene.dict \
-  models tests/scenes fuzz/seeds fuzz/regressions
-run_fuzzer text_fuzzer "$((seconds / 2))" fuzz/text_regressions fuzz/text_seeds fuzz/text_regressions
+  "$work/scene_fuzzer/corpus" models tests/scenes fuzz/seeds fuzz/regressions
+run_fuzzer text_fuzzer "$((seconds / 2))" fuzz/text_regressions \
+  "$work/text_fuzzer/corpus" fuzz/text_seeds fuzz/text_regressions

@@ -231,6 +231,25 @@ TEST(ModelCache, InterruptDuringCompileStopsTheCompilerAndRemovesItsWorkFolder) 
   EXPECT_FALSE(alive(compiler)) << "the compiler " << compiler << " was left running";
   for (const auto& e : fs::directory_iterator(cache))
     EXPECT_EQ(e.path().filename().string().rfind(".tmp-", 0), std::string::npos) << "left behind: " << e.path();
+
+  // SIGKILL cannot be caught: the compiler dies with spacearm (PR_SET_PDEATHSIG), and the
+  // work folder it leaves is removed by the next run.
+  fs::remove(pid_file);
+  const pid_t killed = spawn_shell("CXX='" + cc.string() + "' exec " + SPACEARM_CLI + " eval --cache-dir '" +
+                                   cache.string() + "' " + kScene + " --q 0,0,0,0,0,0 > /dev/null 2>&1");
+  for (int i = 0; i < 1500 && !fs::exists(pid_file); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_TRUE(fs::exists(pid_file));
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  const pid_t orphan = std::stoi(slurp(pid_file));
+  ASSERT_EQ(::kill(killed, SIGKILL), 0);
+  ::waitpid(killed, &status, 0);
+  for (int i = 0; i < 100 && alive(orphan); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_FALSE(alive(orphan)) << "the compiler " << orphan << " outlived a killed spacearm";
+  const fs::path fast = fake_compiler(dir, "copy", "cp '" + real_library().string() + "' \"$out\"");
+  test::run_command(eval_command(cache, fast) + " > /dev/null 2>&1", &status);
+  EXPECT_EQ(status, 0);
+  for (const auto& e : fs::directory_iterator(cache))
+    EXPECT_EQ(e.path().filename().string().rfind(".tmp-", 0), std::string::npos) << "left behind: " << e.path();
   fs::remove_all(dir);
 }
 
