@@ -34,7 +34,9 @@ std::string comment_lines(const std::string& text, const std::string& indent) {
     }
     if (!line_has_text) out += ' ';
     line_has_text = true;
-    if (c >= 0x20 && c < 0x7f && c != '\\') {
+    // A '?' after a '?' is escaped too: "??/" is a trigraph (a backslash) in older modes.
+    const bool trigraph = c == '?' && i > 0 && text[i - 1] == '?';
+    if (c >= 0x20 && c < 0x7f && c != '\\' && !trigraph) {
       out += static_cast<char>(c);
     } else {
       char buf[8];

@@ -10,7 +10,8 @@ namespace spacearm {
 
 // `text` as `//` comment lines, one per source line (\n, \r\n or \r). Bytes outside
 // printable ASCII, and a backslash (which would splice the next line into the comment),
-// are written as \xNN, so the comment cannot end early, swallow the next line or hide
+// are written as \xNN (and a '?' after a '?', which could start a trigraph), so the comment
+// cannot end early, swallow the next line or hide
 // text with control or bidirectional characters.
 std::string comment_lines(const std::string& text, const std::string& indent = "");
 

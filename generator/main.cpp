@@ -30,12 +30,36 @@ void print_stats(const spacearm::EmittedModel& emitted, std::ostream& out) {
   }
 }
 
-// A CLI11 check: the option's text is one finite positive number (strict parsing).
-CLI::Validator positive_number() {
+// 0 if everything written to standard output arrived, else 1 with a message (a full disk,
+// /dev/full or a closed descriptor must not pass as success).
+int stdout_status() {
+  std::cout.flush();
+  if (std::cout) return 0;
+  std::cerr << "spacearm: error: writing standard output failed\n";
+  return 1;
+}
+
+// Options that would have no effect are errors, not silently ignored.
+void check_simulate_options(const CLI::App& command, const spacearm::SimulateArgs& sim) {
+  const bool adaptive = sim.integrator == "dopri5" || sim.integrator == "rkf78";
+  for (const char* option : {"--rtol", "--atol"})
+    if (command.count(option) && !adaptive)
+      throw CLI::ValidationError(option, "applies only to the adaptive integrators (dopri5, rkf78), not to " +
+                                             sim.integrator);
+  for (const char* option : {"--interpolation", "--extrapolate"})
+    if (command.count(option) && sim.zero_torque)
+      throw CLI::ValidationError(option, "has no effect with --zero (no torque file)");
+}
+
+// A CLI11 check: the option's text is one finite positive (or, allow_zero, non-negative)
+// number, parsed strictly.
+CLI::Validator positive_number(bool allow_zero = false) {
   return CLI::Validator(
-      [](std::string& text) -> std::string {
+      [allow_zero](std::string& text) -> std::string {
         try {
-          if (!(spacearm::parse_number(text, "value") > 0)) return "must be positive, got " + text;
+          const double v = spacearm::parse_number(text, "value");
+          if (allow_zero ? !(v >= 0) : !(v > 0))
+            return std::string(allow_zero ? "must not be negative" : "must be positive") + ", got " + text;
         } catch (const std::exception& e) {
           return e.what();
         }
@@ -131,7 +155,8 @@ int main(int argc, char** argv) {
   simulate->add_option("--dt", sim.dt, "Step of the fixed-step methods [s]")->check(positive_number());
   simulate->add_option("--dt-out", sim.dt_out, "Output interval [s] (default: --dt)")->check(positive_number());
   simulate->add_option("--rtol", sim.rtol, "Relative tolerance of the adaptive methods")->check(positive_number());
-  simulate->add_option("--atol", sim.atol, "Absolute tolerance of the adaptive methods")->check(positive_number());
+  simulate->add_option("--atol", sim.atol, "Absolute tolerance of the adaptive methods (>= 0)")
+      ->check(positive_number(true));
   simulate->add_option("--q0", sim.q0_text, "Initial coordinates (default: zeros; motor angles qm = p q if geared)");
   simulate->add_option("--qd0", sim.qd0_text, "Initial velocities (default: zeros)");
   simulate->add_option("--param", sim.param_assignments, "Run-time parameter name=value (repeatable, once per name)");
@@ -145,7 +170,18 @@ int main(int argc, char** argv) {
   simulate->add_option("--cache-dir", sim.cache_dir, "Cache folder for compiled models");
   simulate->add_flag("--verbose", sim.verbose, "Report the time of each stage on stderr");
 
-  CLI11_PARSE(app, argc, argv);
+  // Parse errors get the same prefix and exit code (1) as every other error; --help exits 0.
+  try {
+    app.parse(argc, argv);
+    if (*simulate) check_simulate_options(*simulate, sim);
+    for (const CLI::App* command : {eval, simulate})
+      if (command->count("--cache-dir") && cache_dir.empty() && sim.cache_dir.empty())
+        throw CLI::ValidationError("--cache-dir", "empty path");
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);
+    std::cerr << "spacearm: error: " << e.what() << " (see --help)\n";
+    return 1;
+  }
 
   if (*simulate) {
     try {
@@ -215,7 +251,7 @@ int main(int argc, char** argv) {
         if (verbose) std::fprintf(stderr, "spacearm: run %.3f ms\n", ms(t0));
       }
       std::cout << (json ? out.dump() : out.dump(2)) << "\n";
-      return 0;
+      return stdout_status();
     } catch (const std::exception& e) {
       std::cerr << "spacearm: error: " << e.what() << "\n";
       return 1;
@@ -245,7 +281,7 @@ int main(int argc, char** argv) {
         }
         std::cout << "up to date: " << out_dir << "/" << emitted.header_name << ", " << out_dir << "/"
                   << emitted.source_name << "\n";
-        return 0;
+        return stdout_status();
       }
       spacearm::write_files(emitted, out_dir);
       const auto t2 = clock::now();
@@ -255,9 +291,9 @@ int main(int argc, char** argv) {
                 << scene.parameters.size() << " parameters)\n";
       if (stats) {
         print_stats(emitted, std::cout);
-        std::printf("derive %.0f ms, emit %.0f ms\n", ms(t0, t1), ms(t1, t2));
+        std::cout << "derive " << std::lround(ms(t0, t1)) << " ms, emit " << std::lround(ms(t1, t2)) << " ms\n";
       }
-      return 0;
+      return stdout_status();
     }
     spacearm::DeriveOptions options;
     options.all_outputs = true;
@@ -273,7 +309,7 @@ int main(int argc, char** argv) {
       std::cout << GiNaC::latex << e << GiNaC::dflt << "\n";
     else
       std::cout << e << "\n";
-    return 0;
+    return stdout_status();
   } catch (const std::exception& e) {
     std::cerr << "spacearm: error: " << e.what() << "\n";
     return 1;

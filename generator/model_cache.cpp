@@ -10,6 +10,8 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <climits>
+#include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <filesystem>
@@ -111,12 +113,43 @@ long pid_in(const std::string& name, const std::string& prefix) {
 
 }  // namespace
 
-CacheFolder::CacheFolder(const std::string& path) : path_(path) {
+namespace {
+
+// Every folder above the cache must be safe from renames by others: owned by root or by
+// us, and writable by no one else unless sticky (like /tmp, where only an entry's owner
+// may rename it). Otherwise another user could swap the cache folder or a work folder
+// for a link while spacearm writes into it by path.
+void check_ancestors(const std::string& path) {
+  char resolved[PATH_MAX];
+  if (!::realpath(path.c_str(), resolved)) throw CompileError("cache folder '" + path + "': " + errno_text());
+  for (fs::path p = fs::path(resolved).parent_path();; p = p.parent_path()) {
+    struct stat st;
+    if (::lstat(p.c_str(), &st) != 0) throw CompileError("cache folder '" + path + "': cannot stat " + p.string());
+    const bool owner_ok = st.st_uid == 0 || st.st_uid == geteuid();
+    const bool others_write = (st.st_mode & (S_IWGRP | S_IWOTH)) && !(st.st_mode & S_ISVTX);
+    if (!owner_ok || others_write)
+      throw CompileError("cache folder '" + path + "': the folder above it, '" + p.string() + "', is " +
+                         (!owner_ok ? "owned by user " + std::to_string(st.st_uid)
+                                    : std::string("writable by others and not sticky")) +
+                         ", so another user could replace the cache: choose a cache folder inside one of yours");
+    if (p == p.root_path()) return;
+  }
+}
+
+}  // namespace
+
+CacheFolder::CacheFolder(const std::string& given) : path_(given) {
+  if (given.empty()) throw CompileError("cache folder: empty path");
+  while (path_.size() > 1 && path_.back() == '/') path_.pop_back();  // "link/" would follow a link
+  const std::string& path = path_;
   create_private_folders(path);
+  check_ancestors(path);
   fd_ = Fd(::open(path.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC));
-  if (!fd_.valid())
-    throw CompileError("cache folder '" + path + "': " + errno_text() +
-                       (errno == ELOOP || errno == ENOTDIR ? " (a symbolic link: give its target instead)" : ""));
+  if (!fd_.valid()) {
+    const int error = errno;
+    throw CompileError("cache folder '" + path + "': " + std::strerror(error) +
+                       (error == ELOOP ? " (a symbolic link: give its target instead)" : ""));
+  }
   struct stat st;
   if (::fstat(fd_.get(), &st) != 0) throw CompileError("cache folder '" + path + "': " + errno_text());
   check_owned(st, path, "cache folder");

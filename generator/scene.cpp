@@ -130,6 +130,13 @@ class Reader {
       q.literal = text;
       q.value = std::strtod(text.c_str(), nullptr);
       if (!std::isfinite(q.value)) fail(field, "value '" + text + "' is not finite", n);
+      // Physical values in SI units: magnitudes beyond 1e30 (or non-zero below 1e-30) are
+      // mistakes, and products of them would overflow double in the generated code.
+      const size_t e = text.find_first_of("eE");
+      if (e != std::string::npos && text.size() - e > 5)
+        fail(field, "value '" + text + "' has an exponent beyond the supported range (1e-30 .. 1e30)", n);
+      if (std::abs(q.value) > 1e30 || (q.value != 0 && std::abs(q.value) < 1e-30))
+        fail(field, "value '" + text + "' is outside the supported magnitude range 1e-30 .. 1e30 (or 0)", n);
       // A literal that is not zero but reads as 0 or a subnormal double has lost its digits.
       const bool nonzero_digits = text.substr(0, text.find_first_of("eE")).find_first_of("123456789") !=
                                   std::string::npos;
@@ -241,6 +248,9 @@ Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yam
     r.fail("name", "expected a C++ identifier (letters, digits, _), got '" +
                (name.IsScalar() ? name.Scalar() : std::string("a non-scalar")) + "'", name);
   s.name = name.Scalar();
+  if (s.name.size() > 64)
+    r.fail("name", "is " + std::to_string(s.name.size()) + " characters long, at most 64 (it names files and a namespace)",
+           name);
   if (is_reserved(s.name)) r.fail("name", "'" + s.name + "' is reserved (a C++ keyword, a macro of the generated code's headers or a generated name)", name);
   if (root["description"].IsDefined()) {
     if (!root["description"].IsScalar()) r.fail("description", "expected text", root["description"]);
@@ -411,7 +421,11 @@ Scene parse_scene(const std::string& yaml_text, const std::string& source_name) 
   Reader r(source_name);
   YAML::Node root;
   try {
-    root = YAML::Load(yaml_text);
+    const std::vector<YAML::Node> documents = YAML::LoadAll(yaml_text);
+    // A second document after `---` would be ignored: refuse it instead.
+    if (documents.size() > 1)
+      r.fail("", "holds " + std::to_string(documents.size()) + " YAML documents (separated by ---); give one scene");
+    if (!documents.empty()) root = documents[0];
   } catch (const YAML::Exception& e) {
     r.fail("", std::string("not valid YAML: ") + e.what());
   }

@@ -1,5 +1,7 @@
 #include "simulate_command.hpp"
 
+#include <sys/stat.h>
+
 #include <Eigen/Cholesky>
 
 #include <chrono>
@@ -119,9 +121,20 @@ void warn_if_large(const SimulateArgs& a, double dt_out, int columns) {
   const double rows = a.t_end / dt_out + 1, bytes = rows * columns * 24.0;
   if (bytes > 1e9)
     std::fprintf(stderr,
-                 "spacearm: note: the output will be about %.1f GB (%.0f rows of %d columns); "
+                 "spacearm: note: the output will be about %.3g GB (%.3g rows of %d columns); "
                  "a larger --dt-out thins it\n",
                  bytes / 1e9, rows, columns);
+}
+
+// -o naming the scene or the torque file would overwrite an input.
+void refuse_input_as_output(const SimulateArgs& a) {
+  struct stat out {};
+  if (a.output_file.empty() || a.output_file == "-" || ::stat(a.output_file.c_str(), &out) != 0) return;
+  for (const auto& [option, path] : {std::make_pair("the scene", a.scene_path), std::make_pair("--torques", a.torque_file)}) {
+    struct stat in {};
+    if (!path.empty() && ::stat(path.c_str(), &in) == 0 && in.st_dev == out.st_dev && in.st_ino == out.st_ino)
+      throw std::invalid_argument("-o '" + a.output_file + "' is " + option + " file: it would be overwritten");
+  }
 }
 
 // What was written when the run stopped early, on stderr.
@@ -161,8 +174,6 @@ int run_simulate(const SimulateArgs& a) {
     opt.breakpoint_origin = tau->t_first();
     opt.breakpoint_end = tau->t_last();
   }
-  RowWriter out(a.output_file);
-
   CompileOptions options;
   options.cache_dir = a.cache_dir;
   options.progress = [&](const std::string& m) {
@@ -177,6 +188,9 @@ int run_simulate(const SimulateArgs& a) {
   const Eigen::VectorXd ratios = model.gear_ratios(params);
   const Columns cols{scene.geared(), model.has(Output::end_effector_pose), model.has(Output::kinetic_energy),
                      model.has(Output::momentum)};
+  // Opened only now: a run refused above leaves an existing output file untouched.
+  refuse_input_as_output(a);
+  RowWriter out(a.output_file);
   const std::string head = header(model, cols);
   warn_if_large(a, dt_out, static_cast<int>(std::count(head.begin(), head.end(), ',')) + 1);
   out.row(head);

@@ -305,7 +305,11 @@ GiNaC::ex symbolic_entry(const SymbolicModel& model, const std::string& entry) {
   if (e.name == "M") return from(model.mass_matrix, "mass matrix", 2, n, n);
   if (e.name == "C") return from(model.coriolis_matrix, "Coriolis matrix", 2, n, n);
   if (e.name == "b") return from(model.bias_forces, "bias forces", 1, n, 1);
-  if (e.name == "h") return from(model.momentum, "momentum (free-floating base only)", 1, 3, 1);
+  if (e.name == "h") {
+    if (!model.scene.free_floating())
+      throw std::invalid_argument("entry '" + entry + "': momentum is only defined for a free-floating base");
+    return from(model.momentum, "momentum (free-floating base only)", 1, 3, 1);
+  }
   if (e.name == "x") return from(model.end_effector_pose, "end-effector pose", 1, 3, 1);
   if (e.name == "J") return from(model.end_effector_jacobian, "end-effector Jacobian", 2, 3, n);
   throw std::invalid_argument("entry '" + entry + "': unknown quantity '" + e.name +

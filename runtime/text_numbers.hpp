@@ -22,6 +22,8 @@ inline std::string quoted_text(const std::string& text) {
 // One number; `what` names the field in the error message.
 inline double parse_number(const std::string& text, const std::string& what) {
   if (text.empty()) throw std::invalid_argument(what + ": empty, expected a number");
+  if (text.find('\0') != std::string::npos)
+    throw std::invalid_argument(what + ": " + quoted_text(text) + " holds a NUL byte, not a number");
   if (text.size() > 100) throw std::invalid_argument(what + ": " + quoted_text(text) + " is too long for a number");
   errno = 0;
   char* end = nullptr;

@@ -122,6 +122,14 @@ inline TorqueTable read_torque_csv(const std::string& text, int num_joints, cons
       throw fail(lines[k + 1].first, "time step " + std::to_string(step) + " differs from the first step " +
                                          std::to_string(first) + " (the grid must be uniform)");
   }
+  // Small steps that each pass can still add up: every time must sit on t0 + k dt.
+  for (size_t k = 1; k < times.size(); ++k) {
+    const double off = times[k] - (table.t0 + table.dt * static_cast<double>(k));
+    if (!(std::abs(off) <= 1e-6 * table.dt))
+      throw fail(lines[k + 1].first, "time " + quoted_text(std::to_string(times[k])) + " is " +
+                                         std::to_string(off / table.dt) +
+                                         " steps off the uniform grid t0 + k dt (the steps drift)");
+  }
   return table;
 }
 

@@ -250,6 +250,7 @@ TEST_F(EvalCli, BadInputsGetClearErrors) {
            {ref + " --q 1,2,3,4,5,1e-400", "--q[5]: '1e-400' is out of the range of double precision"},
            {ref + " --q 0,0,0,0,0,1e300 --qd 0,0,0,1e200,0,0", "): the state or parameters overflow"},
            {geared + " --q 0,0,0,0,0,0 --param p=2 --param p=3", "--param: 'p' given more than once"},
+           {ref, "spacearm: error: --q is required"},
            {geared + " --q 0,0,0,0,0,0 --param k=3", "--param: unknown parameter 'k' (known: p, Im)"},
            {geared + " --q 0,0,0,0,0,0 --param p=inf", "--param p: 'inf' is not finite"},
            {geared + " --q 0,0,0,0,0,0 --param Im=1", "gears[0].motor_inertia must be smaller than the inertia"},
@@ -257,9 +258,20 @@ TEST_F(EvalCli, BadInputsGetClearErrors) {
        }) {
     int status = 0;
     const std::string out = run(cli + c.args + " 2>&1", &status);
-    EXPECT_NE(status, 0) << c.args;
+    EXPECT_EQ(WEXITSTATUS(status), 1) << c.args;
     EXPECT_NE(out.find(c.message), std::string::npos) << "args: " << c.args << "\noutput: " << out;
   }
+}
+
+TEST_F(EvalCli, LostOutputAndAnEmptyCacheFolderAreErrors) {
+  const std::string ref = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_reference.yaml";
+  int status = 0;
+  std::string out = run(cli + ref + " --q 0,0,0,0,0,0 2>&1 > /dev/full", &status);
+  EXPECT_EQ(WEXITSTATUS(status), 1);
+  EXPECT_NE(out.find("writing standard output failed"), std::string::npos) << out;
+  out = run(std::string(SPACEARM_CLI) + " eval " + ref + " --q 0,0,0,0,0,0 --cache-dir '' 2>&1", &status);
+  EXPECT_EQ(WEXITSTATUS(status), 1);
+  EXPECT_NE(out.find("--cache-dir: empty path"), std::string::npos) << out;
 }
 
 class SimulateCli : public EvalCli {
@@ -348,7 +360,10 @@ TEST_F(SimulateCli, BadInputsGetClearErrors) {
             "needs the torque samples' interval (0.030000 s) to be a multiple of --dt (0.020000 s)"},
            {"--zero --t-end 1e999", "--t-end: value: '1e999' is not finite"},
            {"--zero --t-end 1 --dt 0.1 --dt 0.2", "--dt"},
-           {"--zero --t-end 1 --extrapolate clamp", "unknown torque extrapolation 'clamp'"},
+           {"--zero --t-end 1 --extrapolate clamp", "--extrapolate: has no effect with --zero"},
+           {"--torques " + grid.string() + " --t-end 0.06 --extrapolate clamp", "unknown torque extrapolation 'clamp'"},
+           {"--zero --t-end 1 --rtol 1e-3", "--rtol: applies only to the adaptive integrators"},
+           {"--torques " + grid.string() + " --t-end 0.06 -o " + grid.string(), "is --torques file: it would be overwritten"},
            {"--zero --t-end 1 --q0 0,0,0,0,nan,0", "--q0[4]: 'nan' is not finite"},
            {"--zero --t-end 1 --integrator euler", "unknown integrator 'euler'"},
            {"--t-end 1", "give --torques FILE or --zero"},
@@ -417,6 +432,13 @@ TEST_F(SimulateCli, TorqueColumnsAreFoundByNameAndBothSidesAreWritten) {
 
 TEST_F(SimulateCli, WriteFailuresAreErrorsNamingTheFile) {
   int status = 0;
+  // A run refused before it starts leaves an existing output file as it was.
+  const fs::path previous = cache.parent_path() / ("previous-" + std::to_string(getpid()) + ".csv");
+  std::ofstream(previous) << "keep\n";
+  run(sim + "--zero --t-end 1 --param Im=0.5 -o " + previous.string() + " 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_EQ(slurp(previous), "keep\n");
+  fs::remove(previous);
   std::string out = run(sim + "--zero --t-end 1 -o /dev/full 2>&1", &status);
   EXPECT_EQ(WEXITSTATUS(status), 1) << out;
   EXPECT_NE(out.find("writing '/dev/full' failed: No space left on device"), std::string::npos) << out;

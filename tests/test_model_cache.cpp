@@ -149,6 +149,16 @@ TEST(ModelCache, FolderIsPrivateAndUnsafeFoldersOrEntriesAreRefusedByName) {
   test::run_command(eval_command(cache, cc) + " 2>&1", &status);
   EXPECT_EQ(status, 0);
 
+  // A cache whose parent others may write to (not sticky): they could swap it for a link.
+  const fs::path open_parent = dir / "shared";
+  fs::create_directories(open_parent);
+  fs::permissions(open_parent, fs::perms::all, fs::perm_options::replace);
+  out = test::run_command(eval_command(open_parent / "cache", cc) + " 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(out.find("the folder above it, '" + open_parent.string() + "', is writable by others and not sticky"),
+            std::string::npos)
+      << out;
+
   // No HOME, XDG_CACHE_HOME or SPACEARM_CACHE_DIR: no shared /tmp fallback.
   out = test::run_command("env -u HOME -u XDG_CACHE_HOME -u SPACEARM_CACHE_DIR " + std::string(SPACEARM_CLI) +
                               " eval " + kScene + " --q 0,0,0,0,0,0 2>&1",

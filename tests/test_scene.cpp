@@ -88,6 +88,12 @@ TEST(Scene, ErrorsNameTheFieldAndValue) {
       {"name: two_links", "name: M_PI", "'M_PI' is reserved"},
       {"name: two_links", "name: two__links", "'two__links' is reserved"},
       {"name: two_links", "description: [a]\nname: two_links", "field 'description': expected text"},
+      // Found by review: values whose products overflow double, exponents that overflow the
+      // exact reader, names too long for a file name, a second YAML document.
+      {"mass: 10", "mass: 1e200", "'1e200' is outside the supported magnitude range 1e-30 .. 1e30"},
+      {"mount: [0.1, 0]", "mount: [0.1, 0e99999999999999999999]", "has an exponent beyond the supported range"},
+      {"name: two_links", "name: " + std::string(65, 'a'), "field 'name': is 65 characters long, at most 64"},
+      {"name: two_links", "name: two_links\n---\nname: other", "holds 2 YAML documents"},
   };
   for (const auto& c : cases) {
     const std::string err = error_of(replaced(kValid, c.from, c.to));

@@ -193,6 +193,11 @@ TEST(SymbolicEntries, GearRatiosAppearAsTheyShould) {
   EXPECT_THROW(symbolic_entry(m, "M[1][2]x"), std::invalid_argument);
   EXPECT_THROW(symbolic_entry(m, "M[99999999][0]"), std::invalid_argument);
   EXPECT_TRUE(symbolic_entry(m, " M [ 4 ] [5] ").is_equal(m.mass_matrix(4, 5)));
+  // Momentum of a fixed base is not defined (it printed 0 before).
+  DeriveOptions all;
+  all.all_outputs = true;
+  const SymbolicModel fixed = derive(load_scene(SPACEARM_SOURCE_DIR "/tests/scenes/fixed_n1.yaml"), all);
+  EXPECT_THROW_MESSAGE(symbolic_entry(fixed, "h[0]"), std::invalid_argument, "only defined for a free-floating base");
   EXPECT_TRUE(symbolic_entry(m, "M[4][5]").is_equal(m.mass_matrix(4, 5)));
 }
 

@@ -32,6 +32,7 @@ TEST(TextNumbers, EverythingElseIsAnErrorNamingTheField) {
                                          {"nan", "x: 'nan' is not finite"},
                                          {"1e-400", "x: '1e-400' is out of the range of double precision"},
                                          {"3,5", "(a decimal comma? write a point)"},
+                                         {std::string("7\0" "5", 3), "holds a NUL byte"},
                                          {std::string(200, '1'), "is too long for a number"}})
     EXPECT_THROW_MESSAGE(parse_number(c.text, "x"), std::invalid_argument, c.message);
   EXPECT_THROW_MESSAGE(parse_number_list("1,2,", "--q"), std::invalid_argument, "--q[2]: empty item in '1,2,'");

@@ -45,8 +45,23 @@ TEST(TorqueCsv, EveryMistakeIsAnErrorNamingLineAndColumn) {
            {"t,tau1,tau2\n0,0,0\n1,2,0\n1.5,0,0\n", "line 4: time step 0.500000 differs from the first step 1.000000"},
            {"t,tau1,tau2\n1,0,0\n0,0,0\n", "time step -1.000000 is not positive"},
            {"t,tau1,tau2\n1e6,0,0\n1000000.0000000001,0,0\n", "too small to resolve"},
+           {std::string("t,tau1,tau2\n0,0,0\n1,7\0" "5,0\n", 24), "holds a NUL byte"},
        })
     EXPECT_THROW_MESSAGE(read_torque_csv(c.text, 2, "f.csv"), std::invalid_argument, c.message);
+}
+
+// Steps that each pass the uniformity check but drift in one direction (found by review:
+// a sample landed a step late).
+TEST(TorqueCsv, DriftingGridsAreRefused) {
+  std::string text = "t,tau1\n";
+  double t = 0;
+  for (int k = 0; k <= 4000; ++k) {
+    char row[64];
+    std::snprintf(row, sizeof row, "%.17g,0\n", t);
+    text += row;
+    t += k == 0 ? 0.001 : k < 2000 ? 0.001 * (1 - 0.9e-6) : 0.001 * (1 + 0.9e-6);
+  }
+  EXPECT_THROW_MESSAGE(read_torque_csv(text, 1, "drift.csv"), std::invalid_argument, "steps off the uniform grid");
 }
 
 TEST(TorqueCsv, FuzzSeedsAndRegressionsReplay) {
