@@ -5,7 +5,7 @@
 # Output folder: out/paper (override with OUT_DIR=...).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/setup.sh build >/dev/null
+scripts/setup.sh build  # shows the build's progress
 out="${OUT_DIR:-out/paper}"
 echo "== operation counts of the paper's generated models"
 for scene in models/paper_reference.yaml models/paper_geared.yaml; do
