@@ -9,6 +9,7 @@
 #include <cmath>
 #include <string>
 
+#include "comment_rule.hpp"
 #include "emitted_text.hpp"
 #include "scene.hpp"
 
@@ -43,17 +44,9 @@ inline std::string broken_rule(const Scene& s) {
   if (is_cpp_reserved(s.name)) return "reserved scene name";
   for (const Parameter& p : s.parameters)
     if (is_cpp_reserved(p.name)) return "reserved parameter name";
-  const std::string comment = comment_lines(s.description + "\n" + s.source_path);
-  size_t start = 0;
-  for (size_t end; (end = comment.find('\n', start)) != std::string::npos; start = end + 1) {
-    const std::string line = comment.substr(start, end - start);
-    if (line.compare(0, 2, "//") != 0 || line.back() == '\\') return "comment line escapes: " + line;
-    for (unsigned char c : line)
-      if (c < 0x20 || c >= 0x7f) return "unescaped byte in a comment line";
-  }
-  if (start != comment.size()) return "comment does not end with a line break";
-  return "";
+  return broken_comment_rule(comment_lines(s.description + "\n" + s.source_path));
 }
+
 
 enum class Verdict { accepted, rejected };
 

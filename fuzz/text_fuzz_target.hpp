@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "comment_rule.hpp"
 #include "emitted_text.hpp"
 #include "text_numbers.hpp"
 #include "torque_csv.hpp"
@@ -43,15 +44,8 @@ inline void check_number_list(const std::string& text) {
 }
 
 inline void check_comment(const std::string& text) {
-  const std::string c = comment_lines(text);
-  size_t start = 0;
-  for (size_t end; (end = c.find('\n', start)) != std::string::npos; start = end + 1) {
-    const std::string line = c.substr(start, end - start);
-    if (line.compare(0, 2, "//") != 0 || line.back() == '\\') throw std::logic_error("comment line escapes: " + line);
-    for (unsigned char ch : line)
-      if (ch < 0x20 || ch >= 0x7f) throw std::logic_error("unescaped byte in a comment");
-  }
-  if (start != c.size()) throw std::logic_error("comment does not end with a line break");
+  const std::string rule = broken_comment_rule(comment_lines(text));
+  if (!rule.empty()) throw std::logic_error(rule);
 }
 
 // Throws std::logic_error for a broken rule; lets anything else escape (a crash).

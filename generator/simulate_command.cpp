@@ -16,6 +16,7 @@
 #include "compiled_model.hpp"
 #include "integrators.hpp"
 #include "row_writer.hpp"
+#include "simulation.hpp"
 #include "torque_csv.hpp"
 #include "torque_signal.hpp"
 
@@ -161,19 +162,9 @@ int run_simulate(const SimulateArgs& a) {
   opt.atol = a.atol;
   const double dt_out = a.dt_out > 0 ? a.dt_out : a.dt;
   const auto tau = torque_signal(a, N);
-  const bool hold = tau->mode() == Interpolation::hold;
-  const bool fixed = opt.method == Method::rk4 || opt.method == Method::implicit_midpoint;
-  if (!a.zero_torque) {
-    auto multiple = [](double x, double of) { return std::abs(x / of - std::round(x / of)) <= 1e-9 * std::max(1.0, x / of); };
-    if (hold && fixed && !(multiple(tau->dt(), a.dt) && multiple(tau->t_first(), a.dt)))
-      throw std::invalid_argument("--interpolation hold with --integrator " + a.integrator +
-                                  " needs the torque samples' interval (" + std::to_string(tau->dt()) +
-                                  " s) to be a multiple of --dt (" + std::to_string(a.dt) + " s)");
-    // Adaptive steps land on the samples (a kink or a jump there), up to the last one.
-    opt.breakpoint_interval = tau->dt();
-    opt.breakpoint_origin = tau->t_first();
-    opt.breakpoint_end = tau->t_last();
-  }
+  // From a file: steps land on the samples, and a held torque is a true zero-order hold.
+  std::unique_ptr<TorqueReplay<Eigen::Dynamic>> replay;
+  if (!a.zero_torque) replay = std::make_unique<TorqueReplay<Eigen::Dynamic>>(*tau, opt, "--dt");
   CompileOptions options;
   options.cache_dir = a.cache_dir;
   options.progress = [&](const std::string& m) {
@@ -195,17 +186,7 @@ int run_simulate(const SimulateArgs& a) {
   warn_if_large(a, dt_out, static_cast<int>(std::count(head.begin(), head.end(), ',')) + 1);
   out.row(head);
 
-  // Zero-order hold: every stage of a step sees the sample of the interval it lies in.
-  double step_a = 0, step_b = -1;
-  if (hold && !a.zero_torque)
-    opt.step_begin = [&](double t0, double t1) {
-      step_a = t0;
-      step_b = t1;
-    };
-  auto torque_at = [&](double t) -> Eigen::VectorXd {
-    if (hold && t >= step_a && t <= step_b) return tau->held_over(step_a, step_b);
-    return (*tau)(t);
-  };
+  auto torque_at = [&](double t) -> Eigen::VectorXd { return replay ? (*replay)(t) : (*tau)(t); };
   using State = Eigen::VectorXd;
   auto f = [&](const State& x, State& dxdt, double t) {
     StopOnSignals::check();

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <functional>
+#include <string>
 #include <vector>
 
 #include "integrators.hpp"
@@ -64,35 +65,57 @@ void simulate(Trajectory<G>& traj, const Model<G>& model, const typename Model<G
   traj.stats = integrate(options, f, x, 0.0, t_end, dt_out, observe);
 }
 
-// Replays sampled torques: adaptive steps land on every sample up to the last one (a kink
-// or a jump of the signal there), and with Interpolation::hold every stage of a step sees
-// the one sample of the interval the step lies in (a true zero-order hold). The fixed-step
-// methods then need the samples' interval to be a multiple of options.dt.
+// Sampled torques replayed by an integrator: adaptive steps land on every sample up to the
+// last one (a kink or a jump of the signal there), and with Interpolation::hold every stage
+// of a step sees the one sample of the interval the step lies in (a true zero-order hold).
+// The fixed-step methods then need the samples' interval and first time to be multiples of
+// the step, else std::invalid_argument naming `step_name` (e.g. "--dt"). Sets the options'
+// breakpoints and step_begin; keep the object alive (it is not copied) while integrating.
+template <int N>
+class TorqueReplay {
+ public:
+  using Joint = typename TorqueSignal<N>::Joint;
+  TorqueReplay(const TorqueSignal<N>& tau, IntegratorOptions& options, const std::string& step_name)
+      : tau_(tau), hold_(tau.mode() == Interpolation::hold) {
+    const bool fixed = options.method == Method::rk4 || options.method == Method::implicit_midpoint;
+    auto multiple = [](double x, double of) {
+      return std::abs(x / of - std::round(x / of)) <= 1e-9 * std::max(1.0, x / of);
+    };
+    if (hold_ && fixed && !(multiple(tau.dt(), options.dt) && multiple(tau.t_first(), options.dt)))
+      throw std::invalid_argument("a held torque with " + to_string(options.method) +
+                                  " needs the torque samples' interval (" + std::to_string(tau.dt()) +
+                                  " s) to be a multiple of " + step_name + " (" + std::to_string(options.dt) +
+                                  " s), and their first time too, so that no step straddles a sample");
+    options.breakpoint_interval = tau.dt();
+    options.breakpoint_origin = tau.t_first();
+    options.breakpoint_end = tau.t_last();
+    options.step_begin = [this](double a, double b) {
+      step_a_ = a;
+      step_b_ = b;
+    };
+  }
+  TorqueReplay(const TorqueReplay&) = delete;
+  TorqueReplay& operator=(const TorqueReplay&) = delete;
+
+  // Inside a step: the step's sample (hold) or the value at t; at an output time: tau(t).
+  Joint operator()(double t) const {
+    if (hold_ && t >= step_a_ && t <= step_b_) return tau_.held_over(step_a_, step_b_);
+    return tau_(t);
+  }
+
+ private:
+  const TorqueSignal<N>& tau_;
+  bool hold_;
+  double step_a_ = 0, step_b_ = -1;
+};
+
+// Replays sampled torques (see TorqueReplay).
 template <class G, int N>
 void simulate(Trajectory<G>& traj, const Model<G>& model, const typename Model<G>::Vector& q0,
               const typename Model<G>::Vector& qd0, const TorqueSignal<N>& tau, double t_end, double dt_out,
               IntegratorOptions options) {
-  using Joint = typename Model<G>::JointVector;
-  const bool hold = tau.mode() == Interpolation::hold;
-  const bool fixed = options.method == Method::rk4 || options.method == Method::implicit_midpoint;
-  auto multiple = [](double a, double b) { return std::abs(a / b - std::round(a / b)) <= 1e-9 * std::max(1.0, a / b); };
-  if (hold && fixed && !(multiple(tau.dt(), options.dt) && multiple(tau.t_first(), options.dt)))
-    throw std::invalid_argument("simulate: a held torque with fixed steps needs the samples' interval (" +
-                                detail::format(tau.dt()) + " s) and first time to be multiples of the step dt (" +
-                                detail::format(options.dt) + " s), so that no step straddles a sample");
-  options.breakpoint_interval = tau.dt();
-  options.breakpoint_origin = tau.t_first();
-  options.breakpoint_end = tau.t_last();
-  double step_a = 0, step_b = -1;
-  options.step_begin = [&](double a, double b) {
-    step_a = a;
-    step_b = b;
-  };
-  // Inside a step: the step's sample (hold) or the value at t; at an output time: tau(t).
-  const std::function<Joint(double)> torque = [&](double t) -> Joint {
-    if (hold && t >= step_a && t <= step_b) return tau.held_over(step_a, step_b);
-    return tau(t);
-  };
+  const TorqueReplay<N> replay(tau, options, "the step dt");
+  const std::function<typename Model<G>::JointVector(double)> torque = [&](double t) { return replay(t); };
   simulate(traj, model, q0, qd0, torque, t_end, dt_out, options);
 }
 

@@ -6,6 +6,8 @@
 
 #include <Eigen/Core>
 #include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <random>
 #include <sstream>
 #include <string>
@@ -119,6 +121,12 @@ inline Difference relative_difference(const Eigen::MatrixXd& a, const Eigen::Mat
     EXPECT_LE(d_.relative, (tol)) << "worst entry (" << d_.row << ", " << d_.col << "): " #a " = "          \
                                   << a_(d_.row, d_.col) << ", " #b " = " << b_(d_.row, d_.col);             \
   } while (0)
+
+// A whole file as text (empty if it cannot be read).
+inline std::string read_text_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
 
 // Runs a shell command; returns its standard output and sets *status to pclose's status.
 inline std::string run_command(const std::string& command, int* status = nullptr) {

@@ -377,10 +377,7 @@ TEST_F(SimulateCli, BadInputsGetClearErrors) {
   fs::remove(grid);
 }
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
+std::string slurp(const fs::path& p) { return test::read_text_file(p.string()); }
 
 // Columns by name in any order, CRLF and a byte-order mark: the same run as the plain file.
 // Link-side columns of a geared scene are q = qm / p, and both torque sides are written.

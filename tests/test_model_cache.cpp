@@ -36,12 +36,7 @@ fs::path scratch(const std::string& name) {
   return dir;
 }
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+std::string slurp(const fs::path& p) { return test::read_text_file(p.string()); }
 
 // A compiler stand-in: answers --version, then runs `action` with $out the -o argument.
 fs::path fake_compiler(const fs::path& dir, const std::string& name, const std::string& action) {
