@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "cpp_emitter.hpp"
+#include "outputs.hpp"
 #include "symbolic_model.hpp"
 
 #ifndef SPACEARM_EIGEN_INCLUDE_DIR
@@ -22,70 +23,7 @@ namespace spacearm {
 
 namespace fs = std::filesystem;
 
-// The C functions every compiled model exports (see c_api_source below).
-struct CompiledModel::Api {
-  using Vec = void (*)(const double*, const double*, double*);
-  using VecVel = void (*)(const double*, const double*, const double*, double*);
-  VecVel coriolis_matrix = nullptr, bias_forces = nullptr, momentum = nullptr;
-  Vec mass_matrix = nullptr, end_effector_pose = nullptr;
-  double (*kinetic_energy)(const double*, const double*, const double*) = nullptr;
-  void (*gear_ratios)(const double*, double*) = nullptr;
-  const char* (*parameter_error)(const double*) = nullptr;
-};
-
 namespace {
-
-constexpr int kAbiVersion = 3;
-
-std::string c_api_source(const Scene& scene, const std::string& header) {
-  const std::string ns = "spacearm::models::" + scene.name;
-  std::ostringstream s;
-  s << "// C interface of model " << scene.name << " for dlopen (written by spacearm; do not edit).\n"
-    << "#include \"" << header << "\"\n\n"
-    << "namespace m = " << ns << ";\n"
-    << "using Q = Eigen::Map<const m::Coordinates<double>>;\n"
-    << "using P = Eigen::Map<const m::Parameters<double>>;\n\n"
-    << "extern \"C\" {\n"
-    << "int spacearm_abi_version() { return " << kAbiVersion << "; }\n"
-    << "int spacearm_nq() { return m::kNq; }\n"
-    << "int spacearm_num_links() { return m::kNumLinks; }\n"
-    << "int spacearm_num_params() { return m::kNumParams; }\n"
-    << "const char* spacearm_coordinate_name(int i) { return m::kCoordinateNames[i]; }\n"
-    << "const char* spacearm_parameter_name(int i) { return m::kNumParams ? m::Model::parameter_names()[i] : \"\"; }\n"
-    << "double spacearm_nominal_parameter(int i) { return m::kNumParams ? m::Model::nominal_parameters()[i] : 0.0; }\n";
-  unsigned mask = 0;
-  for (Output o : all_outputs())
-    if (scene.wants(o)) mask |= 1u << static_cast<unsigned>(o);
-  s << "unsigned spacearm_outputs() { return " << mask << "u; }\n";
-  s << "const char* spacearm_parameter_error(const double* p) { return m::parameter_error(P(p)); }\n";
-  s << "void spacearm_gear_ratios(const double* p, double* r) {\n"
-    << "  m::JointVector<double> out; m::gear_ratios<double>(P(p), out); Eigen::Map<m::JointVector<double>>{r} = out;\n}\n";
-  if (scene.wants(Output::mass_matrix))
-    s << "void spacearm_mass_matrix(const double* q, const double* p, double* M) {\n"
-      << "  m::MassMatrix<double> out; m::mass_matrix<double>(Q(q), P(p), out); "
-         "Eigen::Map<m::MassMatrix<double>>{M} = out;\n}\n";
-  if (scene.wants(Output::coriolis_matrix))
-    s << "void spacearm_coriolis_matrix(const double* q, const double* qd, const double* p, double* C) {\n"
-      << "  m::MassMatrix<double> out; m::coriolis_matrix<double>(Q(q), Q(qd), P(p), out); "
-         "Eigen::Map<m::MassMatrix<double>>{C} = out;\n}\n";
-  if (scene.wants(Output::bias_forces))
-    s << "void spacearm_bias_forces(const double* q, const double* qd, const double* p, double* b) {\n"
-      << "  m::Coordinates<double> out; m::bias_forces<double>(Q(q), Q(qd), P(p), out); "
-         "Eigen::Map<m::Coordinates<double>>{b} = out;\n}\n";
-  if (scene.wants(Output::kinetic_energy))
-    s << "double spacearm_kinetic_energy(const double* q, const double* qd, const double* p) {\n"
-      << "  return m::kinetic_energy<double>(Q(q), Q(qd), P(p));\n}\n";
-  if (scene.wants(Output::momentum))
-    s << "void spacearm_momentum(const double* q, const double* qd, const double* p, double* h) {\n"
-      << "  m::Vector3<double> out; m::momentum<double>(Q(q), Q(qd), P(p), out); "
-         "Eigen::Map<m::Vector3<double>>{h} = out;\n}\n";
-  if (scene.wants(Output::end_effector_pose))
-    s << "void spacearm_end_effector_pose(const double* q, const double* p, double* x) {\n"
-      << "  m::Vector3<double> out; m::end_effector_pose<double>(Q(q), P(p), out); "
-         "Eigen::Map<m::Vector3<double>>{x} = out;\n}\n";
-  s << "}\n";
-  return s.str();
-}
 
 // First line the compiler prints for --version (its identity in the cache key), run
 // without a shell.
@@ -124,7 +62,7 @@ std::vector<std::string> split_flags(const std::string& flags) {
 // Identity of the running generator: a hash of its own executable, so that a rebuilt
 // generator (which may emit different code under the same version number) gets new entries.
 const std::string& generator_identity() {
-  static const std::string id = sha256_hex(read_file("/proc/self/exe")) + "-abi" + std::to_string(kAbiVersion);
+  static const std::string id = sha256_hex(read_file("/proc/self/exe")) + "-abi" + std::to_string(kCInterfaceVersion);
   return id;
 }
 
@@ -134,14 +72,20 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 
 // The C symbols a library must export for `scene` (checked before anything is called).
 std::vector<std::string> required_symbols(const Scene& scene) {
-  std::vector<std::string> names = {"spacearm_abi_version",     "spacearm_nq",           "spacearm_num_links",
-                                    "spacearm_num_params",      "spacearm_coordinate_name", "spacearm_parameter_name",
-                                    "spacearm_nominal_parameter", "spacearm_outputs",    "spacearm_parameter_error",
+  std::vector<std::string> names = {"spacearm_abi_version",       "spacearm_nq",         "spacearm_nv",
+                                    "spacearm_num_links",         "spacearm_num_params", "spacearm_coordinate_name",
+                                    "spacearm_parameter_name",    "spacearm_nominal_parameter",
+                                    "spacearm_outputs",           "spacearm_parameter_error",
                                     "spacearm_gear_ratios"};
-  for (Output o : {Output::mass_matrix, Output::coriolis_matrix, Output::bias_forces, Output::kinetic_energy,
-                   Output::momentum, Output::end_effector_pose})
-    if (scene.wants(o)) names.push_back("spacearm_" + to_string(o));
+  for (const auto& o : output_registry())
+    if (scene.wants(o.id)) names.push_back("spacearm_" + std::string(o.name));
   return names;
+}
+
+unsigned long output_mask(const Scene& scene) {
+  unsigned long mask = 0;
+  for (Output o : scene.outputs) mask |= 1ul << static_cast<unsigned>(o);
+  return mask;
 }
 
 // Generates and compiles the scene into a new work folder; returns it, ready to install.
@@ -164,7 +108,7 @@ std::string build_entry(const Scene& scene, const CacheFolder& cache, const std:
     eo.command = "spacearm (compile-and-load cache)";
     const EmittedModel emitted = emit_cpp(model, eo);
     write_files(emitted, work);
-    write_file(fs::path(work) / "c_api.cpp", c_api_source(scene, emitted.header_name));
+    write_file(fs::path(work) / "c_api.cpp", emitted.c_interface);
     rep.emit_ms = ms_since(t0);
     rep.generated = true;
 
@@ -278,38 +222,33 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
       why = "the library lacks the symbol " + name;
       return m;
     }
-  auto sym = [&](const char* name) { return dlsym(m.handle_, name); };
-  if (reinterpret_cast<int (*)()>(sym("spacearm_abi_version"))() != kAbiVersion) {
+  auto sym = [&](const std::string& name) { return dlsym(m.handle_, name.c_str()); };
+  auto number = [&](const char* name) { return reinterpret_cast<int (*)()>(sym(name))(); };
+  if (number("spacearm_abi_version") != kCInterfaceVersion) {
     why = "wrong interface version";
     return m;
   }
-  m.nq_ = reinterpret_cast<int (*)()>(sym("spacearm_nq"))();
-  m.num_links_ = reinterpret_cast<int (*)()>(sym("spacearm_num_links"))();
-  m.outputs_ = reinterpret_cast<unsigned (*)()>(sym("spacearm_outputs"))();
-  const int np = reinterpret_cast<int (*)()>(sym("spacearm_num_params"))();
-  if (m.nq_ != scene.num_coordinates() || m.num_links_ != scene.num_links() ||
-      np != static_cast<int>(scene.parameters.size())) {
-    why = "its sizes do not match the scene";
+  m.dims_ = {number("spacearm_nq"), number("spacearm_nv"), number("spacearm_num_links")};
+  m.outputs_ = reinterpret_cast<unsigned long (*)()>(sym("spacearm_outputs"))();
+  const int np = number("spacearm_num_params");
+  if (m.dims_.nq != scene.num_coordinates() || m.dims_.nv != scene.num_coordinates() ||
+      m.dims_.num_links != scene.num_links() || np != static_cast<int>(scene.parameters.size()) ||
+      m.outputs_ != output_mask(scene)) {
+    why = "its sizes or outputs do not match the scene";
     return m;
   }
   auto coordinate = reinterpret_cast<const char* (*)(int)>(sym("spacearm_coordinate_name"));
   auto parameter = reinterpret_cast<const char* (*)(int)>(sym("spacearm_parameter_name"));
   auto nominal = reinterpret_cast<double (*)(int)>(sym("spacearm_nominal_parameter"));
-  for (int i = 0; i < m.nq_; ++i) m.coordinate_names_.push_back(coordinate(i));
+  for (int i = 0; i < m.dims_.nq; ++i) m.coordinate_names_.push_back(coordinate(i));
   for (int i = 0; i < np; ++i) {
     m.parameter_names_.push_back(parameter(i));
     m.nominal_.push_back(nominal(i));
   }
-  m.api_ = std::make_unique<Api>();
-  m.api_->mass_matrix = reinterpret_cast<Api::Vec>(sym("spacearm_mass_matrix"));
-  m.api_->coriolis_matrix = reinterpret_cast<Api::VecVel>(sym("spacearm_coriolis_matrix"));
-  m.api_->bias_forces = reinterpret_cast<Api::VecVel>(sym("spacearm_bias_forces"));
-  m.api_->momentum = reinterpret_cast<Api::VecVel>(sym("spacearm_momentum"));
-  m.api_->end_effector_pose = reinterpret_cast<Api::Vec>(sym("spacearm_end_effector_pose"));
-  m.api_->kinetic_energy =
-      reinterpret_cast<double (*)(const double*, const double*, const double*)>(sym("spacearm_kinetic_energy"));
-  m.api_->gear_ratios = reinterpret_cast<void (*)(const double*, double*)>(sym("spacearm_gear_ratios"));
-  m.api_->parameter_error = reinterpret_cast<const char* (*)(const double*)>(sym("spacearm_parameter_error"));
+  m.parameter_error_ = reinterpret_cast<const char* (*)(const double*)>(sym("spacearm_parameter_error"));
+  for (const auto& name : required_symbols(scene))
+    if (name != "spacearm_parameter_error")
+      m.functions_[name.substr(9)] = reinterpret_cast<Function>(sym(name));
   rep.load_ms = ms_since(t0);
   return m;
 }
@@ -319,18 +258,18 @@ CompiledModel::~CompiledModel() {
 }
 CompiledModel::CompiledModel(CompiledModel&& o) noexcept { *this = std::move(o); }
 CompiledModel& CompiledModel::operator=(CompiledModel&& o) noexcept {
-  std::swap(api_, o.api_);
   std::swap(handle_, o.handle_);
-  nq_ = o.nq_;
-  num_links_ = o.num_links_;
+  dims_ = o.dims_;
   outputs_ = o.outputs_;
+  functions_ = std::move(o.functions_);
+  parameter_error_ = o.parameter_error_;
   coordinate_names_ = std::move(o.coordinate_names_);
   parameter_names_ = std::move(o.parameter_names_);
   nominal_ = std::move(o.nominal_);
   return *this;
 }
 
-bool CompiledModel::has(Output o) const { return (outputs_ >> static_cast<unsigned>(o)) & 1u; }
+bool CompiledModel::has(Output o) const { return (outputs_ >> static_cast<unsigned>(o)) & 1ul; }
 
 void CompiledModel::check(const char* what, const Eigen::VectorXd& v, int size) const {
   if (v.size() != size)
@@ -340,80 +279,61 @@ void CompiledModel::check(const char* what, const Eigen::VectorXd& v, int size) 
     if (!std::isfinite(v[i]))
       throw std::invalid_argument(std::string(what) + "[" + std::to_string(i) + "] is not finite: " +
                                   std::to_string(v[i]));
-  if (std::string(what) == "params")
-    if (const char* error = api_->parameter_error(v.data()))
-      throw std::invalid_argument(std::string("parameters: ") + error);
 }
 
-void CompiledModel::require(Output o) const {
-  if (!has(o)) throw std::invalid_argument("the scene does not emit '" + to_string(o) + "' (add it to outputs)");
+// Calls an exported function with checked parameters; results sized by `shapes`.
+std::vector<Eigen::MatrixXd> CompiledModel::call(const std::string& function,
+                                                 const std::vector<std::pair<Size, Size>>& shapes,
+                                                 const std::vector<const double*>& inputs,
+                                                 const Eigen::VectorXd& params) const {
+  check("params", params, static_cast<int>(nominal_.size()));
+  if (const char* error = parameter_error_(params.data()))
+    throw std::invalid_argument(std::string("parameters: ") + error);
+  std::vector<Eigen::MatrixXd> results;
+  std::vector<double*> out;
+  for (const auto& [rows, cols] : shapes) results.emplace_back(dims_(rows), dims_(cols));
+  for (auto& r : results) out.push_back(r.data());
+  functions_.at(function)(inputs.data(), params.data(), out.data());
+  return results;
+}
+
+std::vector<Eigen::MatrixXd> CompiledModel::evaluate(Output o, const std::vector<Eigen::VectorXd>& inputs,
+                                                     const Eigen::VectorXd& params) const {
+  const OutputInfo& out = info(o);
+  if (!has(o)) throw std::invalid_argument("the scene does not emit '" + std::string(out.name) + "' (add it to outputs)");
+  if (inputs.size() != out.inputs.size())
+    throw std::invalid_argument(std::string(out.name) + " takes " + std::to_string(out.inputs.size()) + " inputs, got " +
+                                std::to_string(inputs.size()));
+  std::vector<const double*> data;
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    check(info(out.inputs[i]).name, inputs[i], dims_(info(out.inputs[i]).size));
+    data.push_back(inputs[i].data());
+  }
+  std::vector<std::pair<Size, Size>> shapes;
+  for (const auto& r : out.results) shapes.push_back({r.rows, r.cols});
+  return call(out.name, shapes, data, params);
 }
 
 Eigen::MatrixXd CompiledModel::mass_matrix(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const {
-  require(Output::mass_matrix);
-  check("q", q, nq_);
-  check("params", params, static_cast<int>(nominal_.size()));
-  Eigen::MatrixXd M(nq_, nq_);
-  api_->mass_matrix(q.data(), params.data(), M.data());
-  return M;
+  return evaluate(Output::mass_matrix, {q}, params)[0];
 }
-
-Eigen::MatrixXd CompiledModel::coriolis_matrix(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
-                                               const Eigen::VectorXd& params) const {
-  require(Output::coriolis_matrix);
-  check("q", q, nq_);
-  check("qd", qd, nq_);
-  check("params", params, static_cast<int>(nominal_.size()));
-  Eigen::MatrixXd C(nq_, nq_);
-  api_->coriolis_matrix(q.data(), qd.data(), params.data(), C.data());
-  return C;
-}
-
 Eigen::VectorXd CompiledModel::bias_forces(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                                            const Eigen::VectorXd& params) const {
-  require(Output::bias_forces);
-  check("q", q, nq_);
-  check("qd", qd, nq_);
-  check("params", params, static_cast<int>(nominal_.size()));
-  Eigen::VectorXd b(nq_);
-  api_->bias_forces(q.data(), qd.data(), params.data(), b.data());
-  return b;
+  return evaluate(Output::bias_forces, {q, qd}, params)[0];
 }
-
 double CompiledModel::kinetic_energy(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                                      const Eigen::VectorXd& params) const {
-  require(Output::kinetic_energy);
-  check("q", q, nq_);
-  check("qd", qd, nq_);
-  check("params", params, static_cast<int>(nominal_.size()));
-  return api_->kinetic_energy(q.data(), qd.data(), params.data());
+  return evaluate(Output::kinetic_energy, {q, qd}, params)[0](0, 0);
 }
-
 Eigen::Vector3d CompiledModel::momentum(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                                         const Eigen::VectorXd& params) const {
-  require(Output::momentum);
-  check("q", q, nq_);
-  check("qd", qd, nq_);
-  check("params", params, static_cast<int>(nominal_.size()));
-  Eigen::Vector3d h;
-  api_->momentum(q.data(), qd.data(), params.data(), h.data());
-  return h;
+  return evaluate(Output::momentum, {q, qd}, params)[0];
 }
-
 Eigen::Vector3d CompiledModel::end_effector_pose(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const {
-  require(Output::end_effector_pose);
-  check("q", q, nq_);
-  check("params", params, static_cast<int>(nominal_.size()));
-  Eigen::Vector3d x;
-  api_->end_effector_pose(q.data(), params.data(), x.data());
-  return x;
+  return evaluate(Output::end_effector_pose, {q}, params)[0];
 }
-
 Eigen::VectorXd CompiledModel::gear_ratios(const Eigen::VectorXd& params) const {
-  check("params", params, static_cast<int>(nominal_.size()));
-  Eigen::VectorXd r(num_links_);
-  api_->gear_ratios(params.data(), r.data());
-  return r;
+  return call("gear_ratios", {{Size::num_links, Size::one}}, {}, params)[0];
 }
 
 }  // namespace spacearm

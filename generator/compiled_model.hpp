@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -38,17 +39,22 @@ class CompiledModel {
   CompiledModel(CompiledModel&&) noexcept;
   CompiledModel& operator=(CompiledModel&&) noexcept;
 
-  int nq() const { return nq_; }
-  int num_links() const { return num_links_; }
+  int nq() const { return dims_.nq; }
+  int nv() const { return dims_.nv; }
+  int num_links() const { return dims_.num_links; }
+  const Dimensions& dimensions() const { return dims_; }
   bool has(Output o) const;
   const std::vector<std::string>& coordinate_names() const { return coordinate_names_; }
   const std::vector<std::string>& parameter_names() const { return parameter_names_; }
   const std::vector<double>& nominal_parameters() const { return nominal_; }
 
-  // Inputs are checked (sizes, finiteness) and errors name the argument and value.
+  // The results of an output (registry order and shapes, outputs.hpp) at its inputs, given
+  // in the registry's order. Inputs are checked (sizes, finiteness, the parameters' ranges)
+  // and errors name the argument and value.
+  std::vector<Eigen::MatrixXd> evaluate(Output o, const std::vector<Eigen::VectorXd>& inputs,
+                                        const Eigen::VectorXd& params) const;
+  // Shorthands of evaluate() for the outputs the simulate command reads.
   Eigen::MatrixXd mass_matrix(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const;
-  Eigen::MatrixXd coriolis_matrix(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
-                                  const Eigen::VectorXd& params) const;
   Eigen::VectorXd bias_forces(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& params) const;
   double kinetic_energy(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& params) const;
   Eigen::Vector3d momentum(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& params) const;
@@ -57,16 +63,18 @@ class CompiledModel {
 
  private:
   CompiledModel() = default;
-  struct Api;
-  std::unique_ptr<Api> api_;
+  using Function = void (*)(const double* const*, const double*, double* const*);
   void* handle_ = nullptr;
-  int nq_ = 0, num_links_ = 0;
-  unsigned outputs_ = 0;
+  Dimensions dims_;
+  unsigned long outputs_ = 0;
+  std::map<std::string, Function> functions_;  // by name, without the "spacearm_" prefix
+  const char* (*parameter_error_)(const double*) = nullptr;
   std::vector<std::string> coordinate_names_, parameter_names_;
   std::vector<double> nominal_;
   static CompiledModel open_verified(const Scene& scene, const Fd& library, StageReport& rep, std::string& why);
   void check(const char* what, const Eigen::VectorXd& v, int size) const;
-  void require(Output o) const;
+  std::vector<Eigen::MatrixXd> call(const std::string& function, const std::vector<std::pair<Size, Size>>& shapes,
+                                    const std::vector<const double*>& inputs, const Eigen::VectorXd& params) const;
 };
 
 // The cache folder in use: options.cache_dir, else $SPACEARM_CACHE_DIR, else

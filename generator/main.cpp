@@ -2,7 +2,6 @@
 //   spacearm generate SCENE -o DIR [--stats]   emit optimized C++ for a scene
 //   spacearm inspect SCENE ENTRY [--latex]     print one symbolic entry, e.g. M[3][4]
 #include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
 
 #include <chrono>
 #include <cmath>
@@ -13,6 +12,7 @@
 #include "compiled_model.hpp"
 #include "cli_input.hpp"
 #include "cpp_emitter.hpp"
+#include "eval_command.hpp"
 #include "scene.hpp"
 #include "simulate_command.hpp"
 #include "symbolic_model.hpp"
@@ -24,7 +24,7 @@ void print_stats(const spacearm::EmittedModel& emitted, std::ostream& out) {
   for (const auto& f : emitted.stats) {
     char line[160];
     std::snprintf(line, sizeof line, "%-24s %-6s %5d  %5d  %5d  %5d  %7d\n", f.name.c_str(),
-                  f.velocity_basis.empty() ? "-" : f.velocity_basis.c_str(), f.ops.adds, f.ops.muls, f.ops.divs,
+                  f.variant.empty() ? "-" : f.variant.c_str(), f.ops.adds, f.ops.muls, f.ops.divs,
                   f.ops.total_arithmetic(), f.ops.trig);
     out << line;
   }
@@ -68,36 +68,6 @@ CLI::Validator positive_number(bool allow_zero = false) {
       "POSITIVE");
 }
 
-// Every entry finite, else an error naming the output and the entry (an overflow must not
-// reach the JSON as null).
-void check_finite(const std::string& name, const Eigen::MatrixXd& m) {
-  for (Eigen::Index i = 0; i < m.rows(); ++i)
-    for (Eigen::Index j = 0; j < m.cols(); ++j)
-      if (!std::isfinite(m(i, j)))
-        throw std::runtime_error(name + (m.cols() == 1 ? "[" + std::to_string(i) + "]"
-                                                         : "[" + std::to_string(i) + "][" + std::to_string(j) + "]") +
-                                 " is not finite (" + std::to_string(m(i, j)) + "): the state or parameters overflow");
-}
-
-nlohmann::json to_json(const Eigen::MatrixXd& m, const std::string& name) {
-  check_finite(name, m);
-  nlohmann::json rows = nlohmann::json::array();
-  for (Eigen::Index i = 0; i < m.rows(); ++i) {
-    nlohmann::json row = nlohmann::json::array();
-    for (Eigen::Index j = 0; j < m.cols(); ++j) row.push_back(m(i, j));
-    rows.push_back(row);
-  }
-  return rows;
-}
-nlohmann::json to_json(const Eigen::VectorXd& v, const std::string& name) {
-  check_finite(name, v);
-  return std::vector<double>(v.data(), v.data() + v.size());
-}
-double finite(double v, const std::string& name) {
-  check_finite(name, Eigen::MatrixXd::Constant(1, 1, v));
-  return v;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -124,23 +94,24 @@ int main(int argc, char** argv) {
 
   auto* inspect = app.add_subcommand("inspect", "Print one symbolic entry of the derived model");
   inspect->add_option("scene", scene_path, "Scene file (YAML)")->required();
-  inspect->add_option("entry", entry, "T, M[i][j], C[i][j], b[i], h[i] (momentum), x[i] (pose), J[i][j]")
+  std::string entry_help;
+  for (const auto& o : spacearm::output_registry())
+    entry_help += (entry_help.empty() ? "" : ", ") + std::string(o.symbol) + " (" + o.name + ")";
+  inspect->add_option("entry", entry, "An entry such as M[3][4] or b[2]; the symbols: " + entry_help)
       ->required();
   inspect->add_flag("--latex", latex, "Print LaTeX instead of plain text");
   inspect->add_flag("--decimal", expanded, "Show numeric coefficients as decimals instead of exact fractions");
 
   auto* eval = app.add_subcommand("eval", "Evaluate a scene's quantities at a state (compiled and cached, or --symbolic)");
-  std::string q_text, qd_text, cache_dir;
-  std::vector<std::string> param_assignments;
-  bool json = false, symbolic = false, verbose = false;
-  eval->add_option("scene", scene_path, "Scene file (YAML)")->required();
-  eval->add_option("--q", q_text, "Coordinates, comma-separated")->required();
-  eval->add_option("--qd", qd_text, "Velocities, comma-separated (default: zeros)");
-  eval->add_option("--param", param_assignments, "Run-time parameter name=value (repeatable, once per name)");
-  eval->add_flag("--json", json, "Compact JSON on one line (default: indented JSON)");
-  eval->add_flag("--symbolic", symbolic, "Evaluate GiNaC's expressions instead of the compiled code");
-  eval->add_flag("--verbose", verbose, "Report the time of each stage on stderr");
-  eval->add_option("--cache-dir", cache_dir, "Cache folder for compiled models");
+  spacearm::EvalArgs eval_args;
+  eval->add_option("scene", eval_args.scene_path, "Scene file (YAML)")->required();
+  eval->add_option("--q", eval_args.q_text, "Coordinates, comma-separated")->required();
+  eval->add_option("--qd", eval_args.qd_text, "Velocities, comma-separated (default: zeros)");
+  eval->add_option("--param", eval_args.param_assignments, "Run-time parameter name=value (repeatable, once per name)");
+  eval->add_flag("--json", eval_args.compact_json, "Compact JSON on one line (default: indented JSON)");
+  eval->add_flag("--symbolic", eval_args.symbolic, "Evaluate GiNaC's expressions instead of the compiled code");
+  eval->add_flag("--verbose", eval_args.verbose, "Report the time of each stage on stderr");
+  eval->add_option("--cache-dir", eval_args.cache_dir, "Cache folder for compiled models");
 
   auto* simulate = app.add_subcommand("simulate", "Integrate a scene's dynamics under joint torques and write CSV");
   spacearm::SimulateArgs sim;
@@ -175,7 +146,7 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
     if (*simulate) check_simulate_options(*simulate, sim);
     for (const CLI::App* command : {eval, simulate})
-      if (command->count("--cache-dir") && cache_dir.empty() && sim.cache_dir.empty())
+      if (command->count("--cache-dir") && eval_args.cache_dir.empty() && sim.cache_dir.empty())
         throw CLI::ValidationError("--cache-dir", "empty path");
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);
@@ -196,62 +167,8 @@ int main(int argc, char** argv) {
 
   if (*eval) {
     try {
-      using clock = std::chrono::steady_clock;
-      auto t0 = clock::now();
-      const spacearm::Scene scene = spacearm::load_scene(scene_path);
-      const int n = scene.num_coordinates();
-      const Eigen::VectorXd q = spacearm::cli::parse_vector(q_text, "--q", n);
-      const Eigen::VectorXd qd = qd_text.empty() ? Eigen::VectorXd::Zero(n) : spacearm::cli::parse_vector(qd_text, "--qd", n);
-      const Eigen::VectorXd params = spacearm::cli::parse_parameters(param_assignments, scene);
-      nlohmann::json out;
-      auto ms = [](auto a) { return std::chrono::duration<double, std::milli>(clock::now() - a).count(); };
-      if (symbolic) {
-        const spacearm::SymbolicModel model = spacearm::derive(scene);
-        if (verbose) std::fprintf(stderr, "spacearm: derive %.1f ms\n", ms(t0));
-        t0 = clock::now();
-        const std::vector<double> qv(q.data(), q.data() + n), qdv(qd.data(), qd.data() + n),
-            pv(params.data(), params.data() + params.size());
-        auto mat = [&](const GiNaC::matrix& m) {
-          const auto values = spacearm::evaluate(model, m, qv, qdv, pv);
-          return Eigen::MatrixXd(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-              values.data(), m.rows(), m.cols()));
-        };
-        using spacearm::Output;
-        if (scene.wants(Output::mass_matrix)) out["M"] = to_json(mat(model.mass_matrix), "M");
-        if (scene.wants(Output::coriolis_matrix)) out["C"] = to_json(mat(model.coriolis_matrix), "C");
-        if (scene.wants(Output::bias_forces)) out["bias"] = to_json(Eigen::VectorXd(mat(model.bias_forces)), "bias");
-        if (scene.wants(Output::kinetic_energy)) out["kinetic_energy"] = finite(spacearm::evaluate(model, model.kinetic_energy, qv, qdv, pv), "kinetic_energy");
-        if (scene.wants(Output::momentum)) out["momentum"] = to_json(Eigen::VectorXd(mat(model.momentum)), "momentum");
-        if (scene.wants(Output::end_effector_pose))
-          out["end_effector"] = to_json(Eigen::VectorXd(mat(model.end_effector_pose)), "end_effector");
-        if (verbose) std::fprintf(stderr, "spacearm: evaluate (GiNaC) %.1f ms\n", ms(t0));
-      } else {
-        spacearm::CompileOptions options;
-        options.cache_dir = cache_dir;
-        options.progress = [](const std::string& m) { std::fprintf(stderr, "spacearm: %s\n", m.c_str()); };
-        if (!verbose) options.progress = [](const std::string& m) {
-          if (m.rfind("compiling", 0) == 0 || m.rfind("deriving", 0) == 0) std::fprintf(stderr, "spacearm: %s ...\n", m.c_str());
-        };
-        spacearm::StageReport rep;
-        const auto model = spacearm::CompiledModel::load(scene, options, &rep);
-        if (verbose)
-          std::fprintf(stderr,
-                       "spacearm: cache %s (%s)\nspacearm: derive %.1f ms, emit %.1f ms, compile %.1f ms, load %.1f ms\n",
-                       rep.cache_entry.c_str(), rep.compiled ? "built" : "hit", rep.derive_ms, rep.emit_ms,
-                       rep.compile_ms, rep.load_ms);
-        t0 = clock::now();
-        using spacearm::Output;
-        if (model.has(Output::mass_matrix)) out["M"] = to_json(model.mass_matrix(q, params), "M");
-        if (model.has(Output::coriolis_matrix)) out["C"] = to_json(model.coriolis_matrix(q, qd, params), "C");
-        if (model.has(Output::bias_forces)) out["bias"] = to_json(model.bias_forces(q, qd, params), "bias");
-        if (model.has(Output::kinetic_energy)) out["kinetic_energy"] = finite(model.kinetic_energy(q, qd, params), "kinetic_energy");
-        if (model.has(Output::momentum)) out["momentum"] = to_json(Eigen::VectorXd(model.momentum(q, qd, params)), "momentum");
-        if (model.has(Output::end_effector_pose))
-          out["end_effector"] = to_json(Eigen::VectorXd(model.end_effector_pose(q, params)), "end_effector");
-        if (verbose) std::fprintf(stderr, "spacearm: run %.3f ms\n", ms(t0));
-      }
-      std::cout << (json ? out.dump() : out.dump(2)) << "\n";
-      return stdout_status();
+      const int status = spacearm::run_eval(eval_args);
+      return status ? status : stdout_status();
     } catch (const std::exception& e) {
       std::cerr << "spacearm: error: " << e.what() << "\n";
       return 1;

@@ -17,20 +17,6 @@ namespace spacearm {
 
 namespace {
 
-const std::vector<std::pair<Output, const char*>>& output_names() {
-  static const std::vector<std::pair<Output, const char*>> names = {
-      {Output::mass_matrix, "mass_matrix"},
-      {Output::coriolis_matrix, "coriolis_matrix"},
-      {Output::bias_forces, "bias_forces"},
-      {Output::kinetic_energy, "kinetic_energy"},
-      {Output::momentum, "momentum"},
-      {Output::end_effector_pose, "end_effector_pose"},
-      {Output::end_effector_jacobian, "end_effector_jacobian"},
-      {Output::joint_positions, "joint_positions"},
-  };
-  return names;
-}
-
 bool is_identifier(const std::string& s) {
   static const std::regex re("[A-Za-z][A-Za-z0-9_]*");
   return std::regex_match(s, re);
@@ -215,27 +201,6 @@ Gear read_gear(const Reader& r, const YAML::Node& n, const std::string& field) {
 
 }  // namespace
 
-const std::vector<Output>& all_outputs() {
-  static const std::vector<Output> all = [] {
-    std::vector<Output> v;
-    for (const auto& [o, name] : output_names()) v.push_back(o);
-    return v;
-  }();
-  return all;
-}
-
-std::string to_string(Output output) {
-  for (const auto& [o, name] : output_names())
-    if (o == output) return name;
-  return "?";
-}
-
-std::optional<Output> output_from_string(const std::string& name) {
-  for (const auto& [o, n] : output_names())
-    if (name == n) return o;
-  return std::nullopt;
-}
-
 std::vector<std::string> Scene::coordinate_names() const {
   std::vector<std::string> names;
   if (free_floating()) names = {"x0", "y0", "q0"};
@@ -417,20 +382,19 @@ Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yam
     for (size_t i = 0; i < outs.size(); ++i) {
       const std::string n = outs[i].IsScalar() ? outs[i].Scalar() : "";
       auto o = output_from_string(n);
-      if (!o) {
-        std::string list;
-        for (Output a : all_outputs()) list += (list.empty() ? "" : ", ") + to_string(a);
-        r.fail("outputs[" + std::to_string(i) + "]", "unknown output '" + n + "' (known: " + list + ")", outs[i]);
-      }
+      if (!o)
+        r.fail("outputs[" + std::to_string(i) + "]", "unknown output '" + n + "' (known: " + output_names() + ")",
+               outs[i]);
       if (!s.outputs.insert(*o).second)
         r.fail("outputs[" + std::to_string(i) + "]", "output '" + n + "' listed twice", outs[i]);
     }
   } else {
-    s.outputs.insert(all_outputs().begin(), all_outputs().end());
-    if (!s.free_floating()) s.outputs.erase(Output::momentum);
+    for (const OutputInfo& o : output_registry())
+      if (o.by_default && (s.free_floating() || !o.free_floating_only)) s.outputs.insert(o.id);
   }
-  if (s.wants(Output::momentum) && !s.free_floating())
-    r.fail("outputs", "'momentum' is only defined for a free_floating base", root["outputs"]);
+  for (Output o : s.outputs)
+    if (info(o).free_floating_only && !s.free_floating())
+      r.fail("outputs", "'" + to_string(o) + "' is only defined for a free_floating base", root["outputs"]);
 
   for (const auto& p : s.parameters)
     if (!used_parameters.count(p.name))

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "outputs.hpp"
+
 namespace spacearm {
 
 // Thrown for any malformed or physically invalid scene; the message names the file,
@@ -62,21 +64,6 @@ struct Gear {
   // previous body's rotation.
   bool armature = false;
 };
-
-// What the generator may emit; a scene asks for a subset.
-enum class Output {
-  mass_matrix,
-  coriolis_matrix,
-  bias_forces,
-  kinetic_energy,
-  momentum,
-  end_effector_pose,
-  end_effector_jacobian,
-  joint_positions,  // world positions of joints 1..N and of the tip (for drawing the arm)
-};
-const std::vector<Output>& all_outputs();
-std::string to_string(Output output);
-std::optional<Output> output_from_string(const std::string& name);
 
 struct Scene {
   std::string name;          // C++ namespace of the emitted model

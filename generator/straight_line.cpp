@@ -8,16 +8,18 @@
 namespace spacearm {
 
 SRef Program::intern(Node node) {
-  auto key = std::make_tuple(static_cast<int>(node.kind), node.args, node.text);
-  auto it = index_.find(key);
-  if (it != index_.end()) return {it->second, false};
+  auto key = std::make_tuple(static_cast<int>(node.kind), node.args, node.text, node.index);
+  if (share_) {
+    auto it = index_.find(key);
+    if (it != index_.end()) return {it->second, false};
+  }
   nodes_.push_back(std::move(node));
   const int id = static_cast<int>(nodes_.size()) - 1;
-  index_[key] = id;
+  if (share_) index_[key] = id;
   return {id, false};
 }
 
-SRef Program::input(const std::string& text) { return intern({Kind::input, {}, text, 0}); }
+SRef Program::input(const std::string& array, int index) { return intern({Kind::input, {}, array, 0, index}); }
 
 SRef Program::constant(double value) {
   if (value == 0 || !std::isfinite(value)) throw std::logic_error("constant must be finite and non-zero");
@@ -90,6 +92,14 @@ SRef Program::sin(SRef angle) {
 SRef Program::cos(SRef angle) {
   if (angle.id < 0) return constant(1.0);
   return intern({Kind::cos, {{angle.id, false}}, "", 0});
+}
+
+SRef Program::pow(SRef base, int exponent) {
+  if (share_) throw std::logic_error("pow is only for unshared (baseline) programs");
+  if (base.id < 0) return zero();
+  SRef r = intern({Kind::pow, {{base.id, false}}, std::to_string(exponent), static_cast<double>(exponent)});
+  r.neg = base.neg && exponent % 2 != 0;
+  return r;
 }
 
 void Program::extract_common_pairs(const std::vector<SRef>& roots) {
@@ -231,6 +241,9 @@ OpCounts Program::count(const std::vector<SRef>& roots) const {
       case Kind::div:
         c.divs += 1;
         break;
+      case Kind::pow:
+        c.muls += static_cast<int>(n.value) - 1;
+        break;
       case Kind::sin:
       case Kind::cos:
         c.trig += 1;
@@ -246,7 +259,7 @@ OpCounts Program::count(const std::vector<SRef>& roots) const {
 }
 
 std::vector<double> Program::evaluate(const std::vector<SRef>& roots,
-                                      const std::function<double(const std::string&)>& input_value) const {
+                                      const std::function<double(const std::string&, int)>& input_value) const {
   std::vector<double> v(nodes_.size(), 0.0);
   auto value = [&](const SRef& r) { return r.id < 0 ? 0.0 : (r.neg ? -v[r.id] : v[r.id]); };
   for (int id : schedule(roots)) {
@@ -254,7 +267,7 @@ std::vector<double> Program::evaluate(const std::vector<SRef>& roots,
     double x = 0;
     switch (n.kind) {
       case Kind::input:
-        x = input_value(n.text);
+        x = input_value(n.text, n.index);
         break;
       case Kind::constant:
         x = n.value;
@@ -274,6 +287,9 @@ std::vector<double> Program::evaluate(const std::vector<SRef>& roots,
         break;
       case Kind::cos:
         x = std::cos(value(n.args[0]));
+        break;
+      case Kind::pow:
+        x = std::pow(value(n.args[0]), n.value);
         break;
     }
     v[id] = x;

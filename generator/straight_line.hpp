@@ -33,21 +33,26 @@ struct OpCounts {
 
 class Program {
  public:
-  enum class Kind { input, constant, add, mul, div, sin, cos };
+  enum class Kind { input, constant, add, mul, div, sin, cos, pow };
   struct Node {
     Kind kind;
     std::vector<SRef> args;  // add: signed terms; mul: factors (never negated); div: {num, den}
-    std::string text;        // input: expression text; constant: literal
-    double value = 0;        // constant value (> 0)
+    std::string text;        // input: the array's name; constant: literal
+    double value = 0;        // constant value (> 0); pow: the exponent
+    int index = 0;           // input: the entry of the array
   };
 
-  SRef input(const std::string& text);
+  // share = false: every node is new (no hash-consing), for the unoptimized baseline.
+  explicit Program(bool share = true) : share_(share) {}
+
+  SRef input(const std::string& array, int index);  // entry `index` of an input array
   SRef constant(double value);  // any sign; zero is not allowed (fold it away instead)
   SRef add(std::vector<SRef> terms);
   SRef mul(std::vector<SRef> factors);
   SRef div(SRef numerator, SRef denominator);
   SRef sin(SRef angle);
   SRef cos(SRef angle);
+  SRef pow(SRef base, int exponent);  // only in unshared programs (the baseline prints pow)
   SRef zero() const { return {-1, false}; }  // id -1: the constant 0
 
   // Greedy common-pair extraction over all sums and products reachable from roots.
@@ -56,9 +61,9 @@ class Program {
   // Nodes reachable from roots in an order where operands come first.
   std::vector<int> schedule(const std::vector<SRef>& roots) const;
   OpCounts count(const std::vector<SRef>& roots) const;
-  // Numeric value of each root, inputs looked up by their text (the generator's self-check).
+  // Numeric value of each root, inputs looked up by array name and index (self-checks).
   std::vector<double> evaluate(const std::vector<SRef>& roots,
-                               const std::function<double(const std::string&)>& input_value) const;
+                               const std::function<double(const std::string&, int)>& input_value) const;
 
   const Node& node(int id) const { return nodes_[id]; }
   size_t size() const { return nodes_.size(); }
@@ -66,8 +71,9 @@ class Program {
  private:
   SRef intern(Node node);
   void extract_pass(Kind kind, const std::vector<SRef>& roots);
+  bool share_ = true;
   std::vector<Node> nodes_;
-  std::map<std::tuple<int, std::vector<SRef>, std::string>, int> index_;
+  std::map<std::tuple<int, std::vector<SRef>, std::string, int>, int> index_;
 };
 
 }  // namespace spacearm

@@ -63,16 +63,10 @@ Vec2 rotated(const ex& theta, const Vec2& u) {
 
 }  // namespace
 
-bool SymbolicModel::atom_of(const ex& call, TrigAtom& atom) const {
-  if (!GiNaC::is_a<GiNaC::function>(call) || call.nops() != 1) return false;
-  const std::string name = GiNaC::ex_to<GiNaC::function>(call).get_name();
-  if (name != "cos" && name != "sin") return false;
-  auto it = angle_table.find(call.op(0).expand());
-  if (it == angle_table.end()) return false;
-  atom.is_cos = name == "cos";
-  atom.from = it->second.first;
-  atom.to = it->second.second;
-  return true;
+const GiNaC::matrix& SymbolicModel::expression(Output output) const {
+  auto it = outputs.find(output);
+  if (it == outputs.end()) throw std::invalid_argument("the model has no " + to_string(output) + " (not derived)");
+  return it->second;
 }
 
 SymbolicModel derive(const Scene& scene, const DeriveOptions& options) {
@@ -166,77 +160,71 @@ SymbolicModel derive(const Scene& scene, const DeriveOptions& options) {
   model.kinetic_energy = T.expand();
 
   const bool want_all = options.all_outputs;
-  auto wants = [&](Output o) { return want_all || scene.wants(o); };
+  auto wants = [&](Output o) { return (want_all && (free || !info(o).free_floating_only)) || scene.wants(o); };
+  auto& out = model.outputs;
+  if (wants(Output::kinetic_energy)) out[Output::kinetic_energy] = matrix{{model.kinetic_energy}};
 
   // Mass matrix, eq. 6: M_ij = d^2 T / dqd_i dqd_j.
   std::vector<ex> dT_dqd(n);
   for (int i = 0; i < n; ++i) dT_dqd[i] = model.kinetic_energy.diff(model.qd[i]);
+  matrix M(n, n);
   if (wants(Output::mass_matrix) || wants(Output::coriolis_matrix)) {
-    model.mass_matrix = matrix(n, n);
     for (int i = 0; i < n; ++i)
-      for (int j = i; j < n; ++j) {
-        const ex Mij = dT_dqd[i].diff(model.qd[j]).expand();
-        model.mass_matrix(i, j) = Mij;
-        model.mass_matrix(j, i) = Mij;
-      }
+      for (int j = i; j < n; ++j) M(i, j) = M(j, i) = dT_dqd[i].diff(model.qd[j]).expand();
+    if (wants(Output::mass_matrix)) out[Output::mass_matrix] = M;
   }
 
   // Coriolis matrix exactly as eq. 7: C = (Mdot - 1/2 d(M qd)/dq)^T, i.e.
   // C_ij = sum_k dM_ij/dq_k qd_k - 1/2 sum_k dM_jk/dq_i qd_k.
   if (wants(Output::coriolis_matrix)) {
-    model.coriolis_matrix = matrix(n, n);
+    matrix C(n, n);
     std::vector<ex> M_qd(n);  // (M qd)_j
     for (int j = 0; j < n; ++j) {
       ex s = 0;
-      for (int k = 0; k < n; ++k) s += model.mass_matrix(j, k) * model.qd[k];
+      for (int k = 0; k < n; ++k) s += M(j, k) * model.qd[k];
       M_qd[j] = s.expand();
     }
     for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j) {
-        const ex Mdot_ij = b.time_derivative(model.mass_matrix(i, j));
-        model.coriolis_matrix(i, j) = (Mdot_ij - M_qd[j].diff(model.q[i]) / 2).expand();
-      }
+      for (int j = 0; j < n; ++j) C(i, j) = (b.time_derivative(M(i, j)) - M_qd[j].diff(model.q[i]) / 2).expand();
+    out[Output::coriolis_matrix] = C;
   }
 
   // Bias C qd, emitted directly from the Euler-Lagrange terms at qdd = 0 (cheaper than C).
   if (wants(Output::bias_forces)) {
-    model.bias_forces = matrix(n, 1);
+    matrix bias(n, 1);
     for (int i = 0; i < n; ++i)
-      model.bias_forces(i, 0) =
-          (b.time_derivative(dT_dqd[i]) - model.kinetic_energy.diff(model.q[i])).expand();
+      bias(i, 0) = (b.time_derivative(dT_dqd[i]) - model.kinetic_energy.diff(model.q[i])).expand();
+    out[Output::bias_forces] = bias;
   }
 
   // Momentum: P = dT/d(r0d); angular momentum about the world origin
   // L = dT/dq0d + r0 x P (dT/dq0d is the angular momentum about the base CoM).
-  if (wants(Output::momentum) && free) {
-    model.momentum = matrix(3, 1);
-    model.momentum(0, 0) = dT_dqd[0].expand();
-    model.momentum(1, 0) = dT_dqd[1].expand();
-    model.momentum(2, 0) = (dT_dqd[2] + r0.x * dT_dqd[1] - r0.y * dT_dqd[0]).expand();
-  }
+  if (wants(Output::momentum) && free)
+    out[Output::momentum] = matrix{{dT_dqd[0].expand()},
+                                   {dT_dqd[1].expand()},
+                                   {(dT_dqd[2] + r0.x * dT_dqd[1] - r0.y * dT_dqd[0]).expand()}};
 
   // End-effector: tip of the last link, orientation of the last link.
   if (wants(Output::end_effector_pose) || wants(Output::end_effector_jacobian) || wants(Output::joint_positions)) {
     Vec2 tip = r0;
     const Vec2 m0vec = rotated(theta[0], mount);
     tip = {tip.x + m0vec.x, tip.y + m0vec.y};
-    model.joint_positions = matrix(2, N + 1);
+    matrix P(2, N + 1);
     for (int k = 1; k <= N; ++k) {
-      model.joint_positions(0, k - 1) = tip.x.expand();
-      model.joint_positions(1, k - 1) = tip.y.expand();
+      P(0, k - 1) = tip.x.expand();
+      P(1, k - 1) = tip.y.expand();
       const Vec2 seg = rotated(theta[k], {b.value(scene.links[k - 1].length), 0});
       tip = {tip.x + seg.x, tip.y + seg.y};
     }
-    model.joint_positions(0, N) = tip.x.expand();
-    model.joint_positions(1, N) = tip.y.expand();
-    model.end_effector_pose = matrix(3, 1);
-    model.end_effector_pose(0, 0) = tip.x.expand();
-    model.end_effector_pose(1, 0) = tip.y.expand();
-    model.end_effector_pose(2, 0) = theta[N].expand();
-    model.end_effector_jacobian = matrix(3, n);
+    P(0, N) = tip.x.expand();
+    P(1, N) = tip.y.expand();
+    const matrix pose{{tip.x.expand()}, {tip.y.expand()}, {theta[N].expand()}};
+    matrix J(3, n);
     for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < n; ++c)
-        model.end_effector_jacobian(r, c) = model.end_effector_pose(r, 0).diff(model.q[c]).expand();
+      for (int c = 0; c < n; ++c) J(r, c) = pose(r, 0).diff(model.q[c]).expand();
+    if (wants(Output::joint_positions)) out[Output::joint_positions] = P;
+    if (wants(Output::end_effector_pose)) out[Output::end_effector_pose] = pose;
+    if (wants(Output::end_effector_jacobian)) out[Output::end_effector_jacobian] = J;
   }
   return model;
 }
@@ -281,39 +269,26 @@ EntryText parse_entry(const std::string& entry) {
 
 GiNaC::ex symbolic_entry(const SymbolicModel& model, const std::string& entry) {
   const EntryText e = parse_entry(entry);
-  const int n = model.n();
-  // Exactly `count` indices, each in range.
-  auto indices = [&](size_t count, int rows, int cols) {
+  std::string known;
+  for (const auto& o : output_registry()) {
+    known += (known.empty() ? "" : ", ") + std::string(o.symbol);
+    if (e.name != o.symbol) continue;
+    if (o.free_floating_only && !model.scene.free_floating())
+      throw std::invalid_argument("entry '" + entry + "': " + o.name + " is only defined for a free-floating base");
+    const matrix& m = model.expression(o.id);
+    // A scalar takes no index, a vector one, a matrix two; each in range.
+    const size_t count = m.cols() > 1 ? 2 : m.rows() > 1 ? 1 : 0;
     if (e.indices.size() != count)
       throw std::invalid_argument("entry '" + entry + "': " + e.name + " takes " + std::to_string(count) +
                                   (count == 1 ? " index" : " indices") + ", got " + std::to_string(e.indices.size()));
-    const int limits[2] = {rows, cols};
+    const unsigned limits[2] = {m.rows(), m.cols()};
     for (size_t k = 0; k < count; ++k)
-      if (e.indices[k] >= limits[k])
+      if (static_cast<unsigned>(e.indices[k]) >= limits[k])
         throw std::invalid_argument("entry '" + entry + "': index " + std::to_string(e.indices[k]) +
                                     " out of range 0.." + std::to_string(limits[k] - 1));
-  };
-  auto from = [&](const matrix& mat, const char* output, size_t count, int rows, int cols) -> ex {
-    if (mat.rows() == 0) throw std::invalid_argument("entry '" + entry + "': the model has no " + output);
-    indices(count, rows, cols);
-    return mat(e.indices[0], count == 2 ? e.indices[1] : 0);
-  };
-  if (e.name == "T") {
-    indices(0, 0, 0);
-    return model.kinetic_energy;
+    return m(count ? e.indices[0] : 0, count == 2 ? e.indices[1] : 0);
   }
-  if (e.name == "M") return from(model.mass_matrix, "mass matrix", 2, n, n);
-  if (e.name == "C") return from(model.coriolis_matrix, "Coriolis matrix", 2, n, n);
-  if (e.name == "b") return from(model.bias_forces, "bias forces", 1, n, 1);
-  if (e.name == "h") {
-    if (!model.scene.free_floating())
-      throw std::invalid_argument("entry '" + entry + "': momentum is only defined for a free-floating base");
-    return from(model.momentum, "momentum (free-floating base only)", 1, 3, 1);
-  }
-  if (e.name == "x") return from(model.end_effector_pose, "end-effector pose", 1, 3, 1);
-  if (e.name == "J") return from(model.end_effector_jacobian, "end-effector Jacobian", 2, 3, n);
-  throw std::invalid_argument("entry '" + entry + "': unknown quantity '" + e.name +
-                              "' (known: T, M, C, b, h, x, J)");
+  throw std::invalid_argument("entry '" + entry + "': unknown quantity '" + e.name + "' (known: " + known + ")");
 }
 
 double evaluate(const SymbolicModel& model, const GiNaC::ex& e, const std::vector<double>& q,

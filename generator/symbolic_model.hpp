@@ -14,14 +14,6 @@
 
 namespace spacearm {
 
-// A trigonometric atom of the closed-form expressions: cos or sin of the absolute angle
-// of body `to` (from == -1) or of the angle of body `to` relative to body `from`.
-struct TrigAtom {
-  bool is_cos = true;
-  int from = -1;
-  int to = 0;
-};
-
 struct SymbolicModel {
   Scene scene;
   // Symbols, created first and in a fixed order (coordinates, velocities, parameters) so
@@ -33,20 +25,16 @@ struct SymbolicModel {
   // q_link = gear_map * q (identity for the reference model; 1/p_i on motor angles).
   GiNaC::matrix gear_map;
 
-  GiNaC::ex kinetic_energy;           // T(q, qd), eq. 3 + eq. 10
-  GiNaC::matrix mass_matrix;          // n x n, eq. 6
-  GiNaC::matrix coriolis_matrix;      // n x n, eq. 7 (not the Christoffel form)
-  GiNaC::matrix bias_forces;          // n x 1, C qd = d/dt dT/dqd - dT/dq at qdd = 0
-  GiNaC::matrix momentum;             // 3 x 1, [Px, Py, L about the world origin]
-  GiNaC::matrix end_effector_pose;    // 3 x 1, [x, y, phi] of the last link's tip
-  GiNaC::matrix end_effector_jacobian;  // 3 x n, d pose / d q
-  GiNaC::matrix joint_positions;        // 2 x (N + 1): joints 1..N, then the tip
+  GiNaC::ex kinetic_energy;  // T(q, qd), eq. 3 + eq. 10
+  // The closed-form outputs derived, by the registry's entries (outputs.hpp): each a matrix
+  // of the registry's shape (1 x 1 for a scalar).
+  std::map<Output, GiNaC::matrix> outputs;
+  const GiNaC::matrix& expression(Output output) const;  // throws if not derived
 
   int n() const { return static_cast<int>(q.size()); }
-  // Maps cos/sin(theta_k) and cos/sin(theta_l - theta_k) to their atoms; see atom_of().
+  // Maps the arguments of cos/sin(theta_k) and cos/sin(theta_l - theta_k) to (k, l) (k = -1:
+  // absolute angle of body l), for the lowering's one sin/cos pair per body angle.
   std::map<GiNaC::ex, std::pair<int, int>, GiNaC::ex_is_less> angle_table;
-  // Identifies a trig function node of the derived expressions, or returns false.
-  bool atom_of(const GiNaC::ex& trig_call, TrigAtom& atom) const;
 };
 
 struct DeriveOptions {
@@ -58,8 +46,8 @@ GiNaC::numeric exact_decimal(const std::string& literal);
 
 SymbolicModel derive(const Scene& scene, const DeriveOptions& options = {});
 
-// Looks up an entry by name: "T", "M[i][j]", "C[i][j]", "b[i]", "h[i]" (momentum),
-// "x[i]" (end-effector pose), "J[i][j]" (end-effector Jacobian). Throws on a bad name.
+// Looks up an entry by the registry's symbol of an output: "T", "M[i][j]", "b[i]", ...
+// (a vector takes one index, a matrix two). Throws on a bad name, index or missing output.
 GiNaC::ex symbolic_entry(const SymbolicModel& model, const std::string& entry);
 
 // Numeric value of an expression at q, qd and parameter values (nominal if empty),

@@ -96,7 +96,7 @@ TEST(CompiledModel, CorruptedEntryIsDetectedAndRebuilt) {
   EXPECT_EQ(status, 0) << second;
   EXPECT_NE(second.find("is corrupted"), std::string::npos) << second;
   EXPECT_NE(second.find("(built)"), std::string::npos) << second;
-  EXPECT_NE(second.find("\"M\":"), std::string::npos) << second;
+  EXPECT_NE(second.find("\"mass_matrix\":"), std::string::npos) << second;
   // A missing COMPLETE marker (a build that never finished) also means: build again.
   fs::remove(entry / "COMPLETE");
   const std::string third = run(cmd);
@@ -115,7 +115,7 @@ TEST(CompiledModel, ConcurrentBuildsOfOneModelDoNotCorruptTheCache) {
                               cmd + " > " + cache.string() + ".c & wait) 2>&1; cat " + cache.string() + ".a " +
                               cache.string() + ".b " + cache.string() + ".c");
   size_t results = 0;
-  for (size_t pos = 0; (pos = out.find("\"M\":", pos)) != std::string::npos; ++pos) ++results;
+  for (size_t pos = 0; (pos = out.find("\"mass_matrix\":", pos)) != std::string::npos; ++pos) ++results;
   EXPECT_EQ(results, 3u) << out;
   // One valid entry, no leftovers of the private build folders.
   int entries = 0;
@@ -195,10 +195,16 @@ TEST_F(EvalCli, JsonEqualsGeneratedCodeAndSymbolicAgrees) {
   ASSERT_EQ(status, 0);
   const auto symbolic = nlohmann::json::parse(run(cli + args + " --symbolic", &status));
   ASSERT_EQ(status, 0);
-  for (const char* key : {"M", "C", "bias", "momentum", "end_effector", "kinetic_energy"}) {
-    ASSERT_TRUE(compiled.contains(key)) << key;
-    ASSERT_TRUE(symbolic.contains(key)) << key;
+  // Every output the scene emits, from the registry, in both; and the state and parameters used.
+  const Scene scene = load_scene(SPACEARM_SOURCE_DIR "/models/paper_geared.yaml");
+  for (const OutputInfo& o : output_registry()) {
+    EXPECT_EQ(compiled.contains(o.name), scene.wants(o.id)) << o.name;
+    EXPECT_EQ(symbolic.contains(o.name), scene.wants(o.id)) << o.name;
   }
+  EXPECT_EQ(compiled["coordinates"], nlohmann::json(scene.coordinate_names()));
+  EXPECT_EQ(compiled["parameters"]["p"].get<double>(), 10);
+  EXPECT_EQ(compiled["parameters"]["Im"].get<double>(), 2e-5);
+  EXPECT_EQ(compiled["qd"][2].get<double>(), -0.1);
 
   namespace g = models::paper_geared;
   const g::Coordinates<double> qv = (g::Coordinates<double>() << 0.1, -0.2, 0.3, 0.5, 1.1, -0.7).finished();
@@ -212,17 +218,23 @@ TEST_F(EvalCli, JsonEqualsGeneratedCodeAndSymbolicAgrees) {
   g::bias_forces(qv, qdv, pv, b);
   g::momentum(qv, qdv, pv, h);
   g::end_effector_pose(qv, pv, x);
-  EXPECT_MATRIX_NEAR(matrix_of(compiled["M"]), M, 1e-14);
-  EXPECT_MATRIX_NEAR(matrix_of(compiled["C"]), C, 1e-13);
-  EXPECT_MATRIX_NEAR(vector_of(compiled["bias"]), b, 1e-13);
+  EXPECT_MATRIX_NEAR(matrix_of(compiled["mass_matrix"]), M, 1e-14);
+  EXPECT_MATRIX_NEAR(matrix_of(compiled["coriolis_matrix"]), C, 1e-13);
+  EXPECT_MATRIX_NEAR(vector_of(compiled["bias_forces"]), b, 1e-13);
   EXPECT_MATRIX_NEAR(vector_of(compiled["momentum"]), h, 1e-14);
-  EXPECT_MATRIX_NEAR(vector_of(compiled["end_effector"]), x, 1e-15);
+  EXPECT_MATRIX_NEAR(vector_of(compiled["end_effector_pose"]), x, 1e-15);
   EXPECT_NEAR(compiled["kinetic_energy"].get<double>(), g::kinetic_energy(qv, qdv, pv), 1e-14);
 
-  EXPECT_MATRIX_NEAR(matrix_of(symbolic["M"]), matrix_of(compiled["M"]), 1e-12);
-  EXPECT_MATRIX_NEAR(matrix_of(symbolic["C"]), matrix_of(compiled["C"]), 1e-12);
-  EXPECT_MATRIX_NEAR(vector_of(symbolic["bias"]), vector_of(compiled["bias"]), 1e-12);
-  EXPECT_MATRIX_NEAR(vector_of(symbolic["momentum"]), vector_of(compiled["momentum"]), 1e-12);
+  for (const OutputInfo& o : output_registry()) {
+    if (!scene.wants(o.id)) continue;
+    SCOPED_TRACE(o.name);
+    if (compiled[o.name].is_number())
+      EXPECT_NEAR(symbolic[o.name].get<double>(), compiled[o.name].get<double>(), 1e-12) << o.name;
+    else if (compiled[o.name][0].is_array())
+      EXPECT_MATRIX_NEAR(matrix_of(symbolic[o.name]), matrix_of(compiled[o.name]), 1e-12);
+    else
+      EXPECT_MATRIX_NEAR(vector_of(symbolic[o.name]), vector_of(compiled[o.name]), 1e-12);
+  }
 }
 
 TEST_F(EvalCli, VerboseReportShowsTheCacheHit) {

@@ -84,7 +84,7 @@ parameters: {m1: 08}
   EXPECT_NE(e.header.find("kNominalParameters = {8.0}"), std::string::npos);
   EXPECT_EQ(e.header.find("010"), std::string::npos);
   EXPECT_EQ(e.header.find("08"), std::string::npos);
-  EXPECT_EQ(evaluate(m, m.mass_matrix(0, 0), {0, 0, 0, 0}, {0, 0, 0, 0}, {8}), 18);
+  EXPECT_EQ(evaluate(m, m.expression(Output::mass_matrix)(0, 0), {0, 0, 0, 0}, {0, 0, 0, 0}, {8}), 18);
 }
 
 // Every line of an emitted file that holds `marker` is a `//` comment line.

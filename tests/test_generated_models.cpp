@@ -57,18 +57,18 @@ void check_against_symbolic(const std::string& scene_path, const std::vector<std
       if constexpr (Model::kHas_mass_matrix) {
         typename Model::template MassMatrix<double> M;
         Model::mass_matrix(q, params, M);
-        expect_equal_to_symbolic(M, evaluate_matrix(sym, sym.mass_matrix, q, qd, pv), "mass_matrix");
+        expect_equal_to_symbolic(M, evaluate_matrix(sym, sym.expression(Output::mass_matrix), q, qd, pv), "mass_matrix");
         ++nontrivial;
       }
       if constexpr (Model::kHas_coriolis_matrix) {
         typename Model::template MassMatrix<double> C;
         Model::coriolis_matrix(q, qd, params, C);
-        expect_equal_to_symbolic(C, evaluate_matrix(sym, sym.coriolis_matrix, q, qd, pv), "coriolis_matrix");
+        expect_equal_to_symbolic(C, evaluate_matrix(sym, sym.expression(Output::coriolis_matrix), q, qd, pv), "coriolis_matrix");
       }
       if constexpr (Model::kHas_bias_forces) {
         Vec<Model> b;
         Model::bias_forces(q, qd, params, b);
-        expect_equal_to_symbolic(b, evaluate_matrix(sym, sym.bias_forces, q, qd, pv), "bias_forces");
+        expect_equal_to_symbolic(b, evaluate_matrix(sym, sym.expression(Output::bias_forces), q, qd, pv), "bias_forces");
       }
       if constexpr (Model::kHas_mass_matrix && Model::kHas_bias_forces) {
         typename Model::template MassMatrix<double> M, M2;
@@ -89,23 +89,23 @@ void check_against_symbolic(const std::string& scene_path, const std::vector<std
       if constexpr (Model::kHas_momentum) {
         typename Model::template Vector3<double> h;
         Model::momentum(q, qd, params, h);
-        expect_equal_to_symbolic(h, evaluate_matrix(sym, sym.momentum, q, qd, pv), "momentum");
+        expect_equal_to_symbolic(h, evaluate_matrix(sym, sym.expression(Output::momentum), q, qd, pv), "momentum");
       }
       if constexpr (Model::kHas_end_effector_pose) {
         typename Model::template Vector3<double> x;
         Model::end_effector_pose(q, params, x);
-        expect_equal_to_symbolic(x, evaluate_matrix(sym, sym.end_effector_pose, q, qd, pv), "end_effector_pose");
+        expect_equal_to_symbolic(x, evaluate_matrix(sym, sym.expression(Output::end_effector_pose), q, qd, pv), "end_effector_pose");
       }
       if constexpr (Model::kHas_end_effector_jacobian) {
         typename Model::template PoseJacobian<double> J;
         Model::end_effector_jacobian(q, params, J);
-        expect_equal_to_symbolic(J, evaluate_matrix(sym, sym.end_effector_jacobian, q, qd, pv),
+        expect_equal_to_symbolic(J, evaluate_matrix(sym, sym.expression(Output::end_effector_jacobian), q, qd, pv),
                                  "end_effector_jacobian");
       }
       if constexpr (Model::kHas_joint_positions) {
         typename Model::template JointPositions<double> P;
         Model::joint_positions(q, params, P);
-        expect_equal_to_symbolic(P, evaluate_matrix(sym, sym.joint_positions, q, qd, pv), "joint_positions");
+        expect_equal_to_symbolic(P, evaluate_matrix(sym, sym.expression(Output::joint_positions), q, qd, pv), "joint_positions");
         if constexpr (Model::kHas_end_effector_pose) {
           typename Model::template Vector3<double> x;
           Model::end_effector_pose(q, params, x);

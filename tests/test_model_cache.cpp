@@ -92,7 +92,7 @@ TEST(ModelCache, TwentyConcurrentFirstBuildsAllSucceedWithAFastCompiler) {
                        " > out.$i 2> err.$i; echo $? > rc.$i) & done; wait";
   ASSERT_EQ(std::system(script.c_str()), 0);
   const std::string first = slurp(dir / "out.1");
-  ASSERT_NE(first.find("\"M\":"), std::string::npos) << slurp(dir / "err.1");
+  ASSERT_NE(first.find("\"mass_matrix\":"), std::string::npos) << slurp(dir / "err.1");
   for (int i = 1; i <= 20; ++i) {
     const std::string n = std::to_string(i);
     EXPECT_EQ(slurp(dir / ("rc." + n)), "0\n") << "process " << n << ": " << slurp(dir / ("err." + n));

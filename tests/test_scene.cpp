@@ -51,10 +51,13 @@ TEST(Scene, PaperScenesParse) {
   EXPECT_EQ(geared.coordinate_names()[3], "qm1");
 }
 
-TEST(Scene, DefaultsToAllOutputsAndFixedBaseHasNoMomentum) {
+TEST(Scene, DefaultsToTheRegistrysDefaultOutputsAndFixedBaseHasNoFreeBaseOnes) {
   const Scene s = parse_scene(kValid, "t.yaml");
-  EXPECT_EQ(s.outputs.size(), all_outputs().size());
   const Scene fixed = parse_scene(replaced(kValid, "type: free_floating", "type: fixed"), "t.yaml");
+  for (const OutputInfo& o : output_registry()) {
+    EXPECT_EQ(s.wants(o.id), o.by_default) << o.name;
+    EXPECT_EQ(fixed.wants(o.id), o.by_default && !o.free_floating_only) << o.name;
+  }
   EXPECT_FALSE(fixed.wants(Output::momentum));
   EXPECT_EQ(fixed.num_coordinates(), 2);
 }

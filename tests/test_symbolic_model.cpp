@@ -57,7 +57,7 @@ TEST_P(SymbolicModelTest, MatchesIndependentNumericDerivation) {
   const int n = model.n();
   for (int trial = 0; trial < 2; ++trial) {
     const Eigen::VectorXd q = test::random_vector(rng, n, 3.0), qd = test::random_vector(rng, n, 2.0);
-    const Eigen::MatrixXd M = evaluate_matrix(model, model.mass_matrix, q, qd);
+    const Eigen::MatrixXd M = evaluate_matrix(model, model.expression(Output::mass_matrix), q, qd);
 
     // M symmetric positive definite.
     EXPECT_EQ((M - M.transpose()).cwiseAbs().maxCoeff(), 0.0);
@@ -76,9 +76,9 @@ TEST_P(SymbolicModelTest, MatchesIndependentNumericDerivation) {
     // (measured up to 1.2e-7 for geared chains). A single link
     // on a fixed base has a constant M and so no bias at all: then the oracle must agree
     // to its own rounding, about eps |M| |qd| / h (polarization and differences of M).
-    const Eigen::MatrixXd b = evaluate_matrix(model, model.bias_forces, q, qd);
+    const Eigen::MatrixXd b = evaluate_matrix(model, model.expression(Output::bias_forces), q, qd);
     bool identically_zero = true;
-    for (int i = 0; i < n; ++i) identically_zero &= model.bias_forces(i, 0).is_zero();
+    for (int i = 0; i < n; ++i) identically_zero &= model.expression(Output::bias_forces)(i, 0).is_zero();
     if (identically_zero) {
       EXPECT_TRUE(!spec.free_floating && spec.links == 1);
       EXPECT_LT(oracle.bias_forces(q, qd).cwiseAbs().maxCoeff(),
@@ -86,9 +86,9 @@ TEST_P(SymbolicModelTest, MatchesIndependentNumericDerivation) {
     } else {
       EXPECT_MATRIX_NEAR(b, oracle.bias_forces(q, qd), 1e-6);
     }
-    EXPECT_MATRIX_NEAR(evaluate_matrix(model, model.end_effector_pose, q, qd), oracle.end_effector_pose(q), 1e-12);
+    EXPECT_MATRIX_NEAR(evaluate_matrix(model, model.expression(Output::end_effector_pose), q, qd), oracle.end_effector_pose(q), 1e-12);
     if (spec.free_floating)
-      EXPECT_MATRIX_NEAR(evaluate_matrix(model, model.momentum, q, qd), oracle.momentum(q, qd), 1e-10);
+      EXPECT_MATRIX_NEAR(evaluate_matrix(model, model.expression(Output::momentum), q, qd), oracle.momentum(q, qd), 1e-10);
   }
 }
 
@@ -117,16 +117,16 @@ TEST(SymbolicIdentities, KineticEnergyIsHalfQdMQdAndCqdIsTheBias) {
     const int n = m.n();
     GiNaC::matrix qd(n, 1);
     for (int i = 0; i < n; ++i) qd(i, 0) = m.qd[i];
-    const GiNaC::ex quad = (qd.transpose().mul(m.mass_matrix).mul(qd))(0, 0);
+    const GiNaC::ex quad = (qd.transpose().mul(m.expression(Output::mass_matrix)).mul(qd))(0, 0);
     ASSERT_FALSE(m.kinetic_energy.is_zero());
     EXPECT_TRUE((m.kinetic_energy - quad / 2).expand().is_zero());
-    const GiNaC::matrix Cqd = m.coriolis_matrix.mul(qd);
+    const GiNaC::matrix Cqd = m.expression(Output::coriolis_matrix).mul(qd);
     for (int i = 0; i < n; ++i) {
-      EXPECT_TRUE((Cqd(i, 0) - m.bias_forces(i, 0)).expand().is_zero()) << "row " << i;
+      EXPECT_TRUE((Cqd(i, 0) - m.expression(Output::bias_forces)(i, 0)).expand().is_zero()) << "row " << i;
       // C(q, 0) = 0: every entry of C is linear in qd.
       GiNaC::exmap zero;
       for (int k = 0; k < n; ++k) zero[m.qd[k]] = 0;
-      for (int j = 0; j < n; ++j) EXPECT_TRUE(m.coriolis_matrix(i, j).subs(zero).expand().is_zero());
+      for (int j = 0; j < n; ++j) EXPECT_TRUE(m.expression(Output::coriolis_matrix)(i, j).subs(zero).expand().is_zero());
     }
     // (Momentum is checked against sum m v and sum r x m v + I w by the numeric oracle above,
     // and against finite differences of the compiled T in test_generated_models.)
@@ -159,7 +159,7 @@ TEST(SymbolicIdentities, ArmatureDropsOnlyTheRotorCoupling) {
   EXPECT_FALSE(coupling.expand().is_zero());
   // So the last motor's diagonal entry (no later rotor rides on it) and the base's linear
   // block are unchanged, while the base angle couples to the first motor only when exact.
-  auto same = [&](int i, int j) { return (e.mass_matrix(i, j) - a.mass_matrix(i, j).subs(to_e)).expand().is_zero(); };
+  auto same = [&](int i, int j) { return (e.expression(Output::mass_matrix)(i, j) - a.expression(Output::mass_matrix)(i, j).subs(to_e)).expand().is_zero(); };
   EXPECT_TRUE(same(5, 5));
   EXPECT_TRUE(same(0, 0) && same(0, 1) && same(1, 1));
   EXPECT_FALSE(same(2, 3));
@@ -174,14 +174,14 @@ TEST(SymbolicEntries, GearRatiosAppearAsTheyShould) {
   }()), "r.yaml"));
   const GiNaC::symbol& p = m.parameters[0];
   // Joint-joint block scales as 1/(p_i p_j), base-joint block as 1/p (MODEL-NOTES).
-  EXPECT_EQ(m.mass_matrix(0, 3).degree(p), -1);
-  EXPECT_EQ(m.mass_matrix(0, 3).ldegree(p), -1);
-  EXPECT_EQ(m.mass_matrix(4, 5).ldegree(p), -2);
+  EXPECT_EQ(m.expression(Output::mass_matrix)(0, 3).degree(p), -1);
+  EXPECT_EQ(m.expression(Output::mass_matrix)(0, 3).ldegree(p), -1);
+  EXPECT_EQ(m.expression(Output::mass_matrix)(4, 5).ldegree(p), -2);
   // The rotor of joint 3 couples to the rotation of body 2 (eq. 11): Im/p.
-  EXPECT_EQ(m.mass_matrix(4, 5).degree(p), -1);
+  EXPECT_EQ(m.expression(Output::mass_matrix)(4, 5).degree(p), -1);
   // The motor's own rotor inertia Im is not scaled at all.
-  EXPECT_EQ(m.mass_matrix(5, 5).degree(p), 0);
-  EXPECT_EQ(m.mass_matrix(5, 5).ldegree(p), -2);
+  EXPECT_EQ(m.expression(Output::mass_matrix)(5, 5).degree(p), 0);
+  EXPECT_EQ(m.expression(Output::mass_matrix)(5, 5).ldegree(p), -2);
   EXPECT_THROW(symbolic_entry(m, "M[6][0]"), std::invalid_argument);
   EXPECT_THROW(symbolic_entry(m, "Q[0]"), std::invalid_argument);
   // Wrong index counts and hostile lengths: clear errors, no silent acceptance, no crash
@@ -192,13 +192,13 @@ TEST(SymbolicEntries, GearRatiosAppearAsTheyShould) {
   EXPECT_THROW_MESSAGE(symbolic_entry(m, std::string(1000000, 'M')), std::invalid_argument, "too long");
   EXPECT_THROW(symbolic_entry(m, "M[1][2]x"), std::invalid_argument);
   EXPECT_THROW(symbolic_entry(m, "M[99999999][0]"), std::invalid_argument);
-  EXPECT_TRUE(symbolic_entry(m, " M [ 4 ] [5] ").is_equal(m.mass_matrix(4, 5)));
+  EXPECT_TRUE(symbolic_entry(m, " M [ 4 ] [5] ").is_equal(m.expression(Output::mass_matrix)(4, 5)));
   // Momentum of a fixed base is not defined (it printed 0 before).
   DeriveOptions all;
   all.all_outputs = true;
   const SymbolicModel fixed = derive(load_scene(SPACEARM_SOURCE_DIR "/tests/scenes/fixed_n1.yaml"), all);
   EXPECT_THROW_MESSAGE(symbolic_entry(fixed, "h[0]"), std::invalid_argument, "only defined for a free-floating base");
-  EXPECT_TRUE(symbolic_entry(m, "M[4][5]").is_equal(m.mass_matrix(4, 5)));
+  EXPECT_TRUE(symbolic_entry(m, "M[4][5]").is_equal(m.expression(Output::mass_matrix)(4, 5)));
 }
 
 }  // namespace

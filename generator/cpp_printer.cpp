@@ -1,0 +1,412 @@
+#include "cpp_printer.hpp"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "emitted_text.hpp"
+
+namespace spacearm {
+
+std::vector<SRef> FunctionSpec::roots() const {
+  std::vector<SRef> all;
+  std::set<SRef> seen;
+  for (const auto& result : entries)
+    for (const SRef& r : result)
+      if (seen.insert(r).second) all.push_back(r);
+  return all;
+}
+
+namespace {
+
+// Prints the nodes of a program that several entries share (and every sin/cos) as named
+// temporaries t0, t1, ..., then each entry as an assignment. Plain: everything inline.
+class BodyPrinter {
+ public:
+  BodyPrinter(const Program& p, const std::vector<SRef>& roots, bool plain) : p_(p), plain_(plain) {
+    order_ = p_.schedule(roots);
+    for (int id : order_)
+      for (const SRef& a : p_.node(id).args)
+        if (a.id >= 0) ++uses_[a.id];
+    for (const SRef& r : roots)
+      if (r.id >= 0) ++uses_[r.id];
+  }
+
+  std::string temporaries() {
+    std::ostringstream out;
+    int next = 0;
+    for (int id : order_) {
+      if (plain_) break;
+      const auto k = p_.node(id).kind;
+      const bool is_op = k != Program::Kind::input && k != Program::Kind::constant;
+      const bool trig = k == Program::Kind::sin || k == Program::Kind::cos;
+      if (!is_op || (!trig && uses_[id] < 2)) continue;
+      const std::string expr = print_node(id);
+      names_[id] = "t" + std::to_string(next++);
+      out << "  const T " << names_[id] << " = " << expr << ";\n";
+    }
+    return out.str();
+  }
+
+  std::string value(const SRef& root) const {
+    return root.id < 0 ? "T(0)" : (root.neg ? "-" + wrap(root.id, 1) : ref(root.id));
+  }
+
+ private:
+  const Program& p_;
+  bool plain_;
+  std::vector<int> order_;
+  std::map<int, int> uses_;
+  std::map<int, std::string> names_;
+
+  std::string ref(int id) const {
+    auto it = names_.find(id);
+    return it != names_.end() ? it->second : print_node(id);
+  }
+
+  // precedence: 0 sum context, 1 product, 2 divisor/negation
+  std::string wrap(int id, int context) const {
+    const auto& n = p_.node(id);
+    // A sum left with one operand by the CSE pass is that operand, possibly negated.
+    if (!names_.count(id) && n.kind == Program::Kind::add && n.args.size() == 1) {
+      const SRef a = n.args[0];
+      if (!a.neg) return wrap(a.id, context);
+      const std::string neg = "-" + wrap(a.id, 2);
+      return context >= 1 ? "(" + neg + ")" : neg;
+    }
+    const std::string s = ref(id);
+    if (names_.count(id)) return s;
+    const auto k = n.kind;
+    const bool needs = (k == Program::Kind::add && n.args.size() > 1 && context >= 1) ||
+                       ((k == Program::Kind::mul || k == Program::Kind::div) && context >= 2) ||
+                       (context >= 1 && !s.empty() && s[0] == '-');
+    return needs ? "(" + s + ")" : s;
+  }
+
+  std::string print_node(int id) const {
+    const auto& n = p_.node(id);
+    switch (n.kind) {
+      case Program::Kind::input:
+        return n.text + "(" + std::to_string(n.index) + ")";
+      case Program::Kind::constant:
+        return "T(" + n.text + ")";
+      case Program::Kind::sin:
+        return "sin(" + ref(n.args[0].id) + ")";
+      case Program::Kind::cos:
+        return "cos(" + ref(n.args[0].id) + ")";
+      case Program::Kind::pow:
+        return "pow(" + ref(n.args[0].id) + ", " + n.text + ")";
+      case Program::Kind::div:
+        return wrap(n.args[0].id, 1) + " / " + wrap(n.args[1].id, 2);
+      case Program::Kind::mul: {
+        std::string s;
+        for (const SRef& a : n.args) s += (s.empty() ? "" : " * ") + wrap(a.id, 1);
+        return s;
+      }
+      case Program::Kind::add: {
+        std::vector<SRef> terms = n.args;
+        std::stable_partition(terms.begin(), terms.end(), [](const SRef& a) { return !a.neg; });
+        std::string s;
+        for (const SRef& a : terms) {
+          if (s.empty())
+            s = (a.neg ? "-" + wrap(a.id, 2) : wrap(a.id, 0));
+          else
+            s += (a.neg ? " - " + wrap(a.id, 1) : " + " + wrap(a.id, 0));
+        }
+        return s;
+      }
+    }
+    return "";
+  }
+};
+
+bool returns_scalar(const FunctionSpec& f) {
+  return f.results.size() == 1 && f.results[0].rows == Size::one && f.results[0].cols == Size::one;
+}
+
+std::string matrix_type(const ArraySpec& a, const std::string& scalar) {
+  // The header's aliases where one names the shape, for readable signatures.
+  if (a.cols == Size::one && a.rows == Size::nq) return "Coordinates<" + scalar + ">";
+  if (a.cols == Size::one && a.rows == Size::nv) return "Velocities<" + scalar + ">";
+  if (a.cols == Size::one && a.rows == Size::num_links) return "JointVector<" + scalar + ">";
+  return "Eigen::Matrix<" + scalar + ", " + size_constant(a.rows) + ", " + size_constant(a.cols) + ">";
+}
+
+// with_names: a declaration or definition (definition: inputs may be unused, e.g. a
+// constant mass matrix); otherwise the form of an explicit instantiation.
+std::string signature(const FunctionSpec& f, const std::string& scalar, bool with_names, bool definition = false) {
+  std::string s = (returns_scalar(f) ? scalar : "void") + " " + f.name + (with_names ? "" : "<" + scalar + ">") + "(";
+  std::vector<std::string> parts;
+  auto arg = [&](const std::string& type, const std::string& name, bool input) {
+    parts.push_back(std::string(definition && input ? "[[maybe_unused]] " : "") + type +
+                    (with_names ? " " + name : ""));
+  };
+  for (const auto& a : f.inputs) arg("const " + matrix_type(a, scalar) + "&", a.name, true);
+  arg("const Parameters<" + scalar + ">&", "params", true);
+  if (!returns_scalar(f))
+    for (const auto& r : f.results) arg(matrix_type(r, scalar) + "&", r.name, false);
+  for (size_t i = 0; i < parts.size(); ++i) s += (i ? ", " : "") + parts[i];
+  return s + ")";
+}
+
+std::string target(const ArraySpec& r, int rows, int cols, int i, int j) {
+  (void)rows;
+  if (cols == 1) return r.name + "(" + std::to_string(i) + ")";
+  return r.name + "(" + std::to_string(i) + ", " + std::to_string(j) + ")";
+}
+
+std::string function_body(const FunctionSpec& f, const Dimensions& dims) {
+  BodyPrinter printer(f.program, f.roots(), f.plain);
+  std::ostringstream out;
+  out << "  using std::cos;\n  using std::sin;\n" << (f.plain ? "  using std::pow;\n" : "") << printer.temporaries();
+  if (returns_scalar(f)) {
+    out << "  return " << printer.value(f.entries[0][0]) << ";\n";
+    return out.str();
+  }
+  for (size_t k = 0; k < f.results.size(); ++k) {
+    const ArraySpec& r = f.results[k];
+    const int rows = dims(r.rows), cols = dims(r.cols);
+    for (int i = 0; i < rows; ++i)
+      for (int j = r.symmetric ? i : 0; j < cols; ++j)
+        out << "  " << target(r, rows, cols, i, j) << " = " << printer.value(f.entries[k][i * cols + j]) << ";\n";
+    if (r.symmetric)  // the lower triangle as copies of the upper one
+      for (int i = 0; i < rows; ++i)
+        for (int j = 0; j < i; ++j)
+          out << "  " << target(r, rows, cols, i, j) << " = " << target(r, rows, cols, j, i) << ";\n";
+  }
+  return out.str();
+}
+
+std::string banner(const ModelFacts& facts, const PrintOptions& options) {
+  // Paths and the command are user text: written only through comment_lines().
+  return comment_lines("Generated by spacearm generator " + std::string(kGeneratorVersion) + " from scene '" +
+                       options.scene_path + "' (content hash " + facts.scene_hash + ").") +
+         comment_lines("Regenerate: " + options.command) +
+         "// DO NOT EDIT: this file is overwritten when the model is regenerated.\n// clang-format off\n";
+}
+
+std::string quoted_list(const std::vector<std::string>& items) {
+  std::string s;
+  for (const auto& i : items) s += (s.empty() ? "" : ", ") + std::string("\"") + i + "\"";
+  return s;
+}
+
+// parameter_error(): the scene's range checks, repeated for the parameters' actual values.
+std::string parameter_error_function(const ModelFacts& facts) {
+  std::ostringstream s;
+  s << "\n// nullptr if the run-time parameters describe a physical system, else what is wrong\n"
+    << "// (the scene's range checks, repeated for the parameters' values).\n"
+    << "inline const char* parameter_error([[maybe_unused]] const Eigen::Matrix<double, kNumParams, 1>& params) {\n";
+  for (size_t i = 0; i < facts.parameter_names.size(); ++i)
+    s << "  if (!std::isfinite(params(" << i << "))) return \"parameter '" << facts.parameter_names[i]
+      << "' is not finite\";\n";
+  std::vector<SRef> roots;
+  for (const auto& c : facts.checks) roots.push_back(c.value);
+  if (!roots.empty()) {
+    BodyPrinter printer(facts.checks_program, roots, true);
+    s << "  using T [[maybe_unused]] = double;\n";
+    for (const auto& c : facts.checks)
+      s << "  if (!(" << printer.value(c.value) << (c.strict ? " > 0" : " >= 0") << ")) return \"" << c.message
+        << "\";\n";
+  }
+  s << "  return nullptr;\n}\n";
+  return s.str();
+}
+
+std::string header_constants(const ModelFacts& facts) {
+  std::ostringstream h;
+  h << "inline constexpr int kNq = " << facts.dims.nq << ";\n"
+    << "inline constexpr int kNv = " << facts.dims.nv << ";\n"
+    << "inline constexpr int kNumLinks = " << facts.dims.num_links << ";\n"
+    << "inline constexpr int kNumParams = " << facts.parameter_names.size() << ";\n"
+    << "inline constexpr bool kFreeFloating = " << (facts.free_floating ? "true" : "false") << ";\n"
+    << "inline constexpr bool kGeared = " << (facts.geared ? "true" : "false") << ";\n"
+    << "inline constexpr std::array<const char*, kNq> kCoordinateNames = {" << quoted_list(facts.coordinate_names)
+    << "};\n";
+  std::string nominal;
+  for (double v : facts.nominal_parameters) nominal += (nominal.empty() ? "" : ", ") + round_trip(v);
+  h << "inline constexpr std::array<const char*, kNumParams> kParameterNames = {"
+    << quoted_list(facts.parameter_names) << "};\n"
+    << "inline constexpr std::array<double, kNumParams> kNominalParameters = {" << nominal << "};\n"
+    << "inline constexpr const char* kSceneHash = \"" << facts.scene_hash << "\";\n"
+    << parameter_error_function(facts);
+  for (const auto& o : output_registry()) {
+    const bool has = std::count(facts.outputs.begin(), facts.outputs.end(), o.id) != 0;
+    h << "inline constexpr bool kHas_" << o.name << " = " << (has ? "true" : "false") << ";\n";
+  }
+  h << "\ntemplate <typename T> using Coordinates = Eigen::Matrix<T, kNq, 1>;\n"
+    << "template <typename T> using Velocities = Eigen::Matrix<T, kNv, 1>;\n"
+    << "template <typename T> using Parameters = Eigen::Matrix<T, kNumParams, 1>;\n"
+    << "template <typename T> using MassMatrix = Eigen::Matrix<T, kNv, kNv>;\n"
+    << "template <typename T> using Vector3 = Eigen::Matrix<T, 3, 1>;\n"
+    << "template <typename T> using PoseJacobian = Eigen::Matrix<T, 3, kNv>;\n"
+    << "template <typename T> using JointVector = Eigen::Matrix<T, kNumLinks, 1>;\n"
+    << "template <typename T> using JointPositions = Eigen::Matrix<T, 2, kNumLinks + 1>;\n\n";
+  return h.str();
+}
+
+// The model as a type, so generic code (runtime, tests, benchmarks) can take it as a
+// template argument.
+std::string model_struct(const LoweredModel& model, const std::string& ns) {
+  std::ostringstream h;
+  h << "\n// The model as a type for generic code: constants and forwarding functions.\nstruct Model {\n"
+    << "  static constexpr const char* kName = \"" << model.facts.name << "\";\n";
+  for (const char* c : {"kNq", "kNv", "kNumLinks", "kNumParams"})
+    h << "  static constexpr int " << c << " = " << ns << "::" << c << ";\n";
+  for (const char* c : {"kFreeFloating", "kGeared"})
+    h << "  static constexpr bool " << c << " = " << ns << "::" << c << ";\n";
+  for (const auto& o : output_registry())
+    h << "  static constexpr bool kHas_" << o.name << " = " << ns << "::kHas_" << o.name << ";\n";
+  for (const char* alias : {"Coordinates", "Velocities", "Parameters", "MassMatrix", "Vector3", "PoseJacobian",
+                            "JointVector", "JointPositions"})
+    h << "  template <typename T> using " << alias << " = " << ns << "::" << alias << "<T>;\n";
+  h << "  static constexpr const std::array<const char*, kNq>& coordinate_names() { return kCoordinateNames; }\n"
+    << "  static constexpr const std::array<const char*, kNumParams>& parameter_names() { return kParameterNames; }\n"
+    << "  static constexpr const std::array<double, kNumParams>& nominal_parameters() { return kNominalParameters; }\n"
+    << "  static const char* parameter_error(const Eigen::Matrix<double, kNumParams, 1>& params) {\n"
+    << "    return " << ns << "::parameter_error(params);\n  }\n";
+  for (const auto& f : model.functions) {
+    std::string call;
+    for (const auto& a : f.inputs) call += a.name + ", ";
+    call += "params";
+    if (!returns_scalar(f))
+      for (const auto& r : f.results) call += ", " + r.name;
+    h << "  template <typename T>\n  static " << signature(f, "T", true) << " {\n    return " << ns << "::" << f.name
+      << "<T>(" << call << ");\n  }\n";
+  }
+  h << "};\n";
+  return h.str();
+}
+
+std::string c_interface(const LoweredModel& model, const std::string& header, const std::string& ns) {
+  std::ostringstream s;
+  s << "// C interface of model " << model.facts.name << " for dlopen (written by spacearm; do not edit).\n"
+    << "#include \"" << header << "\"\n\n"
+    << "// C linkage: the symbols are spacearm_*, whatever the namespace.\n"
+    << "namespace " << ns << " {\n"
+    << "using P = Eigen::Map<const Parameters<double>>;\n\n"
+    << "extern \"C\" {\n"
+    << "int spacearm_abi_version() { return " << kCInterfaceVersion << "; }\n"
+    << "int spacearm_nq() { return kNq; }\n"
+    << "int spacearm_nv() { return kNv; }\n"
+    << "int spacearm_num_links() { return kNumLinks; }\n"
+    << "int spacearm_num_params() { return kNumParams; }\n"
+    << "const char* spacearm_coordinate_name(int i) { return kCoordinateNames[i]; }\n"
+    << "const char* spacearm_parameter_name(int i) { return kNumParams ? Model::parameter_names()[i] : \"\"; }\n"
+    << "double spacearm_nominal_parameter(int i) { return kNumParams ? Model::nominal_parameters()[i] : 0.0; }\n"
+    << "const char* spacearm_parameter_error(const double* p) { return parameter_error(P(p)); }\n";
+  unsigned long mask = 0;
+  for (Output o : model.facts.outputs) mask |= 1ul << static_cast<unsigned>(o);
+  s << "unsigned long spacearm_outputs() { return " << mask << "ul; }\n";
+  for (const auto& f : model.functions) {
+    s << "void spacearm_" << f.name
+      << "([[maybe_unused]] const double* const* in, const double* p, double* const* out) {\n";
+    std::string call;
+    for (size_t i = 0; i < f.inputs.size(); ++i)
+      call += matrix_type(f.inputs[i], "double") + "(Eigen::Map<const " + matrix_type(f.inputs[i], "double") +
+              ">(in[" + std::to_string(i) + "])), ";
+    call += "P(p)";
+    if (returns_scalar(f)) {
+      s << "  out[0][0] = " << f.name << "<double>(" << call << ");\n}\n";
+      continue;
+    }
+    for (size_t k = 0; k < f.results.size(); ++k) {
+      s << "  " << matrix_type(f.results[k], "double") << " r" << k << ";\n";
+      call += ", r" + std::to_string(k);
+    }
+    s << "  " << f.name << "<double>(" << call << ");\n";
+    for (size_t k = 0; k < f.results.size(); ++k)
+      s << "  Eigen::Map<" << matrix_type(f.results[k], "double") << ">{out[" << k << "]} = r" << k << ";\n";
+    s << "}\n";
+  }
+  s << "}\n}  // namespace " << ns << "\n";
+  return s.str();
+}
+
+}  // namespace
+
+EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
+  const ModelFacts& facts = model.facts;
+  EmittedModel result;
+  const std::string stem = options.file_stem.empty() ? facts.name : options.file_stem;
+  check_file_stem(stem, "file stem");
+  result.header_name = stem + ".hpp";
+  result.source_name = stem + ".cpp";
+  const std::string ns = "spacearm::models::" + facts.name;
+
+  std::ostringstream h, s;
+  h << banner(facts, options) << "#pragma once\n\n#include <Eigen/Core>\n\n#include <array>\n#include <cmath>\n\n";
+  h << comment_lines(facts.description.empty() ? facts.name : facts.description);
+  std::string coordinates;
+  for (const auto& c : facts.coordinate_names) coordinates += (coordinates.empty() ? "" : ", ") + c;
+  h << "// Coordinates q = [" << coordinates << "]" << facts.coordinates_note << ".\n"
+    << "// Instantiated for float, double and long double; constants are double-precision.\n"
+    << "namespace " << ns << " {\n\n"
+    << header_constants(facts)
+    << "// All functions write into caller-provided fixed-size outputs and never allocate.\n";
+  s << banner(facts, options) << "#include \"" << result.header_name << "\"\n\n#include <cmath>\n\n"
+    << "namespace " << ns << " {\n";
+
+  for (const auto& f : model.functions) {
+    const std::string doc = "// " + f.doc + (f.equation.empty() ? "" : std::string(" Paper eq") + (f.equation.find(' ') == std::string::npos ? ". " : "s. ") + f.equation + ".") + "\n";
+    h << "\n" << doc << "template <typename T>\n" << signature(f, "T", true) << ";\n";
+    s << "\n" << doc;
+    if (f.plain) {
+      result.stats.push_back({f.name, {}, ""});
+      s << "// Baseline: expanded expressions, no common-subexpression elimination.\n";
+    } else {
+      const OpCounts ops = f.program.count(f.roots());
+      result.stats.push_back({f.name, ops, f.variant});
+      s << "// Operations: " << ops.adds << " add, " << ops.muls << " mul, " << ops.divs << " div, " << ops.trig
+        << " sin/cos.\n";
+    }
+    s << "template <typename T>\n" << signature(f, "T", true, true) << " {\n" << function_body(f, facts.dims) << "}\n";
+  }
+  h << model_struct(model, ns);
+  s << "\n// Explicit instantiations.\n";
+  for (const char* scalar : {"float", "double", "long double"})
+    for (const auto& f : model.functions) s << "template " << signature(f, scalar, false) << ";\n";
+  s << "\n}  // namespace " << ns << "\n";
+  h << "\n}  // namespace " << ns << "\n";
+  result.header = h.str();
+  result.source = s.str();
+  result.c_interface = c_interface(model, result.header_name, ns);
+  return result;
+}
+
+void write_files(const EmittedModel& emitted, const std::string& dir) {
+  namespace fs = std::filesystem;
+  fs::create_directories(dir);
+  const std::vector<std::pair<std::string, const std::string*>> files = {{emitted.header_name, &emitted.header},
+                                                                          {emitted.source_name, &emitted.source}};
+  std::vector<std::pair<fs::path, fs::path>> staged;
+  for (const auto& [name, text] : files) {
+    const fs::path final_path = fs::path(dir) / name;
+    const fs::path tmp = fs::path(dir) / ("." + name + ".tmp");
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << *text;
+    out.close();
+    if (!out) throw std::runtime_error("cannot write '" + tmp.string() + "'");
+    staged.push_back({tmp, final_path});
+  }
+  for (const auto& [tmp, final_path] : staged) fs::rename(tmp, final_path);
+}
+
+std::vector<std::string> stale_files(const EmittedModel& emitted, const std::string& dir) {
+  std::vector<std::string> stale;
+  for (const auto& [name, text] : {std::make_pair(emitted.header_name, &emitted.header),
+                                   std::make_pair(emitted.source_name, &emitted.source)}) {
+    const std::string path = dir + "/" + name;
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream existing;
+    existing << in.rdbuf();
+    if (!in || existing.str() != *text) stale.push_back(path);
+  }
+  return stale;
+}
+
+}  // namespace spacearm

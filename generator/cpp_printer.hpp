@@ -1,0 +1,47 @@
+// C++ printer: turns lowered functions (function_spec.hpp) into one self-contained
+// header/source pair per model (Eigen only) and the C interface the compile-and-load path
+// exports. It knows shapes and programs, nothing about bodies, angles or gears.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "function_spec.hpp"
+
+namespace spacearm {
+
+inline constexpr const char* kGeneratorVersion = "0.2.0";
+// Version of the C interface (c_interface): each function is exported as
+//   void spacearm_<name>(const double* const* inputs, const double* params, double* const* results)
+// with arrays column-major in the order and shapes of its FunctionSpec.
+inline constexpr int kCInterfaceVersion = 4;
+
+struct PrintOptions {
+  std::string scene_path;  // as shown in the banner (keep it relative for reproducibility)
+  std::string command;     // the regeneration command shown in the banner
+  std::string file_stem;   // file names STEM.hpp/STEM.cpp; empty: the model's name
+};
+
+struct FunctionStats {
+  std::string name;
+  OpCounts ops;
+  std::string variant;  // e.g. the velocity basis; empty if lowering had no choice
+};
+
+struct EmittedModel {
+  std::string header_name, source_name;
+  std::string header, source;
+  std::string c_interface;  // extern "C" wrappers of every function, for dlopen
+  std::vector<FunctionStats> stats;
+};
+
+EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options);
+
+// Writes the header and source into dir through temporary files renamed into place, so
+// that a failed run leaves no half-written output.
+void write_files(const EmittedModel& emitted, const std::string& dir);
+
+// The files in dir that are missing or differ from `emitted` (byte for byte).
+std::vector<std::string> stale_files(const EmittedModel& emitted, const std::string& dir);
+
+}  // namespace spacearm

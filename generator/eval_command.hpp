@@ -1,0 +1,19 @@
+// `spacearm eval`: every output a scene emits, at one state, as JSON (compiled and cached,
+// or from GiNaC's expressions with --symbolic).
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace spacearm {
+
+struct EvalArgs {
+  std::string scene_path, q_text, qd_text, cache_dir;
+  std::vector<std::string> param_assignments;
+  bool compact_json = false, symbolic = false, verbose = false;
+};
+
+// Writes the JSON to standard output; returns the exit status. Throws on errors.
+int run_eval(const EvalArgs& args);
+
+}  // namespace spacearm

@@ -1,0 +1,64 @@
+// What lowering hands to the printer: each emitted function as named, shaped arrays and the
+// straight-line program of its results, plus the facts of the model the generated header
+// states. No GiNaC, no bodies, angles or gears: the printer turns this into C++.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "outputs.hpp"
+#include "straight_line.hpp"
+
+namespace spacearm {
+
+// An input or result array of an emitted function.
+struct ArraySpec {
+  std::string name;  // argument name: "q", "M"
+  Size rows = Size::one, cols = Size::one;
+  bool symmetric = false;  // results: the lower triangle is printed as a copy of the upper
+};
+
+struct FunctionSpec {
+  std::string name;
+  std::string doc;       // one line
+  std::string equation;  // the paper's equation number, or empty
+  std::vector<ArraySpec> inputs;  // the run-time parameters `params` always follow
+  std::vector<ArraySpec> results;  // a single 1 x 1 result is returned by value
+  Program program;
+  // Per result, its entries row by row (all of them; a symmetric result repeats the upper
+  // triangle's roots below the diagonal).
+  std::vector<std::vector<SRef>> entries;
+  std::string variant;  // the lowering variant kept, e.g. the velocity basis "qd" or "omega"
+  bool plain = false;  // the benchmark baseline: every expression printed inline
+  std::vector<SRef> roots() const;  // every entry, each once
+};
+
+// A condition on the run-time parameters that the scene parser checks for literals: value > 0
+// (or >= 0), else `message`. Values are roots of ModelFacts::checks_program.
+struct ParameterCheck {
+  SRef value;
+  bool strict = true;
+  std::string message;  // fixed text built from field names, never user text
+};
+
+// The model as the generated header describes it.
+struct ModelFacts {
+  std::string name;         // namespace spacearm::models::<name>
+  std::string description;  // user text: printed only through comment_lines()
+  std::string coordinates_note;
+  Dimensions dims;
+  bool free_floating = false, geared = false;
+  std::vector<std::string> coordinate_names, parameter_names;
+  std::vector<double> nominal_parameters;
+  std::string scene_hash;   // "fnv1a64:..."
+  std::vector<Output> outputs;
+  Program checks_program;   // inputs: params(i)
+  std::vector<ParameterCheck> checks;
+};
+
+struct LoweredModel {
+  ModelFacts facts;
+  std::vector<FunctionSpec> functions;
+};
+
+}  // namespace spacearm

@@ -1,0 +1,74 @@
+// The output registry: the one list of what a model can emit. Every stage reads it: scene
+// validation (`outputs:`), derivation, lowering, the printer's C interface, `eval`,
+// `inspect`, the compile-and-load path and the runtime (through the kHas_ flags of the
+// generated header). Adding an output is one entry in outputs.cpp plus its derivation
+// (symbolic_model.cpp) or its composition from other outputs (lowering.cpp).
+// No GiNaC and no Eigen here: this header is plain data.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace spacearm {
+
+enum class Output {
+  mass_matrix,
+  coriolis_matrix,
+  bias_forces,
+  kinetic_energy,
+  momentum,
+  end_effector_pose,
+  end_effector_jacobian,
+  joint_positions,
+};
+
+// A size of the model: the shape of an input or a result.
+enum class Size { one, two, three, nq, nv, num_links, num_links_plus_one };
+
+// The model's sizes, in one place: nq coordinates, nv velocities (equal for every planar
+// model so far, kept apart for a quaternion base), num_links joints.
+struct Dimensions {
+  int nq = 0, nv = 0, num_links = 0;
+  int operator()(Size s) const;
+};
+// The name of a size in generated code ("kNv", "3").
+std::string size_constant(Size s);
+
+// Inputs of emitted functions besides the run-time parameters, in a fixed order.
+enum class Input { q, qd };
+struct InputInfo {
+  Input id;
+  const char* name;  // argument name in generated code and in messages
+  Size size;
+};
+const InputInfo& info(Input input);
+
+// One result array of an output's function.
+struct ResultInfo {
+  const char* name;  // argument name in generated code ("M")
+  Size rows, cols;
+  bool symmetric;    // only the upper triangle is computed; the lower one is a copy
+};
+
+struct OutputInfo {
+  Output id;
+  const char* name;     // the scene's `outputs:` key, the function name, the eval JSON key
+  const char* symbol;   // short name of its entries for `inspect` ("M" as in M[1][2])
+  std::vector<Input> inputs;
+  std::vector<ResultInfo> results;  // the first one is the output's value
+  bool free_floating_only;
+  bool by_default;      // emitted when a scene lists no outputs
+  const char* equation; // the paper's equation, or "" (none there)
+  const char* doc;      // one line, shown in generated code and --help
+};
+
+// Every output, in emission order.
+const std::vector<OutputInfo>& output_registry();
+const OutputInfo& info(Output output);
+std::string to_string(Output output);
+std::optional<Output> output_from_string(const std::string& name);
+// "mass_matrix, coriolis_matrix, ..." for messages.
+std::string output_names();
+
+}  // namespace spacearm

@@ -1,0 +1,530 @@
+#include "planar_lowering.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <sstream>
+#include <stdexcept>
+
+#include "emitted_text.hpp"
+
+namespace spacearm {
+
+using GiNaC::ex;
+using GiNaC::ex_to;
+using GiNaC::is_a;
+
+namespace {
+
+// A text key of an expression that does not depend on GiNaC's internal operand order
+// (which follows type-info addresses and so can change between runs): operands of sums
+// and products are sorted by their own keys. Used to build nodes in a reproducible order.
+std::string canonical_key(const ex& e) {
+  std::ostringstream s;
+  if (is_a<GiNaC::symbol>(e) || is_a<GiNaC::numeric>(e)) {
+    s << e;
+    return s.str();
+  }
+  std::vector<std::string> parts;
+  for (size_t i = 0; i < e.nops(); ++i) parts.push_back(canonical_key(e.op(i)));
+  const bool commutative = is_a<GiNaC::add>(e) || is_a<GiNaC::mul>(e);
+  if (commutative) std::sort(parts.begin(), parts.end());
+  std::string name = is_a<GiNaC::add>(e) ? "+" : is_a<GiNaC::mul>(e) ? "*" : is_a<GiNaC::power>(e) ? "^"
+                     : is_a<GiNaC::function>(e) ? ex_to<GiNaC::function>(e).get_name() : "?";
+  s << name << "(";
+  for (const auto& p : parts) s << p << ",";
+  s << ")";
+  return s.str();
+}
+
+// Operands of a sum or product in canonical order.
+std::vector<ex> sorted_operands(const ex& e) {
+  std::vector<std::pair<std::string, ex>> keyed;
+  for (size_t i = 0; i < e.nops(); ++i) keyed.push_back({canonical_key(e.op(i)), e.op(i)});
+  std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<ex> ops;
+  for (auto& k : keyed) ops.push_back(k.second);
+  return ops;
+}
+
+struct Term {
+  ex coeff;                             // numeric or an expression of run-time parameters
+  std::vector<std::pair<int, int>> mono;  // (variable, exponent > 0), sorted by variable
+};
+
+// Builds the straight-line program of one emitted function. Every quantity the expressions
+// use is a "variable" with a lazily built node: velocities (qd, or the absolute body
+// rates Omega_k), coordinates, and the trig atoms cos/sin of absolute and relative body
+// angles. The relative atoms are formed from the absolute ones with the angle-difference
+// identities, so each body angle costs exactly one sin/cos pair.
+class FunctionBuilder {
+ public:
+  FunctionBuilder(const SymbolicModel& model, bool omega_basis) : m_(model), omega_basis_(omega_basis) {
+    const int n = m_.n();
+    const int N = m_.scene.num_links();
+    const bool free = m_.scene.free_floating();
+    const int first_joint = free ? 3 : 0;
+    for (size_t i = 0; i < m_.parameters.size(); ++i) param_index_[m_.parameters[i]] = static_cast<int>(i);
+
+    // 1. Velocities.
+    if (omega_basis_) {
+      if (free) {
+        add_var(m_.qd[0], [this] { return prog.input("qd", 0); });
+        add_var(m_.qd[1], [this] { return prog.input("qd", 1); });
+      }
+      for (int k = free ? 0 : 1; k <= N; ++k) {
+        GiNaC::symbol w("Omega" + std::to_string(k));
+        add_var(w, [this, k] { return omega_node(k); });
+        omega_symbols_[k] = w;
+      }
+      // qd of a joint in terms of body rates: qd_j = (Omega_j - Omega_{j-1}) / gear_map_jj.
+      if (free) basis_subs_[m_.qd[2]] = omega_symbols_[0];
+      for (int j = 1; j <= N; ++j) {
+        const ex prev = (j == 1 && !free) ? ex(0) : ex(omega_symbols_[j - 1]);
+        const int c = first_joint + j - 1;
+        basis_subs_[m_.qd[c]] = (omega_symbols_[j] - prev) / m_.gear_map(c, c);
+      }
+    } else {
+      for (int i = 0; i < n; ++i) add_var(m_.qd[i], [this, i] { return prog.input("qd", i); });
+    }
+    // 2. Coordinates (only x0, y0 and linear angle sums appear outside trig calls).
+    for (int i = 0; i < n; ++i) add_var(m_.q[i], [this, i] { return prog.input("q", i); });
+    // 3. Trig atoms, ordered by body.
+    std::vector<std::pair<std::pair<int, int>, ex>> angles;
+    for (const auto& [arg, pair] : m_.angle_table) angles.push_back({pair, arg});
+    std::sort(angles.begin(), angles.end(), [](const auto& a, const auto& b) {
+      return std::make_pair(a.first.second, a.first.first) < std::make_pair(b.first.second, b.first.first);
+    });
+    for (const auto& [pair, arg] : angles) {
+      if (arg.is_zero()) continue;
+      const int from = pair.first, to = pair.second;
+      const std::string suffix = from < 0 ? std::to_string(to) : std::to_string(from) + "_" + std::to_string(to);
+      GiNaC::symbol c("c" + suffix), s("s" + suffix);
+      add_var(c, [this, from, to] { return trig_node(true, from, to); });
+      add_var(s, [this, from, to] { return trig_node(false, from, to); });
+      atom_subs_[GiNaC::cos(arg)] = c;
+      atom_subs_[GiNaC::sin(arg)] = s;
+    }
+  }
+
+  Program prog;
+
+  SRef build(const ex& e) {
+    ex x = e.subs(atom_subs_, GiNaC::subs_options::no_pattern);
+    if (omega_basis_) x = x.subs(basis_subs_, GiNaC::subs_options::no_pattern);
+    x = x.expand();
+    return horner(terms_of(x));
+  }
+
+ private:
+  const SymbolicModel& m_;
+  bool omega_basis_;
+  std::map<ex, int, GiNaC::ex_is_less> var_index_, param_index_;
+  std::vector<std::function<SRef()>> var_builders_;
+  std::map<int, SRef> var_nodes_, theta_nodes_, omega_nodes_;
+  std::map<int, GiNaC::symbol> omega_symbols_;
+  GiNaC::exmap atom_subs_, basis_subs_;
+
+  void add_var(const ex& symbol, std::function<SRef()> builder) {
+    var_index_[symbol] = static_cast<int>(var_builders_.size());
+    var_builders_.push_back(std::move(builder));
+  }
+
+  SRef var(int v) {
+    auto it = var_nodes_.find(v);
+    if (it != var_nodes_.end()) return it->second;
+    const SRef r = var_builders_[v]();
+    var_nodes_[v] = r;
+    return r;
+  }
+
+  // theta_k as partial sums: theta_k = theta_{k-1} + (relative angle of joint k).
+  SRef theta_node(int k) {
+    if (theta_nodes_.count(k)) return theta_nodes_[k];
+    SRef r = k == 0 ? from_ex(m_.theta[0])
+                    : prog.add({theta_node(k - 1), from_ex((m_.theta[k] - m_.theta[k - 1]).expand())});
+    return theta_nodes_[k] = r;
+  }
+
+  SRef omega_node(int k) {
+    if (omega_nodes_.count(k)) return omega_nodes_[k];
+    SRef r = k == 0 ? from_ex(m_.omega[0])
+                    : prog.add({omega_node(k - 1), from_ex((m_.omega[k] - m_.omega[k - 1]).expand())});
+    return omega_nodes_[k] = r;
+  }
+
+  SRef trig_node(bool is_cos, int from, int to) {
+    if (from < 0) {
+      const SRef th = theta_node(to);
+      return is_cos ? prog.cos(th) : prog.sin(th);
+    }
+    const SRef ca = trig_node(true, -1, from), sa = trig_node(false, -1, from);
+    const SRef cb = trig_node(true, -1, to), sb = trig_node(false, -1, to);
+    // cos(b - a) = cb ca + sb sa,  sin(b - a) = sb ca - cb sa
+    if (is_cos) return prog.add({prog.mul({cb, ca}), prog.mul({sb, sa})});
+    return prog.add({prog.mul({sb, ca}), -prog.mul({cb, sa})});
+  }
+
+  bool is_var(const ex& e) const { return var_index_.count(e) != 0; }
+
+  // Any expression of parameters, numbers and variables, without factoring.
+  SRef from_ex(const ex& e) {
+    if (is_a<GiNaC::numeric>(e)) {
+      const double v = ex_to<GiNaC::numeric>(e).to_double();
+      return v == 0 ? prog.zero() : prog.constant(v);
+    }
+    if (is_var(e)) return var(var_index_.at(e));
+    if (param_index_.count(e)) return prog.input("params", param_index_.at(e));
+    for (int i = 0; i < m_.n(); ++i)  // velocities, where Omega is the basis (in Omega_k itself)
+      if (e.is_equal(m_.qd[i])) return prog.input("qd", i);
+    if (is_a<GiNaC::add>(e)) {
+      std::vector<SRef> terms;
+      for (const ex& op : sorted_operands(e)) terms.push_back(from_ex(op));
+      return prog.add(terms);
+    }
+    if (is_a<GiNaC::mul>(e)) {
+      std::vector<SRef> factors;
+      for (const ex& op : sorted_operands(e)) factors.push_back(from_ex(op));
+      return prog.mul(factors);
+    }
+    if (is_a<GiNaC::power>(e) && is_a<GiNaC::numeric>(e.op(1)) && ex_to<GiNaC::numeric>(e.op(1)).is_integer()) {
+      const int k = ex_to<GiNaC::numeric>(e.op(1)).to_int();
+      if (k < 0) return prog.div(prog.constant(1.0), from_ex(GiNaC::pow(e.op(0), -k)));
+      return integer_power(from_ex(e.op(0)), k);
+    }
+    std::ostringstream s;
+    s << e;
+    throw std::runtime_error("emitter: cannot express '" + s.str() + "' in straight-line code");
+  }
+
+  // x^k by repeated squaring: no pow() for integer powers.
+  SRef integer_power(SRef x, int k) {
+    if (k == 0) return prog.constant(1.0);
+    if (k == 1) return x;
+    const SRef half = integer_power(x, k / 2);
+    SRef r = prog.mul({half, half});
+    if (k % 2) r = prog.mul({r, x});
+    return r;
+  }
+
+  std::vector<Term> terms_of(const ex& e) {
+    std::map<std::vector<std::pair<int, int>>, ex> collected;
+    auto take = [&](const ex& t) {
+      ex coeff = 1;
+      std::map<int, int> mono;
+      auto factor = [&](const ex& f) {
+        if (is_var(f)) {
+          mono[var_index_.at(f)] += 1;
+        } else if (is_a<GiNaC::power>(f) && is_var(f.op(0)) && is_a<GiNaC::numeric>(f.op(1)) &&
+                   ex_to<GiNaC::numeric>(f.op(1)).is_pos_integer()) {
+          mono[var_index_.at(f.op(0))] += ex_to<GiNaC::numeric>(f.op(1)).to_int();
+        } else if (!has_var(f)) {
+          coeff *= f;
+        } else {
+          std::ostringstream s;
+          s << f;
+          throw std::runtime_error("emitter: unexpected factor '" + s.str() + "' (a trig atom not on a body angle?)");
+        }
+      };
+      if (is_a<GiNaC::mul>(t))
+        for (size_t i = 0; i < t.nops(); ++i) factor(t.op(i));
+      else
+        factor(t);
+      std::vector<std::pair<int, int>> key(mono.begin(), mono.end());
+      collected[key] += coeff;
+    };
+    if (is_a<GiNaC::add>(e))
+      for (size_t i = 0; i < e.nops(); ++i) take(e.op(i));
+    else if (!e.is_zero())
+      take(e);
+    std::vector<Term> terms;
+    for (auto& [mono, coeff] : collected)
+      if (!coeff.is_zero()) terms.push_back({coeff, mono});
+    return terms;
+  }
+
+  bool has_var(const ex& e) const {
+    if (is_var(e)) return true;
+    for (size_t i = 0; i < e.nops(); ++i)
+      if (has_var(e.op(i))) return true;
+    return false;
+  }
+
+  SRef leaf(const Term& t) {
+    std::vector<SRef> factors{from_ex(t.coeff)};
+    for (const auto& [v, k] : t.mono) factors.push_back(integer_power(var(v), k));
+    return prog.mul(factors);
+  }
+
+  // Greedy multivariate Horner scheme: factor out the variable that occurs in most terms.
+  SRef horner(const std::vector<Term>& terms) {
+    if (terms.empty()) return prog.zero();
+    std::map<int, int> count;
+    for (const auto& t : terms)
+      for (const auto& [v, k] : t.mono) ++count[v];
+    int best = -1, best_count = 1;
+    for (const auto& [v, c] : count)
+      if (c > best_count) {
+        best = v;
+        best_count = c;
+      }
+    if (best < 0) {
+      std::vector<SRef> parts;
+      for (const auto& t : terms) parts.push_back(leaf(t));
+      return prog.add(parts);
+    }
+    std::vector<Term> with, without;
+    for (const auto& t : terms) {
+      auto it = std::find_if(t.mono.begin(), t.mono.end(), [&](const auto& p) { return p.first == best; });
+      if (it == t.mono.end()) {
+        without.push_back(t);
+        continue;
+      }
+      Term reduced = t;
+      auto& entry = reduced.mono[it - t.mono.begin()];
+      if (--entry.second == 0) reduced.mono.erase(reduced.mono.begin() + (it - t.mono.begin()));
+      with.push_back(reduced);
+    }
+    return prog.add({prog.mul({var(best), horner(with)}), horner(without)});
+  }
+};
+
+// The unoptimized baseline: GiNaC's expanded expression node by node, nothing shared, a
+// sin/cos call per occurrence and pow for powers (what SymPy's ccode without cse gives).
+class PlainBuilder {
+ public:
+  explicit PlainBuilder(const SymbolicModel& model) {
+    for (int i = 0; i < model.n(); ++i) {
+      inputs_[model.q[i]] = {"q", i};
+      inputs_[model.qd[i]] = {"qd", i};
+    }
+    for (size_t i = 0; i < model.parameters.size(); ++i) inputs_[model.parameters[i]] = {"params", static_cast<int>(i)};
+  }
+  Program prog{false};
+
+  SRef build(const ex& e) {
+    if (is_a<GiNaC::numeric>(e)) {
+      const double v = ex_to<GiNaC::numeric>(e).to_double();
+      return v == 0 ? prog.zero() : prog.constant(v);
+    }
+    if (auto it = inputs_.find(e); it != inputs_.end()) return prog.input(it->second.first, it->second.second);
+    std::vector<SRef> ops;
+    if (is_a<GiNaC::add>(e) || is_a<GiNaC::mul>(e)) {
+      for (const ex& op : sorted_operands(e)) ops.push_back(build(op));
+      return is_a<GiNaC::add>(e) ? prog.add(ops) : prog.mul(ops);
+    }
+    if (is_a<GiNaC::power>(e) && is_a<GiNaC::numeric>(e.op(1)) && ex_to<GiNaC::numeric>(e.op(1)).is_integer()) {
+      const int k = ex_to<GiNaC::numeric>(e.op(1)).to_int();
+      const SRef base = build(e.op(0));
+      if (k < 0) return prog.div(prog.constant(1.0), k == -1 ? base : prog.pow(base, -k));
+      return prog.pow(base, k);
+    }
+    if (is_a<GiNaC::function>(e) && e.nops() == 1) {
+      const std::string name = ex_to<GiNaC::function>(e).get_name();
+      if (name == "sin") return prog.sin(build(e.op(0)));
+      if (name == "cos") return prog.cos(build(e.op(0)));
+    }
+    std::ostringstream s;
+    s << e;
+    throw std::runtime_error("lowering: cannot express '" + s.str() + "' in the baseline");
+  }
+
+ private:
+  std::map<ex, std::pair<std::string, int>, GiNaC::ex_is_less> inputs_;
+};
+
+// A fixed pseudo-random state and the nominal parameters, where lowering checks itself.
+struct CheckPoint {
+  std::vector<double> q, qd, params;
+  explicit CheckPoint(const SymbolicModel& model) {
+    for (int i = 0; i < model.n(); ++i) {
+      q.push_back(0.3 + 0.7 * std::sin(1.3 * i + 0.4));
+      qd.push_back(0.5 - 0.9 * std::cos(0.7 * i + 1.1));
+    }
+    for (const auto& p : model.scene.parameters) params.push_back(p.nominal.value);
+  }
+  double input(const std::string& array, int index) const {
+    if (array == "q") return q.at(index);
+    if (array == "qd") return qd.at(index);
+    if (array == "params") return params.at(index);
+    throw std::logic_error("self-check: unknown input " + array);
+  }
+};
+
+// The generator checks itself before it emits: the optimized straight-line program must
+// reproduce GiNaC's evaluation of the derived expressions at the check point, else it names
+// the entry that fails.
+void self_check(const SymbolicModel& model, const FunctionSpec& f, const std::vector<std::vector<ex>>& expected) {
+  const CheckPoint at(model);
+  for (size_t k = 0; k < f.results.size(); ++k) {
+    const auto values =
+        f.program.evaluate(f.entries[k], [&](const std::string& a, int i) { return at.input(a, i); });
+    std::vector<double> want;
+    double scale = 0;
+    for (const ex& e : expected[k]) {
+      want.push_back(evaluate(model, e, at.q, at.qd, at.params));
+      scale = std::max(scale, std::abs(want.back()));
+    }
+    for (size_t i = 0; i < want.size(); ++i)
+      if (!(std::abs(values[i] - want[i]) <= 1e-9 * std::max(scale, 1e-300)))
+        throw std::logic_error("generator self-check failed in " + f.name + ", " + f.results[k].name + " entry " +
+                               std::to_string(i) + ": " + std::to_string(values[i]) + " emitted vs " +
+                               std::to_string(want[i]) + " derived");
+  }
+}
+
+// The arrays of an output as the registry gives them.
+void describe(FunctionSpec& f, const OutputInfo& o) {
+  f.name = o.name;
+  f.doc = o.doc;
+  f.equation = o.equation;
+  for (Input i : o.inputs) f.inputs.push_back({info(i).name, info(i).size, Size::one});
+  for (const auto& r : o.results) f.results.push_back({r.name, r.rows, r.cols, r.symmetric});
+}
+
+// A function whose results are closed-form expressions (row by row per result): lowered
+// with both velocity bases when it uses velocities, keeping the cheaper program.
+FunctionSpec lower_closed_form(const SymbolicModel& model, FunctionSpec f, const std::vector<std::vector<ex>>& results,
+                               bool plain) {
+  const bool uses_velocity = std::any_of(f.inputs.begin(), f.inputs.end(), [](const ArraySpec& a) { return a.name == "qd"; });
+  if (plain) {
+    PlainBuilder pb(model);
+    for (const auto& r : results) {
+      f.entries.emplace_back();
+      for (const ex& e : r) f.entries.back().push_back(pb.build(e.expand()));
+    }
+    f.program = std::move(pb.prog);
+    f.plain = true;
+    return f;
+  }
+  FunctionSpec best;
+  int best_cost = -1;
+  for (int basis = 0; basis < (uses_velocity ? 2 : 1); ++basis) {
+    FunctionBuilder fb(model, basis == 1);
+    FunctionSpec candidate = f;
+    std::vector<SRef> roots;
+    for (size_t k = 0; k < results.size(); ++k) {
+      auto& entries = candidate.entries.emplace_back();
+      const int cols = f.results[k].symmetric ? static_cast<int>(std::lround(std::sqrt(results[k].size()))) : 1;
+      for (size_t e = 0; e < results[k].size(); ++e) {
+        // A symmetric result's lower triangle repeats its upper one (built once).
+        const int i = static_cast<int>(e) / cols, j = static_cast<int>(e) % cols;
+        entries.push_back(f.results[k].symmetric && j < i ? entries[j * cols + i] : fb.build(results[k][e]));
+        roots.push_back(entries.back());
+      }
+    }
+    fb.prog.extract_common_pairs(roots);
+    candidate.program = std::move(fb.prog);
+    self_check(model, candidate, results);
+    const OpCounts ops = candidate.program.count(candidate.roots());
+    const int cost = ops.total_arithmetic() + ops.trig;
+    if (best_cost >= 0 && cost >= best_cost) continue;
+    candidate.variant = uses_velocity ? (basis == 1 ? "omega" : "qd") : "";
+    best = std::move(candidate);
+    best_cost = cost;
+  }
+  return best;
+}
+
+std::vector<ex> entries_of(const GiNaC::matrix& m) {
+  std::vector<ex> v;
+  for (unsigned i = 0; i < m.rows(); ++i)
+    for (unsigned j = 0; j < m.cols(); ++j) v.push_back(m(i, j));
+  return v;
+}
+
+// The scene's range checks for quantities that depend on run-time parameters (positive
+// mass, inertia, length and ratio, non-negative motor inertia, positive compensated link
+// inertia): the validation the scene parser does for literals, repeated at run time.
+void parameter_checks(const Scene& scene, ModelFacts& facts) {
+  std::map<std::string, int> index;
+  for (size_t i = 0; i < scene.parameters.size(); ++i) index[scene.parameters[i].name] = static_cast<int>(i);
+  Program& p = facts.checks_program;
+  auto value = [&](const Quantity& q) {
+    if (q.is_parameter()) return p.input("params", index.at(q.parameter));
+    return q.value == 0 ? p.zero() : p.constant(q.value);
+  };
+  auto check = [&](bool uses_parameter, SRef v, bool strict, const std::string& what) {
+    if (uses_parameter) facts.checks.push_back({v, strict, what});
+  };
+  if (scene.free_floating()) {
+    check(scene.base.mass.is_parameter(), value(scene.base.mass), true, "base.mass must be positive");
+    check(scene.base.inertia.is_parameter(), value(scene.base.inertia), true, "base.inertia must be positive");
+  }
+  for (int i = 0; i < scene.num_links(); ++i) {
+    const Link& l = scene.links[i];
+    const std::string f = "links[" + std::to_string(i) + "]";
+    check(l.mass.is_parameter(), value(l.mass), true, f + ".mass must be positive");
+    check(l.inertia.is_parameter(), value(l.inertia), true, f + ".inertia must be positive");
+    check(l.length.is_parameter(), value(l.length), true, f + ".length must be positive");
+    if (!scene.geared()) continue;
+    const Gear& g = scene.gears[i];
+    const std::string gf = "gears[" + std::to_string(i) + "]";
+    check(g.ratio.is_parameter(), value(g.ratio), true, gf + ".ratio must be positive");
+    check(g.motor_inertia.is_parameter(), value(g.motor_inertia), false, gf + ".motor_inertia must not be negative");
+    if (g.compensate_link_inertia)
+      check(g.motor_inertia.is_parameter() || l.inertia.is_parameter(), p.add({value(l.inertia), -value(g.motor_inertia)}),
+            true, gf + ".motor_inertia must be smaller than the inertia of link " + std::to_string(i + 1) +
+                      " it compensates");
+  }
+}
+
+ModelFacts model_facts(const SymbolicModel& model, bool plain) {
+  const Scene& scene = model.scene;
+  ModelFacts facts;
+  facts.name = scene.name + (plain ? "_plain" : "");
+  facts.description = scene.description;
+  facts.coordinates_note = scene.geared() ? " (motor angles qm = p q, paper eq. 12)" : "";
+  facts.dims = {model.n(), model.n(), scene.num_links()};
+  facts.free_floating = scene.free_floating();
+  facts.geared = scene.geared();
+  facts.coordinate_names = scene.coordinate_names();
+  for (const auto& p : scene.parameters) {
+    facts.parameter_names.push_back(p.name);
+    facts.nominal_parameters.push_back(p.nominal.value);
+  }
+  facts.scene_hash = "fnv1a64:" + content_hash(scene.content);
+  for (const auto& o : output_registry())
+    if (scene.wants(o.id)) facts.outputs.push_back(o.id);
+  parameter_checks(scene, facts);
+  return facts;
+}
+
+}  // namespace
+
+LoweredModel lower(const SymbolicModel& model, const LowerOptions& options) {
+  const Scene& scene = model.scene;
+  LoweredModel lowered;
+  lowered.facts = model_facts(model, options.plain);
+  for (const OutputInfo& o : output_registry()) {
+    if (!scene.wants(o.id)) continue;
+    FunctionSpec f;
+    describe(f, o);
+    lowered.functions.push_back(lower_closed_form(model, f, {entries_of(model.expression(o.id))}, options.plain));
+    // M and b together, sharing the sin/cos and common terms (what forward dynamics needs).
+    if (o.id == Output::bias_forces && scene.wants(Output::mass_matrix)) {
+      FunctionSpec mb;
+      mb.name = "mass_matrix_and_bias";
+      mb.doc = "M and b together, sharing the sin/cos and common terms.";
+      mb.inputs = {{"q", Size::nq, Size::one}, {"qd", Size::nv, Size::one}};
+      mb.results = {{"M", Size::nv, Size::nv, true}, {"b", Size::nv, Size::one, false}};
+      lowered.functions.push_back(lower_closed_form(
+          model, mb,
+          {entries_of(model.expression(Output::mass_matrix)), entries_of(model.expression(Output::bias_forces))},
+          options.plain));
+    }
+  }
+  // Always emitted: the runtime maps joint torques to generalized forces tau / p (eq. 14).
+  FunctionSpec ratios;
+  ratios.name = "gear_ratios";
+  ratios.doc = "Gear ratio p_i of each joint (1 for the reference model): Q_g = tau / p.";
+  ratios.equation = "14";
+  ratios.results = {{"p", Size::num_links, Size::one, false}};
+  std::vector<ex> p;
+  const int first_joint = model.n() - scene.num_links();
+  for (int j = 0; j < scene.num_links(); ++j) p.push_back((1 / model.gear_map(first_joint + j, first_joint + j)).normal());
+  lowered.functions.push_back(lower_closed_form(model, ratios, {p}, options.plain));
+  return lowered;
+}
+
+}  // namespace spacearm
