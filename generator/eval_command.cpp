@@ -6,9 +6,11 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <map>
 
 #include "cli_input.hpp"
 #include "compiled_model.hpp"
+#include "numeric_outputs.hpp"
 #include "symbolic_model.hpp"
 
 namespace spacearm {
@@ -39,36 +41,30 @@ nlohmann::ordered_json to_json(const std::string& name, const Eigen::MatrixXd& m
   return rows;
 }
 
-// The inputs an output takes, from the state.
-std::vector<Eigen::VectorXd> inputs_of(const OutputInfo& o, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
-  std::vector<Eigen::VectorXd> in;
-  for (Input i : o.inputs) in.push_back(i == Input::q ? q : qd);
-  return in;
-}
+// The values of every input (outputs.hpp) at the state asked for.
+struct EvalInputs {
+  std::map<Input, Eigen::VectorXd> values;
+  Eigen::VectorXd params;
+  std::vector<Eigen::VectorXd> of(const OutputInfo& o) const {
+    std::vector<Eigen::VectorXd> in;
+    for (Input i : o.inputs) in.push_back(values.at(i));
+    return in;
+  }
+};
 
-// GiNaC's value of each output the scene emits.
-void evaluate_symbolic(const Scene& scene, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
-                       const Eigen::VectorXd& params, bool verbose, nlohmann::ordered_json& out) {
+// GiNaC's value of each output the scene emits (composed ones by Eigen's solves).
+void evaluate_symbolic(const Scene& scene, const EvalInputs& in, bool verbose, nlohmann::ordered_json& out) {
   auto t0 = clock::now();
   const SymbolicModel model = derive(scene);
   if (verbose) std::fprintf(stderr, "spacearm: derive %.1f ms\n", ms_since(t0));
   t0 = clock::now();
-  const std::vector<double> qv(q.data(), q.data() + q.size()), qdv(qd.data(), qd.data() + qd.size()),
-      pv(params.data(), params.data() + params.size());
-  for (const auto& o : output_registry()) {
-    if (!scene.wants(o.id)) continue;
-    const GiNaC::matrix& e = model.expression(o.id);
-    const auto values = evaluate(model, e, qv, qdv, pv);
-    const Eigen::MatrixXd m = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-        values.data(), e.rows(), e.cols());
-    out[o.name] = to_json(o.name, m);
-  }
+  for (const auto& o : output_registry())
+    if (scene.wants(o.id)) out[o.name] = to_json(o.name, evaluate_output(model, o.id, in.of(o), in.params)[0]);
   if (verbose) std::fprintf(stderr, "spacearm: evaluate (GiNaC) %.1f ms\n", ms_since(t0));
 }
 
 // The compiled model's value of each output the scene emits.
-void evaluate_compiled(const Scene& scene, const EvalArgs& a, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
-                       const Eigen::VectorXd& params, nlohmann::ordered_json& out) {
+void evaluate_compiled(const Scene& scene, const EvalArgs& a, const EvalInputs& in, nlohmann::ordered_json& out) {
   CompileOptions options;
   options.cache_dir = a.cache_dir;
   options.progress = [verbose = a.verbose](const std::string& m) {
@@ -83,7 +79,7 @@ void evaluate_compiled(const Scene& scene, const EvalArgs& a, const Eigen::Vecto
                  rep.load_ms);
   const auto t0 = clock::now();
   for (const auto& o : output_registry())
-    if (model.has(o.id)) out[o.name] = to_json(o.name, model.evaluate(o.id, inputs_of(o, q, qd), params)[0]);
+    if (model.has(o.id)) out[o.name] = to_json(o.name, model.evaluate(o.id, in.of(o), in.params)[0]);
   if (a.verbose) std::fprintf(stderr, "spacearm: run %.3f ms\n", ms_since(t0));
 }
 
@@ -91,21 +87,27 @@ void evaluate_compiled(const Scene& scene, const EvalArgs& a, const Eigen::Vecto
 
 int run_eval(const EvalArgs& a) {
   const Scene scene = load_scene(a.scene_path);
-  const int nq = scene.num_coordinates(), nv = scene.num_coordinates();
-  const Eigen::VectorXd q = cli::parse_vector(a.q_text, "--q", nq);
-  const Eigen::VectorXd qd = a.qd_text.empty() ? Eigen::VectorXd::Zero(nv) : cli::parse_vector(a.qd_text, "--qd", nv);
-  const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, scene);
-  // The state and parameters used, then every output by its registry name.
+  const int nq = scene.num_coordinates(), nv = scene.num_coordinates(), N = scene.num_links();
+  auto vector = [](const std::string& text, const char* option, int size) {
+    return text.empty() ? Eigen::VectorXd::Zero(size) : cli::parse_vector(text, option, size);
+  };
+  EvalInputs in;
+  in.values[Input::q] = cli::parse_vector(a.q_text, "--q", nq);
+  in.values[Input::qd] = vector(a.qd_text, "--qd", nv);
+  in.values[Input::qdd] = vector(a.qdd_text, "--qdd", nv);
+  in.values[Input::generalized_forces] = vector(a.forces_text, "--forces", nv);
+  in.values[Input::joint_accelerations] = vector(a.qdd_joints_text, "--qdd-joints", N);
+  in.params = cli::parse_parameters(a.param_assignments, scene);
+  // The state, inputs and parameters used, then every output by its registry name.
   nlohmann::ordered_json out;
   out["coordinates"] = scene.coordinate_names();
-  out["q"] = std::vector<double>(q.data(), q.data() + nq);
-  out["qd"] = std::vector<double>(qd.data(), qd.data() + nv);
+  for (const auto& [input, v] : in.values) out[info(input).name] = std::vector<double>(v.data(), v.data() + v.size());
   out["parameters"] = nlohmann::ordered_json::object();
-  for (size_t i = 0; i < scene.parameters.size(); ++i) out["parameters"][scene.parameters[i].name] = params[i];
+  for (size_t i = 0; i < scene.parameters.size(); ++i) out["parameters"][scene.parameters[i].name] = in.params[i];
   if (a.symbolic)
-    evaluate_symbolic(scene, q, qd, params, a.verbose, out);
+    evaluate_symbolic(scene, in, a.verbose, out);
   else
-    evaluate_compiled(scene, a, q, qd, params, out);
+    evaluate_compiled(scene, a, in, out);
   std::cout << (a.compact_json ? out.dump() : out.dump(2)) << "\n";
   return 0;
 }

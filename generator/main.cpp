@@ -20,10 +20,10 @@
 namespace {
 
 void print_stats(const spacearm::EmittedModel& emitted, std::ostream& out) {
-  out << "function                 basis   adds   muls   divs  total  sin/cos\n";
+  out << "function                     basis   adds   muls   divs  total  sin/cos\n";
   for (const auto& f : emitted.stats) {
     char line[160];
-    std::snprintf(line, sizeof line, "%-24s %-6s %5d  %5d  %5d  %5d  %7d\n", f.name.c_str(),
+    std::snprintf(line, sizeof line, "%-28s %-6s %5d  %5d  %5d  %5d  %7d\n", f.name.c_str(),
                   f.variant.empty() ? "-" : f.variant.c_str(), f.ops.adds, f.ops.muls, f.ops.divs,
                   f.ops.total_arithmetic(), f.ops.trig);
     out << line;
@@ -107,6 +107,10 @@ int main(int argc, char** argv) {
   eval->add_option("scene", eval_args.scene_path, "Scene file (YAML)")->required();
   eval->add_option("--q", eval_args.q_text, "Coordinates, comma-separated")->required();
   eval->add_option("--qd", eval_args.qd_text, "Velocities, comma-separated (default: zeros)");
+  eval->add_option("--qdd", eval_args.qdd_text, "Accelerations for inverse_dynamics (default: zeros)");
+  eval->add_option("--forces", eval_args.forces_text, "Generalized forces Q for forward_dynamics (default: zeros)");
+  eval->add_option("--qdd-joints", eval_args.qdd_joints_text,
+                   "Joint accelerations for free_base_inverse_dynamics (default: zeros)");
   eval->add_option("--param", eval_args.param_assignments, "Run-time parameter name=value (repeatable, once per name)");
   eval->add_flag("--json", eval_args.compact_json, "Compact JSON on one line (default: indented JSON)");
   eval->add_flag("--symbolic", eval_args.symbolic, "Evaluate GiNaC's expressions instead of the compiled code");

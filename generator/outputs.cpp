@@ -13,6 +13,7 @@ int Dimensions::operator()(Size s) const {
     case Size::nv: return nv;
     case Size::num_links: return num_links;
     case Size::num_links_plus_one: return num_links + 1;
+    case Size::num_base: return nv - num_links;
   }
   throw std::logic_error("unknown size");
 }
@@ -26,6 +27,7 @@ std::string size_constant(Size s) {
     case Size::nv: return "kNv";
     case Size::num_links: return "kNumLinks";
     case Size::num_links_plus_one: return "kNumLinks + 1";
+    case Size::num_base: return "kNv - kNumLinks";
   }
   throw std::logic_error("unknown size");
 }
@@ -34,6 +36,9 @@ const InputInfo& info(Input input) {
   static const InputInfo inputs[] = {
       {Input::q, "q", Size::nq},
       {Input::qd, "qd", Size::nv},
+      {Input::qdd, "qdd", Size::nv},
+      {Input::generalized_forces, "Q", Size::nv},
+      {Input::joint_accelerations, "qdd_joints", Size::num_links},
   };
   for (const auto& i : inputs)
     if (i.id == input) return i;
@@ -43,25 +48,50 @@ const InputInfo& info(Input input) {
 const std::vector<OutputInfo>& output_registry() {
   using I = Input;
   using S = Size;
+  using O = Output;
   static const std::vector<OutputInfo> registry = {
-      {Output::mass_matrix, "mass_matrix", "M", {I::q}, {{"M", S::nv, S::nv, true}}, false, true, "6",
+      {O::mass_matrix, "mass_matrix", "M", {I::q}, {{"M", S::nv, S::nv, true}}, false, true, {}, "6",
        "Mass matrix M(q) (symmetric positive definite)."},
-      {Output::coriolis_matrix, "coriolis_matrix", "C", {I::q, I::qd}, {{"C", S::nv, S::nv, false}}, false, true, "7",
+      {O::coriolis_matrix, "coriolis_matrix", "C", {I::q, I::qd}, {{"C", S::nv, S::nv, false}}, false, true, {}, "7",
        "Coriolis/centrifugal matrix C(q, qd), exactly as the paper defines it; C qd is the bias. "
        "Not the Christoffel form: Mdot - 2C is not skew-symmetric."},
-      {Output::bias_forces, "bias_forces", "b", {I::q, I::qd}, {{"b", S::nv, S::one, false}}, false, true, "5",
+      {O::bias_forces, "bias_forces", "b", {I::q, I::qd}, {{"b", S::nv, S::one, false}}, false, true, {}, "5",
        "Bias b = C(q, qd) qd, so that M qdd + b = Q."},
-      {Output::kinetic_energy, "kinetic_energy", "T", {I::q, I::qd}, {{"T", S::one, S::one, false}}, false, true,
+      {O::kinetic_energy, "kinetic_energy", "T", {I::q, I::qd}, {{"T", S::one, S::one, false}}, false, true, {},
        "3 and 10", "Kinetic energy T = 1/2 qd^T M qd."},
-      {Output::momentum, "momentum", "h", {I::q, I::qd}, {{"h", S::three, S::one, false}}, true, true, "",
+      {O::momentum, "momentum", "h", {I::q, I::qd}, {{"h", S::three, S::one, false}}, true, true, {}, "",
        "Momentum h = [Px, Py, L]: linear momentum and angular momentum about the world origin."},
-      {Output::end_effector_pose, "end_effector_pose", "x", {I::q}, {{"x", S::three, S::one, false}}, false, true,
-       "", "End-effector pose [x, y, phi]: tip of the last link, absolute angle of the last link."},
-      {Output::end_effector_jacobian, "end_effector_jacobian", "J", {I::q}, {{"J", S::three, S::nv, false}}, false,
-       true, "", "Jacobian of the end-effector pose, d[x, y, phi]/dq."},
-      {Output::joint_positions, "joint_positions", "P", {I::q},
-       {{"P", S::two, S::num_links_plus_one, false}}, false, true, "",
-       "World positions of joints 1..N (columns) and of the tip (last column)."},
+      {O::end_effector_pose, "end_effector_pose", "x", {I::q}, {{"x", S::three, S::one, false}}, false, true, {}, "",
+       "End-effector pose [x, y, phi]: tip of the last link, absolute angle of the last link."},
+      {O::end_effector_jacobian, "end_effector_jacobian", "J", {I::q}, {{"J", S::three, S::nv, false}}, false, true,
+       {}, "", "Jacobian of the end-effector pose, d[x, y, phi]/dq."},
+      {O::joint_positions, "joint_positions", "P", {I::q}, {{"P", S::two, S::num_links_plus_one, false}}, false, true,
+       {}, "", "World positions of joints 1..N (columns) and of the tip (last column)."},
+      {O::joint_angles, "joint_angles", "qj", {I::q}, {{"q_joints", S::num_links, S::one, false}}, false, true, {},
+       "12", "Link-side joint angles q_i (motor angles divided by the gear ratio in a geared scene)."},
+      {O::joint_rates, "joint_rates", "qjd", {I::qd}, {{"qd_joints", S::num_links, S::one, false}}, false, true, {},
+       "9", "Link-side joint rates qd_i (motor rates divided by the gear ratio in a geared scene)."},
+      {O::mass_matrix_derivative, "mass_matrix_derivative", "Mdot", {I::q, I::qd}, {{"Mdot", S::nv, S::nv, true}},
+       false, false, {}, "", "Time derivative of the mass matrix, Mdot = sum_k dM/dq_k qd_k."},
+      {O::christoffel_coriolis_matrix, "christoffel_coriolis_matrix", "Cc", {I::q, I::qd},
+       {{"Cc", S::nv, S::nv, false}}, false, false, {}, "",
+       "Coriolis matrix in the Christoffel form: Cc qd = C qd, and Mdot - 2 Cc is skew-symmetric."},
+      {O::inverse_dynamics, "inverse_dynamics", "Q", {I::q, I::qd, I::qdd}, {{"Q", S::nv, S::one, false}}, false,
+       true, {O::mass_matrix, O::bias_forces}, "5", "Generalized forces Q = M qdd + b that give the acceleration qdd."},
+      {O::forward_dynamics, "forward_dynamics", "qdd", {I::q, I::qd, I::generalized_forces},
+       {{"qdd", S::nv, S::one, false}, {"pivots", S::nv, S::one, false}}, false, true,
+       {O::mass_matrix, O::bias_forces}, "8",
+       "Acceleration qdd = M^-1 (Q - b) by an unrolled LDL^T solve; pivots are D_i / M_ii, the pivots of "
+       "diag(M)^-1/2 M diag(M)^-1/2 (all positive for a valid state; (max/min) bounds its condition number)."},
+      {O::generalized_jacobian, "generalized_jacobian", "Jg", {I::q}, {{"Jg", S::three, S::num_links, false}}, true,
+       true, {O::mass_matrix, O::end_effector_jacobian}, "",
+       "Generalized Jacobian J* (Umetani-Yoshida): end-effector velocity per joint rate with the base moving so "
+       "that the momentum stays zero, J* = J_m - J_b M_bb^-1 M_bm."},
+      {O::free_base_inverse_dynamics, "free_base_inverse_dynamics", "tau", {I::q, I::qd, I::joint_accelerations},
+       {{"tau", S::num_links, S::one, false}, {"qdd_base", S::num_base, S::one, false}}, true, true,
+       {O::mass_matrix, O::bias_forces}, "14",
+       "Joint torques tau (link side: tau = p Q) that give the joint accelerations qdd_joints with no force on the "
+       "free base, and the base acceleration that follows."},
   };
   return registry;
 }

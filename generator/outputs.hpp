@@ -21,22 +21,30 @@ enum class Output {
   end_effector_pose,
   end_effector_jacobian,
   joint_positions,
+  joint_angles,
+  joint_rates,
+  mass_matrix_derivative,
+  christoffel_coriolis_matrix,
+  inverse_dynamics,
+  forward_dynamics,
+  generalized_jacobian,
+  free_base_inverse_dynamics,
 };
 
 // A size of the model: the shape of an input or a result.
-enum class Size { one, two, three, nq, nv, num_links, num_links_plus_one };
+enum class Size { one, two, three, nq, nv, num_links, num_links_plus_one, num_base };
 
 // The model's sizes, in one place: nq coordinates, nv velocities (equal for every planar
 // model so far, kept apart for a quaternion base), num_links joints.
 struct Dimensions {
   int nq = 0, nv = 0, num_links = 0;
-  int operator()(Size s) const;
+  int operator()(Size s) const;  // num_base: the velocities of the base, nv - num_links
 };
 // The name of a size in generated code ("kNv", "3").
 std::string size_constant(Size s);
 
 // Inputs of emitted functions besides the run-time parameters, in a fixed order.
-enum class Input { q, qd };
+enum class Input { q, qd, qdd, generalized_forces, joint_accelerations };
 struct InputInfo {
   Input id;
   const char* name;  // argument name in generated code and in messages
@@ -59,6 +67,9 @@ struct OutputInfo {
   std::vector<ResultInfo> results;  // the first one is the output's value
   bool free_floating_only;
   bool by_default;      // emitted when a scene lists no outputs
+  // Empty: a closed form derived symbolically (inspect shows its entries). Else composed in
+  // the straight-line program from these outputs' closed forms (a solve, a product).
+  std::vector<Output> composed_of;
   const char* equation; // the paper's equation, or "" (none there)
   const char* doc;      // one line, shown in generated code and --help
 };

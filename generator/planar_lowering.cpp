@@ -6,7 +6,11 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <Eigen/Dense>
+
 #include "emitted_text.hpp"
+#include "numeric_outputs.hpp"
+#include "program_algebra.hpp"
 
 namespace spacearm {
 
@@ -426,11 +430,137 @@ FunctionSpec lower_closed_form(const SymbolicModel& model, FunctionSpec f, const
   return best;
 }
 
+
 std::vector<ex> entries_of(const GiNaC::matrix& m) {
   std::vector<ex> v;
   for (unsigned i = 0; i < m.rows(); ++i)
     for (unsigned j = 0; j < m.cols(); ++j) v.push_back(m(i, j));
   return v;
+}
+
+// Inputs of the composed outputs at the check point (qdd, Q, qdd_joints).
+double extra_input(const std::string& array, int index) { return 0.2 + 0.3 * std::cos(1.7 * index + array.size()); }
+
+// The composed output's values at the check point, from the derivation alone.
+std::vector<Eigen::MatrixXd> composed_reference(const SymbolicModel& model, Output o, const CheckPoint& at) {
+  std::vector<Eigen::VectorXd> inputs;
+  for (Input i : info(o).inputs) {
+    const std::string name = info(i).name;
+    const int size = i == Input::joint_accelerations ? model.scene.num_links() : model.n();
+    Eigen::VectorXd v(size);
+    for (int k = 0; k < size; ++k) v[k] = name == "q" || name == "qd" ? at.input(name, k) : extra_input(name, k);
+    inputs.push_back(v);
+  }
+  const Eigen::VectorXd params = Eigen::Map<const Eigen::VectorXd>(at.params.data(), at.params.size());
+  return evaluate_output(model, o, inputs, params);
+}
+
+// Builds one composed output in fb's program from the closed forms of M, b and J.
+std::vector<std::vector<SRef>> compose(const SymbolicModel& model, FunctionBuilder& fb, Output o) {
+  Program& p = fb.prog;
+  const int n = model.n(), N = model.scene.num_links(), nb = n - N;
+  const GiNaC::matrix& Me = model.expression(Output::mass_matrix);
+  std::vector<SRef> M(n * n);
+  for (int i = 0; i < n; ++i)
+    for (int j = i; j < n; ++j) M[i * n + j] = M[j * n + i] = fb.build(Me(i, j));
+  auto block = [&](int r0, int c0, int rows, int cols) {
+    std::vector<SRef> m;
+    for (int i = 0; i < rows; ++i)
+      for (int j = 0; j < cols; ++j) m.push_back(M[(r0 + i) * n + c0 + j]);
+    return m;
+  };
+  auto row = [&](const std::vector<SRef>& m, int cols, int i) {
+    return std::vector<SRef>(m.begin() + i * cols, m.begin() + (i + 1) * cols);
+  };
+  auto inputs = [&](const char* name, int size) {
+    std::vector<SRef> v;
+    for (int i = 0; i < size; ++i) v.push_back(p.input(name, i));
+    return v;
+  };
+  if (o == Output::generalized_jacobian) {
+    // J* = J_m - J_b X with M_bb X = M_bm, column by column.
+    const GiNaC::matrix& Je = model.expression(Output::end_effector_jacobian);
+    const LdltProgram f = ldlt(p, block(0, 0, nb, nb), nb);
+    const std::vector<SRef> Mbm = block(0, nb, nb, N);
+    std::vector<std::vector<SRef>> X;  // columns
+    for (int c = 0; c < N; ++c) {
+      std::vector<SRef> col;
+      for (int k = 0; k < nb; ++k) col.push_back(Mbm[k * N + c]);
+      X.push_back(ldlt_solve(p, f, col));
+    }
+    std::vector<SRef> Jg;
+    for (int r = 0; r < 3; ++r) {
+      std::vector<SRef> Jb;
+      for (int k = 0; k < nb; ++k) Jb.push_back(fb.build(Je(r, k)));
+      for (int c = 0; c < N; ++c) Jg.push_back(p.add({fb.build(Je(r, nb + c)), -dot(p, Jb, X[c])}));
+    }
+    return {Jg};
+  }
+  const GiNaC::matrix& be = model.expression(Output::bias_forces);
+  std::vector<SRef> b;
+  for (int i = 0; i < n; ++i) b.push_back(fb.build(be(i, 0)));
+  if (o == Output::inverse_dynamics) {
+    const std::vector<SRef> qdd = inputs("qdd", n);
+    std::vector<SRef> Q;
+    for (int i = 0; i < n; ++i) Q.push_back(p.add({dot(p, row(M, n, i), qdd), b[i]}));
+    return {Q};
+  }
+  if (o == Output::forward_dynamics) {
+    const std::vector<SRef> Q = inputs("Q", n);
+    std::vector<SRef> rhs, pivots;
+    for (int i = 0; i < n; ++i) rhs.push_back(p.add({Q[i], -b[i]}));
+    const LdltProgram f = ldlt(p, M, n);
+    for (int i = 0; i < n; ++i) pivots.push_back(p.div(f.d[i], M[i * n + i]));
+    return {ldlt_solve(p, f, rhs), pivots};
+  }
+  // free_base_inverse_dynamics: M_bb a_b = -(M_bm a + b_b); Q_m = M_mb a_b + M_mm a + b_m.
+  const std::vector<SRef> a = inputs("qdd_joints", N);
+  const std::vector<SRef> Mbm = block(0, nb, nb, N), Mmb = block(nb, 0, N, nb), Mmm = block(nb, nb, N, N);
+  std::vector<SRef> rhs;
+  for (int k = 0; k < nb; ++k) rhs.push_back(-p.add({dot(p, row(Mbm, N, k), a), b[k]}));
+  const std::vector<SRef> base = ldlt_solve(p, ldlt(p, block(0, 0, nb, nb), nb), rhs);
+  std::vector<SRef> tau;
+  for (int j = 0; j < N; ++j) {
+    const SRef Qj = p.add({dot(p, row(Mmb, nb, j), base), dot(p, row(Mmm, N, j), a), b[nb + j]});
+    tau.push_back(p.mul({Qj, fb.build((1 / model.gear_map(nb + j, nb + j)).normal())}));
+  }
+  return {tau, base};
+}
+
+// A composed output, lowered with both velocity bases when it uses velocities.
+FunctionSpec lower_composed(const SymbolicModel& model, FunctionSpec f, Output o) {
+  const bool uses_velocity = std::any_of(f.inputs.begin(), f.inputs.end(), [](const ArraySpec& a) { return a.name == "qd"; });
+  const CheckPoint at(model);
+  const std::vector<Eigen::MatrixXd> want = composed_reference(model, o, at);
+  FunctionSpec best;
+  int best_cost = -1;
+  for (int basis = 0; basis < (uses_velocity ? 2 : 1); ++basis) {
+    FunctionBuilder fb(model, basis == 1);
+    FunctionSpec candidate = f;
+    candidate.entries = compose(model, fb, o);
+    fb.prog.extract_common_pairs(candidate.roots());
+    candidate.program = std::move(fb.prog);
+    // Self-check against Eigen's solve of GiNaC's values.
+    for (size_t k = 0; k < want.size(); ++k) {
+      const auto got = candidate.program.evaluate(candidate.entries[k], [&](const std::string& a, int i) {
+        return a == "q" || a == "qd" || a == "params" ? at.input(a, i) : extra_input(a, i);
+      });
+      const double scale = std::max(want[k].cwiseAbs().maxCoeff(), 1e-300);
+      const Eigen::Index cols = want[k].cols();  // entries are row by row, Eigen's are column by column
+      for (Eigen::Index i = 0; i < want[k].size(); ++i)
+        if (!(std::abs(got[i] - want[k](i / cols, i % cols)) <= 1e-9 * scale))
+          throw std::logic_error("generator self-check failed in " + f.name + ", " + f.results[k].name + " entry " +
+                                 std::to_string(i) + ": " + std::to_string(got[i]) + " emitted vs " +
+                                 std::to_string(want[k](i / cols, i % cols)) + " computed");
+    }
+    const OpCounts ops = candidate.program.count(candidate.roots());
+    const int cost = ops.total_arithmetic() + ops.trig;
+    if (best_cost >= 0 && cost >= best_cost) continue;
+    candidate.variant = uses_velocity ? (basis == 1 ? "omega" : "qd") : "";
+    best = std::move(candidate);
+    best_cost = cost;
+  }
+  return best;
 }
 
 // The scene's range checks for quantities that depend on run-time parameters (positive
@@ -485,7 +615,7 @@ ModelFacts model_facts(const SymbolicModel& model, bool plain) {
   }
   facts.scene_hash = "fnv1a64:" + content_hash(scene.content);
   for (const auto& o : output_registry())
-    if (scene.wants(o.id)) facts.outputs.push_back(o.id);
+    if (scene.wants(o.id) && !(plain && !o.composed_of.empty())) facts.outputs.push_back(o.id);
   parameter_checks(scene, facts);
   return facts;
 }
@@ -500,7 +630,10 @@ LoweredModel lower(const SymbolicModel& model, const LowerOptions& options) {
     if (!scene.wants(o.id)) continue;
     FunctionSpec f;
     describe(f, o);
-    lowered.functions.push_back(lower_closed_form(model, f, {entries_of(model.expression(o.id))}, options.plain));
+    if (!o.composed_of.empty() && options.plain) continue;  // the baseline has closed forms only
+    lowered.functions.push_back(o.composed_of.empty()
+                                    ? lower_closed_form(model, f, {entries_of(model.expression(o.id))}, options.plain)
+                                    : lower_composed(model, f, o.id));
     // M and b together, sharing the sin/cos and common terms (what forward dynamics needs).
     if (o.id == Output::bias_forces && scene.wants(Output::mass_matrix)) {
       FunctionSpec mb;

@@ -3,6 +3,7 @@
 #include <cctype>
 #include <cmath>
 #include <regex>
+#include <set>
 #include <stdexcept>
 
 namespace spacearm {
@@ -160,7 +161,12 @@ SymbolicModel derive(const Scene& scene, const DeriveOptions& options) {
   model.kinetic_energy = T.expand();
 
   const bool want_all = options.all_outputs;
-  auto wants = [&](Output o) { return (want_all && (free || !info(o).free_floating_only)) || scene.wants(o); };
+  // What the scene asks for, and what its composed outputs are composed of.
+  std::set<Output> wanted = scene.outputs;
+  for (Output o : scene.outputs) wanted.insert(info(o).composed_of.begin(), info(o).composed_of.end());
+  auto wants = [&](Output o) {
+    return (want_all && (free || !info(o).free_floating_only) && info(o).composed_of.empty()) || wanted.count(o);
+  };
   auto& out = model.outputs;
   if (wants(Output::kinetic_energy)) out[Output::kinetic_energy] = matrix{{model.kinetic_energy}};
 
@@ -168,7 +174,8 @@ SymbolicModel derive(const Scene& scene, const DeriveOptions& options) {
   std::vector<ex> dT_dqd(n);
   for (int i = 0; i < n; ++i) dT_dqd[i] = model.kinetic_energy.diff(model.qd[i]);
   matrix M(n, n);
-  if (wants(Output::mass_matrix) || wants(Output::coriolis_matrix)) {
+  if (wants(Output::mass_matrix) || wants(Output::coriolis_matrix) || wants(Output::mass_matrix_derivative) ||
+      wants(Output::christoffel_coriolis_matrix)) {
     for (int i = 0; i < n; ++i)
       for (int j = i; j < n; ++j) M(i, j) = M(j, i) = dT_dqd[i].diff(model.qd[j]).expand();
     if (wants(Output::mass_matrix)) out[Output::mass_matrix] = M;
@@ -187,6 +194,37 @@ SymbolicModel derive(const Scene& scene, const DeriveOptions& options) {
     for (int i = 0; i < n; ++i)
       for (int j = 0; j < n; ++j) C(i, j) = (b.time_derivative(M(i, j)) - M_qd[j].diff(model.q[i]) / 2).expand();
     out[Output::coriolis_matrix] = C;
+  }
+
+  // Mdot = sum_k dM/dq_k qd_k, and the Christoffel form Cc_ij = sum_k Gamma_ijk qd_k with
+  // Gamma_ijk = 1/2 (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i).
+  if (wants(Output::mass_matrix_derivative)) {
+    matrix Mdot(n, n);
+    for (int i = 0; i < n; ++i)
+      for (int j = i; j < n; ++j) Mdot(i, j) = Mdot(j, i) = b.time_derivative(M(i, j)).expand();
+    out[Output::mass_matrix_derivative] = Mdot;
+  }
+  if (wants(Output::christoffel_coriolis_matrix)) {
+    matrix Cc(n, n);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        ex s = 0;
+        for (int k = 0; k < n; ++k)
+          s += (M(i, j).diff(model.q[k]) + M(i, k).diff(model.q[j]) - M(j, k).diff(model.q[i])) * model.qd[k] / 2;
+        Cc(i, j) = s.expand();
+      }
+    out[Output::christoffel_coriolis_matrix] = Cc;
+  }
+
+  // Link-side joint angles and rates: q_link = gear_map q (eq. 12), qd_link = gear_map qd.
+  if (wants(Output::joint_angles) || wants(Output::joint_rates)) {
+    matrix angles(N, 1), rates(N, 1);
+    for (int j = 0; j < N; ++j) {
+      angles(j, 0) = model.gear_map(first_joint + j, first_joint + j) * model.q[first_joint + j];
+      rates(j, 0) = model.gear_map(first_joint + j, first_joint + j) * model.qd[first_joint + j];
+    }
+    if (wants(Output::joint_angles)) out[Output::joint_angles] = angles;
+    if (wants(Output::joint_rates)) out[Output::joint_rates] = rates;
   }
 
   // Bias C qd, emitted directly from the Euler-Lagrange terms at qdd = 0 (cheaper than C).
@@ -273,6 +311,10 @@ GiNaC::ex symbolic_entry(const SymbolicModel& model, const std::string& entry) {
   for (const auto& o : output_registry()) {
     known += (known.empty() ? "" : ", ") + std::string(o.symbol);
     if (e.name != o.symbol) continue;
+    if (!o.composed_of.empty())
+      throw std::invalid_argument("entry '" + entry + "': " + o.name +
+                                  " is composed in the emitted program (a solve or a product), not a closed form; "
+                                  "inspect the outputs it is made of");
     if (o.free_floating_only && !model.scene.free_floating())
       throw std::invalid_argument("entry '" + entry + "': " + o.name + " is only defined for a free-floating base");
     const matrix& m = model.expression(o.id);

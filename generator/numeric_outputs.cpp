@@ -1,0 +1,69 @@
+#include "numeric_outputs.hpp"
+
+#include <Eigen/Dense>
+
+#include <stdexcept>
+
+namespace spacearm {
+
+namespace {
+
+std::vector<double> values(const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); }
+
+struct State {
+  std::vector<double> q, qd, params;
+};
+
+Eigen::MatrixXd closed_form(const SymbolicModel& model, Output o, const State& s) {
+  const GiNaC::matrix& e = model.expression(o);
+  const auto v = evaluate(model, e, s.q, s.qd, s.params);
+  return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(v.data(), e.rows(),
+                                                                                                    e.cols());
+}
+
+// The composed outputs, as registry.cpp describes them, with Eigen's solvers.
+std::vector<Eigen::MatrixXd> composed(const SymbolicModel& model, Output o, const State& s,
+                                      const Eigen::VectorXd& extra) {
+  const Eigen::MatrixXd M = closed_form(model, Output::mass_matrix, s);
+  const int n = model.n(), N = model.scene.num_links(), nb = n - N;
+  if (o == Output::generalized_jacobian) {
+    const Eigen::MatrixXd J = closed_form(model, Output::end_effector_jacobian, s);
+    return {J.rightCols(N) - J.leftCols(nb) * M.topLeftCorner(nb, nb).ldlt().solve(M.topRightCorner(nb, N))};
+  }
+  const Eigen::VectorXd b = closed_form(model, Output::bias_forces, s);
+  if (o == Output::inverse_dynamics) return {M * extra + b};
+  if (o == Output::forward_dynamics) {
+    // Unpivoted pivots D_j = L_jj^2 of M = L L^T, scaled by M_jj.
+    const Eigen::LLT<Eigen::MatrixXd> llt(M);
+    const Eigen::VectorXd d = llt.matrixL().toDenseMatrix().diagonal().array().square();
+    return {llt.solve(extra - b), d.cwiseQuotient(M.diagonal())};
+  }
+  if (o == Output::free_base_inverse_dynamics) {
+    const Eigen::VectorXd base =
+        -M.topLeftCorner(nb, nb).ldlt().solve(M.topRightCorner(nb, N) * extra + b.head(nb));
+    Eigen::VectorXd tau = M.bottomLeftCorner(N, nb) * base + M.bottomRightCorner(N, N) * extra + b.tail(N);
+    for (int j = 0; j < N; ++j) tau[j] /= evaluate(model, model.gear_map(nb + j, nb + j), s.q, s.qd, s.params);
+    return {tau, base};
+  }
+  throw std::logic_error("evaluate_output: no numeric composition for " + to_string(o));
+}
+
+}  // namespace
+
+std::vector<Eigen::MatrixXd> evaluate_output(const SymbolicModel& model, Output output,
+                                             const std::vector<Eigen::VectorXd>& inputs,
+                                             const Eigen::VectorXd& params) {
+  const OutputInfo& o = info(output);
+  if (inputs.size() != o.inputs.size()) throw std::invalid_argument("evaluate_output: wrong number of inputs");
+  State s{std::vector<double>(model.n(), 0.0), std::vector<double>(model.n(), 0.0), values(params)};
+  Eigen::VectorXd extra;  // qdd, Q or qdd_joints
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    if (o.inputs[i] == Input::q) s.q = values(inputs[i]);
+    else if (o.inputs[i] == Input::qd) s.qd = values(inputs[i]);
+    else extra = inputs[i];
+  }
+  if (o.composed_of.empty()) return {closed_form(model, output, s)};
+  return composed(model, output, s, extra);
+}
+
+}  // namespace spacearm
