@@ -9,6 +9,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+
+#include <Eigen/Cholesky>
+
+#include "dynamics_checks.hpp"
 #include <sstream>
 
 #include "cpp_emitter.hpp"
@@ -229,6 +233,7 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
     return m;
   }
   m.dims_ = {number("spacearm_nq"), number("spacearm_nv"), number("spacearm_num_links")};
+  m.name_ = scene.name;
   m.outputs_ = reinterpret_cast<unsigned long (*)()>(sym("spacearm_outputs"))();
   const int np = number("spacearm_num_params");
   if (m.dims_.nq != scene.num_coordinates() || m.dims_.nv != scene.num_coordinates() ||
@@ -260,6 +265,7 @@ CompiledModel::CompiledModel(CompiledModel&& o) noexcept { *this = std::move(o);
 CompiledModel& CompiledModel::operator=(CompiledModel&& o) noexcept {
   std::swap(handle_, o.handle_);
   dims_ = o.dims_;
+  name_ = std::move(o.name_);
   outputs_ = o.outputs_;
   functions_ = std::move(o.functions_);
   parameter_error_ = o.parameter_error_;
@@ -332,6 +338,25 @@ Eigen::Vector3d CompiledModel::momentum(const Eigen::VectorXd& q, const Eigen::V
 Eigen::Vector3d CompiledModel::end_effector_pose(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const {
   return evaluate(Output::end_effector_pose, {q}, params)[0];
 }
+Eigen::VectorXd CompiledModel::forward_dynamics(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                                                const Eigen::VectorXd& Q, const Eigen::VectorXd& params) const {
+  Eigen::VectorXd qdd, scaled_pivots;
+  if (has(Output::forward_dynamics)) {
+    const auto r = evaluate(Output::forward_dynamics, {q, qd, Q}, params);
+    qdd = r[0];
+    scaled_pivots = r[1];
+  } else {
+    const Eigen::MatrixXd M = mass_matrix(q, params);
+    check("Q", Q, dims_.nv);
+    const Eigen::LLT<Eigen::MatrixXd> llt(M);
+    if (llt.info() != Eigen::Success) throw DynamicsError("model " + name_ + ": mass matrix is not positive definite");
+    scaled_pivots = llt.matrixLLT().diagonal().array().square() / M.diagonal().array();
+    qdd = llt.solve(Q - bias_forces(q, qd, params));
+  }
+  check_forward_dynamics(scaled_pivots, qdd, name_);
+  return qdd;
+}
+
 Eigen::VectorXd CompiledModel::gear_ratios(const Eigen::VectorXd& params) const {
   return call("gear_ratios", {{Size::num_links, Size::one}}, {}, params)[0];
 }

@@ -39,6 +39,7 @@ class CompiledModel {
   CompiledModel(CompiledModel&&) noexcept;
   CompiledModel& operator=(CompiledModel&&) noexcept;
 
+  const std::string& name() const { return name_; }
   int nq() const { return dims_.nq; }
   int nv() const { return dims_.nv; }
   int num_links() const { return dims_.num_links; }
@@ -60,12 +61,17 @@ class CompiledModel {
   Eigen::Vector3d momentum(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& params) const;
   Eigen::Vector3d end_effector_pose(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const;
   Eigen::VectorXd gear_ratios(const Eigen::VectorXd& params) const;
+  // qdd = M^-1 (Q - b): the emitted solve if the scene has forward_dynamics, else a Cholesky
+  // factorization of M; with the checks of runtime/dynamics_checks.hpp (DynamicsError).
+  Eigen::VectorXd forward_dynamics(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& Q,
+                                   const Eigen::VectorXd& params) const;
 
  private:
   CompiledModel() = default;
   using Function = void (*)(const double* const*, const double*, double* const*);
   void* handle_ = nullptr;
   Dimensions dims_;
+  std::string name_;
   unsigned long outputs_ = 0;
   std::map<std::string, Function> functions_;  // by name, without the "spacearm_" prefix
   const char* (*parameter_error_)(const double*) = nullptr;

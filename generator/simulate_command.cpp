@@ -148,8 +148,9 @@ void report_stop(const RowWriter& out, double t_reached, const std::string& why)
 
 int run_simulate(const SimulateArgs& a) {
   const Scene scene = load_scene(a.scene_path);
-  if (!scene.wants(Output::mass_matrix) || !scene.wants(Output::bias_forces))
-    throw std::invalid_argument("simulate: the scene must emit mass_matrix and bias_forces (field 'outputs')");
+  if (!scene.wants(Output::forward_dynamics) && !(scene.wants(Output::mass_matrix) && scene.wants(Output::bias_forces)))
+    throw std::invalid_argument(
+        "simulate: the scene must emit forward_dynamics, or mass_matrix and bias_forces (field 'outputs')");
   const int n = scene.num_coordinates(), N = scene.num_links();
   const Eigen::VectorXd q0 = a.q0_text.empty() ? Eigen::VectorXd::Zero(n) : cli::parse_vector(a.q0_text, "--q0", n);
   const Eigen::VectorXd qd0 =
@@ -196,11 +197,11 @@ int run_simulate(const SimulateArgs& a) {
     if (!x.allFinite()) throw std::runtime_error("state not finite at t = " + std::to_string(t));
     Eigen::VectorXd Q = Eigen::VectorXd::Zero(n);
     Q.tail(N) = torque_at(t).cwiseQuotient(ratios);  // eq. 14
-    Eigen::LLT<Eigen::MatrixXd> llt(model.mass_matrix(q, params));
-    if (llt.info() != Eigen::Success)
-      throw std::runtime_error("mass matrix not positive definite at t = " + std::to_string(t));
-    dxdt.tail(n) = llt.solve(Q - model.bias_forces(q, qd, params));
-    if (!dxdt.allFinite()) throw std::runtime_error("accelerations not finite (overflow) at t = " + std::to_string(t));
+    try {
+      dxdt.tail(n) = model.forward_dynamics(q, qd, Q, params);
+    } catch (const DynamicsError& e) {
+      throw DynamicsError(std::string(e.what()) + " at t = " + std::to_string(t));
+    }
   };
   const auto wall0 = std::chrono::steady_clock::now();
   int last_percent = 0;

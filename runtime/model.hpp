@@ -13,14 +13,9 @@
 #include <stdexcept>
 #include <string>
 
-namespace spacearm {
+#include "dynamics_checks.hpp"
 
-// A failure of the dynamics at run time (bad input, mass matrix not positive definite);
-// the message says what, where (time, state) is added by the caller that knows it.
-class DynamicsError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
+namespace spacearm {
 
 template <class Generated>
 class Model {
@@ -110,28 +105,27 @@ class Model {
     return Q;
   }
 
-  // qdd = M^-1 (Q - C qd), eq. 8 (eq. 15 with the sign corrected). Throws DynamicsError on
-  // non-finite input or a mass matrix that is not positive definite.
+  // qdd = M^-1 (Q - C qd), eq. 8 (eq. 15 with the sign corrected): the emitted unrolled
+  // LDL^T solve where the model has one, else a fixed-size Cholesky factorization. Throws
+  // DynamicsError on non-finite input, a mass matrix that is not positive definite or one
+  // too ill-conditioned to solve (check_forward_dynamics).
   Vector forward_dynamics(const Vector& q, const Vector& qd, const Vector& Q) const {
     if (!q.allFinite() || !qd.allFinite() || !Q.allFinite()) throw DynamicsError(describe_non_finite(q, qd, Q));
-    Matrix M;
-    Vector b;
-    Generated::mass_matrix_and_bias(q, qd, params_, M, b);
-    Eigen::LLT<Matrix> llt(M);
-    if (llt.info() != Eigen::Success)
-      throw DynamicsError(std::string("model ") + Generated::kName + ": mass matrix is not positive definite");
-    // Cholesky is invariant under symmetric diagonal scaling (van der Sluis): its accuracy
-    // depends on cond(S M S), S = diag(M)^-1/2, not on cond(M), which grows as p^2 in motor
-    // coordinates without any loss of accuracy. L_ii / sqrt(M_ii) are the pivots of S M S;
-    // (max / min)^2 of them is a cheap lower bound of its condition number. Past 1e14 the
-    // solve has no correct digit left: report it instead of returning noise.
-    const auto d = (llt.matrixLLT().diagonal().array() / M.diagonal().array().sqrt()).abs();
-    const double cond_bound = (d.maxCoeff() / d.minCoeff()) * (d.maxCoeff() / d.minCoeff());
-    if (!(cond_bound < 1e14))
-      throw DynamicsError(std::string("model ") + Generated::kName +
-                          ": mass matrix numerically singular (condition number of the diagonally scaled matrix >= " +
-                          std::to_string(cond_bound) + ")");
-    return llt.solve(Q - b);
+    Vector qdd, scaled_pivots;
+    if constexpr (Generated::kHas_forward_dynamics) {
+      Generated::forward_dynamics(q, qd, Q, params_, qdd, scaled_pivots);
+    } else {
+      Matrix M;
+      Vector b;
+      Generated::mass_matrix_and_bias(q, qd, params_, M, b);
+      Eigen::LLT<Matrix> llt(M);
+      if (llt.info() != Eigen::Success)
+        throw DynamicsError(std::string("model ") + Generated::kName + ": mass matrix is not positive definite");
+      scaled_pivots = llt.matrixLLT().diagonal().array().square() / M.diagonal().array();
+      qdd = llt.solve(Q - b);
+    }
+    check_forward_dynamics(scaled_pivots, qdd, Generated::kName);
+    return qdd;
   }
 
   // 2-norm condition number of M(q) (symmetric positive definite: ratio of eigenvalues).

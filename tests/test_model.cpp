@@ -69,7 +69,7 @@ TEST(Model, BadInputGetsAClearError) {
 // without a degenerate scene: M of positive masses and inertias stays regular).
 struct NearlySingular {
   static constexpr int kNq = 2, kNumLinks = 2, kNumParams = 1;
-  static constexpr bool kFreeFloating = false;
+  static constexpr bool kFreeFloating = false, kHas_forward_dynamics = false;
   static constexpr const char* kName = "nearly_singular";
   static const std::array<double, 1>& nominal_parameters() {
     static const std::array<double, 1> p = {1.0};
@@ -97,13 +97,30 @@ struct NearlySingular {
   }
 };
 
-TEST(Model, NumericallySingularMassMatrixIsReported) {
-  Model<NearlySingular> m;
+// The same with an emitted forward_dynamics (the LDL^T pivots of M by hand: 1 and delta).
+struct NearlySingularEmitted : NearlySingular {
+  static constexpr bool kHas_forward_dynamics = true;
+  static void forward_dynamics(const Eigen::Vector2d&, const Eigen::Vector2d&, const Eigen::Vector2d& Q,
+                               const Eigen::Matrix<double, 1, 1>& p, Eigen::Vector2d& qdd, Eigen::Vector2d& pivots) {
+    const double delta = (1 + p[0]) - 1;
+    qdd << Q[0] - (Q[1] - Q[0]) / delta, (Q[1] - Q[0]) / delta;
+    pivots << 1, delta / (1 + p[0]);
+  }
+};
+
+template <class G>
+void expect_singular_mass_matrix_reported() {
+  Model<G> m;
   const Eigen::Vector2d zero = Eigen::Vector2d::Zero(), Q(1, 2);
   m.set_parameter("delta", 1e-6);  // cond ~ 4e6: solved, and right
   EXPECT_MATRIX_NEAR(m.forward_dynamics(zero, zero, Q), Eigen::Vector2d(1 - 1e6, 1e6), 1e-9);
   m.set_parameter("delta", 1e-16);  // rounds to 1 + 2.2e-16 or 1: no digit of the answer is left
   EXPECT_THROW_MESSAGE(m.forward_dynamics(zero, zero, Q), DynamicsError, "nearly_singular: mass matrix");
+}
+
+TEST(Model, NumericallySingularMassMatrixIsReported) { expect_singular_mass_matrix_reported<NearlySingular>(); }
+TEST(Model, NumericallySingularMassMatrixIsReportedWithEmittedSolve) {
+  expect_singular_mass_matrix_reported<NearlySingularEmitted>();
 }
 
 // Without motor inertia cond(M_g) grows as p^2, but only as a scaling of the motor

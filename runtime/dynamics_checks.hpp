@@ -1,0 +1,42 @@
+// The checks every forward-dynamics path shares (the fixed-size Model<G> of linked code and
+// the dynamic-size CompiledModel of loaded code): a failure is a DynamicsError saying what,
+// never a silently wrong acceleration.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace spacearm {
+
+// A failure of the dynamics at run time (bad input, mass matrix not positive definite);
+// the message says what, where (time, state) is added by the caller that knows it.
+class DynamicsError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Largest condition number of diag(M)^-1/2 M diag(M)^-1/2 for which a double solve still
+// has correct digits.
+inline constexpr double kMaxScaledCondition = 1e14;
+
+// scaled_pivots: D_i / M_ii of M = L D L^T, the pivots of diag(M)^-1/2 M diag(M)^-1/2.
+// Cholesky/LDL^T is invariant under symmetric diagonal scaling (van der Sluis): its accuracy
+// depends on cond(S M S), S = diag(M)^-1/2, not on cond(M), which grows as p^2 in motor
+// coordinates without any loss of accuracy. max/min of the scaled pivots is a cheap lower
+// bound of cond(S M S); past kMaxScaledCondition no digit of the solve is left.
+template <class Pivots, class Acceleration>
+void check_forward_dynamics(const Pivots& scaled_pivots, const Acceleration& qdd, const std::string& model_name) {
+  const double lo = scaled_pivots.minCoeff(), hi = scaled_pivots.maxCoeff();
+  if (!(lo > 0) || !std::isfinite(hi))
+    throw DynamicsError("model " + model_name + ": mass matrix is not positive definite");
+  if (!(hi / lo < kMaxScaledCondition))
+    throw DynamicsError("model " + model_name +
+                        ": mass matrix numerically singular (condition number of the diagonally scaled matrix >= " +
+                        std::to_string(hi / lo) + ")");
+  if (!qdd.allFinite()) throw DynamicsError("model " + model_name + ": accelerations not finite (overflow)");
+}
+
+}  // namespace spacearm
