@@ -355,26 +355,52 @@ struct CheckPoint {
   }
 };
 
+// Inputs of the composed outputs at the check point (qdd, Q, qdd_joints).
+double extra_input(const std::string& array, int index) { return 0.2 + 0.3 * std::cos(1.7 * index + array.size()); }
+
 // The generator checks itself before it emits: the optimized straight-line program must
-// reproduce GiNaC's evaluation of the derived expressions at the check point, else it names
-// the entry that fails.
-void self_check(const SymbolicModel& model, const FunctionSpec& f, const std::vector<std::vector<ex>>& expected) {
+// reproduce, at the check point, the values computed from the derivation alone (want: per
+// result, its entries row by row), else it names the entry that fails.
+void self_check(const SymbolicModel& model, const FunctionSpec& f, const std::vector<std::vector<double>>& want) {
   const CheckPoint at(model);
   for (size_t k = 0; k < f.results.size(); ++k) {
-    const auto values =
-        f.program.evaluate(f.entries[k], [&](const std::string& a, int i) { return at.input(a, i); });
-    std::vector<double> want;
-    double scale = 0;
-    for (const ex& e : expected[k]) {
-      want.push_back(evaluate(model, e, at.q, at.qd, at.params));
-      scale = std::max(scale, std::abs(want.back()));
-    }
-    for (size_t i = 0; i < want.size(); ++i)
-      if (!(std::abs(values[i] - want[i]) <= 1e-9 * std::max(scale, 1e-300)))
+    const auto got = f.program.evaluate(f.entries[k], [&](const std::string& a, int i) {
+      return a == "q" || a == "qd" || a == "params" ? at.input(a, i) : extra_input(a, i);
+    });
+    double scale = 1e-300;
+    for (double w : want[k]) scale = std::max(scale, std::abs(w));
+    for (size_t i = 0; i < want[k].size(); ++i)
+      if (!(std::abs(got[i] - want[k][i]) <= 1e-9 * scale))
         throw std::logic_error("generator self-check failed in " + f.name + ", " + f.results[k].name + " entry " +
-                               std::to_string(i) + ": " + std::to_string(values[i]) + " emitted vs " +
-                               std::to_string(want[i]) + " derived");
+                               std::to_string(i) + ": " + std::to_string(got[i]) + " emitted vs " +
+                               std::to_string(want[k][i]) + " derived");
   }
+}
+
+// Lowers f in each velocity basis (both when it uses velocities): `build` makes the entries
+// in the builder's program; CSE, the self-check against `want`, and the cheaper one is kept.
+FunctionSpec cheapest_lowering(const SymbolicModel& model, const FunctionSpec& f,
+                               const std::function<std::vector<std::vector<SRef>>(FunctionBuilder&)>& build,
+                               const std::vector<std::vector<double>>& want) {
+  const bool uses_velocity =
+      std::any_of(f.inputs.begin(), f.inputs.end(), [](const ArraySpec& a) { return a.name == "qd"; });
+  FunctionSpec best;
+  int best_cost = -1;
+  for (int basis = 0; basis < (uses_velocity ? 2 : 1); ++basis) {
+    FunctionBuilder fb(model, basis == 1);
+    FunctionSpec candidate = f;
+    candidate.entries = build(fb);
+    fb.prog.extract_common_pairs(candidate.roots());
+    candidate.program = std::move(fb.prog);
+    self_check(model, candidate, want);
+    const OpCounts ops = candidate.program.count(candidate.roots());
+    const int cost = ops.total_arithmetic() + ops.trig;
+    if (best_cost >= 0 && cost >= best_cost) continue;
+    candidate.variant = uses_velocity ? (basis == 1 ? "omega" : "qd") : "";
+    best = std::move(candidate);
+    best_cost = cost;
+  }
+  return best;
 }
 
 // The arrays of an output as the registry gives them.
@@ -390,7 +416,6 @@ void describe(FunctionSpec& f, const OutputInfo& o) {
 // with both velocity bases when it uses velocities, keeping the cheaper program.
 FunctionSpec lower_closed_form(const SymbolicModel& model, FunctionSpec f, const std::vector<std::vector<ex>>& results,
                                bool plain) {
-  const bool uses_velocity = std::any_of(f.inputs.begin(), f.inputs.end(), [](const ArraySpec& a) { return a.name == "qd"; });
   if (plain) {
     PlainBuilder pb(model);
     for (const auto& r : results) {
@@ -401,33 +426,26 @@ FunctionSpec lower_closed_form(const SymbolicModel& model, FunctionSpec f, const
     f.plain = true;
     return f;
   }
-  FunctionSpec best;
-  int best_cost = -1;
-  for (int basis = 0; basis < (uses_velocity ? 2 : 1); ++basis) {
-    FunctionBuilder fb(model, basis == 1);
-    FunctionSpec candidate = f;
-    std::vector<SRef> roots;
+  const CheckPoint at(model);
+  std::vector<std::vector<double>> want;
+  for (const auto& r : results) {
+    auto& w = want.emplace_back();
+    for (const ex& e : r) w.push_back(evaluate(model, e, at.q, at.qd, at.params));
+  }
+  auto build = [&](FunctionBuilder& fb) {
+    std::vector<std::vector<SRef>> entries;
     for (size_t k = 0; k < results.size(); ++k) {
-      auto& entries = candidate.entries.emplace_back();
+      auto& out = entries.emplace_back();
       const int cols = f.results[k].symmetric ? static_cast<int>(std::lround(std::sqrt(results[k].size()))) : 1;
       for (size_t e = 0; e < results[k].size(); ++e) {
         // A symmetric result's lower triangle repeats its upper one (built once).
         const int i = static_cast<int>(e) / cols, j = static_cast<int>(e) % cols;
-        entries.push_back(f.results[k].symmetric && j < i ? entries[j * cols + i] : fb.build(results[k][e]));
-        roots.push_back(entries.back());
+        out.push_back(f.results[k].symmetric && j < i ? out[j * cols + i] : fb.build(results[k][e]));
       }
     }
-    fb.prog.extract_common_pairs(roots);
-    candidate.program = std::move(fb.prog);
-    self_check(model, candidate, results);
-    const OpCounts ops = candidate.program.count(candidate.roots());
-    const int cost = ops.total_arithmetic() + ops.trig;
-    if (best_cost >= 0 && cost >= best_cost) continue;
-    candidate.variant = uses_velocity ? (basis == 1 ? "omega" : "qd") : "";
-    best = std::move(candidate);
-    best_cost = cost;
-  }
-  return best;
+    return entries;
+  };
+  return cheapest_lowering(model, f, build, want);
 }
 
 
@@ -437,9 +455,6 @@ std::vector<ex> entries_of(const GiNaC::matrix& m) {
     for (unsigned j = 0; j < m.cols(); ++j) v.push_back(m(i, j));
   return v;
 }
-
-// Inputs of the composed outputs at the check point (qdd, Q, qdd_joints).
-double extra_input(const std::string& array, int index) { return 0.2 + 0.3 * std::cos(1.7 * index + array.size()); }
 
 // The composed output's values at the check point, from the derivation alone.
 std::vector<Eigen::MatrixXd> composed_reference(const SymbolicModel& model, Output o, const CheckPoint& at) {
@@ -527,40 +542,14 @@ std::vector<std::vector<SRef>> compose(const SymbolicModel& model, FunctionBuild
   return {tau, base};
 }
 
-// A composed output, lowered with both velocity bases when it uses velocities.
-FunctionSpec lower_composed(const SymbolicModel& model, FunctionSpec f, Output o) {
-  const bool uses_velocity = std::any_of(f.inputs.begin(), f.inputs.end(), [](const ArraySpec& a) { return a.name == "qd"; });
-  const CheckPoint at(model);
-  const std::vector<Eigen::MatrixXd> want = composed_reference(model, o, at);
-  FunctionSpec best;
-  int best_cost = -1;
-  for (int basis = 0; basis < (uses_velocity ? 2 : 1); ++basis) {
-    FunctionBuilder fb(model, basis == 1);
-    FunctionSpec candidate = f;
-    candidate.entries = compose(model, fb, o);
-    fb.prog.extract_common_pairs(candidate.roots());
-    candidate.program = std::move(fb.prog);
-    // Self-check against Eigen's solve of GiNaC's values.
-    for (size_t k = 0; k < want.size(); ++k) {
-      const auto got = candidate.program.evaluate(candidate.entries[k], [&](const std::string& a, int i) {
-        return a == "q" || a == "qd" || a == "params" ? at.input(a, i) : extra_input(a, i);
-      });
-      const double scale = std::max(want[k].cwiseAbs().maxCoeff(), 1e-300);
-      const Eigen::Index cols = want[k].cols();  // entries are row by row, Eigen's are column by column
-      for (Eigen::Index i = 0; i < want[k].size(); ++i)
-        if (!(std::abs(got[i] - want[k](i / cols, i % cols)) <= 1e-9 * scale))
-          throw std::logic_error("generator self-check failed in " + f.name + ", " + f.results[k].name + " entry " +
-                                 std::to_string(i) + ": " + std::to_string(got[i]) + " emitted vs " +
-                                 std::to_string(want[k](i / cols, i % cols)) + " computed");
-    }
-    const OpCounts ops = candidate.program.count(candidate.roots());
-    const int cost = ops.total_arithmetic() + ops.trig;
-    if (best_cost >= 0 && cost >= best_cost) continue;
-    candidate.variant = uses_velocity ? (basis == 1 ? "omega" : "qd") : "";
-    best = std::move(candidate);
-    best_cost = cost;
+// A composed output, checked against Eigen's solves of GiNaC's values.
+FunctionSpec lower_composed(const SymbolicModel& model, const FunctionSpec& f, Output o) {
+  std::vector<std::vector<double>> want;
+  for (const Eigen::MatrixXd& m : composed_reference(model, o, CheckPoint(model))) {
+    const Eigen::MatrixXd rows = m.transpose();  // entries row by row
+    want.emplace_back(rows.data(), rows.data() + rows.size());
   }
-  return best;
+  return cheapest_lowering(model, f, [&](FunctionBuilder& fb) { return compose(model, fb, o); }, want);
 }
 
 // The scene's range checks for quantities that depend on run-time parameters (positive
