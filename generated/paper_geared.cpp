@@ -750,10 +750,10 @@ void inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]]
   Q(5) = qd(2) * qd(2) * (-t76) + t93 + t4 * t4 * (-t79) + t30 * qdd(0) + t35 * qdd(1) + t75 * qdd(2) + t92 * qdd(3) + t94 * qdd(4) + (t90 + t84) * qdd(5);
 }
 
-// Acceleration qdd = M^-1 (Q - b) by an unrolled LDL^T solve; pivots are D_i / M_ii, the pivots of diag(M)^-1/2 M diag(M)^-1/2 (all positive for a valid state; (max/min) bounds its condition number). Paper eq. 8.
+// Acceleration qdd = M^-1 (Q - b) by an unrolled LDL^T solve, with the pivots D_i (all positive for a positive definite M) and D_i / M_ii, the pivots of diag(M)^-1/2 M diag(M)^-1/2 (max/min bounds its condition number). Paper eq. 8.
 // Operations: 201 add, 266 mul, 12 div, 8 sin/cos.
 template <typename T>
-void forward_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& Q, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& qdd, Velocities<T>& pivots) {
+void forward_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& Q, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& qdd, Velocities<T>& pivots, Velocities<T>& scaled_pivots) {
   using std::cos;
   using std::sin;
   const T t0 = cos(q(2));
@@ -892,15 +892,21 @@ void forward_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]]
   qdd(3) = t128;
   qdd(4) = t127;
   qdd(5) = t126;
-  pivots(0) = T(72.117) / T(72.117);
-  pivots(1) = T(72.117) / T(72.117);
-  pivots(2) = t43 / t40;
-  pivots(3) = t83 / t80;
-  pivots(4) = t110 / t106;
-  pivots(5) = t125 / t120;
+  pivots(0) = T(72.117);
+  pivots(1) = T(72.117);
+  pivots(2) = t43;
+  pivots(3) = t83;
+  pivots(4) = t110;
+  pivots(5) = t125;
+  scaled_pivots(0) = T(72.117) / T(72.117);
+  scaled_pivots(1) = T(72.117) / T(72.117);
+  scaled_pivots(2) = t43 / t40;
+  scaled_pivots(3) = t83 / t80;
+  scaled_pivots(4) = t110 / t106;
+  scaled_pivots(5) = t125 / t120;
 }
 
-// Generalized Jacobian J* (Umetani-Yoshida): end-effector velocity per joint rate with the base moving so that the momentum stays zero, J* = J_m - J_b M_bb^-1 M_bm.
+// Generalized Jacobian J* (Umetani-Yoshida): end-effector velocity per rate of the joint coordinates (motor rates in a geared scene) with the base moving so that the momentum stays zero, J* = J_m - J_b M_bb^-1 M_bm.
 // Operations: 110 add, 146 mul, 3 div, 8 sin/cos.
 template <typename T>
 void generalized_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, 3, kNumLinks>& Jg) {
@@ -974,8 +980,8 @@ void generalized_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unus
   Jg(2, 2) = t0 - t53;
 }
 
-// Joint torques tau (link side: tau = p Q) that give the joint accelerations qdd_joints with no force on the free base, and the base acceleration that follows. Paper eq. 14.
-// Operations: 172 add, 229 mul, 4 div, 8 sin/cos.
+// Joint torques tau that give the link-side joint accelerations qdd_joints with no force on the free base, and the base acceleration that follows; both tau and qdd_joints on the link side of the gears (tau = p Q, motor acceleration = p qdd_joints). Paper eq. 14.
+// Operations: 172 add, 232 mul, 4 div, 8 sin/cos.
 template <typename T>
 void free_base_inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const JointVector<T>& qdd_joints, [[maybe_unused]] const Parameters<T>& params, JointVector<T>& tau, Eigen::Matrix<T, kNv - kNumLinks, 1>& qdd_base) {
   using std::cos;
@@ -1036,59 +1042,62 @@ void free_base_inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[mayb
   const T t53 = T(2.478158) * t3;
   const T t54 = t27 * t27;
   const T t55 = T(1.29375) * t19;
-  const T t56 = -t48;
-  const T t57 = qd(2) * qd(2) * (-t50) - (t28 * t28 * t51 + t52 * t53 + t54 * t55) + t49 * qdd_joints(0) + t56 * qdd_joints(1) + t47 * qdd_joints(2);
-  const T t58 = T(1) / T(72.117);
-  const T t59 = T(2.478158) * t5;
-  const T t60 = T(1.29375) * t20;
-  const T t61 = T(0.007258) * t0 + T(2.68546) * t4;
-  const T t62 = T(0.003398) * t12 - T(0.174997) * t13;
-  const T t63 = t62 - t59 - t60 - t61;
-  const T t64 = t63 * t58;
-  const T t65 = t3 * t19 + t5 * t20;
-  const T t66 = t53 + t55 + t50 + t51;
-  const T t67 = t66 * t58;
-  const T t68 = t6 * T(0.002478158) - t8 * T(0.91691846);
-  const T t69 = t21 * T(0.00129375) - t23 * T(0.4786875);
-  const T t70 = t14 * T(0.001432257) - t16 * T(0.064745492);
-  const T t71 = t34 * T(0.001525702) - t36 * T(0.078573653);
-  const T t72 = t29 * T(0.0015291) - t31 * T(0.07874865);
-  const T t73 = T(0.58089375) * t40;
-  const T t74 = t1 * params(1);
-  const T t75 = params(1) - t74;
-  const T t76 = t14 * t17 + t16 * t15;
-  const T t77 = t29 * t1 * T(0.1574973) + t31 * t1 * T(0.0030582) + t76 + t21 * t24 + t23 * t22;
-  const T t78 = t1 * T(1.633308125) + t75 + t6 * t9 + t8 * t7 + t65 * t1 * T(1.1617875) + t34 * t1 * T(0.157147306) + t36 * t1 * T(0.003051404) + t77;
-  const T t79 = t34 * t37 + t36 * t35;
-  const T t80 = t1 * T(0.570918987) + t75 + t65 * t39 + t79 + t77;
-  const T t81 = t1 * T(0.040031487) + t75 + t29 * t32 + t31 * t30 + t76 + t79;
-  const T t82 = t12 * t46 + t13 * t45;
-  const T t83 = t44 * t19 + t82;
-  const T t84 = t43 * t3 + t83;
-  const T t85 = t83;
-  const T t86 = t28 * t28 * t62 - (t52 * t59 + t54 * t60) - qd(2) * qd(2) * t61 + t84 * qdd_joints(0) + t85 * qdd_joints(1) + t82 * qdd_joints(2);
-  const T t87 = T(1) / (T(5.321935583) + T(1.83383692) * t6 + T(0.004956316) * t8 + T(0.957375) * t21 + T(0.0025875) * t23 + T(1.1617875) * t65 + T(0.129490984) * t14 + T(0.002864514) * t16 + T(0.157147306) * t34 + T(0.003051404) * t36 + T(0.1574973) * t29 + T(0.0030582) * t31 - t63 * t64 - t66 * t67) * (t57 * t64 + t86 * t67 - (qd(2) * qd(2) * (-t68 - t69 - t70) + t28 * t28 * (t70 + t71 + t72) + t26 * t26 * (t73 + t68 - t71) + t27 * t27 * (t69 - t73 - t72) + t78 * qdd_joints(0) + t80 * qdd_joints(1) + t81 * qdd_joints(2)));
-  const T t88 = t57 * t58 + t64 * t87;
-  const T t89 = t86 * t58 + t67 * t87;
-  const T t90 = T(1) / (params(0) * params(0));
-  const T t91 = params(1) * t90;
-  const T t92 = params(1) - t91;
-  const T t93 = t29 * T(0.1574973) * t90 + t31 * T(0.0030582) * t90;
-  const T t94 = T(0.570918987) * t90;
-  const T t95 = t74 - t91;
-  const T t96 = t34 * T(0.078573653) * t90 + t36 * T(0.001525702) * t90;
-  const T t97 = t94 + t95 + t65 * T(0.58089375) * t90 + t93 + t96;
-  const T t98 = T(0.040031487) * t90;
-  const T t99 = t31 * T(0.0015291) * t90 + t98 + t95 + t29 * T(0.07874865) * t90;
-  const T t100 = t96 + t99;
-  const T t101 = t27 * t27 * (-t33);
-  const T t102 = t99;
-  tau(0) = params(0) * (qd(2) * qd(2) * (t8 * t9 - t6 * t7 - t25) + t28 * t28 * (t33 + t38) + t42 + t27 * t27 * (-t41 - t33) + t78 * t87 - t49 * t88 - t84 * t89 + (T(1.633308125) * t90 + t92 + t65 * T(1.1617875) * t90 + t34 * T(0.157147306) * t90 + t36 * T(0.003051404) * t90 + t93) * qdd_joints(0) + t97 * qdd_joints(1) + t100 * qdd_joints(2));
-  tau(1) = params(0) * (qd(2) * qd(2) * (-t25) + t42 + t101 + t28 * t28 * t33 + t80 * t87 - t56 * t88 - t85 * t89 + t97 * qdd_joints(0) + (t94 + t92 + t93) * qdd_joints(1) + t102 * qdd_joints(2));
-  tau(2) = params(0) * (qd(2) * qd(2) * (-t18) + t101 + t26 * t26 * (-t38) + t81 * t87 - t47 * t88 - t82 * t89 + t100 * qdd_joints(0) + t102 * qdd_joints(1) + (t98 + t92) * qdd_joints(2));
-  qdd_base(0) = -t88;
-  qdd_base(1) = -t89;
-  qdd_base(2) = t87;
+  const T t56 = params(0) * qdd_joints(0);
+  const T t57 = -t48;
+  const T t58 = params(0) * qdd_joints(1);
+  const T t59 = params(0) * qdd_joints(2);
+  const T t60 = qd(2) * qd(2) * (-t50) - (t28 * t28 * t51 + t52 * t53 + t54 * t55) + t49 * t56 + t57 * t58 + t47 * t59;
+  const T t61 = T(1) / T(72.117);
+  const T t62 = T(2.478158) * t5;
+  const T t63 = T(1.29375) * t20;
+  const T t64 = T(0.007258) * t0 + T(2.68546) * t4;
+  const T t65 = T(0.003398) * t12 - T(0.174997) * t13;
+  const T t66 = t65 - t62 - t63 - t64;
+  const T t67 = t66 * t61;
+  const T t68 = t3 * t19 + t5 * t20;
+  const T t69 = t53 + t55 + t50 + t51;
+  const T t70 = t69 * t61;
+  const T t71 = t6 * T(0.002478158) - t8 * T(0.91691846);
+  const T t72 = t21 * T(0.00129375) - t23 * T(0.4786875);
+  const T t73 = t14 * T(0.001432257) - t16 * T(0.064745492);
+  const T t74 = t34 * T(0.001525702) - t36 * T(0.078573653);
+  const T t75 = t29 * T(0.0015291) - t31 * T(0.07874865);
+  const T t76 = T(0.58089375) * t40;
+  const T t77 = t1 * params(1);
+  const T t78 = params(1) - t77;
+  const T t79 = t14 * t17 + t16 * t15;
+  const T t80 = t29 * t1 * T(0.1574973) + t31 * t1 * T(0.0030582) + t79 + t21 * t24 + t23 * t22;
+  const T t81 = t1 * T(1.633308125) + t78 + t6 * t9 + t8 * t7 + t68 * t1 * T(1.1617875) + t34 * t1 * T(0.157147306) + t36 * t1 * T(0.003051404) + t80;
+  const T t82 = t34 * t37 + t36 * t35;
+  const T t83 = t1 * T(0.570918987) + t78 + t68 * t39 + t82 + t80;
+  const T t84 = t1 * T(0.040031487) + t78 + t29 * t32 + t31 * t30 + t79 + t82;
+  const T t85 = t12 * t46 + t13 * t45;
+  const T t86 = t44 * t19 + t85;
+  const T t87 = t43 * t3 + t86;
+  const T t88 = t86;
+  const T t89 = t28 * t28 * t65 - (t52 * t62 + t54 * t63) - qd(2) * qd(2) * t64 + t87 * t56 + t88 * t58 + t85 * t59;
+  const T t90 = T(1) / (T(5.321935583) + T(1.83383692) * t6 + T(0.004956316) * t8 + T(0.957375) * t21 + T(0.0025875) * t23 + T(1.1617875) * t68 + T(0.129490984) * t14 + T(0.002864514) * t16 + T(0.157147306) * t34 + T(0.003051404) * t36 + T(0.1574973) * t29 + T(0.0030582) * t31 - t66 * t67 - t69 * t70) * (t60 * t67 + t89 * t70 - (qd(2) * qd(2) * (-t71 - t72 - t73) + t28 * t28 * (t73 + t74 + t75) + t26 * t26 * (t76 + t71 - t74) + t27 * t27 * (t72 - t76 - t75) + t81 * t56 + t83 * t58 + t84 * t59));
+  const T t91 = t60 * t61 + t67 * t90;
+  const T t92 = t89 * t61 + t70 * t90;
+  const T t93 = T(1) / (params(0) * params(0));
+  const T t94 = params(1) * t93;
+  const T t95 = params(1) - t94;
+  const T t96 = t29 * T(0.1574973) * t93 + t31 * T(0.0030582) * t93;
+  const T t97 = T(0.570918987) * t93;
+  const T t98 = t77 - t94;
+  const T t99 = t34 * T(0.078573653) * t93 + t36 * T(0.001525702) * t93;
+  const T t100 = t97 + t98 + t68 * T(0.58089375) * t93 + t96 + t99;
+  const T t101 = T(0.040031487) * t93;
+  const T t102 = t31 * T(0.0015291) * t93 + t101 + t98 + t29 * T(0.07874865) * t93;
+  const T t103 = t99 + t102;
+  const T t104 = t27 * t27 * (-t33);
+  const T t105 = t102;
+  tau(0) = params(0) * (qd(2) * qd(2) * (t8 * t9 - t6 * t7 - t25) + t28 * t28 * (t33 + t38) + t42 + t27 * t27 * (-t41 - t33) + t81 * t90 - t49 * t91 - t87 * t92 + (T(1.633308125) * t93 + t95 + t68 * T(1.1617875) * t93 + t34 * T(0.157147306) * t93 + t36 * T(0.003051404) * t93 + t96) * t56 + t100 * t58 + t103 * t59);
+  tau(1) = params(0) * (qd(2) * qd(2) * (-t25) + t42 + t104 + t28 * t28 * t33 + t83 * t90 - t57 * t91 - t88 * t92 + t100 * t56 + (t97 + t95 + t96) * t58 + t105 * t59);
+  tau(2) = params(0) * (qd(2) * qd(2) * (-t18) + t104 + t26 * t26 * (-t38) + t84 * t90 - t47 * t91 - t85 * t92 + t103 * t56 + t105 * t58 + (t101 + t95) * t59);
+  qdd_base(0) = -t91;
+  qdd_base(1) = -t92;
+  qdd_base(2) = t90;
 }
 
 // Gear ratio p_i of each joint (1 for the reference model): Q_g = tau / p. Paper eq. 14.
@@ -1115,7 +1124,7 @@ template void joint_positions<float>(const Coordinates<float>&, const Parameters
 template void joint_angles<float>(const Coordinates<float>&, const Parameters<float>&, JointVector<float>&);
 template void joint_rates<float>(const Velocities<float>&, const Parameters<float>&, JointVector<float>&);
 template void inverse_dynamics<float>(const Coordinates<float>&, const Velocities<float>&, const Velocities<float>&, const Parameters<float>&, Velocities<float>&);
-template void forward_dynamics<float>(const Coordinates<float>&, const Velocities<float>&, const Velocities<float>&, const Parameters<float>&, Velocities<float>&, Velocities<float>&);
+template void forward_dynamics<float>(const Coordinates<float>&, const Velocities<float>&, const Velocities<float>&, const Parameters<float>&, Velocities<float>&, Velocities<float>&, Velocities<float>&);
 template void generalized_jacobian<float>(const Coordinates<float>&, const Parameters<float>&, Eigen::Matrix<float, 3, kNumLinks>&);
 template void free_base_inverse_dynamics<float>(const Coordinates<float>&, const Velocities<float>&, const JointVector<float>&, const Parameters<float>&, JointVector<float>&, Eigen::Matrix<float, kNv - kNumLinks, 1>&);
 template void gear_ratios<float>(const Parameters<float>&, JointVector<float>&);
@@ -1131,7 +1140,7 @@ template void joint_positions<double>(const Coordinates<double>&, const Paramete
 template void joint_angles<double>(const Coordinates<double>&, const Parameters<double>&, JointVector<double>&);
 template void joint_rates<double>(const Velocities<double>&, const Parameters<double>&, JointVector<double>&);
 template void inverse_dynamics<double>(const Coordinates<double>&, const Velocities<double>&, const Velocities<double>&, const Parameters<double>&, Velocities<double>&);
-template void forward_dynamics<double>(const Coordinates<double>&, const Velocities<double>&, const Velocities<double>&, const Parameters<double>&, Velocities<double>&, Velocities<double>&);
+template void forward_dynamics<double>(const Coordinates<double>&, const Velocities<double>&, const Velocities<double>&, const Parameters<double>&, Velocities<double>&, Velocities<double>&, Velocities<double>&);
 template void generalized_jacobian<double>(const Coordinates<double>&, const Parameters<double>&, Eigen::Matrix<double, 3, kNumLinks>&);
 template void free_base_inverse_dynamics<double>(const Coordinates<double>&, const Velocities<double>&, const JointVector<double>&, const Parameters<double>&, JointVector<double>&, Eigen::Matrix<double, kNv - kNumLinks, 1>&);
 template void gear_ratios<double>(const Parameters<double>&, JointVector<double>&);
@@ -1147,7 +1156,7 @@ template void joint_positions<long double>(const Coordinates<long double>&, cons
 template void joint_angles<long double>(const Coordinates<long double>&, const Parameters<long double>&, JointVector<long double>&);
 template void joint_rates<long double>(const Velocities<long double>&, const Parameters<long double>&, JointVector<long double>&);
 template void inverse_dynamics<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Velocities<long double>&, const Parameters<long double>&, Velocities<long double>&);
-template void forward_dynamics<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Velocities<long double>&, const Parameters<long double>&, Velocities<long double>&, Velocities<long double>&);
+template void forward_dynamics<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Velocities<long double>&, const Parameters<long double>&, Velocities<long double>&, Velocities<long double>&, Velocities<long double>&);
 template void generalized_jacobian<long double>(const Coordinates<long double>&, const Parameters<long double>&, Eigen::Matrix<long double, 3, kNumLinks>&);
 template void free_base_inverse_dynamics<long double>(const Coordinates<long double>&, const Velocities<long double>&, const JointVector<long double>&, const Parameters<long double>&, JointVector<long double>&, Eigen::Matrix<long double, kNv - kNumLinks, 1>&);
 template void gear_ratios<long double>(const Parameters<long double>&, JointVector<long double>&);

@@ -738,10 +738,10 @@ void inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]]
   Q(5) = qd(2) * qd(2) * (-t75) + t90 + t4 * t4 * (-t78) + t30 * qdd(0) + t35 * qdd(1) + t74 * qdd(2) + t89 * qdd(3) + t91 * qdd(4) + (params(1) - t87) * qdd(5);
 }
 
-// Acceleration qdd = M^-1 (Q - b) by an unrolled LDL^T solve; pivots are D_i / M_ii, the pivots of diag(M)^-1/2 M diag(M)^-1/2 (all positive for a valid state; (max/min) bounds its condition number). Paper eq. 8.
+// Acceleration qdd = M^-1 (Q - b) by an unrolled LDL^T solve, with the pivots D_i (all positive for a positive definite M) and D_i / M_ii, the pivots of diag(M)^-1/2 M diag(M)^-1/2 (max/min bounds its condition number). Paper eq. 8.
 // Operations: 202 add, 271 mul, 12 div, 8 sin/cos.
 template <typename T>
-void forward_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& Q, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& qdd, Velocities<T>& pivots) {
+void forward_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& Q, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& qdd, Velocities<T>& pivots, Velocities<T>& scaled_pivots) {
   using std::cos;
   using std::sin;
   const T t0 = cos(q(2));
@@ -877,15 +877,21 @@ void forward_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]]
   qdd(3) = t125;
   qdd(4) = t124;
   qdd(5) = t123;
-  pivots(0) = T(72.117) / T(72.117);
-  pivots(1) = T(72.117) / T(72.117);
-  pivots(2) = t43 / t40;
-  pivots(3) = t81 / t78;
-  pivots(4) = t107 / t103;
-  pivots(5) = t122 / t117;
+  pivots(0) = T(72.117);
+  pivots(1) = T(72.117);
+  pivots(2) = t43;
+  pivots(3) = t81;
+  pivots(4) = t107;
+  pivots(5) = t122;
+  scaled_pivots(0) = T(72.117) / T(72.117);
+  scaled_pivots(1) = T(72.117) / T(72.117);
+  scaled_pivots(2) = t43 / t40;
+  scaled_pivots(3) = t81 / t78;
+  scaled_pivots(4) = t107 / t103;
+  scaled_pivots(5) = t122 / t117;
 }
 
-// Generalized Jacobian J* (Umetani-Yoshida): end-effector velocity per joint rate with the base moving so that the momentum stays zero, J* = J_m - J_b M_bb^-1 M_bm.
+// Generalized Jacobian J* (Umetani-Yoshida): end-effector velocity per rate of the joint coordinates (motor rates in a geared scene) with the base moving so that the momentum stays zero, J* = J_m - J_b M_bb^-1 M_bm.
 // Operations: 110 add, 149 mul, 3 div, 8 sin/cos.
 template <typename T>
 void generalized_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, 3, kNumLinks>& Jg) {
@@ -959,8 +965,8 @@ void generalized_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unus
   Jg(2, 2) = t0 - t53;
 }
 
-// Joint torques tau (link side: tau = p Q) that give the joint accelerations qdd_joints with no force on the free base, and the base acceleration that follows. Paper eq. 14.
-// Operations: 173 add, 234 mul, 4 div, 8 sin/cos.
+// Joint torques tau that give the link-side joint accelerations qdd_joints with no force on the free base, and the base acceleration that follows; both tau and qdd_joints on the link side of the gears (tau = p Q, motor acceleration = p qdd_joints). Paper eq. 14.
+// Operations: 173 add, 237 mul, 4 div, 8 sin/cos.
 template <typename T>
 void free_base_inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const JointVector<T>& qdd_joints, [[maybe_unused]] const Parameters<T>& params, JointVector<T>& tau, Eigen::Matrix<T, kNv - kNumLinks, 1>& qdd_base) {
   using std::cos;
@@ -1021,56 +1027,59 @@ void free_base_inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[mayb
   const T t53 = T(2.478158) * t3;
   const T t54 = t27 * t27;
   const T t55 = T(1.29375) * t19;
-  const T t56 = -t48;
-  const T t57 = qd(2) * qd(2) * (-t50) - (t28 * t28 * t51 + t52 * t53 + t54 * t55) + t49 * qdd_joints(0) + t56 * qdd_joints(1) + t47 * qdd_joints(2);
-  const T t58 = T(1) / T(72.117);
-  const T t59 = T(2.478158) * t5;
-  const T t60 = T(1.29375) * t20;
-  const T t61 = T(0.007258) * t0 + T(2.68546) * t4;
-  const T t62 = T(0.003398) * t12 - T(0.174997) * t13;
-  const T t63 = t62 - t59 - t60 - t61;
-  const T t64 = t63 * t58;
-  const T t65 = t3 * t19 + t5 * t20;
-  const T t66 = t53 + t55 + t50 + t51;
-  const T t67 = t66 * t58;
-  const T t68 = t6 * T(0.002478158) - t8 * T(0.91691846);
-  const T t69 = t21 * T(0.00129375) - t23 * T(0.4786875);
-  const T t70 = t14 * T(0.001432257) - t16 * T(0.064745492);
-  const T t71 = t34 * T(0.001525702) - t36 * T(0.078573653);
-  const T t72 = t29 * T(0.0015291) - t31 * T(0.07874865);
-  const T t73 = T(0.58089375) * t40;
-  const T t74 = t1 * params(1);
-  const T t75 = t14 * t17 + t16 * t15;
-  const T t76 = t29 * t1 * T(0.1574973) + t31 * t1 * T(0.0030582) + t75 + t21 * t24 + t23 * t22;
-  const T t77 = t1 * T(1.633308125) - T(3) * t74 + t6 * t9 + t8 * t7 + t65 * t1 * T(1.1617875) + t34 * t1 * T(0.157147306) + t36 * t1 * T(0.003051404) + t76;
-  const T t78 = t34 * t37 + t36 * t35;
-  const T t79 = t1 * T(0.570918987) - T(2) * t74 + t65 * t39 + t78 + t76;
-  const T t80 = t1 * T(0.040031487) - t74 + t29 * t32 + t31 * t30 + t75 + t78;
-  const T t81 = t12 * t46 + t13 * t45;
-  const T t82 = t44 * t19 + t81;
-  const T t83 = t43 * t3 + t82;
-  const T t84 = t82;
-  const T t85 = t28 * t28 * t62 - (t52 * t59 + t54 * t60) - qd(2) * qd(2) * t61 + t83 * qdd_joints(0) + t84 * qdd_joints(1) + t81 * qdd_joints(2);
-  const T t86 = T(1) / (T(5.321935583) - T(3) * params(1) + T(1.83383692) * t6 + T(0.004956316) * t8 + T(0.957375) * t21 + T(0.0025875) * t23 + T(1.1617875) * t65 + T(0.129490984) * t14 + T(0.002864514) * t16 + T(0.157147306) * t34 + T(0.003051404) * t36 + T(0.1574973) * t29 + T(0.0030582) * t31 - t63 * t64 - t66 * t67) * (t57 * t64 + t85 * t67 - (qd(2) * qd(2) * (-t68 - t69 - t70) + t28 * t28 * (t70 + t71 + t72) + t26 * t26 * (t73 + t68 - t71) + t27 * t27 * (t69 - t73 - t72) + t77 * qdd_joints(0) + t79 * qdd_joints(1) + t80 * qdd_joints(2)));
-  const T t87 = t57 * t58 + t64 * t86;
-  const T t88 = t85 * t58 + t67 * t86;
-  const T t89 = T(1) / (params(0) * params(0));
-  const T t90 = params(1) * t89;
-  const T t91 = t29 * T(0.1574973) * t89 + t31 * T(0.0030582) * t89;
-  const T t92 = T(2) * t90 - T(0.570918987) * t89;
-  const T t93 = t34 * T(0.078573653) * t89 + t36 * T(0.001525702) * t89;
-  const T t94 = -t92 + t65 * T(0.58089375) * t89 + t91 + t93;
-  const T t95 = t90 - T(0.040031487) * t89;
-  const T t96 = t31 * T(0.0015291) * t89 + -t95 + t29 * T(0.07874865) * t89;
-  const T t97 = t93 + t96;
-  const T t98 = t27 * t27 * (-t33);
-  const T t99 = t96;
-  tau(0) = params(0) * (qd(2) * qd(2) * (t8 * t9 - t6 * t7 - t25) + t28 * t28 * (t33 + t38) + t42 + t27 * t27 * (-t41 - t33) + t77 * t86 - t49 * t87 - t83 * t88 + (params(1) + T(1.633308125) * t89 - T(3) * t90 + t65 * T(1.1617875) * t89 + t34 * T(0.157147306) * t89 + t36 * T(0.003051404) * t89 + t91) * qdd_joints(0) + t94 * qdd_joints(1) + t97 * qdd_joints(2));
-  tau(1) = params(0) * (qd(2) * qd(2) * (-t25) + t42 + t98 + t28 * t28 * t33 + t79 * t86 - t56 * t87 - t84 * t88 + t94 * qdd_joints(0) + (params(1) - t92 + t91) * qdd_joints(1) + t99 * qdd_joints(2));
-  tau(2) = params(0) * (qd(2) * qd(2) * (-t18) + t98 + t26 * t26 * (-t38) + t80 * t86 - t47 * t87 - t81 * t88 + t97 * qdd_joints(0) + t99 * qdd_joints(1) + (params(1) - t95) * qdd_joints(2));
-  qdd_base(0) = -t87;
-  qdd_base(1) = -t88;
-  qdd_base(2) = t86;
+  const T t56 = params(0) * qdd_joints(0);
+  const T t57 = -t48;
+  const T t58 = params(0) * qdd_joints(1);
+  const T t59 = params(0) * qdd_joints(2);
+  const T t60 = qd(2) * qd(2) * (-t50) - (t28 * t28 * t51 + t52 * t53 + t54 * t55) + t49 * t56 + t57 * t58 + t47 * t59;
+  const T t61 = T(1) / T(72.117);
+  const T t62 = T(2.478158) * t5;
+  const T t63 = T(1.29375) * t20;
+  const T t64 = T(0.007258) * t0 + T(2.68546) * t4;
+  const T t65 = T(0.003398) * t12 - T(0.174997) * t13;
+  const T t66 = t65 - t62 - t63 - t64;
+  const T t67 = t66 * t61;
+  const T t68 = t3 * t19 + t5 * t20;
+  const T t69 = t53 + t55 + t50 + t51;
+  const T t70 = t69 * t61;
+  const T t71 = t6 * T(0.002478158) - t8 * T(0.91691846);
+  const T t72 = t21 * T(0.00129375) - t23 * T(0.4786875);
+  const T t73 = t14 * T(0.001432257) - t16 * T(0.064745492);
+  const T t74 = t34 * T(0.001525702) - t36 * T(0.078573653);
+  const T t75 = t29 * T(0.0015291) - t31 * T(0.07874865);
+  const T t76 = T(0.58089375) * t40;
+  const T t77 = t1 * params(1);
+  const T t78 = t14 * t17 + t16 * t15;
+  const T t79 = t29 * t1 * T(0.1574973) + t31 * t1 * T(0.0030582) + t78 + t21 * t24 + t23 * t22;
+  const T t80 = t1 * T(1.633308125) - T(3) * t77 + t6 * t9 + t8 * t7 + t68 * t1 * T(1.1617875) + t34 * t1 * T(0.157147306) + t36 * t1 * T(0.003051404) + t79;
+  const T t81 = t34 * t37 + t36 * t35;
+  const T t82 = t1 * T(0.570918987) - T(2) * t77 + t68 * t39 + t81 + t79;
+  const T t83 = t1 * T(0.040031487) - t77 + t29 * t32 + t31 * t30 + t78 + t81;
+  const T t84 = t12 * t46 + t13 * t45;
+  const T t85 = t44 * t19 + t84;
+  const T t86 = t43 * t3 + t85;
+  const T t87 = t85;
+  const T t88 = t28 * t28 * t65 - (t52 * t62 + t54 * t63) - qd(2) * qd(2) * t64 + t86 * t56 + t87 * t58 + t84 * t59;
+  const T t89 = T(1) / (T(5.321935583) - T(3) * params(1) + T(1.83383692) * t6 + T(0.004956316) * t8 + T(0.957375) * t21 + T(0.0025875) * t23 + T(1.1617875) * t68 + T(0.129490984) * t14 + T(0.002864514) * t16 + T(0.157147306) * t34 + T(0.003051404) * t36 + T(0.1574973) * t29 + T(0.0030582) * t31 - t66 * t67 - t69 * t70) * (t60 * t67 + t88 * t70 - (qd(2) * qd(2) * (-t71 - t72 - t73) + t28 * t28 * (t73 + t74 + t75) + t26 * t26 * (t76 + t71 - t74) + t27 * t27 * (t72 - t76 - t75) + t80 * t56 + t82 * t58 + t83 * t59));
+  const T t90 = t60 * t61 + t67 * t89;
+  const T t91 = t88 * t61 + t70 * t89;
+  const T t92 = T(1) / (params(0) * params(0));
+  const T t93 = params(1) * t92;
+  const T t94 = t29 * T(0.1574973) * t92 + t31 * T(0.0030582) * t92;
+  const T t95 = T(2) * t93 - T(0.570918987) * t92;
+  const T t96 = t34 * T(0.078573653) * t92 + t36 * T(0.001525702) * t92;
+  const T t97 = -t95 + t68 * T(0.58089375) * t92 + t94 + t96;
+  const T t98 = t93 - T(0.040031487) * t92;
+  const T t99 = t31 * T(0.0015291) * t92 + -t98 + t29 * T(0.07874865) * t92;
+  const T t100 = t96 + t99;
+  const T t101 = t27 * t27 * (-t33);
+  const T t102 = t99;
+  tau(0) = params(0) * (qd(2) * qd(2) * (t8 * t9 - t6 * t7 - t25) + t28 * t28 * (t33 + t38) + t42 + t27 * t27 * (-t41 - t33) + t80 * t89 - t49 * t90 - t86 * t91 + (params(1) + T(1.633308125) * t92 - T(3) * t93 + t68 * T(1.1617875) * t92 + t34 * T(0.157147306) * t92 + t36 * T(0.003051404) * t92 + t94) * t56 + t97 * t58 + t100 * t59);
+  tau(1) = params(0) * (qd(2) * qd(2) * (-t25) + t42 + t101 + t28 * t28 * t33 + t82 * t89 - t57 * t90 - t87 * t91 + t97 * t56 + (params(1) - t95 + t94) * t58 + t102 * t59);
+  tau(2) = params(0) * (qd(2) * qd(2) * (-t18) + t101 + t26 * t26 * (-t38) + t83 * t89 - t47 * t90 - t84 * t91 + t100 * t56 + t102 * t58 + (params(1) - t98) * t59);
+  qdd_base(0) = -t90;
+  qdd_base(1) = -t91;
+  qdd_base(2) = t89;
 }
 
 // Gear ratio p_i of each joint (1 for the reference model): Q_g = tau / p. Paper eq. 14.
@@ -1097,7 +1106,7 @@ template void joint_positions<float>(const Coordinates<float>&, const Parameters
 template void joint_angles<float>(const Coordinates<float>&, const Parameters<float>&, JointVector<float>&);
 template void joint_rates<float>(const Velocities<float>&, const Parameters<float>&, JointVector<float>&);
 template void inverse_dynamics<float>(const Coordinates<float>&, const Velocities<float>&, const Velocities<float>&, const Parameters<float>&, Velocities<float>&);
-template void forward_dynamics<float>(const Coordinates<float>&, const Velocities<float>&, const Velocities<float>&, const Parameters<float>&, Velocities<float>&, Velocities<float>&);
+template void forward_dynamics<float>(const Coordinates<float>&, const Velocities<float>&, const Velocities<float>&, const Parameters<float>&, Velocities<float>&, Velocities<float>&, Velocities<float>&);
 template void generalized_jacobian<float>(const Coordinates<float>&, const Parameters<float>&, Eigen::Matrix<float, 3, kNumLinks>&);
 template void free_base_inverse_dynamics<float>(const Coordinates<float>&, const Velocities<float>&, const JointVector<float>&, const Parameters<float>&, JointVector<float>&, Eigen::Matrix<float, kNv - kNumLinks, 1>&);
 template void gear_ratios<float>(const Parameters<float>&, JointVector<float>&);
@@ -1113,7 +1122,7 @@ template void joint_positions<double>(const Coordinates<double>&, const Paramete
 template void joint_angles<double>(const Coordinates<double>&, const Parameters<double>&, JointVector<double>&);
 template void joint_rates<double>(const Velocities<double>&, const Parameters<double>&, JointVector<double>&);
 template void inverse_dynamics<double>(const Coordinates<double>&, const Velocities<double>&, const Velocities<double>&, const Parameters<double>&, Velocities<double>&);
-template void forward_dynamics<double>(const Coordinates<double>&, const Velocities<double>&, const Velocities<double>&, const Parameters<double>&, Velocities<double>&, Velocities<double>&);
+template void forward_dynamics<double>(const Coordinates<double>&, const Velocities<double>&, const Velocities<double>&, const Parameters<double>&, Velocities<double>&, Velocities<double>&, Velocities<double>&);
 template void generalized_jacobian<double>(const Coordinates<double>&, const Parameters<double>&, Eigen::Matrix<double, 3, kNumLinks>&);
 template void free_base_inverse_dynamics<double>(const Coordinates<double>&, const Velocities<double>&, const JointVector<double>&, const Parameters<double>&, JointVector<double>&, Eigen::Matrix<double, kNv - kNumLinks, 1>&);
 template void gear_ratios<double>(const Parameters<double>&, JointVector<double>&);
@@ -1129,7 +1138,7 @@ template void joint_positions<long double>(const Coordinates<long double>&, cons
 template void joint_angles<long double>(const Coordinates<long double>&, const Parameters<long double>&, JointVector<long double>&);
 template void joint_rates<long double>(const Velocities<long double>&, const Parameters<long double>&, JointVector<long double>&);
 template void inverse_dynamics<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Velocities<long double>&, const Parameters<long double>&, Velocities<long double>&);
-template void forward_dynamics<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Velocities<long double>&, const Parameters<long double>&, Velocities<long double>&, Velocities<long double>&);
+template void forward_dynamics<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Velocities<long double>&, const Parameters<long double>&, Velocities<long double>&, Velocities<long double>&, Velocities<long double>&);
 template void generalized_jacobian<long double>(const Coordinates<long double>&, const Parameters<long double>&, Eigen::Matrix<long double, 3, kNumLinks>&);
 template void free_base_inverse_dynamics<long double>(const Coordinates<long double>&, const Velocities<long double>&, const JointVector<long double>&, const Parameters<long double>&, JointVector<long double>&, Eigen::Matrix<long double, kNv - kNumLinks, 1>&);
 template void gear_ratios<long double>(const Parameters<long double>&, JointVector<long double>&);

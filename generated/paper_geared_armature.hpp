@@ -118,15 +118,15 @@ void joint_rates(const Velocities<T>& qd, const Parameters<T>& params, JointVect
 template <typename T>
 void inverse_dynamics(const Coordinates<T>& q, const Velocities<T>& qd, const Velocities<T>& qdd, const Parameters<T>& params, Velocities<T>& Q);
 
-// Acceleration qdd = M^-1 (Q - b) by an unrolled LDL^T solve; pivots are D_i / M_ii, the pivots of diag(M)^-1/2 M diag(M)^-1/2 (all positive for a valid state; (max/min) bounds its condition number). Paper eq. 8.
+// Acceleration qdd = M^-1 (Q - b) by an unrolled LDL^T solve, with the pivots D_i (all positive for a positive definite M) and D_i / M_ii, the pivots of diag(M)^-1/2 M diag(M)^-1/2 (max/min bounds its condition number). Paper eq. 8.
 template <typename T>
-void forward_dynamics(const Coordinates<T>& q, const Velocities<T>& qd, const Velocities<T>& Q, const Parameters<T>& params, Velocities<T>& qdd, Velocities<T>& pivots);
+void forward_dynamics(const Coordinates<T>& q, const Velocities<T>& qd, const Velocities<T>& Q, const Parameters<T>& params, Velocities<T>& qdd, Velocities<T>& pivots, Velocities<T>& scaled_pivots);
 
-// Generalized Jacobian J* (Umetani-Yoshida): end-effector velocity per joint rate with the base moving so that the momentum stays zero, J* = J_m - J_b M_bb^-1 M_bm.
+// Generalized Jacobian J* (Umetani-Yoshida): end-effector velocity per rate of the joint coordinates (motor rates in a geared scene) with the base moving so that the momentum stays zero, J* = J_m - J_b M_bb^-1 M_bm.
 template <typename T>
 void generalized_jacobian(const Coordinates<T>& q, const Parameters<T>& params, Eigen::Matrix<T, 3, kNumLinks>& Jg);
 
-// Joint torques tau (link side: tau = p Q) that give the joint accelerations qdd_joints with no force on the free base, and the base acceleration that follows. Paper eq. 14.
+// Joint torques tau that give the link-side joint accelerations qdd_joints with no force on the free base, and the base acceleration that follows; both tau and qdd_joints on the link side of the gears (tau = p Q, motor acceleration = p qdd_joints). Paper eq. 14.
 template <typename T>
 void free_base_inverse_dynamics(const Coordinates<T>& q, const Velocities<T>& qd, const JointVector<T>& qdd_joints, const Parameters<T>& params, JointVector<T>& tau, Eigen::Matrix<T, kNv - kNumLinks, 1>& qdd_base);
 
@@ -222,8 +222,8 @@ struct Model {
     return spacearm::models::paper_geared_armature::inverse_dynamics<T>(q, qd, qdd, params, Q);
   }
   template <typename T>
-  static void forward_dynamics(const Coordinates<T>& q, const Velocities<T>& qd, const Velocities<T>& Q, const Parameters<T>& params, Velocities<T>& qdd, Velocities<T>& pivots) {
-    return spacearm::models::paper_geared_armature::forward_dynamics<T>(q, qd, Q, params, qdd, pivots);
+  static void forward_dynamics(const Coordinates<T>& q, const Velocities<T>& qd, const Velocities<T>& Q, const Parameters<T>& params, Velocities<T>& qdd, Velocities<T>& pivots, Velocities<T>& scaled_pivots) {
+    return spacearm::models::paper_geared_armature::forward_dynamics<T>(q, qd, Q, params, qdd, pivots, scaled_pivots);
   }
   template <typename T>
   static void generalized_jacobian(const Coordinates<T>& q, const Parameters<T>& params, Eigen::Matrix<T, 3, kNumLinks>& Jg) {

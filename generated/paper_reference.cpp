@@ -656,10 +656,10 @@ void inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]]
   Q(5) = qd(2) * qd(2) * (-t39) + t72 + t3 * t3 * (-t50) + t23 * qdd(0) + t11 * qdd(1) + t68 * qdd(2) + t71 * qdd(3) + t73 * qdd(4) + T(0.040031487) * qdd(5);
 }
 
-// Acceleration qdd = M^-1 (Q - b) by an unrolled LDL^T solve; pivots are D_i / M_ii, the pivots of diag(M)^-1/2 M diag(M)^-1/2 (all positive for a valid state; (max/min) bounds its condition number). Paper eq. 8.
+// Acceleration qdd = M^-1 (Q - b) by an unrolled LDL^T solve, with the pivots D_i (all positive for a positive definite M) and D_i / M_ii, the pivots of diag(M)^-1/2 M diag(M)^-1/2 (max/min bounds its condition number). Paper eq. 8.
 // Operations: 159 add, 185 mul, 10 div, 8 sin/cos.
 template <typename T>
-void forward_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& Q, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& qdd, Velocities<T>& pivots) {
+void forward_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& Q, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& qdd, Velocities<T>& pivots, Velocities<T>& scaled_pivots) {
   using std::cos;
   using std::sin;
   const T t0 = cos(q(2));
@@ -776,15 +776,21 @@ void forward_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]]
   qdd(3) = t106;
   qdd(4) = t105;
   qdd(5) = t104;
-  pivots(0) = T(72.117) / T(72.117);
-  pivots(1) = T(72.117) / T(72.117);
-  pivots(2) = t48 / t43;
-  pivots(3) = t73 / t70;
-  pivots(4) = t89 / t85;
-  pivots(5) = t103 / T(0.040031487);
+  pivots(0) = T(72.117);
+  pivots(1) = T(72.117);
+  pivots(2) = t48;
+  pivots(3) = t73;
+  pivots(4) = t89;
+  pivots(5) = t103;
+  scaled_pivots(0) = T(72.117) / T(72.117);
+  scaled_pivots(1) = T(72.117) / T(72.117);
+  scaled_pivots(2) = t48 / t43;
+  scaled_pivots(3) = t73 / t70;
+  scaled_pivots(4) = t89 / t85;
+  scaled_pivots(5) = t103 / T(0.040031487);
 }
 
-// Generalized Jacobian J* (Umetani-Yoshida): end-effector velocity per joint rate with the base moving so that the momentum stays zero, J* = J_m - J_b M_bb^-1 M_bm.
+// Generalized Jacobian J* (Umetani-Yoshida): end-effector velocity per rate of the joint coordinates (motor rates in a geared scene) with the base moving so that the momentum stays zero, J* = J_m - J_b M_bb^-1 M_bm.
 // Operations: 94 add, 97 mul, 2 div, 8 sin/cos.
 template <typename T>
 void generalized_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, 3, kNumLinks>& Jg) {
@@ -855,7 +861,7 @@ void generalized_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unus
   Jg(2, 2) = T(1) - t49;
 }
 
-// Joint torques tau (link side: tau = p Q) that give the joint accelerations qdd_joints with no force on the free base, and the base acceleration that follows. Paper eq. 14.
+// Joint torques tau that give the link-side joint accelerations qdd_joints with no force on the free base, and the base acceleration that follows; both tau and qdd_joints on the link side of the gears (tau = p Q, motor acceleration = p qdd_joints). Paper eq. 14.
 // Operations: 130 add, 145 mul, 2 div, 8 sin/cos.
 template <typename T>
 void free_base_inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const JointVector<T>& qdd_joints, [[maybe_unused]] const Parameters<T>& params, JointVector<T>& tau, Eigen::Matrix<T, kNv - kNumLinks, 1>& qdd_base) {
@@ -975,7 +981,7 @@ template void joint_positions<float>(const Coordinates<float>&, const Parameters
 template void joint_angles<float>(const Coordinates<float>&, const Parameters<float>&, JointVector<float>&);
 template void joint_rates<float>(const Velocities<float>&, const Parameters<float>&, JointVector<float>&);
 template void inverse_dynamics<float>(const Coordinates<float>&, const Velocities<float>&, const Velocities<float>&, const Parameters<float>&, Velocities<float>&);
-template void forward_dynamics<float>(const Coordinates<float>&, const Velocities<float>&, const Velocities<float>&, const Parameters<float>&, Velocities<float>&, Velocities<float>&);
+template void forward_dynamics<float>(const Coordinates<float>&, const Velocities<float>&, const Velocities<float>&, const Parameters<float>&, Velocities<float>&, Velocities<float>&, Velocities<float>&);
 template void generalized_jacobian<float>(const Coordinates<float>&, const Parameters<float>&, Eigen::Matrix<float, 3, kNumLinks>&);
 template void free_base_inverse_dynamics<float>(const Coordinates<float>&, const Velocities<float>&, const JointVector<float>&, const Parameters<float>&, JointVector<float>&, Eigen::Matrix<float, kNv - kNumLinks, 1>&);
 template void gear_ratios<float>(const Parameters<float>&, JointVector<float>&);
@@ -991,7 +997,7 @@ template void joint_positions<double>(const Coordinates<double>&, const Paramete
 template void joint_angles<double>(const Coordinates<double>&, const Parameters<double>&, JointVector<double>&);
 template void joint_rates<double>(const Velocities<double>&, const Parameters<double>&, JointVector<double>&);
 template void inverse_dynamics<double>(const Coordinates<double>&, const Velocities<double>&, const Velocities<double>&, const Parameters<double>&, Velocities<double>&);
-template void forward_dynamics<double>(const Coordinates<double>&, const Velocities<double>&, const Velocities<double>&, const Parameters<double>&, Velocities<double>&, Velocities<double>&);
+template void forward_dynamics<double>(const Coordinates<double>&, const Velocities<double>&, const Velocities<double>&, const Parameters<double>&, Velocities<double>&, Velocities<double>&, Velocities<double>&);
 template void generalized_jacobian<double>(const Coordinates<double>&, const Parameters<double>&, Eigen::Matrix<double, 3, kNumLinks>&);
 template void free_base_inverse_dynamics<double>(const Coordinates<double>&, const Velocities<double>&, const JointVector<double>&, const Parameters<double>&, JointVector<double>&, Eigen::Matrix<double, kNv - kNumLinks, 1>&);
 template void gear_ratios<double>(const Parameters<double>&, JointVector<double>&);
@@ -1007,7 +1013,7 @@ template void joint_positions<long double>(const Coordinates<long double>&, cons
 template void joint_angles<long double>(const Coordinates<long double>&, const Parameters<long double>&, JointVector<long double>&);
 template void joint_rates<long double>(const Velocities<long double>&, const Parameters<long double>&, JointVector<long double>&);
 template void inverse_dynamics<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Velocities<long double>&, const Parameters<long double>&, Velocities<long double>&);
-template void forward_dynamics<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Velocities<long double>&, const Parameters<long double>&, Velocities<long double>&, Velocities<long double>&);
+template void forward_dynamics<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Velocities<long double>&, const Parameters<long double>&, Velocities<long double>&, Velocities<long double>&, Velocities<long double>&);
 template void generalized_jacobian<long double>(const Coordinates<long double>&, const Parameters<long double>&, Eigen::Matrix<long double, 3, kNumLinks>&);
 template void free_base_inverse_dynamics<long double>(const Coordinates<long double>&, const Velocities<long double>&, const JointVector<long double>&, const Parameters<long double>&, JointVector<long double>&, Eigen::Matrix<long double, kNv - kNumLinks, 1>&);
 template void gear_ratios<long double>(const Parameters<long double>&, JointVector<long double>&);

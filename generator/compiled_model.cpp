@@ -88,7 +88,7 @@ std::vector<std::string> required_symbols(const Scene& scene) {
 
 unsigned long output_mask(const Scene& scene) {
   unsigned long mask = 0;
-  for (Output o : scene.outputs) mask |= 1ul << static_cast<unsigned>(o);
+  for (Output o : scene.outputs) mask |= output_bit(o);
   return mask;
 }
 
@@ -275,7 +275,7 @@ CompiledModel& CompiledModel::operator=(CompiledModel&& o) noexcept {
   return *this;
 }
 
-bool CompiledModel::has(Output o) const { return (outputs_ >> static_cast<unsigned>(o)) & 1ul; }
+bool CompiledModel::has(Output o) const { return (outputs_ & output_bit(o)) != 0; }
 
 void CompiledModel::check(const char* what, const Eigen::VectorXd& v, int size) const {
   if (v.size() != size)
@@ -340,20 +340,21 @@ Eigen::Vector3d CompiledModel::end_effector_pose(const Eigen::VectorXd& q, const
 }
 Eigen::VectorXd CompiledModel::forward_dynamics(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                                                 const Eigen::VectorXd& Q, const Eigen::VectorXd& params) const {
-  Eigen::VectorXd qdd, scaled_pivots;
+  Eigen::VectorXd qdd, pivots, scaled_pivots;
   if (has(Output::forward_dynamics)) {
     const auto r = evaluate(Output::forward_dynamics, {q, qd, Q}, params);
     qdd = r[0];
-    scaled_pivots = r[1];
+    pivots = r[1];
+    scaled_pivots = r[2];
   } else {
     const Eigen::MatrixXd M = mass_matrix(q, params);
     check("Q", Q, dims_.nv);
     const Eigen::LLT<Eigen::MatrixXd> llt(M);
     if (llt.info() != Eigen::Success) throw DynamicsError("model " + name_ + ": mass matrix is not positive definite");
-    scaled_pivots = llt.matrixLLT().diagonal().array().square() / M.diagonal().array();
+    llt_pivots(llt, M, pivots, scaled_pivots);
     qdd = llt.solve(Q - bias_forces(q, qd, params));
   }
-  check_forward_dynamics(scaled_pivots, qdd, name_);
+  check_forward_dynamics(pivots, scaled_pivots, qdd, name_);
   return qdd;
 }
 

@@ -300,7 +300,7 @@ std::string c_interface(const LoweredModel& model, const std::string& header, co
     << "double spacearm_nominal_parameter(int i) { return kNumParams ? Model::nominal_parameters()[i] : 0.0; }\n"
     << "const char* spacearm_parameter_error(const double* p) { return parameter_error(P(p)); }\n";
   unsigned long mask = 0;
-  for (Output o : model.facts.outputs) mask |= 1ul << static_cast<unsigned>(o);
+  for (Output o : model.facts.outputs) mask |= output_bit(o);
   s << "unsigned long spacearm_outputs() { return " << mask << "ul; }\n";
   for (const auto& f : model.functions) {
     s << "void spacearm_" << f.name

@@ -7,9 +7,12 @@
 #include <cstdio>
 #include <iostream>
 #include <map>
+#include <set>
+#include <tuple>
 
 #include "cli_input.hpp"
 #include "compiled_model.hpp"
+#include "dynamics_checks.hpp"
 #include "numeric_outputs.hpp"
 #include "symbolic_model.hpp"
 
@@ -41,6 +44,18 @@ nlohmann::ordered_json to_json(const std::string& name, const Eigen::MatrixXd& m
   return rows;
 }
 
+// An output's results: the value alone, or {name: value, ...} when it has several (the
+// pivots of forward_dynamics, the base acceleration of free_base_inverse_dynamics).
+// forward_dynamics passes the runtime's checks first: no meaningless accelerations.
+nlohmann::ordered_json results_json(const Scene& scene, const OutputInfo& o, const std::vector<Eigen::MatrixXd>& r) {
+  if (o.id == Output::forward_dynamics)
+    check_forward_dynamics(Eigen::VectorXd(r[1]), Eigen::VectorXd(r[2]), Eigen::VectorXd(r[0]), scene.name);
+  if (r.size() == 1) return to_json(o.name, r[0]);
+  nlohmann::ordered_json all;
+  for (size_t k = 0; k < r.size(); ++k) all[o.results[k].name] = to_json(std::string(o.name) + "." + o.results[k].name, r[k]);
+  return all;
+}
+
 // The values of every input (outputs.hpp) at the state asked for.
 struct EvalInputs {
   std::map<Input, Eigen::VectorXd> values;
@@ -59,7 +74,7 @@ void evaluate_symbolic(const Scene& scene, const EvalInputs& in, bool verbose, n
   if (verbose) std::fprintf(stderr, "spacearm: derive %.1f ms\n", ms_since(t0));
   t0 = clock::now();
   for (const auto& o : output_registry())
-    if (scene.wants(o.id)) out[o.name] = to_json(o.name, evaluate_output(model, o.id, in.of(o), in.params)[0]);
+    if (scene.wants(o.id)) out[o.name] = results_json(scene, o, evaluate_output(model, o.id, in.of(o), in.params));
   if (verbose) std::fprintf(stderr, "spacearm: evaluate (GiNaC) %.1f ms\n", ms_since(t0));
 }
 
@@ -79,7 +94,7 @@ void evaluate_compiled(const Scene& scene, const EvalArgs& a, const EvalInputs& 
                  rep.load_ms);
   const auto t0 = clock::now();
   for (const auto& o : output_registry())
-    if (model.has(o.id)) out[o.name] = to_json(o.name, model.evaluate(o.id, in.of(o), in.params)[0]);
+    if (model.has(o.id)) out[o.name] = results_json(scene, o, model.evaluate(o.id, in.of(o), in.params));
   if (a.verbose) std::fprintf(stderr, "spacearm: run %.3f ms\n", ms_since(t0));
 }
 
@@ -98,10 +113,20 @@ int run_eval(const EvalArgs& a) {
   in.values[Input::generalized_forces] = vector(a.forces_text, "--forces", nv);
   in.values[Input::joint_accelerations] = vector(a.qdd_joints_text, "--qdd-joints", N);
   in.params = cli::parse_parameters(a.param_assignments, scene);
+  // An input that no output of the scene takes would do nothing: an error, not ignored.
+  std::set<Input> used;
+  for (Output o : scene.outputs) used.insert(info(o).inputs.begin(), info(o).inputs.end());
+  for (const auto& [input, text, option] : {std::make_tuple(Input::qdd, a.qdd_text, "--qdd"),
+                                            std::make_tuple(Input::generalized_forces, a.forces_text, "--forces"),
+                                            std::make_tuple(Input::joint_accelerations, a.qdd_joints_text, "--qdd-joints")})
+    if (!text.empty() && !used.count(input))
+      throw std::invalid_argument(std::string(option) + ": the scene emits no output that takes " + info(input).name +
+                                  " (field 'outputs')");
   // The state, inputs and parameters used, then every output by its registry name.
   nlohmann::ordered_json out;
   out["coordinates"] = scene.coordinate_names();
-  for (const auto& [input, v] : in.values) out[info(input).name] = std::vector<double>(v.data(), v.data() + v.size());
+  for (const auto& [input, v] : in.values)
+    if (input == Input::q || used.count(input)) out[info(input).name] = std::vector<double>(v.data(), v.data() + v.size());
   out["parameters"] = nlohmann::ordered_json::object();
   for (size_t i = 0; i < scene.parameters.size(); ++i) out["parameters"][scene.parameters[i].name] = in.params[i];
   if (a.symbolic)

@@ -1,6 +1,10 @@
 // spacearm: command-line front end of the generator.
 //   spacearm generate SCENE -o DIR [--stats]   emit optimized C++ for a scene
 //   spacearm inspect SCENE ENTRY [--latex]     print one symbolic entry, e.g. M[3][4]
+//   spacearm eval SCENE --q ...                every output of a scene at a state, as JSON
+//   spacearm simulate SCENE --torques F ...    integrate the dynamics, write CSV
+// Each subcommand's work is in its own file (generate_command, eval_command,
+// simulate_command); this file declares the options and maps errors to exit codes.
 #include <CLI/CLI.hpp>
 
 #include <chrono>
@@ -11,24 +15,13 @@
 
 #include "compiled_model.hpp"
 #include "cli_input.hpp"
-#include "cpp_emitter.hpp"
+#include "generate_command.hpp"
+#include "outputs.hpp"
 #include "eval_command.hpp"
 #include "scene.hpp"
 #include "simulate_command.hpp"
-#include "symbolic_model.hpp"
 
 namespace {
-
-void print_stats(const spacearm::EmittedModel& emitted, std::ostream& out) {
-  out << "function                     basis   adds   muls   divs  total  sin/cos\n";
-  for (const auto& f : emitted.stats) {
-    char line[160];
-    std::snprintf(line, sizeof line, "%-28s %-6s %5d  %5d  %5d  %5d  %7d\n", f.name.c_str(),
-                  f.variant.empty() ? "-" : f.variant.c_str(), f.ops.adds, f.ops.muls, f.ops.divs,
-                  f.ops.total_arithmetic(), f.ops.trig);
-    out << line;
-  }
-}
 
 // 0 if everything written to standard output arrived, else 1 with a message (a full disk,
 // /dev/full or a closed descriptor must not pass as success).
@@ -74,33 +67,29 @@ int main(int argc, char** argv) {
   CLI::App app{"spacearm: symbolic dynamics of free-floating space manipulators, emitted as C++"};
   app.require_subcommand(1);
 
-  std::string scene_path, out_dir, entry;
-  bool stats = false, latex = false, expanded = false;
-
   auto* generate = app.add_subcommand("generate", "Derive the model of a scene and emit C++ sources");
-  generate->add_option("scene", scene_path, "Scene file (YAML)")->required();
-  generate->add_option("-o,--output", out_dir, "Output folder")->required();
-  generate->add_flag("--stats", stats, "Print adds, multiplies, divisions and sin/cos calls per function");
-  bool check = false;
-  std::string file_stem;
-  generate->add_option("--file-stem", file_stem,
+  spacearm::GenerateArgs generate_args;
+  generate->add_option("scene", generate_args.scene_path, "Scene file (YAML)")->required();
+  generate->add_option("-o,--output", generate_args.out_dir, "Output folder")->required();
+  generate->add_flag("--stats", generate_args.stats, "Print adds, multiplies, divisions and sin/cos calls per function");
+  generate->add_option("--file-stem", generate_args.file_stem,
                        "Name the files STEM.hpp/STEM.cpp instead of after the scene (the namespace keeps the scene name)");
-  bool plain = false;
-  generate->add_flag("--plain", plain,
+  generate->add_flag("--plain", generate_args.plain,
                      "Emit the benchmark baseline instead: expanded expressions without common-subexpression "
                      "elimination (namespace and files NAME_plain)");
-  generate->add_flag("--check", check,
+  generate->add_flag("--check", generate_args.check,
                      "Write nothing; exit 1 if the files in the output folder differ from what would be generated");
 
   auto* inspect = app.add_subcommand("inspect", "Print one symbolic entry of the derived model");
-  inspect->add_option("scene", scene_path, "Scene file (YAML)")->required();
+  spacearm::InspectArgs inspect_args;
+  inspect->add_option("scene", inspect_args.scene_path, "Scene file (YAML)")->required();
   std::string entry_help;
   for (const auto& o : spacearm::output_registry())
-    entry_help += (entry_help.empty() ? "" : ", ") + std::string(o.symbol) + " (" + o.name + ")";
-  inspect->add_option("entry", entry, "An entry such as M[3][4] or b[2]; the symbols: " + entry_help)
+    if (o.composed_of.empty()) entry_help += (entry_help.empty() ? "" : ", ") + std::string(o.symbol) + " (" + o.name + ")";
+  inspect->add_option("entry", inspect_args.entry, "An entry such as M[3][4] or b[2]; the symbols: " + entry_help)
       ->required();
-  inspect->add_flag("--latex", latex, "Print LaTeX instead of plain text");
-  inspect->add_flag("--decimal", expanded, "Show numeric coefficients as decimals instead of exact fractions");
+  inspect->add_flag("--latex", inspect_args.latex, "Print LaTeX instead of plain text");
+  inspect->add_flag("--decimal", inspect_args.decimal, "Show numeric coefficients as decimals instead of exact fractions");
 
   auto* eval = app.add_subcommand("eval", "Evaluate a scene's quantities at a state (compiled and cached, or --symbolic)");
   spacearm::EvalArgs eval_args;
@@ -180,57 +169,8 @@ int main(int argc, char** argv) {
   }
 
   try {
-    using clock = std::chrono::steady_clock;
-    const auto t0 = clock::now();
-    const spacearm::Scene scene = spacearm::load_scene(scene_path);
-    if (*generate) {
-      const spacearm::SymbolicModel model = spacearm::derive(scene);
-      const auto t1 = clock::now();
-      spacearm::EmitOptions options;
-      options.scene_path = scene_path;
-      options.command = "spacearm generate " + scene_path + " -o " + out_dir +
-                        (file_stem.empty() ? "" : " --file-stem " + file_stem) + (plain ? " --plain" : "");
-      options.file_stem = file_stem;
-      options.plain = plain;
-      const auto emitted = spacearm::emit_cpp(model, options);
-      if (check) {
-        const auto stale = spacearm::stale_files(emitted, out_dir);
-        for (const auto& f : stale) std::cerr << "spacearm: stale generated file: " << f << "\n";
-        if (!stale.empty()) {
-          std::cerr << "spacearm: regenerate with: " << options.command << "\n";
-          return 1;
-        }
-        std::cout << "up to date: " << out_dir << "/" << emitted.header_name << ", " << out_dir << "/"
-                  << emitted.source_name << "\n";
-        return stdout_status();
-      }
-      spacearm::write_files(emitted, out_dir);
-      const auto t2 = clock::now();
-      auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
-      std::cout << "wrote " << out_dir << "/" << emitted.header_name << " and " << out_dir << "/"
-                << emitted.source_name << " (" << scene.num_coordinates() << " coordinates, "
-                << scene.parameters.size() << " parameters)\n";
-      if (stats) {
-        print_stats(emitted, std::cout);
-        std::cout << "derive " << std::lround(ms(t0, t1)) << " ms, emit " << std::lround(ms(t1, t2)) << " ms\n";
-      }
-      return stdout_status();
-    }
-    spacearm::DeriveOptions options;
-    options.all_outputs = true;
-    const spacearm::SymbolicModel model = spacearm::derive(scene, options);
-    GiNaC::ex e = spacearm::symbolic_entry(model, entry);
-    // Group by velocities and run-time parameters, so that p, p^2 and p_i p_j stand out.
-    GiNaC::lst group_by;
-    for (const auto& v : model.qd) group_by.append(v);
-    for (const auto& p : model.parameters) group_by.append(p);
-    if (expanded) e = GiNaC::evalf(e);
-    e = GiNaC::collect(e, group_by, true);
-    if (latex)
-      std::cout << GiNaC::latex << e << GiNaC::dflt << "\n";
-    else
-      std::cout << e << "\n";
-    return stdout_status();
+    const int status = *generate ? spacearm::run_generate(generate_args) : spacearm::run_inspect(inspect_args);
+    return status ? status : stdout_status();
   } catch (const std::exception& e) {
     std::cerr << "spacearm: error: " << e.what() << "\n";
     return 1;

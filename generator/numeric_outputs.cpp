@@ -4,6 +4,8 @@
 
 #include <stdexcept>
 
+#include "dynamics_checks.hpp"
+
 namespace spacearm {
 
 namespace {
@@ -21,7 +23,7 @@ Eigen::MatrixXd closed_form(const SymbolicModel& model, Output o, const State& s
                                                                                                     e.cols());
 }
 
-// The composed outputs, as registry.cpp describes them, with Eigen's solvers.
+// The composed outputs, as outputs.cpp describes them, with Eigen's solvers.
 std::vector<Eigen::MatrixXd> composed(const SymbolicModel& model, Output o, const State& s,
                                       const Eigen::VectorXd& extra) {
   const Eigen::MatrixXd M = closed_form(model, Output::mass_matrix, s);
@@ -33,17 +35,21 @@ std::vector<Eigen::MatrixXd> composed(const SymbolicModel& model, Output o, cons
   const Eigen::VectorXd b = closed_form(model, Output::bias_forces, s);
   if (o == Output::inverse_dynamics) return {M * extra + b};
   if (o == Output::forward_dynamics) {
-    // Unpivoted pivots D_j = L_jj^2 of M = L L^T, scaled by M_jj.
+    // Unpivoted pivots D_j = L_jj^2 of M = L L^T, and D_j / M_jj.
     const Eigen::LLT<Eigen::MatrixXd> llt(M);
-    const Eigen::VectorXd d = llt.matrixL().toDenseMatrix().diagonal().array().square();
-    return {llt.solve(extra - b), d.cwiseQuotient(M.diagonal())};
+    if (llt.info() != Eigen::Success) throw std::runtime_error("mass matrix is not positive definite");
+    Eigen::VectorXd d, scaled;
+    llt_pivots(llt, M, d, scaled);
+    return {llt.solve(extra - b), d, scaled};
   }
   if (o == Output::free_base_inverse_dynamics) {
-    const Eigen::VectorXd base =
-        -M.topLeftCorner(nb, nb).ldlt().solve(M.topRightCorner(nb, N) * extra + b.head(nb));
-    Eigen::VectorXd tau = M.bottomLeftCorner(N, nb) * base + M.bottomRightCorner(N, N) * extra + b.tail(N);
-    for (int j = 0; j < N; ++j) tau[j] /= evaluate(model, model.gear_map(nb + j, nb + j), s.q, s.qd, s.params);
-    return {tau, base};
+    // extra: link-side joint accelerations; the motor ones are p times them, and tau = p Q.
+    Eigen::VectorXd p(N);
+    for (int j = 0; j < N; ++j) p[j] = 1 / evaluate(model, model.gear_map(nb + j, nb + j), s.q, s.qd, s.params);
+    const Eigen::VectorXd a = extra.cwiseProduct(p);
+    const Eigen::VectorXd base = -M.topLeftCorner(nb, nb).ldlt().solve(M.topRightCorner(nb, N) * a + b.head(nb));
+    const Eigen::VectorXd Q = M.bottomLeftCorner(N, nb) * base + M.bottomRightCorner(N, N) * a + b.tail(N);
+    return {Q.cwiseProduct(p), base};
   }
   throw std::logic_error("evaluate_output: no numeric composition for " + to_string(o));
 }

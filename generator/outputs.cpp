@@ -79,19 +79,21 @@ const std::vector<OutputInfo>& output_registry() {
       {O::inverse_dynamics, "inverse_dynamics", "Q", {I::q, I::qd, I::qdd}, {{"Q", S::nv, S::one, false}}, false,
        true, {O::mass_matrix, O::bias_forces}, "5", "Generalized forces Q = M qdd + b that give the acceleration qdd."},
       {O::forward_dynamics, "forward_dynamics", "qdd", {I::q, I::qd, I::generalized_forces},
-       {{"qdd", S::nv, S::one, false}, {"pivots", S::nv, S::one, false}}, false, true,
-       {O::mass_matrix, O::bias_forces}, "8",
-       "Acceleration qdd = M^-1 (Q - b) by an unrolled LDL^T solve; pivots are D_i / M_ii, the pivots of "
-       "diag(M)^-1/2 M diag(M)^-1/2 (all positive for a valid state; (max/min) bounds its condition number)."},
+       {{"qdd", S::nv, S::one, false}, {"pivots", S::nv, S::one, false}, {"scaled_pivots", S::nv, S::one, false}},
+       false, true, {O::mass_matrix, O::bias_forces}, "8",
+       "Acceleration qdd = M^-1 (Q - b) by an unrolled LDL^T solve, with the pivots D_i (all positive for a "
+       "positive definite M) and D_i / M_ii, the pivots of diag(M)^-1/2 M diag(M)^-1/2 (max/min bounds its "
+       "condition number)."},
       {O::generalized_jacobian, "generalized_jacobian", "Jg", {I::q}, {{"Jg", S::three, S::num_links, false}}, true,
        true, {O::mass_matrix, O::end_effector_jacobian}, "",
-       "Generalized Jacobian J* (Umetani-Yoshida): end-effector velocity per joint rate with the base moving so "
-       "that the momentum stays zero, J* = J_m - J_b M_bb^-1 M_bm."},
+       "Generalized Jacobian J* (Umetani-Yoshida): end-effector velocity per rate of the joint coordinates (motor "
+       "rates in a geared scene) with the base moving so that the momentum stays zero, J* = J_m - J_b M_bb^-1 M_bm."},
       {O::free_base_inverse_dynamics, "free_base_inverse_dynamics", "tau", {I::q, I::qd, I::joint_accelerations},
        {{"tau", S::num_links, S::one, false}, {"qdd_base", S::num_base, S::one, false}}, true, true,
        {O::mass_matrix, O::bias_forces}, "14",
-       "Joint torques tau (link side: tau = p Q) that give the joint accelerations qdd_joints with no force on the "
-       "free base, and the base acceleration that follows."},
+       "Joint torques tau that give the link-side joint accelerations qdd_joints with no force on the free base, "
+       "and the base acceleration that follows; both tau and qdd_joints on the link side of the gears "
+       "(tau = p Q, motor acceleration = p qdd_joints)."},
   };
   return registry;
 }

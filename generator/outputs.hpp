@@ -2,7 +2,7 @@
 // validation (`outputs:`), derivation, lowering, the printer's C interface, `eval`,
 // `inspect`, the compile-and-load path and the runtime (through the kHas_ flags of the
 // generated header). Adding an output is one entry in outputs.cpp plus its derivation
-// (symbolic_model.cpp) or its composition from other outputs (lowering.cpp).
+// (symbolic_model.cpp) or its composition from other outputs (planar_lowering.cpp).
 // No GiNaC and no Eigen here: this header is plain data.
 #pragma once
 
@@ -79,6 +79,8 @@ const std::vector<OutputInfo>& output_registry();
 const OutputInfo& info(Output output);
 std::string to_string(Output output);
 std::optional<Output> output_from_string(const std::string& name);
+// The bit of an output in the masks the C interface and the loader exchange.
+inline unsigned long output_bit(Output o) { return 1ul << static_cast<unsigned>(o); }
 // "mass_matrix, coriolis_matrix, ..." for messages.
 std::string output_names();
 

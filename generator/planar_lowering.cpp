@@ -198,7 +198,7 @@ class FunctionBuilder {
     }
     std::ostringstream s;
     s << e;
-    throw std::runtime_error("emitter: cannot express '" + s.str() + "' in straight-line code");
+    throw std::runtime_error("lowering: cannot express '" + s.str() + "' in straight-line code");
   }
 
   // x^k by repeated squaring: no pow() for integer powers.
@@ -227,7 +227,7 @@ class FunctionBuilder {
         } else {
           std::ostringstream s;
           s << f;
-          throw std::runtime_error("emitter: unexpected factor '" + s.str() + "' (a trig atom not on a body angle?)");
+          throw std::runtime_error("lowering: unexpected factor '" + s.str() + "' (a trig atom not on a body angle?)");
         }
       };
       if (is_a<GiNaC::mul>(t))
@@ -367,8 +367,16 @@ void self_check(const SymbolicModel& model, const FunctionSpec& f, const std::ve
     const auto got = f.program.evaluate(f.entries[k], [&](const std::string& a, int i) {
       return a == "q" || a == "qd" || a == "params" ? at.input(a, i) : extra_input(a, i);
     });
+    if (got.size() != want[k].size()) throw std::logic_error("self-check: " + f.name + " has a wrong entry count");
     double scale = 1e-300;
-    for (double w : want[k]) scale = std::max(scale, std::abs(w));
+    for (double w : want[k]) {
+      // Not a generator bug but a scene whose numbers make the model degenerate in double.
+      if (!std::isfinite(w))
+        throw std::runtime_error("scene '" + model.scene.name + "': " + f.name + " is not finite at the generator's "
+                                 "check point (nominal parameters): the masses, inertias or lengths make the "
+                                 "model numerically degenerate");
+      scale = std::max(scale, std::abs(w));
+    }
     for (size_t i = 0; i < want[k].size(); ++i)
       if (!(std::abs(got[i] - want[k][i]) <= 1e-9 * scale))
         throw std::logic_error("generator self-check failed in " + f.name + ", " + f.results[k].name + " entry " +
@@ -526,10 +534,13 @@ std::vector<std::vector<SRef>> compose(const SymbolicModel& model, FunctionBuild
     for (int i = 0; i < n; ++i) rhs.push_back(p.add({Q[i], -b[i]}));
     const LdltProgram f = ldlt(p, M, n);
     for (int i = 0; i < n; ++i) pivots.push_back(p.div(f.d[i], M[i * n + i]));
-    return {ldlt_solve(p, f, rhs), pivots};
+    return {ldlt_solve(p, f, rhs), f.d, pivots};
   }
-  // free_base_inverse_dynamics: M_bb a_b = -(M_bm a + b_b); Q_m = M_mb a_b + M_mm a + b_m.
-  const std::vector<SRef> a = inputs("qdd_joints", N);
+  // free_base_inverse_dynamics: M_bb a_b = -(M_bm a + b_b); Q_m = M_mb a_b + M_mm a + b_m,
+  // with a the joint rows of qdd (motor accelerations p qdd_joints) and tau = p Q_m.
+  std::vector<SRef> ratio, a;
+  for (int j = 0; j < N; ++j) ratio.push_back(fb.build((1 / model.gear_map(nb + j, nb + j)).normal()));
+  for (int j = 0; j < N; ++j) a.push_back(p.mul({p.input("qdd_joints", j), ratio[j]}));
   const std::vector<SRef> Mbm = block(0, nb, nb, N), Mmb = block(nb, 0, N, nb), Mmm = block(nb, nb, N, N);
   std::vector<SRef> rhs;
   for (int k = 0; k < nb; ++k) rhs.push_back(-p.add({dot(p, row(Mbm, N, k), a), b[k]}));
@@ -537,7 +548,7 @@ std::vector<std::vector<SRef>> compose(const SymbolicModel& model, FunctionBuild
   std::vector<SRef> tau;
   for (int j = 0; j < N; ++j) {
     const SRef Qj = p.add({dot(p, row(Mmb, nb, j), base), dot(p, row(Mmm, N, j), a), b[nb + j]});
-    tau.push_back(p.mul({Qj, fb.build((1 / model.gear_map(nb + j, nb + j)).normal())}));
+    tau.push_back(p.mul({Qj, ratio[j]}));
   }
   return {tau, base};
 }

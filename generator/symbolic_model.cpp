@@ -311,15 +311,20 @@ GiNaC::ex symbolic_entry(const SymbolicModel& model, const std::string& entry) {
   for (const auto& o : output_registry()) {
     known += (known.empty() ? "" : ", ") + std::string(o.symbol);
     if (e.name != o.symbol) continue;
-    if (!o.composed_of.empty())
+    if (!o.composed_of.empty()) {
+      std::string parts;
+      for (Output c : o.composed_of) parts += (parts.empty() ? "" : ", ") + std::string(info(c).symbol) + " (" + to_string(c) + ")";
       throw std::invalid_argument("entry '" + entry + "': " + o.name +
                                   " is composed in the emitted program (a solve or a product), not a closed form; "
-                                  "inspect the outputs it is made of");
+                                  "inspect what it is made of: " + parts);
+    }
     if (o.free_floating_only && !model.scene.free_floating())
       throw std::invalid_argument("entry '" + entry + "': " + o.name + " is only defined for a free-floating base");
     const matrix& m = model.expression(o.id);
-    // A scalar takes no index, a vector one, a matrix two; each in range.
-    const size_t count = m.cols() > 1 ? 2 : m.rows() > 1 ? 1 : 0;
+    // A scalar takes no index, a vector one, a matrix two (by the registry's shape, so that
+    // a one-coordinate model's M still takes two); each in range.
+    const ResultInfo& shape = o.results[0];
+    const size_t count = shape.cols != Size::one ? 2 : shape.rows != Size::one ? 1 : 0;
     if (e.indices.size() != count)
       throw std::invalid_argument("entry '" + entry + "': " + e.name + " takes " + std::to_string(count) +
                                   (count == 1 ? " index" : " indices") + ", got " + std::to_string(e.indices.size()));

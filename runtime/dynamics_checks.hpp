@@ -22,21 +22,31 @@ class DynamicsError : public std::runtime_error {
 // has correct digits.
 inline constexpr double kMaxScaledCondition = 1e14;
 
-// scaled_pivots: D_i / M_ii of M = L D L^T, the pivots of diag(M)^-1/2 M diag(M)^-1/2.
-// Cholesky/LDL^T is invariant under symmetric diagonal scaling (van der Sluis): its accuracy
-// depends on cond(S M S), S = diag(M)^-1/2, not on cond(M), which grows as p^2 in motor
-// coordinates without any loss of accuracy. max/min of the scaled pivots is a cheap lower
-// bound of cond(S M S); past kMaxScaledCondition no digit of the solve is left.
+// pivots: D_i of M = L D L^T; all positive exactly when M is positive definite.
+// scaled_pivots: D_i / M_ii, the pivots of diag(M)^-1/2 M diag(M)^-1/2. Cholesky/LDL^T is
+// invariant under symmetric diagonal scaling (van der Sluis): its accuracy depends on
+// cond(S M S), S = diag(M)^-1/2, not on cond(M), which grows as p^2 in motor coordinates
+// without any loss of accuracy. max/min of the scaled pivots is a cheap lower bound of
+// cond(S M S); past kMaxScaledCondition no digit of the solve is left.
 template <class Pivots, class Acceleration>
-void check_forward_dynamics(const Pivots& scaled_pivots, const Acceleration& qdd, const std::string& model_name) {
-  const double lo = scaled_pivots.minCoeff(), hi = scaled_pivots.maxCoeff();
-  if (!(lo > 0) || !std::isfinite(hi))
+void check_forward_dynamics(const Pivots& pivots, const Pivots& scaled_pivots, const Acceleration& qdd,
+                            const std::string& model_name) {
+  if (!pivots.allFinite() || !scaled_pivots.allFinite() || !(pivots.minCoeff() > 0))
     throw DynamicsError("model " + model_name + ": mass matrix is not positive definite");
+  const double lo = scaled_pivots.minCoeff(), hi = scaled_pivots.maxCoeff();
   if (!(hi / lo < kMaxScaledCondition))
     throw DynamicsError("model " + model_name +
                         ": mass matrix numerically singular (condition number of the diagonally scaled matrix >= " +
                         std::to_string(hi / lo) + ")");
   if (!qdd.allFinite()) throw DynamicsError("model " + model_name + ": accelerations not finite (overflow)");
+}
+
+// The pivots D_i = L_ii^2 and D_i / M_ii of a Cholesky factorization M = L L^T, for the
+// paths that solve with Eigen's LLT instead of the emitted LDL^T.
+template <class Llt, class Matrix, class Vector>
+void llt_pivots(const Llt& llt, const Matrix& M, Vector& pivots, Vector& scaled_pivots) {
+  pivots = llt.matrixLLT().diagonal().array().square();
+  scaled_pivots = pivots.cwiseQuotient(M.diagonal());
 }
 
 }  // namespace spacearm

@@ -111,20 +111,20 @@ class Model {
   // too ill-conditioned to solve (check_forward_dynamics).
   Vector forward_dynamics(const Vector& q, const Vector& qd, const Vector& Q) const {
     if (!q.allFinite() || !qd.allFinite() || !Q.allFinite()) throw DynamicsError(describe_non_finite(q, qd, Q));
-    Vector qdd, scaled_pivots;
+    Vector qdd, pivots, scaled_pivots;
     if constexpr (Generated::kHas_forward_dynamics) {
-      Generated::forward_dynamics(q, qd, Q, params_, qdd, scaled_pivots);
+      Generated::forward_dynamics(q, qd, Q, params_, qdd, pivots, scaled_pivots);
     } else {
       Matrix M;
       Vector b;
       Generated::mass_matrix_and_bias(q, qd, params_, M, b);
-      Eigen::LLT<Matrix> llt(M);
+      const Eigen::LLT<Matrix> llt(M);
       if (llt.info() != Eigen::Success)
         throw DynamicsError(std::string("model ") + Generated::kName + ": mass matrix is not positive definite");
-      scaled_pivots = llt.matrixLLT().diagonal().array().square() / M.diagonal().array();
+      llt_pivots(llt, M, pivots, scaled_pivots);
       qdd = llt.solve(Q - b);
     }
-    check_forward_dynamics(scaled_pivots, qdd, Generated::kName);
+    check_forward_dynamics(pivots, scaled_pivots, qdd, Generated::kName);
     return qdd;
   }
 

@@ -172,6 +172,24 @@ TEST(CompiledModel, CompileFailureReportsTheCompilerMessage) {
   fs::remove_all(cache);
 }
 
+// Numbers, lists, lists of rows or objects of them, equal to 1e-12 relative to the largest entry.
+void expect_json_near(const nlohmann::json& a, const nlohmann::json& b) {
+  ASSERT_EQ(a.type(), b.type());
+  if (a.is_object()) {
+    for (const auto& [key, value] : b.items()) {
+      SCOPED_TRACE(key);
+      ASSERT_TRUE(a.contains(key));
+      expect_json_near(a[key], value);
+    }
+  } else if (a.is_number()) {
+    EXPECT_NEAR(a.get<double>(), b.get<double>(), 1e-12 * std::max(1.0, std::abs(b.get<double>())));
+  } else if (a[0].is_array()) {
+    EXPECT_MATRIX_NEAR(matrix_of(a), matrix_of(b), 1e-12);
+  } else {
+    EXPECT_MATRIX_NEAR(vector_of(a), vector_of(b), 1e-12);
+  }
+}
+
 class EvalCli : public testing::Test {
  protected:
   fs::path cache = fresh_cache("cli");
@@ -228,13 +246,11 @@ TEST_F(EvalCli, JsonEqualsGeneratedCodeAndSymbolicAgrees) {
   for (const OutputInfo& o : output_registry()) {
     if (!scene.wants(o.id)) continue;
     SCOPED_TRACE(o.name);
-    if (compiled[o.name].is_number())
-      EXPECT_NEAR(symbolic[o.name].get<double>(), compiled[o.name].get<double>(), 1e-12) << o.name;
-    else if (compiled[o.name][0].is_array())
-      EXPECT_MATRIX_NEAR(matrix_of(symbolic[o.name]), matrix_of(compiled[o.name]), 1e-12);
-    else
-      EXPECT_MATRIX_NEAR(vector_of(symbolic[o.name]), vector_of(compiled[o.name]), 1e-12);
+    expect_json_near(symbolic[o.name], compiled[o.name]);
   }
+  // Several results: each under its name.
+  for (const char* r : {"qdd", "pivots", "scaled_pivots"}) EXPECT_TRUE(compiled["forward_dynamics"].contains(r)) << r;
+  EXPECT_TRUE(compiled["free_base_inverse_dynamics"].contains("qdd_base"));
 }
 
 TEST_F(EvalCli, VerboseReportShowsTheCacheHit) {
@@ -267,6 +283,10 @@ TEST_F(EvalCli, BadInputsGetClearErrors) {
            {geared + " --q 0,0,0,0,0,0 --param p=inf", "--param p: 'inf' is not finite"},
            {geared + " --q 0,0,0,0,0,0 --param Im=1", "gears[0].motor_inertia must be smaller than the inertia"},
            {unknown_field_scene() + " --q 0", "field 'links[0].colour': unknown field"},
+           {unknown_field_scene() + " --q 0 --qdd-joints 1", "field 'links[0].colour': unknown field"},
+           {std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/fixed_n1.yaml --q 0 --qdd-joints 1",
+            "--qdd-joints: the scene emits no output that takes qdd_joints"},
+           {ref + " --q 0,0,0,0,0,0 --forces 1,2,3", "--forces: expected 6 comma-separated values, got 3"},
        }) {
     int status = 0;
     const std::string out = run(cli + c.args + " 2>&1", &status);

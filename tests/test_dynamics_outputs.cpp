@@ -63,12 +63,13 @@ void check_forward_and_inverse(Dyn<G>& d) {
     const auto M = d.M(q);
     const auto b = d.b(q, qd);
     if constexpr (G::kHas_forward_dynamics) {
-      typename Dyn<G>::Vec qdd, pivots;
-      G::forward_dynamics(q, qd, Q, d.params, qdd, pivots);
+      typename Dyn<G>::Vec qdd, pivots, scaled;
+      G::forward_dynamics(q, qd, Q, d.params, qdd, pivots, scaled);
       EXPECT_MATRIX_NEAR(qdd, M.ldlt().solve(Q - b), 1e-10);
       const Eigen::LLT<Eigen::MatrixXd> llt{Eigen::MatrixXd(M)};
       const Eigen::VectorXd D = llt.matrixL().toDenseMatrix().diagonal().array().square();
-      EXPECT_MATRIX_NEAR(pivots, D.cwiseQuotient(M.diagonal()), 1e-10);
+      EXPECT_MATRIX_NEAR(pivots, D, 1e-10);
+      EXPECT_MATRIX_NEAR(scaled, D.cwiseQuotient(M.diagonal()), 1e-10);
       EXPECT_GT(pivots.minCoeff(), 0.0);
     }
     if constexpr (G::kHas_inverse_dynamics) {
@@ -128,7 +129,8 @@ void check_generalized_jacobian(Dyn<G>& d) {
 }
 
 // Free-base inverse dynamics: the torques it returns (tau / p on the joints, no force on
-// the base) make forward dynamics give back the joint accelerations and its base acceleration.
+// the base) make forward dynamics give back the joint accelerations (link side: the motor
+// coordinates' accelerations are p times them) and its base acceleration.
 template <class G>
 void check_free_base_inverse_dynamics(Dyn<G>& d) {
   constexpr int N = Dyn<G>::N, nb = Dyn<G>::nb;
@@ -141,7 +143,7 @@ void check_free_base_inverse_dynamics(Dyn<G>& d) {
     typename Dyn<G>::Vec Q = Dyn<G>::Vec::Zero();
     Q.template tail<N>() = tau.cwiseQuotient(d.ratios);
     const auto qdd = d.M(q).ldlt().solve(Q - d.b(q, qd)).eval();
-    EXPECT_MATRIX_NEAR(qdd.template tail<N>(), a, 1e-9);
+    EXPECT_MATRIX_NEAR(qdd.template tail<N>(), a.cwiseProduct(d.ratios), 1e-9);
     EXPECT_MATRIX_NEAR(qdd.template head<nb>(), base, 1e-9);
   }
 }

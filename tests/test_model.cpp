@@ -101,10 +101,12 @@ struct NearlySingular {
 struct NearlySingularEmitted : NearlySingular {
   static constexpr bool kHas_forward_dynamics = true;
   static void forward_dynamics(const Eigen::Vector2d&, const Eigen::Vector2d&, const Eigen::Vector2d& Q,
-                               const Eigen::Matrix<double, 1, 1>& p, Eigen::Vector2d& qdd, Eigen::Vector2d& pivots) {
+                               const Eigen::Matrix<double, 1, 1>& p, Eigen::Vector2d& qdd, Eigen::Vector2d& pivots,
+                               Eigen::Vector2d& scaled) {
     const double delta = (1 + p[0]) - 1;
     qdd << Q[0] - (Q[1] - Q[0]) / delta, (Q[1] - Q[0]) / delta;
-    pivots << 1, delta / (1 + p[0]);
+    pivots << 1, delta;
+    scaled << 1, delta / (1 + p[0]);
   }
 };
 

@@ -183,7 +183,8 @@ TEST(SymbolicEntries, GearRatiosAppearAsTheyShould) {
   EXPECT_EQ(m.expression(Output::mass_matrix)(5, 5).degree(p), 0);
   EXPECT_EQ(m.expression(Output::mass_matrix)(5, 5).ldegree(p), -2);
   EXPECT_THROW(symbolic_entry(m, "M[6][0]"), std::invalid_argument);
-  EXPECT_THROW(symbolic_entry(m, "Q[0]"), std::invalid_argument);
+  EXPECT_THROW_MESSAGE(symbolic_entry(m, "Q[0]"), std::invalid_argument, "inspect what it is made of: M (mass_matrix)");
+  EXPECT_THROW_MESSAGE(symbolic_entry(m, "Z[0]"), std::invalid_argument, "unknown quantity 'Z'");
   // Wrong index counts and hostile lengths: clear errors, no silent acceptance, no crash
   // (the regular expression this replaced recursed once per character).
   EXPECT_THROW_MESSAGE(symbolic_entry(m, "T[5]"), std::invalid_argument, "T takes 0 indices, got 1");
@@ -198,6 +199,14 @@ TEST(SymbolicEntries, GearRatiosAppearAsTheyShould) {
   all.all_outputs = true;
   const SymbolicModel fixed = derive(load_scene(SPACEARM_SOURCE_DIR "/tests/scenes/fixed_n1.yaml"), all);
   EXPECT_THROW_MESSAGE(symbolic_entry(fixed, "h[0]"), std::invalid_argument, "only defined for a free-floating base");
+  // Every closed form of the registry can be inspected (all_outputs derives them all).
+  for (const OutputInfo& o : output_registry())
+    if (o.composed_of.empty() && !o.free_floating_only) EXPECT_EQ(fixed.outputs.count(o.id), 1u) << o.name;
+  // One coordinate: M is still a matrix, b and J keep their indices.
+  EXPECT_TRUE(symbolic_entry(fixed, "M[0][0]").is_equal(fixed.expression(Output::mass_matrix)(0, 0)));
+  EXPECT_NO_THROW(symbolic_entry(fixed, "b[0]"));
+  EXPECT_NO_THROW(symbolic_entry(fixed, "qj[0]"));
+  EXPECT_THROW_MESSAGE(symbolic_entry(fixed, "M[0]"), std::invalid_argument, "M takes 2 indices, got 1");
   EXPECT_TRUE(symbolic_entry(m, "M[4][5]").is_equal(m.expression(Output::mass_matrix)(4, 5)));
 }
 
