@@ -37,7 +37,8 @@ std::vector<Eigen::MatrixXd> composed(const SymbolicModel& model, Output o, cons
   if (o == Output::forward_dynamics) {
     // Unpivoted pivots D_j = L_jj^2 of M = L L^T, and D_j / M_jj.
     const Eigen::LLT<Eigen::MatrixXd> llt(M);
-    if (llt.info() != Eigen::Success) throw std::runtime_error("mass matrix is not positive definite");
+    if (llt.info() != Eigen::Success)
+      throw DynamicsError("model " + model.scene.name + ": mass matrix is not positive definite");
     Eigen::VectorXd d, scaled;
     llt_pivots(llt, M, d, scaled);
     return {llt.solve(extra - b), d, scaled};

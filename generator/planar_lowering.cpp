@@ -478,30 +478,43 @@ std::vector<Eigen::MatrixXd> composed_reference(const SymbolicModel& model, Outp
   return evaluate_output(model, o, inputs, params);
 }
 
-// Builds one composed output in fb's program from the closed forms of M, b and J.
-std::vector<std::vector<SRef>> compose(const SymbolicModel& model, FunctionBuilder& fb, Output o) {
+// The closed forms of M and b in a builder's program, and the block and row views the
+// compositions below take of them (row-major vectors of node references).
+struct Composer {
+  const SymbolicModel& model;
+  FunctionBuilder& fb;
   Program& p = fb.prog;
   const int n = model.n(), N = model.scene.num_links(), nb = n - N;
-  const GiNaC::matrix& Me = model.expression(Output::mass_matrix);
-  std::vector<SRef> M(n * n);
-  for (int i = 0; i < n; ++i)
-    for (int j = i; j < n; ++j) M[i * n + j] = M[j * n + i] = fb.build(Me(i, j));
-  auto block = [&](int r0, int c0, int rows, int cols) {
+  std::vector<SRef> M;
+
+  Composer(const SymbolicModel& m, FunctionBuilder& builder) : model(m), fb(builder), M(n * n) {
+    const GiNaC::matrix& Me = model.expression(Output::mass_matrix);
+    for (int i = 0; i < n; ++i)
+      for (int j = i; j < n; ++j) M[i * n + j] = M[j * n + i] = fb.build(Me(i, j));
+  }
+  std::vector<SRef> block(int r0, int c0, int rows, int cols) const {
     std::vector<SRef> m;
     for (int i = 0; i < rows; ++i)
       for (int j = 0; j < cols; ++j) m.push_back(M[(r0 + i) * n + c0 + j]);
     return m;
-  };
-  auto row = [&](const std::vector<SRef>& m, int cols, int i) {
+  }
+  static std::vector<SRef> row(const std::vector<SRef>& m, int cols, int i) {
     return std::vector<SRef>(m.begin() + i * cols, m.begin() + (i + 1) * cols);
-  };
-  auto inputs = [&](const char* name, int size) {
+  }
+  std::vector<SRef> inputs(const char* name, int size) {
     std::vector<SRef> v;
     for (int i = 0; i < size; ++i) v.push_back(p.input(name, i));
     return v;
-  };
-  if (o == Output::generalized_jacobian) {
-    // J* = J_m - J_b X with M_bb X = M_bm, column by column.
+  }
+  std::vector<SRef> bias() {
+    std::vector<SRef> b;
+    for (int i = 0; i < n; ++i) b.push_back(fb.build(model.expression(Output::bias_forces)(i, 0)));
+    return b;
+  }
+  SRef gear_ratio(int j) { return fb.build((1 / model.gear_map(nb + j, nb + j)).normal()); }
+
+  // J* = J_m - J_b X with M_bb X = M_bm, column by column.
+  std::vector<std::vector<SRef>> generalized_jacobian() {
     const GiNaC::matrix& Je = model.expression(Output::end_effector_jacobian);
     const LdltProgram f = ldlt(p, block(0, 0, nb, nb), nb);
     const std::vector<SRef> Mbm = block(0, nb, nb, N);
@@ -519,38 +532,55 @@ std::vector<std::vector<SRef>> compose(const SymbolicModel& model, FunctionBuild
     }
     return {Jg};
   }
-  const GiNaC::matrix& be = model.expression(Output::bias_forces);
-  std::vector<SRef> b;
-  for (int i = 0; i < n; ++i) b.push_back(fb.build(be(i, 0)));
-  if (o == Output::inverse_dynamics) {
-    const std::vector<SRef> qdd = inputs("qdd", n);
+
+  // Q = M qdd + b.
+  std::vector<std::vector<SRef>> inverse_dynamics() {
+    const std::vector<SRef> qdd = inputs("qdd", n), b = bias();
     std::vector<SRef> Q;
     for (int i = 0; i < n; ++i) Q.push_back(p.add({dot(p, row(M, n, i), qdd), b[i]}));
     return {Q};
   }
-  if (o == Output::forward_dynamics) {
-    const std::vector<SRef> Q = inputs("Q", n);
-    std::vector<SRef> rhs, pivots;
+
+  // M = L D L^T; qdd = M^-1 (Q - b), the pivots D and D_i / M_ii.
+  std::vector<std::vector<SRef>> forward_dynamics() {
+    const std::vector<SRef> Q = inputs("Q", n), b = bias();
+    std::vector<SRef> rhs, scaled;
     for (int i = 0; i < n; ++i) rhs.push_back(p.add({Q[i], -b[i]}));
     const LdltProgram f = ldlt(p, M, n);
-    for (int i = 0; i < n; ++i) pivots.push_back(p.div(f.d[i], M[i * n + i]));
-    return {ldlt_solve(p, f, rhs), f.d, pivots};
+    for (int i = 0; i < n; ++i) scaled.push_back(p.div(f.d[i], M[i * n + i]));
+    return {ldlt_solve(p, f, rhs), f.d, scaled};
   }
-  // free_base_inverse_dynamics: M_bb a_b = -(M_bm a + b_b); Q_m = M_mb a_b + M_mm a + b_m,
-  // with a the joint rows of qdd (motor accelerations p qdd_joints) and tau = p Q_m.
-  std::vector<SRef> ratio, a;
-  for (int j = 0; j < N; ++j) ratio.push_back(fb.build((1 / model.gear_map(nb + j, nb + j)).normal()));
-  for (int j = 0; j < N; ++j) a.push_back(p.mul({p.input("qdd_joints", j), ratio[j]}));
-  const std::vector<SRef> Mbm = block(0, nb, nb, N), Mmb = block(nb, 0, N, nb), Mmm = block(nb, nb, N, N);
-  std::vector<SRef> rhs;
-  for (int k = 0; k < nb; ++k) rhs.push_back(-p.add({dot(p, row(Mbm, N, k), a), b[k]}));
-  const std::vector<SRef> base = ldlt_solve(p, ldlt(p, block(0, 0, nb, nb), nb), rhs);
-  std::vector<SRef> tau;
-  for (int j = 0; j < N; ++j) {
-    const SRef Qj = p.add({dot(p, row(Mmb, nb, j), base), dot(p, row(Mmm, N, j), a), b[nb + j]});
-    tau.push_back(p.mul({Qj, ratio[j]}));
+
+  // M_bb a_b = -(M_bm a + b_b); Q_m = M_mb a_b + M_mm a + b_m, with a the joint rows of qdd
+  // (motor accelerations p qdd_joints) and tau = p Q_m.
+  std::vector<std::vector<SRef>> free_base_inverse_dynamics() {
+    const std::vector<SRef> b = bias();
+    std::vector<SRef> ratio, a;
+    for (int j = 0; j < N; ++j) ratio.push_back(gear_ratio(j));
+    for (int j = 0; j < N; ++j) a.push_back(p.mul({p.input("qdd_joints", j), ratio[j]}));
+    const std::vector<SRef> Mbm = block(0, nb, nb, N), Mmb = block(nb, 0, N, nb), Mmm = block(nb, nb, N, N);
+    std::vector<SRef> rhs;
+    for (int k = 0; k < nb; ++k) rhs.push_back(-p.add({dot(p, row(Mbm, N, k), a), b[k]}));
+    const std::vector<SRef> base = ldlt_solve(p, ldlt(p, block(0, 0, nb, nb), nb), rhs);
+    std::vector<SRef> tau;
+    for (int j = 0; j < N; ++j) {
+      const SRef Qj = p.add({dot(p, row(Mmb, nb, j), base), dot(p, row(Mmm, N, j), a), b[nb + j]});
+      tau.push_back(p.mul({Qj, ratio[j]}));
+    }
+    return {tau, base};
   }
-  return {tau, base};
+};
+
+// Builds one composed output in fb's program from the closed forms of M, b and J.
+std::vector<std::vector<SRef>> compose(const SymbolicModel& model, FunctionBuilder& fb, Output o) {
+  Composer c(model, fb);
+  switch (o) {
+    case Output::generalized_jacobian: return c.generalized_jacobian();
+    case Output::inverse_dynamics: return c.inverse_dynamics();
+    case Output::forward_dynamics: return c.forward_dynamics();
+    case Output::free_base_inverse_dynamics: return c.free_base_inverse_dynamics();
+    default: throw std::logic_error("compose: " + to_string(o) + " is not a composed output");
+  }
 }
 
 // A composed output, checked against Eigen's solves of GiNaC's values.
