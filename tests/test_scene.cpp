@@ -1,8 +1,10 @@
 // Scene files: the paper's scenes parse; bad input gets an error naming field and value.
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 #include "scene.hpp"
 #include "scene_fuzz_target.hpp"
@@ -187,6 +189,41 @@ TEST(Scene, ContentHashIsStable) {
   EXPECT_EQ(content_hash(""), "cbf29ce484222325");  // FNV-1a 64 offset basis
   EXPECT_EQ(content_hash("a"), "af63dc4c8601ec8c");  // published FNV-1a 64 test vector
   EXPECT_NE(content_hash(kValid), content_hash(std::string(kValid) + " "));
+}
+
+}  // namespace
+}  // namespace spacearm
+
+namespace spacearm {
+namespace {
+
+// The registry's names become identifiers in generated code and keys in eval's JSON: unique,
+// and clear of the names the printer uses itself (T the scalar, params, temporaries t<k>).
+TEST(OutputRegistry, NamesAreUniqueAndClearOfGeneratedNames) {
+  std::set<std::string> names, symbols;
+  auto is_generated = [](const std::string& n) {
+    return n == "T" || n == "params" || (n.size() > 1 && n[0] == 't' && std::isdigit(static_cast<unsigned char>(n[1])));
+  };
+  for (const OutputInfo& o : output_registry()) {
+    SCOPED_TRACE(o.name);
+    EXPECT_TRUE(names.insert(o.name).second);
+    EXPECT_TRUE(symbols.insert(o.symbol).second);
+    for (char c : std::string(o.symbol)) EXPECT_TRUE(std::isalpha(static_cast<unsigned char>(c)));  // inspect's syntax
+    EXPECT_EQ(output_from_string(o.name), o.id);
+    EXPECT_EQ(&info(o.id), &o);
+    std::set<std::string> arguments;
+    for (Input i : o.inputs) EXPECT_TRUE(arguments.insert(info(i).name).second) << info(i).name;
+    const bool scalar = o.results.size() == 1 && o.results[0].rows == Size::one && o.results[0].cols == Size::one;
+    for (const ResultInfo& r : o.results) {
+      if (!scalar) EXPECT_FALSE(is_generated(r.name)) << r.name;  // a returned scalar is not an argument
+      EXPECT_TRUE(arguments.insert(r.name).second) << r.name;
+      EXPECT_TRUE(!r.symmetric || r.rows == r.cols) << r.name;
+    }
+    for (const std::string& a : arguments)
+      if (!(scalar && a == o.results[0].name)) EXPECT_FALSE(is_generated(a)) << a;
+    // Composed outputs are made of closed forms only.
+    for (Output c : o.composed_of) EXPECT_TRUE(info(c).composed_of.empty()) << to_string(c);
+  }
 }
 
 }  // namespace
