@@ -74,15 +74,21 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
+// The functions of the C interface the loader calls for `scene`: gear_ratios and one per output.
+std::vector<std::string> exported_functions(const Scene& scene) {
+  std::vector<std::string> names = {"gear_ratios"};
+  for (const auto& o : output_registry())
+    if (scene.wants(o.id)) names.push_back(o.name);
+  return names;
+}
+
 // The C symbols a library must export for `scene` (checked before anything is called).
 std::vector<std::string> required_symbols(const Scene& scene) {
-  std::vector<std::string> names = {"spacearm_abi_version",       "spacearm_nq",         "spacearm_nv",
-                                    "spacearm_num_links",         "spacearm_num_params", "spacearm_coordinate_name",
-                                    "spacearm_parameter_name",    "spacearm_nominal_parameter",
-                                    "spacearm_outputs",           "spacearm_parameter_error",
-                                    "spacearm_gear_ratios"};
-  for (const auto& o : output_registry())
-    if (scene.wants(o.id)) names.push_back("spacearm_" + std::string(o.name));
+  std::vector<std::string> names = {"spacearm_abi_version",    "spacearm_nq",         "spacearm_nv",
+                                    "spacearm_num_links",      "spacearm_num_params", "spacearm_coordinate_name",
+                                    "spacearm_parameter_name", "spacearm_nominal_parameter",
+                                    "spacearm_outputs",        "spacearm_parameter_error"};
+  for (const auto& f : exported_functions(scene)) names.push_back("spacearm_" + f);
   return names;
 }
 
@@ -251,9 +257,7 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
     m.nominal_.push_back(nominal(i));
   }
   m.parameter_error_ = reinterpret_cast<const char* (*)(const double*)>(sym("spacearm_parameter_error"));
-  for (const auto& name : required_symbols(scene))
-    if (name != "spacearm_parameter_error")
-      m.functions_[name.substr(9)] = reinterpret_cast<Function>(sym(name));
+  for (const auto& f : exported_functions(scene)) m.functions_[f] = reinterpret_cast<Function>(sym("spacearm_" + f));
   rep.load_ms = ms_since(t0);
   return m;
 }

@@ -347,16 +347,17 @@ struct CheckPoint {
     }
     for (const auto& p : model.scene.parameters) params.push_back(p.nominal.value);
   }
+  // Entry `index` of an input array; the composed outputs' other inputs (qdd, Q, qdd_joints)
+  // get fixed values of their own.
   double input(const std::string& array, int index) const {
     if (array == "q") return q.at(index);
     if (array == "qd") return qd.at(index);
     if (array == "params") return params.at(index);
-    throw std::logic_error("self-check: unknown input " + array);
+    return 0.2 + 0.3 * std::cos(1.7 * index + array.size());
   }
 };
 
-// Inputs of the composed outputs at the check point (qdd, Q, qdd_joints).
-double extra_input(const std::string& array, int index) { return 0.2 + 0.3 * std::cos(1.7 * index + array.size()); }
+Dimensions dimensions(const SymbolicModel& model) { return {model.n(), model.n(), model.scene.num_links()}; }
 
 // The generator checks itself before it emits: the optimized straight-line program must
 // reproduce, at the check point, the values computed from the derivation alone (want: per
@@ -364,9 +365,7 @@ double extra_input(const std::string& array, int index) { return 0.2 + 0.3 * std
 void self_check(const SymbolicModel& model, const FunctionSpec& f, const std::vector<std::vector<double>>& want) {
   const CheckPoint at(model);
   for (size_t k = 0; k < f.results.size(); ++k) {
-    const auto got = f.program.evaluate(f.entries[k], [&](const std::string& a, int i) {
-      return a == "q" || a == "qd" || a == "params" ? at.input(a, i) : extra_input(a, i);
-    });
+    const auto got = f.program.evaluate(f.entries[k], [&](const std::string& a, int i) { return at.input(a, i); });
     if (got.size() != want[k].size()) throw std::logic_error("self-check: " + f.name + " has a wrong entry count");
     double scale = 1e-300;
     for (double w : want[k]) {
@@ -390,8 +389,8 @@ void self_check(const SymbolicModel& model, const FunctionSpec& f, const std::ve
 FunctionSpec cheapest_lowering(const SymbolicModel& model, const FunctionSpec& f,
                                const std::function<std::vector<std::vector<SRef>>(FunctionBuilder&)>& build,
                                const std::vector<std::vector<double>>& want) {
-  const bool uses_velocity =
-      std::any_of(f.inputs.begin(), f.inputs.end(), [](const ArraySpec& a) { return a.name == "qd"; });
+  const bool uses_velocity = std::any_of(f.inputs.begin(), f.inputs.end(),
+                                         [](const ArraySpec& a) { return a.name == info(Input::qd).name; });
   FunctionSpec best;
   int best_cost = -1;
   for (int basis = 0; basis < (uses_velocity ? 2 : 1); ++basis) {
@@ -444,7 +443,7 @@ FunctionSpec lower_closed_form(const SymbolicModel& model, FunctionSpec f, const
     std::vector<std::vector<SRef>> entries;
     for (size_t k = 0; k < results.size(); ++k) {
       auto& out = entries.emplace_back();
-      const int cols = f.results[k].symmetric ? static_cast<int>(std::lround(std::sqrt(results[k].size()))) : 1;
+      const int cols = dimensions(model)(f.results[k].cols);
       for (size_t e = 0; e < results[k].size(); ++e) {
         // A symmetric result's lower triangle repeats its upper one (built once).
         const int i = static_cast<int>(e) / cols, j = static_cast<int>(e) % cols;
@@ -455,7 +454,6 @@ FunctionSpec lower_closed_form(const SymbolicModel& model, FunctionSpec f, const
   };
   return cheapest_lowering(model, f, build, want);
 }
-
 
 std::vector<ex> entries_of(const GiNaC::matrix& m) {
   std::vector<ex> v;
@@ -468,10 +466,8 @@ std::vector<ex> entries_of(const GiNaC::matrix& m) {
 std::vector<Eigen::MatrixXd> composed_reference(const SymbolicModel& model, Output o, const CheckPoint& at) {
   std::vector<Eigen::VectorXd> inputs;
   for (Input i : info(o).inputs) {
-    const std::string name = info(i).name;
-    const int size = i == Input::joint_accelerations ? model.scene.num_links() : model.n();
-    Eigen::VectorXd v(size);
-    for (int k = 0; k < size; ++k) v[k] = name == "q" || name == "qd" ? at.input(name, k) : extra_input(name, k);
+    Eigen::VectorXd v(dimensions(model)(info(i).size));
+    for (int k = 0; k < v.size(); ++k) v[k] = at.input(info(i).name, k);
     inputs.push_back(v);
   }
   const Eigen::VectorXd params = Eigen::Map<const Eigen::VectorXd>(at.params.data(), at.params.size());
@@ -635,7 +631,7 @@ ModelFacts model_facts(const SymbolicModel& model, bool plain) {
   facts.name = scene.name + (plain ? "_plain" : "");
   facts.description = scene.description;
   facts.coordinates_note = scene.geared() ? " (motor angles qm = p q, paper eq. 12)" : "";
-  facts.dims = {model.n(), model.n(), scene.num_links()};
+  facts.dims = dimensions(model);
   facts.free_floating = scene.free_floating();
   facts.geared = scene.geared();
   facts.coordinate_names = scene.coordinate_names();
