@@ -1,21 +1,30 @@
-# spacearm_add_model(<target> SCENE <scene.yaml>)
+# spacearm_add_model(<target> SCENE <scene.yaml> [PLAIN])
 #
 # Creates a static library <target> from the code spacearm generates for the scene. The
 # sources are regenerated at build time whenever the scene file or the generator changes,
 # and only then. Include "<target>.hpp"; the namespace is spacearm::models::<scene name>.
+# PLAIN generates the expanded, CSE-free baseline (generate --plain), for benchmarks.
+# The one build rule for generated models: used by tests/, bench/ and outside projects.
 function(spacearm_add_model target)
-  cmake_parse_arguments(ARG "" "SCENE" "" ${ARGN})
+  cmake_parse_arguments(ARG "PLAIN" "SCENE" "" ${ARGN})
   if(NOT ARG_SCENE)
     message(FATAL_ERROR "spacearm_add_model(${target}): SCENE <file> is required")
+  endif()
+  if(ARG_UNPARSED_ARGUMENTS)
+    message(FATAL_ERROR "spacearm_add_model(${target}): unknown arguments '${ARG_UNPARSED_ARGUMENTS}'")
   endif()
   get_filename_component(scene "${ARG_SCENE}" ABSOLUTE BASE_DIR "${CMAKE_CURRENT_SOURCE_DIR}")
   if(NOT EXISTS "${scene}")
     message(FATAL_ERROR "spacearm_add_model(${target}): scene '${scene}' does not exist")
   endif()
+  set(flags)
+  if(ARG_PLAIN)
+    set(flags --plain)
+  endif()
   set(dir "${CMAKE_CURRENT_BINARY_DIR}/spacearm_models/${target}")
   add_custom_command(
     OUTPUT "${dir}/${target}.hpp" "${dir}/${target}.cpp"
-    COMMAND spacearm::spacearm generate "${scene}" -o "${dir}" --file-stem "${target}"
+    COMMAND spacearm::spacearm generate "${scene}" -o "${dir}" --file-stem "${target}" ${flags}
     DEPENDS "${scene}" "$<TARGET_FILE:spacearm::spacearm>"
     COMMENT "spacearm: generating model ${target} from ${ARG_SCENE}"
     VERBATIM)

@@ -9,7 +9,7 @@ scripts/setup.sh build  # shows the build's progress
 out="${OUT_DIR:-out/paper}"
 echo "== operation counts of the paper's generated models"
 for scene in models/paper_reference.yaml models/paper_geared.yaml; do
-  build/generator/spacearm generate "$scene" -o "$out/generated" --stats | grep -E "^(function|mass_matrix|bias)"
+  build/cli/spacearm generate "$scene" -o "$out/generated" --stats | grep -E "^(function|mass_matrix|bias)"
 done
 echo
 build/examples/paper_experiment --out "$out" "$@"
