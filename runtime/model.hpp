@@ -20,17 +20,20 @@ namespace spacearm {
 template <class Generated>
 class Model {
  public:
+  // Configuration and velocity sizes, kept apart (equal for every planar model today).
   static constexpr int kNq = Generated::kNq;
+  static constexpr int kNv = Generated::kNv;
   static constexpr int kNumLinks = Generated::kNumLinks;
   static constexpr int kNumParams = Generated::kNumParams;
   static constexpr bool kFreeFloating = Generated::kFreeFloating;
-  static constexpr int kFirstJoint = kFreeFloating ? 3 : 0;
-  using Vector = Eigen::Matrix<double, kNq, 1>;
-  using Matrix = Eigen::Matrix<double, kNq, kNq>;
+  static constexpr int kFirstJoint = kNv - kNumLinks;  // velocity index of joint 1
+  using Vector = Eigen::Matrix<double, kNq, 1>;     // configuration q
+  using Velocity = Eigen::Matrix<double, kNv, 1>;   // qd, qdd, generalized forces Q, bias b
+  using Matrix = Eigen::Matrix<double, kNv, kNv>;
   using Params = Eigen::Matrix<double, kNumParams, 1>;
   using JointVector = Eigen::Matrix<double, kNumLinks, 1>;
   using Vector3 = Eigen::Matrix<double, 3, 1>;
-  using PoseJacobian = Eigen::Matrix<double, 3, kNq>;
+  using PoseJacobian = Eigen::Matrix<double, 3, kNv>;
 
   Model() {
     for (int i = 0; i < kNumParams; ++i) params_[i] = Generated::nominal_parameters()[i];
@@ -64,6 +67,13 @@ class Model {
                                 "' (known: " + (known.empty() ? "none" : known) + ")");
   }
 
+  // dq/dt for velocity qd: the identity for every planar model (kNq == kNv). A base with a
+  // quaternion would map its angular velocity to the quaternion's rate here.
+  static Vector configuration_rate(const Vector& /*q*/, const Velocity& qd) {
+    static_assert(kNq == kNv, "configuration_rate: only qdot = qd models are generated today");
+    return qd;
+  }
+
   // Gear ratio per joint (1 for the reference model), eq. 9.
   const JointVector& gear_ratios() const { return ratios_; }
 
@@ -72,16 +82,16 @@ class Model {
     Generated::mass_matrix(q, params_, M);
     return M;
   }
-  Vector bias_forces(const Vector& q, const Vector& qd) const {
-    Vector b;
+  Velocity bias_forces(const Vector& q, const Velocity& qd) const {
+    Velocity b;
     Generated::bias_forces(q, qd, params_, b);
     return b;
   }
-  void mass_matrix_and_bias(const Vector& q, const Vector& qd, Matrix& M, Vector& b) const {
+  void mass_matrix_and_bias(const Vector& q, const Velocity& qd, Matrix& M, Velocity& b) const {
     Generated::mass_matrix_and_bias(q, qd, params_, M, b);
   }
-  double kinetic_energy(const Vector& q, const Vector& qd) const { return Generated::kinetic_energy(q, qd, params_); }
-  Vector3 momentum(const Vector& q, const Vector& qd) const {
+  double kinetic_energy(const Vector& q, const Velocity& qd) const { return Generated::kinetic_energy(q, qd, params_); }
+  Vector3 momentum(const Vector& q, const Velocity& qd) const {
     Vector3 h;
     Generated::momentum(q, qd, params_, h);
     return h;
@@ -99,8 +109,8 @@ class Model {
 
   // Generalized forces for joint torques tau applied at the joints (the reference model)
   // or at the motors (the geared model, Q_g = tau / p, eq. 14); no force on the base.
-  Vector generalized_forces(const JointVector& tau) const {
-    Vector Q = Vector::Zero();
+  Velocity generalized_forces(const JointVector& tau) const {
+    Velocity Q = Velocity::Zero();
     Q.template tail<kNumLinks>() = tau.cwiseQuotient(ratios_);
     return Q;
   }
@@ -109,14 +119,14 @@ class Model {
   // LDL^T solve where the model has one, else a fixed-size Cholesky factorization. Throws
   // DynamicsError on non-finite input, a mass matrix that is not positive definite or one
   // too ill-conditioned to solve (check_forward_dynamics).
-  Vector forward_dynamics(const Vector& q, const Vector& qd, const Vector& Q) const {
+  Velocity forward_dynamics(const Vector& q, const Velocity& qd, const Velocity& Q) const {
     if (!q.allFinite() || !qd.allFinite() || !Q.allFinite()) throw DynamicsError(describe_non_finite(q, qd, Q));
-    Vector qdd, pivots, scaled_pivots;
+    Velocity qdd, pivots, scaled_pivots;
     if constexpr (Generated::kHas_forward_dynamics) {
       Generated::forward_dynamics(q, qd, Q, params_, qdd, pivots, scaled_pivots);
     } else {
       Matrix M;
-      Vector b;
+      Velocity b;
       Generated::mass_matrix_and_bias(q, qd, params_, M, b);
       const Eigen::LLT<Matrix> llt(M);
       if (llt.info() != Eigen::Success)
@@ -134,7 +144,7 @@ class Model {
   // forward_dynamics (see there); it does not grow with the units or the gear ratios.
   double scaled_condition_number(const Vector& q) const {
     const Matrix M = mass_matrix(q);
-    const Vector s = M.diagonal().cwiseSqrt().cwiseInverse();
+    const Velocity s = M.diagonal().cwiseSqrt().cwiseInverse();
     return spd_condition_number(s.asDiagonal() * M * s.asDiagonal());
   }
 
@@ -157,11 +167,12 @@ class Model {
                                     std::to_string(i + 1) + " must be positive, got " + std::to_string(ratios_[i]));
   }
 
-  static std::string describe_non_finite(const Vector& q, const Vector& qd, const Vector& Q) {
+  static std::string describe_non_finite(const Vector& q, const Velocity& qd, const Velocity& Q) {
     std::ostringstream msg;
     msg << "model " << Generated::kName << ": non-finite input";
-    for (int i = 0; i < kNq; ++i) {
+    for (int i = 0; i < kNq; ++i)
       if (!std::isfinite(q[i])) msg << " q[" << i << "] (" << Generated::coordinate_names()[i] << ") = " << q[i];
+    for (int i = 0; i < kNv; ++i) {
       if (!std::isfinite(qd[i])) msg << " qd[" << i << "] = " << qd[i];
       if (!std::isfinite(Q[i])) msg << " Q[" << i << "] = " << Q[i];
     }

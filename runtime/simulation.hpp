@@ -16,7 +16,8 @@ template <class G>
 struct Trajectory {
   using M = Model<G>;
   std::vector<double> t;
-  std::vector<typename M::Vector> q, qd;
+  std::vector<typename M::Vector> q;
+  std::vector<typename M::Velocity> qd;
   std::vector<typename M::Vector3> end_effector, momentum;
   std::vector<double> kinetic_energy;
   std::vector<double> work;  // work done by the joint torques since t0 (trapezoidal in time)
@@ -30,27 +31,29 @@ struct Trajectory {
 // last accepted step) and traj keeps every sample taken up to then.
 template <class G>
 void simulate(Trajectory<G>& traj, const Model<G>& model, const typename Model<G>::Vector& q0,
-              const typename Model<G>::Vector& qd0,
+              const typename Model<G>::Velocity& qd0,
               const std::function<typename Model<G>::JointVector(double)>& tau, double t_end, double dt_out,
               const IntegratorOptions& options) {
   using M = Model<G>;
-  constexpr int n = M::kNq;
-  using State = Eigen::Matrix<double, 2 * n, 1>;
+  constexpr int nq = M::kNq, nv = M::kNv;
+  using State = Eigen::Matrix<double, nq + nv, 1>;  // (q, qd)
   State x;
   x << q0, qd0;
   traj = Trajectory<G>();
   auto f = [&](const State& s, State& dsdt, double t) {
-    const typename M::Vector q = s.template head<n>(), qd = s.template tail<n>();
-    dsdt.template head<n>() = qd;
+    const typename M::Vector q = s.template head<nq>();
+    const typename M::Velocity qd = s.template tail<nv>();
+    dsdt.template head<nq>() = M::configuration_rate(q, qd);
     try {
-      dsdt.template tail<n>() = model.forward_dynamics(q, qd, model.generalized_forces(tau(t)));
+      dsdt.template tail<nv>() = model.forward_dynamics(q, qd, model.generalized_forces(tau(t)));
     } catch (const DynamicsError& e) {
       throw DynamicsError(std::string(e.what()) + " at t = " + std::to_string(t));
     }
   };
   double power_prev = 0;
   auto observe = [&](const State& s, double t) {
-    const typename M::Vector q = s.template head<n>(), qd = s.template tail<n>();
+    const typename M::Vector q = s.template head<nq>();
+    const typename M::Velocity qd = s.template tail<nv>();
     traj.t.push_back(t);
     traj.q.push_back(q);
     traj.qd.push_back(qd);
@@ -112,7 +115,7 @@ class TorqueReplay {
 // Replays sampled torques (see TorqueReplay).
 template <class G, int N>
 void simulate(Trajectory<G>& traj, const Model<G>& model, const typename Model<G>::Vector& q0,
-              const typename Model<G>::Vector& qd0, const TorqueSignal<N>& tau, double t_end, double dt_out,
+              const typename Model<G>::Velocity& qd0, const TorqueSignal<N>& tau, double t_end, double dt_out,
               IntegratorOptions options) {
   const TorqueReplay<N> replay(tau, options, "the step dt");
   const std::function<typename Model<G>::JointVector(double)> torque = [&](double t) { return replay(t); };
@@ -121,7 +124,7 @@ void simulate(Trajectory<G>& traj, const Model<G>& model, const typename Model<G
 
 template <class G, class Torque>
 Trajectory<G> simulate(const Model<G>& model, const typename Model<G>::Vector& q0,
-                       const typename Model<G>::Vector& qd0,
+                       const typename Model<G>::Velocity& qd0,
                        const Torque& tau, double t_end, double dt_out, const IntegratorOptions& options) {
   Trajectory<G> traj;
   simulate(traj, model, q0, qd0, tau, t_end, dt_out, options);  // a TorqueSignal or a function of t

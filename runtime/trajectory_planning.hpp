@@ -1,14 +1,20 @@
-// Trajectory planning for a free-floating manipulator by the inverse-dynamics approach
-// (Basmadji, Seweryn and Sasiadek 2020, as used in the paper's Section 3): the end-effector
-// follows a straight line in the world frame with constant orientation while the total
-// momentum stays zero and the base floats freely. Momentum conservation eliminates the
-// base velocities (generalized Jacobian): [J_ee; M_base,:] qd = [v_ee; 0]. Joint torques
-// then come from eq. 5 of the reference model.
+// Trajectory planning by the inverse-dynamics approach (Basmadji, Seweryn and Sasiadek 2020,
+// as used in the paper's Section 3): the end-effector follows a straight line in the world
+// frame (position, or position and constant-rate orientation) while, for a free-floating
+// base, the total momentum stays zero. Momentum conservation eliminates the base velocities
+// (generalized Jacobian): A qd = [v_task; 0] with A = [J_task; M_base,:]. Joint torques come
+// from eq. 5 (M qdd + b, joint rows; times the gear ratio on the link side, eq. 14).
+// Any chain: a fixed or free base, N >= 2 joints for a position task, N >= 3 for a pose.
+// Redundant arms take the minimum-norm joint rates. Dynamic sizes: the planner reads a model
+// through PlanningModel, so a linked Model<G> and a loaded CompiledModel share it.
 #pragma once
 
-#include <Eigen/LU>
+#include <Eigen/QR>
 
+#include <algorithm>
 #include <cmath>
+#include <functional>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -34,151 +40,305 @@ inline Eigen::Vector3d time_law(TimeLaw law, double tau) {
   return {10 * t3 - 15 * t3 * tau + 6 * t3 * t2, 30 * t2 - 60 * t3 + 30 * t2 * t2, 60 * tau - 180 * t2 + 120 * t3};
 }
 
+// What the planner reads of a model, at dynamic size. Coordinates are the model's own (motor
+// angles in a geared scene); the planner needs nq == nv, since it integrates qd as dq/dt.
+struct PlanningModel {
+  std::string name;
+  int nq = 0, nv = 0, num_links = 0;
+  bool free_floating = false;
+  Eigen::VectorXd gear_ratios;  // per joint: link-side torque = p * generalized force (eq. 14)
+  std::function<Eigen::Vector3d(const Eigen::VectorXd& q)> end_effector_pose;
+  std::function<Eigen::MatrixXd(const Eigen::VectorXd& q)> end_effector_jacobian;  // 3 x nv
+  std::function<void(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::MatrixXd& M, Eigen::VectorXd& b)>
+      mass_matrix_and_bias;
+  // Linear and angular momentum [Px, Py, L]; may be empty (then Plan::max_momentum is NaN).
+  std::function<Eigen::Vector3d(const Eigen::VectorXd& q, const Eigen::VectorXd& qd)> momentum;
+  int num_base() const { return free_floating ? 3 : 0; }
+};
+
+template <class G>
+PlanningModel planning_model(const Model<G>& m) {
+  using M = Model<G>;
+  PlanningModel pm;
+  pm.name = M::name();
+  pm.nq = M::kNq;
+  pm.nv = M::kNv;
+  pm.num_links = M::kNumLinks;
+  pm.free_floating = M::kFreeFloating;
+  pm.gear_ratios = m.gear_ratios();
+  pm.end_effector_pose = [&m](const Eigen::VectorXd& q) { return Eigen::Vector3d(m.end_effector_pose(q)); };
+  pm.end_effector_jacobian = [&m](const Eigen::VectorXd& q) { return Eigen::MatrixXd(m.end_effector_jacobian(q)); };
+  pm.mass_matrix_and_bias = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::MatrixXd& Mq,
+                                 Eigen::VectorXd& b) {
+    typename M::Matrix Mf;
+    typename M::Velocity bf;
+    m.mass_matrix_and_bias(q, qd, Mf, bf);
+    Mq = Mf;
+    b = bf;
+  };
+  if constexpr (M::kFreeFloating)
+    pm.momentum = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+      return Eigen::Vector3d(m.momentum(q, qd));
+    };
+  return pm;
+}
+
 struct StraightLineTask {
-  Eigen::Vector3d start{1.5, 0.0, M_PI / 6};  // end-effector [x, y, phi] at t = 0
-  Eigen::Vector3d goal{1.1, 0.0, M_PI / 6};
+  // End-effector [x, y] (a position task) or [x, y, phi] (a pose task) at t = 0 and t = T.
+  Eigen::VectorXd start = Eigen::Vector3d(1.5, 0.0, M_PI / 6);
+  Eigen::VectorXd goal = Eigen::Vector3d(1.1, 0.0, M_PI / 6);
   double duration = 10.0;  // s
   double dt = 0.01;        // output grid of the plan
   TimeLaw law = TimeLaw::quintic;
   int elbow = +1;          // sign of the second joint angle at the start
+  // Non-empty: the start configuration's guess (nq values) instead of the elbow seed. Its
+  // base coordinates are kept; its joint angles are refined to put the end-effector at start.
+  Eigen::VectorXd q0;
 };
 
-template <class G>
-struct Plan {
-  using M = Model<G>;
+// A plan on the output grid. Vector: the model's coordinates; JointVector: link-side torques.
+template <class Vector = Eigen::VectorXd, class JointVector = Eigen::VectorXd>
+struct BasicPlan {
   std::vector<double> t;
-  std::vector<typename M::Vector> q, qd, qdd;
-  std::vector<typename M::JointVector> tau;  // joint torques from eq. 5 (reference model)
-  // Forces on the base, max |(M qdd + C qd)_base| along the plan, with qdd taken by central
-  // differences of the planned qd over the grid (an independent check of the plan: O(dt^2)).
+  std::vector<Vector> q, qd, qdd;
+  std::vector<JointVector> tau;  // link-side joint torques, eq. 5 joint rows times p (eq. 14)
+  // Per sample: max |(M qdd + b)_base| with the planned qdd (zero up to rounding; empty for
+  // a fixed base).
+  std::vector<double> base_residual;
+  // Independent checks with qdd taken by central differences of the planned qd over the grid
+  // (O(dt^2)): the forces on the base, and the planned qdd itself.
   double max_base_residual = 0;
-  double max_path_error = 0;      // max |x_ee(q(t)) - x_desired(t)| (position and angle)
-  double max_momentum = 0;        // max |h(q, qd)| along the plan
+  double max_acceleration_mismatch = 0;
+  double max_path_error = 0;  // max |x_task(q(t)) - x_desired(t)|
+  double max_momentum = 0;    // max |h(q, qd)| along the plan (free base; NaN if not emitted)
 };
-
-// Arm joint angles that put the end-effector at `pose` with the base at the origin and
-// q0 = 0, by Newton's method on the end-effector pose; `elbow` picks the branch by the
-// sign of joint 2.
+using Plan = BasicPlan<>;
 template <class G>
-typename Model<G>::Vector initial_configuration(const Model<G>& model, const Eigen::Vector3d& pose, int elbow) {
-  using M = Model<G>;
-  static_assert(M::kNumLinks == 3, "the straight-line planner needs a 3-link arm (3 task coordinates)");
-  constexpr int j0 = M::kFirstJoint;
-  typename M::Vector q = M::Vector::Zero();
-  q[j0 + 0] = 0.3 * -elbow;
-  q[j0 + 1] = 1.2 * elbow;
-  q[j0 + 2] = -0.5 * elbow;
-  for (int it = 0; it < 100; ++it) {
-    const Eigen::Vector3d err = pose - model.end_effector_pose(q);
-    if (err.norm() < 1e-14) break;
-    const Eigen::Matrix3d J = model.end_effector_jacobian(q).template block<3, 3>(0, j0);
-    q.template segment<3>(j0) += J.fullPivLu().solve(err);
-  }
-  const Eigen::Vector3d err = pose - model.end_effector_pose(q);
-  if (!(err.norm() < 1e-12) || q[j0 + 1] * elbow <= 0)
-    throw std::runtime_error("initial_configuration: no solution on elbow branch " + std::to_string(elbow) +
-                             " for the end-effector pose (" + std::to_string(pose[0]) + ", " +
-                             std::to_string(pose[1]) + ", " + std::to_string(pose[2]) + ")");
-  return q;
+using ModelPlan = BasicPlan<typename Model<G>::Vector, typename Model<G>::JointVector>;
+
+namespace detail {
+
+// Task rows of the end-effector pose: 2 (position) or 3 (pose); checks the model can do it.
+inline int task_rows(const PlanningModel& m, const StraightLineTask& task) {
+  const int rows = static_cast<int>(task.start.size());
+  auto fail = [&](const std::string& why) {
+    throw std::invalid_argument("planner, model " + m.name + ": " + why);
+  };
+  if (rows != 2 && rows != 3)
+    fail("the start must be x,y (position) or x,y,phi (pose), got " + std::to_string(rows) + " values");
+  if (task.goal.size() != rows)
+    fail("the goal has " + std::to_string(task.goal.size()) + " values and the start " + std::to_string(rows));
+  if (m.num_links < rows)
+    fail("a " + std::to_string(m.num_links) + "-link arm cannot follow a " + (rows == 3 ? "pose" : "position") +
+         " (" + std::to_string(rows) + " task coordinates)" + (m.num_links == 2 ? ": give x,y only" : ""));
+  if (m.nq != m.nv) fail("needs nq == nv (it integrates qd as dq/dt)");
+  if (!(task.duration > 0) || !(task.dt > 0) || !std::isfinite(task.duration))
+    fail("duration and dt must be positive");
+  if (!task.start.allFinite() || !task.goal.allFinite()) fail("start and goal must be finite");
+  if (task.q0.size() != 0 && (task.q0.size() != m.nq || !task.q0.allFinite()))
+    fail("q0 must have " + std::to_string(m.nq) + " finite values, got " + std::to_string(task.q0.size()));
+  if (task.q0.size() == 0 && task.elbow != 1 && task.elbow != -1)
+    fail("elbow must be +1 or -1, got " + std::to_string(task.elbow));
+  return rows;
 }
 
-template <class G>
-Plan<G> plan_straight_line(const Model<G>& model, const StraightLineTask& task) {
-  using M = Model<G>;
-  static_assert(M::kFreeFloating && M::kNumLinks == 3, "planner: free-floating base and 3 links");
-  constexpr int n = M::kNq;
-  using Vector = typename M::Vector;
-  using Matrix = typename M::Matrix;
+// Minimum-norm solutions of A x = r for a full-row-rank A (m x n, m <= n) through a QR
+// factorization of A^T = Q R P^T: x = A^T lambda with A A^T lambda = r. Exact for square A.
+struct MinimumNorm {
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr;
+  explicit MinimumNorm(const Eigen::MatrixXd& A) : qr(A.transpose()) {}
+  // Ratio of the smallest to the largest |R_ii|: an estimate of 1 / cond(A).
+  double rcond() const {
+    const auto d = qr.matrixR().diagonal().cwiseAbs();
+    const Eigen::Index m = qr.cols();
+    return d.head(m).minCoeff() / d.head(m).maxCoeff();
+  }
+  // y = R^-T P^T r; x = Q y; lambda = P R^-1 y.
+  Eigen::VectorXd y(const Eigen::VectorXd& r) const {
+    const Eigen::Index m = qr.cols();
+    const auto R = qr.matrixR().topLeftCorner(m, m).template triangularView<Eigen::Upper>();
+    return R.transpose().solve(Eigen::VectorXd(qr.colsPermutation().transpose() * r));
+  }
+  Eigen::VectorXd x(const Eigen::VectorXd& y) const {
+    Eigen::MatrixXd Q = qr.householderQ();
+    return Q.leftCols(y.size()) * y;
+  }
+  Eigen::VectorXd lambda(const Eigen::VectorXd& y) const {
+    const Eigen::Index m = qr.cols();
+    const auto R = qr.matrixR().topLeftCorner(m, m).template triangularView<Eigen::Upper>();
+    return qr.colsPermutation() * Eigen::VectorXd(R.solve(y));
+  }
+};
+
+// A(q) = [J_task; M_base rows]: zero base-row momentum M_base qd = 0 is zero linear and
+// angular momentum (L = M_q0,: qd + x0 Py - y0 Px).
+inline Eigen::MatrixXd system_matrix(const PlanningModel& m, int rows, const Eigen::VectorXd& q) {
+  const int nb = m.num_base();
+  Eigen::MatrixXd A(rows + nb, m.nv);
+  A.topRows(rows) = m.end_effector_jacobian(q).topRows(rows);
+  if (nb > 0) {
+    Eigen::MatrixXd M;
+    Eigen::VectorXd b;
+    m.mass_matrix_and_bias(q, Eigen::VectorXd::Zero(m.nv), M, b);
+    A.bottomRows(nb) = M.topRows(nb);
+  }
+  return A;
+}
+
+}  // namespace detail
+
+// Joint angles that put the end-effector at task.start (base coordinates at zero, or those of
+// task.q0), by Newton's method with minimum-norm steps on the task coordinates; `elbow` picks
+// the branch by the sign of joint 2 and seeds the iteration, task.q0 replaces the seed.
+inline Eigen::VectorXd initial_configuration(const PlanningModel& m, const StraightLineTask& task) {
+  const int rows = detail::task_rows(m, task), j0 = m.num_base(), n = m.num_links;
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(m.nq);
+  if (task.q0.size() != 0) {
+    q = task.q0;
+  } else {
+    for (int i = 0; i < n; ++i) q[j0 + i] = task.elbow * (i == 0 ? -0.3 : i == 1 ? 1.2 : -0.5 / (n - 2));
+  }
+  auto error = [&](const Eigen::VectorXd& x) {
+    const Eigen::VectorXd pose = m.end_effector_pose(x);
+    return Eigen::VectorXd(task.start - pose.head(rows));
+  };
+  for (int it = 0; it < 200 && !(error(q).norm() < 1e-14); ++it) {
+    const Eigen::MatrixXd J = m.end_effector_jacobian(q).block(0, j0, rows, n);
+    Eigen::VectorXd step = J.completeOrthogonalDecomposition().solve(error(q));
+    if (step.norm() > 0.5) step *= 0.5 / step.norm();  // stay near the seed's branch
+    q.segment(j0, n) += step;
+  }
+  const bool branch_ok = task.q0.size() != 0 || q[j0 + 1] * task.elbow > 0;
+  if (!(error(q).norm() < 1e-12) || !branch_ok) {
+    std::string pose;
+    for (int i = 0; i < rows; ++i) pose += (i ? ", " : "") + std::to_string(task.start[i]);
+    throw std::runtime_error("planner, model " + m.name + ": no start configuration " +
+                             (task.q0.size() ? std::string("near the given q0") :
+                                               "on elbow branch " + std::to_string(task.elbow)) +
+                             " puts the end-effector at (" + pose + ")" +
+                             (task.q0.size() ? "" : "; give a guess with q0"));
+  }
+  return q;
+}
+// The straight line of `task` for model `m` on the grid t = 0, dt, ..., T.
+inline Plan plan_straight_line(const PlanningModel& m, const StraightLineTask& task) {
+  using Eigen::VectorXd;
+  const int rows = detail::task_rows(m, task), nb = m.num_base(), n = m.num_links;
   const double T = task.duration;
-  auto desired = [&](double t, Eigen::Vector3d& x, Eigen::Vector3d& v, Eigen::Vector3d& a) {
+  auto desired = [&](double t, VectorXd& x, VectorXd& v, VectorXd& a) {
     const Eigen::Vector3d s = time_law(task.law, t / T);
-    const Eigen::Vector3d d = task.goal - task.start;
+    const VectorXd d = task.goal - task.start;
     x = task.start + s[0] * d;
     v = s[1] / T * d;
     a = s[2] / (T * T) * d;
   };
-  // Generalized Jacobian system: A(q) = [J_ee; M_base rows]. Zero base-row momentum
-  // M_base qd = 0 is zero linear and angular momentum (L = M_q0,: qd + x0 Py - y0 Px).
-  auto system_matrix = [&](const Vector& q) {
-    Matrix A;
-    A.template topRows<3>() = model.end_effector_jacobian(q);
-    A.template bottomRows<3>() = model.mass_matrix(q).template topRows<3>();
-    return A;
-  };
-  auto velocity = [&](const Vector& q, double t) {
-    Eigen::Vector3d x, v, a;
-    desired(t, x, v, a);
-    Vector rhs;
-    rhs << v, Eigen::Vector3d::Zero();
-    const Eigen::PartialPivLU<Matrix> lu(system_matrix(q));
-    // Near a singularity of the generalized Jacobian (e.g. the arm stretched at the edge of
-    // the workspace) the joint rates blow up: stop with a reason instead of integrating noise.
-    if (!(lu.rcond() > 1e-10))
-      throw std::runtime_error("plan_straight_line: generalized Jacobian singular (rcond " +
-                               std::to_string(lu.rcond()) + ") at t = " + std::to_string(t) +
+  auto factor = [&](const VectorXd& q, double t) {
+    detail::MinimumNorm mn(detail::system_matrix(m, rows, q));
+    // Near a singularity of the generalized Jacobian (the arm stretched or folded at the edge
+    // of the workspace) the joint rates blow up: stop with a reason instead of integrating noise.
+    if (!(mn.rcond() > 1e-10))
+      throw std::runtime_error("planner, model " + m.name + ": generalized Jacobian singular (rcond " +
+                               std::to_string(mn.rcond()) + ") at t = " + std::to_string(t) +
                                ": the path leaves the workspace or crosses a singularity");
-    return Vector(lu.solve(rhs));
+    return mn;
+  };
+  auto velocity = [&](const VectorXd& q, double t) {
+    VectorXd x, v, a, r = VectorXd::Zero(rows + nb);
+    desired(t, x, v, a);
+    r.head(rows) = v;
+    const auto mn = factor(q, t);
+    return VectorXd(mn.x(mn.y(r)));
   };
 
-  Vector q = initial_configuration(model, task.start, task.elbow);
-  Plan<G> plan;
+  // Integrate q' = qd(q, t) on the grid.
+  Plan plan;
+  VectorXd q = initial_configuration(m, task);
   IntegratorOptions opt;
   opt.method = Method::rkf78;
   opt.rtol = 1e-13;
   opt.atol = 1e-14;
-  auto f = [&](const Vector& s, Vector& dsdt, double t) { dsdt = velocity(s, t); };
-  auto observe = [&](const Vector& s, double t) {
+  auto f = [&](const VectorXd& s, VectorXd& dsdt, double t) { dsdt = velocity(s, t); };
+  auto observe = [&](const VectorXd& s, double t) {
     plan.t.push_back(t);
     plan.q.push_back(s);
   };
   try {
     integrate(opt, f, q, 0.0, T, task.dt, observe);
   } catch (const IntegrationError& e) {
-    // Say why: the line cannot be followed past a singularity of the generalized Jacobian.
-    const Vector q_last = e.state();
-    throw std::runtime_error("plan_straight_line: cannot follow the line beyond t = " + std::to_string(e.t()) +
-                             " s: the generalized Jacobian becomes singular there (rcond " +
-                             std::to_string(system_matrix(q_last).partialPivLu().rcond()) +
+    throw std::runtime_error("planner, model " + m.name + ": cannot follow the line beyond t = " +
+                             std::to_string(e.t()) + " s: the generalized Jacobian becomes singular there (rcond " +
+                             std::to_string(detail::MinimumNorm(detail::system_matrix(m, rows, e.state())).rcond()) +
                              "; the arm is stretched or folded, or the line leaves the workspace). " + e.what());
   }
 
+  // Rates, accelerations and torques per sample. qd = A^T lambda (minimum norm); its
+  // derivative qdd = Adot^T lambda + A^T mu with A qdd = [a - Jdot qd; -b_base]. The base rows
+  // impose M_base qdd = -b_base, i.e. no force on the base (eq. 5); this equals
+  // -(Mdot qd)_base because b_base - (Mdot qd)_base = -dT/dq_base, zero on a zero-momentum
+  // motion (dT/dx0 = dT/dy0 = 0, dT/dq0 = -r0d x P). Adot by central differences along qd.
+  plan.max_momentum = m.momentum || nb == 0 ? 0.0 : std::numeric_limits<double>::quiet_NaN();
   for (size_t k = 0; k < plan.t.size(); ++k) {
     const double t = plan.t[k];
-    const Vector& qk = plan.q[k];
-    const Vector qd = velocity(qk, t);
-    Eigen::Vector3d x, v, a;
+    const VectorXd& qk = plan.q[k];
+    VectorXd x, v, a, r = VectorXd::Zero(rows + nb);
     desired(t, x, v, a);
-    // d/dt of A qd = [v; 0]: A qdd = [a - Jdot qd; -(Mdot qd)_base]. The base rows are
-    // imposed as M_base qdd = -b_base, i.e. no force on the base (eq. 5); this equals
-    // -(Mdot qd)_base because b_base - (Mdot qd)_base = -dT/dq_base, which is zero on a
-    // zero-momentum motion (dT/dx0 = dT/dy0 = 0, dT/dq0 = -r0d x P). Jdot qd by central
-    // differences of J along qd.
-    Matrix Mk;
-    Vector b;
-    model.mass_matrix_and_bias(qk, qd, Mk, b);
+    r.head(rows) = v;
+    const auto mn = factor(qk, t);
+    const VectorXd y = mn.y(r), qd = mn.x(y), lambda = mn.lambda(y);
     const double eps = 1e-6;
-    const Eigen::Vector3d Jdot_qd =
-        (model.end_effector_jacobian(qk + eps * qd) - model.end_effector_jacobian(qk - eps * qd)) * qd / (2 * eps);
-    Vector rhs;
-    rhs << a - Jdot_qd, -b.template head<3>();
-    const Vector qdd = system_matrix(qk).partialPivLu().solve(rhs);
-    const Vector Q = Mk * qdd + b;  // eq. 5
+    const Eigen::MatrixXd Adot =
+        (detail::system_matrix(m, rows, qk + eps * qd) - detail::system_matrix(m, rows, qk - eps * qd)) / (2 * eps);
+    Eigen::MatrixXd Mk;
+    VectorXd b;
+    m.mass_matrix_and_bias(qk, qd, Mk, b);
+    VectorXd rhs(rows + nb);
+    rhs.head(rows) = a - Adot.topRows(rows) * qd;
+    rhs.tail(nb) = -b.head(nb);
+    const VectorXd At_lambda_dot = Adot.transpose() * lambda;
+    const VectorXd qdd = At_lambda_dot + mn.x(mn.y(rhs - detail::system_matrix(m, rows, qk) * At_lambda_dot));
+    const VectorXd Q = Mk * qdd + b;  // eq. 5
     plan.qd.push_back(qd);
     plan.qdd.push_back(qdd);
-    plan.tau.push_back(Q.template tail<3>());
-    plan.max_path_error = std::max(plan.max_path_error, (model.end_effector_pose(qk) - x).cwiseAbs().maxCoeff());
-    plan.max_momentum = std::max(plan.max_momentum, model.momentum(qk, qd).cwiseAbs().maxCoeff());
+    plan.tau.push_back(Q.tail(n).cwiseProduct(m.gear_ratios));
+    if (nb > 0) plan.base_residual.push_back(Q.head(nb).cwiseAbs().maxCoeff());
+    const VectorXd pose = m.end_effector_pose(qk);
+    plan.max_path_error = std::max(plan.max_path_error, (pose.head(rows) - x).cwiseAbs().maxCoeff());
+    if (m.momentum && nb > 0)
+      plan.max_momentum = std::max(plan.max_momentum, m.momentum(qk, qd).cwiseAbs().maxCoeff());
   }
+
+  // Independent checks: qdd by central differences of the planned qd.
   for (size_t k = 1; k + 1 < plan.t.size(); ++k) {
-    const Vector qdd_fd = (plan.qd[k + 1] - plan.qd[k - 1]) / (plan.t[k + 1] - plan.t[k - 1]);
-    Matrix Mk;
-    Vector b;
-    model.mass_matrix_and_bias(plan.q[k], plan.qd[k], Mk, b);
-    plan.max_base_residual =
-        std::max(plan.max_base_residual, (Mk * qdd_fd + b).template head<3>().cwiseAbs().maxCoeff());
+    const VectorXd qdd_fd = (plan.qd[k + 1] - plan.qd[k - 1]) / (plan.t[k + 1] - plan.t[k - 1]);
+    plan.max_acceleration_mismatch =
+        std::max(plan.max_acceleration_mismatch, (qdd_fd - plan.qdd[k]).cwiseAbs().maxCoeff());
+    if (nb == 0) continue;
+    Eigen::MatrixXd Mk;
+    VectorXd b;
+    m.mass_matrix_and_bias(plan.q[k], plan.qd[k], Mk, b);
+    plan.max_base_residual = std::max(plan.max_base_residual, (Mk * qdd_fd + b).head(nb).cwiseAbs().maxCoeff());
   }
-  (void)n;
   return plan;
+}
+
+// The same for a linked model, in its fixed-size types.
+template <class G>
+ModelPlan<G> plan_straight_line(const Model<G>& model, const StraightLineTask& task) {
+  const Plan p = plan_straight_line(planning_model(model), task);
+  ModelPlan<G> out;
+  out.t = p.t;
+  out.base_residual = p.base_residual;
+  out.max_base_residual = p.max_base_residual;
+  out.max_acceleration_mismatch = p.max_acceleration_mismatch;
+  out.max_path_error = p.max_path_error;
+  out.max_momentum = p.max_momentum;
+  for (size_t k = 0; k < p.t.size(); ++k) {
+    out.q.emplace_back(p.q[k]);
+    out.qd.emplace_back(p.qd[k]);
+    out.qdd.emplace_back(p.qdd[k]);
+    out.tau.emplace_back(p.tau[k]);
+  }
+  return out;
 }
 
 }  // namespace spacearm

@@ -68,7 +68,7 @@ TEST(Model, BadInputGetsAClearError) {
 // [[1, 1], [1, 1 + delta]] is as singular as delta says (no physical chain gets there
 // without a degenerate scene: M of positive masses and inertias stays regular).
 struct NearlySingular {
-  static constexpr int kNq = 2, kNumLinks = 2, kNumParams = 1;
+  static constexpr int kNq = 2, kNv = 2, kNumLinks = 2, kNumParams = 1;
   static constexpr bool kFreeFloating = false, kHas_forward_dynamics = false;
   static constexpr const char* kName = "nearly_singular";
   static const std::array<double, 1>& nominal_parameters() {

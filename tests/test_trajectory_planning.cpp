@@ -19,7 +19,7 @@ using Ref = Model<RG>;
 using Geared = Model<GG>;
 
 struct Replay {
-  Plan<RG> plan;
+  ModelPlan<RG> plan;
   Trajectory<RG> reference;
 };
 
