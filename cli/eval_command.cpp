@@ -102,7 +102,7 @@ void evaluate_compiled(const Scene& scene, const EvalArgs& a, const EvalInputs& 
 
 int run_eval(const EvalArgs& a) {
   const Scene scene = load_scene(a.scene_path);
-  const int nq = scene.num_coordinates(), nv = scene.num_coordinates(), N = scene.num_links();
+  const int nq = scene.num_coordinates(), nv = scene.num_velocities(), N = scene.num_links();
   auto vector = [](const std::string& text, const char* option, int size) {
     return text.empty() ? Eigen::VectorXd::Zero(size) : cli::parse_vector(text, option, size);
   };

@@ -3,8 +3,10 @@
 //   spacearm inspect SCENE ENTRY [--latex]     print one symbolic entry, e.g. M[3][4]
 //   spacearm eval SCENE --q ...                every output of a scene at a state, as JSON
 //   spacearm simulate SCENE --torques F ...    integrate the dynamics, write CSV
+//   spacearm plan SCENE --from P --to P ...    zero-momentum straight-line plan, write CSV
 // Each subcommand's work is in its own file (generate_command, eval_command,
-// simulate_command); this file declares the options and maps errors to exit codes.
+// simulate_command, plan_command); this file declares the options and maps errors to exit
+// codes.
 #include <CLI/CLI.hpp>
 
 #include <chrono>
@@ -17,6 +19,7 @@
 #include "cli_input.hpp"
 #include "generate_command.hpp"
 #include "outputs.hpp"
+#include "plan_command.hpp"
 #include "eval_command.hpp"
 #include "scene.hpp"
 #include "simulate_command.hpp"
@@ -134,12 +137,34 @@ int main(int argc, char** argv) {
   simulate->add_option("--cache-dir", sim.cache_dir, "Cache folder for compiled models");
   simulate->add_flag("--verbose", sim.verbose, "Report the time of each stage on stderr");
 
+  auto* plan = app.add_subcommand(
+      "plan", "Plan a straight end-effector line (zero momentum for a free base) and write t, q, qd, qdd, torques as CSV");
+  spacearm::PlanArgs plan_args;
+  plan->add_option("scene", plan_args.scene_path, "Scene file (YAML)")->required();
+  plan->add_option("--from", plan_args.from_text, "End-effector start: x,y (position; 2 joints or more) or x,y,phi (pose; 3 or more)")
+      ->required();
+  plan->add_option("--to", plan_args.to_text, "End-effector goal, as --from")->required();
+  plan->add_option("--duration", plan_args.duration, "Duration T [s]")->required()->check(positive_number());
+  plan->add_option("--dt", plan_args.dt, "Output grid [s]")->check(positive_number());
+  plan->add_option("--time-law", plan_args.time_law, "quintic (default) or cubic");
+  auto* elbow_opt = plan->add_option("--elbow", plan_args.elbow, "Start branch: sign of joint 2's angle, +1 (default) or -1");
+  plan->add_option("--q0", plan_args.q0_text,
+                   "Start configuration guess instead of --elbow (all coordinates; its base ones are kept)")
+      ->excludes(elbow_opt);
+  plan->add_option("--param", plan_args.param_assignments, "Run-time parameter name=value (repeatable, once per name)");
+  plan->add_option("-o,--output", plan_args.output_file,
+                   "CSV output; - or none: standard output. Torques tau_i are link-side (and tau_motor_i = tau_i/p_i "
+                   "if geared); base_residual is max |(M qdd + b)_base| per row (free base)");
+  plan->add_option("--cache-dir", plan_args.cache_dir, "Cache folder for compiled models");
+  plan->add_flag("--verbose", plan_args.verbose, "Report the stages on stderr");
+
   // Parse errors get the same prefix and exit code (1) as every other error; --help exits 0.
   try {
     app.parse(argc, argv);
     if (*simulate) check_simulate_options(*simulate, sim);
-    for (const CLI::App* command : {eval, simulate})
-      if (command->count("--cache-dir") && eval_args.cache_dir.empty() && sim.cache_dir.empty())
+    for (const CLI::App* command : {eval, simulate, plan})
+      if (command->count("--cache-dir") && eval_args.cache_dir.empty() && sim.cache_dir.empty() &&
+          plan_args.cache_dir.empty())
         throw CLI::ValidationError("--cache-dir", "empty path");
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);
@@ -152,6 +177,15 @@ int main(int argc, char** argv) {
       if (!sim.zero_torque && sim.torque_file.empty())
         throw std::invalid_argument("simulate: give --torques FILE or --zero");
       return spacearm::run_simulate(sim);
+    } catch (const std::exception& e) {
+      std::cerr << "spacearm: error: " << e.what() << "\n";
+      return 1;
+    }
+  }
+
+  if (*plan) {
+    try {
+      return spacearm::run_plan(plan_args);
     } catch (const std::exception& e) {
       std::cerr << "spacearm: error: " << e.what() << "\n";
       return 1;

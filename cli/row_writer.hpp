@@ -5,6 +5,7 @@
 #pragma once
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <sys/types.h>
 #include <unistd.h>
 
@@ -12,6 +13,8 @@
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace spacearm {
 
@@ -88,5 +91,18 @@ class RowWriter {
   std::string buffer_;
   unsigned long long bytes_ = 0, written_ = 0;
 };
+
+// -o naming an input file (the scene, a torque file) would overwrite it: refused before the
+// output is opened. `inputs` are (what the file is, its path) pairs; empty paths are skipped.
+inline void refuse_input_as_output(const std::string& output,
+                                   const std::vector<std::pair<std::string, std::string>>& inputs) {
+  struct stat out {};
+  if (output.empty() || output == "-" || ::stat(output.c_str(), &out) != 0) return;
+  for (const auto& [what, path] : inputs) {
+    struct stat in {};
+    if (!path.empty() && ::stat(path.c_str(), &in) == 0 && in.st_dev == out.st_dev && in.st_ino == out.st_ino)
+      throw std::invalid_argument("-o '" + output + "' is " + what + " file: it would be overwritten");
+  }
+}
 
 }  // namespace spacearm

@@ -1,7 +1,5 @@
 #include "simulate_command.hpp"
 
-#include <sys/stat.h>
-
 #include <Eigen/Cholesky>
 
 #include <chrono>
@@ -127,17 +125,6 @@ void warn_if_large(const SimulateArgs& a, double dt_out, int columns) {
                  bytes / 1e9, rows, columns);
 }
 
-// -o naming the scene or the torque file would overwrite an input.
-void refuse_input_as_output(const SimulateArgs& a) {
-  struct stat out {};
-  if (a.output_file.empty() || a.output_file == "-" || ::stat(a.output_file.c_str(), &out) != 0) return;
-  for (const auto& [option, path] : {std::make_pair("the scene", a.scene_path), std::make_pair("--torques", a.torque_file)}) {
-    struct stat in {};
-    if (!path.empty() && ::stat(path.c_str(), &in) == 0 && in.st_dev == out.st_dev && in.st_ino == out.st_ino)
-      throw std::invalid_argument("-o '" + a.output_file + "' is " + option + " file: it would be overwritten");
-  }
-}
-
 // What was written when the run stopped early, on stderr.
 void report_stop(const RowWriter& out, double t_reached, const std::string& why) {
   std::fprintf(stderr, "spacearm: %s; %s holds every row up to t = %.17g s\n", why.c_str(), out.where().c_str(),
@@ -151,10 +138,10 @@ int run_simulate(const SimulateArgs& a) {
   if (!scene.wants(Output::forward_dynamics) && !(scene.wants(Output::mass_matrix) && scene.wants(Output::bias_forces)))
     throw std::invalid_argument(
         "simulate: the scene must emit forward_dynamics, or mass_matrix and bias_forces (field 'outputs')");
-  const int n = scene.num_coordinates(), N = scene.num_links();
-  const Eigen::VectorXd q0 = a.q0_text.empty() ? Eigen::VectorXd::Zero(n) : cli::parse_vector(a.q0_text, "--q0", n);
+  const int nq = scene.num_coordinates(), nv = scene.num_velocities(), N = scene.num_links();
+  const Eigen::VectorXd q0 = a.q0_text.empty() ? Eigen::VectorXd::Zero(nq) : cli::parse_vector(a.q0_text, "--q0", nq);
   const Eigen::VectorXd qd0 =
-      a.qd0_text.empty() ? Eigen::VectorXd::Zero(n) : cli::parse_vector(a.qd0_text, "--qd0", n);
+      a.qd0_text.empty() ? Eigen::VectorXd::Zero(nv) : cli::parse_vector(a.qd0_text, "--qd0", nv);
   const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, scene);
   IntegratorOptions opt;
   opt.method = method_from_string(a.integrator);
@@ -181,7 +168,7 @@ int run_simulate(const SimulateArgs& a) {
   const Columns cols{scene.geared(), model.has(Output::end_effector_pose), model.has(Output::kinetic_energy),
                      model.has(Output::momentum)};
   // Opened only now: a run refused above leaves an existing output file untouched.
-  refuse_input_as_output(a);
+  refuse_input_as_output(a.output_file, {{"the scene", a.scene_path}, {"--torques", a.torque_file}});
   RowWriter out(a.output_file);
   const std::string head = header(model, cols);
   warn_if_large(a, dt_out, static_cast<int>(std::count(head.begin(), head.end(), ',')) + 1);
@@ -191,14 +178,14 @@ int run_simulate(const SimulateArgs& a) {
   using State = Eigen::VectorXd;
   auto f = [&](const State& x, State& dxdt, double t) {
     StopOnSignals::check();
-    const Eigen::VectorXd q = x.head(n), qd = x.tail(n);
-    dxdt.resize(2 * n);
-    dxdt.head(n) = qd;
+    const Eigen::VectorXd q = x.head(nq), qd = x.tail(nv);
+    dxdt.resize(nq + nv);
+    dxdt.head(nq) = qd;  // dq/dt = qd: nq == nv for every planar model (Model::configuration_rate)
     if (!x.allFinite()) throw std::runtime_error("state not finite at t = " + std::to_string(t));
-    Eigen::VectorXd Q = Eigen::VectorXd::Zero(n);
+    Eigen::VectorXd Q = Eigen::VectorXd::Zero(nv);
     Q.tail(N) = torque_at(t).cwiseQuotient(ratios);  // eq. 14
     try {
-      dxdt.tail(n) = model.forward_dynamics(q, qd, Q, params);
+      dxdt.tail(nv) = model.forward_dynamics(q, qd, Q, params);
     } catch (const DynamicsError& e) {
       throw DynamicsError(std::string(e.what()) + " at t = " + std::to_string(t));
     }
@@ -207,16 +194,16 @@ int run_simulate(const SimulateArgs& a) {
   int last_percent = 0;
   double t_written = 0;
   auto observe = [&](const State& x, double t) {
-    const Eigen::VectorXd q = x.head(n), qd = x.tail(n);
+    const Eigen::VectorXd q = x.head(nq), qd = x.tail(nv);
     const Eigen::VectorXd tau_t = (*tau)(t);
     std::string row;
     char buf[32];
     std::snprintf(buf, sizeof buf, "%.17g", t);
     row += buf;
-    for (int i = 0; i < 2 * n; ++i) append(row, x[i]);
+    for (int i = 0; i < nq + nv; ++i) append(row, x[i]);
     if (cols.geared) {
-      for (int j = 0; j < N; ++j) append(row, q[n - N + j] / ratios[j]);
-      for (int j = 0; j < N; ++j) append(row, qd[n - N + j] / ratios[j]);
+      for (int j = 0; j < N; ++j) append(row, q[nq - N + j] / ratios[j]);
+      for (int j = 0; j < N; ++j) append(row, qd[nv - N + j] / ratios[j]);
     }
     for (int j = 0; j < N; ++j) append(row, tau_t[j]);
     if (cols.geared)
@@ -237,7 +224,7 @@ int run_simulate(const SimulateArgs& a) {
       std::fprintf(stderr, "spacearm: simulated %d %% (t = %g s)\n", last_percent, t);
     }
   };
-  State x(2 * n);
+  State x(nq + nv);
   x << q0, qd0;
   const StopOnSignals signals;
   try {

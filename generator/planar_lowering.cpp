@@ -357,7 +357,9 @@ struct CheckPoint {
   }
 };
 
-Dimensions dimensions(const SymbolicModel& model) { return {model.n(), model.n(), model.scene.num_links()}; }
+Dimensions dimensions(const SymbolicModel& model) {
+  return {model.scene.num_coordinates(), model.scene.num_velocities(), model.scene.num_links()};
+}
 
 // The generator checks itself before it emits: the optimized straight-line program must
 // reproduce, at the check point, the values computed from the derivation alone (want: per

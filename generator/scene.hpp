@@ -79,7 +79,11 @@ struct Scene {
   bool free_floating() const { return base.type == BaseType::free_floating; }
   bool geared() const { return !gears.empty(); }
   int num_links() const { return static_cast<int>(links.size()); }
+  // The one place that names the sizes: configuration nq (x0, y0, q0 of a free base, then one
+  // angle per joint) and velocity nv (their rates: nv == nq for every planar chain; a base with
+  // a quaternion would make them differ). Everything downstream reads Dimensions.
   int num_coordinates() const { return (free_floating() ? 3 : 0) + num_links(); }
+  int num_velocities() const { return (free_floating() ? 3 : 0) + num_links(); }
   bool wants(Output o) const { return outputs.count(o) != 0; }
   // Names of the generalized coordinates, in order: x0 y0 q0 (free base), then q1..qN
   // (reference) or qm1..qmN (geared, motor angles; paper eq. 12).

@@ -242,7 +242,7 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
   m.name_ = scene.name;
   m.outputs_ = reinterpret_cast<unsigned long (*)()>(sym("spacearm_outputs"))();
   const int np = number("spacearm_num_params");
-  if (m.dims_.nq != scene.num_coordinates() || m.dims_.nv != scene.num_coordinates() ||
+  if (m.dims_.nq != scene.num_coordinates() || m.dims_.nv != scene.num_velocities() ||
       m.dims_.num_links != scene.num_links() || np != static_cast<int>(scene.parameters.size()) ||
       m.outputs_ != output_mask(scene)) {
     why = "its sizes or outputs do not match the scene";

@@ -196,7 +196,9 @@ inline Eigen::VectorXd initial_configuration(const PlanningModel& m, const Strai
   if (task.q0.size() != 0) {
     q = task.q0;
   } else {
-    for (int i = 0; i < n; ++i) q[j0 + i] = task.elbow * (i == 0 ? -0.3 : i == 1 ? 1.2 : -0.5 / (n - 2));
+    // Link-side angles; a geared model's coordinates are the motor angles qm = p q (eq. 12).
+    for (int i = 0; i < n; ++i)
+      q[j0 + i] = m.gear_ratios[i] * task.elbow * (i == 0 ? -0.3 : i == 1 ? 1.2 : -0.5 / (n - 2));
   }
   auto error = [&](const Eigen::VectorXd& x) {
     const Eigen::VectorXd pose = m.end_effector_pose(x);

@@ -1,0 +1,121 @@
+#include "plan_command.hpp"
+
+#include <cstdio>
+#include <string>
+
+#include "cli_input.hpp"
+#include "compiled_model.hpp"
+#include "row_writer.hpp"
+#include "trajectory_planning.hpp"
+
+namespace spacearm {
+
+namespace {
+
+// The planner's view of a loaded model at fixed parameter values.
+PlanningModel planning_model(const CompiledModel& m, const Eigen::VectorXd& params) {
+  PlanningModel pm;
+  pm.name = m.name();
+  pm.nq = m.nq();
+  pm.nv = m.nv();
+  pm.num_links = m.num_links();
+  pm.free_floating = m.nv() > m.num_links();
+  pm.gear_ratios = m.gear_ratios(params);
+  pm.end_effector_pose = [&m, params](const Eigen::VectorXd& q) { return m.end_effector_pose(q, params); };
+  pm.end_effector_jacobian = [&m, params](const Eigen::VectorXd& q) {
+    return Eigen::MatrixXd(m.evaluate(Output::end_effector_jacobian, {q}, params).front());
+  };
+  pm.mass_matrix_and_bias = [&m, params](const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::MatrixXd& M,
+                                         Eigen::VectorXd& b) {
+    M = m.mass_matrix(q, params);
+    b = m.bias_forces(q, qd, params);
+  };
+  if (m.has(Output::momentum))
+    pm.momentum = [&m, params](const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+      return m.momentum(q, qd, params);
+    };
+  return pm;
+}
+
+void check_outputs(const Scene& scene) {
+  std::string missing;
+  for (Output o : {Output::end_effector_pose, Output::end_effector_jacobian, Output::mass_matrix, Output::bias_forces})
+    if (!scene.wants(o)) missing += (missing.empty() ? "" : ", ") + to_string(o);
+  if (!missing.empty())
+    throw std::invalid_argument("plan: scene '" + scene.name + "' does not emit " + missing +
+                                " (add them to its field 'outputs')");
+}
+
+std::string header(const CompiledModel& m, bool geared, bool free_base) {
+  std::string h = "t";
+  for (const char* suffix : {"", "d", "dd"})
+    for (const auto& name : m.coordinate_names()) h += "," + name + suffix;
+  for (int j = 1; j <= m.num_links(); ++j) h += ",tau" + std::to_string(j);
+  if (geared)
+    for (int j = 1; j <= m.num_links(); ++j) h += ",tau_motor" + std::to_string(j);
+  if (free_base) h += ",base_residual";
+  return h + "\n";
+}
+
+void append(std::string& row, double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, row.empty() ? "%.17g" : ",%.17g", v);
+  row += buf;
+}
+
+void write_plan(const Plan& plan, const CompiledModel& m, const Eigen::VectorXd& ratios, bool geared,
+                const std::string& path) {
+  const bool free_base = !plan.base_residual.empty();
+  RowWriter out(path);
+  out.row(header(m, geared, free_base));
+  for (size_t k = 0; k < plan.t.size(); ++k) {
+    std::string row;
+    append(row, plan.t[k]);
+    for (const auto* v : {&plan.q[k], &plan.qd[k], &plan.qdd[k], &plan.tau[k]})
+      for (double x : *v) append(row, x);
+    if (geared)
+      for (int j = 0; j < m.num_links(); ++j) append(row, plan.tau[k][j] / ratios[j]);  // eq. 14
+    if (free_base) append(row, plan.base_residual[k]);
+    out.row(row + "\n");
+  }
+  out.close();
+}
+
+}  // namespace
+
+int run_plan(const PlanArgs& a) {
+  const Scene scene = load_scene(a.scene_path);
+  check_outputs(scene);
+  StraightLineTask task;
+  const std::vector<double> from = parse_number_list(a.from_text, "--from"), to = parse_number_list(a.to_text, "--to");
+  task.start = Eigen::Map<const Eigen::VectorXd>(from.data(), static_cast<int>(from.size()));
+  task.goal = Eigen::Map<const Eigen::VectorXd>(to.data(), static_cast<int>(to.size()));
+  task.duration = a.duration;
+  task.dt = a.dt;
+  task.law = time_law_from_string(a.time_law);
+  task.elbow = a.elbow;
+  if (!a.q0_text.empty()) task.q0 = cli::parse_vector(a.q0_text, "--q0", scene.num_coordinates());
+  const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, scene);
+
+  CompileOptions options;
+  options.cache_dir = a.cache_dir;
+  options.progress = [&](const std::string& msg) {
+    if (a.verbose || msg.rfind("compiling", 0) == 0) std::fprintf(stderr, "spacearm: %s\n", msg.c_str());
+  };
+  const auto model = CompiledModel::load(scene, options);
+  const Eigen::VectorXd ratios = model.gear_ratios(params);
+  const Plan plan = plan_straight_line(planning_model(model, params), task);
+
+  refuse_input_as_output(a.output_file, {{"the scene", a.scene_path}});
+  write_plan(plan, model, ratios, scene.geared(), a.output_file);
+  std::fprintf(stderr, "spacearm: plan of %zu samples: max path error %.2e, max |qdd - central differences of qd| %.2e\n",
+               plan.t.size(), plan.max_path_error, plan.max_acceleration_mismatch);
+  if (!plan.base_residual.empty())
+    std::fprintf(stderr,
+                 "spacearm: free base: max |momentum| %.2e, max force on the base (eq. 5 base rows, qdd by central "
+                 "differences) %.2e\n",
+                 plan.max_momentum, plan.max_base_residual);
+  return 0;
+}
+
+}  // namespace spacearm

@@ -1,0 +1,23 @@
+// `spacearm plan`: the zero-momentum straight-line plan (runtime/trajectory_planning.hpp) of a
+// scene's compiled model, written as CSV: t, q, qd, qdd, the link-side joint torques and, for
+// a free-floating base, the residual of the base rows of eq. 5.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace spacearm {
+
+struct PlanArgs {
+  std::string scene_path, from_text, to_text, output_file, cache_dir;
+  std::string time_law = "quintic", q0_text;
+  int elbow = +1;
+  double duration = 0, dt = 0.01;
+  std::vector<std::string> param_assignments;
+  bool verbose = false;
+};
+
+// Exit status: 0, or 1 on an error (message on stderr).
+int run_plan(const PlanArgs& args);
+
+}  // namespace spacearm
