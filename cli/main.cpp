@@ -155,6 +155,8 @@ int main(int argc, char** argv) {
   plan->add_option("-o,--output", plan_args.output_file,
                    "CSV output; - or none: standard output. Torques tau_i are link-side (and tau_motor_i = tau_i/p_i "
                    "if geared); base_residual is max |(M qdd + b)_base| per row (free base)");
+  plan->add_option("--torque-file", plan_args.torque_file,
+                   "Also write t,tau1..N alone, the file simulate --torques reads (replay of the plan)");
   plan->add_option("--cache-dir", plan_args.cache_dir, "Cache folder for compiled models");
   plan->add_flag("--verbose", plan_args.verbose, "Report the stages on stderr");
 

@@ -81,6 +81,21 @@ void write_plan(const Plan& plan, const CompiledModel& m, const Eigen::VectorXd&
   out.close();
 }
 
+// t, tau1..N: the torque file simulate --torques reads.
+void write_torques(const Plan& plan, const std::string& path) {
+  RowWriter out(path);
+  std::string head = "t";
+  for (long j = 1; j <= plan.tau.front().size(); ++j) head += ",tau" + std::to_string(j);
+  out.row(head + "\n");
+  for (size_t k = 0; k < plan.t.size(); ++k) {
+    std::string row;
+    append(row, plan.t[k]);
+    for (double x : plan.tau[k]) append(row, x);
+    out.row(row + "\n");
+  }
+  out.close();
+}
+
 }  // namespace
 
 int run_plan(const PlanArgs& a) {
@@ -107,7 +122,9 @@ int run_plan(const PlanArgs& a) {
   const Plan plan = plan_straight_line(planning_model(model, params), task);
 
   refuse_input_as_output(a.output_file, {{"the scene", a.scene_path}});
+  refuse_input_as_output(a.torque_file, {{"the scene", a.scene_path}});
   write_plan(plan, model, ratios, scene.geared(), a.output_file);
+  if (!a.torque_file.empty()) write_torques(plan, a.torque_file);
   std::fprintf(stderr, "spacearm: plan of %zu samples: max path error %.2e, max |qdd - central differences of qd| %.2e\n",
                plan.t.size(), plan.max_path_error, plan.max_acceleration_mismatch);
   if (!plan.base_residual.empty())

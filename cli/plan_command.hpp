@@ -1,6 +1,7 @@
 // `spacearm plan`: the zero-momentum straight-line plan (runtime/trajectory_planning.hpp) of a
 // scene's compiled model, written as CSV: t, q, qd, qdd, the link-side joint torques and, for
-// a free-floating base, the residual of the base rows of eq. 5.
+// a free-floating base, the residual of the base rows of eq. 5; optionally the torques alone
+// (t, tau1..N), as `spacearm simulate --torques` reads them.
 #pragma once
 
 #include <string>
@@ -9,7 +10,7 @@
 namespace spacearm {
 
 struct PlanArgs {
-  std::string scene_path, from_text, to_text, output_file, cache_dir;
+  std::string scene_path, from_text, to_text, output_file, torque_file, cache_dir;
   std::string time_law = "quintic", q0_text;
   int elbow = +1;
   double duration = 0, dt = 0.01;

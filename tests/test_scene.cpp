@@ -215,12 +215,16 @@ TEST(OutputRegistry, NamesAreUniqueAndClearOfGeneratedNames) {
     for (Input i : o.inputs) EXPECT_TRUE(arguments.insert(info(i).name).second) << info(i).name;
     const bool scalar = o.results.size() == 1 && o.results[0].rows == Size::one && o.results[0].cols == Size::one;
     for (const ResultInfo& r : o.results) {
-      if (!scalar) EXPECT_FALSE(is_generated(r.name)) << r.name;  // a returned scalar is not an argument
+      if (!scalar) {
+        EXPECT_FALSE(is_generated(r.name)) << r.name;  // a returned scalar is not an argument
+      }
       EXPECT_TRUE(arguments.insert(r.name).second) << r.name;
       EXPECT_TRUE(!r.symmetric || r.rows == r.cols) << r.name;
     }
     for (const std::string& a : arguments)
-      if (!(scalar && a == o.results[0].name)) EXPECT_FALSE(is_generated(a)) << a;
+      if (!(scalar && a == o.results[0].name)) {
+        EXPECT_FALSE(is_generated(a)) << a;
+      }
     // Composed outputs are made of closed forms only.
     for (Output c : o.composed_of) EXPECT_TRUE(info(c).composed_of.empty()) << to_string(c);
   }

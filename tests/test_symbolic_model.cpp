@@ -201,7 +201,9 @@ TEST(SymbolicEntries, GearRatiosAppearAsTheyShould) {
   EXPECT_THROW_MESSAGE(symbolic_entry(fixed, "h[0]"), std::invalid_argument, "only defined for a free-floating base");
   // Every closed form of the registry can be inspected (all_outputs derives them all).
   for (const OutputInfo& o : output_registry())
-    if (o.composed_of.empty() && !o.free_floating_only) EXPECT_EQ(fixed.outputs.count(o.id), 1u) << o.name;
+    if (o.composed_of.empty() && !o.free_floating_only) {
+      EXPECT_EQ(fixed.outputs.count(o.id), 1u) << o.name;
+    }
   // One coordinate: M is still a matrix, b and J keep their indices.
   EXPECT_TRUE(symbolic_entry(fixed, "M[0][0]").is_equal(fixed.expression(Output::mass_matrix)(0, 0)));
   EXPECT_NO_THROW(symbolic_entry(fixed, "b[0]"));

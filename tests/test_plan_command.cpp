@@ -1,0 +1,214 @@
+// `spacearm plan` end to end: the CSV it writes for a redundant free-floating arm (5 links)
+// and a redundant geared fixed-base arm (4 links) is checked against the independent numeric
+// Lagrangian (runtime/numeric_lagrangian.hpp, no generator code): the end-effector follows
+// the line, momentum stays zero, qd and qdd are the derivatives of q and qd, and the torques
+// satisfy eq. 5 with no force on the base. The torques replayed by `spacearm simulate`
+// reproduce the line. Cost: about 25 s, mostly compiling three models once.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <map>
+#include <sstream>
+
+#include "support.hpp"
+#include "text_numbers.hpp"
+#include "trajectory_planning.hpp"
+
+namespace spacearm {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Csv {
+  std::vector<std::string> names;
+  std::vector<std::vector<double>> rows;
+  int column(const std::string& name) const {
+    for (size_t i = 0; i < names.size(); ++i)
+      if (names[i] == name) return static_cast<int>(i);
+    ADD_FAILURE() << "no column " << name;
+    return 0;
+  }
+  Eigen::VectorXd values(size_t row, const std::vector<std::string>& columns) const {
+    Eigen::VectorXd v(static_cast<int>(columns.size()));
+    for (size_t i = 0; i < columns.size(); ++i) v[static_cast<int>(i)] = rows[row][column(columns[i])];
+    return v;
+  }
+};
+
+Csv read_csv(const std::string& path) {
+  Csv csv;
+  std::istringstream in(test::read_text_file(path));
+  std::string line;
+  std::getline(in, line);
+  std::istringstream head(line);
+  for (std::string name; std::getline(head, name, ',');) csv.names.push_back(name);
+  while (std::getline(in, line)) csv.rows.push_back(parse_number_list(line, path));
+  return csv;
+}
+
+std::vector<std::string> suffixed(const std::vector<std::string>& names, const std::string& suffix) {
+  std::vector<std::string> out;
+  for (const auto& n : names) out.push_back(n + suffix);
+  return out;
+}
+
+class PlanCommand : public ::testing::Test {
+ protected:
+  static fs::path dir() {
+    static const fs::path d = [] {
+      const fs::path p = fs::temp_directory_path() / ("spacearm_plan_test_" + std::to_string(::getpid()));
+      fs::create_directories(p);
+      return p;
+    }();
+    return d;
+  }
+  static std::string cli() { return std::string(SPACEARM_CLI) + " "; }
+  // One cache for the test processes of a build, so that each model is compiled once.
+  static std::string cache() { return " --cache-dir " SPACEARM_TEST_CACHE_DIR; }
+
+  // Runs plan; returns its status, with stderr in *out.
+  static int plan(const std::string& scene, const std::string& options, const std::string& csv, std::string* out) {
+    int status = 0;
+    *out = test::run_command(cli() + "plan tests/scenes/" + scene + ".yaml " + options + " -o " + csv + cache() +
+                                 " 2>&1",
+                             &status);
+    return status;
+  }
+};
+
+// The CSV of a plan against the oracle. task: the line and time law the plan was asked for.
+void check_plan(const Csv& csv, const Scene& scene, const std::map<std::string, double>& params,
+                const StraightLineTask& task) {
+  const ChainParameters chain = test::chain_parameters(scene, params);
+  const NumericLagrangian oracle(chain);
+  std::vector<std::string> q_names;
+  for (int i = 0; i < oracle.n(); ++i) q_names.push_back(csv.names[1 + i]);
+  const int N = scene.num_links(), nb = oracle.n() - N, rows = static_cast<int>(task.start.size());
+  Eigen::VectorXd p = Eigen::VectorXd::Ones(N);
+  for (size_t j = 0; j < chain.gears.size(); ++j) p[static_cast<int>(j)] = chain.gears[j].ratio;
+  ASSERT_EQ(csv.rows.size(), static_cast<size_t>(std::lround(task.duration / task.dt)) + 1);
+  double tau_peak = 0, qd_peak = 0, qdd_peak = 0, worst_path = 0, worst_momentum = 0, worst_force = 0, worst_qd = 0, worst_qdd = 0;
+  for (size_t k = 0; k < csv.rows.size(); ++k) {
+    const double t = csv.rows[k][0];
+    const Eigen::VectorXd q = csv.values(k, q_names), qd = csv.values(k, suffixed(q_names, "d")),
+                          qdd = csv.values(k, suffixed(q_names, "dd"));
+    Eigen::VectorXd tau(N);
+    for (int j = 0; j < N; ++j) tau[j] = csv.rows[k][csv.column("tau" + std::to_string(j + 1))];
+    tau_peak = std::max(tau_peak, tau.cwiseAbs().maxCoeff());
+    qd_peak = std::max(qd_peak, qd.cwiseAbs().maxCoeff());
+    qdd_peak = std::max(qdd_peak, qdd.cwiseAbs().maxCoeff());
+    // The line, with the time law.
+    const Eigen::Vector3d s = time_law(task.law, t / task.duration);
+    const Eigen::VectorXd want = task.start + s[0] * (task.goal - task.start);
+    worst_path = std::max(worst_path, (oracle.end_effector_pose(q).head(rows) - want).cwiseAbs().maxCoeff());
+    if (nb > 0) worst_momentum = std::max(worst_momentum, oracle.momentum(q, qd).cwiseAbs().maxCoeff());
+    // Eq. 5: M qdd + b is no force on the base and tau / p at the joints (eq. 14).
+    Eigen::VectorXd Q = Eigen::VectorXd::Zero(oracle.n());
+    Q.tail(N) = tau.cwiseQuotient(p);
+    worst_force = std::max(worst_force, (oracle.mass_matrix(q) * qdd + oracle.bias_forces(q, qd) - Q).cwiseAbs().maxCoeff());
+    if (k == 0 || k + 1 == csv.rows.size()) continue;
+    // qd and qdd are the derivatives of q and qd (central differences, O(dt^2)).
+    const double h = csv.rows[k + 1][0] - csv.rows[k - 1][0];
+    worst_qd = std::max(worst_qd, ((csv.values(k + 1, q_names) - csv.values(k - 1, q_names)) / h - qd).cwiseAbs().maxCoeff());
+    const auto qd_names = suffixed(q_names, "d");
+    worst_qdd = std::max(worst_qdd, ((csv.values(k + 1, qd_names) - csv.values(k - 1, qd_names)) / h - qdd).cwiseAbs().maxCoeff());
+  }
+  EXPECT_GT(tau_peak, 0.0);
+  EXPECT_LT(worst_path, 1e-10);
+  EXPECT_LT(worst_momentum, 1e-10);
+  // The oracle's bias is a finite difference (h = 1e-6): about 1e-8 of the torques.
+  EXPECT_LT(worst_force, 1e-6 * std::max(1.0, tau_peak));
+  // Central differences over dt = 0.01 s: O(dt^2) times the third derivative, which scales
+  // with the rates (motor rates are p times the link ones).
+  EXPECT_LT(worst_qd, 1e-4 * qd_peak);
+  EXPECT_LT(worst_qdd, 1e-3 * qdd_peak);
+  std::printf("path %.1e, momentum %.1e, eq. 5 %.1e (tau peak %.2g), qd %.1e (peak %.2g), qdd %.1e (peak %.2g)\n",
+              worst_path, worst_momentum, worst_force, tau_peak, worst_qd, qd_peak, worst_qdd, qdd_peak);
+}
+
+TEST_F(PlanCommand, FreeFiveLinkArmFollowsTheLineWithZeroMomentum) {
+  const std::string csv = (dir() / "free_n5.csv").string();
+  std::string out;
+  ASSERT_EQ(plan("free_n5", "--from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration 5", csv, &out), 0) << out;
+  EXPECT_NE(out.find("max |momentum|"), std::string::npos) << out;
+  StraightLineTask task;
+  task.start = Eigen::Vector3d(1.6, 0.2, 0.3);
+  task.goal = Eigen::Vector3d(1.2, -0.2, 0.5);
+  task.duration = 5;
+  const Csv c = read_csv(csv);
+  EXPECT_EQ(c.names.back(), "base_residual");
+  check_plan(c, load_scene("tests/scenes/free_n5.yaml"), {}, task);
+}
+
+// A geared fixed-base arm: link-side torques, motor coordinates; the torques replayed by
+// simulate (from plan's --torque-file) reproduce the line.
+TEST_F(PlanCommand, FixedFourLinkGearedArmReplaysThroughSimulate) {
+  const std::string csv = (dir() / "fixed_n4.csv").string(), sim = (dir() / "fixed_n4_sim.csv").string(),
+                    tau = (dir() / "fixed_n4_tau.csv").string();
+  std::string out;
+  ASSERT_EQ(plan("fixed_n4_geared",
+                 "--from 1.0,0.3,0.2 --to 0.7,0.6,0.8 --duration 4 --time-law cubic --elbow -1 --torque-file " + tau,
+                 csv, &out),
+            0)
+      << out;
+  StraightLineTask task;
+  task.start = Eigen::Vector3d(1.0, 0.3, 0.2);
+  task.goal = Eigen::Vector3d(0.7, 0.6, 0.8);
+  task.duration = 4;
+  task.law = TimeLaw::cubic;
+  const Csv c = read_csv(csv);
+  ASSERT_EQ(c.column("tau_motor4"), static_cast<int>(c.names.size()) - 1);  // no base_residual
+  EXPECT_LT(c.rows[0][c.column("qm2")], 0.0);                                // the elbow branch
+  check_plan(c, load_scene("tests/scenes/fixed_n4_geared.yaml"), {{"p", 5.0}, {"Im", 1e-4}}, task);
+
+  std::string q0;
+  for (int i = 1; i <= 4; ++i) q0 += (i > 1 ? "," : "") + std::to_string(c.rows[0][i]);
+  int status = 0;
+  out = test::run_command(cli() + "simulate tests/scenes/fixed_n4_geared.yaml --torques " + tau +
+                              " --t-end 4 --q0 " + q0 + " -o " + sim + cache() + " 2>&1",
+                          &status);
+  ASSERT_EQ(status, 0) << out;
+  const Csv s = read_csv(sim);
+  ASSERT_EQ(s.rows.size(), c.rows.size());
+  const Eigen::VectorXd end = s.values(s.rows.size() - 1, {"ee_x", "ee_y", "ee_phi"});
+  // RK4 at 0.01 s on torques linear between 0.01 s samples: a few micrometres off the goal
+  // (std::to_string's 6 digits of q0 put the start within 1e-6 rad).
+  EXPECT_LT((end - task.goal).cwiseAbs().maxCoeff(), 1e-4) << end.transpose();
+}
+
+TEST_F(PlanCommand, TwoLinkArmPlansPositionOnly) {
+  const std::string csv = (dir() / "free_n2.csv").string();
+  std::string out;
+  ASSERT_EQ(plan("free_n2_geared", "--from 0.9,0.3 --to 0.7,0.5 --duration 4", csv, &out), 0) << out;
+  StraightLineTask task;
+  task.start = Eigen::Vector2d(0.9, 0.3);
+  task.goal = Eigen::Vector2d(0.7, 0.5);
+  task.duration = 4;
+  check_plan(read_csv(csv), load_scene("tests/scenes/free_n2_geared.yaml"), {}, task);
+}
+
+TEST_F(PlanCommand, BadRequestsNameTheOption) {
+  const std::string csv = (dir() / "bad.csv").string();
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"free_n2_geared --from 0.9,0.3,0 --to 0.7,0.5,0 --duration 4", "a 2-link arm cannot follow a pose"},
+      {"free_n5 --from 1.6,0.2 --to 1.2,-0.2,0.5 --duration 4", "the goal has 3 values and the start 2"},
+      {"free_n5 --from 1.6 --to 1.2 --duration 4", "the start must be x,y (position) or x,y,phi"},
+      {"free_n5 --from 9,0,0 --to 1.2,0,0 --duration 4", "no start configuration on elbow branch 1"},
+      {"free_n5 --from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration 4 --elbow 0", "elbow must be +1 or -1, got 0"},
+      {"free_n5 --from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration 4 --q0 1,2", "--q0"},
+      {"free_n5 --from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration 4 --time-law linear", "unknown time law 'linear'"},
+      {"free_n5 --from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration -4", "--duration"},
+      {"free_n5 --from 1.6,x,0.3 --to 1.2,-0.2,0.5 --duration 4", "--from"},
+      {"free_n5 --from 0.5,0.2,0.3 --to 3,0.2,0.3 --duration 4", "singular"},
+  };
+  for (const auto& [args, want] : cases) {
+    SCOPED_TRACE(args);
+    const auto space = args.find(' ');
+    std::string out;
+    EXPECT_EQ(plan(args.substr(0, space), args.substr(space + 1), csv, &out), 1 << 8) << out;
+    EXPECT_NE(out.find(want), std::string::npos) << out;
+  }
+}
+
+}  // namespace
+}  // namespace spacearm
