@@ -26,39 +26,41 @@
 #include "scene.hpp"
 
 #include "paper_geared.hpp"
+#include "paper_reference.hpp"
+#include "chain_n3.hpp"
+#include "chain_n3_armature.hpp"
+#include "chain_n3_geared.hpp"
+#include "chain_n12.hpp"
+#include "chain_n12_armature.hpp"
+#include "chain_n12_geared.hpp"
+// The full run adds the other sizes, the CSE-free baseline and the SymPy peer.
+#ifndef SPACEARM_BENCH_QUICK
 #include "paper_geared_folded.hpp"
 #include "paper_geared_plain.hpp"
-#include "paper_reference.hpp"
 #include "paper_reference_plain.hpp"
 #include "chain_n2.hpp"
 #include "chain_n2_armature.hpp"
 #include "chain_n2_geared.hpp"
-#include "chain_n2_geared_plain.hpp"
-#include "chain_n2_plain.hpp"
-#include "chain_n3.hpp"
-#include "chain_n3_armature.hpp"
-#include "chain_n3_geared.hpp"
-#include "chain_n3_geared_plain.hpp"
-#include "chain_n3_plain.hpp"
 #include "chain_n4.hpp"
 #include "chain_n4_armature.hpp"
 #include "chain_n4_geared.hpp"
-#include "chain_n4_geared_plain.hpp"
-#include "chain_n4_plain.hpp"
 #include "chain_n6.hpp"
 #include "chain_n6_armature.hpp"
 #include "chain_n6_geared.hpp"
-#include "chain_n6_geared_plain.hpp"
-#include "chain_n6_plain.hpp"
 #include "chain_n8.hpp"
 #include "chain_n8_armature.hpp"
 #include "chain_n8_geared.hpp"
 #include "chain_n10.hpp"
 #include "chain_n10_armature.hpp"
 #include "chain_n10_geared.hpp"
-#include "chain_n12.hpp"
-#include "chain_n12_armature.hpp"
-#include "chain_n12_geared.hpp"
+#include "chain_n2_geared_plain.hpp"
+#include "chain_n2_plain.hpp"
+#include "chain_n3_geared_plain.hpp"
+#include "chain_n3_plain.hpp"
+#include "chain_n4_geared_plain.hpp"
+#include "chain_n4_plain.hpp"
+#include "chain_n6_geared_plain.hpp"
+#include "chain_n6_plain.hpp"
 #include "chain_n2_sympy.hpp"
 #include "chain_n2_geared_sympy.hpp"
 #include "chain_n3_sympy.hpp"
@@ -73,6 +75,7 @@
 #include "chain_n10_geared_sympy.hpp"
 #include "chain_n12_sympy.hpp"
 #include "chain_n12_geared_sympy.hpp"
+#endif
 
 namespace spacearm::bench {
 namespace {
@@ -149,39 +152,45 @@ void register_ours(const std::string& prefix, const std::string& name, bool ever
       }
     };
   };
-  benchmark::RegisterBenchmark((prefix + "/M+bias/" + name).c_str(), run([](const M& m, const States<G>& s, int k) {
-    typename M::Matrix Mq;
-    typename M::Vector b;
-    m.mass_matrix_and_bias(s.q[k], s.qd[k], Mq, b);
-    benchmark::DoNotOptimize(Mq);
-    benchmark::DoNotOptimize(b);
-  }));
-  benchmark::RegisterBenchmark((prefix + "/FD/" + name).c_str(), run([](const M& m, const States<G>& s, int k) {
-    auto qdd = m.forward_dynamics(s.q[k], s.qd[k], M::Vector::Zero());
-    benchmark::DoNotOptimize(qdd);
-  }));
+  benchmark::RegisterBenchmark((prefix + "/M+bias/" + name).c_str(),
+                               run([](const M& m, const States<G>& s, int k) {
+                                 typename M::Matrix Mq;
+                                 typename M::Vector b;
+                                 m.mass_matrix_and_bias(s.q[k], s.qd[k], Mq, b);
+                                 benchmark::DoNotOptimize(Mq);
+                                 benchmark::DoNotOptimize(b);
+                               }));
+  benchmark::RegisterBenchmark((prefix + "/FD/" + name).c_str(),
+                               run([](const M& m, const States<G>& s, int k) {
+                                 auto qdd = m.forward_dynamics(s.q[k], s.qd[k], M::Vector::Zero());
+                                 benchmark::DoNotOptimize(qdd);
+                               }));
   if (!everything) return;
-  benchmark::RegisterBenchmark((prefix + "/M/" + name).c_str(), run([](const M& m, const States<G>& s, int k) {
-    auto Mq = m.mass_matrix(s.q[k]);
-    benchmark::DoNotOptimize(Mq);
-  }));
-  benchmark::RegisterBenchmark((prefix + "/bias/" + name).c_str(), run([](const M& m, const States<G>& s, int k) {
-    auto b = m.bias_forces(s.q[k], s.qd[k]);
-    benchmark::DoNotOptimize(b);
-  }));
+  benchmark::RegisterBenchmark((prefix + "/M/" + name).c_str(),
+                               run([](const M& m, const States<G>& s, int k) {
+                                 auto Mq = m.mass_matrix(s.q[k]);
+                                 benchmark::DoNotOptimize(Mq);
+                               }));
+  benchmark::RegisterBenchmark((prefix + "/bias/" + name).c_str(),
+                               run([](const M& m, const States<G>& s, int k) {
+                                 auto b = m.bias_forces(s.q[k], s.qd[k]);
+                                 benchmark::DoNotOptimize(b);
+                               }));
   if constexpr (G::kHas_coriolis_matrix) {
-    benchmark::RegisterBenchmark((prefix + "/C/" + name).c_str(), run([](const M& m, const States<G>& s, int k) {
-      typename M::Matrix C;
-      G::coriolis_matrix(s.q[k], s.qd[k], m.parameters(), C);
-      benchmark::DoNotOptimize(C);
-    }));
+    benchmark::RegisterBenchmark((prefix + "/C/" + name).c_str(),
+                                 run([](const M& m, const States<G>& s, int k) {
+                                   typename M::Matrix C;
+                                   G::coriolis_matrix(s.q[k], s.qd[k], m.parameters(), C);
+                                   benchmark::DoNotOptimize(C);
+                                 }));
     // Pruning: the bias through the full C (eq. 7) and a product, instead of emitted directly.
-    benchmark::RegisterBenchmark((prefix + "/C*qd/" + name).c_str(), run([](const M& m, const States<G>& s, int k) {
-      typename M::Matrix C;
-      G::coriolis_matrix(s.q[k], s.qd[k], m.parameters(), C);
-      typename M::Vector b = C * s.qd[k];
-      benchmark::DoNotOptimize(b);
-    }));
+    benchmark::RegisterBenchmark((prefix + "/C*qd/" + name).c_str(),
+                                 run([](const M& m, const States<G>& s, int k) {
+                                   typename M::Matrix C;
+                                   G::coriolis_matrix(s.q[k], s.qd[k], m.parameters(), C);
+                                   typename M::Vector b = C * s.qd[k];
+                                   benchmark::DoNotOptimize(b);
+                                 }));
   }
   benchmark::RegisterBenchmark((prefix + "/RK4/" + name).c_str(), [](benchmark::State& st) {
     namespace odeint = boost::numeric::odeint;
@@ -191,8 +200,8 @@ void register_ours(const std::string& prefix, const std::string& name, bool ever
     odeint::runge_kutta4<State, double, State, double, odeint::vector_space_algebra> stepper;
     auto f = [&](const State& x, State& dx, double) {
       dx.template head<M::kNq>() = x.template tail<M::kNq>();
-      dx.template tail<M::kNq>() =
-          model.forward_dynamics(x.template head<M::kNq>(), x.template tail<M::kNq>(), M::Vector::Zero());
+      dx.template tail<M::kNq>() = model.forward_dynamics(
+          x.template head<M::kNq>(), x.template tail<M::kNq>(), M::Vector::Zero());
     };
     int k = 0;
     for (auto _ : st) {
@@ -234,25 +243,25 @@ void register_mujoco(const std::string& scene_file, const std::string& name) {
     };
   };
   benchmark::RegisterBenchmark(("mujoco/M+bias/" + name).c_str(), run([](MujocoModel& mj) {
-    std::array<mjtNum, M::kNq * M::kNq> full;
-    mj_kinematics(mj.m.get(), mj.d.get());
-    mj_comPos(mj.m.get(), mj.d.get());
-    mj_crb(mj.m.get(), mj.d.get());
-    mj_comVel(mj.m.get(), mj.d.get());
-    mj_rne(mj.m.get(), mj.d.get(), 0, mj.d->qfrc_bias);
-    mj_fullM(mj.m.get(), full.data(), mj.d->qM);
-    benchmark::DoNotOptimize(full.data());
-    benchmark::DoNotOptimize(mj.d->qfrc_bias);
-  }));
+                                 std::array<mjtNum, M::kNq * M::kNq> full;
+                                 mj_kinematics(mj.m.get(), mj.d.get());
+                                 mj_comPos(mj.m.get(), mj.d.get());
+                                 mj_crb(mj.m.get(), mj.d.get());
+                                 mj_comVel(mj.m.get(), mj.d.get());
+                                 mj_rne(mj.m.get(), mj.d.get(), 0, mj.d->qfrc_bias);
+                                 mj_fullM(mj.m.get(), full.data(), mj.d->qM);
+                                 benchmark::DoNotOptimize(full.data());
+                                 benchmark::DoNotOptimize(mj.d->qfrc_bias);
+                               }));
   benchmark::RegisterBenchmark(("mujoco/FD/" + name).c_str(), run([](MujocoModel& mj) {
-    mj_forward(mj.m.get(), mj.d.get());
-    benchmark::DoNotOptimize(mj.d->qacc);
-  }));
+                                 mj_forward(mj.m.get(), mj.d.get());
+                                 benchmark::DoNotOptimize(mj.d->qacc);
+                               }));
   benchmark::RegisterBenchmark(("mujoco/RK4/" + name).c_str(), run([](MujocoModel& mj) {
-    mj.d->time = 0;
-    mj_step(mj.m.get(), mj.d.get());
-    benchmark::DoNotOptimize(mj.d->qpos);
-  }));
+                                 mj.d->time = 0;
+                                 mj_step(mj.m.get(), mj.d.get());
+                                 benchmark::DoNotOptimize(mj.d->qpos);
+                               }));
 }
 
 // MuJoCo's M and bias must be ours (mapped to motor coordinates for geared scenes:
@@ -273,7 +282,8 @@ bool agrees_with_mujoco(const std::string& scene_file, const std::string& name) 
     Eigen::Matrix<double, M::kNq, M::kNq, Eigen::RowMajor> full;
     mj_fullM(mj.m.get(), full.data(), mj.d->qM);
     const typename M::Matrix M_mj = g.asDiagonal() * typename M::Matrix(full) * g.asDiagonal();
-    const typename M::Vector b_mj = g.cwiseProduct(Eigen::Map<const typename M::Vector>(mj.d->qfrc_bias));
+    const typename M::Vector b_mj =
+        g.cwiseProduct(Eigen::Map<const typename M::Vector>(mj.d->qfrc_bias));
     typename M::Matrix Mq;
     typename M::Vector b;
     model.mass_matrix_and_bias(s.q[k], s.qd[k], Mq, b);
@@ -281,13 +291,14 @@ bool agrees_with_mujoco(const std::string& scene_file, const std::string& name) 
     worst_b = std::max(worst_b, (b - b_mj).cwiseAbs().maxCoeff() / b.cwiseAbs().maxCoeff());
   }
   const bool ok = worst_M < 1e-12 && worst_b < 1e-10;
-  std::printf("check %-22s MuJoCo vs ours: max relative difference M %.1e, bias %.1e  %s\n", name.c_str(), worst_M,
-              worst_b, ok ? "ok" : "DISAGREE");
+  std::printf("check %-22s MuJoCo vs ours: max relative difference M %.1e, bias %.1e  %s\n",
+              name.c_str(), worst_M, worst_b, ok ? "ok" : "DISAGREE");
   return ok;
 }
 
 // The SymPy peer (bench/sympy_chain.py): M and bias derived and printed by SymPy with cse.
-using SympyFunction = void (*)(const double* q, const double* qd, const double* params, double* M, double* bias);
+using SympyFunction = void (*)(const double* q, const double* qd, const double* params, double* M,
+                               double* bias);
 template <class G>
 struct SympyPeer {
   using M = Model<G>;
@@ -296,10 +307,12 @@ struct SympyPeer {
   typename M::Params params;
   SympyPeer(SympyFunction fn, const char* const* names, int n_names, const M& model) : f(fn) {
     // Parameters by name, so that a different order in the two derivations cannot go unseen.
-    if (n_names != M::kNumParams) throw std::runtime_error("SymPy peer: number of parameters differs");
+    if (n_names != M::kNumParams)
+      throw std::runtime_error("SymPy peer: number of parameters differs");
     for (int i = 0; i < n_names; ++i)
       for (int k = 0; k <= M::kNumParams; ++k) {
-        if (k == M::kNumParams) throw std::runtime_error(std::string("SymPy peer: unknown parameter ") + names[i]);
+        if (k == M::kNumParams)
+          throw std::runtime_error(std::string("SymPy peer: unknown parameter ") + names[i]);
         if (std::string(names[i]) == G::parameter_names()[k]) {
           params[i] = model.parameters()[k];
           break;
@@ -315,7 +328,8 @@ struct SympyPeer {
 // SymPy's M and bias must be ours (an independent derivation of the same scene, the exact
 // rotor coupling included) before either is timed.
 template <class G>
-bool agrees_with_sympy(SympyFunction f, const char* const* names, int n_names, const std::string& name) {
+bool agrees_with_sympy(SympyFunction f, const char* const* names, int n_names,
+                       const std::string& name) {
   using M = Model<G>;
   const M model = make_model<G>();
   const States<G> s(model);
@@ -327,17 +341,19 @@ bool agrees_with_sympy(SympyFunction f, const char* const* names, int n_names, c
     typename M::Matrix Mq;
     peer(s.q[k], s.qd[k], M_sp, b_sp);
     model.mass_matrix_and_bias(s.q[k], s.qd[k], Mq, b);
-    worst_M = std::max(worst_M, (Mq - typename M::Matrix(M_sp)).cwiseAbs().maxCoeff() / Mq.cwiseAbs().maxCoeff());
+    worst_M = std::max(
+        worst_M, (Mq - typename M::Matrix(M_sp)).cwiseAbs().maxCoeff() / Mq.cwiseAbs().maxCoeff());
     worst_b = std::max(worst_b, (b - b_sp).cwiseAbs().maxCoeff() / b.cwiseAbs().maxCoeff());
   }
   const bool ok = worst_M < 1e-12 && worst_b < 1e-10;
-  std::printf("check %-22s SymPy vs ours: max relative difference M %.1e, bias %.1e  %s\n", name.c_str(), worst_M,
-              worst_b, ok ? "ok" : "DISAGREE");
+  std::printf("check %-22s SymPy vs ours: max relative difference M %.1e, bias %.1e  %s\n",
+              name.c_str(), worst_M, worst_b, ok ? "ok" : "DISAGREE");
   return ok;
 }
 
 template <class G>
-void register_sympy(SympyFunction f, const char* const* names, int n_names, const std::string& name) {
+void register_sympy(SympyFunction f, const char* const* names, int n_names,
+                    const std::string& name) {
   using M = Model<G>;
   auto run = [=](auto&& body) {
     return [=](benchmark::State& st) {
@@ -355,14 +371,14 @@ void register_sympy(SympyFunction f, const char* const* names, int n_names, cons
     };
   };
   benchmark::RegisterBenchmark(("sympy/M+bias/" + name).c_str(), run([](auto& Mq, auto& b) {
-    benchmark::DoNotOptimize(Mq);
-    benchmark::DoNotOptimize(b);
-  }));
+                                 benchmark::DoNotOptimize(Mq);
+                                 benchmark::DoNotOptimize(b);
+                               }));
   // Forward dynamics as a SymPy user would write it: M, bias, Eigen's Cholesky (no checks).
   benchmark::RegisterBenchmark(("sympy/FD/" + name).c_str(), run([](auto& Mq, auto& b) {
-    typename M::Vector qdd = Mq.llt().solve(-b);
-    benchmark::DoNotOptimize(qdd);
-  }));
+                                 typename M::Vector qdd = Mq.llt().solve(-b);
+                                 benchmark::DoNotOptimize(qdd);
+                               }));
 }
 
 std::string scene_path(const std::string& name) {
@@ -375,10 +391,12 @@ double seconds(const std::string& name) {
 }
 
 void print_ratio_table() {
-  std::printf("\nRatios, peer time / our time (same process, same states, fastest repetition; > 1: ours is faster)\n");
-  std::printf("%-20s %8s %8s %7s %8s %7s %8s %7s | %8s %8s %7s %8s %7s | %8s %8s %7s\n", "model", "M+b ns", "MuJoCo",
-              "ratio", "plain", "ratio", "SymPy", "ratio", "FD ns", "MuJoCo", "ratio", "SymPy", "ratio", "RK4 ns", "MuJoCo",
-              "ratio");
+  std::printf(
+      "\nRatios, peer time / our time (same process, same states, fastest repetition; > 1: ours is "
+      "faster)\n");
+  std::printf("%-20s %8s %8s %7s %8s %7s %8s %7s | %8s %8s %7s %8s %7s | %8s %8s %7s\n", "model",
+              "M+b ns", "MuJoCo", "ratio", "plain", "ratio", "SymPy", "ratio", "FD ns", "MuJoCo",
+              "ratio", "SymPy", "ratio", "RK4 ns", "MuJoCo", "ratio");
   for (const auto& [key, t] : g_seconds) {
     if (key.rfind("ours/M+bias/", 0) != 0) continue;
     const std::string model = key.substr(12);
@@ -387,26 +405,34 @@ void print_ratio_table() {
     if (geared != std::string::npos) peer.replace(geared, 7, "_armature");
     if (model == "paper_geared") peer = "";
     auto ns = [](double s) { return s * 1e9; };
-    const double ours_mb = t, mj_mb = seconds("mujoco/M+bias/" + peer), plain_mb = seconds("plain/M+bias/" + model);
-    const double sympy_mb = seconds("sympy/M+bias/" + model), sympy_fd = seconds("sympy/FD/" + model);
+    const double ours_mb = t, mj_mb = seconds("mujoco/M+bias/" + peer),
+                 plain_mb = seconds("plain/M+bias/" + model);
+    const double sympy_mb = seconds("sympy/M+bias/" + model),
+                 sympy_fd = seconds("sympy/FD/" + model);
     const double ours_fd = seconds("ours/FD/" + model), mj_fd = seconds("mujoco/FD/" + peer);
     const double ours_rk = seconds("ours/RK4/" + model), mj_rk = seconds("mujoco/RK4/" + peer);
-    std::printf("%-20s %8.0f %8.0f %7.2f %8.0f %7.2f %8.0f %7.2f | %8.0f %8.0f %7.2f %8.0f %7.2f | %8.0f %8.0f %7.2f\n",
-                model.c_str(), ns(ours_mb), ns(mj_mb), mj_mb / ours_mb, ns(plain_mb), plain_mb / ours_mb,
-                ns(sympy_mb), sympy_mb / ours_mb, ns(ours_fd), ns(mj_fd), mj_fd / ours_fd, ns(sympy_fd),
-                sympy_fd / ours_fd, ns(ours_rk), ns(mj_rk), mj_rk / ours_rk);
+    std::printf(
+        "%-20s %8.0f %8.0f %7.2f %8.0f %7.2f %8.0f %7.2f | %8.0f %8.0f %7.2f %8.0f %7.2f | %8.0f "
+        "%8.0f %7.2f\n",
+        model.c_str(), ns(ours_mb), ns(mj_mb), mj_mb / ours_mb, ns(plain_mb), plain_mb / ours_mb,
+        ns(sympy_mb), sympy_mb / ours_mb, ns(ours_fd), ns(mj_fd), mj_fd / ours_fd, ns(sympy_fd),
+        sympy_fd / ours_fd, ns(ours_rk), ns(mj_rk), mj_rk / ours_rk);
   }
   std::printf("\nPruning (our time / pruned time):\n");
   for (const auto& [key, t] : g_seconds) {
     if (key.rfind("ours/C*qd/", 0) != 0) continue;
     const std::string model = key.substr(10);
-    std::printf("  %-20s bias through the full C %.0f ns, emitted bias %.0f ns: %.2fx\n", model.c_str(), t * 1e9,
-                seconds("ours/bias/" + model) * 1e9, t / seconds("ours/bias/" + model));
+    std::printf("  %-20s bias through the full C %.0f ns, emitted bias %.0f ns: %.2fx\n",
+                model.c_str(), t * 1e9, seconds("ours/bias/" + model) * 1e9,
+                t / seconds("ours/bias/" + model));
   }
-  const double params = seconds("ours/M+bias/paper_geared"), folded = seconds("ours/M+bias/paper_geared_folded");
+  const double params = seconds("ours/M+bias/paper_geared"),
+               folded = seconds("ours/M+bias/paper_geared_folded");
   if (std::isfinite(params) && std::isfinite(folded))  // both ran (not filtered out)
-    std::printf("  paper_geared M+bias with p, Im at run time %.0f ns, folded as constants %.0f ns: %.2fx\n",
-                params * 1e9, folded * 1e9, params / folded);
+    std::printf(
+        "  paper_geared M+bias with p, Im at run time %.0f ns, folded as constants %.0f ns: "
+        "%.2fx\n",
+        params * 1e9, folded * 1e9, params / folded);
 }
 
 }  // namespace
@@ -417,49 +443,59 @@ int main(int argc, char** argv) {
   using namespace spacearm::bench;
   namespace m = spacearm::models;
   bool ok = true;
-  ok &= agrees_with_mujoco<m::paper_reference::Model>(SPACEARM_SOURCE_DIR "/models/paper_reference.yaml",
-                                                      "paper_reference");
-#define SPACEARM_CHAIN(N)                                                                              \
-  ok &= agrees_with_mujoco<m::chain_n##N::Model>(scene_path("chain_n" #N), "chain_n" #N);               \
-  ok &= agrees_with_mujoco<m::chain_n##N##_armature::Model>(scene_path("chain_n" #N "_armature"),       \
-                                                            "chain_n" #N "_armature");                 \
-  register_ours<m::chain_n##N::Model>("ours", "chain_n" #N, true);                                      \
-  register_ours<m::chain_n##N##_geared::Model>("ours", "chain_n" #N "_geared", true);                   \
-  register_ours<m::chain_n##N##_armature::Model>("ours", "chain_n" #N "_armature", false);              \
-  register_mujoco<m::chain_n##N::Model>(scene_path("chain_n" #N), "chain_n" #N);                        \
-  register_mujoco<m::chain_n##N##_armature::Model>(scene_path("chain_n" #N "_armature"), "chain_n" #N "_armature"); \
-  SPACEARM_SYMPY(chain_n##N, "chain_n" #N)                                                              \
+  ok &= agrees_with_mujoco<m::paper_reference::Model>(
+      SPACEARM_SOURCE_DIR "/models/paper_reference.yaml", "paper_reference");
+#define SPACEARM_CHAIN(N)                                                                         \
+  ok &= agrees_with_mujoco<m::chain_n##N::Model>(scene_path("chain_n" #N), "chain_n" #N);         \
+  ok &= agrees_with_mujoco<m::chain_n##N##_armature::Model>(scene_path("chain_n" #N "_armature"), \
+                                                            "chain_n" #N "_armature");            \
+  register_ours<m::chain_n##N::Model>("ours", "chain_n" #N, true);                                \
+  register_ours<m::chain_n##N##_geared::Model>("ours", "chain_n" #N "_geared", true);             \
+  register_ours<m::chain_n##N##_armature::Model>("ours", "chain_n" #N "_armature", false);        \
+  register_mujoco<m::chain_n##N::Model>(scene_path("chain_n" #N), "chain_n" #N);                  \
+  register_mujoco<m::chain_n##N##_armature::Model>(scene_path("chain_n" #N "_armature"),          \
+                                                   "chain_n" #N "_armature");                     \
+  SPACEARM_SYMPY(chain_n##N, "chain_n" #N)                                                        \
   SPACEARM_SYMPY(chain_n##N##_geared, "chain_n" #N "_geared")
-#define SPACEARM_SYMPY(MODEL, NAME)                                                                    \
-  {                                                                                                    \
-    namespace sp = spacearm::bench::MODEL##_sympy;                                                     \
-    constexpr int n_names = sizeof(sp::kParameterNames) / sizeof(sp::kParameterNames[0]) -             \
-                            (sp::kParameterNames[0] == nullptr);                                       \
-    ok &= agrees_with_sympy<m::MODEL::Model>(sp::mass_matrix_and_bias, sp::kParameterNames, n_names, NAME); \
-    register_sympy<m::MODEL::Model>(sp::mass_matrix_and_bias, sp::kParameterNames, n_names, NAME);     \
+#ifdef SPACEARM_BENCH_QUICK
+#define SPACEARM_SYMPY(MODEL, NAME)
+#else
+#define SPACEARM_SYMPY(MODEL, NAME)                                                                \
+  {                                                                                                \
+    namespace sp = spacearm::bench::MODEL##_sympy;                                                 \
+    constexpr int n_names = sizeof(sp::kParameterNames) / sizeof(sp::kParameterNames[0]) -         \
+                            (sp::kParameterNames[0] == nullptr);                                   \
+    ok &= agrees_with_sympy<m::MODEL::Model>(sp::mass_matrix_and_bias, sp::kParameterNames,        \
+                                             n_names, NAME);                                       \
+    register_sympy<m::MODEL::Model>(sp::mass_matrix_and_bias, sp::kParameterNames, n_names, NAME); \
   }
-#define SPACEARM_PLAIN(N)                                                                              \
-  register_ours<m::chain_n##N##_plain::Model>("plain", "chain_n" #N, false);                            \
+#endif
+#define SPACEARM_PLAIN(N)                                                    \
+  register_ours<m::chain_n##N##_plain::Model>("plain", "chain_n" #N, false); \
   register_ours<m::chain_n##N##_geared_plain::Model>("plain", "chain_n" #N "_geared", false);
   register_ours<m::paper_reference::Model>("ours", "paper_reference", true);
   register_ours<m::paper_geared::Model>("ours", "paper_geared", true);
+  register_mujoco<m::paper_reference::Model>(SPACEARM_SOURCE_DIR "/models/paper_reference.yaml",
+                                             "paper_reference");
+  SPACEARM_CHAIN(3)
+  SPACEARM_CHAIN(12)
+#ifndef SPACEARM_BENCH_QUICK
   register_ours<m::paper_geared_folded::Model>("ours", "paper_geared_folded", false);
   register_ours<m::paper_reference_plain::Model>("plain", "paper_reference", false);
   register_ours<m::paper_geared_plain::Model>("plain", "paper_geared", false);
-  register_mujoco<m::paper_reference::Model>(SPACEARM_SOURCE_DIR "/models/paper_reference.yaml", "paper_reference");
   SPACEARM_CHAIN(2)
-  SPACEARM_CHAIN(3)
   SPACEARM_CHAIN(4)
   SPACEARM_CHAIN(6)
   SPACEARM_CHAIN(8)
   SPACEARM_CHAIN(10)
-  SPACEARM_CHAIN(12)
   SPACEARM_PLAIN(2)
   SPACEARM_PLAIN(3)
   SPACEARM_PLAIN(4)
   SPACEARM_PLAIN(6)
+#endif
   if (!ok) {
-    std::fprintf(stderr, "bench_dynamics: a peer and spacearm disagree; not timing different models\n");
+    std::fprintf(stderr,
+                 "bench_dynamics: a peer and spacearm disagree; not timing different models\n");
     return 1;
   }
   benchmark::Initialize(&argc, argv);

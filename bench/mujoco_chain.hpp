@@ -29,15 +29,16 @@ inline std::string mjcf_of(const Scene& s) {
   x.precision(17);
   x << "<mujoco model=\"" << s.name << "\">\n"
     << "  <option gravity=\"0 0 0\" timestep=\"0.001\" integrator=\"RK4\">\n"
-    << "    <flag contact=\"disable\" constraint=\"disable\" passive=\"disable\" gravity=\"disable\"/>\n"
+    << "    <flag contact=\"disable\" constraint=\"disable\" passive=\"disable\" "
+       "gravity=\"disable\"/>\n"
     << "  </option>\n  <worldbody>\n";
   // Diagonal inertia (I, I, I): only the z component acts in planar motion, and equal
   // components satisfy MuJoCo's triangle inequality.
   auto inertial = [&](double m, double I, double cx, double cy) {
     std::ostringstream e;
     e.precision(17);
-    e << "<inertial pos=\"" << cx << " " << cy << " 0\" mass=\"" << m << "\" diaginertia=\"" << I << " " << I << " "
-      << I << "\"/>";
+    e << "<inertial pos=\"" << cx << " " << cy << " 0\" mass=\"" << m << "\" diaginertia=\"" << I
+      << " " << I << " " << I << "\"/>";
     return e.str();
   };
   x << "    <body name=\"base\">\n"
@@ -57,8 +58,8 @@ inline std::string mjcf_of(const Scene& s) {
       armature = Im * p * p;
     }
     x << indent << "<body name=\"link" << i + 1 << "\" pos=\"" << px << " " << py << " 0\">\n"
-      << indent << "  <joint name=\"q" << i + 1 << "\" type=\"hinge\" axis=\"0 0 1\" armature=\"" << armature
-      << "\"/>\n"
+      << indent << "  <joint name=\"q" << i + 1 << "\" type=\"hinge\" axis=\"0 0 1\" armature=\""
+      << armature << "\"/>\n"
       << indent << "  " << inertial(value(l.mass), I, value(l.com[0]), value(l.com[1])) << "\n";
     px = value(l.length);
     py = 0;

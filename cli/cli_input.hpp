@@ -22,7 +22,8 @@ inline Eigen::VectorXd parse_vector(const std::string& text, const std::string& 
 }
 
 // --param name=value pairs over the scene's nominal parameter values; each name once.
-inline Eigen::VectorXd parse_parameters(const std::vector<std::string>& assignments, const Scene& scene) {
+inline Eigen::VectorXd parse_parameters(const std::vector<std::string>& assignments,
+                                        const Scene& scene) {
   std::vector<std::string> names;
   Eigen::VectorXd p(static_cast<int>(scene.parameters.size()));
   for (const auto& param : scene.parameters) {
@@ -42,7 +43,8 @@ inline Eigen::VectorXd parse_parameters(const std::vector<std::string>& assignme
       throw std::invalid_argument("--param: unknown parameter " + quoted_text(name) +
                                   " (known: " + (known.empty() ? "none" : known) + ")");
     }
-    if (!given.insert(name).second) throw std::invalid_argument("--param: '" + name + "' given more than once");
+    if (!given.insert(name).second)
+      throw std::invalid_argument("--param: '" + name + "' given more than once");
     p[it - names.begin()] = parse_number(a.substr(eq + 1), "--param " + name);
   }
   return p;

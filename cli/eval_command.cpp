@@ -22,7 +22,9 @@ namespace {
 
 using clock = std::chrono::steady_clock;
 
-double ms_since(clock::time_point t0) { return std::chrono::duration<double, std::milli>(clock::now() - t0).count(); }
+double ms_since(clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(clock::now() - t0).count();
+}
 
 // A result as JSON: a number (1 x 1), a list (a column) or a list of rows. Every entry must
 // be finite, else an error naming the output and the entry (an overflow must not reach the
@@ -31,8 +33,10 @@ nlohmann::ordered_json to_json(const std::string& name, const Eigen::MatrixXd& m
   for (Eigen::Index i = 0; i < m.rows(); ++i)
     for (Eigen::Index j = 0; j < m.cols(); ++j)
       if (!std::isfinite(m(i, j)))
-        throw std::runtime_error(name + "[" + std::to_string(i) + "]" + (m.cols() > 1 ? "[" + std::to_string(j) + "]" : "") +
-                                 " is not finite (" + std::to_string(m(i, j)) + "): the state or parameters overflow");
+        throw std::runtime_error(name + "[" + std::to_string(i) + "]" +
+                                 (m.cols() > 1 ? "[" + std::to_string(j) + "]" : "") +
+                                 " is not finite (" + std::to_string(m(i, j)) +
+                                 "): the state or parameters overflow");
   if (m.size() == 1) return m(0, 0);
   if (m.cols() == 1) return std::vector<double>(m.data(), m.data() + m.size());
   nlohmann::ordered_json rows = nlohmann::ordered_json::array();
@@ -47,12 +51,15 @@ nlohmann::ordered_json to_json(const std::string& name, const Eigen::MatrixXd& m
 // An output's results: the value alone, or {name: value, ...} when it has several (the
 // pivots of forward_dynamics, the base acceleration of free_base_inverse_dynamics).
 // forward_dynamics passes the runtime's checks first: no meaningless accelerations.
-nlohmann::ordered_json results_json(const Scene& scene, const OutputInfo& o, const std::vector<Eigen::MatrixXd>& r) {
+nlohmann::ordered_json results_json(const Scene& scene, const OutputInfo& o,
+                                    const std::vector<Eigen::MatrixXd>& r) {
   if (o.id == Output::forward_dynamics)
-    check_forward_dynamics(Eigen::VectorXd(r[1]), Eigen::VectorXd(r[2]), Eigen::VectorXd(r[0]), scene.name);
+    check_forward_dynamics(Eigen::VectorXd(r[1]), Eigen::VectorXd(r[2]), Eigen::VectorXd(r[0]),
+                           scene.name);
   if (r.size() == 1) return to_json(o.name, r[0]);
   nlohmann::ordered_json all;
-  for (size_t k = 0; k < r.size(); ++k) all[o.results[k].name] = to_json(std::string(o.name) + "." + o.results[k].name, r[k]);
+  for (size_t k = 0; k < r.size(); ++k)
+    all[o.results[k].name] = to_json(std::string(o.name) + "." + o.results[k].name, r[k]);
   return all;
 }
 
@@ -68,18 +75,21 @@ struct EvalInputs {
 };
 
 // GiNaC's value of each output the scene emits (composed ones by Eigen's solves).
-void evaluate_symbolic(const Scene& scene, const EvalInputs& in, bool verbose, nlohmann::ordered_json& out) {
+void evaluate_symbolic(const Scene& scene, const EvalInputs& in, bool verbose,
+                       nlohmann::ordered_json& out) {
   auto t0 = clock::now();
   const SymbolicModel model = derive(scene);
   if (verbose) std::fprintf(stderr, "spacearm: derive %.1f ms\n", ms_since(t0));
   t0 = clock::now();
   for (const auto& o : output_registry())
-    if (scene.wants(o.id)) out[o.name] = results_json(scene, o, evaluate_output(model, o.id, in.of(o), in.params));
+    if (scene.wants(o.id))
+      out[o.name] = results_json(scene, o, evaluate_output(model, o.id, in.of(o), in.params));
   if (verbose) std::fprintf(stderr, "spacearm: evaluate (GiNaC) %.1f ms\n", ms_since(t0));
 }
 
 // The compiled model's value of each output the scene emits.
-void evaluate_compiled(const Scene& scene, const EvalArgs& a, const EvalInputs& in, nlohmann::ordered_json& out) {
+void evaluate_compiled(const Scene& scene, const EvalArgs& a, const EvalInputs& in,
+                       nlohmann::ordered_json& out) {
   CompileOptions options;
   options.cache_dir = a.cache_dir;
   options.progress = [verbose = a.verbose](const std::string& m) {
@@ -89,12 +99,15 @@ void evaluate_compiled(const Scene& scene, const EvalArgs& a, const EvalInputs& 
   StageReport rep;
   const auto model = CompiledModel::load(scene, options, &rep);
   if (a.verbose)
-    std::fprintf(stderr, "spacearm: cache %s (%s)\nspacearm: derive %.1f ms, emit %.1f ms, compile %.1f ms, load %.1f ms\n",
-                 rep.cache_entry.c_str(), rep.compiled ? "built" : "hit", rep.derive_ms, rep.emit_ms, rep.compile_ms,
-                 rep.load_ms);
+    std::fprintf(stderr,
+                 "spacearm: cache %s (%s)\nspacearm: derive %.1f ms, emit %.1f ms, compile %.1f "
+                 "ms, load %.1f ms\n",
+                 rep.cache_entry.c_str(), rep.compiled ? "built" : "hit", rep.derive_ms,
+                 rep.emit_ms, rep.compile_ms, rep.load_ms);
   const auto t0 = clock::now();
   for (const auto& o : output_registry())
-    if (model.has(o.id)) out[o.name] = results_json(scene, o, model.evaluate(o.id, in.of(o), in.params));
+    if (model.has(o.id))
+      out[o.name] = results_json(scene, o, model.evaluate(o.id, in.of(o), in.params));
   if (a.verbose) std::fprintf(stderr, "spacearm: run %.3f ms\n", ms_since(t0));
 }
 
@@ -116,19 +129,22 @@ int run_eval(const EvalArgs& a) {
   // An input that no output of the scene takes would do nothing: an error, not ignored.
   std::set<Input> used;
   for (Output o : scene.outputs) used.insert(info(o).inputs.begin(), info(o).inputs.end());
-  for (const auto& [input, text, option] : {std::make_tuple(Input::qdd, a.qdd_text, "--qdd"),
-                                            std::make_tuple(Input::generalized_forces, a.forces_text, "--forces"),
-                                            std::make_tuple(Input::joint_accelerations, a.qdd_joints_text, "--qdd-joints")})
+  for (const auto& [input, text, option] :
+       {std::make_tuple(Input::qdd, a.qdd_text, "--qdd"),
+        std::make_tuple(Input::generalized_forces, a.forces_text, "--forces"),
+        std::make_tuple(Input::joint_accelerations, a.qdd_joints_text, "--qdd-joints")})
     if (!text.empty() && !used.count(input))
-      throw std::invalid_argument(std::string(option) + ": the scene emits no output that takes " + info(input).name +
-                                  " (field 'outputs')");
+      throw std::invalid_argument(std::string(option) + ": the scene emits no output that takes " +
+                                  info(input).name + " (field 'outputs')");
   // The state, inputs and parameters used, then every output by its registry name.
   nlohmann::ordered_json out;
   out["coordinates"] = scene.coordinate_names();
   for (const auto& [input, v] : in.values)
-    if (input == Input::q || used.count(input)) out[info(input).name] = std::vector<double>(v.data(), v.data() + v.size());
+    if (input == Input::q || used.count(input))
+      out[info(input).name] = std::vector<double>(v.data(), v.data() + v.size());
   out["parameters"] = nlohmann::ordered_json::object();
-  for (size_t i = 0; i < scene.parameters.size(); ++i) out["parameters"][scene.parameters[i].name] = in.params[i];
+  for (size_t i = 0; i < scene.parameters.size(); ++i)
+    out["parameters"][scene.parameters[i].name] = in.params[i];
   if (a.symbolic)
     evaluate_symbolic(scene, in, a.verbose, out);
   else

@@ -9,7 +9,8 @@ namespace spacearm {
 
 struct EvalArgs {
   std::string scene_path, q_text, qd_text, cache_dir;
-  std::string qdd_text, forces_text, qdd_joints_text;  // inputs of the dynamics outputs (default zeros)
+  std::string qdd_text, forces_text,
+      qdd_joints_text;  // inputs of the dynamics outputs (default zeros)
   std::vector<std::string> param_assignments;
   bool compact_json = false, symbolic = false, verbose = false;
 };

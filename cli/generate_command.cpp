@@ -35,11 +35,13 @@ int run_generate(const GenerateArgs& a) {
   EmitOptions options;
   options.scene_path = a.scene_path;
   options.command = "spacearm generate " + a.scene_path + " -o " + a.out_dir +
-                    (a.file_stem.empty() ? "" : " --file-stem " + a.file_stem) + (a.plain ? " --plain" : "");
+                    (a.file_stem.empty() ? "" : " --file-stem " + a.file_stem) +
+                    (a.plain ? " --plain" : "");
   options.file_stem = a.file_stem;
   options.plain = a.plain;
   const auto emitted = emit_cpp(model, options);
-  const std::string header = a.out_dir + "/" + emitted.header_name, source = a.out_dir + "/" + emitted.source_name;
+  const std::string header = a.out_dir + "/" + emitted.header_name,
+                    source = a.out_dir + "/" + emitted.source_name;
   if (a.check) {
     const auto stale = stale_files(emitted, a.out_dir);
     for (const auto& f : stale) std::cerr << "spacearm: stale generated file: " << f << "\n";
@@ -52,12 +54,15 @@ int run_generate(const GenerateArgs& a) {
   }
   write_files(emitted, a.out_dir);
   const auto t2 = clock::now();
-  auto ms = [](auto from, auto to) { return std::chrono::duration<double, std::milli>(to - from).count(); };
-  std::cout << "wrote " << header << " and " << source << " (" << scene.num_coordinates() << " coordinates, "
-            << scene.parameters.size() << " parameters)\n";
+  auto ms = [](auto from, auto to) {
+    return std::chrono::duration<double, std::milli>(to - from).count();
+  };
+  std::cout << "wrote " << header << " and " << source << " (" << scene.num_coordinates()
+            << " coordinates, " << scene.parameters.size() << " parameters)\n";
   if (a.stats) {
     print_stats(emitted, std::cout);
-    std::cout << "derive " << std::lround(ms(t0, t1)) << " ms, emit " << std::lround(ms(t1, t2)) << " ms\n";
+    std::cout << "derive " << std::lround(ms(t0, t1)) << " ms, emit " << std::lround(ms(t1, t2))
+              << " ms\n";
   }
   return 0;
 }

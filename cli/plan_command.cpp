@@ -21,12 +21,14 @@ PlanningModel planning_model(const CompiledModel& m, const Eigen::VectorXd& para
   pm.num_links = m.num_links();
   pm.free_floating = m.nv() > m.num_links();
   pm.gear_ratios = m.gear_ratios(params);
-  pm.end_effector_pose = [&m, params](const Eigen::VectorXd& q) { return m.end_effector_pose(q, params); };
+  pm.end_effector_pose = [&m, params](const Eigen::VectorXd& q) {
+    return m.end_effector_pose(q, params);
+  };
   pm.end_effector_jacobian = [&m, params](const Eigen::VectorXd& q) {
     return Eigen::MatrixXd(m.evaluate(Output::end_effector_jacobian, {q}, params).front());
   };
-  pm.mass_matrix_and_bias = [&m, params](const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::MatrixXd& M,
-                                         Eigen::VectorXd& b) {
+  pm.mass_matrix_and_bias = [&m, params](const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                                         Eigen::MatrixXd& M, Eigen::VectorXd& b) {
     M = m.mass_matrix(q, params);
     b = m.bias_forces(q, qd, params);
   };
@@ -39,7 +41,8 @@ PlanningModel planning_model(const CompiledModel& m, const Eigen::VectorXd& para
 
 void check_outputs(const Scene& scene) {
   std::string missing;
-  for (Output o : {Output::end_effector_pose, Output::end_effector_jacobian, Output::mass_matrix, Output::bias_forces})
+  for (Output o : {Output::end_effector_pose, Output::end_effector_jacobian, Output::mass_matrix,
+                   Output::bias_forces})
     if (!scene.wants(o)) missing += (missing.empty() ? "" : ", ") + to_string(o);
   if (!missing.empty())
     throw std::invalid_argument("plan: scene '" + scene.name + "' does not emit " + missing +
@@ -63,8 +66,8 @@ void append(std::string& row, double v) {
   row += buf;
 }
 
-void write_plan(const Plan& plan, const CompiledModel& m, const Eigen::VectorXd& ratios, bool geared,
-                const std::string& path) {
+void write_plan(const Plan& plan, const CompiledModel& m, const Eigen::VectorXd& ratios,
+                bool geared, const std::string& path) {
   const bool free_base = !plan.base_residual.empty();
   RowWriter out(path);
   out.row(header(m, geared, free_base));
@@ -102,7 +105,8 @@ int run_plan(const PlanArgs& a) {
   const Scene scene = load_scene(a.scene_path);
   check_outputs(scene);
   StraightLineTask task;
-  const std::vector<double> from = parse_number_list(a.from_text, "--from"), to = parse_number_list(a.to_text, "--to");
+  const std::vector<double> from = parse_number_list(a.from_text, "--from"),
+                            to = parse_number_list(a.to_text, "--to");
   task.start = Eigen::Map<const Eigen::VectorXd>(from.data(), static_cast<int>(from.size()));
   task.goal = Eigen::Map<const Eigen::VectorXd>(to.data(), static_cast<int>(to.size()));
   task.duration = a.duration;
@@ -115,7 +119,8 @@ int run_plan(const PlanArgs& a) {
   CompileOptions options;
   options.cache_dir = a.cache_dir;
   options.progress = [&](const std::string& msg) {
-    if (a.verbose || msg.rfind("compiling", 0) == 0) std::fprintf(stderr, "spacearm: %s\n", msg.c_str());
+    if (a.verbose || msg.rfind("compiling", 0) == 0)
+      std::fprintf(stderr, "spacearm: %s\n", msg.c_str());
   };
   const auto model = CompiledModel::load(scene, options);
   const Eigen::VectorXd ratios = model.gear_ratios(params);
@@ -125,11 +130,14 @@ int run_plan(const PlanArgs& a) {
   refuse_input_as_output(a.torque_file, {{"the scene", a.scene_path}});
   write_plan(plan, model, ratios, scene.geared(), a.output_file);
   if (!a.torque_file.empty()) write_torques(plan, a.torque_file);
-  std::fprintf(stderr, "spacearm: plan of %zu samples: max path error %.2e, max |qdd - central differences of qd| %.2e\n",
+  std::fprintf(stderr,
+               "spacearm: plan of %zu samples: max path error %.2e, max |qdd - central differences "
+               "of qd| %.2e\n",
                plan.t.size(), plan.max_path_error, plan.max_acceleration_mismatch);
   if (!plan.base_residual.empty())
     std::fprintf(stderr,
-                 "spacearm: free base: max |momentum| %.2e, max force on the base (eq. 5 base rows, qdd by central "
+                 "spacearm: free base: max |momentum| %.2e, max force on the base (eq. 5 base "
+                 "rows, qdd by central "
                  "differences) %.2e\n",
                  plan.max_momentum, plan.max_base_residual);
   return 0;

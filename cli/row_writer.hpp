@@ -31,13 +31,15 @@ class OutputError : public std::exception {
 
 class RowWriter {
  public:
-  explicit RowWriter(const std::string& path) : path_(path == "-" || path.empty() ? "standard output" : path) {
+  explicit RowWriter(const std::string& path)
+      : path_(path == "-" || path.empty() ? "standard output" : path) {
     if (path == "-" || path.empty()) {
       fd_ = 1;
       owned_ = false;
     } else {
       fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-      if (fd_ < 0) throw OutputError("-o: cannot open '" + path + "' for writing: " + std::strerror(errno));
+      if (fd_ < 0)
+        throw OutputError("-o: cannot open '" + path + "' for writing: " + std::strerror(errno));
     }
   }
   ~RowWriter() {
@@ -62,7 +64,8 @@ class RowWriter {
         const std::string why = n < 0 ? std::strerror(errno) : "nothing written";
         // A partial write may end inside a row: cut a regular file back to its last whole row.
         const size_t whole = done == 0 ? 0 : buffer_.rfind('\n', done - 1) + 1;
-        if (whole <= done && ::ftruncate(fd_, static_cast<off_t>(written_ + whole)) == 0) written_ += whole;
+        if (whole <= done && ::ftruncate(fd_, static_cast<off_t>(written_ + whole)) == 0)
+          written_ += whole;
         buffer_.clear();
         throw OutputError("writing " + where() + " failed: " + why);
       }
@@ -78,7 +81,8 @@ class RowWriter {
     if (!owned_) return;
     const int fd = fd_;
     fd_ = -1;
-    if (::close(fd) != 0) throw OutputError("closing " + where() + " failed: " + std::strerror(errno));
+    if (::close(fd) != 0)
+      throw OutputError("closing " + where() + " failed: " + std::strerror(errno));
   }
 
   std::string where() const { return path_ == "standard output" ? path_ : "'" + path_ + "'"; }
@@ -100,8 +104,10 @@ inline void refuse_input_as_output(const std::string& output,
   if (output.empty() || output == "-" || ::stat(output.c_str(), &out) != 0) return;
   for (const auto& [what, path] : inputs) {
     struct stat in {};
-    if (!path.empty() && ::stat(path.c_str(), &in) == 0 && in.st_dev == out.st_dev && in.st_ino == out.st_ino)
-      throw std::invalid_argument("-o '" + output + "' is " + what + " file: it would be overwritten");
+    if (!path.empty() && ::stat(path.c_str(), &in) == 0 && in.st_dev == out.st_dev &&
+        in.st_ino == out.st_ino)
+      throw std::invalid_argument("-o '" + output + "' is " + what +
+                                  " file: it would be overwritten");
   }
 }
 

@@ -54,7 +54,8 @@ class StopOnSignals {
   }
 
  private:
-  struct sigaction old_int_ {}, old_term_ {};
+  struct sigaction old_int_ {
+  }, old_term_{};
 };
 
 std::string read_text_file(const std::string& path, const std::string& option) {
@@ -73,16 +74,19 @@ std::unique_ptr<TorqueSignal<Eigen::Dynamic>> torque_signal(const SimulateArgs& 
   const Extrapolation outside = extrapolation_from_string(a.extrapolate);
   if (a.zero_torque) {
     const std::vector<Eigen::VectorXd> zero{Eigen::VectorXd::Zero(N), Eigen::VectorXd::Zero(N)};
-    return std::make_unique<TorqueSignal<Eigen::Dynamic>>(0.0, a.t_end, zero, Interpolation::linear);
+    return std::make_unique<TorqueSignal<Eigen::Dynamic>>(0.0, a.t_end, zero,
+                                                          Interpolation::linear);
   }
-  const TorqueTable table = read_torque_csv(read_text_file(a.torque_file, "--torques"), N, a.torque_file);
+  const TorqueTable table =
+      read_torque_csv(read_text_file(a.torque_file, "--torques"), N, a.torque_file);
   const double tol = 1e-9 * std::max(1.0, a.t_end);
   if (outside == Extrapolation::error && (table.t0 > tol || table.t_last() < a.t_end - tol))
-    throw std::invalid_argument("--torques '" + a.torque_file + "' covers t = " + std::to_string(table.t0) + " .. " +
-                                std::to_string(table.t_last()) + " s, the run needs 0 .. " +
-                                std::to_string(a.t_end) +
-                                " s: give a file that covers it, or --extrapolate hold or --extrapolate zero");
-  return std::make_unique<TorqueSignal<Eigen::Dynamic>>(table.t0, table.dt, table.samples, mode, outside);
+    throw std::invalid_argument(
+        "--torques '" + a.torque_file + "' covers t = " + std::to_string(table.t0) + " .. " +
+        std::to_string(table.t_last()) + " s, the run needs 0 .. " + std::to_string(a.t_end) +
+        " s: give a file that covers it, or --extrapolate hold or --extrapolate zero");
+  return std::make_unique<TorqueSignal<Eigen::Dynamic>>(table.t0, table.dt, table.samples, mode,
+                                                        outside);
 }
 
 struct Columns {
@@ -127,19 +131,22 @@ void warn_if_large(const SimulateArgs& a, double dt_out, int columns) {
 
 // What was written when the run stopped early, on stderr.
 void report_stop(const RowWriter& out, double t_reached, const std::string& why) {
-  std::fprintf(stderr, "spacearm: %s; %s holds every row up to t = %.17g s\n", why.c_str(), out.where().c_str(),
-               t_reached);
+  std::fprintf(stderr, "spacearm: %s; %s holds every row up to t = %.17g s\n", why.c_str(),
+               out.where().c_str(), t_reached);
 }
 
 }  // namespace
 
 int run_simulate(const SimulateArgs& a) {
   const Scene scene = load_scene(a.scene_path);
-  if (!scene.wants(Output::forward_dynamics) && !(scene.wants(Output::mass_matrix) && scene.wants(Output::bias_forces)))
+  if (!scene.wants(Output::forward_dynamics) &&
+      !(scene.wants(Output::mass_matrix) && scene.wants(Output::bias_forces)))
     throw std::invalid_argument(
-        "simulate: the scene must emit forward_dynamics, or mass_matrix and bias_forces (field 'outputs')");
+        "simulate: the scene must emit forward_dynamics, or mass_matrix and bias_forces (field "
+        "'outputs')");
   const int nq = scene.num_coordinates(), nv = scene.num_velocities(), N = scene.num_links();
-  const Eigen::VectorXd q0 = a.q0_text.empty() ? Eigen::VectorXd::Zero(nq) : cli::parse_vector(a.q0_text, "--q0", nq);
+  const Eigen::VectorXd q0 =
+      a.q0_text.empty() ? Eigen::VectorXd::Zero(nq) : cli::parse_vector(a.q0_text, "--q0", nq);
   const Eigen::VectorXd qd0 =
       a.qd0_text.empty() ? Eigen::VectorXd::Zero(nv) : cli::parse_vector(a.qd0_text, "--qd0", nv);
   const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, scene);
@@ -156,19 +163,23 @@ int run_simulate(const SimulateArgs& a) {
   CompileOptions options;
   options.cache_dir = a.cache_dir;
   options.progress = [&](const std::string& m) {
-    if (a.verbose || m.rfind("compiling", 0) == 0) std::fprintf(stderr, "spacearm: %s\n", m.c_str());
+    if (a.verbose || m.rfind("compiling", 0) == 0)
+      std::fprintf(stderr, "spacearm: %s\n", m.c_str());
   };
   StageReport rep;
   const auto model = CompiledModel::load(scene, options, &rep);
   if (a.verbose)
-    std::fprintf(stderr, "spacearm: cache %s (%s); derive %.1f ms, emit %.1f ms, compile %.1f ms, load %.1f ms\n",
-                 rep.cache_entry.c_str(), rep.compiled ? "built" : "hit", rep.derive_ms, rep.emit_ms,
-                 rep.compile_ms, rep.load_ms);
+    std::fprintf(
+        stderr,
+        "spacearm: cache %s (%s); derive %.1f ms, emit %.1f ms, compile %.1f ms, load %.1f ms\n",
+        rep.cache_entry.c_str(), rep.compiled ? "built" : "hit", rep.derive_ms, rep.emit_ms,
+        rep.compile_ms, rep.load_ms);
   const Eigen::VectorXd ratios = model.gear_ratios(params);
-  const Columns cols{scene.geared(), model.has(Output::end_effector_pose), model.has(Output::kinetic_energy),
-                     model.has(Output::momentum)};
+  const Columns cols{scene.geared(), model.has(Output::end_effector_pose),
+                     model.has(Output::kinetic_energy), model.has(Output::momentum)};
   // Opened only now: a run refused above leaves an existing output file untouched.
-  refuse_input_as_output(a.output_file, {{"the scene", a.scene_path}, {"--torques", a.torque_file}});
+  refuse_input_as_output(a.output_file,
+                         {{"the scene", a.scene_path}, {"--torques", a.torque_file}});
   RowWriter out(a.output_file);
   const std::string head = header(model, cols);
   warn_if_large(a, dt_out, static_cast<int>(std::count(head.begin(), head.end(), ',')) + 1);
@@ -231,13 +242,16 @@ int run_simulate(const SimulateArgs& a) {
     const auto stats = integrate(opt, f, x, 0.0, a.t_end, dt_out, observe);
     out.close();
     if (a.verbose)
-      std::fprintf(stderr, "spacearm: run %.1f ms, %ld right-hand-side evaluations, %llu bytes written\n",
-                   std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - wall0).count(),
-                   stats.rhs_evaluations, out.bytes());
+      std::fprintf(
+          stderr, "spacearm: run %.1f ms, %ld right-hand-side evaluations, %llu bytes written\n",
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - wall0)
+              .count(),
+          stats.rhs_evaluations, out.bytes());
     return 0;
   } catch (const Interrupted& i) {
     out.close();
-    report_stop(out, t_written, std::string("interrupted by ") + (i.signal == SIGINT ? "SIGINT" : "SIGTERM"));
+    report_stop(out, t_written,
+                std::string("interrupted by ") + (i.signal == SIGINT ? "SIGINT" : "SIGTERM"));
     return 128 + i.signal;
   } catch (const IntegrationError& e) {
     out.close();  // what was computed so far stays in the CSV

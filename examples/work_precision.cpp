@@ -40,8 +40,8 @@ struct Outcome {
 // One run, state (q, qd, W) with dW/dt = Q . qd, so the energy balance T(t) - T(0) - W(t)
 // is known at the end without sampling. Best wall time of `repeats` identical runs.
 template <class G>
-Outcome run(const Model<G>& model, const typename Model<G>::Vector& q0, const TorqueSignal<3>& tau, double T,
-            const IntegratorOptions& opt, int repeats) {
+Outcome run(const Model<G>& model, const typename Model<G>::Vector& q0, const TorqueSignal<3>& tau,
+            double T, const IntegratorOptions& opt, int repeats) {
   using M = Model<G>;
   constexpr int n = M::kNq;
   using State = Eigen::Matrix<double, 2 * n + 1, 1>;
@@ -59,8 +59,10 @@ Outcome run(const Model<G>& model, const typename Model<G>::Vector& q0, const To
     x.setZero();
     x.template head<n>() = q0;
     const auto start = std::chrono::steady_clock::now();
-    const auto stats = integrate(opt, f, x, 0.0, T, T, [](const State&, double) {});  // only the end
-    o.seconds = std::min(o.seconds, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    const auto stats =
+        integrate(opt, f, x, 0.0, T, T, [](const State&, double) {});  // only the end
+    o.seconds = std::min(
+        o.seconds, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     o.evaluations = stats.rhs_evaluations;
   }
   const typename M::Vector q = x.template head<n>(), qd = x.template segment<n>(n);
@@ -73,8 +75,9 @@ Outcome run(const Model<G>& model, const typename Model<G>::Vector& q0, const To
 // Odeint's RK4 in scalar S with the generated functions instantiated for S (constants stay
 // double).
 template <class S>
-Eigen::Vector2d rk4_in(const Model<models::paper_geared::Model>& g, const Eigen::Matrix<double, 6, 1>& q0,
-                       const TorqueSignal<3>& tau, double T, double dt) {
+Eigen::Vector2d rk4_in(const Model<models::paper_geared::Model>& g,
+                       const Eigen::Matrix<double, 6, 1>& q0, const TorqueSignal<3>& tau, double T,
+                       double dt) {
   namespace m = models::paper_geared;
   using Vec = Eigen::Matrix<S, 12, 1>;
   const m::Parameters<S> params = g.parameters().cast<S>();
@@ -88,9 +91,11 @@ Eigen::Vector2d rk4_in(const Model<models::paper_geared::Model>& g, const Eigen:
   };
   Vec x = Vec::Zero();
   x.template head<6>() = q0.cast<S>();
-  boost::numeric::odeint::runge_kutta4<Vec, S, Vec, S, boost::numeric::odeint::vector_space_algebra> stepper;
+  boost::numeric::odeint::runge_kutta4<Vec, S, Vec, S, boost::numeric::odeint::vector_space_algebra>
+      stepper;
   const long steps = std::lround(T / dt);
-  for (long k = 0; k < steps; ++k) stepper.do_step(f, x, static_cast<S>(k * dt), static_cast<S>(dt));
+  for (long k = 0; k < steps; ++k)
+    stepper.do_step(f, x, static_cast<S>(k * dt), static_cast<S>(dt));
   m::Vector3<S> pose;
   m::end_effector_pose<S>(x.template head<6>(), params, pose);
   return pose.template head<2>().template cast<double>();
@@ -106,7 +111,8 @@ int main(int argc, char** argv) {
   bool quick = false;
   app.add_option("--ratios", ratios, "Gear ratios")->delimiter(',');
   app.add_option("--out", out_dir, "Output folder");
-  app.add_option("--repeats", repeats, "Runs per setting; the best wall time is kept")->check(CLI::PositiveNumber);
+  app.add_option("--repeats", repeats, "Runs per setting; the best wall time is kept")
+      ->check(CLI::PositiveNumber);
   app.add_flag("--quick", quick, "A short ladder (for the test)");
   CLI11_PARSE(app, argc, argv);
   try {
@@ -117,10 +123,12 @@ int main(int argc, char** argv) {
     const TorqueSignal<3> tau(0.0, task.dt, plan.tau, Interpolation::linear);
     const double T = task.duration;
 
-    const std::vector<double> steps = quick ? std::vector<double>{0.02, 0.01}
-                                            : std::vector<double>{0.04, 0.02, 0.01, 0.005, 0.0025, 0.00125};
+    const std::vector<double> steps =
+        quick ? std::vector<double>{0.02, 0.01}
+              : std::vector<double>{0.04, 0.02, 0.01, 0.005, 0.0025, 0.00125};
     const std::vector<double> tolerances =
-        quick ? std::vector<double>{1e-6, 1e-8} : std::vector<double>{1e-4, 1e-6, 1e-8, 1e-10, 1e-12};
+        quick ? std::vector<double>{1e-6, 1e-8}
+              : std::vector<double>{1e-4, 1e-6, 1e-8, 1e-10, 1e-12};
 
     std::ofstream csv(out_dir + "/work_precision.csv");
     csv.precision(6);
@@ -146,16 +154,18 @@ int main(int argc, char** argv) {
       // runs below repeats).
       tight.breakpoint_interval = task.dt / 8;
       const Outcome reference = run(g, qm, tau, T, tight, 1);
-      std::printf("\np = %g: reference (rkf78, tolerance 1e-13): %ld evaluations, momentum %.1e, energy balance %.1e J\n",
-                  p, reference.evaluations, reference.momentum_error, reference.energy_error);
-      std::printf("%-18s %10s %12s %11s %11s %11s\n", "method", "setting", "evaluations", "wall [ms]", "ee err [m]",
-                  "energy [J]");
+      std::printf(
+          "\np = %g: reference (rkf78, tolerance 1e-13): %ld evaluations, momentum %.1e, energy "
+          "balance %.1e J\n",
+          p, reference.evaluations, reference.momentum_error, reference.energy_error);
+      std::printf("%-18s %10s %12s %11s %11s %11s\n", "method", "setting", "evaluations",
+                  "wall [ms]", "ee err [m]", "energy [J]");
       auto record = [&](const std::string& method, double setting, const Outcome& o) {
         const double ee = (o.ee - reference.ee).norm();
-        std::printf("%-18s %10g %12ld %11.3f %11.2e %11.2e\n", method.c_str(), setting, o.evaluations, o.seconds * 1e3,
-                    ee, o.energy_error);
-        csv << p << "," << method << "," << setting << "," << o.evaluations << "," << o.seconds << "," << ee << ","
-            << o.momentum_error << "," << o.energy_error << "\n";
+        std::printf("%-18s %10g %12ld %11.3f %11.2e %11.2e\n", method.c_str(), setting,
+                    o.evaluations, o.seconds * 1e3, ee, o.energy_error);
+        csv << p << "," << method << "," << setting << "," << o.evaluations << "," << o.seconds
+            << "," << ee << "," << o.momentum_error << "," << o.energy_error << "\n";
       };
       for (Method m : {Method::rk4, Method::implicit_midpoint}) {
         for (double dt : steps) {
@@ -168,13 +178,15 @@ int main(int argc, char** argv) {
       }
       for (Method m : {Method::dopri5, Method::rkf78})
         for (bool breaks : {false, true})
-          for (double tol : breaks ? std::vector<double>{1e-8} : tolerances) {  // with samples, one step each
+          for (double tol :
+               breaks ? std::vector<double>{1e-8} : tolerances) {  // with samples, one step each
             IntegratorOptions opt;
             opt.method = m;
             opt.rtol = opt.atol = tol;
             // "+samples": steps land on the torque samples, where the torque's slope jumps.
             if (breaks) opt.breakpoint_interval = task.dt;
-            record(to_string(m) + (breaks ? "+samples" : ""), tol, run(g, qm, tau, T, opt, repeats));
+            record(to_string(m) + (breaks ? "+samples" : ""), tol,
+                   run(g, qm, tau, T, opt, repeats));
           }
       // Precision: the same RK4 steps in float, double and long double.
       for (double dt : steps) {
@@ -182,14 +194,18 @@ int main(int argc, char** argv) {
         const double ed = (rk4_in<double>(g, qm, tau, T, dt) - reference.ee).norm();
         const double el = (rk4_in<long double>(g, qm, tau, T, dt) - reference.ee).norm();
         precision << p << "," << dt << "," << ef << "," << ed << "," << el << "\n";
-        std::printf("rk4 dt = %-8g end-effector error: float %.2e, double %.2e, long double %.2e m\n", dt, ef, ed, el);
+        std::printf(
+            "rk4 dt = %-8g end-effector error: float %.2e, double %.2e, long double %.2e m\n", dt,
+            ef, ed, el);
       }
       // Modelling error of the armature approximation, both integrated tightly.
       const Outcome arm = run(a, qm, tau, T, tight, 1);
       const double model_error = (arm.ee - reference.ee).norm();
       armature << p << "," << model_error << "\n";
-      std::printf("armature approximation instead of the exact rotor coupling: end-effector differs by %.2e m\n",
-                  model_error);
+      std::printf(
+          "armature approximation instead of the exact rotor coupling: end-effector differs by "
+          "%.2e m\n",
+          model_error);
     }
     std::printf("\nwrote %s/work_precision.csv, precision.csv, armature.csv\n", out_dir.c_str());
     return 0;

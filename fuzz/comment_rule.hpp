@@ -12,7 +12,8 @@ inline std::string broken_comment_rule(const std::string& comment) {
   size_t start = 0;
   for (size_t end; (end = comment.find('\n', start)) != std::string::npos; start = end + 1) {
     const std::string line = comment.substr(start, end - start);
-    if (line.compare(0, 2, "//") != 0 || line.back() == '\\') return "comment line escapes: " + line;
+    if (line.compare(0, 2, "//") != 0 || line.back() == '\\')
+      return "comment line escapes: " + line;
     for (unsigned char c : line)
       if (c < 0x20 || c >= 0x7f) return "unescaped byte in a comment line";
   }

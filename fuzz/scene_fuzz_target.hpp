@@ -19,11 +19,14 @@ namespace spacearm::fuzz {
 inline std::string broken_rule(const Scene& s) {
   auto finite = [](const Quantity& q) { return std::isfinite(q.value); };
   if (s.links.empty() || s.num_links() > kMaxLinks) return "number of links out of range";
-  if (s.free_floating() && !(s.base.mass.value > 0 && s.base.inertia.value > 0)) return "base mass/inertia";
+  if (s.free_floating() && !(s.base.mass.value > 0 && s.base.inertia.value > 0))
+    return "base mass/inertia";
   if (!finite(s.base.mount[0]) || !finite(s.base.mount[1])) return "base mount not finite";
   for (const Link& l : s.links) {
-    if (!(l.mass.value > 0 && l.inertia.value > 0 && l.length.value > 0)) return "link mass/inertia/length";
-    if (!finite(l.mass) || !finite(l.inertia) || !finite(l.length) || !finite(l.com[0]) || !finite(l.com[1]))
+    if (!(l.mass.value > 0 && l.inertia.value > 0 && l.length.value > 0))
+      return "link mass/inertia/length";
+    if (!finite(l.mass) || !finite(l.inertia) || !finite(l.length) || !finite(l.com[0]) ||
+        !finite(l.com[1]))
       return "link value not finite";
   }
   if (s.geared() && s.gears.size() != s.links.size()) return "gear count";
@@ -38,7 +41,8 @@ inline std::string broken_rule(const Scene& s) {
     for (size_t j = i + 1; j < s.parameters.size(); ++j)
       if (s.parameters[i].name == s.parameters[j].name) return "duplicate parameter";
   if (s.outputs.empty()) return "no outputs";
-  if (static_cast<int>(s.coordinate_names().size()) != s.num_coordinates()) return "coordinate names";
+  if (static_cast<int>(s.coordinate_names().size()) != s.num_coordinates())
+    return "coordinate names";
   // What reaches emitted text: names C++ will not reinterpret, the description only as
   // comment lines of printable ASCII that cannot continue onto the next line.
   if (is_cpp_reserved(s.name)) return "reserved scene name";
@@ -46,7 +50,6 @@ inline std::string broken_rule(const Scene& s) {
     if (is_cpp_reserved(p.name)) return "reserved parameter name";
   return broken_comment_rule(comment_lines(s.description + "\n" + s.source_path));
 }
-
 
 enum class Verdict { accepted, rejected };
 

@@ -26,10 +26,12 @@ inline void check_torque_csv(const std::string& text, int joints) {
     if (t.samples.size() < 2 || !(t.dt > 0) || !std::isfinite(t.t0) || !std::isfinite(t.t_last()))
       throw std::logic_error("torque CSV accepted with a bad grid");
     for (const auto& s : t.samples)
-      if (s.size() != joints || !s.allFinite()) throw std::logic_error("torque CSV accepted with a bad sample");
+      if (s.size() != joints || !s.allFinite())
+        throw std::logic_error("torque CSV accepted with a bad sample");
   } catch (const std::invalid_argument& e) {
     if (std::string(e.what()).rfind("torque file '" + source + "'", 0) != 0)
-      throw std::logic_error(std::string("torque CSV rejection does not name the file: ") + e.what());
+      throw std::logic_error(std::string("torque CSV rejection does not name the file: ") +
+                             e.what());
   }
 }
 
@@ -53,9 +55,12 @@ inline void check_text(const std::string& input) {
   if (input.empty()) return;
   const unsigned char mode = static_cast<unsigned char>(input[0]);
   const std::string text = input.substr(1);
-  if (mode % 3 == 0) check_torque_csv(text, 1 + (mode / 3) % 4);
-  else if (mode % 3 == 1) check_number_list(text);
-  else check_comment(text);
+  if (mode % 3 == 0)
+    check_torque_csv(text, 1 + (mode / 3) % 4);
+  else if (mode % 3 == 1)
+    check_number_list(text);
+  else
+    check_comment(text);
 }
 
 }  // namespace spacearm::fuzz

@@ -20,16 +20,16 @@ struct ArraySpec {
 
 struct FunctionSpec {
   std::string name;
-  std::string doc;       // one line
-  std::string equation;  // the paper's equation number, or empty
-  std::vector<ArraySpec> inputs;  // the run-time parameters `params` always follow
+  std::string doc;                 // one line
+  std::string equation;            // the paper's equation number, or empty
+  std::vector<ArraySpec> inputs;   // the run-time parameters `params` always follow
   std::vector<ArraySpec> results;  // a single 1 x 1 result is returned by value
   Program program;
   // Per result, its entries row by row (all of them; a symmetric result repeats the upper
   // triangle's roots below the diagonal).
   std::vector<std::vector<SRef>> entries;
   std::string variant;  // the lowering variant kept, e.g. the velocity basis "qd" or "omega"
-  bool plain = false;  // the benchmark baseline: every expression printed inline
+  bool plain = false;   // the benchmark baseline: every expression printed inline
   std::vector<SRef> roots() const;  // every entry, each once
 };
 
@@ -50,9 +50,9 @@ struct ModelFacts {
   bool free_floating = false, geared = false;
   std::vector<std::string> coordinate_names, parameter_names;
   std::vector<double> nominal_parameters;
-  std::string scene_hash;   // "fnv1a64:..."
+  std::string scene_hash;  // "fnv1a64:..."
   std::vector<Output> outputs;
-  Program checks_program;   // inputs: params(i)
+  Program checks_program;  // inputs: params(i)
   std::vector<ParameterCheck> checks;
 };
 

@@ -10,7 +10,9 @@ namespace spacearm {
 
 namespace {
 
-std::vector<double> values(const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); }
+std::vector<double> values(const Eigen::VectorXd& v) {
+  return std::vector<double>(v.data(), v.data() + v.size());
+}
 
 struct State {
   std::vector<double> q, qd, params;
@@ -19,8 +21,8 @@ struct State {
 Eigen::MatrixXd closed_form(const SymbolicModel& model, Output o, const State& s) {
   const GiNaC::matrix& e = model.expression(o);
   const auto v = evaluate(model, e, s.q, s.qd, s.params);
-  return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(v.data(), e.rows(),
-                                                                                                    e.cols());
+  return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+      v.data(), e.rows(), e.cols());
 }
 
 // The composed outputs, as outputs.cpp describes them, with Eigen's solvers.
@@ -30,7 +32,8 @@ std::vector<Eigen::MatrixXd> composed(const SymbolicModel& model, Output o, cons
   const int n = model.n(), N = model.scene.num_links(), nb = n - N;
   if (o == Output::generalized_jacobian) {
     const Eigen::MatrixXd J = closed_form(model, Output::end_effector_jacobian, s);
-    return {J.rightCols(N) - J.leftCols(nb) * M.topLeftCorner(nb, nb).ldlt().solve(M.topRightCorner(nb, N))};
+    return {J.rightCols(N) -
+            J.leftCols(nb) * M.topLeftCorner(nb, nb).ldlt().solve(M.topRightCorner(nb, N))};
   }
   const Eigen::VectorXd b = closed_form(model, Output::bias_forces, s);
   if (o == Output::inverse_dynamics) return {M * extra + b};
@@ -46,10 +49,13 @@ std::vector<Eigen::MatrixXd> composed(const SymbolicModel& model, Output o, cons
   if (o == Output::free_base_inverse_dynamics) {
     // extra: link-side joint accelerations; the motor ones are p times them, and tau = p Q.
     Eigen::VectorXd p(N);
-    for (int j = 0; j < N; ++j) p[j] = 1 / evaluate(model, model.gear_map(nb + j, nb + j), s.q, s.qd, s.params);
+    for (int j = 0; j < N; ++j)
+      p[j] = 1 / evaluate(model, model.gear_map(nb + j, nb + j), s.q, s.qd, s.params);
     const Eigen::VectorXd a = extra.cwiseProduct(p);
-    const Eigen::VectorXd base = -M.topLeftCorner(nb, nb).ldlt().solve(M.topRightCorner(nb, N) * a + b.head(nb));
-    const Eigen::VectorXd Q = M.bottomLeftCorner(N, nb) * base + M.bottomRightCorner(N, N) * a + b.tail(N);
+    const Eigen::VectorXd base =
+        -M.topLeftCorner(nb, nb).ldlt().solve(M.topRightCorner(nb, N) * a + b.head(nb));
+    const Eigen::VectorXd Q =
+        M.bottomLeftCorner(N, nb) * base + M.bottomRightCorner(N, N) * a + b.tail(N);
     return {Q.cwiseProduct(p), base};
   }
   throw std::logic_error("evaluate_output: no numeric composition for " + to_string(o));
@@ -61,13 +67,17 @@ std::vector<Eigen::MatrixXd> evaluate_output(const SymbolicModel& model, Output 
                                              const std::vector<Eigen::VectorXd>& inputs,
                                              const Eigen::VectorXd& params) {
   const OutputInfo& o = info(output);
-  if (inputs.size() != o.inputs.size()) throw std::invalid_argument("evaluate_output: wrong number of inputs");
+  if (inputs.size() != o.inputs.size())
+    throw std::invalid_argument("evaluate_output: wrong number of inputs");
   State s{std::vector<double>(model.n(), 0.0), std::vector<double>(model.n(), 0.0), values(params)};
   Eigen::VectorXd extra;  // qdd, Q or qdd_joints
   for (size_t i = 0; i < inputs.size(); ++i) {
-    if (o.inputs[i] == Input::q) s.q = values(inputs[i]);
-    else if (o.inputs[i] == Input::qd) s.qd = values(inputs[i]);
-    else extra = inputs[i];
+    if (o.inputs[i] == Input::q)
+      s.q = values(inputs[i]);
+    else if (o.inputs[i] == Input::qd)
+      s.qd = values(inputs[i]);
+    else
+      extra = inputs[i];
   }
   if (o.composed_of.empty()) return {closed_form(model, output, s)};
   return composed(model, output, s, extra);

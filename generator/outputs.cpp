@@ -6,28 +6,44 @@ namespace spacearm {
 
 int Dimensions::operator()(Size s) const {
   switch (s) {
-    case Size::one: return 1;
-    case Size::two: return 2;
-    case Size::three: return 3;
-    case Size::nq: return nq;
-    case Size::nv: return nv;
-    case Size::num_links: return num_links;
-    case Size::num_links_plus_one: return num_links + 1;
-    case Size::num_base: return nv - num_links;
+    case Size::one:
+      return 1;
+    case Size::two:
+      return 2;
+    case Size::three:
+      return 3;
+    case Size::nq:
+      return nq;
+    case Size::nv:
+      return nv;
+    case Size::num_links:
+      return num_links;
+    case Size::num_links_plus_one:
+      return num_links + 1;
+    case Size::num_base:
+      return nv - num_links;
   }
   throw std::logic_error("unknown size");
 }
 
 std::string size_constant(Size s) {
   switch (s) {
-    case Size::one: return "1";
-    case Size::two: return "2";
-    case Size::three: return "3";
-    case Size::nq: return "kNq";
-    case Size::nv: return "kNv";
-    case Size::num_links: return "kNumLinks";
-    case Size::num_links_plus_one: return "kNumLinks + 1";
-    case Size::num_base: return "kNv - kNumLinks";
+    case Size::one:
+      return "1";
+    case Size::two:
+      return "2";
+    case Size::three:
+      return "3";
+    case Size::nq:
+      return "kNq";
+    case Size::nv:
+      return "kNv";
+    case Size::num_links:
+      return "kNumLinks";
+    case Size::num_links_plus_one:
+      return "kNumLinks + 1";
+    case Size::num_base:
+      return "kNv - kNumLinks";
   }
   throw std::logic_error("unknown size");
 }
@@ -50,49 +66,179 @@ const std::vector<OutputInfo>& output_registry() {
   using S = Size;
   using O = Output;
   static const std::vector<OutputInfo> registry = {
-      {O::mass_matrix, "mass_matrix", "M", {I::q}, {{"M", S::nv, S::nv, true}}, false, true, {}, "6",
+      {O::mass_matrix,
+       "mass_matrix",
+       "M",
+       {I::q},
+       {{"M", S::nv, S::nv, true}},
+       false,
+       true,
+       {},
+       "6",
        "Mass matrix M(q) (symmetric positive definite)."},
-      {O::coriolis_matrix, "coriolis_matrix", "C", {I::q, I::qd}, {{"C", S::nv, S::nv, false}}, false, true, {}, "7",
+      {O::coriolis_matrix,
+       "coriolis_matrix",
+       "C",
+       {I::q, I::qd},
+       {{"C", S::nv, S::nv, false}},
+       false,
+       true,
+       {},
+       "7",
        "Coriolis/centrifugal matrix C(q, qd), exactly as the paper defines it; C qd is the bias. "
        "Not the Christoffel form: Mdot - 2C is not skew-symmetric."},
-      {O::bias_forces, "bias_forces", "b", {I::q, I::qd}, {{"b", S::nv, S::one, false}}, false, true, {}, "5",
+      {O::bias_forces,
+       "bias_forces",
+       "b",
+       {I::q, I::qd},
+       {{"b", S::nv, S::one, false}},
+       false,
+       true,
+       {},
+       "5",
        "Bias b = C(q, qd) qd, so that M qdd + b = Q."},
-      {O::kinetic_energy, "kinetic_energy", "T", {I::q, I::qd}, {{"T", S::one, S::one, false}}, false, true, {},
-       "3 and 10", "Kinetic energy T = 1/2 qd^T M qd."},
-      {O::momentum, "momentum", "h", {I::q, I::qd}, {{"h", S::three, S::one, false}}, true, true, {}, "",
+      {O::kinetic_energy,
+       "kinetic_energy",
+       "T",
+       {I::q, I::qd},
+       {{"T", S::one, S::one, false}},
+       false,
+       true,
+       {},
+       "3 and 10",
+       "Kinetic energy T = 1/2 qd^T M qd."},
+      {O::momentum,
+       "momentum",
+       "h",
+       {I::q, I::qd},
+       {{"h", S::three, S::one, false}},
+       true,
+       true,
+       {},
+       "",
        "Momentum h = [Px, Py, L]: linear momentum and angular momentum about the world origin."},
-      {O::end_effector_pose, "end_effector_pose", "x", {I::q}, {{"x", S::three, S::one, false}}, false, true, {}, "",
+      {O::end_effector_pose,
+       "end_effector_pose",
+       "x",
+       {I::q},
+       {{"x", S::three, S::one, false}},
+       false,
+       true,
+       {},
+       "",
        "End-effector pose [x, y, phi]: tip of the last link, absolute angle of the last link."},
-      {O::end_effector_jacobian, "end_effector_jacobian", "J", {I::q}, {{"J", S::three, S::nv, false}}, false, true,
-       {}, "", "Jacobian of the end-effector pose, d[x, y, phi]/dq."},
-      {O::joint_positions, "joint_positions", "P", {I::q}, {{"P", S::two, S::num_links_plus_one, false}}, false, true,
-       {}, "", "World positions of joints 1..N (columns) and of the tip (last column)."},
-      {O::joint_angles, "joint_angles", "qj", {I::q}, {{"q_joints", S::num_links, S::one, false}}, false, true, {},
-       "12", "Link-side joint angles q_i (motor angles divided by the gear ratio in a geared scene)."},
-      {O::joint_rates, "joint_rates", "qjd", {I::qd}, {{"qd_joints", S::num_links, S::one, false}}, false, true, {},
-       "9", "Link-side joint rates qd_i (motor rates divided by the gear ratio in a geared scene)."},
-      {O::mass_matrix_derivative, "mass_matrix_derivative", "Mdot", {I::q, I::qd}, {{"Mdot", S::nv, S::nv, true}},
-       false, false, {}, "", "Time derivative of the mass matrix, Mdot = sum_k dM/dq_k qd_k."},
-      {O::christoffel_coriolis_matrix, "christoffel_coriolis_matrix", "Cc", {I::q, I::qd},
-       {{"Cc", S::nv, S::nv, false}}, false, false, {}, "",
+      {O::end_effector_jacobian,
+       "end_effector_jacobian",
+       "J",
+       {I::q},
+       {{"J", S::three, S::nv, false}},
+       false,
+       true,
+       {},
+       "",
+       "Jacobian of the end-effector pose, d[x, y, phi]/dq."},
+      {O::joint_positions,
+       "joint_positions",
+       "P",
+       {I::q},
+       {{"P", S::two, S::num_links_plus_one, false}},
+       false,
+       true,
+       {},
+       "",
+       "World positions of joints 1..N (columns) and of the tip (last column)."},
+      {O::joint_angles,
+       "joint_angles",
+       "qj",
+       {I::q},
+       {{"q_joints", S::num_links, S::one, false}},
+       false,
+       true,
+       {},
+       "12",
+       "Link-side joint angles q_i (motor angles divided by the gear ratio in a geared scene)."},
+      {O::joint_rates,
+       "joint_rates",
+       "qjd",
+       {I::qd},
+       {{"qd_joints", S::num_links, S::one, false}},
+       false,
+       true,
+       {},
+       "9",
+       "Link-side joint rates qd_i (motor rates divided by the gear ratio in a geared scene)."},
+      {O::mass_matrix_derivative,
+       "mass_matrix_derivative",
+       "Mdot",
+       {I::q, I::qd},
+       {{"Mdot", S::nv, S::nv, true}},
+       false,
+       false,
+       {},
+       "",
+       "Time derivative of the mass matrix, Mdot = sum_k dM/dq_k qd_k."},
+      {O::christoffel_coriolis_matrix,
+       "christoffel_coriolis_matrix",
+       "Cc",
+       {I::q, I::qd},
+       {{"Cc", S::nv, S::nv, false}},
+       false,
+       false,
+       {},
+       "",
        "Coriolis matrix in the Christoffel form: Cc qd = C qd, and Mdot - 2 Cc is skew-symmetric."},
-      {O::inverse_dynamics, "inverse_dynamics", "Q", {I::q, I::qd, I::qdd}, {{"Q", S::nv, S::one, false}}, false,
-       true, {O::mass_matrix, O::bias_forces}, "5", "Generalized forces Q = M qdd + b that give the acceleration qdd."},
-      {O::forward_dynamics, "forward_dynamics", "qdd", {I::q, I::qd, I::generalized_forces},
-       {{"qdd", S::nv, S::one, false}, {"pivots", S::nv, S::one, false}, {"scaled_pivots", S::nv, S::one, false}},
-       false, true, {O::mass_matrix, O::bias_forces}, "8",
-       "Acceleration qdd = M^-1 (Q - b) by an unrolled LDL^T solve, with the pivots D_i (all positive for a "
-       "positive definite M) and D_i / M_ii, the pivots of diag(M)^-1/2 M diag(M)^-1/2 (max/min bounds its "
+      {O::inverse_dynamics,
+       "inverse_dynamics",
+       "Q",
+       {I::q, I::qd, I::qdd},
+       {{"Q", S::nv, S::one, false}},
+       false,
+       true,
+       {O::mass_matrix, O::bias_forces},
+       "5",
+       "Generalized forces Q = M qdd + b that give the acceleration qdd."},
+      {O::forward_dynamics,
+       "forward_dynamics",
+       "qdd",
+       {I::q, I::qd, I::generalized_forces},
+       {{"qdd", S::nv, S::one, false},
+        {"pivots", S::nv, S::one, false},
+        {"scaled_pivots", S::nv, S::one, false}},
+       false,
+       true,
+       {O::mass_matrix, O::bias_forces},
+       "8",
+       "Acceleration qdd = M^-1 (Q - b) by an unrolled LDL^T solve, with the pivots D_i (all "
+       "positive for a "
+       "positive definite M) and D_i / M_ii, the pivots of diag(M)^-1/2 M diag(M)^-1/2 (max/min "
+       "bounds its "
        "condition number)."},
-      {O::generalized_jacobian, "generalized_jacobian", "Jg", {I::q}, {{"Jg", S::three, S::num_links, false}}, true,
-       true, {O::mass_matrix, O::end_effector_jacobian}, "",
-       "Generalized Jacobian J* (Umetani-Yoshida): end-effector velocity per rate of the joint coordinates (motor "
-       "rates in a geared scene) with the base moving so that the momentum stays zero, J* = J_m - J_b M_bb^-1 M_bm."},
-      {O::free_base_inverse_dynamics, "free_base_inverse_dynamics", "tau", {I::q, I::qd, I::joint_accelerations},
-       {{"tau", S::num_links, S::one, false}, {"qdd_base", S::num_base, S::one, false}}, true, true,
-       {O::mass_matrix, O::bias_forces}, "14",
-       "Joint torques tau that give the link-side joint accelerations qdd_joints with no force on the free base, "
-       "and the base acceleration that follows; both tau and qdd_joints on the link side of the gears "
+      {O::generalized_jacobian,
+       "generalized_jacobian",
+       "Jg",
+       {I::q},
+       {{"Jg", S::three, S::num_links, false}},
+       true,
+       true,
+       {O::mass_matrix, O::end_effector_jacobian},
+       "",
+       "Generalized Jacobian J* (Umetani-Yoshida): end-effector velocity per rate of the joint "
+       "coordinates (motor "
+       "rates in a geared scene) with the base moving so that the momentum stays zero, J* = J_m - "
+       "J_b M_bb^-1 M_bm."},
+      {O::free_base_inverse_dynamics,
+       "free_base_inverse_dynamics",
+       "tau",
+       {I::q, I::qd, I::joint_accelerations},
+       {{"tau", S::num_links, S::one, false}, {"qdd_base", S::num_base, S::one, false}},
+       true,
+       true,
+       {O::mass_matrix, O::bias_forces},
+       "14",
+       "Joint torques tau that give the link-side joint accelerations qdd_joints with no force on "
+       "the free base, "
+       "and the base acceleration that follows; both tau and qdd_joints on the link side of the "
+       "gears "
        "(tau = p Q, motor acceleration = p qdd_joints)."},
   };
   return registry;

@@ -56,22 +56,22 @@ const InputInfo& info(Input input);
 struct ResultInfo {
   const char* name;  // argument name in generated code ("M")
   Size rows, cols;
-  bool symmetric;    // only the upper triangle is computed; the lower one is a copy
+  bool symmetric;  // only the upper triangle is computed; the lower one is a copy
 };
 
 struct OutputInfo {
   Output id;
-  const char* name;     // the scene's `outputs:` key, the function name, the eval JSON key
-  const char* symbol;   // short name of its entries for `inspect` ("M" as in M[1][2])
+  const char* name;    // the scene's `outputs:` key, the function name, the eval JSON key
+  const char* symbol;  // short name of its entries for `inspect` ("M" as in M[1][2])
   std::vector<Input> inputs;
   std::vector<ResultInfo> results;  // the first one is the output's value
   bool free_floating_only;
-  bool by_default;      // emitted when a scene lists no outputs
+  bool by_default;  // emitted when a scene lists no outputs
   // Empty: a closed form derived symbolically (inspect shows its entries). Else composed in
   // the straight-line program from these outputs' closed forms (a solve, a product).
   std::vector<Output> composed_of;
-  const char* equation; // the paper's equation, or "" (none there)
-  const char* doc;      // one line, shown in generated code and --help
+  const char* equation;  // the paper's equation, or "" (none there)
+  const char* doc;       // one line, shown in generated code and --help
 };
 
 // Every output, in emission order.

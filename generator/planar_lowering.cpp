@@ -33,8 +33,11 @@ std::string canonical_key(const ex& e) {
   for (size_t i = 0; i < e.nops(); ++i) parts.push_back(canonical_key(e.op(i)));
   const bool commutative = is_a<GiNaC::add>(e) || is_a<GiNaC::mul>(e);
   if (commutative) std::sort(parts.begin(), parts.end());
-  std::string name = is_a<GiNaC::add>(e) ? "+" : is_a<GiNaC::mul>(e) ? "*" : is_a<GiNaC::power>(e) ? "^"
-                     : is_a<GiNaC::function>(e) ? ex_to<GiNaC::function>(e).get_name() : "?";
+  std::string name = is_a<GiNaC::add>(e)        ? "+"
+                     : is_a<GiNaC::mul>(e)      ? "*"
+                     : is_a<GiNaC::power>(e)    ? "^"
+                     : is_a<GiNaC::function>(e) ? ex_to<GiNaC::function>(e).get_name()
+                                                : "?";
   s << name << "(";
   for (const auto& p : parts) s << p << ",";
   s << ")";
@@ -45,14 +48,15 @@ std::string canonical_key(const ex& e) {
 std::vector<ex> sorted_operands(const ex& e) {
   std::vector<std::pair<std::string, ex>> keyed;
   for (size_t i = 0; i < e.nops(); ++i) keyed.push_back({canonical_key(e.op(i)), e.op(i)});
-  std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::stable_sort(keyed.begin(), keyed.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<ex> ops;
   for (auto& k : keyed) ops.push_back(k.second);
   return ops;
 }
 
 struct Term {
-  ex coeff;                             // numeric or an expression of run-time parameters
+  ex coeff;                               // numeric or an expression of run-time parameters
   std::vector<std::pair<int, int>> mono;  // (variable, exponent > 0), sorted by variable
 };
 
@@ -63,12 +67,14 @@ struct Term {
 // identities, so each body angle costs exactly one sin/cos pair.
 class FunctionBuilder {
  public:
-  FunctionBuilder(const SymbolicModel& model, bool omega_basis) : m_(model), omega_basis_(omega_basis) {
+  FunctionBuilder(const SymbolicModel& model, bool omega_basis)
+      : m_(model), omega_basis_(omega_basis) {
     const int n = m_.n();
     const int N = m_.scene.num_links();
     const bool free = m_.scene.free_floating();
     const int first_joint = free ? 3 : 0;
-    for (size_t i = 0; i < m_.parameters.size(); ++i) param_index_[m_.parameters[i]] = static_cast<int>(i);
+    for (size_t i = 0; i < m_.parameters.size(); ++i)
+      param_index_[m_.parameters[i]] = static_cast<int>(i);
 
     // 1. Velocities.
     if (omega_basis_) {
@@ -97,12 +103,14 @@ class FunctionBuilder {
     std::vector<std::pair<std::pair<int, int>, ex>> angles;
     for (const auto& [arg, pair] : m_.angle_table) angles.push_back({pair, arg});
     std::sort(angles.begin(), angles.end(), [](const auto& a, const auto& b) {
-      return std::make_pair(a.first.second, a.first.first) < std::make_pair(b.first.second, b.first.first);
+      return std::make_pair(a.first.second, a.first.first) <
+             std::make_pair(b.first.second, b.first.first);
     });
     for (const auto& [pair, arg] : angles) {
       if (arg.is_zero()) continue;
       const int from = pair.first, to = pair.second;
-      const std::string suffix = from < 0 ? std::to_string(to) : std::to_string(from) + "_" + std::to_string(to);
+      const std::string suffix =
+          from < 0 ? std::to_string(to) : std::to_string(from) + "_" + std::to_string(to);
       GiNaC::symbol c("c" + suffix), s("s" + suffix);
       add_var(c, [this, from, to] { return trig_node(true, from, to); });
       add_var(s, [this, from, to] { return trig_node(false, from, to); });
@@ -145,15 +153,17 @@ class FunctionBuilder {
   // theta_k as partial sums: theta_k = theta_{k-1} + (relative angle of joint k).
   SRef theta_node(int k) {
     if (theta_nodes_.count(k)) return theta_nodes_[k];
-    SRef r = k == 0 ? from_ex(m_.theta[0])
-                    : prog.add({theta_node(k - 1), from_ex((m_.theta[k] - m_.theta[k - 1]).expand())});
+    SRef r = k == 0
+                 ? from_ex(m_.theta[0])
+                 : prog.add({theta_node(k - 1), from_ex((m_.theta[k] - m_.theta[k - 1]).expand())});
     return theta_nodes_[k] = r;
   }
 
   SRef omega_node(int k) {
     if (omega_nodes_.count(k)) return omega_nodes_[k];
-    SRef r = k == 0 ? from_ex(m_.omega[0])
-                    : prog.add({omega_node(k - 1), from_ex((m_.omega[k] - m_.omega[k - 1]).expand())});
+    SRef r = k == 0
+                 ? from_ex(m_.omega[0])
+                 : prog.add({omega_node(k - 1), from_ex((m_.omega[k] - m_.omega[k - 1]).expand())});
     return omega_nodes_[k] = r;
   }
 
@@ -191,7 +201,8 @@ class FunctionBuilder {
       for (const ex& op : sorted_operands(e)) factors.push_back(from_ex(op));
       return prog.mul(factors);
     }
-    if (is_a<GiNaC::power>(e) && is_a<GiNaC::numeric>(e.op(1)) && ex_to<GiNaC::numeric>(e.op(1)).is_integer()) {
+    if (is_a<GiNaC::power>(e) && is_a<GiNaC::numeric>(e.op(1)) &&
+        ex_to<GiNaC::numeric>(e.op(1)).is_integer()) {
       const int k = ex_to<GiNaC::numeric>(e.op(1)).to_int();
       if (k < 0) return prog.div(prog.constant(1.0), from_ex(GiNaC::pow(e.op(0), -k)));
       return integer_power(from_ex(e.op(0)), k);
@@ -227,7 +238,8 @@ class FunctionBuilder {
         } else {
           std::ostringstream s;
           s << f;
-          throw std::runtime_error("lowering: unexpected factor '" + s.str() + "' (a trig atom not on a body angle?)");
+          throw std::runtime_error("lowering: unexpected factor '" + s.str() +
+                                   "' (a trig atom not on a body angle?)");
         }
       };
       if (is_a<GiNaC::mul>(t))
@@ -279,7 +291,8 @@ class FunctionBuilder {
     }
     std::vector<Term> with, without;
     for (const auto& t : terms) {
-      auto it = std::find_if(t.mono.begin(), t.mono.end(), [&](const auto& p) { return p.first == best; });
+      auto it = std::find_if(t.mono.begin(), t.mono.end(),
+                             [&](const auto& p) { return p.first == best; });
       if (it == t.mono.end()) {
         without.push_back(t);
         continue;
@@ -302,7 +315,8 @@ class PlainBuilder {
       inputs_[model.q[i]] = {"q", i};
       inputs_[model.qd[i]] = {"qd", i};
     }
-    for (size_t i = 0; i < model.parameters.size(); ++i) inputs_[model.parameters[i]] = {"params", static_cast<int>(i)};
+    for (size_t i = 0; i < model.parameters.size(); ++i)
+      inputs_[model.parameters[i]] = {"params", static_cast<int>(i)};
   }
   Program prog{false};
 
@@ -311,13 +325,15 @@ class PlainBuilder {
       const double v = ex_to<GiNaC::numeric>(e).to_double();
       return v == 0 ? prog.zero() : prog.constant(v);
     }
-    if (auto it = inputs_.find(e); it != inputs_.end()) return prog.input(it->second.first, it->second.second);
+    if (auto it = inputs_.find(e); it != inputs_.end())
+      return prog.input(it->second.first, it->second.second);
     std::vector<SRef> ops;
     if (is_a<GiNaC::add>(e) || is_a<GiNaC::mul>(e)) {
       for (const ex& op : sorted_operands(e)) ops.push_back(build(op));
       return is_a<GiNaC::add>(e) ? prog.add(ops) : prog.mul(ops);
     }
-    if (is_a<GiNaC::power>(e) && is_a<GiNaC::numeric>(e.op(1)) && ex_to<GiNaC::numeric>(e.op(1)).is_integer()) {
+    if (is_a<GiNaC::power>(e) && is_a<GiNaC::numeric>(e.op(1)) &&
+        ex_to<GiNaC::numeric>(e.op(1)).is_integer()) {
       const int k = ex_to<GiNaC::numeric>(e.op(1)).to_int();
       const SRef base = build(e.op(0));
       if (k < 0) return prog.div(prog.constant(1.0), k == -1 ? base : prog.pow(base, -k));
@@ -364,35 +380,43 @@ Dimensions dimensions(const SymbolicModel& model) {
 // The generator checks itself before it emits: the optimized straight-line program must
 // reproduce, at the check point, the values computed from the derivation alone (want: per
 // result, its entries row by row), else it names the entry that fails.
-void self_check(const SymbolicModel& model, const FunctionSpec& f, const std::vector<std::vector<double>>& want) {
+void self_check(const SymbolicModel& model, const FunctionSpec& f,
+                const std::vector<std::vector<double>>& want) {
   const CheckPoint at(model);
   for (size_t k = 0; k < f.results.size(); ++k) {
-    const auto got = f.program.evaluate(f.entries[k], [&](const std::string& a, int i) { return at.input(a, i); });
-    if (got.size() != want[k].size()) throw std::logic_error("self-check: " + f.name + " has a wrong entry count");
+    const auto got = f.program.evaluate(
+        f.entries[k], [&](const std::string& a, int i) { return at.input(a, i); });
+    if (got.size() != want[k].size())
+      throw std::logic_error("self-check: " + f.name + " has a wrong entry count");
     double scale = 1e-300;
     for (double w : want[k]) {
       // Not a generator bug but a scene whose numbers make the model degenerate in double.
       if (!std::isfinite(w))
-        throw std::runtime_error("scene '" + model.scene.name + "': " + f.name + " is not finite at the generator's "
-                                 "check point (nominal parameters): the masses, inertias or lengths make the "
-                                 "model numerically degenerate");
+        throw std::runtime_error(
+            "scene '" + model.scene.name + "': " + f.name +
+            " is not finite at the generator's "
+            "check point (nominal parameters): the masses, inertias or lengths make the "
+            "model numerically degenerate");
       scale = std::max(scale, std::abs(w));
     }
     for (size_t i = 0; i < want[k].size(); ++i)
       if (!(std::abs(got[i] - want[k][i]) <= 1e-9 * scale))
-        throw std::logic_error("generator self-check failed in " + f.name + ", " + f.results[k].name + " entry " +
-                               std::to_string(i) + ": " + std::to_string(got[i]) + " emitted vs " +
+        throw std::logic_error("generator self-check failed in " + f.name + ", " +
+                               f.results[k].name + " entry " + std::to_string(i) + ": " +
+                               std::to_string(got[i]) + " emitted vs " +
                                std::to_string(want[k][i]) + " derived");
   }
 }
 
 // Lowers f in each velocity basis (both when it uses velocities): `build` makes the entries
 // in the builder's program; CSE, the self-check against `want`, and the cheaper one is kept.
-FunctionSpec cheapest_lowering(const SymbolicModel& model, const FunctionSpec& f,
-                               const std::function<std::vector<std::vector<SRef>>(FunctionBuilder&)>& build,
-                               const std::vector<std::vector<double>>& want) {
-  const bool uses_velocity = std::any_of(f.inputs.begin(), f.inputs.end(),
-                                         [](const ArraySpec& a) { return a.name == info(Input::qd).name; });
+FunctionSpec cheapest_lowering(
+    const SymbolicModel& model, const FunctionSpec& f,
+    const std::function<std::vector<std::vector<SRef>>(FunctionBuilder&)>& build,
+    const std::vector<std::vector<double>>& want) {
+  const bool uses_velocity = std::any_of(f.inputs.begin(), f.inputs.end(), [](const ArraySpec& a) {
+    return a.name == info(Input::qd).name;
+  });
   FunctionSpec best;
   int best_cost = -1;
   for (int basis = 0; basis < (uses_velocity ? 2 : 1); ++basis) {
@@ -423,8 +447,8 @@ void describe(FunctionSpec& f, const OutputInfo& o) {
 
 // A function whose results are closed-form expressions (row by row per result): lowered
 // with both velocity bases when it uses velocities, keeping the cheaper program.
-FunctionSpec lower_closed_form(const SymbolicModel& model, FunctionSpec f, const std::vector<std::vector<ex>>& results,
-                               bool plain) {
+FunctionSpec lower_closed_form(const SymbolicModel& model, FunctionSpec f,
+                               const std::vector<std::vector<ex>>& results, bool plain) {
   if (plain) {
     PlainBuilder pb(model);
     for (const auto& r : results) {
@@ -449,7 +473,8 @@ FunctionSpec lower_closed_form(const SymbolicModel& model, FunctionSpec f, const
       for (size_t e = 0; e < results[k].size(); ++e) {
         // A symmetric result's lower triangle repeats its upper one (built once).
         const int i = static_cast<int>(e) / cols, j = static_cast<int>(e) % cols;
-        out.push_back(f.results[k].symmetric && j < i ? out[j * cols + i] : fb.build(results[k][e]));
+        out.push_back(f.results[k].symmetric && j < i ? out[j * cols + i]
+                                                      : fb.build(results[k][e]));
       }
     }
     return entries;
@@ -465,14 +490,16 @@ std::vector<ex> entries_of(const GiNaC::matrix& m) {
 }
 
 // The composed output's values at the check point, from the derivation alone.
-std::vector<Eigen::MatrixXd> composed_reference(const SymbolicModel& model, Output o, const CheckPoint& at) {
+std::vector<Eigen::MatrixXd> composed_reference(const SymbolicModel& model, Output o,
+                                                const CheckPoint& at) {
   std::vector<Eigen::VectorXd> inputs;
   for (Input i : info(o).inputs) {
     Eigen::VectorXd v(dimensions(model)(info(i).size));
     for (int k = 0; k < v.size(); ++k) v[k] = at.input(info(i).name, k);
     inputs.push_back(v);
   }
-  const Eigen::VectorXd params = Eigen::Map<const Eigen::VectorXd>(at.params.data(), at.params.size());
+  const Eigen::VectorXd params =
+      Eigen::Map<const Eigen::VectorXd>(at.params.data(), at.params.size());
   return evaluate_output(model, o, inputs, params);
 }
 
@@ -556,7 +583,8 @@ struct Composer {
     std::vector<SRef> ratio, a;
     for (int j = 0; j < N; ++j) ratio.push_back(gear_ratio(j));
     for (int j = 0; j < N; ++j) a.push_back(p.mul({p.input("qdd_joints", j), ratio[j]}));
-    const std::vector<SRef> Mbm = block(0, nb, nb, N), Mmb = block(nb, 0, N, nb), Mmm = block(nb, nb, N, N);
+    const std::vector<SRef> Mbm = block(0, nb, nb, N), Mmb = block(nb, 0, N, nb),
+                            Mmm = block(nb, nb, N, N);
     std::vector<SRef> rhs;
     for (int k = 0; k < nb; ++k) rhs.push_back(-p.add({dot(p, row(Mbm, N, k), a), b[k]}));
     const std::vector<SRef> base = ldlt_solve(p, ldlt(p, block(0, 0, nb, nb), nb), rhs);
@@ -573,11 +601,16 @@ struct Composer {
 std::vector<std::vector<SRef>> compose(const SymbolicModel& model, FunctionBuilder& fb, Output o) {
   Composer c(model, fb);
   switch (o) {
-    case Output::generalized_jacobian: return c.generalized_jacobian();
-    case Output::inverse_dynamics: return c.inverse_dynamics();
-    case Output::forward_dynamics: return c.forward_dynamics();
-    case Output::free_base_inverse_dynamics: return c.free_base_inverse_dynamics();
-    default: throw std::logic_error("compose: " + to_string(o) + " is not a composed output");
+    case Output::generalized_jacobian:
+      return c.generalized_jacobian();
+    case Output::inverse_dynamics:
+      return c.inverse_dynamics();
+    case Output::forward_dynamics:
+      return c.forward_dynamics();
+    case Output::free_base_inverse_dynamics:
+      return c.free_base_inverse_dynamics();
+    default:
+      throw std::logic_error("compose: " + to_string(o) + " is not a composed output");
   }
 }
 
@@ -588,7 +621,8 @@ FunctionSpec lower_composed(const SymbolicModel& model, const FunctionSpec& f, O
     const Eigen::MatrixXd rows = m.transpose();  // entries row by row
     want.emplace_back(rows.data(), rows.data() + rows.size());
   }
-  return cheapest_lowering(model, f, [&](FunctionBuilder& fb) { return compose(model, fb, o); }, want);
+  return cheapest_lowering(
+      model, f, [&](FunctionBuilder& fb) { return compose(model, fb, o); }, want);
 }
 
 // The scene's range checks for quantities that depend on run-time parameters (positive
@@ -596,7 +630,8 @@ FunctionSpec lower_composed(const SymbolicModel& model, const FunctionSpec& f, O
 // inertia): the validation the scene parser does for literals, repeated at run time.
 void parameter_checks(const Scene& scene, ModelFacts& facts) {
   std::map<std::string, int> index;
-  for (size_t i = 0; i < scene.parameters.size(); ++i) index[scene.parameters[i].name] = static_cast<int>(i);
+  for (size_t i = 0; i < scene.parameters.size(); ++i)
+    index[scene.parameters[i].name] = static_cast<int>(i);
   Program& p = facts.checks_program;
   auto value = [&](const Quantity& q) {
     if (q.is_parameter()) return p.input("params", index.at(q.parameter));
@@ -606,8 +641,10 @@ void parameter_checks(const Scene& scene, ModelFacts& facts) {
     if (uses_parameter) facts.checks.push_back({v, strict, what});
   };
   if (scene.free_floating()) {
-    check(scene.base.mass.is_parameter(), value(scene.base.mass), true, "base.mass must be positive");
-    check(scene.base.inertia.is_parameter(), value(scene.base.inertia), true, "base.inertia must be positive");
+    check(scene.base.mass.is_parameter(), value(scene.base.mass), true,
+          "base.mass must be positive");
+    check(scene.base.inertia.is_parameter(), value(scene.base.inertia), true,
+          "base.inertia must be positive");
   }
   for (int i = 0; i < scene.num_links(); ++i) {
     const Link& l = scene.links[i];
@@ -619,11 +656,13 @@ void parameter_checks(const Scene& scene, ModelFacts& facts) {
     const Gear& g = scene.gears[i];
     const std::string gf = "gears[" + std::to_string(i) + "]";
     check(g.ratio.is_parameter(), value(g.ratio), true, gf + ".ratio must be positive");
-    check(g.motor_inertia.is_parameter(), value(g.motor_inertia), false, gf + ".motor_inertia must not be negative");
+    check(g.motor_inertia.is_parameter(), value(g.motor_inertia), false,
+          gf + ".motor_inertia must not be negative");
     if (g.compensate_link_inertia)
-      check(g.motor_inertia.is_parameter() || l.inertia.is_parameter(), p.add({value(l.inertia), -value(g.motor_inertia)}),
-            true, gf + ".motor_inertia must be smaller than the inertia of link " + std::to_string(i + 1) +
-                      " it compensates");
+      check(g.motor_inertia.is_parameter() || l.inertia.is_parameter(),
+            p.add({value(l.inertia), -value(g.motor_inertia)}), true,
+            gf + ".motor_inertia must be smaller than the inertia of link " +
+                std::to_string(i + 1) + " it compensates");
   }
 }
 
@@ -659,9 +698,10 @@ LoweredModel lower(const SymbolicModel& model, const LowerOptions& options) {
     FunctionSpec f;
     describe(f, o);
     if (!o.composed_of.empty() && options.plain) continue;  // the baseline has closed forms only
-    lowered.functions.push_back(o.composed_of.empty()
-                                    ? lower_closed_form(model, f, {entries_of(model.expression(o.id))}, options.plain)
-                                    : lower_composed(model, f, o.id));
+    lowered.functions.push_back(
+        o.composed_of.empty()
+            ? lower_closed_form(model, f, {entries_of(model.expression(o.id))}, options.plain)
+            : lower_composed(model, f, o.id));
     // M and b together, sharing the sin/cos and common terms (what forward dynamics needs).
     if (o.id == Output::bias_forces && scene.wants(Output::mass_matrix)) {
       FunctionSpec mb;
@@ -669,10 +709,11 @@ LoweredModel lower(const SymbolicModel& model, const LowerOptions& options) {
       mb.doc = "M and b together, sharing the sin/cos and common terms.";
       mb.inputs = {{"q", Size::nq, Size::one}, {"qd", Size::nv, Size::one}};
       mb.results = {{"M", Size::nv, Size::nv, true}, {"b", Size::nv, Size::one, false}};
-      lowered.functions.push_back(lower_closed_form(
-          model, mb,
-          {entries_of(model.expression(Output::mass_matrix)), entries_of(model.expression(Output::bias_forces))},
-          options.plain));
+      lowered.functions.push_back(
+          lower_closed_form(model, mb,
+                            {entries_of(model.expression(Output::mass_matrix)),
+                             entries_of(model.expression(Output::bias_forces))},
+                            options.plain));
     }
   }
   // Always emitted: the runtime maps joint torques to generalized forces tau / p (eq. 14).
@@ -683,7 +724,8 @@ LoweredModel lower(const SymbolicModel& model, const LowerOptions& options) {
   ratios.results = {{"p", Size::num_links, Size::one, false}};
   std::vector<ex> p;
   const int first_joint = model.n() - scene.num_links();
-  for (int j = 0; j < scene.num_links(); ++j) p.push_back((1 / model.gear_map(first_joint + j, first_joint + j)).normal());
+  for (int j = 0; j < scene.num_links(); ++j)
+    p.push_back((1 / model.gear_map(first_joint + j, first_joint + j)).normal());
   lowered.functions.push_back(lower_closed_form(model, ratios, {p}, options.plain));
   return lowered;
 }

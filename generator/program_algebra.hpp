@@ -1,6 +1,6 @@
 // Dense linear algebra unrolled into a straight-line program, for the outputs composed from
-// closed forms (forward dynamics, the generalized Jacobian, free-base inverse dynamics). Sizes are fixed at generation
-// time, so every loop unrolls and structural zeros of the matrix cost nothing.
+// closed forms (forward dynamics, the generalized Jacobian, free-base inverse dynamics). Sizes are
+// fixed at generation time, so every loop unrolls and structural zeros of the matrix cost nothing.
 // Hand-written: no library emits an unrolled symmetric solve into our program.
 #pragma once
 

@@ -27,9 +27,11 @@ bool is_identifier(const std::string& s) {
 // macros would reinterpret: not allowed as scene or parameter names.
 bool is_reserved(const std::string& s) {
   static const std::regex generated(
-      "(x0|y0|x0d|y0d|q|qd|T|params|q[0-9]+d?|qm[0-9]+d?|c[0-9]+(_[0-9]+)?|s[0-9]+(_[0-9]+)?|Omega[0-9]+|t[0-9]+)");
-  static const std::set<std::string> names = {"std",   "Eigen", "spacearm", "models", "Model", "I", "Pi",
-                                              "Euler", "Catalan", "sin",   "cos",    "pow",    "sqrt"};
+      "(x0|y0|x0d|y0d|q|qd|T|params|q[0-9]+d?|qm[0-9]+d?|c[0-9]+(_[0-9]+)?|s[0-9]+(_[0-9]+)?|Omega["
+      "0-9]+|t[0-9]+)");
+  static const std::set<std::string> names = {"std", "Eigen", "spacearm", "models",  "Model",
+                                              "I",   "Pi",    "Euler",    "Catalan", "sin",
+                                              "cos", "pow",   "sqrt"};
   return std::regex_match(s, generated) || names.count(s) != 0 || is_cpp_reserved(s);
 }
 
@@ -47,10 +49,13 @@ int count_documents(const std::string& text, int limit) {
     void OnDocumentEnd() override {}
     void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
     void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
-    void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override {}
-    void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+    void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                  const std::string&) override {}
+    void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                         YAML::EmitterStyle::value) override {}
     void OnSequenceEnd() override {}
-    void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+    void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                    YAML::EmitterStyle::value) override {}
     void OnMapEnd() override {}
   } ignore;
   std::istringstream in(text);
@@ -86,8 +91,9 @@ class Reader {
   const YAML::Node& bounded(const YAML::Node& n, const std::string& field) const {
     static constexpr size_t kMaxScalarLength = 200;
     if (n.IsScalar() && n.Scalar().size() > kMaxScalarLength)
-      fail(field, "value is too long (" + std::to_string(n.Scalar().size()) + " characters, at most " +
-                      std::to_string(kMaxScalarLength) + ")",
+      fail(field,
+           "value is too long (" + std::to_string(n.Scalar().size()) + " characters, at most " +
+               std::to_string(kMaxScalarLength) + ")",
            n);
     return n;
   }
@@ -111,8 +117,9 @@ class Reader {
         std::string list;
         for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
         const bool number = is_decimal(key);
-        fail(path, "unknown field (allowed here: " + list + ")" +
-                       (number ? "; a decimal comma? write numbers with a point, e.g. 3.0 not 3,0" : ""),
+        fail(path,
+             "unknown field (allowed here: " + list + ")" +
+                 (number ? "; a decimal comma? write numbers with a point, e.g. 3.0 not 3,0" : ""),
              kv.first);
       }
       if (!seen.insert(key).second) fail(path, "given more than once", kv.first);
@@ -132,8 +139,9 @@ class Reader {
     const std::string text = bounded(n, field).Scalar();
     Quantity q;
     // YAML's spellings of infinity and NaN (.inf, -.Inf, .NaN, ...) are numbers, just not finite.
-    static const std::set<std::string> yaml_special = {".inf", ".Inf", ".INF", "+.inf", "+.Inf", "+.INF", "-.inf",
-                                                       "-.Inf", "-.INF", ".nan", ".NaN", ".NAN"};
+    static const std::set<std::string> yaml_special = {".inf",  ".Inf",  ".INF",  "+.inf",
+                                                       "+.Inf", "+.INF", "-.inf", "-.Inf",
+                                                       "-.INF", ".nan",  ".NaN",  ".NAN"};
     if (yaml_special.count(text)) fail(field, "value '" + text + "' is not finite", n);
     if (is_decimal(text)) {
       q.literal = text;
@@ -143,14 +151,20 @@ class Reader {
       // mistakes, and products of them would overflow double in the generated code.
       const size_t e = text.find_first_of("eE");
       if (e != std::string::npos && text.size() - e > 5)
-        fail(field, "value '" + text + "' has an exponent beyond the supported range (1e-30 .. 1e30)", n);
+        fail(field,
+             "value '" + text + "' has an exponent beyond the supported range (1e-30 .. 1e30)", n);
       if (std::abs(q.value) > 1e30 || (q.value != 0 && std::abs(q.value) < 1e-30))
-        fail(field, "value '" + text + "' is outside the supported magnitude range 1e-30 .. 1e30 (or 0)", n);
+        fail(field,
+             "value '" + text + "' is outside the supported magnitude range 1e-30 .. 1e30 (or 0)",
+             n);
       // A literal that is not zero but reads as 0 or a subnormal double has lost its digits.
-      const bool nonzero_digits = text.substr(0, text.find_first_of("eE")).find_first_of("123456789") !=
-                                  std::string::npos;
+      const bool nonzero_digits =
+          text.substr(0, text.find_first_of("eE")).find_first_of("123456789") != std::string::npos;
       if (nonzero_digits && !(std::abs(q.value) >= DBL_MIN))
-        fail(field, "value '" + text + "' is too small for double precision (below 2.2e-308); write 0 for zero", n);
+        fail(field,
+             "value '" + text +
+                 "' is too small for double precision (below 2.2e-308); write 0 for zero",
+             n);
     } else if (is_identifier(text)) {
       if (text == "nan" || text == "NaN" || text == "inf" || text == "Inf")
         fail(field, "value '" + text + "' is not finite", n);
@@ -168,8 +182,7 @@ class Reader {
 };
 
 void read_pair(const Reader& r, const YAML::Node& n, const std::string& field, Quantity out[2]) {
-  if (!n.IsSequence() || n.size() != 2)
-    r.fail(field, "expected a list of two numbers [x, y]", n);
+  if (!n.IsSequence() || n.size() != 2) r.fail(field, "expected a list of two numbers [x, y]", n);
   out[0] = r.quantity(n[0], field + "[0]");
   out[1] = r.quantity(n[1], field + "[1]");
 }
@@ -184,16 +197,20 @@ Gear read_gear(const Reader& r, const YAML::Node& n, const std::string& field) {
     try {
       g.compensate_link_inertia = c.as<bool>();
     } catch (const YAML::Exception&) {
-      r.fail(field + ".compensate_link_inertia", "expected true or false, got '" +
-                 (c.IsScalar() ? c.Scalar() : std::string("a non-scalar")) + "'", c);
+      r.fail(field + ".compensate_link_inertia",
+             "expected true or false, got '" +
+                 (c.IsScalar() ? c.Scalar() : std::string("a non-scalar")) + "'",
+             c);
     }
   }
   if (n["rotor_coupling"].IsDefined()) {
     const auto& c = n["rotor_coupling"];
     const std::string v = c.IsScalar() ? c.Scalar() : "";
     if (v != "exact" && v != "armature")
-      r.fail(field + ".rotor_coupling", "expected 'exact' or 'armature', got '" +
-                 (c.IsScalar() ? v : std::string("a non-scalar")) + "'", c);
+      r.fail(field + ".rotor_coupling",
+             "expected 'exact' or 'armature', got '" +
+                 (c.IsScalar() ? v : std::string("a non-scalar")) + "'",
+             c);
     g.armature = v == "armature";
   }
   return g;
@@ -225,7 +242,8 @@ namespace {
 Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yaml_text,
                  const std::string& source_name) {
   if (!root.IsMap()) r.fail("", "expected a mapping at the top level");
-  r.check_keys(root, "", {"name", "description", "base", "links", "gears", "parameters", "outputs"});
+  r.check_keys(root, "",
+               {"name", "description", "base", "links", "gears", "parameters", "outputs"});
 
   Scene s;
   s.source_path = source_name;
@@ -233,18 +251,30 @@ Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yam
 
   const YAML::Node name = r.require(root, "name", "");
   if (!name.IsScalar() || !is_identifier(r.bounded(name, "name").Scalar()))
-    r.fail("name", "expected a C++ identifier (letters, digits, _), got '" +
-               (name.IsScalar() ? name.Scalar() : std::string("a non-scalar")) + "'", name);
+    r.fail("name",
+           "expected a C++ identifier (letters, digits, _), got '" +
+               (name.IsScalar() ? name.Scalar() : std::string("a non-scalar")) + "'",
+           name);
   s.name = name.Scalar();
   if (s.name.size() > 64)
-    r.fail("name", "is " + std::to_string(s.name.size()) + " characters long, at most 64 (it names files and a namespace)",
+    r.fail("name",
+           "is " + std::to_string(s.name.size()) +
+               " characters long, at most 64 (it names files and a namespace)",
            name);
-  if (is_reserved(s.name)) r.fail("name", "'" + s.name + "' is reserved (a C++ keyword, a macro of the generated code's headers or a generated name)", name);
+  if (is_reserved(s.name))
+    r.fail("name",
+           "'" + s.name +
+               "' is reserved (a C++ keyword, a macro of the generated code's headers or a "
+               "generated name)",
+           name);
   if (root["description"].IsDefined()) {
-    if (!root["description"].IsScalar()) r.fail("description", "expected text", root["description"]);
+    if (!root["description"].IsScalar())
+      r.fail("description", "expected text", root["description"]);
     s.description = root["description"].Scalar();
     if (s.description.size() > 4000)
-      r.fail("description", "text is too long (" + std::to_string(s.description.size()) + " characters, at most 4000)",
+      r.fail("description",
+             "text is too long (" + std::to_string(s.description.size()) +
+                 " characters, at most 4000)",
              root["description"]);
   }
 
@@ -253,18 +283,24 @@ Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yam
   if (root["parameters"].IsDefined() && !root["parameters"].IsNull()) {
     const YAML::Node ps = root["parameters"];
     if (!ps.IsMap())
-      r.fail("parameters", "expected a mapping of parameter name to nominal value, e.g. {p: 1.0}", ps);
+      r.fail("parameters", "expected a mapping of parameter name to nominal value, e.g. {p: 1.0}",
+             ps);
     for (const auto& kv : ps) {
       const std::string pname = r.key_text(kv.first, "parameters");
       const std::string field = "parameters." + pname;
-      if (!is_identifier(pname)) r.fail(field, "parameter name '" + pname + "' is not an identifier", kv.first);
+      if (!is_identifier(pname))
+        r.fail(field, "parameter name '" + pname + "' is not an identifier", kv.first);
       if (is_reserved(pname))
-        r.fail(field, "parameter name '" + pname + "' is reserved (a coordinate, a generated symbol or a C++ keyword)",
+        r.fail(field,
+               "parameter name '" + pname +
+                   "' is reserved (a coordinate, a generated symbol or a C++ keyword)",
                kv.first);
-      if (parameter_index.count(pname)) r.fail(field, "parameter '" + pname + "' given more than once", kv.first);
+      if (parameter_index.count(pname))
+        r.fail(field, "parameter '" + pname + "' given more than once", kv.first);
       Parameter p{pname, r.quantity(kv.second, field)};
       if (p.nominal.is_parameter())
-        r.fail(field, "nominal value must be a number, got '" + p.nominal.parameter + "'", kv.second);
+        r.fail(field, "nominal value must be a number, got '" + p.nominal.parameter + "'",
+               kv.second);
       parameter_index[pname] = static_cast<int>(s.parameters.size());
       s.parameters.push_back(p);
     }
@@ -277,11 +313,17 @@ Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yam
     if (q.is_parameter()) {
       auto it = parameter_index.find(q.parameter);
       if (it == parameter_index.end())
-        r.fail(field, "refers to parameter '" + q.parameter + "', which is not declared under 'parameters'", node);
+        r.fail(
+            field,
+            "refers to parameter '" + q.parameter + "', which is not declared under 'parameters'",
+            node);
       q.value = s.parameters[it->second].nominal.value;
       used_parameters.insert(q.parameter);
     }
-    const std::string shown = q.is_parameter() ? q.parameter + " = " + s.parameters[parameter_index[q.parameter]].nominal.literal : q.literal;
+    const std::string shown =
+        q.is_parameter()
+            ? q.parameter + " = " + s.parameters[parameter_index[q.parameter]].nominal.literal
+            : q.literal;
     if (!allow_negative) {
       if (positive && !(q.value > 0)) r.fail(field, "must be positive, got " + shown, node);
       if (!positive && !(q.value >= 0)) r.fail(field, "must not be negative, got " + shown, node);
@@ -294,11 +336,13 @@ Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yam
     const std::string path = field + "." + key;
     return checked(r.quantity(n, path), path, n, positive, allow_negative);
   };
-  auto pair = [&](const YAML::Node& map, const std::string& key, const std::string& field, Quantity out[2]) {
+  auto pair = [&](const YAML::Node& map, const std::string& key, const std::string& field,
+                  Quantity out[2]) {
     const YAML::Node n = r.require(map, key, field);
     const std::string path = field + "." + key;
     read_pair(r, n, path, out);
-    for (int k = 0; k < 2; ++k) out[k] = checked(out[k], path + "[" + std::to_string(k) + "]", n[k], false, true);
+    for (int k = 0; k < 2; ++k)
+      out[k] = checked(out[k], path + "[" + std::to_string(k) + "]", n[k], false, true);
   };
 
   // Base.
@@ -324,8 +368,10 @@ Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yam
   if (!links.IsSequence()) r.fail("links", "expected a list of links", links);
   if (links.size() == 0) r.fail("links", "needs at least one link, got 0", links);
   if (links.size() > static_cast<size_t>(kMaxLinks))
-    r.fail("links", "at most " + std::to_string(kMaxLinks) + " links are supported, got " +
-               std::to_string(links.size()), links);
+    r.fail("links",
+           "at most " + std::to_string(kMaxLinks) + " links are supported, got " +
+               std::to_string(links.size()),
+           links);
   for (size_t i = 0; i < links.size(); ++i) {
     const std::string field = "links[" + std::to_string(i) + "]";
     const YAML::Node l = links[i];
@@ -347,8 +393,10 @@ Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yam
       for (size_t i = 0; i < links.size(); ++i) read.push_back({one, "gears"});
     } else if (g.IsSequence()) {
       if (g.size() != links.size())
-        r.fail("gears", "expected one entry per link (" + std::to_string(links.size()) + "), got " +
-                   std::to_string(g.size()), g);
+        r.fail("gears",
+               "expected one entry per link (" + std::to_string(links.size()) + "), got " +
+                   std::to_string(g.size()),
+               g);
       for (size_t i = 0; i < g.size(); ++i) {
         const std::string field = "gears[" + std::to_string(i) + "]";
         read.push_back({read_gear(r, g[i], field), field});
@@ -361,9 +409,11 @@ Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yam
       const YAML::Node node = g.IsMap() ? g : g[i];
       gear.ratio = checked(gear.ratio, field + ".ratio", node["ratio"], true);
       if (gear.ratio.value < 1.0)
-        std::fprintf(stderr, "warning: scene '%s', field '%s.ratio': %g < 1 (a speed-up, not a reduction)\n",
-                     source_name.c_str(), field.c_str(), gear.ratio.value);
-      gear.motor_inertia = checked(gear.motor_inertia, field + ".motor_inertia", node["motor_inertia"], false);
+        std::fprintf(
+            stderr, "warning: scene '%s', field '%s.ratio': %g < 1 (a speed-up, not a reduction)\n",
+            source_name.c_str(), field.c_str(), gear.ratio.value);
+      gear.motor_inertia =
+          checked(gear.motor_inertia, field + ".motor_inertia", node["motor_inertia"], false);
       if (gear.compensate_link_inertia && !(gear.motor_inertia.value < s.links[i].inertia.value))
         r.fail(field + ".motor_inertia",
                "motor inertia " + std::to_string(gear.motor_inertia.value) +
@@ -383,8 +433,8 @@ Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yam
       const std::string n = outs[i].IsScalar() ? outs[i].Scalar() : "";
       auto o = output_from_string(n);
       if (!o)
-        r.fail("outputs[" + std::to_string(i) + "]", "unknown output '" + n + "' (known: " + output_names() + ")",
-               outs[i]);
+        r.fail("outputs[" + std::to_string(i) + "]",
+               "unknown output '" + n + "' (known: " + output_names() + ")", outs[i]);
       if (!s.outputs.insert(*o).second)
         r.fail("outputs[" + std::to_string(i) + "]", "output '" + n + "' listed twice", outs[i]);
     }
@@ -394,11 +444,13 @@ Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yam
   }
   for (Output o : s.outputs)
     if (info(o).free_floating_only && !s.free_floating())
-      r.fail("outputs", "'" + to_string(o) + "' is only defined for a free_floating base", root["outputs"]);
+      r.fail("outputs", "'" + to_string(o) + "' is only defined for a free_floating base",
+             root["outputs"]);
 
   for (const auto& p : s.parameters)
     if (!used_parameters.count(p.name))
-      r.fail("parameters." + p.name, "parameter '" + p.name + "' is declared but never used", root["parameters"]);
+      r.fail("parameters." + p.name, "parameter '" + p.name + "' is declared but never used",
+             root["parameters"]);
   return s;
 }
 
@@ -410,7 +462,8 @@ Scene parse_scene(const std::string& yaml_text, const std::string& source_name) 
   try {
     root = YAML::Load(yaml_text);
     // A second document after `---` would be ignored: refuse it instead.
-    if (count_documents(yaml_text, 2) > 1) r.fail("", "holds more than one YAML document (separated by ---); give one scene");
+    if (count_documents(yaml_text, 2) > 1)
+      r.fail("", "holds more than one YAML document (separated by ---); give one scene");
   } catch (const YAML::Exception& e) {
     r.fail("", std::string("not valid YAML: ") + e.what());
   }

@@ -66,13 +66,13 @@ struct Gear {
 };
 
 struct Scene {
-  std::string name;          // C++ namespace of the emitted model
-  std::string source_path;   // as given on the command line
-  std::string content;       // raw file text (hashed into the banner)
-  std::string description;   // optional free text
+  std::string name;         // C++ namespace of the emitted model
+  std::string source_path;  // as given on the command line
+  std::string content;      // raw file text (hashed into the banner)
+  std::string description;  // optional free text
   Base base;
   std::vector<Link> links;
-  std::vector<Gear> gears;   // empty: reference model; else one per link (geared model)
+  std::vector<Gear> gears;  // empty: reference model; else one per link (geared model)
   std::vector<Parameter> parameters;
   std::set<Output> outputs;
 

@@ -19,10 +19,13 @@ SRef Program::intern(Node node) {
   return {id, false};
 }
 
-SRef Program::input(const std::string& array, int index) { return intern({Kind::input, {}, array, 0, index}); }
+SRef Program::input(const std::string& array, int index) {
+  return intern({Kind::input, {}, array, 0, index});
+}
 
 SRef Program::constant(double value) {
-  if (value == 0 || !std::isfinite(value)) throw std::logic_error("constant must be finite and non-zero");
+  if (value == 0 || !std::isfinite(value))
+    throw std::logic_error("constant must be finite and non-zero");
   char buf[64];
   // Shortest text that reads back as the same double.
   for (int digits = 15; digits <= 17; ++digits) {
@@ -35,12 +38,14 @@ SRef Program::constant(double value) {
 }
 
 SRef Program::add(std::vector<SRef> terms) {
-  terms.erase(std::remove_if(terms.begin(), terms.end(), [](const SRef& t) { return t.id < 0; }), terms.end());
+  terms.erase(std::remove_if(terms.begin(), terms.end(), [](const SRef& t) { return t.id < 0; }),
+              terms.end());
   if (terms.empty()) return zero();
   if (terms.size() == 1) return terms[0];
   std::sort(terms.begin(), terms.end());
   // Keep a positive term available to lead the sum; pull the sign out if none is.
-  const bool all_negative = std::all_of(terms.begin(), terms.end(), [](const SRef& t) { return t.neg; });
+  const bool all_negative =
+      std::all_of(terms.begin(), terms.end(), [](const SRef& t) { return t.neg; });
   if (all_negative)
     for (auto& t : terms) t.neg = false;
   SRef r = intern({Kind::add, terms, "", 0});
@@ -97,7 +102,8 @@ SRef Program::cos(SRef angle) {
 SRef Program::pow(SRef base, int exponent) {
   if (share_) throw std::logic_error("pow is only for unshared (baseline) programs");
   if (base.id < 0) return zero();
-  SRef r = intern({Kind::pow, {{base.id, false}}, std::to_string(exponent), static_cast<double>(exponent)});
+  SRef r = intern(
+      {Kind::pow, {{base.id, false}}, std::to_string(exponent), static_cast<double>(exponent)});
   r.neg = base.neg && exponent % 2 != 0;
   return r;
 }
@@ -124,7 +130,8 @@ void Program::extract_pass(Kind kind, const std::vector<SRef>& roots) {
     return Pair{a, b};
   };
   // Position of the pair in a node's operands, as (i, j, flipped), or i = -1.
-  auto find_pair = [&](const std::vector<SRef>& args, const Pair& pair, bool& flipped) -> std::pair<int, int> {
+  auto find_pair = [&](const std::vector<SRef>& args, const Pair& pair,
+                       bool& flipped) -> std::pair<int, int> {
     for (size_t i = 0; i < args.size(); ++i) {
       if (args[i].id != pair.first.id && args[i].id != pair.second.id) continue;
       for (size_t j = i + 1; j < args.size(); ++j) {
@@ -171,7 +178,8 @@ void Program::extract_pass(Kind kind, const std::vector<SRef>& roots) {
       queue.insert({-static_cast<int>(holders.size()), pair});
       continue;
     }
-    const SRef shared = kind == Kind::add ? add({pair.first, pair.second}) : mul({pair.first, pair.second});
+    const SRef shared =
+        kind == Kind::add ? add({pair.first, pair.second}) : mul({pair.first, pair.second});
     std::set<Pair> touched;
     for (int id : holders) {
       if (id == shared.id) continue;
@@ -233,7 +241,8 @@ OpCounts Program::count(const std::vector<SRef>& roots) const {
       case Kind::add:
         c.adds += static_cast<int>(n.args.size()) - 1;
         // A sum of only negated terms starts with a negation.
-        if (std::all_of(n.args.begin(), n.args.end(), [](const SRef& a) { return a.neg; })) c.adds += 1;
+        if (std::all_of(n.args.begin(), n.args.end(), [](const SRef& a) { return a.neg; }))
+          c.adds += 1;
         break;
       case Kind::mul:
         c.muls += static_cast<int>(n.args.size()) - 1;
@@ -258,8 +267,9 @@ OpCounts Program::count(const std::vector<SRef>& roots) const {
   return c;
 }
 
-std::vector<double> Program::evaluate(const std::vector<SRef>& roots,
-                                      const std::function<double(const std::string&, int)>& input_value) const {
+std::vector<double> Program::evaluate(
+    const std::vector<SRef>& roots,
+    const std::function<double(const std::string&, int)>& input_value) const {
   std::vector<double> v(nodes_.size(), 0.0);
   auto value = [&](const SRef& r) { return r.id < 0 ? 0.0 : (r.neg ? -v[r.id] : v[r.id]); };
   for (int id : schedule(roots)) {

@@ -52,7 +52,7 @@ class Program {
   SRef div(SRef numerator, SRef denominator);
   SRef sin(SRef angle);
   SRef cos(SRef angle);
-  SRef pow(SRef base, int exponent);  // only in unshared programs (the baseline prints pow)
+  SRef pow(SRef base, int exponent);         // only in unshared programs (the baseline prints pow)
   SRef zero() const { return {-1, false}; }  // id -1: the constant 0
 
   // Greedy common-pair extraction over all sums and products reachable from roots.
@@ -62,8 +62,9 @@ class Program {
   std::vector<int> schedule(const std::vector<SRef>& roots) const;
   OpCounts count(const std::vector<SRef>& roots) const;
   // Numeric value of each root, inputs looked up by array name and index (self-checks).
-  std::vector<double> evaluate(const std::vector<SRef>& roots,
-                               const std::function<double(const std::string&, int)>& input_value) const;
+  std::vector<double> evaluate(
+      const std::vector<SRef>& roots,
+      const std::function<double(const std::string&, int)>& input_value) const;
 
   const Node& node(int id) const { return nodes_[id]; }
   size_t size() const { return nodes_.size(); }

@@ -20,7 +20,8 @@ numeric exact_decimal(const std::string& literal) {
   if (!std::regex_match(literal, m, re)) throw std::invalid_argument("not a decimal: " + literal);
   std::string digits = m[2].str() + m[3].str();
   if (digits.empty()) digits = "0";
-  const long exponent = (m[4].matched ? std::stol(m[4].str()) : 0) - static_cast<long>(m[3].length());
+  const long exponent =
+      (m[4].matched ? std::stol(m[4].str()) : 0) - static_cast<long>(m[3].length());
   numeric value(digits.c_str());
   value = value * GiNaC::pow(numeric(10), numeric(exponent));
   return m[1].str() == "-" ? -value : value;
@@ -66,78 +67,117 @@ Vec2 rotated(const ex& theta, const Vec2& u) {
 
 const GiNaC::matrix& SymbolicModel::expression(Output output) const {
   auto it = outputs.find(output);
-  if (it == outputs.end()) throw std::invalid_argument("the model has no " + to_string(output) + " (not derived)");
+  if (it == outputs.end())
+    throw std::invalid_argument("the model has no " + to_string(output) + " (not derived)");
   return it->second;
 }
 
-SymbolicModel derive(const Scene& scene, const DeriveOptions& options) {
-  SymbolicModel model;
-  model.scene = scene;
-  Builder b{scene, model, {}};
-  const int N = scene.num_links();
-  const bool free = scene.free_floating();
-  const bool geared = scene.geared();
+namespace {
+
+// One derivation, stage by stage: symbols, angles, kinetic energy, then the outputs asked for.
+// The stages share the scene's sizes and the intermediate expressions below.
+class Derivation {
+ public:
+  Derivation(const Scene& scene, const DeriveOptions& options, SymbolicModel& model)
+      : scene_(scene),
+        model_(model),
+        b_{scene, model, {}},
+        N_(scene.num_links()),
+        free_(scene.free_floating()),
+        geared_(scene.geared()) {
+    // What the scene asks for, and what its composed outputs are composed of.
+    wanted_ = scene.outputs;
+    for (Output o : scene.outputs)
+      wanted_.insert(info(o).composed_of.begin(), info(o).composed_of.end());
+    all_ = options.all_outputs;
+  }
+
+  void run() {
+    symbols();
+    angles();
+    kinetic_energy();
+    mass_matrix_forms();
+    joint_state();
+    bias_and_momentum();
+    end_effector();
+  }
+
+ private:
+  const Scene& scene_;
+  SymbolicModel& model_;
+  Builder b_;
+  const int N_;
+  const bool free_, geared_;
+  bool all_ = false;
+  std::set<Output> wanted_;
+  int n_ = 0, first_joint_ = 0;
+  Vec2 r0_{0, 0}, r0d_{0, 0}, mount_{0, 0};
+  std::vector<ex> p_, Im_, dT_dqd_;
+  matrix M_;
+
+  bool wants(Output o) const {
+    return (all_ && (free_ || !info(o).free_floating_only) && info(o).composed_of.empty()) ||
+           wanted_.count(o);
+  }
 
   // Symbols in a fixed order: coordinates, velocities, parameters.
-  for (const auto& name : scene.coordinate_names()) model.q.emplace_back(name);
-  for (const auto& name : scene.coordinate_names()) model.qd.emplace_back(name + "d");
-  for (const auto& p : scene.parameters) {
-    model.parameters.emplace_back(p.name);
-    b.parameter_symbols[p.name] = model.parameters.back();
+  void symbols() {
+    for (const auto& name : scene_.coordinate_names()) model_.q.emplace_back(name);
+    for (const auto& name : scene_.coordinate_names()) model_.qd.emplace_back(name + "d");
+    for (const auto& p : scene_.parameters) {
+      model_.parameters.emplace_back(p.name);
+      b_.parameter_symbols[p.name] = model_.parameters.back();
+    }
+    n_ = model_.n();
+    first_joint_ = free_ ? 3 : 0;
   }
-  const int n = model.n();
-  const int first_joint = free ? 3 : 0;
 
   // Base pose and absolute angles theta_k = q0 + sum_{j<=k} q_j (eq. 4); in motor
   // coordinates q_j = q_m_j / p_j (eq. 9 integrated with q_m(0) = p q(0)).
-  Vec2 r0{0, 0}, r0d{0, 0};
-  ex theta0 = 0;
-  if (free) {
-    r0 = {model.q[0], model.q[1]};
-    r0d = {model.qd[0], model.qd[1]};
-    theta0 = model.q[2];
-  }
-  model.gear_map = matrix(n, n);
-  for (int i = 0; i < n; ++i) model.gear_map(i, i) = 1;
-  std::vector<ex> p(N + 1, 1), Im(N + 1, 0);
-  for (int j = 1; j <= N; ++j) {
-    if (geared) {
-      p[j] = b.value(scene.gears[j - 1].ratio);
-      Im[j] = b.value(scene.gears[j - 1].motor_inertia);
-      model.gear_map(first_joint + j - 1, first_joint + j - 1) = 1 / p[j];
+  void angles() {
+    ex theta0 = 0;
+    if (free_) {
+      r0_ = {model_.q[0], model_.q[1]};
+      r0d_ = {model_.qd[0], model_.qd[1]};
+      theta0 = model_.q[2];
+    }
+    mount_ = {b_.value(scene_.base.mount[0]), b_.value(scene_.base.mount[1])};
+    model_.gear_map = matrix(n_, n_);
+    for (int i = 0; i < n_; ++i) model_.gear_map(i, i) = 1;
+    p_.assign(N_ + 1, 1);
+    Im_.assign(N_ + 1, 0);
+    for (int j = 1; j <= N_ && geared_; ++j) {
+      p_[j] = b_.value(scene_.gears[j - 1].ratio);
+      Im_[j] = b_.value(scene_.gears[j - 1].motor_inertia);
+      model_.gear_map(first_joint_ + j - 1, first_joint_ + j - 1) = 1 / p_[j];
+    }
+    model_.theta.push_back(theta0);
+    for (int j = 1; j <= N_; ++j)
+      model_.theta.push_back(model_.theta.back() + model_.q[first_joint_ + j - 1] / p_[j]);
+    for (const ex& th : model_.theta) model_.omega.push_back(b_.time_derivative(th).expand());
+    for (int k = 0; k <= N_; ++k) {
+      model_.angle_table[model_.theta[k].expand()] = {-1, k};
+      for (int l = k + 1; l <= N_; ++l)
+        model_.angle_table[(model_.theta[l] - model_.theta[k]).expand()] = {k, l};
     }
   }
-  model.theta.push_back(theta0);
-  for (int j = 1; j <= N; ++j)
-    model.theta.push_back(model.theta.back() + model.q[first_joint + j - 1] / p[j]);
-  for (const ex& th : model.theta) model.omega.push_back(b.time_derivative(th).expand());
-  for (int k = 0; k <= N; ++k) {
-    model.angle_table[model.theta[k].expand()] = {-1, k};
-    for (int l = k + 1; l <= N; ++l) model.angle_table[(model.theta[l] - model.theta[k]).expand()] = {k, l};
-  }
-  const auto& theta = model.theta;
-  const auto& Omega = model.omega;
 
-  // Kinetic energy, eq. 3. With d_i = CoM_i - r0 = sum_k R(theta_k) u_ki, the CoM velocity
+  // |v_i|^2 of link i's CoM. With d_i = CoM_i - r0 = sum_k R(theta_k) u_ki, the CoM velocity
   // is v_i = r0d + sum_k Omega_k R(theta_k) J u_ki and
-  // |v_i|^2 = |r0d|^2 + 2 sum_k Omega_k r0d.(R_k J u_k) + sum_kl Omega_k Omega_l u_k^T R(theta_l - theta_k) u_l,
-  // written with the relative angles so the closed form stays compact (no trig identities
-  // are needed afterwards).
-  ex T = 0;
-  const ex m0 = free ? b.value(scene.base.mass) : ex(0);
-  const ex I0 = free ? b.value(scene.base.inertia) : ex(0);
-  T += m0 * (r0d.x * r0d.x + r0d.y * r0d.y) / 2 + I0 * Omega[0] * Omega[0] / 2;
-  const Vec2 mount{b.value(scene.base.mount[0]), b.value(scene.base.mount[1])};
-  for (int i = 1; i <= N; ++i) {
-    const Link& link = scene.links[i - 1];
+  // |v_i|^2 = |r0d|^2 + 2 sum_k Omega_k r0d.(R_k J u_k) + sum_kl Omega_k Omega_l u_k^T R(theta_l -
+  // theta_k) u_l, written with the relative angles so the closed form stays compact (no trig
+  // identities are needed afterwards).
+  ex com_speed_squared(int i) const {
+    const auto& theta = model_.theta;
+    const auto& Omega = model_.omega;
     std::vector<Vec2> u;  // u_ki, k = 0..i
-    u.push_back(mount);
-    for (int k = 1; k < i; ++k) u.push_back({b.value(scene.links[k - 1].length), 0});
-    u.push_back({b.value(link.com[0]), b.value(link.com[1])});
-    ex v2 = r0d.x * r0d.x + r0d.y * r0d.y;
+    u.push_back(mount_);
+    for (int k = 1; k < i; ++k) u.push_back({b_.value(scene_.links[k - 1].length), 0});
+    u.push_back({b_.value(scene_.links[i - 1].com[0]), b_.value(scene_.links[i - 1].com[1])});
+    ex v2 = r0d_.x * r0d_.x + r0d_.y * r0d_.y;
     for (int k = 0; k <= i; ++k) {
       const Vec2 w = rotated_perp(theta[k], u[k]);
-      v2 += 2 * Omega[k] * (r0d.x * w.x + r0d.y * w.y);
+      v2 += 2 * Omega[k] * (r0d_.x * w.x + r0d_.y * w.y);
       v2 += Omega[k] * Omega[k] * (u[k].x * u[k].x + u[k].y * u[k].y);
       for (int l = k + 1; l <= i; ++l) {
         const ex delta = theta[l] - theta[k];
@@ -147,123 +187,152 @@ SymbolicModel derive(const Scene& scene, const DeriveOptions& options) {
         v2 += 2 * Omega[k] * Omega[l] * (dot * GiNaC::cos(delta) + cross * GiNaC::sin(delta));
       }
     }
-    ex I_link = b.value(link.inertia);
-    if (geared && scene.gears[i - 1].compensate_link_inertia) I_link -= Im[i];
-    T += b.value(link.mass) * v2 / 2 + I_link * Omega[i] * Omega[i] / 2;
-    if (geared) {
-      // Motor i turns with the previous body plus its own rate (eq. 11), 1/2 I_m w^2 (eq. 10);
-      // the armature approximation keeps only the motor's own rate.
-      const ex& qd_m = model.qd[first_joint + i - 1];
-      const ex omega_m = scene.gears[i - 1].armature ? qd_m : Omega[i - 1] + qd_m;
-      T += Im[i] * omega_m * omega_m / 2;
-    }
+    return v2;
   }
-  model.kinetic_energy = T.expand();
 
-  const bool want_all = options.all_outputs;
-  // What the scene asks for, and what its composed outputs are composed of.
-  std::set<Output> wanted = scene.outputs;
-  for (Output o : scene.outputs) wanted.insert(info(o).composed_of.begin(), info(o).composed_of.end());
-  auto wants = [&](Output o) {
-    return (want_all && (free || !info(o).free_floating_only) && info(o).composed_of.empty()) || wanted.count(o);
-  };
-  auto& out = model.outputs;
-  if (wants(Output::kinetic_energy)) out[Output::kinetic_energy] = matrix{{model.kinetic_energy}};
+  // Kinetic energy, eq. 3, plus the motors' (eq. 10).
+  void kinetic_energy() {
+    const auto& Omega = model_.omega;
+    const ex m0 = free_ ? b_.value(scene_.base.mass) : ex(0);
+    const ex I0 = free_ ? b_.value(scene_.base.inertia) : ex(0);
+    ex T = m0 * (r0d_.x * r0d_.x + r0d_.y * r0d_.y) / 2 + I0 * Omega[0] * Omega[0] / 2;
+    for (int i = 1; i <= N_; ++i) {
+      const Link& link = scene_.links[i - 1];
+      ex I_link = b_.value(link.inertia);
+      if (geared_ && scene_.gears[i - 1].compensate_link_inertia) I_link -= Im_[i];
+      T += b_.value(link.mass) * com_speed_squared(i) / 2 + I_link * Omega[i] * Omega[i] / 2;
+      if (geared_) {
+        // Motor i turns with the previous body plus its own rate (eq. 11), 1/2 I_m w^2 (eq. 10);
+        // the armature approximation keeps only the motor's own rate.
+        const ex& qd_m = model_.qd[first_joint_ + i - 1];
+        const ex omega_m = scene_.gears[i - 1].armature ? qd_m : Omega[i - 1] + qd_m;
+        T += Im_[i] * omega_m * omega_m / 2;
+      }
+    }
+    model_.kinetic_energy = T.expand();
+    if (wants(Output::kinetic_energy))
+      model_.outputs[Output::kinetic_energy] = matrix{{model_.kinetic_energy}};
+    dT_dqd_.resize(n_);
+    for (int i = 0; i < n_; ++i) dT_dqd_[i] = model_.kinetic_energy.diff(model_.qd[i]);
+  }
 
-  // Mass matrix, eq. 6: M_ij = d^2 T / dqd_i dqd_j.
-  std::vector<ex> dT_dqd(n);
-  for (int i = 0; i < n; ++i) dT_dqd[i] = model.kinetic_energy.diff(model.qd[i]);
-  matrix M(n, n);
-  if (wants(Output::mass_matrix) || wants(Output::coriolis_matrix) || wants(Output::mass_matrix_derivative) ||
-      wants(Output::christoffel_coriolis_matrix)) {
-    for (int i = 0; i < n; ++i)
-      for (int j = i; j < n; ++j) M(i, j) = M(j, i) = dT_dqd[i].diff(model.qd[j]).expand();
-    if (wants(Output::mass_matrix)) out[Output::mass_matrix] = M;
+  // Mass matrix, eq. 6: M_ij = d^2 T / dqd_i dqd_j; and the outputs made from it.
+  void mass_matrix_forms() {
+    if (!(wants(Output::mass_matrix) || wants(Output::coriolis_matrix) ||
+          wants(Output::mass_matrix_derivative) || wants(Output::christoffel_coriolis_matrix)))
+      return;
+    M_ = matrix(n_, n_);
+    for (int i = 0; i < n_; ++i)
+      for (int j = i; j < n_; ++j) M_(i, j) = M_(j, i) = dT_dqd_[i].diff(model_.qd[j]).expand();
+    if (wants(Output::mass_matrix)) model_.outputs[Output::mass_matrix] = M_;
+    if (wants(Output::coriolis_matrix)) model_.outputs[Output::coriolis_matrix] = coriolis_eq7();
+    // Mdot = sum_k dM/dq_k qd_k.
+    if (wants(Output::mass_matrix_derivative)) {
+      matrix Mdot(n_, n_);
+      for (int i = 0; i < n_; ++i)
+        for (int j = i; j < n_; ++j)
+          Mdot(i, j) = Mdot(j, i) = b_.time_derivative(M_(i, j)).expand();
+      model_.outputs[Output::mass_matrix_derivative] = Mdot;
+    }
+    if (wants(Output::christoffel_coriolis_matrix))
+      model_.outputs[Output::christoffel_coriolis_matrix] = christoffel_coriolis();
   }
 
   // Coriolis matrix exactly as eq. 7: C = (Mdot - 1/2 d(M qd)/dq)^T, i.e.
   // C_ij = sum_k dM_ij/dq_k qd_k - 1/2 sum_k dM_jk/dq_i qd_k.
-  if (wants(Output::coriolis_matrix)) {
-    matrix C(n, n);
-    std::vector<ex> M_qd(n);  // (M qd)_j
-    for (int j = 0; j < n; ++j) {
+  matrix coriolis_eq7() const {
+    matrix C(n_, n_);
+    std::vector<ex> M_qd(n_);  // (M qd)_j
+    for (int j = 0; j < n_; ++j) {
       ex s = 0;
-      for (int k = 0; k < n; ++k) s += M(j, k) * model.qd[k];
+      for (int k = 0; k < n_; ++k) s += M_(j, k) * model_.qd[k];
       M_qd[j] = s.expand();
     }
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j) C(i, j) = (b.time_derivative(M(i, j)) - M_qd[j].diff(model.q[i]) / 2).expand();
-    out[Output::coriolis_matrix] = C;
+    for (int i = 0; i < n_; ++i)
+      for (int j = 0; j < n_; ++j)
+        C(i, j) = (b_.time_derivative(M_(i, j)) - M_qd[j].diff(model_.q[i]) / 2).expand();
+    return C;
   }
 
-  // Mdot = sum_k dM/dq_k qd_k, and the Christoffel form Cc_ij = sum_k Gamma_ijk qd_k with
+  // The Christoffel form Cc_ij = sum_k Gamma_ijk qd_k with
   // Gamma_ijk = 1/2 (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i).
-  if (wants(Output::mass_matrix_derivative)) {
-    matrix Mdot(n, n);
-    for (int i = 0; i < n; ++i)
-      for (int j = i; j < n; ++j) Mdot(i, j) = Mdot(j, i) = b.time_derivative(M(i, j)).expand();
-    out[Output::mass_matrix_derivative] = Mdot;
-  }
-  if (wants(Output::christoffel_coriolis_matrix)) {
-    matrix Cc(n, n);
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j) {
+  matrix christoffel_coriolis() const {
+    const auto& q = model_.q;
+    matrix Cc(n_, n_);
+    for (int i = 0; i < n_; ++i)
+      for (int j = 0; j < n_; ++j) {
         ex s = 0;
-        for (int k = 0; k < n; ++k)
-          s += (M(i, j).diff(model.q[k]) + M(i, k).diff(model.q[j]) - M(j, k).diff(model.q[i])) * model.qd[k] / 2;
+        for (int k = 0; k < n_; ++k)
+          s += (M_(i, j).diff(q[k]) + M_(i, k).diff(q[j]) - M_(j, k).diff(q[i])) * model_.qd[k] / 2;
         Cc(i, j) = s.expand();
       }
-    out[Output::christoffel_coriolis_matrix] = Cc;
+    return Cc;
   }
 
   // Link-side joint angles and rates: q_link = gear_map q (eq. 12), qd_link = gear_map qd.
-  if (wants(Output::joint_angles) || wants(Output::joint_rates)) {
-    matrix angles(N, 1), rates(N, 1);
-    for (int j = 0; j < N; ++j) {
-      angles(j, 0) = model.gear_map(first_joint + j, first_joint + j) * model.q[first_joint + j];
-      rates(j, 0) = model.gear_map(first_joint + j, first_joint + j) * model.qd[first_joint + j];
+  void joint_state() {
+    if (!wants(Output::joint_angles) && !wants(Output::joint_rates)) return;
+    matrix angles(N_, 1), rates(N_, 1);
+    for (int j = 0; j < N_; ++j) {
+      const ex& g = model_.gear_map(first_joint_ + j, first_joint_ + j);
+      angles(j, 0) = g * model_.q[first_joint_ + j];
+      rates(j, 0) = g * model_.qd[first_joint_ + j];
     }
-    if (wants(Output::joint_angles)) out[Output::joint_angles] = angles;
-    if (wants(Output::joint_rates)) out[Output::joint_rates] = rates;
+    if (wants(Output::joint_angles)) model_.outputs[Output::joint_angles] = angles;
+    if (wants(Output::joint_rates)) model_.outputs[Output::joint_rates] = rates;
   }
 
-  // Bias C qd, emitted directly from the Euler-Lagrange terms at qdd = 0 (cheaper than C).
-  if (wants(Output::bias_forces)) {
-    matrix bias(n, 1);
-    for (int i = 0; i < n; ++i)
-      bias(i, 0) = (b.time_derivative(dT_dqd[i]) - model.kinetic_energy.diff(model.q[i])).expand();
-    out[Output::bias_forces] = bias;
+  void bias_and_momentum() {
+    // Bias C qd, emitted directly from the Euler-Lagrange terms at qdd = 0 (cheaper than C).
+    if (wants(Output::bias_forces)) {
+      matrix bias(n_, 1);
+      for (int i = 0; i < n_; ++i)
+        bias(i, 0) =
+            (b_.time_derivative(dT_dqd_[i]) - model_.kinetic_energy.diff(model_.q[i])).expand();
+      model_.outputs[Output::bias_forces] = bias;
+    }
+    // Momentum: P = dT/d(r0d); angular momentum about the world origin
+    // L = dT/dq0d + r0 x P (dT/dq0d is the angular momentum about the base CoM).
+    if (wants(Output::momentum) && free_)
+      model_.outputs[Output::momentum] =
+          matrix{{dT_dqd_[0].expand()},
+                 {dT_dqd_[1].expand()},
+                 {(dT_dqd_[2] + r0_.x * dT_dqd_[1] - r0_.y * dT_dqd_[0]).expand()}};
   }
 
-  // Momentum: P = dT/d(r0d); angular momentum about the world origin
-  // L = dT/dq0d + r0 x P (dT/dq0d is the angular momentum about the base CoM).
-  if (wants(Output::momentum) && free)
-    out[Output::momentum] = matrix{{dT_dqd[0].expand()},
-                                   {dT_dqd[1].expand()},
-                                   {(dT_dqd[2] + r0.x * dT_dqd[1] - r0.y * dT_dqd[0]).expand()}};
-
-  // End-effector: tip of the last link, orientation of the last link.
-  if (wants(Output::end_effector_pose) || wants(Output::end_effector_jacobian) || wants(Output::joint_positions)) {
-    Vec2 tip = r0;
-    const Vec2 m0vec = rotated(theta[0], mount);
-    tip = {tip.x + m0vec.x, tip.y + m0vec.y};
-    matrix P(2, N + 1);
-    for (int k = 1; k <= N; ++k) {
+  // End-effector: tip of the last link, orientation of the last link; the joints' positions.
+  void end_effector() {
+    if (!wants(Output::end_effector_pose) && !wants(Output::end_effector_jacobian) &&
+        !wants(Output::joint_positions))
+      return;
+    const auto& theta = model_.theta;
+    const Vec2 m0vec = rotated(theta[0], mount_);
+    Vec2 tip = {r0_.x + m0vec.x, r0_.y + m0vec.y};
+    matrix P(2, N_ + 1);
+    for (int k = 1; k <= N_; ++k) {
       P(0, k - 1) = tip.x.expand();
       P(1, k - 1) = tip.y.expand();
-      const Vec2 seg = rotated(theta[k], {b.value(scene.links[k - 1].length), 0});
+      const Vec2 seg = rotated(theta[k], {b_.value(scene_.links[k - 1].length), 0});
       tip = {tip.x + seg.x, tip.y + seg.y};
     }
-    P(0, N) = tip.x.expand();
-    P(1, N) = tip.y.expand();
-    const matrix pose{{tip.x.expand()}, {tip.y.expand()}, {theta[N].expand()}};
-    matrix J(3, n);
+    P(0, N_) = tip.x.expand();
+    P(1, N_) = tip.y.expand();
+    const matrix pose{{tip.x.expand()}, {tip.y.expand()}, {theta[N_].expand()}};
+    matrix J(3, n_);
     for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < n; ++c) J(r, c) = pose(r, 0).diff(model.q[c]).expand();
-    if (wants(Output::joint_positions)) out[Output::joint_positions] = P;
-    if (wants(Output::end_effector_pose)) out[Output::end_effector_pose] = pose;
-    if (wants(Output::end_effector_jacobian)) out[Output::end_effector_jacobian] = J;
+      for (int c = 0; c < n_; ++c) J(r, c) = pose(r, 0).diff(model_.q[c]).expand();
+    if (wants(Output::joint_positions)) model_.outputs[Output::joint_positions] = P;
+    if (wants(Output::end_effector_pose)) model_.outputs[Output::end_effector_pose] = pose;
+    if (wants(Output::end_effector_jacobian)) model_.outputs[Output::end_effector_jacobian] = J;
   }
+};
+
+}  // namespace
+
+SymbolicModel derive(const Scene& scene, const DeriveOptions& options) {
+  SymbolicModel model;
+  model.scene = scene;
+  Derivation(model.scene, options, model).run();
   return model;
 }
 
@@ -277,7 +346,8 @@ struct EntryText {
 };
 
 EntryText parse_entry(const std::string& entry) {
-  const std::string shown = "entry '" + (entry.size() > 40 ? entry.substr(0, 40) + "..." : entry) + "'";
+  const std::string shown =
+      "entry '" + (entry.size() > 40 ? entry.substr(0, 40) + "..." : entry) + "'";
   const std::string usage = ": expected e.g. T, M[3][4], C[0][3], b[2], h[0], x[1], J[0][3]";
   if (entry.size() > 100) throw std::invalid_argument(shown + " is too long" + usage);
   EntryText e;
@@ -286,13 +356,15 @@ EntryText parse_entry(const std::string& entry) {
     while (i < entry.size() && entry[i] == ' ') ++i;
   };
   skip();
-  while (i < entry.size() && std::isalpha(static_cast<unsigned char>(entry[i]))) e.name += entry[i++];
+  while (i < entry.size() && std::isalpha(static_cast<unsigned char>(entry[i])))
+    e.name += entry[i++];
   if (e.name.empty()) throw std::invalid_argument(shown + usage);
   for (skip(); i < entry.size() && entry[i] == '['; skip()) {
     ++i;
     skip();
     std::string digits;
-    while (i < entry.size() && std::isdigit(static_cast<unsigned char>(entry[i]))) digits += entry[i++];
+    while (i < entry.size() && std::isdigit(static_cast<unsigned char>(entry[i])))
+      digits += entry[i++];
     skip();
     if (digits.empty() || digits.size() > 6 || i >= entry.size() || entry[i] != ']')
       throw std::invalid_argument(shown + usage);
@@ -313,21 +385,27 @@ GiNaC::ex symbolic_entry(const SymbolicModel& model, const std::string& entry) {
     if (e.name != o.symbol) continue;
     if (!o.composed_of.empty()) {
       std::string parts;
-      for (Output c : o.composed_of) parts += (parts.empty() ? "" : ", ") + std::string(info(c).symbol) + " (" + to_string(c) + ")";
-      throw std::invalid_argument("entry '" + entry + "': " + o.name +
-                                  " is composed in the emitted program (a solve or a product), not a closed form; "
-                                  "inspect what it is made of: " + parts);
+      for (Output c : o.composed_of)
+        parts +=
+            (parts.empty() ? "" : ", ") + std::string(info(c).symbol) + " (" + to_string(c) + ")";
+      throw std::invalid_argument(
+          "entry '" + entry + "': " + o.name +
+          " is composed in the emitted program (a solve or a product), not a closed form; "
+          "inspect what it is made of: " +
+          parts);
     }
     if (o.free_floating_only && !model.scene.free_floating())
-      throw std::invalid_argument("entry '" + entry + "': " + o.name + " is only defined for a free-floating base");
+      throw std::invalid_argument("entry '" + entry + "': " + o.name +
+                                  " is only defined for a free-floating base");
     const matrix& m = model.expression(o.id);
     // A scalar takes no index, a vector one, a matrix two (by the registry's shape, so that
     // a one-coordinate model's M still takes two); each in range.
     const ResultInfo& shape = o.results[0];
     const size_t count = shape.cols != Size::one ? 2 : shape.rows != Size::one ? 1 : 0;
     if (e.indices.size() != count)
-      throw std::invalid_argument("entry '" + entry + "': " + e.name + " takes " + std::to_string(count) +
-                                  (count == 1 ? " index" : " indices") + ", got " + std::to_string(e.indices.size()));
+      throw std::invalid_argument("entry '" + entry + "': " + e.name + " takes " +
+                                  std::to_string(count) + (count == 1 ? " index" : " indices") +
+                                  ", got " + std::to_string(e.indices.size()));
     const unsigned limits[2] = {m.rows(), m.cols()};
     for (size_t k = 0; k < count; ++k)
       if (static_cast<unsigned>(e.indices[k]) >= limits[k])
@@ -335,7 +413,8 @@ GiNaC::ex symbolic_entry(const SymbolicModel& model, const std::string& entry) {
                                     " out of range 0.." + std::to_string(limits[k] - 1));
     return m(count ? e.indices[0] : 0, count == 2 ? e.indices[1] : 0);
   }
-  throw std::invalid_argument("entry '" + entry + "': unknown quantity '" + e.name + "' (known: " + known + ")");
+  throw std::invalid_argument("entry '" + entry + "': unknown quantity '" + e.name +
+                              "' (known: " + known + ")");
 }
 
 double evaluate(const SymbolicModel& model, const GiNaC::ex& e, const std::vector<double>& q,
@@ -359,15 +438,18 @@ double evaluate(const SymbolicModel& model, const GiNaC::ex& e, const std::vecto
                 exact(params.empty() ? model.scene.parameters[i].nominal.value : params.at(i)));
   const ex value = GiNaC::evalf(e.subs(subs));
   GiNaC::Digits = saved_digits;
-  if (!GiNaC::is_a<numeric>(value)) throw std::runtime_error("expression did not evaluate to a number");
+  if (!GiNaC::is_a<numeric>(value))
+    throw std::runtime_error("expression did not evaluate to a number");
   return GiNaC::ex_to<numeric>(value).to_double();
 }
 
-std::vector<double> evaluate(const SymbolicModel& model, const GiNaC::matrix& m, const std::vector<double>& q,
-                             const std::vector<double>& qd, const std::vector<double>& params) {
+std::vector<double> evaluate(const SymbolicModel& model, const GiNaC::matrix& m,
+                             const std::vector<double>& q, const std::vector<double>& qd,
+                             const std::vector<double>& params) {
   std::vector<double> values;
   for (unsigned i = 0; i < m.rows(); ++i)
-    for (unsigned j = 0; j < m.cols(); ++j) values.push_back(evaluate(model, m(i, j), q, qd, params));
+    for (unsigned j = 0; j < m.cols(); ++j)
+      values.push_back(evaluate(model, m(i, j), q, qd, params));
   return values;
 }
 

@@ -55,7 +55,8 @@ GiNaC::ex symbolic_entry(const SymbolicModel& model, const std::string& entry);
 double evaluate(const SymbolicModel& model, const GiNaC::ex& e, const std::vector<double>& q,
                 const std::vector<double>& qd, const std::vector<double>& params = {});
 // The same for every entry of a matrix, row by row.
-std::vector<double> evaluate(const SymbolicModel& model, const GiNaC::matrix& m, const std::vector<double>& q,
-                             const std::vector<double>& qd, const std::vector<double>& params = {});
+std::vector<double> evaluate(const SymbolicModel& model, const GiNaC::matrix& m,
+                             const std::vector<double>& q, const std::vector<double>& qd,
+                             const std::vector<double>& params = {});
 
 }  // namespace spacearm

@@ -66,7 +66,8 @@ std::vector<std::string> split_flags(const std::string& flags) {
 // Identity of the running generator: a hash of its own executable, so that a rebuilt
 // generator (which may emit different code under the same version number) gets new entries.
 const std::string& generator_identity() {
-  static const std::string id = sha256_hex(read_file("/proc/self/exe")) + "-abi" + std::to_string(kCInterfaceVersion);
+  static const std::string id =
+      sha256_hex(read_file("/proc/self/exe")) + "-abi" + std::to_string(kCInterfaceVersion);
   return id;
 }
 
@@ -84,10 +85,16 @@ std::vector<std::string> exported_functions(const Scene& scene) {
 
 // The C symbols a library must export for `scene` (checked before anything is called).
 std::vector<std::string> required_symbols(const Scene& scene) {
-  std::vector<std::string> names = {"spacearm_abi_version",    "spacearm_nq",         "spacearm_nv",
-                                    "spacearm_num_links",      "spacearm_num_params", "spacearm_coordinate_name",
-                                    "spacearm_parameter_name", "spacearm_nominal_parameter",
-                                    "spacearm_outputs",        "spacearm_parameter_error"};
+  std::vector<std::string> names = {"spacearm_abi_version",
+                                    "spacearm_nq",
+                                    "spacearm_nv",
+                                    "spacearm_num_links",
+                                    "spacearm_num_params",
+                                    "spacearm_coordinate_name",
+                                    "spacearm_parameter_name",
+                                    "spacearm_nominal_parameter",
+                                    "spacearm_outputs",
+                                    "spacearm_parameter_error"};
   for (const auto& f : exported_functions(scene)) names.push_back("spacearm_" + f);
   return names;
 }
@@ -100,8 +107,8 @@ unsigned long output_mask(const Scene& scene) {
 
 // Generates and compiles the scene into a new work folder; returns it, ready to install.
 std::string build_entry(const Scene& scene, const CacheFolder& cache, const std::string& entry,
-                        const std::string& compiler, const std::string& compiler_id, const CompileOptions& options,
-                        StageReport& rep) {
+                        const std::string& compiler, const std::string& compiler_id,
+                        const CompileOptions& options, StageReport& rep) {
   auto say = [&](const std::string& m) {
     if (options.progress) options.progress(m);
   };
@@ -127,7 +134,8 @@ std::string build_entry(const Scene& scene, const CacheFolder& cache, const std:
     std::vector<std::string> argv{compiler};
     for (const auto& f : split_flags(options.flags)) argv.push_back(f);
     for (const std::string& a : {"-I" + std::string(SPACEARM_EIGEN_INCLUDE_DIR), "-I" + work,
-                                work + "/" + emitted.source_name, work + "/c_api.cpp", std::string("-o"), work + "/libmodel.so"})
+                                 work + "/" + emitted.source_name, work + "/c_api.cpp",
+                                 std::string("-o"), work + "/libmodel.so"})
       argv.push_back(a);
     std::string shown;
     for (const auto& a : argv) shown += (shown.empty() ? "" : " ") + a;
@@ -149,7 +157,8 @@ std::string build_entry(const Scene& scene, const CacheFolder& cache, const std:
     // The marker, written last, records the library's SHA-256 on its first line.
     write_file(fs::path(work) / "COMPLETE",
                "sha256 " + sha256_hex(read_file(fs::path(work) / "libmodel.so")) + "\ngenerator " +
-                   kGeneratorVersion + "\ncompiler " + compiler_id + "\nflags " + options.flags + "\n");
+                   kGeneratorVersion + "\ncompiler " + compiler_id + "\nflags " + options.flags +
+                   "\n");
     return work;
   } catch (...) {
     std::error_code ec;
@@ -166,10 +175,12 @@ std::string cache_directory(const CompileOptions& options) {
   if (const char* d = std::getenv("XDG_CACHE_HOME"); d && *d) return std::string(d) + "/spacearm";
   if (const char* h = std::getenv("HOME"); h && *h) return std::string(h) + "/.cache/spacearm";
   throw CompileError(
-      "no cache folder for compiled models: set HOME, XDG_CACHE_HOME or SPACEARM_CACHE_DIR, or pass --cache-dir");
+      "no cache folder for compiled models: set HOME, XDG_CACHE_HOME or SPACEARM_CACHE_DIR, or "
+      "pass --cache-dir");
 }
 
-CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& options, StageReport* report) {
+CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& options,
+                                  StageReport* report) {
   StageReport local;
   StageReport& rep = report ? *report : local;
   auto say = [&](const std::string& m) {
@@ -178,14 +189,17 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
   const CacheFolder cache(cache_directory(options));
   cache.remove_stale_work();
   std::string compiler = options.compiler;
-  if (compiler.empty()) compiler = std::getenv("CXX") && *std::getenv("CXX") ? std::getenv("CXX") : "c++";
-  const std::string compiler_id =
-      compiler_identity(compiler, cache.path() + "/.tmp-" + std::to_string(getpid()) + "-compiler-version");
-  if (compiler_id.empty()) throw CompileError("C++ compiler '" + compiler + "' not found (set CXX)");
+  if (compiler.empty())
+    compiler = std::getenv("CXX") && *std::getenv("CXX") ? std::getenv("CXX") : "c++";
+  const std::string compiler_id = compiler_identity(
+      compiler, cache.path() + "/.tmp-" + std::to_string(getpid()) + "-compiler-version");
+  if (compiler_id.empty())
+    throw CompileError("C++ compiler '" + compiler + "' not found (set CXX)");
 
-  const std::string key = sha256_hex(scene.content + '\0' + kGeneratorVersion + '\0' + generator_identity() +
-                                     '\0' + compiler_id + '\0' + options.flags + '\0' + SPACEARM_EIGEN_INCLUDE_DIR)
-                              .substr(0, 32);
+  const std::string key =
+      sha256_hex(scene.content + '\0' + kGeneratorVersion + '\0' + generator_identity() + '\0' +
+                 compiler_id + '\0' + options.flags + '\0' + SPACEARM_EIGEN_INCLUDE_DIR)
+          .substr(0, 32);
   const std::string entry = scene.name + "-" + key;
   rep.cache_entry = cache.path() + "/" + entry;
 
@@ -196,12 +210,14 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
     Fd library = cache.open_library(entry, problem);
     if (!library.valid()) {
       if (attempt > 1 || (attempt == 1 && rep.compiled))
-        throw CompileError("cache entry '" + rep.cache_entry + "' is " + problem + " after a fresh build");
+        throw CompileError("cache entry '" + rep.cache_entry + "' is " + problem +
+                           " after a fresh build");
       if (problem != "absent") {
         say("cache entry " + rep.cache_entry + " is " + problem + ": rebuilding");
         cache.discard(entry);
       }
-      const std::string work = build_entry(scene, cache, entry, compiler, compiler_id, options, rep);
+      const std::string work =
+          build_entry(scene, cache, entry, compiler, compiler_id, options, rep);
       cache.install(work, entry);
       continue;
     }
@@ -217,7 +233,8 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
 
 // dlopen of the verified open file (through /proc/self/fd, so the bytes hashed are the
 // bytes mapped), then every symbol the scene needs is looked up before any is called.
-CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library, StageReport& rep, std::string& why) {
+CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library, StageReport& rep,
+                                           std::string& why) {
   const auto t0 = std::chrono::steady_clock::now();
   CompiledModel m;
   const std::string path = "/proc/self/fd/" + std::to_string(library.get());
@@ -256,8 +273,10 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
     m.parameter_names_.push_back(parameter(i));
     m.nominal_.push_back(nominal(i));
   }
-  m.parameter_error_ = reinterpret_cast<const char* (*)(const double*)>(sym("spacearm_parameter_error"));
-  for (const auto& f : exported_functions(scene)) m.functions_[f] = reinterpret_cast<Function>(sym("spacearm_" + f));
+  m.parameter_error_ =
+      reinterpret_cast<const char* (*)(const double*)>(sym("spacearm_parameter_error"));
+  for (const auto& f : exported_functions(scene))
+    m.functions_[f] = reinterpret_cast<Function>(sym("spacearm_" + f));
   rep.load_ms = ms_since(t0);
   return m;
 }
@@ -283,12 +302,12 @@ bool CompiledModel::has(Output o) const { return (outputs_ & output_bit(o)) != 0
 
 void CompiledModel::check(const char* what, const Eigen::VectorXd& v, int size) const {
   if (v.size() != size)
-    throw std::invalid_argument(std::string(what) + ": expected " + std::to_string(size) + " values, got " +
-                                std::to_string(v.size()));
+    throw std::invalid_argument(std::string(what) + ": expected " + std::to_string(size) +
+                                " values, got " + std::to_string(v.size()));
   for (int i = 0; i < size; ++i)
     if (!std::isfinite(v[i]))
-      throw std::invalid_argument(std::string(what) + "[" + std::to_string(i) + "] is not finite: " +
-                                  std::to_string(v[i]));
+      throw std::invalid_argument(std::string(what) + "[" + std::to_string(i) +
+                                  "] is not finite: " + std::to_string(v[i]));
 }
 
 // Calls an exported function with checked parameters; results sized by `shapes`.
@@ -307,12 +326,16 @@ std::vector<Eigen::MatrixXd> CompiledModel::call(const std::string& function,
   return results;
 }
 
-std::vector<Eigen::MatrixXd> CompiledModel::evaluate(Output o, const std::vector<Eigen::VectorXd>& inputs,
+std::vector<Eigen::MatrixXd> CompiledModel::evaluate(Output o,
+                                                     const std::vector<Eigen::VectorXd>& inputs,
                                                      const Eigen::VectorXd& params) const {
   const OutputInfo& out = info(o);
-  if (!has(o)) throw std::invalid_argument("the scene does not emit '" + std::string(out.name) + "' (add it to outputs)");
+  if (!has(o))
+    throw std::invalid_argument("the scene does not emit '" + std::string(out.name) +
+                                "' (add it to outputs)");
   if (inputs.size() != out.inputs.size())
-    throw std::invalid_argument(std::string(out.name) + " takes " + std::to_string(out.inputs.size()) + " inputs, got " +
+    throw std::invalid_argument(std::string(out.name) + " takes " +
+                                std::to_string(out.inputs.size()) + " inputs, got " +
                                 std::to_string(inputs.size()));
   std::vector<const double*> data;
   for (size_t i = 0; i < inputs.size(); ++i) {
@@ -324,7 +347,8 @@ std::vector<Eigen::MatrixXd> CompiledModel::evaluate(Output o, const std::vector
   return call(out.name, shapes, data, params);
 }
 
-Eigen::MatrixXd CompiledModel::mass_matrix(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const {
+Eigen::MatrixXd CompiledModel::mass_matrix(const Eigen::VectorXd& q,
+                                           const Eigen::VectorXd& params) const {
   return evaluate(Output::mass_matrix, {q}, params)[0];
 }
 Eigen::VectorXd CompiledModel::bias_forces(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
@@ -339,11 +363,13 @@ Eigen::Vector3d CompiledModel::momentum(const Eigen::VectorXd& q, const Eigen::V
                                         const Eigen::VectorXd& params) const {
   return evaluate(Output::momentum, {q, qd}, params)[0];
 }
-Eigen::Vector3d CompiledModel::end_effector_pose(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const {
+Eigen::Vector3d CompiledModel::end_effector_pose(const Eigen::VectorXd& q,
+                                                 const Eigen::VectorXd& params) const {
   return evaluate(Output::end_effector_pose, {q}, params)[0];
 }
 Eigen::VectorXd CompiledModel::forward_dynamics(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
-                                                const Eigen::VectorXd& Q, const Eigen::VectorXd& params) const {
+                                                const Eigen::VectorXd& Q,
+                                                const Eigen::VectorXd& params) const {
   Eigen::VectorXd qdd, pivots, scaled_pivots;
   if (has(Output::forward_dynamics)) {
     const auto r = evaluate(Output::forward_dynamics, {q, qd, Q}, params);
@@ -354,7 +380,8 @@ Eigen::VectorXd CompiledModel::forward_dynamics(const Eigen::VectorXd& q, const 
     const Eigen::MatrixXd M = mass_matrix(q, params);
     check("Q", Q, dims_.nv);
     const Eigen::LLT<Eigen::MatrixXd> llt(M);
-    if (llt.info() != Eigen::Success) throw DynamicsError("model " + name_ + ": mass matrix is not positive definite");
+    if (llt.info() != Eigen::Success)
+      throw DynamicsError("model " + name_ + ": mass matrix is not positive definite");
     llt_pivots(llt, M, pivots, scaled_pivots);
     qdd = llt.solve(Q - bias_forces(q, qd, params));
   }

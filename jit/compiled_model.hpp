@@ -18,10 +18,11 @@
 namespace spacearm {
 
 struct CompileOptions {
-  std::string cache_dir;  // empty: $SPACEARM_CACHE_DIR, else $XDG_CACHE_HOME/spacearm, else ~/.cache/spacearm
+  std::string cache_dir;  // empty: $SPACEARM_CACHE_DIR, else $XDG_CACHE_HOME/spacearm, else
+                          // ~/.cache/spacearm
   std::string compiler;   // empty: $CXX, else c++ (one program, run without a shell)
   std::string flags = "-O2 -std=c++17 -fPIC -shared";  // split at spaces
-  std::function<void(const std::string&)> progress;  // stage messages (may be empty)
+  std::function<void(const std::string&)> progress;    // stage messages (may be empty)
 };
 
 // What a load did, stage by stage (for --verbose and for the cache tests).
@@ -34,7 +35,8 @@ struct StageReport {
 // A generated model loaded from a shared library, with a dynamic-size interface.
 class CompiledModel {
  public:
-  static CompiledModel load(const Scene& scene, const CompileOptions& options, StageReport* report = nullptr);
+  static CompiledModel load(const Scene& scene, const CompileOptions& options,
+                            StageReport* report = nullptr);
   ~CompiledModel();
   CompiledModel(CompiledModel&&) noexcept;
   CompiledModel& operator=(CompiledModel&&) noexcept;
@@ -56,15 +58,18 @@ class CompiledModel {
                                         const Eigen::VectorXd& params) const;
   // Shorthands of evaluate() for the outputs the simulate command reads.
   Eigen::MatrixXd mass_matrix(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const;
-  Eigen::VectorXd bias_forces(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& params) const;
-  double kinetic_energy(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& params) const;
-  Eigen::Vector3d momentum(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& params) const;
+  Eigen::VectorXd bias_forces(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                              const Eigen::VectorXd& params) const;
+  double kinetic_energy(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                        const Eigen::VectorXd& params) const;
+  Eigen::Vector3d momentum(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                           const Eigen::VectorXd& params) const;
   Eigen::Vector3d end_effector_pose(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const;
   Eigen::VectorXd gear_ratios(const Eigen::VectorXd& params) const;
   // qdd = M^-1 (Q - b): the emitted solve if the scene has forward_dynamics, else a Cholesky
   // factorization of M; with the checks of runtime/dynamics_checks.hpp (DynamicsError).
-  Eigen::VectorXd forward_dynamics(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& Q,
-                                   const Eigen::VectorXd& params) const;
+  Eigen::VectorXd forward_dynamics(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                                   const Eigen::VectorXd& Q, const Eigen::VectorXd& params) const;
 
  private:
   CompiledModel() = default;
@@ -77,10 +82,13 @@ class CompiledModel {
   const char* (*parameter_error_)(const double*) = nullptr;
   std::vector<std::string> coordinate_names_, parameter_names_;
   std::vector<double> nominal_;
-  static CompiledModel open_verified(const Scene& scene, const Fd& library, StageReport& rep, std::string& why);
+  static CompiledModel open_verified(const Scene& scene, const Fd& library, StageReport& rep,
+                                     std::string& why);
   void check(const char* what, const Eigen::VectorXd& v, int size) const;
-  std::vector<Eigen::MatrixXd> call(const std::string& function, const std::vector<std::pair<Size, Size>>& shapes,
-                                    const std::vector<const double*>& inputs, const Eigen::VectorXd& params) const;
+  std::vector<Eigen::MatrixXd> call(const std::string& function,
+                                    const std::vector<std::pair<Size, Size>>& shapes,
+                                    const std::vector<const double*>& inputs,
+                                    const Eigen::VectorXd& params) const;
 };
 
 // The cache folder in use: options.cache_dir, else $SPACEARM_CACHE_DIR, else

@@ -52,9 +52,10 @@ std::string errno_text() { return std::strerror(errno); }
 // Refuses what another user could have written: not ours, or writable by group or others.
 void check_owned(const struct stat& st, const std::string& path, const char* what) {
   if (st.st_uid != geteuid())
-    throw CompileError(std::string(what) + " '" + path + "' is owned by user " + std::to_string(st.st_uid) +
-                       ", not by you (user " + std::to_string(geteuid()) +
-                       "): refusing to use it; remove it or choose another cache folder (--cache-dir)");
+    throw CompileError(
+        std::string(what) + " '" + path + "' is owned by user " + std::to_string(st.st_uid) +
+        ", not by you (user " + std::to_string(geteuid()) +
+        "): refusing to use it; remove it or choose another cache folder (--cache-dir)");
   if (st.st_mode & (S_IWGRP | S_IWOTH)) {
     char mode[8];
     std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
@@ -76,9 +77,11 @@ Fd open_checked(int dir, const std::string& name, bool directory, const std::str
     throw CompileError("cache: cannot open '" + shown + "': " + errno_text());
   }
   struct stat st;
-  if (::fstat(fd.get(), &st) != 0) throw CompileError("cache: cannot stat '" + shown + "': " + errno_text());
+  if (::fstat(fd.get(), &st) != 0)
+    throw CompileError("cache: cannot stat '" + shown + "': " + errno_text());
   if (directory ? !S_ISDIR(st.st_mode) : !S_ISREG(st.st_mode))
-    throw CompileError("cache: '" + shown + "' is not a regular " + (directory ? "folder" : "file"));
+    throw CompileError("cache: '" + shown + "' is not a regular " +
+                       (directory ? "folder" : "file"));
   check_owned(st, shown, directory ? "cache entry" : "cache file");
   return fd;
 }
@@ -121,17 +124,20 @@ namespace {
 // for a link while spacearm writes into it by path.
 void check_ancestors(const std::string& path) {
   char resolved[PATH_MAX];
-  if (!::realpath(path.c_str(), resolved)) throw CompileError("cache folder '" + path + "': " + errno_text());
+  if (!::realpath(path.c_str(), resolved))
+    throw CompileError("cache folder '" + path + "': " + errno_text());
   for (fs::path p = fs::path(resolved).parent_path();; p = p.parent_path()) {
     struct stat st;
-    if (::lstat(p.c_str(), &st) != 0) throw CompileError("cache folder '" + path + "': cannot stat " + p.string());
+    if (::lstat(p.c_str(), &st) != 0)
+      throw CompileError("cache folder '" + path + "': cannot stat " + p.string());
     const bool owner_ok = st.st_uid == 0 || st.st_uid == geteuid();
     const bool others_write = (st.st_mode & (S_IWGRP | S_IWOTH)) && !(st.st_mode & S_ISVTX);
     if (!owner_ok || others_write)
-      throw CompileError("cache folder '" + path + "': the folder above it, '" + p.string() + "', is " +
-                         (!owner_ok ? "owned by user " + std::to_string(st.st_uid)
-                                    : std::string("writable by others and not sticky")) +
-                         ", so another user could replace the cache: choose a cache folder inside one of yours");
+      throw CompileError(
+          "cache folder '" + path + "': the folder above it, '" + p.string() + "', is " +
+          (!owner_ok ? "owned by user " + std::to_string(st.st_uid)
+                     : std::string("writable by others and not sticky")) +
+          ", so another user could replace the cache: choose a cache folder inside one of yours");
     if (p == p.root_path()) return;
   }
 }
@@ -151,7 +157,8 @@ CacheFolder::CacheFolder(const std::string& given) : path_(given) {
                        (error == ELOOP ? " (a symbolic link: give its target instead)" : ""));
   }
   struct stat st;
-  if (::fstat(fd_.get(), &st) != 0) throw CompileError("cache folder '" + path + "': " + errno_text());
+  if (::fstat(fd_.get(), &st) != 0)
+    throw CompileError("cache folder '" + path + "': " + errno_text());
   check_owned(st, path, "cache folder");
 }
 
@@ -187,7 +194,8 @@ void CacheFolder::discard(const std::string& entry) const {
 
 std::string CacheFolder::make_work_folder(const std::string& entry) const {
   std::string name = path_ + "/.tmp-" + std::to_string(getpid()) + "-" + entry + "-XXXXXX";
-  if (!::mkdtemp(name.data())) throw CompileError("cannot create a work folder in '" + path_ + "': " + errno_text());
+  if (!::mkdtemp(name.data()))
+    throw CompileError("cannot create a work folder in '" + path_ + "': " + errno_text());
   return name;
 }
 
@@ -198,7 +206,8 @@ bool CacheFolder::install(const std::string& work, const std::string& entry) con
   std::error_code ec;
   fs::remove_all(work, ec);
   if (error == EEXIST || error == ENOTEMPTY) return false;  // another process won the race
-  throw CompileError("cannot install cache entry '" + path_ + "/" + entry + "': " + std::strerror(error));
+  throw CompileError("cannot install cache entry '" + path_ + "/" + entry +
+                     "': " + std::strerror(error));
 }
 
 std::string CacheFolder::keep_failed(const std::string& work, const std::string& entry) const {
@@ -265,7 +274,8 @@ int run_interruptible(const std::vector<std::string>& argv, const std::string& l
   args.push_back(nullptr);
   // Our handlers while the compiler runs: a signal stops it instead of leaving it orphaned.
   // A signal the caller ignores (a background job's SIGINT) stays ignored.
-  struct sigaction ours {}, old_int {}, old_term {};
+  struct sigaction ours {
+  }, old_int{}, old_term{};
   ours.sa_handler = note_signal;
   sigemptyset(&ours.sa_mask);
   g_signal = 0;
@@ -295,7 +305,8 @@ int run_interruptible(const std::vector<std::string>& argv, const std::string& l
     return -2;  // a handler of the caller's took the signal
   }
   if (spawned != 0 || (WIFEXITED(status) && WEXITSTATUS(status) == 127)) return -1;  // not started
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status)
+                           : 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
 }
 
 }  // namespace spacearm

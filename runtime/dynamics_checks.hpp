@@ -29,16 +29,18 @@ inline constexpr double kMaxScaledCondition = 1e14;
 // without any loss of accuracy. max/min of the scaled pivots is a cheap lower bound of
 // cond(S M S); past kMaxScaledCondition no digit of the solve is left.
 template <class Pivots, class Acceleration>
-void check_forward_dynamics(const Pivots& pivots, const Pivots& scaled_pivots, const Acceleration& qdd,
-                            const std::string& model_name) {
+void check_forward_dynamics(const Pivots& pivots, const Pivots& scaled_pivots,
+                            const Acceleration& qdd, const std::string& model_name) {
   if (!pivots.allFinite() || !scaled_pivots.allFinite() || !(pivots.minCoeff() > 0))
     throw DynamicsError("model " + model_name + ": mass matrix is not positive definite");
   const double lo = scaled_pivots.minCoeff(), hi = scaled_pivots.maxCoeff();
   if (!(hi / lo < kMaxScaledCondition))
-    throw DynamicsError("model " + model_name +
-                        ": mass matrix numerically singular (condition number of the diagonally scaled matrix >= " +
-                        std::to_string(hi / lo) + ")");
-  if (!qdd.allFinite()) throw DynamicsError("model " + model_name + ": accelerations not finite (overflow)");
+    throw DynamicsError(
+        "model " + model_name +
+        ": mass matrix numerically singular (condition number of the diagonally scaled matrix >= " +
+        std::to_string(hi / lo) + ")");
+  if (!qdd.allFinite())
+    throw DynamicsError("model " + model_name + ": accelerations not finite (overflow)");
 }
 
 // The pivots D_i = L_ii^2 and D_i / M_ii of a Cholesky factorization M = L L^T, for the

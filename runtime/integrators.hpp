@@ -32,22 +32,27 @@ inline Method method_from_string(const std::string& name) {
   if (name == "dopri5") return Method::dopri5;
   if (name == "rkf78") return Method::rkf78;
   if (name == "implicit_midpoint") return Method::implicit_midpoint;
-  throw std::invalid_argument("unknown integrator '" + name + "' (known: rk4, dopri5, rkf78, implicit_midpoint)");
+  throw std::invalid_argument("unknown integrator '" + name +
+                              "' (known: rk4, dopri5, rkf78, implicit_midpoint)");
 }
 inline std::string to_string(Method m) {
   switch (m) {
-    case Method::rk4: return "rk4";
-    case Method::dopri5: return "dopri5";
-    case Method::rkf78: return "rkf78";
-    case Method::implicit_midpoint: return "implicit_midpoint";
+    case Method::rk4:
+      return "rk4";
+    case Method::dopri5:
+      return "dopri5";
+    case Method::rkf78:
+      return "rkf78";
+    case Method::implicit_midpoint:
+      return "implicit_midpoint";
   }
   return "?";
 }
 
 struct IntegratorOptions {
   Method method = Method::rk4;
-  double dt = 0.01;      // step of the fixed-step methods
-  double rtol = 1e-8;    // tolerances of the adaptive methods
+  double dt = 0.01;    // step of the fixed-step methods
+  double rtol = 1e-8;  // tolerances of the adaptive methods
   double atol = 1e-10;
   // > 0: the adaptive methods also land on t0 + k * breakpoint_interval, so that no step
   // straddles a point where the right-hand side has a kink (e.g. torque samples joined by
@@ -122,8 +127,8 @@ inline bool below_minimum_step(double dt, double t, double t0, double t1) {
 // Integrates dx/dt = f(x, t) from t0 to t1, calling observe(x, t) at t0 + k * dt_out
 // (and at t1). The fixed-step methods need dt_out to be a multiple of opt.dt.
 template <class State, class System, class Observer>
-IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, double t0, double t1, double dt_out,
-                           Observer&& observe) {
+IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, double t0, double t1,
+                           double dt_out, Observer&& observe) {
   namespace odeint = boost::numeric::odeint;
   IntegrationStats stats;
   auto rhs = [&](const State& s, State& dsdt, double t) {
@@ -132,31 +137,37 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
   };
   const long outputs = std::lround((t1 - t0) / dt_out);
   if (outputs < 1 || std::abs(t0 + outputs * dt_out - t1) > 1e-9 * std::max(1.0, std::abs(t1)))
-    throw std::invalid_argument("integrate: (t1 - t0) = " + std::to_string(t1 - t0) +
-                                " must be a positive multiple of dt_out = " + std::to_string(dt_out));
+    throw std::invalid_argument(
+        "integrate: (t1 - t0) = " + std::to_string(t1 - t0) +
+        " must be a positive multiple of dt_out = " + std::to_string(dt_out));
   if (opt.method == Method::dopri5 || opt.method == Method::rkf78) {
     // As ode45 does: a relative tolerance below 100 ulps cannot be met in double precision.
     const double rtol_min = 100 * std::numeric_limits<double>::epsilon();
     if (!(opt.rtol >= rtol_min) || !std::isfinite(opt.rtol))
-      throw std::invalid_argument("integrate: rtol = " + detail::format(opt.rtol) + " must be at least " +
-                                  detail::format(rtol_min) + " (100 x machine epsilon)");
+      throw std::invalid_argument("integrate: rtol = " + detail::format(opt.rtol) +
+                                  " must be at least " + detail::format(rtol_min) +
+                                  " (100 x machine epsilon)");
     if (!(opt.atol >= 0) || !std::isfinite(opt.atol))
-      throw std::invalid_argument("integrate: atol = " + detail::format(opt.atol) + " must be >= 0");
+      throw std::invalid_argument("integrate: atol = " + detail::format(opt.atol) +
+                                  " must be >= 0");
     if (!(opt.breakpoint_interval >= 0) || !std::isfinite(opt.breakpoint_interval) ||
         !std::isfinite(opt.breakpoint_origin))
-      throw std::invalid_argument("integrate: breakpoint_interval = " + detail::format(opt.breakpoint_interval) +
-                                  " must be >= 0 (0: none), with a finite origin");
+      throw std::invalid_argument(
+          "integrate: breakpoint_interval = " + detail::format(opt.breakpoint_interval) +
+          " must be >= 0 (0: none), with a finite origin");
     // A grid that t cannot resolve, or one with more stops than any run can take, would
     // never finish: refuse it up front.
     const double every = opt.breakpoint_interval;
     const double span = std::min(t1, opt.breakpoint_end) - t0;
     if (every > 0 && span > 0 &&
         (detail::below_minimum_step(every, opt.breakpoint_origin, t0, t1) || span / every > 1e9))
-      throw std::invalid_argument("integrate: breakpoint_interval = " + detail::format(every) +
-                                  " (e.g. the torque grid's step) is too small for the time span [" +
-                                  detail::format(t0) + ", " + detail::format(t1) + "]");
+      throw std::invalid_argument(
+          "integrate: breakpoint_interval = " + detail::format(every) +
+          " (e.g. the torque grid's step) is too small for the time span [" + detail::format(t0) +
+          ", " + detail::format(t1) + "]");
     if (opt.method == Method::dopri5 && every == 0 && opt.step_begin)
-      throw std::invalid_argument("integrate: step_begin needs breakpoints with dopri5 (dense output)");
+      throw std::invalid_argument(
+          "integrate: step_begin needs breakpoints with dopri5 (dense output)");
   } else if (!(opt.dt > 0) || !std::isfinite(opt.dt)) {
     throw std::invalid_argument("integrate: dt = " + detail::format(opt.dt) + " must be positive");
   }
@@ -174,14 +185,16 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
   auto accept = [&](double t, const State& reached) {
     // A right-hand side that returns inf or NaN instead of throwing must not go on silently.
     if (!reached.allFinite())
-      throw detail::integration_error(opt.method, "state not finite after the step to t = " + detail::format(t),
-                                      t_ok, x_ok);
+      throw detail::integration_error(
+          opt.method, "state not finite after the step to t = " + detail::format(t), t_ok, x_ok);
     t_ok = t;
     x_ok = reached;
   };
   auto step_too_small = [&](double dt) {
     return detail::integration_error(
-        opt.method, "step size " + detail::format(dt) + " below the minimum, tolerance cannot be met", t_ok, x_ok);
+        opt.method,
+        "step size " + detail::format(dt) + " below the minimum, tolerance cannot be met", t_ok,
+        x_ok);
   };
   // Controlled steps that land on every output time and breakpoint; the step size the
   // controller chose is kept across them (a step shortened to land does not shrink the next).
@@ -205,11 +218,11 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
         double step = clamped ? stop - t : dt;
         // A stop that rounding puts on t itself would give steps of zero, forever.
         if (detail::below_minimum_step(step, t, t0, t1))
-          throw detail::integration_error(opt.method,
-                                          "no progress: the next stop at t = " + detail::format(stop) +
-                                              " is within rounding of t (breakpoint interval " +
-                                              detail::format(every) + ")",
-                                          t_ok, x_ok);
+          throw detail::integration_error(
+              opt.method,
+              "no progress: the next stop at t = " + detail::format(stop) +
+                  " is within rounding of t (breakpoint interval " + detail::format(every) + ")",
+              t_ok, x_ok);
         if (opt.step_begin) opt.step_begin(t, clamped ? stop : t + step);
         if (stepper.try_step(rhs, x, t, step) == odeint::success) {
           if (clamped) {
@@ -221,7 +234,8 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
           dt = clamped ? std::max(natural, step) : step;
         } else {
           dt = step;
-          if (++rejected > 500 || detail::below_minimum_step(dt, t, t0, t1)) throw step_too_small(dt);
+          if (++rejected > 500 || detail::below_minimum_step(dt, t, t0, t1))
+            throw step_too_small(dt);
         }
       }
       t = t_out;
@@ -229,73 +243,79 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
     }
   };
   try {
-  switch (opt.method) {
-    case Method::rk4: {
-      const long per = check_fixed();
-      odeint::runge_kutta4<State, double, State, double, odeint::vector_space_algebra> stepper;
-      for (long k = 0; k < outputs; ++k) {
-        for (long s = 0; s < per; ++s) {
-          const double t = t0 + (k * per + s) * opt.dt;
-          if (opt.step_begin) opt.step_begin(t, t + opt.dt);
-          stepper.do_step(rhs, x, t, opt.dt);
-          accept(t0 + (k * per + s + 1) * opt.dt, x);
+    switch (opt.method) {
+      case Method::rk4: {
+        const long per = check_fixed();
+        odeint::runge_kutta4<State, double, State, double, odeint::vector_space_algebra> stepper;
+        for (long k = 0; k < outputs; ++k) {
+          for (long s = 0; s < per; ++s) {
+            const double t = t0 + (k * per + s) * opt.dt;
+            if (opt.step_begin) opt.step_begin(t, t + opt.dt);
+            stepper.do_step(rhs, x, t, opt.dt);
+            accept(t0 + (k * per + s + 1) * opt.dt, x);
+          }
+          observe(x, t0 + (k + 1) * dt_out);
         }
-        observe(x, t0 + (k + 1) * dt_out);
+        break;
       }
-      break;
-    }
-    case Method::dopri5: {
-      if (opt.breakpoint_interval > 0) {
-        auto stepper = odeint::make_controlled(
-            opt.atol, opt.rtol, odeint::runge_kutta_dopri5<State, double, State, double, odeint::vector_space_algebra>());
+      case Method::dopri5: {
+        if (opt.breakpoint_interval > 0) {
+          auto stepper =
+              odeint::make_controlled(opt.atol, opt.rtol,
+                                      odeint::runge_kutta_dopri5<State, double, State, double,
+                                                                 odeint::vector_space_algebra>());
+          controlled_steps(stepper);
+          break;
+        }
+        // Dense output: steps of the controller's own size, states at the outputs by the
+        // method's continuous extension.
+        auto stepper =
+            odeint::make_dense_output(opt.atol, opt.rtol,
+                                      odeint::runge_kutta_dopri5<State, double, State, double,
+                                                                 odeint::vector_space_algebra>());
+        stepper.initialize(x, t0, std::min(dt_out, 0.01));
+        State out = x;
+        for (long k = 1; k <= outputs; ++k) {
+          const double t_out = t0 + k * dt_out;
+          while (stepper.current_time() < t_out) {
+            // No step past t1: its stages would evaluate the right-hand side beyond the span
+            // (e.g. past the last torque sample), and the outputs interpolate that step.
+            const double left = t1 - stepper.current_time();
+            if (stepper.current_time_step() > left)
+              stepper.initialize(State(stepper.current_state()), stepper.current_time(), left);
+            stepper.do_step(rhs);  // odeint throws step_adjustment_error after 500 rejections
+            accept(stepper.current_time(), stepper.current_state());
+            if (detail::below_minimum_step(stepper.current_time_step(), t_ok, t0, t1))
+              throw step_too_small(stepper.current_time_step());
+          }
+          stepper.calc_state(t_out, out);
+          observe(out, t_out);
+        }
+        x = out;
+        break;
+      }
+      case Method::rkf78: {
+        auto stepper =
+            odeint::make_controlled(opt.atol, opt.rtol,
+                                    odeint::runge_kutta_fehlberg78<State, double, State, double,
+                                                                   odeint::vector_space_algebra>());
         controlled_steps(stepper);
         break;
       }
-      // Dense output: steps of the controller's own size, states at the outputs by the
-      // method's continuous extension.
-      auto stepper = odeint::make_dense_output(
-          opt.atol, opt.rtol, odeint::runge_kutta_dopri5<State, double, State, double, odeint::vector_space_algebra>());
-      stepper.initialize(x, t0, std::min(dt_out, 0.01));
-      State out = x;
-      for (long k = 1; k <= outputs; ++k) {
-        const double t_out = t0 + k * dt_out;
-        while (stepper.current_time() < t_out) {
-          // No step past t1: its stages would evaluate the right-hand side beyond the span
-          // (e.g. past the last torque sample), and the outputs interpolate that step.
-          const double left = t1 - stepper.current_time();
-          if (stepper.current_time_step() > left) stepper.initialize(State(stepper.current_state()), stepper.current_time(), left);
-          stepper.do_step(rhs);  // odeint throws step_adjustment_error after 500 rejections
-          accept(stepper.current_time(), stepper.current_state());
-          if (detail::below_minimum_step(stepper.current_time_step(), t_ok, t0, t1))
-            throw step_too_small(stepper.current_time_step());
+      case Method::implicit_midpoint: {
+        const long per = check_fixed();
+        for (long k = 0; k < outputs; ++k) {
+          for (long s = 0; s < per; ++s) {
+            const double t = t0 + (k * per + s) * opt.dt;
+            if (opt.step_begin) opt.step_begin(t, t + opt.dt);
+            implicit_midpoint_step(rhs, x, t, opt.dt);
+            accept(t0 + (k * per + s + 1) * opt.dt, x);
+          }
+          observe(x, t0 + (k + 1) * dt_out);
         }
-        stepper.calc_state(t_out, out);
-        observe(out, t_out);
+        break;
       }
-      x = out;
-      break;
     }
-    case Method::rkf78: {
-      auto stepper = odeint::make_controlled(
-          opt.atol, opt.rtol,
-          odeint::runge_kutta_fehlberg78<State, double, State, double, odeint::vector_space_algebra>());
-      controlled_steps(stepper);
-      break;
-    }
-    case Method::implicit_midpoint: {
-      const long per = check_fixed();
-      for (long k = 0; k < outputs; ++k) {
-        for (long s = 0; s < per; ++s) {
-          const double t = t0 + (k * per + s) * opt.dt;
-          if (opt.step_begin) opt.step_begin(t, t + opt.dt);
-          implicit_midpoint_step(rhs, x, t, opt.dt);
-          accept(t0 + (k * per + s + 1) * opt.dt, x);
-        }
-        observe(x, t0 + (k + 1) * dt_out);
-      }
-      break;
-    }
-  }
   } catch (const IntegrationError&) {
     x = x_ok;
     throw;
@@ -343,8 +363,8 @@ void implicit_midpoint_step(Rhs&& rhs, State& x, double t, double h) {
     }
     previous = size;
   }
-  throw std::runtime_error("implicit midpoint: Newton iteration did not converge at t = " + std::to_string(t) +
-                           " (step " + std::to_string(h) + ")");
+  throw std::runtime_error("implicit midpoint: Newton iteration did not converge at t = " +
+                           std::to_string(t) + " (step " + std::to_string(h) + ")");
 }
 
 }  // namespace spacearm

@@ -27,8 +27,8 @@ class Model {
   static constexpr int kNumParams = Generated::kNumParams;
   static constexpr bool kFreeFloating = Generated::kFreeFloating;
   static constexpr int kFirstJoint = kNv - kNumLinks;  // velocity index of joint 1
-  using Vector = Eigen::Matrix<double, kNq, 1>;     // configuration q
-  using Velocity = Eigen::Matrix<double, kNv, 1>;   // qd, qdd, generalized forces Q, bias b
+  using Vector = Eigen::Matrix<double, kNq, 1>;        // configuration q
+  using Velocity = Eigen::Matrix<double, kNv, 1>;      // qd, qdd, generalized forces Q, bias b
   using Matrix = Eigen::Matrix<double, kNv, kNv>;
   using Params = Eigen::Matrix<double, kNumParams, 1>;
   using JointVector = Eigen::Matrix<double, kNumLinks, 1>;
@@ -41,15 +41,17 @@ class Model {
   }
 
   static const char* name() { return Generated::kName; }
-  static const std::array<const char*, kNq>& coordinate_names() { return Generated::coordinate_names(); }
+  static const std::array<const char*, kNq>& coordinate_names() {
+    return Generated::coordinate_names();
+  }
 
   const Params& parameters() const { return params_; }
   void set_parameter(const std::string& name, double value) {
     for (int i = 0; i < kNumParams; ++i)
       if (name == Generated::parameter_names()[i]) {
         if (!std::isfinite(value))
-          throw std::invalid_argument(std::string("model ") + Generated::kName + ": parameter '" + name +
-                                      "' must be finite, got " + std::to_string(value));
+          throw std::invalid_argument(std::string("model ") + Generated::kName + ": parameter '" +
+                                      name + "' must be finite, got " + std::to_string(value));
         const double previous = params_[i];
         params_[i] = value;
         try {
@@ -62,9 +64,10 @@ class Model {
         return;
       }
     std::string known;
-    for (int i = 0; i < kNumParams; ++i) known += (i ? ", " : "") + std::string(Generated::parameter_names()[i]);
-    throw std::invalid_argument(std::string("model ") + Generated::kName + ": unknown parameter '" + name +
-                                "' (known: " + (known.empty() ? "none" : known) + ")");
+    for (int i = 0; i < kNumParams; ++i)
+      known += (i ? ", " : "") + std::string(Generated::parameter_names()[i]);
+    throw std::invalid_argument(std::string("model ") + Generated::kName + ": unknown parameter '" +
+                                name + "' (known: " + (known.empty() ? "none" : known) + ")");
   }
 
   // dq/dt for velocity qd: the identity for every planar model (kNq == kNv). A base with a
@@ -90,7 +93,9 @@ class Model {
   void mass_matrix_and_bias(const Vector& q, const Velocity& qd, Matrix& M, Velocity& b) const {
     Generated::mass_matrix_and_bias(q, qd, params_, M, b);
   }
-  double kinetic_energy(const Vector& q, const Velocity& qd) const { return Generated::kinetic_energy(q, qd, params_); }
+  double kinetic_energy(const Vector& q, const Velocity& qd) const {
+    return Generated::kinetic_energy(q, qd, params_);
+  }
   Vector3 momentum(const Vector& q, const Velocity& qd) const {
     Vector3 h;
     Generated::momentum(q, qd, params_, h);
@@ -120,7 +125,8 @@ class Model {
   // DynamicsError on non-finite input, a mass matrix that is not positive definite or one
   // too ill-conditioned to solve (check_forward_dynamics).
   Velocity forward_dynamics(const Vector& q, const Velocity& qd, const Velocity& Q) const {
-    if (!q.allFinite() || !qd.allFinite() || !Q.allFinite()) throw DynamicsError(describe_non_finite(q, qd, Q));
+    if (!q.allFinite() || !qd.allFinite() || !Q.allFinite())
+      throw DynamicsError(describe_non_finite(q, qd, Q));
     Velocity qdd, pivots, scaled_pivots;
     if constexpr (Generated::kHas_forward_dynamics) {
       Generated::forward_dynamics(q, qd, Q, params_, qdd, pivots, scaled_pivots);
@@ -130,7 +136,8 @@ class Model {
       Generated::mass_matrix_and_bias(q, qd, params_, M, b);
       const Eigen::LLT<Matrix> llt(M);
       if (llt.info() != Eigen::Success)
-        throw DynamicsError(std::string("model ") + Generated::kName + ": mass matrix is not positive definite");
+        throw DynamicsError(std::string("model ") + Generated::kName +
+                            ": mass matrix is not positive definite");
       llt_pivots(llt, M, pivots, scaled_pivots);
       qdd = llt.solve(Q - b);
     }
@@ -163,15 +170,17 @@ class Model {
     Generated::gear_ratios(params_, ratios_);
     for (int i = 0; i < kNumLinks; ++i)
       if (!(ratios_[i] > 0))
-        throw std::invalid_argument(std::string("model ") + Generated::kName + ": gear ratio of joint " +
-                                    std::to_string(i + 1) + " must be positive, got " + std::to_string(ratios_[i]));
+        throw std::invalid_argument(std::string("model ") + Generated::kName +
+                                    ": gear ratio of joint " + std::to_string(i + 1) +
+                                    " must be positive, got " + std::to_string(ratios_[i]));
   }
 
   static std::string describe_non_finite(const Vector& q, const Velocity& qd, const Velocity& Q) {
     std::ostringstream msg;
     msg << "model " << Generated::kName << ": non-finite input";
     for (int i = 0; i < kNq; ++i)
-      if (!std::isfinite(q[i])) msg << " q[" << i << "] (" << Generated::coordinate_names()[i] << ") = " << q[i];
+      if (!std::isfinite(q[i]))
+        msg << " q[" << i << "] (" << Generated::coordinate_names()[i] << ") = " << q[i];
     for (int i = 0; i < kNv; ++i) {
       if (!std::isfinite(qd[i])) msg << " qd[" << i << "] = " << qd[i];
       if (!std::isfinite(Q[i])) msg << " Q[" << i << "] = " << Q[i];

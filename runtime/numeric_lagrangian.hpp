@@ -92,13 +92,18 @@ class NumericLagrangian {
   double kinetic_energy(const Vector& q, const Vector& qd) const {
     const BodyState s = bodies(q, qd);
     double T = 0;
-    if (c_.free_floating) T += 0.5 * c_.base_mass * s.com_velocity[0].squaredNorm() + 0.5 * c_.base_inertia * s.rate[0] * s.rate[0];
+    if (c_.free_floating)
+      T += 0.5 * c_.base_mass * s.com_velocity[0].squaredNorm() +
+           0.5 * c_.base_inertia * s.rate[0] * s.rate[0];
     for (size_t i = 0; i < c_.links.size(); ++i) {
       const auto& link = c_.links[i];
       double inertia = link.inertia;
-      if (!c_.gears.empty() && c_.gears[i].compensate_link_inertia) inertia -= c_.gears[i].motor_inertia;
-      T += 0.5 * link.mass * s.com_velocity[i + 1].squaredNorm() + 0.5 * inertia * s.rate[i + 1] * s.rate[i + 1];
-      if (!c_.gears.empty()) T += 0.5 * c_.gears[i].motor_inertia * s.motor_rate[i] * s.motor_rate[i];
+      if (!c_.gears.empty() && c_.gears[i].compensate_link_inertia)
+        inertia -= c_.gears[i].motor_inertia;
+      T += 0.5 * link.mass * s.com_velocity[i + 1].squaredNorm() +
+           0.5 * inertia * s.rate[i + 1] * s.rate[i + 1];
+      if (!c_.gears.empty())
+        T += 0.5 * c_.gears[i].motor_inertia * s.motor_rate[i] * s.motor_rate[i];
     }
     return T;
   }
@@ -172,12 +177,15 @@ class NumericLagrangian {
     const double c = std::cos(angle), s = std::sin(angle);
     return {c * v.x() - s * v.y(), s * v.x() + c * v.y()};
   }
-  static Eigen::Vector2d cross(double omega, const Eigen::Vector2d& r) { return {-omega * r.y(), omega * r.x()}; }
+  static Eigen::Vector2d cross(double omega, const Eigen::Vector2d& r) {
+    return {-omega * r.y(), omega * r.x()};
+  }
 
   void check(const Vector& q, const Vector& qd) const {
     if (q.size() != n() || qd.size() != n())
-      throw std::invalid_argument("NumericLagrangian: expected q and qd of size " + std::to_string(n()) + ", got " +
-                                  std::to_string(q.size()) + " and " + std::to_string(qd.size()));
+      throw std::invalid_argument("NumericLagrangian: expected q and qd of size " +
+                                  std::to_string(n()) + ", got " + std::to_string(q.size()) +
+                                  " and " + std::to_string(qd.size()));
   }
 };
 

@@ -32,8 +32,8 @@ struct Trajectory {
 template <class G>
 void simulate(Trajectory<G>& traj, const Model<G>& model, const typename Model<G>::Vector& q0,
               const typename Model<G>::Velocity& qd0,
-              const std::function<typename Model<G>::JointVector(double)>& tau, double t_end, double dt_out,
-              const IntegratorOptions& options) {
+              const std::function<typename Model<G>::JointVector(double)>& tau, double t_end,
+              double dt_out, const IntegratorOptions& options) {
   using M = Model<G>;
   constexpr int nq = M::kNq, nv = M::kNv;
   using State = Eigen::Matrix<double, nq + nv, 1>;  // (q, qd)
@@ -62,7 +62,9 @@ void simulate(Trajectory<G>& traj, const Model<G>& model, const typename Model<G
     traj.kinetic_energy.push_back(model.kinetic_energy(q, qd));
     traj.condition_number.push_back(model.condition_number(q));
     const double power = model.generalized_forces(tau(t)).dot(qd);
-    traj.work.push_back(traj.work.empty() ? 0.0 : traj.work.back() + 0.5 * (power + power_prev) * (t - traj.t[traj.t.size() - 2]));
+    traj.work.push_back(traj.work.empty() ? 0.0
+                                          : traj.work.back() + 0.5 * (power + power_prev) *
+                                                                   (t - traj.t[traj.t.size() - 2]));
     power_prev = power;
   };
   traj.stats = integrate(options, f, x, 0.0, t_end, dt_out, observe);
@@ -85,10 +87,11 @@ class TorqueReplay {
       return std::abs(x / of - std::round(x / of)) <= 1e-9 * std::max(1.0, x / of);
     };
     if (hold_ && fixed && !(multiple(tau.dt(), options.dt) && multiple(tau.t_first(), options.dt)))
-      throw std::invalid_argument("a held torque with " + to_string(options.method) +
-                                  " needs the torque samples' interval (" + std::to_string(tau.dt()) +
-                                  " s) to be a multiple of " + step_name + " (" + std::to_string(options.dt) +
-                                  " s), and their first time too, so that no step straddles a sample");
+      throw std::invalid_argument(
+          "a held torque with " + to_string(options.method) +
+          " needs the torque samples' interval (" + std::to_string(tau.dt()) +
+          " s) to be a multiple of " + step_name + " (" + std::to_string(options.dt) +
+          " s), and their first time too, so that no step straddles a sample");
     options.breakpoint_interval = tau.dt();
     options.breakpoint_origin = tau.t_first();
     options.breakpoint_end = tau.t_last();
@@ -115,17 +118,19 @@ class TorqueReplay {
 // Replays sampled torques (see TorqueReplay).
 template <class G, int N>
 void simulate(Trajectory<G>& traj, const Model<G>& model, const typename Model<G>::Vector& q0,
-              const typename Model<G>::Velocity& qd0, const TorqueSignal<N>& tau, double t_end, double dt_out,
-              IntegratorOptions options) {
+              const typename Model<G>::Velocity& qd0, const TorqueSignal<N>& tau, double t_end,
+              double dt_out, IntegratorOptions options) {
   const TorqueReplay<N> replay(tau, options, "the step dt");
-  const std::function<typename Model<G>::JointVector(double)> torque = [&](double t) { return replay(t); };
+  const std::function<typename Model<G>::JointVector(double)> torque = [&](double t) {
+    return replay(t);
+  };
   simulate(traj, model, q0, qd0, torque, t_end, dt_out, options);
 }
 
 template <class G, class Torque>
 Trajectory<G> simulate(const Model<G>& model, const typename Model<G>::Vector& q0,
-                       const typename Model<G>::Velocity& qd0,
-                       const Torque& tau, double t_end, double dt_out, const IntegratorOptions& options) {
+                       const typename Model<G>::Velocity& qd0, const Torque& tau, double t_end,
+                       double dt_out, const IntegratorOptions& options) {
   Trajectory<G> traj;
   simulate(traj, model, q0, qd0, tau, t_end, dt_out, options);  // a TorqueSignal or a function of t
   return traj;

@@ -22,7 +22,7 @@
 namespace spacearm {
 
 struct TorqueTable {
-  double t0 = 0, dt = 0;                // uniform grid: t_k = t0 + k dt
+  double t0 = 0, dt = 0;                 // uniform grid: t_k = t0 + k dt
   std::vector<Eigen::VectorXd> samples;  // tau at t_k, one value per joint
   double t_last() const { return t0 + dt * static_cast<double>(samples.size() - 1); }
 };
@@ -33,7 +33,8 @@ inline std::vector<std::string> split_csv_line(const std::string& line) {
   size_t start = 0;
   for (;;) {
     const size_t comma = line.find(',', start);
-    std::string f = line.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    std::string f =
+        line.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
     const size_t a = f.find_first_not_of(" \t"), b = f.find_last_not_of(" \t");
     fields.push_back(a == std::string::npos ? "" : f.substr(a, b - a + 1));
     if (comma == std::string::npos) return fields;
@@ -49,10 +50,12 @@ inline std::vector<std::string> torque_csv_columns(int num_joints) {
   return names;
 }
 
-inline TorqueTable read_torque_csv(const std::string& text, int num_joints, const std::string& source) {
+inline TorqueTable read_torque_csv(const std::string& text, int num_joints,
+                                   const std::string& source) {
   const std::string where = "torque file '" + source + "'";
   auto fail = [&](long line, const std::string& what) -> std::invalid_argument {
-    return std::invalid_argument(where + (line > 0 ? " line " + std::to_string(line) : "") + ": " + what);
+    return std::invalid_argument(where + (line > 0 ? " line " + std::to_string(line) : "") + ": " +
+                                 what);
   };
   const std::vector<std::string> expected = torque_csv_columns(num_joints);
   std::string expected_list;
@@ -69,24 +72,27 @@ inline TorqueTable read_torque_csv(const std::string& text, int num_joints, cons
     if (line.find_first_not_of(" \t") != std::string::npos) lines.push_back({number, line});
     start = end + 1;
   }
-  if (lines.empty()) throw fail(0, "empty; expected a header " + expected_list + " and at least two rows");
+  if (lines.empty())
+    throw fail(0, "empty; expected a header " + expected_list + " and at least two rows");
 
   // Header: every expected name exactly once, nothing else.
   const auto header = detail::split_csv_line(lines[0].second);
   const long header_line = lines[0].first;
-  if (!header[0].empty() && (std::isdigit(static_cast<unsigned char>(header[0][0])) || header[0][0] == '-' ||
-                             header[0][0] == '+' || header[0][0] == '.'))
-    throw fail(header_line, "starts with data (" + quoted_text(header[0]) + "), not a header; add the header line " +
-                                expected_list);
+  if (!header[0].empty() && (std::isdigit(static_cast<unsigned char>(header[0][0])) ||
+                             header[0][0] == '-' || header[0][0] == '+' || header[0][0] == '.'))
+    throw fail(header_line, "starts with data (" + quoted_text(header[0]) +
+                                "), not a header; add the header line " + expected_list);
   std::map<std::string, size_t> column;
   for (size_t c = 0; c < header.size(); ++c) {
     if (std::find(expected.begin(), expected.end(), header[c]) == expected.end())
-      throw fail(header_line, "unknown column " + quoted_text(header[c]) + " (expected " + expected_list + ")");
+      throw fail(header_line,
+                 "unknown column " + quoted_text(header[c]) + " (expected " + expected_list + ")");
     if (!column.insert({header[c], c}).second)
       throw fail(header_line, "column " + quoted_text(header[c]) + " appears twice");
   }
   for (const auto& n : expected)
-    if (!column.count(n)) throw fail(header_line, "missing column '" + n + "' (expected " + expected_list + ")");
+    if (!column.count(n))
+      throw fail(header_line, "missing column '" + n + "' (expected " + expected_list + ")");
 
   // Rows.
   TorqueTable table;
@@ -96,31 +102,35 @@ inline TorqueTable read_torque_csv(const std::string& text, int num_joints, cons
     const std::string& line = lines[r].second;
     const auto fields = detail::split_csv_line(line);
     if (fields.size() != header.size())
-      throw fail(number, "expected " + std::to_string(header.size()) + " fields, got " + std::to_string(fields.size()));
+      throw fail(number, "expected " + std::to_string(header.size()) + " fields, got " +
+                             std::to_string(fields.size()));
     auto value = [&](const std::string& name) {
-      return parse_number(fields[column.at(name)], where + " line " + std::to_string(number) + ", column '" + name + "'");
+      return parse_number(fields[column.at(name)],
+                          where + " line " + std::to_string(number) + ", column '" + name + "'");
     };
     times.push_back(value("t"));
     Eigen::VectorXd tau(num_joints);
     for (int j = 0; j < num_joints; ++j) tau[j] = value(expected[j + 1]);
     table.samples.push_back(tau);
   }
-  if (times.size() < 2) throw fail(0, "needs at least two rows of samples, got " + std::to_string(times.size()));
+  if (times.size() < 2)
+    throw fail(0, "needs at least two rows of samples, got " + std::to_string(times.size()));
 
   // A uniform grid, with a step that t can still resolve (16 ulps of the largest time).
   table.t0 = times.front();
   table.dt = (times.back() - times.front()) / static_cast<double>(times.size() - 1);
   const double scale = std::max(std::abs(times.front()), std::abs(times.back()));
   if (!(table.dt > 16 * std::numeric_limits<double>::epsilon() * std::max(scale, 1e-300)))
-    throw fail(0, "time step " + std::to_string(table.dt) + " is not positive or too small to resolve at t = " +
-                      std::to_string(scale));
+    throw fail(0, "time step " + std::to_string(table.dt) +
+                      " is not positive or too small to resolve at t = " + std::to_string(scale));
   // Each step equal to the first, within what a decimal file with 7 digits can hold.
   const double first = times[1] - times[0];
   for (size_t k = 1; k < times.size(); ++k) {
     const double step = times[k] - times[k - 1];
     if (!(std::abs(step - first) <= 1e-6 * std::abs(first)))
-      throw fail(lines[k + 1].first, "time step " + std::to_string(step) + " differs from the first step " +
-                                         std::to_string(first) + " (the grid must be uniform)");
+      throw fail(lines[k + 1].first, "time step " + std::to_string(step) +
+                                         " differs from the first step " + std::to_string(first) +
+                                         " (the grid must be uniform)");
   }
   // Small steps that each pass can still add up: every time must sit on t0 + k dt.
   for (size_t k = 1; k < times.size(); ++k) {

@@ -30,7 +30,8 @@ inline Extrapolation extrapolation_from_string(const std::string& s) {
   if (s == "error") return Extrapolation::error;
   if (s == "hold") return Extrapolation::hold;
   if (s == "zero") return Extrapolation::zero;
-  throw std::invalid_argument("unknown torque extrapolation '" + s + "' (known: error, hold, zero)");
+  throw std::invalid_argument("unknown torque extrapolation '" + s +
+                              "' (known: error, hold, zero)");
 }
 
 template <int N>
@@ -79,9 +80,10 @@ class TorqueSignal {
     if (outside_ == Extrapolation::zero) return &zero_;
     if (outside_ == Extrapolation::hold) return s < 0 ? &samples_.front() : &samples_.back();
     // A runtime_error, so that an integrator reports it with the last accepted state.
-    throw std::runtime_error("torque requested at t = " + std::to_string(t) + " s, outside the samples [" +
-                            std::to_string(t_first()) + ", " + std::to_string(t_last()) +
-                            "] s (extrapolate with hold or zero to allow it)");
+    throw std::runtime_error("torque requested at t = " + std::to_string(t) +
+                             " s, outside the samples [" + std::to_string(t_first()) + ", " +
+                             std::to_string(t_last()) +
+                             "] s (extrapolate with hold or zero to allow it)");
   }
 };
 

@@ -37,7 +37,8 @@ inline Eigen::Vector3d time_law(TimeLaw law, double tau) {
   tau = std::clamp(tau, 0.0, 1.0);
   const double t2 = tau * tau, t3 = t2 * tau;
   if (law == TimeLaw::cubic) return {3 * t2 - 2 * t3, 6 * tau - 6 * t2, 6 - 12 * tau};
-  return {10 * t3 - 15 * t3 * tau + 6 * t3 * t2, 30 * t2 - 60 * t3 + 30 * t2 * t2, 60 * tau - 180 * t2 + 120 * t3};
+  return {10 * t3 - 15 * t3 * tau + 6 * t3 * t2, 30 * t2 - 60 * t3 + 30 * t2 * t2,
+          60 * tau - 180 * t2 + 120 * t3};
 }
 
 // What the planner reads of a model, at dynamic size. Coordinates are the model's own (motor
@@ -49,7 +50,8 @@ struct PlanningModel {
   Eigen::VectorXd gear_ratios;  // per joint: link-side torque = p * generalized force (eq. 14)
   std::function<Eigen::Vector3d(const Eigen::VectorXd& q)> end_effector_pose;
   std::function<Eigen::MatrixXd(const Eigen::VectorXd& q)> end_effector_jacobian;  // 3 x nv
-  std::function<void(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::MatrixXd& M, Eigen::VectorXd& b)>
+  std::function<void(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::MatrixXd& M,
+                     Eigen::VectorXd& b)>
       mass_matrix_and_bias;
   // Linear and angular momentum [Px, Py, L]; may be empty (then Plan::max_momentum is NaN).
   std::function<Eigen::Vector3d(const Eigen::VectorXd& q, const Eigen::VectorXd& qd)> momentum;
@@ -66,10 +68,14 @@ PlanningModel planning_model(const Model<G>& m) {
   pm.num_links = M::kNumLinks;
   pm.free_floating = M::kFreeFloating;
   pm.gear_ratios = m.gear_ratios();
-  pm.end_effector_pose = [&m](const Eigen::VectorXd& q) { return Eigen::Vector3d(m.end_effector_pose(q)); };
-  pm.end_effector_jacobian = [&m](const Eigen::VectorXd& q) { return Eigen::MatrixXd(m.end_effector_jacobian(q)); };
-  pm.mass_matrix_and_bias = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::MatrixXd& Mq,
-                                 Eigen::VectorXd& b) {
+  pm.end_effector_pose = [&m](const Eigen::VectorXd& q) {
+    return Eigen::Vector3d(m.end_effector_pose(q));
+  };
+  pm.end_effector_jacobian = [&m](const Eigen::VectorXd& q) {
+    return Eigen::MatrixXd(m.end_effector_jacobian(q));
+  };
+  pm.mass_matrix_and_bias = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                                 Eigen::MatrixXd& Mq, Eigen::VectorXd& b) {
     typename M::Matrix Mf;
     typename M::Velocity bf;
     m.mass_matrix_and_bias(q, qd, Mf, bf);
@@ -90,7 +96,7 @@ struct StraightLineTask {
   double duration = 10.0;  // s
   double dt = 0.01;        // output grid of the plan
   TimeLaw law = TimeLaw::quintic;
-  int elbow = +1;          // sign of the second joint angle at the start
+  int elbow = +1;  // sign of the second joint angle at the start
   // Non-empty: the start configuration's guess (nq values) instead of the elbow seed. Its
   // base coordinates are kept; its joint angles are refined to put the end-effector at start.
   Eigen::VectorXd q0;
@@ -125,18 +131,22 @@ inline int task_rows(const PlanningModel& m, const StraightLineTask& task) {
     throw std::invalid_argument("planner, model " + m.name + ": " + why);
   };
   if (rows != 2 && rows != 3)
-    fail("the start must be x,y (position) or x,y,phi (pose), got " + std::to_string(rows) + " values");
+    fail("the start must be x,y (position) or x,y,phi (pose), got " + std::to_string(rows) +
+         " values");
   if (task.goal.size() != rows)
-    fail("the goal has " + std::to_string(task.goal.size()) + " values and the start " + std::to_string(rows));
+    fail("the goal has " + std::to_string(task.goal.size()) + " values and the start " +
+         std::to_string(rows));
   if (m.num_links < rows)
-    fail("a " + std::to_string(m.num_links) + "-link arm cannot follow a " + (rows == 3 ? "pose" : "position") +
-         " (" + std::to_string(rows) + " task coordinates)" + (m.num_links == 2 ? ": give x,y only" : ""));
+    fail("a " + std::to_string(m.num_links) + "-link arm cannot follow a " +
+         (rows == 3 ? "pose" : "position") + " (" + std::to_string(rows) + " task coordinates)" +
+         (m.num_links == 2 ? ": give x,y only" : ""));
   if (m.nq != m.nv) fail("needs nq == nv (it integrates qd as dq/dt)");
   if (!(task.duration > 0) || !(task.dt > 0) || !std::isfinite(task.duration))
     fail("duration and dt must be positive");
   if (!task.start.allFinite() || !task.goal.allFinite()) fail("start and goal must be finite");
   if (task.q0.size() != 0 && (task.q0.size() != m.nq || !task.q0.allFinite()))
-    fail("q0 must have " + std::to_string(m.nq) + " finite values, got " + std::to_string(task.q0.size()));
+    fail("q0 must have " + std::to_string(m.nq) + " finite values, got " +
+         std::to_string(task.q0.size()));
   if (task.q0.size() == 0 && task.elbow != 1 && task.elbow != -1)
     fail("elbow must be +1 or -1, got " + std::to_string(task.elbow));
   return rows;
@@ -215,13 +225,55 @@ inline Eigen::VectorXd initial_configuration(const PlanningModel& m, const Strai
     std::string pose;
     for (int i = 0; i < rows; ++i) pose += (i ? ", " : "") + std::to_string(task.start[i]);
     throw std::runtime_error("planner, model " + m.name + ": no start configuration " +
-                             (task.q0.size() ? std::string("near the given q0") :
-                                               "on elbow branch " + std::to_string(task.elbow)) +
+                             (task.q0.size() ? std::string("near the given q0")
+                                             : "on elbow branch " + std::to_string(task.elbow)) +
                              " puts the end-effector at (" + pose + ")" +
                              (task.q0.size() ? "" : "; give a guess with q0"));
   }
   return q;
 }
+namespace detail {
+
+// The time derivative of the minimum-norm rates qd = A^T lambda at one sample:
+// qdd = Adot^T lambda + A^T mu with A qdd = [a - Jdot qd; -b_base]. The base rows impose
+// M_base qdd = -b_base, i.e. no force on the base (eq. 5); this equals -(Mdot qd)_base because
+// b_base - (Mdot qd)_base = -dT/dq_base, zero on a zero-momentum motion (dT/dx0 = dT/dy0 = 0,
+// dT/dq0 = -r0d x P). Adot by central differences along qd. For a square A this is A^-1 rhs.
+inline Eigen::VectorXd planned_acceleration(const PlanningModel& m, int rows, const MinimumNorm& mn,
+                                            const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                                            const Eigen::VectorXd& lambda, const Eigen::VectorXd& a,
+                                            const Eigen::VectorXd& b) {
+  const int nb = m.num_base();
+  const double eps = 1e-6;
+  const Eigen::MatrixXd Adot =
+      (system_matrix(m, rows, q + eps * qd) - system_matrix(m, rows, q - eps * qd)) / (2 * eps);
+  Eigen::VectorXd rhs(rows + nb);
+  rhs.head(rows) = a - Adot.topRows(rows) * qd;
+  rhs.tail(nb) = -b.head(nb);
+  const Eigen::VectorXd At_lambda_dot = Adot.transpose() * lambda;
+  return At_lambda_dot + mn.x(mn.y(rhs - system_matrix(m, rows, q) * At_lambda_dot));
+}
+
+// Independent checks of a plan: qdd by central differences of the planned qd, and the forces
+// on the base (eq. 5 base rows) with those.
+inline void check_by_central_differences(const PlanningModel& m, Plan& plan) {
+  using Eigen::VectorXd;
+  const int nb = m.num_base();
+  for (size_t k = 1; k + 1 < plan.t.size(); ++k) {
+    const VectorXd qdd_fd = (plan.qd[k + 1] - plan.qd[k - 1]) / (plan.t[k + 1] - plan.t[k - 1]);
+    plan.max_acceleration_mismatch =
+        std::max(plan.max_acceleration_mismatch, (qdd_fd - plan.qdd[k]).cwiseAbs().maxCoeff());
+    if (nb == 0) continue;
+    Eigen::MatrixXd Mk;
+    VectorXd b;
+    m.mass_matrix_and_bias(plan.q[k], plan.qd[k], Mk, b);
+    plan.max_base_residual =
+        std::max(plan.max_base_residual, (Mk * qdd_fd + b).head(nb).cwiseAbs().maxCoeff());
+  }
+}
+
+}  // namespace detail
+
 // The straight line of `task` for model `m` on the grid t = 0, dt, ..., T.
 inline Plan plan_straight_line(const PlanningModel& m, const StraightLineTask& task) {
   using Eigen::VectorXd;
@@ -239,7 +291,8 @@ inline Plan plan_straight_line(const PlanningModel& m, const StraightLineTask& t
     // Near a singularity of the generalized Jacobian (the arm stretched or folded at the edge
     // of the workspace) the joint rates blow up: stop with a reason instead of integrating noise.
     if (!(mn.rcond() > 1e-10))
-      throw std::runtime_error("planner, model " + m.name + ": generalized Jacobian singular (rcond " +
+      throw std::runtime_error("planner, model " + m.name +
+                               ": generalized Jacobian singular (rcond " +
                                std::to_string(mn.rcond()) + ") at t = " + std::to_string(t) +
                                ": the path leaves the workspace or crosses a singularity");
     return mn;
@@ -267,17 +320,14 @@ inline Plan plan_straight_line(const PlanningModel& m, const StraightLineTask& t
   try {
     integrate(opt, f, q, 0.0, T, task.dt, observe);
   } catch (const IntegrationError& e) {
-    throw std::runtime_error("planner, model " + m.name + ": cannot follow the line beyond t = " +
-                             std::to_string(e.t()) + " s: the generalized Jacobian becomes singular there (rcond " +
-                             std::to_string(detail::MinimumNorm(detail::system_matrix(m, rows, e.state())).rcond()) +
-                             "; the arm is stretched or folded, or the line leaves the workspace). " + e.what());
+    throw std::runtime_error(
+        "planner, model " + m.name + ": cannot follow the line beyond t = " +
+        std::to_string(e.t()) + " s: the generalized Jacobian becomes singular there (rcond " +
+        std::to_string(detail::MinimumNorm(detail::system_matrix(m, rows, e.state())).rcond()) +
+        "; the arm is stretched or folded, or the line leaves the workspace). " + e.what());
   }
 
-  // Rates, accelerations and torques per sample. qd = A^T lambda (minimum norm); its
-  // derivative qdd = Adot^T lambda + A^T mu with A qdd = [a - Jdot qd; -b_base]. The base rows
-  // impose M_base qdd = -b_base, i.e. no force on the base (eq. 5); this equals
-  // -(Mdot qd)_base because b_base - (Mdot qd)_base = -dT/dq_base, zero on a zero-momentum
-  // motion (dT/dx0 = dT/dy0 = 0, dT/dq0 = -r0d x P). Adot by central differences along qd.
+  // Rates, accelerations and torques per sample.
   plan.max_momentum = m.momentum || nb == 0 ? 0.0 : std::numeric_limits<double>::quiet_NaN();
   for (size_t k = 0; k < plan.t.size(); ++k) {
     const double t = plan.t[k];
@@ -287,39 +337,23 @@ inline Plan plan_straight_line(const PlanningModel& m, const StraightLineTask& t
     r.head(rows) = v;
     const auto mn = factor(qk, t);
     const VectorXd y = mn.y(r), qd = mn.x(y), lambda = mn.lambda(y);
-    const double eps = 1e-6;
-    const Eigen::MatrixXd Adot =
-        (detail::system_matrix(m, rows, qk + eps * qd) - detail::system_matrix(m, rows, qk - eps * qd)) / (2 * eps);
     Eigen::MatrixXd Mk;
     VectorXd b;
     m.mass_matrix_and_bias(qk, qd, Mk, b);
-    VectorXd rhs(rows + nb);
-    rhs.head(rows) = a - Adot.topRows(rows) * qd;
-    rhs.tail(nb) = -b.head(nb);
-    const VectorXd At_lambda_dot = Adot.transpose() * lambda;
-    const VectorXd qdd = At_lambda_dot + mn.x(mn.y(rhs - detail::system_matrix(m, rows, qk) * At_lambda_dot));
+    const VectorXd qdd = detail::planned_acceleration(m, rows, mn, qk, qd, lambda, a, b);
     const VectorXd Q = Mk * qdd + b;  // eq. 5
     plan.qd.push_back(qd);
     plan.qdd.push_back(qdd);
     plan.tau.push_back(Q.tail(n).cwiseProduct(m.gear_ratios));
     if (nb > 0) plan.base_residual.push_back(Q.head(nb).cwiseAbs().maxCoeff());
     const VectorXd pose = m.end_effector_pose(qk);
-    plan.max_path_error = std::max(plan.max_path_error, (pose.head(rows) - x).cwiseAbs().maxCoeff());
+    plan.max_path_error =
+        std::max(plan.max_path_error, (pose.head(rows) - x).cwiseAbs().maxCoeff());
     if (m.momentum && nb > 0)
       plan.max_momentum = std::max(plan.max_momentum, m.momentum(qk, qd).cwiseAbs().maxCoeff());
   }
 
-  // Independent checks: qdd by central differences of the planned qd.
-  for (size_t k = 1; k + 1 < plan.t.size(); ++k) {
-    const VectorXd qdd_fd = (plan.qd[k + 1] - plan.qd[k - 1]) / (plan.t[k + 1] - plan.t[k - 1]);
-    plan.max_acceleration_mismatch =
-        std::max(plan.max_acceleration_mismatch, (qdd_fd - plan.qdd[k]).cwiseAbs().maxCoeff());
-    if (nb == 0) continue;
-    Eigen::MatrixXd Mk;
-    VectorXd b;
-    m.mass_matrix_and_bias(plan.q[k], plan.qd[k], Mk, b);
-    plan.max_base_residual = std::max(plan.max_base_residual, (Mk * qdd_fd + b).head(nb).cwiseAbs().maxCoeff());
-  }
+  detail::check_by_central_differences(m, plan);
   return plan;
 }
 

@@ -3,5 +3,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir=${1:-build}
+# clang-format: the style check (tests/format_check.sh) runs with the tests.
+scripts/install-packages.sh clang-format
 scripts/setup.sh "$build_dir"
 ctest --test-dir "$build_dir" -j "${JOBS:-2}" --output-on-failure

@@ -16,14 +16,14 @@
 #include "scene.hpp"
 
 // Expects `statement` to throw `type` with a message containing `text`.
-#define EXPECT_THROW_MESSAGE(statement, type, text)                                                  \
-  do {                                                                                              \
-    try {                                                                                           \
-      statement;                                                                                    \
-      ADD_FAILURE() << #statement " did not throw";                                                 \
-    } catch (const type& e_) {                                                                      \
+#define EXPECT_THROW_MESSAGE(statement, type, text)                                                \
+  do {                                                                                             \
+    try {                                                                                          \
+      statement;                                                                                   \
+      ADD_FAILURE() << #statement " did not throw";                                                \
+    } catch (const type& e_) {                                                                     \
       EXPECT_NE(std::string(e_.what()).find(text), std::string::npos) << "message: " << e_.what(); \
-    }                                                                                               \
+    }                                                                                              \
   } while (0)
 
 namespace spacearm::test {
@@ -44,9 +44,11 @@ inline std::string random_scene_yaml(const ChainSpec& spec) {
   auto u = [&](double a, double b) { return std::uniform_real_distribution<double>(a, b)(rng); };
   std::ostringstream y;
   y.precision(17);
-  y << "name: chain" << spec.links << (spec.free_floating ? "_free" : "_fixed") << (spec.geared ? "_geared" : "") << "\n";
-  y << "base: {type: " << (spec.free_floating ? "free_floating" : "fixed") << ", mass: " << u(20, 100)
-    << ", inertia: " << u(1, 5) << ", mount: [" << u(0.2, 0.5) << ", " << u(-0.05, 0.05) << "]}\n";
+  y << "name: chain" << spec.links << (spec.free_floating ? "_free" : "_fixed")
+    << (spec.geared ? "_geared" : "") << "\n";
+  y << "base: {type: " << (spec.free_floating ? "free_floating" : "fixed")
+    << ", mass: " << u(20, 100) << ", inertia: " << u(1, 5) << ", mount: [" << u(0.2, 0.5) << ", "
+    << u(-0.05, 0.05) << "]}\n";
   y << "links:\n";
   for (int i = 0; i < spec.links; ++i)
     y << "  - {mass: " << u(0.5, 4) << ", inertia: " << u(0.01, 0.1) << ", length: " << u(0.2, 0.6)
@@ -58,8 +60,9 @@ inline std::string random_scene_yaml(const ChainSpec& spec) {
     } else {
       y << "gears:\n";
       for (int i = 0; i < spec.links; ++i)
-        y << "  - {ratio: " << u(1, 50) << ", motor_inertia: " << u(0, 5e-3) << ", compensate_link_inertia: "
-          << (i % 2 ? "false" : "true") << (i % 3 == 2 ? ", rotor_coupling: armature" : "") << "}\n";
+        y << "  - {ratio: " << u(1, 50) << ", motor_inertia: " << u(0, 5e-3)
+          << ", compensate_link_inertia: " << (i % 2 ? "false" : "true")
+          << (i % 3 == 2 ? ", rotor_coupling: armature" : "") << "}\n";
     }
   }
   y << "outputs: " << spec.outputs << "\n";
@@ -68,7 +71,8 @@ inline std::string random_scene_yaml(const ChainSpec& spec) {
 
 // Numeric parameters of a scene for the oracle, parameters at the given values (nominal
 // where the map has none).
-inline ChainParameters chain_parameters(const Scene& s, const std::map<std::string, double>& values = {}) {
+inline ChainParameters chain_parameters(const Scene& s,
+                                        const std::map<std::string, double>& values = {}) {
   auto v = [&](const Quantity& q) {
     if (!q.is_parameter()) return q.value;
     auto it = values.find(q.parameter);
@@ -84,8 +88,10 @@ inline ChainParameters chain_parameters(const Scene& s, const std::map<std::stri
     c.base_inertia = v(s.base.inertia);
   }
   c.mount = {v(s.base.mount[0]), v(s.base.mount[1])};
-  for (const auto& l : s.links) c.links.push_back({v(l.mass), v(l.inertia), v(l.length), {v(l.com[0]), v(l.com[1])}});
-  for (const auto& g : s.gears) c.gears.push_back({v(g.ratio), v(g.motor_inertia), g.compensate_link_inertia, g.armature});
+  for (const auto& l : s.links)
+    c.links.push_back({v(l.mass), v(l.inertia), v(l.length), {v(l.com[0]), v(l.com[1])}});
+  for (const auto& g : s.gears)
+    c.gears.push_back({v(g.ratio), v(g.motor_inertia), g.compensate_link_inertia, g.armature});
   return c;
 }
 
@@ -100,7 +106,8 @@ struct Difference {
   double relative = 0;
   Eigen::Index row = 0, col = 0;
 };
-inline Difference relative_difference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, double floor = 1e-300) {
+inline Difference relative_difference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b,
+                                      double floor = 1e-300) {
   Difference d;
   const double scale = std::max(b.cwiseAbs().maxCoeff(), floor);
   for (Eigen::Index i = 0; i < a.rows(); ++i)
@@ -111,15 +118,16 @@ inline Difference relative_difference(const Eigen::MatrixXd& a, const Eigen::Mat
   return d;
 }
 
-#define EXPECT_MATRIX_NEAR(a, b, tol)                                                                       \
-  do {                                                                                                      \
-    const Eigen::MatrixXd a_ = (a), b_ = (b);                                                               \
-    ASSERT_EQ(a_.rows(), b_.rows());                                                                        \
-    ASSERT_EQ(a_.cols(), b_.cols());                                                                        \
-    ASSERT_GT(b_.cwiseAbs().maxCoeff(), 0.0) << "reference " #b " is all zero: comparison would be vacuous"; \
-    const auto d_ = ::spacearm::test::relative_difference(a_, b_);                                          \
-    EXPECT_LE(d_.relative, (tol)) << "worst entry (" << d_.row << ", " << d_.col << "): " #a " = "          \
-                                  << a_(d_.row, d_.col) << ", " #b " = " << b_(d_.row, d_.col);             \
+#define EXPECT_MATRIX_NEAR(a, b, tol)                                                              \
+  do {                                                                                             \
+    const Eigen::MatrixXd a_ = (a), b_ = (b);                                                      \
+    ASSERT_EQ(a_.rows(), b_.rows());                                                               \
+    ASSERT_EQ(a_.cols(), b_.cols());                                                               \
+    ASSERT_GT(b_.cwiseAbs().maxCoeff(), 0.0)                                                       \
+        << "reference " #b " is all zero: comparison would be vacuous";                            \
+    const auto d_ = ::spacearm::test::relative_difference(a_, b_);                                 \
+    EXPECT_LE(d_.relative, (tol)) << "worst entry (" << d_.row << ", " << d_.col << "): " #a " = " \
+                                  << a_(d_.row, d_.col) << ", " #b " = " << b_(d_.row, d_.col);    \
   } while (0)
 
 // A whole file as text (empty if it cannot be read).

@@ -27,13 +27,16 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path fresh_cache(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("spacearm-test-cache-" + name + "-" + std::to_string(getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("spacearm-test-cache-" + name + "-" + std::to_string(getpid()));
   fs::remove_all(dir);
   return dir;
 }
 
 using test::run_command;
-std::string run(const std::string& command, int* status = nullptr) { return run_command(command, status); }
+std::string run(const std::string& command, int* status = nullptr) {
+  return run_command(command, status);
+}
 
 Eigen::MatrixXd matrix_of(const nlohmann::json& j) {
   Eigen::MatrixXd m(j.size(), j[0].size());
@@ -81,8 +84,9 @@ TEST(CompiledModel, CachedSecondLoadNeitherGeneratesNorCompiles) {
 // under its path, so a library cannot be replaced under a running process anyway).
 TEST(CompiledModel, CorruptedEntryIsDetectedAndRebuilt) {
   const fs::path cache = fresh_cache("corrupt");
-  const std::string cmd = std::string(SPACEARM_CLI) + " eval --json --verbose --cache-dir " + cache.string() + " " +
-                          SPACEARM_SOURCE_DIR + "/models/paper_reference.yaml --q 0,0,0,0.1,0.2,0.3 2>&1";
+  const std::string cmd = std::string(SPACEARM_CLI) + " eval --json --verbose --cache-dir " +
+                          cache.string() + " " + SPACEARM_SOURCE_DIR +
+                          "/models/paper_reference.yaml --q 0,0,0,0.1,0.2,0.3 2>&1";
   const std::string first = run(cmd);
   ASSERT_NE(first.find("(built)"), std::string::npos) << first;
   fs::path entry;
@@ -108,14 +112,17 @@ TEST(CompiledModel, CorruptedEntryIsDetectedAndRebuilt) {
 
 TEST(CompiledModel, ConcurrentBuildsOfOneModelDoNotCorruptTheCache) {
   const fs::path cache = fresh_cache("concurrent");
-  const std::string cmd = std::string(SPACEARM_CLI) + " eval --json --cache-dir " + cache.string() + " " +
-                          SPACEARM_SOURCE_DIR + "/models/paper_reference.yaml --q 0,0,0,0.1,0.2,0.3";
+  const std::string cmd = std::string(SPACEARM_CLI) + " eval --json --cache-dir " + cache.string() +
+                          " " + SPACEARM_SOURCE_DIR +
+                          "/models/paper_reference.yaml --q 0,0,0,0.1,0.2,0.3";
   // Three processes start on an empty cache at once.
-  const std::string out = run("(" + cmd + " > " + cache.string() + ".a & " + cmd + " > " + cache.string() + ".b & " +
-                              cmd + " > " + cache.string() + ".c & wait) 2>&1; cat " + cache.string() + ".a " +
-                              cache.string() + ".b " + cache.string() + ".c");
+  const std::string out =
+      run("(" + cmd + " > " + cache.string() + ".a & " + cmd + " > " + cache.string() + ".b & " +
+          cmd + " > " + cache.string() + ".c & wait) 2>&1; cat " + cache.string() + ".a " +
+          cache.string() + ".b " + cache.string() + ".c");
   size_t results = 0;
-  for (size_t pos = 0; (pos = out.find("\"mass_matrix\":", pos)) != std::string::npos; ++pos) ++results;
+  for (size_t pos = 0; (pos = out.find("\"mass_matrix\":", pos)) != std::string::npos; ++pos)
+    ++results;
   EXPECT_EQ(results, 3u) << out;
   // One valid entry, no leftovers of the private build folders.
   int entries = 0;
@@ -162,7 +169,8 @@ TEST(CompiledModel, CompileFailureReportsTheCompilerMessage) {
   } catch (const CompileError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("error"), std::string::npos) << what;
-    EXPECT_NE(what.find("sources and command: " + (cache / "failed").string()), std::string::npos) << what;
+    EXPECT_NE(what.find("sources and command: " + (cache / "failed").string()), std::string::npos)
+        << what;
   }
   // The cache holds no valid entry for it: the next good build compiles.
   options.flags = CompileOptions().flags;
@@ -198,16 +206,17 @@ class EvalCli : public testing::Test {
   std::string unknown_field_scene() {
     fs::create_directories(cache);
     const fs::path p = cache / "unknown_field.yaml";
-    std::ofstream(p) << "name: x\nbase: {type: fixed, mount: [0, 0]}\n"
-                        "links:\n  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.2, 0], colour: red}\n";
+    std::ofstream(p)
+        << "name: x\nbase: {type: fixed, mount: [0, 0]}\n"
+           "links:\n  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.2, 0], colour: red}\n";
     return p.string();
   }
 };
 
 TEST_F(EvalCli, JsonEqualsGeneratedCodeAndSymbolicAgrees) {
   const std::string q = "0.1,-0.2,0.3,0.5,1.1,-0.7", qd = "0.01,0.02,-0.1,0.3,-0.2,0.4";
-  const std::string args = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml --q " + q + " --qd " + qd +
-                           " --param p=10 --param Im=2e-5 --json";
+  const std::string args = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml --q " + q +
+                           " --qd " + qd + " --param p=10 --param Im=2e-5 --json";
   int status = 0;
   const auto compiled = nlohmann::json::parse(run(cli + args, &status));
   ASSERT_EQ(status, 0);
@@ -225,8 +234,10 @@ TEST_F(EvalCli, JsonEqualsGeneratedCodeAndSymbolicAgrees) {
   EXPECT_EQ(compiled["qd"][2].get<double>(), -0.1);
 
   namespace g = models::paper_geared;
-  const g::Coordinates<double> qv = (g::Coordinates<double>() << 0.1, -0.2, 0.3, 0.5, 1.1, -0.7).finished();
-  const g::Coordinates<double> qdv = (g::Coordinates<double>() << 0.01, 0.02, -0.1, 0.3, -0.2, 0.4).finished();
+  const g::Coordinates<double> qv =
+      (g::Coordinates<double>() << 0.1, -0.2, 0.3, 0.5, 1.1, -0.7).finished();
+  const g::Coordinates<double> qdv =
+      (g::Coordinates<double>() << 0.01, 0.02, -0.1, 0.3, -0.2, 0.4).finished();
   const g::Parameters<double> pv(10, 2e-5);
   g::MassMatrix<double> M, C;
   g::Coordinates<double> b;
@@ -249,12 +260,14 @@ TEST_F(EvalCli, JsonEqualsGeneratedCodeAndSymbolicAgrees) {
     expect_json_near(symbolic[o.name], compiled[o.name]);
   }
   // Several results: each under its name.
-  for (const char* r : {"qdd", "pivots", "scaled_pivots"}) EXPECT_TRUE(compiled["forward_dynamics"].contains(r)) << r;
+  for (const char* r : {"qdd", "pivots", "scaled_pivots"})
+    EXPECT_TRUE(compiled["forward_dynamics"].contains(r)) << r;
   EXPECT_TRUE(compiled["free_base_inverse_dynamics"].contains("qdd_base"));
 }
 
 TEST_F(EvalCli, VerboseReportShowsTheCacheHit) {
-  const std::string args = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_reference.yaml --q 0,0,0,0.1,0.2,0.3 --verbose 2>&1";
+  const std::string args = std::string(SPACEARM_SOURCE_DIR) +
+                           "/models/paper_reference.yaml --q 0,0,0,0.1,0.2,0.3 --verbose 2>&1";
   const std::string first = run(cli + args);
   const std::string second = run(cli + args);
   EXPECT_NE(first.find("(built)"), std::string::npos) << first;
@@ -272,21 +285,29 @@ TEST_F(EvalCli, BadInputsGetClearErrors) {
            {ref + " --q 1,2,3", "--q: expected 6 comma-separated values, got 3"},
            {ref + " --q 1,2,3,4,5,nan", "--q[5]: 'nan' is not finite"},
            {ref + " --q 1,2,3,4,5,x", "--q[5]: 'x' is not a number"},
-           {ref + " --q 1,2,3,4,5,6,", "--q[6]: empty item in '1,2,3,4,5,6,' (a stray or trailing comma?)"},
+           {ref + " --q 1,2,3,4,5,6,",
+            "--q[6]: empty item in '1,2,3,4,5,6,' (a stray or trailing comma?)"},
            {ref + " --q 1,2,3,4,5,1e999", "--q[5]: '1e999' is not finite"},
            {ref + " --q 1,2,3,4,5,0x10", "--q[5]: '0x10' is not a number"},
-           {ref + " --q 1,2,3,4,5,1e-400", "--q[5]: '1e-400' is out of the range of double precision"},
-           {ref + " --q 0,0,0,0,0,1e300 --qd 0,0,0,1e200,0,0", "): the state or parameters overflow"},
-           {geared + " --q 0,0,0,0,0,0 --param p=2 --param p=3", "--param: 'p' given more than once"},
+           {ref + " --q 1,2,3,4,5,1e-400",
+            "--q[5]: '1e-400' is out of the range of double precision"},
+           {ref + " --q 0,0,0,0,0,1e300 --qd 0,0,0,1e200,0,0",
+            "): the state or parameters overflow"},
+           {geared + " --q 0,0,0,0,0,0 --param p=2 --param p=3",
+            "--param: 'p' given more than once"},
            {ref, "spacearm: error: --q is required"},
-           {geared + " --q 0,0,0,0,0,0 --param k=3", "--param: unknown parameter 'k' (known: p, Im)"},
+           {geared + " --q 0,0,0,0,0,0 --param k=3",
+            "--param: unknown parameter 'k' (known: p, Im)"},
            {geared + " --q 0,0,0,0,0,0 --param p=inf", "--param p: 'inf' is not finite"},
-           {geared + " --q 0,0,0,0,0,0 --param Im=1", "gears[0].motor_inertia must be smaller than the inertia"},
+           {geared + " --q 0,0,0,0,0,0 --param Im=1",
+            "gears[0].motor_inertia must be smaller than the inertia"},
            {unknown_field_scene() + " --q 0", "field 'links[0].colour': unknown field"},
-           {unknown_field_scene() + " --q 0 --qdd-joints 1", "field 'links[0].colour': unknown field"},
+           {unknown_field_scene() + " --q 0 --qdd-joints 1",
+            "field 'links[0].colour': unknown field"},
            {std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/fixed_n1.yaml --q 0 --qdd-joints 1",
             "--qdd-joints: the scene emits no output that takes qdd_joints"},
-           {ref + " --q 0,0,0,0,0,0 --forces 1,2,3", "--forces: expected 6 comma-separated values, got 3"},
+           {ref + " --q 0,0,0,0,0,0 --forces 1,2,3",
+            "--forces: expected 6 comma-separated values, got 3"},
        }) {
     int status = 0;
     const std::string out = run(cli + c.args + " 2>&1", &status);
@@ -301,7 +322,8 @@ TEST_F(EvalCli, LostOutputAndAnEmptyCacheFolderAreErrors) {
   std::string out = run(cli + ref + " --q 0,0,0,0,0,0 2>&1 > /dev/full", &status);
   EXPECT_EQ(WEXITSTATUS(status), 1);
   EXPECT_NE(out.find("writing standard output failed"), std::string::npos) << out;
-  out = run(std::string(SPACEARM_CLI) + " eval " + ref + " --q 0,0,0,0,0,0 --cache-dir '' 2>&1", &status);
+  out = run(std::string(SPACEARM_CLI) + " eval " + ref + " --q 0,0,0,0,0,0 --cache-dir '' 2>&1",
+            &status);
   EXPECT_EQ(WEXITSTATUS(status), 1);
   EXPECT_NE(out.find("--cache-dir: empty path"), std::string::npos) << out;
 }
@@ -320,7 +342,8 @@ class SimulateCli : public EvalCli {
       std::stringstream l(line);
       std::string cell;
       while (std::getline(l, cell, ',')) row.push_back(std::stod(cell));
-      EXPECT_FALSE(out.size() && out.back().size() != row.size()) << "a row of another length: " << line;
+      EXPECT_FALSE(out.size() && out.back().size() != row.size())
+          << "a row of another length: " << line;
       out.push_back(row);
     }
     return out;
@@ -329,14 +352,18 @@ class SimulateCli : public EvalCli {
 
 TEST_F(SimulateCli, ZeroTorqueFromRestStaysPutAndTorquesMoveTheArm) {
   int status = 0;
-  const auto still = rows(run(sim + "--zero --t-end 1 --dt-out 0.25 --q0 0.1,0.2,0.3,1,2,3", &status));
+  const auto still =
+      rows(run(sim + "--zero --t-end 1 --dt-out 0.25 --q0 0.1,0.2,0.3,1,2,3", &status));
   ASSERT_EQ(status, 0);
   ASSERT_EQ(still.size(), 5u);  // t = 0, 0.25, ..., 1
-  for (const auto& r : still) EXPECT_EQ(std::vector<double>(r.begin() + 1, r.begin() + 7), (std::vector<double>{0.1, 0.2, 0.3, 1, 2, 3}));
+  for (const auto& r : still)
+    EXPECT_EQ(std::vector<double>(r.begin() + 1, r.begin() + 7),
+              (std::vector<double>{0.1, 0.2, 0.3, 1, 2, 3}));
 
   const fs::path torques = cache.parent_path() / ("torques-" + std::to_string(getpid()) + ".csv");
   std::ofstream(torques) << "t,tau1,tau2,tau3\n0,0.1,0,0\n0.5,0.1,0,0\n1,0.1,0,0\n";
-  const auto moved = rows(run(sim + "--torques " + torques.string() + " --t-end 1 --param p=10", &status));
+  const auto moved =
+      rows(run(sim + "--torques " + torques.string() + " --t-end 1 --param p=10", &status));
   ASSERT_EQ(status, 0);
   ASSERT_EQ(moved.size(), 101u);
   EXPECT_GT(std::abs(moved.back()[4]), 1e-3);  // qm1 turned
@@ -351,13 +378,15 @@ TEST_F(SimulateCli, ZeroTorqueFromRestStaysPutAndTorquesMoveTheArm) {
 // reports where, with the state, exits non-zero, and leaves a valid CSV of every sample
 // computed before the failure.
 TEST_F(SimulateCli, FailureMidRunKeepsTheSamplesComputedSoFar) {
-  const fs::path torques = cache.parent_path() / ("huge-torques-" + std::to_string(getpid()) + ".csv");
+  const fs::path torques =
+      cache.parent_path() / ("huge-torques-" + std::to_string(getpid()) + ".csv");
   const fs::path csv = cache.parent_path() / ("partial-" + std::to_string(getpid()) + ".csv");
   std::ofstream(torques) << "t,tau1,tau2,tau3\n0,0,0,0\n0.5,1e300,0,0\n1,1e300,0,0\n";
   int status = 0;
-  const std::string err = run(sim + "--torques " + torques.string() + " --interpolation hold --t-end 1 --dt-out 0.1 -o " +
-                                  csv.string() + " 2>&1",
-                              &status);
+  const std::string err =
+      run(sim + "--torques " + torques.string() +
+              " --interpolation hold --t-end 1 --dt-out 0.1 -o " + csv.string() + " 2>&1",
+          &status);
   EXPECT_NE(status, 0);
   EXPECT_NE(err.find("rk4: "), std::string::npos) << err;
   EXPECT_NE(err.find("not finite"), std::string::npos) << err;
@@ -379,7 +408,8 @@ TEST_F(SimulateCli, FailureMidRunKeepsTheSamplesComputedSoFar) {
 }
 
 TEST_F(SimulateCli, BadInputsGetClearErrors) {
-  const fs::path torques = cache.parent_path() / ("bad-torques-" + std::to_string(getpid()) + ".csv");
+  const fs::path torques =
+      cache.parent_path() / ("bad-torques-" + std::to_string(getpid()) + ".csv");
   std::ofstream(torques) << "t,tau1,tau2\n0,0.1,0\n";
   const fs::path grid = cache.parent_path() / ("grid-torques-" + std::to_string(getpid()) + ".csv");
   std::ofstream(grid) << "t,tau1,tau2,tau3\n0,0,0,0\n0.03,0,0,0\n0.06,0,0,0\n";
@@ -387,15 +417,19 @@ TEST_F(SimulateCli, BadInputsGetClearErrors) {
     std::string args, message;
   };
   for (const Case& c : std::vector<Case>{
-           {"--torques " + torques.string() + " --t-end 1", "line 1: missing column 'tau3' (expected t,tau1,tau2,tau3)"},
+           {"--torques " + torques.string() + " --t-end 1",
+            "line 1: missing column 'tau3' (expected t,tau1,tau2,tau3)"},
            {"--torques " + grid.string() + " --t-end 0.06 --dt 0.02 --interpolation hold",
-            "needs the torque samples' interval (0.030000 s) to be a multiple of --dt (0.020000 s)"},
+            "needs the torque samples' interval (0.030000 s) to be a multiple of --dt (0.020000 "
+            "s)"},
            {"--zero --t-end 1e999", "--t-end: value: '1e999' is not finite"},
            {"--zero --t-end 1 --dt 0.1 --dt 0.2", "--dt"},
            {"--zero --t-end 1 --extrapolate clamp", "--extrapolate: has no effect with --zero"},
-           {"--torques " + grid.string() + " --t-end 0.06 --extrapolate clamp", "unknown torque extrapolation 'clamp'"},
+           {"--torques " + grid.string() + " --t-end 0.06 --extrapolate clamp",
+            "unknown torque extrapolation 'clamp'"},
            {"--zero --t-end 1 --rtol 1e-3", "--rtol: applies only to the adaptive integrators"},
-           {"--torques " + grid.string() + " --t-end 0.06 -o " + grid.string(), "is --torques file: it would be overwritten"},
+           {"--torques " + grid.string() + " --t-end 0.06 -o " + grid.string(),
+            "is --torques file: it would be overwritten"},
            {"--zero --t-end 1 --q0 0,0,0,0,nan,0", "--q0[4]: 'nan' is not finite"},
            {"--zero --t-end 1 --integrator euler", "unknown integrator 'euler'"},
            {"--t-end 1", "give --torques FILE or --zero"},
@@ -417,13 +451,16 @@ TEST_F(SimulateCli, TorqueColumnsAreFoundByNameAndBothSidesAreWritten) {
   const fs::path plain = cache.parent_path() / ("plain-" + std::to_string(getpid()) + ".csv");
   const fs::path shuffled = cache.parent_path() / ("shuffled-" + std::to_string(getpid()) + ".csv");
   std::ofstream(plain) << "t,tau1,tau2,tau3\n0,0.1,-0.2,0.3\n0.5,0.2,0.1,0\n1,0,0,0.4\n";
-  std::ofstream(shuffled) << "\xEF\xBB\xBFtau3, t ,tau2,tau1\r\n0.3,0,-0.2,0.1\r\n0,0.5,0.1,0.2\r\n0.4,1,0,0\r\n";
+  std::ofstream(shuffled)
+      << "\xEF\xBB\xBFtau3, t ,tau2,tau1\r\n0.3,0,-0.2,0.1\r\n0,0.5,0.1,0.2\r\n0.4,1,0,0\r\n";
   int status = 0;
-  const std::string a = run(sim + "--torques " + plain.string() + " --t-end 1 --param p=10", &status);
+  const std::string a =
+      run(sim + "--torques " + plain.string() + " --t-end 1 --param p=10", &status);
   ASSERT_EQ(status, 0);
   EXPECT_EQ(run(sim + "--torques " + shuffled.string() + " --t-end 1 --param p=10", &status), a);
   const std::string header = a.substr(0, a.find('\n'));
-  EXPECT_NE(header.find(",q1,q2,q3,q1d,q2d,q3d,tau1,tau2,tau3,tau_motor1,tau_motor2,tau_motor3,"), std::string::npos)
+  EXPECT_NE(header.find(",q1,q2,q3,q1d,q2d,q3d,tau1,tau2,tau3,tau_motor1,tau_motor2,tau_motor3,"),
+            std::string::npos)
       << header;
   const auto r = rows(a);
   const auto& last = r.back();  // t, qm(6), qmd(6), q(3), qd(3), tau(3), tau_motor(3), ...
@@ -438,12 +475,17 @@ TEST_F(SimulateCli, TorqueColumnsAreFoundByNameAndBothSidesAreWritten) {
     std::string text, message;
   };
   for (const Case& c : std::vector<Case>{
-           {"t,tau1,tau2,tua3\n0,0,0,0\n1,0,0,0\n", "unknown column 'tua3' (expected t,tau1,tau2,tau3)"},
+           {"t,tau1,tau2,tua3\n0,0,0,0\n1,0,0,0\n",
+            "unknown column 'tua3' (expected t,tau1,tau2,tau3)"},
            {"t,tau1,tau1,tau3\n0,0,0,0\n1,0,0,0\n", "column 'tau1' appears twice"},
-           {"0,0,0,0\n1,0,0,0\n", "starts with data ('0'), not a header; add the header line t,tau1,tau2,tau3"},
-           {"t,tau1,tau2,tau3\n0,0,0,0\n0.5,0,x,0\n1,0,0,0\n", "line 3, column 'tau2': 'x' is not a number"},
-           {"t,tau1,tau2,tau3\n0,0,0,0\n0.5,0,0,0\n", "covers t = 0.000000 .. 0.500000 s, the run needs 0 .. 1.000000 s"},
-           {"t,tau1,tau2,tau3\n0,0,0,0\n0.5,0,0,0\n0.7,0,0,0\n", "line 4: time step 0.200000 differs from the first step 0.500000"},
+           {"0,0,0,0\n1,0,0,0\n",
+            "starts with data ('0'), not a header; add the header line t,tau1,tau2,tau3"},
+           {"t,tau1,tau2,tau3\n0,0,0,0\n0.5,0,x,0\n1,0,0,0\n",
+            "line 3, column 'tau2': 'x' is not a number"},
+           {"t,tau1,tau2,tau3\n0,0,0,0\n0.5,0,0,0\n",
+            "covers t = 0.000000 .. 0.500000 s, the run needs 0 .. 1.000000 s"},
+           {"t,tau1,tau2,tau3\n0,0,0,0\n0.5,0,0,0\n0.7,0,0,0\n",
+            "line 4: time step 0.200000 differs from the first step 0.500000"},
        }) {
     std::ofstream(plain) << c.text;
     const std::string out = run(sim + "--torques " + plain.string() + " --t-end 1 2>&1", &status);
@@ -452,7 +494,8 @@ TEST_F(SimulateCli, TorqueColumnsAreFoundByNameAndBothSidesAreWritten) {
   }
   // Asked for: held after the last sample.
   std::ofstream(plain) << "t,tau1,tau2,tau3\n0,0,0,0\n0.5,0,0,0.25\n";
-  const auto held = rows(run(sim + "--torques " + plain.string() + " --t-end 1 --extrapolate hold", &status));
+  const auto held =
+      rows(run(sim + "--torques " + plain.string() + " --t-end 1 --extrapolate hold", &status));
   ASSERT_EQ(status, 0);
   EXPECT_DOUBLE_EQ(held.back()[21], 0.25);
   fs::remove(plain);
@@ -470,10 +513,12 @@ TEST_F(SimulateCli, WriteFailuresAreErrorsNamingTheFile) {
   fs::remove(previous);
   std::string out = run(sim + "--zero --t-end 1 -o /dev/full 2>&1", &status);
   EXPECT_EQ(WEXITSTATUS(status), 1) << out;
-  EXPECT_NE(out.find("writing '/dev/full' failed: No space left on device"), std::string::npos) << out;
+  EXPECT_NE(out.find("writing '/dev/full' failed: No space left on device"), std::string::npos)
+      << out;
   out = run(sim + "--zero --t-end 1 -o /nonexistent-folder/x.csv 2>&1", &status);
   EXPECT_EQ(WEXITSTATUS(status), 1) << out;
-  EXPECT_NE(out.find("-o: cannot open '/nonexistent-folder/x.csv' for writing"), std::string::npos) << out;
+  EXPECT_NE(out.find("-o: cannot open '/nonexistent-folder/x.csv' for writing"), std::string::npos)
+      << out;
   EXPECT_EQ(rows(run(sim + "--zero --t-end 1 --dt-out 0.5 -o -", &status)).size(), 3u);
   EXPECT_EQ(status, 0);
 }
@@ -486,10 +531,12 @@ TEST_F(SimulateCli, SignalsFinishTheRowAndReportTheTimeReached) {
   int status = 0;
   run(sim + "--zero --t-end 0.1 > /dev/null 2>&1", &status);  // compiled before the clock starts
   ASSERT_EQ(status, 0);
-  for (const auto& [signal, name] : std::vector<std::pair<int, std::string>>{{SIGTERM, "SIGTERM"}, {SIGINT, "SIGINT"}}) {
+  for (const auto& [signal, name] :
+       std::vector<std::pair<int, std::string>>{{SIGTERM, "SIGTERM"}, {SIGINT, "SIGINT"}}) {
     fs::remove(csv);
     // Started directly (not as a shell's background job, whose SIGINT is ignored by design).
-    const std::string command = "exec " + sim + "--zero --t-end 1e7 --dt 1e-3 -o " + csv.string() + " 2> " + err.string();
+    const std::string command =
+        "exec " + sim + "--zero --t-end 1e7 --dt 1e-3 -o " + csv.string() + " 2> " + err.string();
     pid_t pid = -1;
     const char* argv[] = {"/bin/sh", "-c", command.c_str(), nullptr};
     ASSERT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
@@ -504,11 +551,13 @@ TEST_F(SimulateCli, SignalsFinishTheRowAndReportTheTimeReached) {
       ::waitpid(pid, &status, 0);
       FAIL() << name << " did not stop the run";
     }
-    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 128 + signal) << name << " status " << status;
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 128 + signal)
+        << name << " status " << status;
     const std::string e = slurp(err);
     EXPECT_NE(e.find("note: the output will be about"), std::string::npos) << e;
-    EXPECT_NE(e.find("interrupted by " + name + "; '" + csv.string() + "' holds every row up to t = "),
-              std::string::npos)
+    EXPECT_NE(
+        e.find("interrupted by " + name + "; '" + csv.string() + "' holds every row up to t = "),
+        std::string::npos)
         << e;
     const std::string text = slurp(csv);
     ASSERT_FALSE(text.empty());

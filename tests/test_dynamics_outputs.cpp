@@ -199,7 +199,8 @@ TEST(DynamicsOutputs, FixedFiveGearedLinksWithParameters) {
   check_all<models::fixed_n5_geared_params::Model>((Eigen::Vector3d() << 20, 1e-4, 1.5).finished());
 }
 TEST(DynamicsOutputs, FreeThreeLinksLightBase) {
-  check_all<models::free_n3_base_params::Model>((Eigen::Vector4d() << 2.0, 0.05, 50, 1e-5).finished());
+  check_all<models::free_n3_base_params::Model>(
+      (Eigen::Vector4d() << 2.0, 0.05, 50, 1e-5).finished());
 }
 
 }  // namespace

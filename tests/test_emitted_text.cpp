@@ -31,26 +31,33 @@ std::vector<std::string> lines_of(const std::string& text) {
 }
 
 TEST(EmittedText, CommentLinesSplitEveryLineBreakAndEscapeWhatCouldEscape) {
-  const std::string text = std::string("a\nsystem(\"x\");\r\nb\rc\\\nd\\") + '\0' + "\x1b[2J \xe2\x80\xae end";
+  const std::string text =
+      std::string("a\nsystem(\"x\");\r\nb\rc\\\nd\\") + '\0' + "\x1b[2J \xe2\x80\xae end";
   const std::string c = comment_lines(text, "  ");
   const auto lines = lines_of(c);
   ASSERT_EQ(lines.size(), 5u) << c;
   for (const auto& l : lines) {
     EXPECT_EQ(l.rfind("  //", 0), 0u) << l;
     EXPECT_NE(l.back(), '\\') << "a trailing backslash splices the next line: " << l;
-    for (unsigned char ch : l) EXPECT_TRUE(ch >= 0x20 && ch < 0x7f) << "byte " << int(ch) << " in " << l;
+    for (unsigned char ch : l)
+      EXPECT_TRUE(ch >= 0x20 && ch < 0x7f) << "byte " << int(ch) << " in " << l;
   }
   EXPECT_EQ(lines[1], "  // system(\"x\");");
   EXPECT_EQ(lines[3], "  // c\\x5C");
-  EXPECT_EQ(lines[4], "  // d\\x5C\\x00\\x1B[2J \\xE2\\x80\\xAE end");  // NUL, escape, bidi override
+  EXPECT_EQ(lines[4],
+            "  // d\\x5C\\x00\\x1B[2J \\xE2\\x80\\xAE end");  // NUL, escape, bidi override
   EXPECT_EQ(comment_lines(""), "//\n");
   // "??/" is a trigraph for a backslash in older modes, and -Wall warns about it in C++17.
-  EXPECT_EQ(comment_lines("a ?" "?/"), "// a ?\\x3F/\n");
+  EXPECT_EQ(comment_lines("a ?"
+                          "?/"),
+            "// a ?\\x3F/\n");
 }
 
 TEST(EmittedText, FileStemsAreCheckedNamingTheOption) {
-  for (const char* ok : {"paper_geared", "model-2", "a.b", "_x"}) EXPECT_NO_THROW(check_file_stem(ok, "--file-stem"));
-  for (const std::string& bad : std::vector<std::string>{"", "../x", "a/b", "x\"", "a\nb", "-rf", ".hidden", "a b", std::string(101, 'a')})
+  for (const char* ok : {"paper_geared", "model-2", "a.b", "_x"})
+    EXPECT_NO_THROW(check_file_stem(ok, "--file-stem"));
+  for (const std::string& bad : std::vector<std::string>{"", "../x", "a/b", "x\"", "a\nb", "-rf",
+                                                         ".hidden", "a b", std::string(101, 'a')})
     EXPECT_THROW_MESSAGE(check_file_stem(bad, "--file-stem"), std::invalid_argument, "--file-stem");
 }
 
@@ -63,10 +70,11 @@ TEST(EmittedText, NumbersArePrintedFromTheirValues) {
 }
 
 TEST(EmittedText, MacrosOfTheGeneratedHeadersAndKeywordsAreReserved) {
-  for (const char* name : {"EOF", "errno", "M_PI", "INFINITY", "NULL", "NAN", "EIGEN_WORLD_VERSION", "assert",
-                           "class", "and", "a__b", "_x"})
+  for (const char* name : {"EOF", "errno", "M_PI", "INFINITY", "NULL", "NAN", "EIGEN_WORLD_VERSION",
+                           "assert", "class", "and", "a__b", "_x"})
     EXPECT_TRUE(is_cpp_reserved(name)) << name;
-  for (const char* name : {"paper_geared", "robot", "p", "Im", "mass2"}) EXPECT_FALSE(is_cpp_reserved(name)) << name;
+  for (const char* name : {"paper_geared", "robot", "p", "Im", "mass2"})
+    EXPECT_FALSE(is_cpp_reserved(name)) << name;
 }
 
 TEST(EmittedText, SceneNumbersMeanWhatTheReaderRead) {
@@ -84,11 +92,13 @@ parameters: {m1: 08}
   EXPECT_NE(e.header.find("kNominalParameters = {8.0}"), std::string::npos);
   EXPECT_EQ(e.header.find("010"), std::string::npos);
   EXPECT_EQ(e.header.find("08"), std::string::npos);
-  EXPECT_EQ(evaluate(m, m.expression(Output::mass_matrix)(0, 0), {0, 0, 0, 0}, {0, 0, 0, 0}, {8}), 18);
+  EXPECT_EQ(evaluate(m, m.expression(Output::mass_matrix)(0, 0), {0, 0, 0, 0}, {0, 0, 0, 0}, {8}),
+            18);
 }
 
 // Every line of an emitted file that holds `marker` is a `//` comment line.
-void expect_marker_only_in_comments(const std::string& text, const std::string& marker, const std::string& file) {
+void expect_marker_only_in_comments(const std::string& text, const std::string& marker,
+                                    const std::string& file) {
   for (const auto& line : lines_of(text)) {
     if (line.find(marker) == std::string::npos) continue;
     const auto first = line.find_first_not_of(' ');
@@ -101,10 +111,12 @@ void expect_marker_only_in_comments(const std::string& text, const std::string& 
 }
 
 void expect_compiles(const EmittedModel& e, const std::string& label) {
-  const fs::path dir = fs::temp_directory_path() / ("spacearm-emitted-text-" + std::to_string(getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("spacearm-emitted-text-" + std::to_string(getpid()));
   fs::remove_all(dir);
   write_files(e, dir.string());
-  const std::string command = std::string(SPACEARM_CXX) + " -std=c++17 -Wall -Wextra -Werror -fsyntax-only -I" +
+  const std::string command = std::string(SPACEARM_CXX) +
+                              " -std=c++17 -Wall -Wextra -Werror -fsyntax-only -I" +
                               SPACEARM_EIGEN_INCLUDE_DIR + " -I'" + dir.string() + "' '" +
                               (dir / e.source_name).string() + "' 2>&1";
   std::string out;
@@ -119,8 +131,11 @@ void expect_compiles(const EmittedModel& e, const std::string& label) {
 // Hostile text in every field that is free text: the description, the scene path and the
 // regeneration command (which holds the output folder).
 const std::string kMarker = "INJECTED_MARKER";
-const std::string kHostile = "x ?" "?/ */\n#define " + kMarker + " 1\r\nint " + kMarker + "_a = system(\"id\");\\\n\\" +
-                             "\r" + kMarker + "\xe2\x80\xae\x01 \\";
+const std::string kHostile =
+    "x ?"
+    "?/ */\n#define " +
+    kMarker + " 1\r\nint " + kMarker + "_a = system(\"id\");\\\n\\" + "\r" + kMarker +
+    "\xe2\x80\xae\x01 \\";
 
 std::string yaml_quoted(const std::string& s) {
   std::string q = "\"";
@@ -149,8 +164,9 @@ TEST(EmittedText, EveryAcceptedSceneEmitsCodeThatCompilesWithUserTextOnlyInComme
       scenes.push_back({f.path().string(), s.str()});
     }
   for (const char* base : {"free_floating", "fixed"}) {
-    std::string yaml = std::string("name: hostile\ndescription: ") + yaml_quoted(kHostile) + "\nbase: {type: " +
-                       base + ", mass: 010, inertia: 1, mount: [0.1, 0]}\nlinks:\n" +
+    std::string yaml = std::string("name: hostile\ndescription: ") + yaml_quoted(kHostile) +
+                       "\nbase: {type: " + base +
+                       ", mass: 010, inertia: 1, mount: [0.1, 0]}\nlinks:\n" +
                        "  - {mass: m1, inertia: 0.1, length: 0.5, com: [0.25, 0]}\n" +
                        "  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.25, -0.0]}\n" +
                        "gears: {ratio: p, motor_inertia: 0.01}\nparameters: {m1: 08, p: 1e1}\n";
@@ -179,8 +195,9 @@ TEST(EmittedText, EveryAcceptedSceneEmitsCodeThatCompilesWithUserTextOnlyInComme
     }
   }
   EXPECT_GE(accepted, 10) << "the corpus should hold at least 10 accepted scenes";
-  EXPECT_THROW_MESSAGE(emit_cpp(derive(parse_scene(scenes.back().second, "t.yaml")), {"", "", "../../evil", false}),
-                       std::invalid_argument, "file stem");
+  EXPECT_THROW_MESSAGE(
+      emit_cpp(derive(parse_scene(scenes.back().second, "t.yaml")), {"", "", "../../evil", false}),
+      std::invalid_argument, "file stem");
 }
 
 }  // namespace

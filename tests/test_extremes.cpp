@@ -25,8 +25,8 @@ constexpr double kEps = std::numeric_limits<double>::epsilon();
 
 // The accelerations of the geared model in long double (the generated code is instantiated
 // for it, with the same double constants), as the reference for the forward error.
-Geared::Vector accelerations_long_double(const Geared& g, const Geared::Vector& q, const Geared::Vector& qd,
-                                         const Geared::Vector& Q) {
+Geared::Vector accelerations_long_double(const Geared& g, const Geared::Vector& q,
+                                         const Geared::Vector& qd, const Geared::Vector& Q) {
   namespace m = models::paper_geared;
   using LD = long double;
   m::MassMatrix<LD> M;
@@ -57,7 +57,8 @@ TEST(Extremes, HugeGearRatiosWithMotorInertiaStayAccurate) {
       const double cond = g.condition_number(q), scaled = g.scaled_condition_number(q);
       const double error = (qdd - exact).norm() / exact.norm();
       if (trial == 0)
-        std::printf("p = %g: cond(M) = %.2e, scaled %.2e, relative error of qdd %.1e\n", p, cond, scaled, error);
+        std::printf("p = %g: cond(M) = %.2e, scaled %.2e, relative error of qdd %.1e\n", p, cond,
+                    scaled, error);
       EXPECT_LT(error, 100 * scaled * kEps) << "p = " << p;
       EXPECT_LT(cond, 1e8) << "p = " << p;  // the rotor bounds it
     }
@@ -87,7 +88,8 @@ TEST(Extremes, ZeroMotorInertiaAtLargeRatiosStaysAccurate) {
     Geared::Vector qdd = g.forward_dynamics(q, qd, g.generalized_forces(tau));
     qdd.tail<3>() /= p;  // back to joint accelerations
     const double error = (qdd - qdd_ref).norm() / qdd_ref.norm();
-    std::printf("p = %g: cond(M) = %.2e, scaled %.2e, relative error %.1e\n", p, cond, scaled, error);
+    std::printf("p = %g: cond(M) = %.2e, scaled %.2e, relative error %.1e\n", p, cond, scaled,
+                error);
     EXPECT_LT(error, 100 * scaled * kEps) << "p = " << p;
     EXPECT_LT(scaled, 1e4) << "p = " << p;
     if (p == 1e10) {
@@ -115,11 +117,12 @@ TEST(Extremes, SingularArmPosesAreKinematicNotDynamic) {
     const Ref::Vector qdd = model.forward_dynamics(q, qd, Q);
     const Ref::Matrix M = model.mass_matrix(q);
     EXPECT_LT(cond, 1e4);
-    EXPECT_LT((M * qdd + model.bias_forces(q, qd) - Q).norm(), 1e-12 * (M.norm() * qdd.norm() + Q.norm()));
+    EXPECT_LT((M * qdd + model.bias_forces(q, qd) - Q).norm(),
+              1e-12 * (M.norm() * qdd.norm() + Q.norm()));
     const Eigen::Matrix3d J_arm = model.end_effector_jacobian(q).rightCols<3>();
     const double sigma_min = Eigen::JacobiSVD<Eigen::Matrix3d>(J_arm).singularValues()[2];
-    std::printf("q_arm = (%g, %g, %g): cond(M) = %.2e, smallest singular value of J_arm %.1e\n", q[3], q[4], q[5],
-                cond, sigma_min);
+    std::printf("q_arm = (%g, %g, %g): cond(M) = %.2e, smallest singular value of J_arm %.1e\n",
+                q[3], q[4], q[5], cond, sigma_min);
     if (pose < 2) {
       EXPECT_LT(sigma_min, 1e-12);
     } else {
@@ -162,19 +165,24 @@ TEST(Extremes, HeavyAndLightBases) {
     IntegratorOptions opt;
     opt.method = Method::rk4;
     opt.dt = 0.001;
-    auto tau = [](double t) { return Arm::JointVector(0.2 * std::sin(3 * t), -0.1 * std::cos(2 * t), 0.05).eval(); };
-    const auto tr = simulate<models::free_n3_base_params::Model>(arm, Arm::Vector::Zero(), Arm::Vector::Zero(), tau,
-                                                                2.0, 0.001, opt);
+    auto tau = [](double t) {
+      return Arm::JointVector(0.2 * std::sin(3 * t), -0.1 * std::cos(2 * t), 0.05).eval();
+    };
+    const auto tr = simulate<models::free_n3_base_params::Model>(
+        arm, Arm::Vector::Zero(), Arm::Vector::Zero(), tau, 2.0, 0.001, opt);
     double h_max = 0, scale = 0, cond_max = 0;
     for (size_t i = 0; i < tr.t.size(); ++i) {
       h_max = std::max(h_max, tr.momentum[i].norm());
       scale = std::max(scale, (arm.mass_matrix(tr.q[i]) * tr.qd[i]).norm());
       cond_max = std::max(cond_max, tr.condition_number[i]);
     }
-    const double energy_error = std::abs(tr.work.back() - tr.kinetic_energy.back()) / tr.kinetic_energy.back();
+    const double energy_error =
+        std::abs(tr.work.back() - tr.kinetic_energy.back()) / tr.kinetic_energy.back();
     base_turn[k++] = std::abs(tr.q.back()[2]);
-    std::printf("m0 = %g kg: max |h| %.1e (scale %.1e), work vs energy %.1e, base turn %.2e rad, max cond(M) %.1e\n",
-                m0, h_max, scale, energy_error, std::abs(tr.q.back()[2]), cond_max);
+    std::printf(
+        "m0 = %g kg: max |h| %.1e (scale %.1e), work vs energy %.1e, base turn %.2e rad, max "
+        "cond(M) %.1e\n",
+        m0, h_max, scale, energy_error, std::abs(tr.q.back()[2]), cond_max);
     EXPECT_LT(h_max, 1e-9 * scale);
     EXPECT_LT(energy_error, 1e-6);
     EXPECT_GT((tr.q.back().tail<3>()).norm(), 0.1);  // the arm moved
@@ -194,7 +202,8 @@ TEST(Extremes, FastJointRatesScaleQuadratically) {
   for (double s : {1e2, 1e3, 1e4}) {
     const Geared::Vector b = g.bias_forces(q, qd), bs = g.bias_forces(q, s * qd);
     EXPECT_MATRIX_NEAR(bs, s * s * b, 1e-13);
-    EXPECT_NEAR(g.kinetic_energy(q, s * qd), s * s * g.kinetic_energy(q, qd), 1e-13 * s * s * g.kinetic_energy(q, qd));
+    EXPECT_NEAR(g.kinetic_energy(q, s * qd), s * s * g.kinetic_energy(q, qd),
+                1e-13 * s * s * g.kinetic_energy(q, qd));
     const Geared::Vector qdd = g.forward_dynamics(q, s * qd, Geared::Vector::Zero());
     ASSERT_TRUE(qdd.allFinite());
     EXPECT_LT((g.mass_matrix(q) * qdd + bs).norm(), 1e-12 * bs.norm());

@@ -23,16 +23,19 @@ using Vec = typename Model::template Coordinates<double>;
 template <class Model>
 using Params = typename Model::template Parameters<double>;
 
-Eigen::MatrixXd evaluate_matrix(const SymbolicModel& m, const GiNaC::matrix& mat, const Eigen::VectorXd& q,
-                                const Eigen::VectorXd& qd, const std::vector<double>& params = {}) {
-  const auto values = evaluate(m, mat, {q.data(), q.data() + q.size()}, {qd.data(), qd.data() + qd.size()}, params);
+Eigen::MatrixXd evaluate_matrix(const SymbolicModel& m, const GiNaC::matrix& mat,
+                                const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                                const std::vector<double>& params = {}) {
+  const auto values =
+      evaluate(m, mat, {q.data(), q.data() + q.size()}, {qd.data(), qd.data() + qd.size()}, params);
   return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
       values.data(), mat.rows(), mat.cols());
 }
 
 // Relative to the largest entry of the symbolic value; an identically zero symbolic
 // value must come out exactly zero.
-void expect_equal_to_symbolic(const Eigen::MatrixXd& compiled, const Eigen::MatrixXd& symbolic, const char* what) {
+void expect_equal_to_symbolic(const Eigen::MatrixXd& compiled, const Eigen::MatrixXd& symbolic,
+                              const char* what) {
   SCOPED_TRACE(what);
   if (symbolic.cwiseAbs().maxCoeff() == 0) {
     EXPECT_EQ(compiled.cwiseAbs().maxCoeff(), 0.0);
@@ -42,7 +45,8 @@ void expect_equal_to_symbolic(const Eigen::MatrixXd& compiled, const Eigen::Matr
 }
 
 template <class Model>
-void check_against_symbolic(const std::string& scene_path, const std::vector<std::vector<double>>& parameter_sets) {
+void check_against_symbolic(const std::string& scene_path,
+                            const std::vector<std::vector<double>>& parameter_sets) {
   SCOPED_TRACE(scene_path);
   const SymbolicModel sym = derive(load_scene(scene_path));
   ASSERT_EQ(sym.n(), Model::kNq);
@@ -53,22 +57,27 @@ void check_against_symbolic(const std::string& scene_path, const std::vector<std
     Params<Model> params;
     for (int i = 0; i < Model::kNumParams; ++i) params[i] = pv[i];
     for (int trial = 0; trial < 3; ++trial) {
-      const Vec<Model> q = test::random_vector(rng, Model::kNq, 3.0), qd = test::random_vector(rng, Model::kNq, 2.0);
+      const Vec<Model> q = test::random_vector(rng, Model::kNq, 3.0),
+                       qd = test::random_vector(rng, Model::kNq, 2.0);
       if constexpr (Model::kHas_mass_matrix) {
         typename Model::template MassMatrix<double> M;
         Model::mass_matrix(q, params, M);
-        expect_equal_to_symbolic(M, evaluate_matrix(sym, sym.expression(Output::mass_matrix), q, qd, pv), "mass_matrix");
+        expect_equal_to_symbolic(
+            M, evaluate_matrix(sym, sym.expression(Output::mass_matrix), q, qd, pv), "mass_matrix");
         ++nontrivial;
       }
       if constexpr (Model::kHas_coriolis_matrix) {
         typename Model::template MassMatrix<double> C;
         Model::coriolis_matrix(q, qd, params, C);
-        expect_equal_to_symbolic(C, evaluate_matrix(sym, sym.expression(Output::coriolis_matrix), q, qd, pv), "coriolis_matrix");
+        expect_equal_to_symbolic(
+            C, evaluate_matrix(sym, sym.expression(Output::coriolis_matrix), q, qd, pv),
+            "coriolis_matrix");
       }
       if constexpr (Model::kHas_bias_forces) {
         Vec<Model> b;
         Model::bias_forces(q, qd, params, b);
-        expect_equal_to_symbolic(b, evaluate_matrix(sym, sym.expression(Output::bias_forces), q, qd, pv), "bias_forces");
+        expect_equal_to_symbolic(
+            b, evaluate_matrix(sym, sym.expression(Output::bias_forces), q, qd, pv), "bias_forces");
       }
       if constexpr (Model::kHas_mass_matrix && Model::kHas_bias_forces) {
         typename Model::template MassMatrix<double> M, M2;
@@ -83,33 +92,41 @@ void check_against_symbolic(const std::string& scene_path, const std::vector<std
       if constexpr (Model::kHas_kinetic_energy) {
         Eigen::Matrix<double, 1, 1> T;
         T(0) = Model::kinetic_energy(q, qd, params);
-        expect_equal_to_symbolic(T, evaluate_matrix(sym, GiNaC::matrix{{sym.kinetic_energy}}, q, qd, pv),
-                                 "kinetic_energy");
+        expect_equal_to_symbolic(
+            T, evaluate_matrix(sym, GiNaC::matrix{{sym.kinetic_energy}}, q, qd, pv),
+            "kinetic_energy");
       }
       if constexpr (Model::kHas_momentum) {
         typename Model::template Vector3<double> h;
         Model::momentum(q, qd, params, h);
-        expect_equal_to_symbolic(h, evaluate_matrix(sym, sym.expression(Output::momentum), q, qd, pv), "momentum");
+        expect_equal_to_symbolic(
+            h, evaluate_matrix(sym, sym.expression(Output::momentum), q, qd, pv), "momentum");
       }
       if constexpr (Model::kHas_end_effector_pose) {
         typename Model::template Vector3<double> x;
         Model::end_effector_pose(q, params, x);
-        expect_equal_to_symbolic(x, evaluate_matrix(sym, sym.expression(Output::end_effector_pose), q, qd, pv), "end_effector_pose");
+        expect_equal_to_symbolic(
+            x, evaluate_matrix(sym, sym.expression(Output::end_effector_pose), q, qd, pv),
+            "end_effector_pose");
       }
       if constexpr (Model::kHas_end_effector_jacobian) {
         typename Model::template PoseJacobian<double> J;
         Model::end_effector_jacobian(q, params, J);
-        expect_equal_to_symbolic(J, evaluate_matrix(sym, sym.expression(Output::end_effector_jacobian), q, qd, pv),
-                                 "end_effector_jacobian");
+        expect_equal_to_symbolic(
+            J, evaluate_matrix(sym, sym.expression(Output::end_effector_jacobian), q, qd, pv),
+            "end_effector_jacobian");
       }
       if constexpr (Model::kHas_joint_positions) {
         typename Model::template JointPositions<double> P;
         Model::joint_positions(q, params, P);
-        expect_equal_to_symbolic(P, evaluate_matrix(sym, sym.expression(Output::joint_positions), q, qd, pv), "joint_positions");
+        expect_equal_to_symbolic(
+            P, evaluate_matrix(sym, sym.expression(Output::joint_positions), q, qd, pv),
+            "joint_positions");
         if constexpr (Model::kHas_end_effector_pose) {
           typename Model::template Vector3<double> x;
           Model::end_effector_pose(q, params, x);
-          EXPECT_NEAR((P.col(Model::kNumLinks) - x.template head<2>()).norm(), 0.0, 1e-14 * x.norm());
+          EXPECT_NEAR((P.col(Model::kNumLinks) - x.template head<2>()).norm(), 0.0,
+                      1e-14 * x.norm());
         }
       }
     }
@@ -117,22 +134,28 @@ void check_against_symbolic(const std::string& scene_path, const std::vector<std
   EXPECT_GT(nontrivial, 0);
 }
 
-std::string scene(const std::string& relative) { return std::string(SPACEARM_SOURCE_DIR) + "/" + relative; }
+std::string scene(const std::string& relative) {
+  return std::string(SPACEARM_SOURCE_DIR) + "/" + relative;
+}
 
-TEST(CompiledEqualsSymbolic, PaperReference) { check_against_symbolic<ref::Model>(scene("models/paper_reference.yaml"), {{}}); }
+TEST(CompiledEqualsSymbolic, PaperReference) {
+  check_against_symbolic<ref::Model>(scene("models/paper_reference.yaml"), {{}});
+}
 TEST(CompiledEqualsSymbolic, PaperGeared) {
-  check_against_symbolic<geo::Model>(scene("models/paper_geared.yaml"),
-                                     {{1.0, 1e-5}, {1.05, 1e-5}, {10, 1e-5}, {1000, 1e-5}, {50, 0.0}});
+  check_against_symbolic<geo::Model>(
+      scene("models/paper_geared.yaml"),
+      {{1.0, 1e-5}, {1.05, 1e-5}, {10, 1e-5}, {1000, 1e-5}, {50, 0.0}});
 }
 TEST(CompiledEqualsSymbolic, FixedOneLink) {
   check_against_symbolic<models::fixed_n1::Model>(scene("tests/scenes/fixed_n1.yaml"), {{}});
 }
 TEST(CompiledEqualsSymbolic, FreeTwoLinksPerJointGears) {
-  check_against_symbolic<models::free_n2_geared::Model>(scene("tests/scenes/free_n2_geared.yaml"), {{}});
+  check_against_symbolic<models::free_n2_geared::Model>(scene("tests/scenes/free_n2_geared.yaml"),
+                                                        {{}});
 }
 TEST(CompiledEqualsSymbolic, FixedFiveGearedLinksWithParameters) {
-  check_against_symbolic<models::fixed_n5_geared_params::Model>(scene("tests/scenes/fixed_n5_geared_params.yaml"),
-                                                                {{20, 1e-4, 1.5}, {2, 0, 3.0}});
+  check_against_symbolic<models::fixed_n5_geared_params::Model>(
+      scene("tests/scenes/fixed_n5_geared_params.yaml"), {{20, 1e-4, 1.5}, {2, 0, 3.0}});
 }
 TEST(CompiledEqualsSymbolic, FreeEightLinks) {
   check_against_symbolic<models::free_n8::Model>(scene("tests/scenes/free_n8.yaml"), {{}});
@@ -207,7 +230,8 @@ void check_dynamics_invariants(const typename Model::template Parameters<double>
                                const NumericLagrangian& oracle) {
   std::mt19937 rng(3);
   for (int trial = 0; trial < 10; ++trial) {
-    const Vec<Model> q = test::random_vector(rng, Model::kNq, 3.0), qd = test::random_vector(rng, Model::kNq, 2.0);
+    const Vec<Model> q = test::random_vector(rng, Model::kNq, 3.0),
+                     qd = test::random_vector(rng, Model::kNq, 2.0);
     typename Model::template MassMatrix<double> M, C;
     Vec<Model> b;
     Model::mass_matrix(q, params, M);
@@ -234,7 +258,8 @@ void check_dynamics_invariants(const typename Model::template Parameters<double>
         Model::template mass_matrix<double>(q - dq, params, Mm);
         dM[k] = (Mp - Mm) / 2e-6;
       }
-      typename Model::template MassMatrix<double> C7 = Model::template MassMatrix<double>::Zero(), Mdot = C7;
+      typename Model::template MassMatrix<double> C7 = Model::template MassMatrix<double>::Zero(),
+                                                  Mdot = C7;
       for (int k = 0; k < Model::kNq; ++k) Mdot += dM[k] * qd[k];
       for (int i = 0; i < Model::kNq; ++i)
         for (int j = 0; j < Model::kNq; ++j) C7(i, j) = Mdot(i, j) - 0.5 * dM[i].row(j).dot(qd);
@@ -257,7 +282,8 @@ void check_dynamics_invariants(const typename Model::template Parameters<double>
       Vec<Model> e = Vec<Model>::Zero();
       e[i] = 1;
       return (Model::template kinetic_energy<double>(q, qd + e, params) -
-              Model::template kinetic_energy<double>(q, qd - e, params)) / 2;
+              Model::template kinetic_energy<double>(q, qd - e, params)) /
+             2;
     };
     typename Model::template Vector3<double> h;
     Model::momentum(q, qd, params, h);
@@ -291,8 +317,8 @@ TEST(PaperModels, GearedInvariants) {
   const Scene s = load_scene(scene("models/paper_geared.yaml"));
   for (double p : {1.05, 10.0, 1000.0}) {
     SCOPED_TRACE("p = " + std::to_string(p));
-    check_dynamics_invariants<geo::Model>({p, 1e-5},
-                                          NumericLagrangian(test::chain_parameters(s, {{"p", p}, {"Im", 1e-5}})));
+    check_dynamics_invariants<geo::Model>(
+        {p, 1e-5}, NumericLagrangian(test::chain_parameters(s, {{"p", p}, {"Im", 1e-5}})));
   }
 }
 
@@ -303,7 +329,8 @@ TEST(PaperModels, ZeroMotorInertiaMakesTheGearAChangeOfCoordinates) {
   for (double p : {1.5, 100.0}) {
     Eigen::Matrix<double, 6, 6> G = Eigen::Matrix<double, 6, 6>::Identity();
     for (int j = 3; j < 6; ++j) G(j, j) = 1 / p;
-    const ref::Coordinates<double> qm = test::random_vector(rng, 6, 3.0), qdm = test::random_vector(rng, 6, 2.0);
+    const ref::Coordinates<double> qm = test::random_vector(rng, 6, 3.0),
+                                   qdm = test::random_vector(rng, 6, 2.0);
     ref::MassMatrix<double> M_ref, M_g;
     ref::Coordinates<double> b_ref, b_g;
     ref::mass_matrix_and_bias<double>(G * qm, G * qdm, {}, M_ref, b_ref);
@@ -315,13 +342,15 @@ TEST(PaperModels, ZeroMotorInertiaMakesTheGearAChangeOfCoordinates) {
 
 TEST(PaperModels, OtherScalarTypesAgreeWithDouble) {
   std::mt19937 rng(5);
-  const ref::Coordinates<double> q = test::random_vector(rng, 6, 3.0), qd = test::random_vector(rng, 6, 2.0);
+  const ref::Coordinates<double> q = test::random_vector(rng, 6, 3.0),
+                                 qd = test::random_vector(rng, 6, 2.0);
   geo::MassMatrix<double> M;
   geo::Coordinates<double> b;
   geo::mass_matrix_and_bias(q, qd, geo::Parameters<double>(10, 1e-5), M, b);
   geo::MassMatrix<float> Mf;
   geo::Coordinates<float> bf;
-  geo::mass_matrix_and_bias<float>(q.cast<float>(), qd.cast<float>(), geo::Parameters<float>(10, 1e-5f), Mf, bf);
+  geo::mass_matrix_and_bias<float>(q.cast<float>(), qd.cast<float>(),
+                                   geo::Parameters<float>(10, 1e-5f), Mf, bf);
   EXPECT_MATRIX_NEAR(Mf.cast<double>(), M, 1e-5);
   EXPECT_MATRIX_NEAR(bf.cast<double>(), b, 1e-4);
   geo::MassMatrix<long double> Ml;

@@ -20,10 +20,11 @@ struct Rollout {
   Rollout() { model.set_parameter("p", 10); }
   // A smooth motor torque, so that the solution is smooth and orders are clean.
   static Geared::JointVector torque(double t) {
-    return Geared::JointVector(0.02 * std::sin(2 * t), -0.01 * std::cos(3 * t), 0.005 * std::sin(t));
+    return Geared::JointVector(0.02 * std::sin(2 * t), -0.01 * std::cos(3 * t),
+                               0.005 * std::sin(t));
   }
-  Geared::Vector final_q(const IntegratorOptions& opt, double t_end = 2.0, long* evaluations = nullptr,
-                         double dt_out = 0.2) {
+  Geared::Vector final_q(const IntegratorOptions& opt, double t_end = 2.0,
+                         long* evaluations = nullptr, double dt_out = 0.2) {
     const auto tr = simulate<G>(model, q0, qd0, &Rollout::torque, t_end, dt_out, opt);
     if (evaluations) *evaluations = tr.stats.rhs_evaluations;
     return tr.q.back();
@@ -46,7 +47,8 @@ double observed_order(Rollout& s, Method m, double dt) {
   const double e1 = (s.final_q(opt) - exact).norm();
   opt.dt = dt / 2;
   const double e2 = (s.final_q(opt) - exact).norm();
-  EXPECT_GT(e2, 1e-13) << "error at the finer step is at rounding level: the order would be meaningless";
+  EXPECT_GT(e2, 1e-13)
+      << "error at the finer step is at rounding level: the order would be meaningless";
   return std::log2(e1 / e2);
 }
 
@@ -75,9 +77,9 @@ TEST(Integrators, AdaptiveMethodsMeetTheirTolerance) {
     const double loose = (s.final_q(opt, 2.0, &n_loose, 2.0) - exact).norm();
     opt.rtol = opt.atol = 1e-10;
     const double tight = (s.final_q(opt, 2.0, &n_tight, 2.0) - exact).norm();
-    std::printf("%s: error %.2e at tolerance 1e-6 (%ld evaluations), %.2e at 1e-10 (%ld)\n", to_string(m).c_str(),
-                loose, n_loose, tight, n_tight);
-    EXPECT_LT(loose, 1e-4);  // global error within a few hundred local tolerances
+    std::printf("%s: error %.2e at tolerance 1e-6 (%ld evaluations), %.2e at 1e-10 (%ld)\n",
+                to_string(m).c_str(), loose, n_loose, tight, n_tight);
+    EXPECT_LT(loose, 1e-4);         // global error within a few hundred local tolerances
     EXPECT_LT(tight, loose / 100);  // 1e4 tighter tolerance: at least 100x smaller error
     EXPECT_GT(n_tight, n_loose);    // and it costs more evaluations
   }
@@ -94,21 +96,26 @@ TEST(Integrators, AdaptiveMethodsReportAToleranceTheyCannotMeet) {
     opt.rtol = opt.atol = 1e-10;
     Eigen::Matrix<double, 1, 1> x;
     x << 1.0;
-    auto f = [](const Eigen::Matrix<double, 1, 1>& s, Eigen::Matrix<double, 1, 1>& d, double) { d = s * s[0]; };
+    auto f = [](const Eigen::Matrix<double, 1, 1>& s, Eigen::Matrix<double, 1, 1>& d, double) {
+      d = s * s[0];
+    };
     int observed = 0;
     try {
-      integrate(opt, f, x, 0.0, 2.0, 0.5, [&](const Eigen::Matrix<double, 1, 1>&, double) { ++observed; });
+      integrate(opt, f, x, 0.0, 2.0, 0.5,
+                [&](const Eigen::Matrix<double, 1, 1>&, double) { ++observed; });
       ADD_FAILURE() << "no error";
     } catch (const IntegrationError& e) {
-      EXPECT_NE(std::string(e.what()).find(to_string(m) + ": step size "), std::string::npos) << e.what();
-      EXPECT_NE(std::string(e.what()).find("tolerance cannot be met"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(to_string(m) + ": step size "), std::string::npos)
+          << e.what();
+      EXPECT_NE(std::string(e.what()).find("tolerance cannot be met"), std::string::npos)
+          << e.what();
       // It stopped at the blow-up: the numerical solution's blow-up time differs from 1 by
       // the global error (about 1e-10 relative here), so t may lie on either side of 1.
       EXPECT_NEAR(e.t(), 1.0, 1e-6);
       ASSERT_EQ(e.state().size(), 1);
       EXPECT_GT(e.state()[0], 1e9);
       EXPECT_TRUE(std::isfinite(e.state()[0]));
-      EXPECT_EQ(Eigen::VectorXd(x), e.state());  // the caller's state is the last accepted one
+      EXPECT_EQ(Eigen::VectorXd(x), e.state());   // the caller's state is the last accepted one
       EXPECT_EQ(observed, e.t() >= 1.0 ? 3 : 2);  // t = 0, 0.5 (and 1 if reached)
     }
   }
@@ -121,15 +128,19 @@ TEST(Integrators, ToleranceBelowRoundingAndBadStepsAreRejected) {
   IntegratorOptions opt;
   opt.method = Method::dopri5;
   opt.rtol = 1e-20;
-  EXPECT_THROW_MESSAGE(integrate(opt, f, x, 0.0, 1.0, 0.5, none), std::invalid_argument, "rtol = 1e-20 must be at least");
+  EXPECT_THROW_MESSAGE(integrate(opt, f, x, 0.0, 1.0, 0.5, none), std::invalid_argument,
+                       "rtol = 1e-20 must be at least");
   opt.rtol = 1e-8;
   opt.atol = -1;
-  EXPECT_THROW_MESSAGE(integrate(opt, f, x, 0.0, 1.0, 0.5, none), std::invalid_argument, "atol = -1 must be >= 0");
+  EXPECT_THROW_MESSAGE(integrate(opt, f, x, 0.0, 1.0, 0.5, none), std::invalid_argument,
+                       "atol = -1 must be >= 0");
   opt.method = Method::rk4;
   opt.dt = std::nan("");
-  EXPECT_THROW_MESSAGE(integrate(opt, f, x, 0.0, 1.0, 0.5, none), std::invalid_argument, "dt = nan must be positive");
+  EXPECT_THROW_MESSAGE(integrate(opt, f, x, 0.0, 1.0, 0.5, none), std::invalid_argument,
+                       "dt = nan must be positive");
   opt.dt = 0.3;
-  EXPECT_THROW_MESSAGE(integrate(opt, f, x, 0.0, 1.0, 0.5, none), std::invalid_argument, "must be a multiple of the step");
+  EXPECT_THROW_MESSAGE(integrate(opt, f, x, 0.0, 1.0, 0.5, none), std::invalid_argument,
+                       "must be a multiple of the step");
 }
 
 // A failure of the dynamics half way (here a NaN torque from t > 0.55) stops the run with an
@@ -148,7 +159,8 @@ TEST(Integrators, SimulationFailureKeepsTheTrajectorySoFar) {
       simulate<G>(tr, s.model, s.q0, s.qd0, tau, 2.0, 0.1, opt);
       ADD_FAILURE() << "no error";
     } catch (const IntegrationError& e) {
-      EXPECT_NE(std::string(e.what()).find("non-finite input Q[3] = nan"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("non-finite input Q[3] = nan"), std::string::npos)
+          << e.what();
       EXPECT_LE(e.t(), 0.55 + 1e-12);
       EXPECT_GT(e.t(), 0.3);
       ASSERT_EQ(e.state().size(), 12);
@@ -187,7 +199,8 @@ TEST(Integrators, BreakpointsKeepTheOrderAcrossTorqueKinks) {
   // As a plain function of t, the integrator knows nothing of the samples; as the signal,
   // simulate() sets the breakpoints itself.
   auto final_state = [&](IntegratorOptions opt) {
-    const auto tr = simulate<G>(s.model, s.q0, s.qd0, [&](double t) { return tau(t); }, 2.0, 2.0, opt);
+    const auto tr = simulate<G>(
+        s.model, s.q0, s.qd0, [&](double t) { return tau(t); }, 2.0, 2.0, opt);
     return tr.q.back();
   };
   IntegratorOptions ref;
@@ -203,11 +216,13 @@ TEST(Integrators, BreakpointsKeepTheOrderAcrossTorqueKinks) {
   std::printf("rkf78 across kinks: error %.1e without breakpoints, %.1e with\n", without, with);
   EXPECT_LT(with, 5e-11);
   opt.breakpoint_interval = 0;
-  const double automatic = (simulate<G>(s.model, s.q0, s.qd0, tau, 2.0, 2.0, opt).q.back() - exact).norm();
+  const double automatic =
+      (simulate<G>(s.model, s.q0, s.qd0, tau, 2.0, 2.0, opt).q.back() - exact).norm();
   EXPECT_LT(automatic, 5e-11);
   EXPECT_LT(100 * with, without);
   opt.breakpoint_interval = -1;
-  EXPECT_THROW_MESSAGE(final_state(opt), std::invalid_argument, "breakpoint_interval = -1 must be >= 0");
+  EXPECT_THROW_MESSAGE(final_state(opt), std::invalid_argument,
+                       "breakpoint_interval = -1 must be >= 0");
 }
 
 TEST(Integrators, SimulationsAreBitReproducible) {
@@ -231,8 +246,9 @@ TEST(Integrators, ZeroTorqueFromRestNothingMoves) {
   for (Method m : {Method::rk4, Method::dopri5, Method::implicit_midpoint}) {
     IntegratorOptions opt;
     opt.method = m;
-    const auto tr = simulate<G>(s.model, s.q0, Geared::Vector::Zero(),
-                                [](double) { return Geared::JointVector::Zero().eval(); }, 5.0, 0.5, opt);
+    const auto tr = simulate<G>(
+        s.model, s.q0, Geared::Vector::Zero(),
+        [](double) { return Geared::JointVector::Zero().eval(); }, 5.0, 0.5, opt);
     EXPECT_EQ(tr.q.back(), s.q0) << to_string(m);
     EXPECT_EQ(tr.qd.back(), Geared::Vector::Zero()) << to_string(m);
   }
@@ -255,8 +271,9 @@ TEST(Integrators, FreeMotionConservesMomentumAndEnergy) {
     IntegratorOptions opt;
     opt.method = c.m;
     opt.rtol = opt.atol = 1e-10;
-    const auto tr = simulate<G>(s.model, s.q0, s.qd0, [](double) { return Geared::JointVector::Zero().eval(); },
-                                20.0, 0.1, opt);
+    const auto tr = simulate<G>(
+        s.model, s.q0, s.qd0, [](double) { return Geared::JointVector::Zero().eval(); }, 20.0, 0.1,
+        opt);
     const auto h0 = tr.momentum.front();
     const double T0 = tr.kinetic_energy.front();
     ASSERT_GT(h0.norm(), 0.0);
@@ -265,7 +282,8 @@ TEST(Integrators, FreeMotionConservesMomentumAndEnergy) {
       dh = std::max(dh, (tr.momentum[k] - h0).norm() / h0.norm());
       dT = std::max(dT, std::abs(tr.kinetic_energy[k] - T0) / T0);
     }
-    std::printf("%s: max relative momentum drift %.2e, energy drift %.2e\n", to_string(c.m).c_str(), dh, dT);
+    std::printf("%s: max relative momentum drift %.2e, energy drift %.2e\n", to_string(c.m).c_str(),
+                dh, dT);
     EXPECT_LT(dh, c.momentum_tol);
     EXPECT_LT(dT, c.energy_tol);
     // The arm did move.

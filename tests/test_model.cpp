@@ -49,7 +49,8 @@ TEST(Model, BadInputGetsAClearError) {
     g.set_parameter("Im", 0.03);
     FAIL() << "Im = 0.03 accepted";
   } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("gears[2].motor_inertia must be smaller than the inertia of link 3"),
+    EXPECT_NE(std::string(e.what()).find(
+                  "gears[2].motor_inertia must be smaller than the inertia of link 3"),
               std::string::npos)
         << e.what();
   }
@@ -87,11 +88,13 @@ struct NearlySingular {
     return p[0] > 0 ? nullptr : "delta must be positive";
   }
   static void gear_ratios(const Eigen::Matrix<double, 1, 1>&, Eigen::Vector2d& r) { r.setOnes(); }
-  static void mass_matrix(const Eigen::Vector2d&, const Eigen::Matrix<double, 1, 1>& p, Eigen::Matrix2d& M) {
+  static void mass_matrix(const Eigen::Vector2d&, const Eigen::Matrix<double, 1, 1>& p,
+                          Eigen::Matrix2d& M) {
     M << 1, 1, 1, 1 + p[0];
   }
   static void mass_matrix_and_bias(const Eigen::Vector2d& q, const Eigen::Vector2d&,
-                                   const Eigen::Matrix<double, 1, 1>& p, Eigen::Matrix2d& M, Eigen::Vector2d& b) {
+                                   const Eigen::Matrix<double, 1, 1>& p, Eigen::Matrix2d& M,
+                                   Eigen::Vector2d& b) {
     mass_matrix(q, p, M);
     b.setZero();
   }
@@ -100,8 +103,9 @@ struct NearlySingular {
 // The same with an emitted forward_dynamics (the LDL^T pivots of M by hand: 1 and delta).
 struct NearlySingularEmitted : NearlySingular {
   static constexpr bool kHas_forward_dynamics = true;
-  static void forward_dynamics(const Eigen::Vector2d&, const Eigen::Vector2d&, const Eigen::Vector2d& Q,
-                               const Eigen::Matrix<double, 1, 1>& p, Eigen::Vector2d& qdd, Eigen::Vector2d& pivots,
+  static void forward_dynamics(const Eigen::Vector2d&, const Eigen::Vector2d&,
+                               const Eigen::Vector2d& Q, const Eigen::Matrix<double, 1, 1>& p,
+                               Eigen::Vector2d& qdd, Eigen::Vector2d& pivots,
                                Eigen::Vector2d& scaled) {
     const double delta = (1 + p[0]) - 1;
     qdd << Q[0] - (Q[1] - Q[0]) / delta, (Q[1] - Q[0]) / delta;
@@ -117,10 +121,13 @@ void expect_singular_mass_matrix_reported() {
   m.set_parameter("delta", 1e-6);  // cond ~ 4e6: solved, and right
   EXPECT_MATRIX_NEAR(m.forward_dynamics(zero, zero, Q), Eigen::Vector2d(1 - 1e6, 1e6), 1e-9);
   m.set_parameter("delta", 1e-16);  // rounds to 1 + 2.2e-16 or 1: no digit of the answer is left
-  EXPECT_THROW_MESSAGE(m.forward_dynamics(zero, zero, Q), DynamicsError, "nearly_singular: mass matrix");
+  EXPECT_THROW_MESSAGE(m.forward_dynamics(zero, zero, Q), DynamicsError,
+                       "nearly_singular: mass matrix");
 }
 
-TEST(Model, NumericallySingularMassMatrixIsReported) { expect_singular_mass_matrix_reported<NearlySingular>(); }
+TEST(Model, NumericallySingularMassMatrixIsReported) {
+  expect_singular_mass_matrix_reported<NearlySingular>();
+}
 TEST(Model, NumericallySingularMassMatrixIsReportedWithEmittedSolve) {
   expect_singular_mass_matrix_reported<NearlySingularEmitted>();
 }
@@ -134,7 +141,8 @@ TEST(Model, LargeRatiosWithoutMotorInertiaAreSolved) {
   const Geared::Vector q = (Geared::Vector() << 0, 0, 0, 3e8, 1.2e9, -5e8).finished();
   EXPECT_GT(g.condition_number(q), 1e18);
   EXPECT_LT(g.scaled_condition_number(q), 1e4);
-  EXPECT_TRUE(g.forward_dynamics(q, Geared::Vector::Zero(), g.generalized_forces(Geared::JointVector(1, 0, 0)))
+  EXPECT_TRUE(g.forward_dynamics(q, Geared::Vector::Zero(),
+                                 g.generalized_forces(Geared::JointVector(1, 0, 0)))
                   .allFinite());
 }
 

@@ -30,7 +30,8 @@ namespace fs = std::filesystem;
 const std::string kScene = SPACEARM_SOURCE_DIR "/models/paper_reference.yaml";
 
 fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("spacearm-cache-test-" + name + "-" + std::to_string(getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("spacearm-cache-test-" + name + "-" + std::to_string(getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
@@ -41,9 +42,10 @@ std::string slurp(const fs::path& p) { return test::read_text_file(p.string()); 
 // A compiler stand-in: answers --version, then runs `action` with $out the -o argument.
 fs::path fake_compiler(const fs::path& dir, const std::string& name, const std::string& action) {
   const fs::path p = dir / name;
-  std::ofstream(p) << "#!/bin/sh\nif [ \"$1\" = --version ]; then echo 'fake " << name << " 1'; exit 0; fi\n"
-                   << "out=; prev=; for a in \"$@\"; do [ \"$prev\" = -o ] && out=$a; prev=$a; done\n"
-                   << action << "\n";
+  std::ofstream(p)
+      << "#!/bin/sh\nif [ \"$1\" = --version ]; then echo 'fake " << name << " 1'; exit 0; fi\n"
+      << "out=; prev=; for a in \"$@\"; do [ \"$prev\" = -o ] && out=$a; prev=$a; done\n"
+      << action << "\n";
   fs::permissions(p, fs::perms::owner_all);
   return p;
 }
@@ -69,8 +71,8 @@ const fs::path& real_library() {
 }
 
 std::string eval_command(const fs::path& cache, const fs::path& compiler) {
-  return "CXX='" + compiler.string() + "' " + SPACEARM_CLI + " eval --json --cache-dir '" + cache.string() + "' " +
-         kScene + " --q 0,0,0,0.1,0.2,0.3";
+  return "CXX='" + compiler.string() + "' " + SPACEARM_CLI + " eval --json --cache-dir '" +
+         cache.string() + "' " + kScene + " --q 0,0,0,0.1,0.2,0.3";
 }
 
 std::string entry_of(const fs::path& cache) {
@@ -88,20 +90,23 @@ TEST(ModelCache, TwentyConcurrentFirstBuildsAllSucceedWithAFastCompiler) {
   const fs::path dir = scratch("race");
   const fs::path cc = fake_compiler(dir, "copy", "cp '" + real_library().string() + "' \"$out\"");
   const fs::path cache = dir / "cache";
-  std::string script = "cd '" + dir.string() + "' && for i in $(seq 1 20); do (" + eval_command(cache, cc) +
+  std::string script = "cd '" + dir.string() + "' && for i in $(seq 1 20); do (" +
+                       eval_command(cache, cc) +
                        " > out.$i 2> err.$i; echo $? > rc.$i) & done; wait";
   ASSERT_EQ(std::system(script.c_str()), 0);
   const std::string first = slurp(dir / "out.1");
   ASSERT_NE(first.find("\"mass_matrix\":"), std::string::npos) << slurp(dir / "err.1");
   for (int i = 1; i <= 20; ++i) {
     const std::string n = std::to_string(i);
-    EXPECT_EQ(slurp(dir / ("rc." + n)), "0\n") << "process " << n << ": " << slurp(dir / ("err." + n));
+    EXPECT_EQ(slurp(dir / ("rc." + n)), "0\n")
+        << "process " << n << ": " << slurp(dir / ("err." + n));
     EXPECT_EQ(slurp(dir / ("out." + n)), first) << "process " << n;
   }
   int entries = 0;
   for (const auto& e : fs::directory_iterator(cache)) {
     ++entries;
-    EXPECT_EQ(e.path().filename().string().rfind(".tmp-", 0), std::string::npos) << "left behind: " << e.path();
+    EXPECT_EQ(e.path().filename().string().rfind(".tmp-", 0), std::string::npos)
+        << "left behind: " << e.path();
   }
   EXPECT_EQ(entries, 1);
   fs::remove_all(dir);
@@ -139,7 +144,9 @@ TEST(ModelCache, FolderIsPrivateAndUnsafeFoldersOrEntriesAreRefusedByName) {
   fs::permissions(cache, fs::perms::others_write, fs::perm_options::add);
   out = test::run_command(eval_command(cache, cc) + " 2>&1", &status);
   EXPECT_NE(status, 0);
-  EXPECT_NE(out.find("cache folder '" + cache.string() + "' is writable by others"), std::string::npos) << out;
+  EXPECT_NE(out.find("cache folder '" + cache.string() + "' is writable by others"),
+            std::string::npos)
+      << out;
   fs::permissions(cache, fs::perms::others_write, fs::perm_options::remove);
   test::run_command(eval_command(cache, cc) + " 2>&1", &status);
   EXPECT_EQ(status, 0);
@@ -150,16 +157,19 @@ TEST(ModelCache, FolderIsPrivateAndUnsafeFoldersOrEntriesAreRefusedByName) {
   fs::permissions(open_parent, fs::perms::all, fs::perm_options::replace);
   out = test::run_command(eval_command(open_parent / "cache", cc) + " 2>&1", &status);
   EXPECT_NE(status, 0);
-  EXPECT_NE(out.find("the folder above it, '" + open_parent.string() + "', is writable by others and not sticky"),
+  EXPECT_NE(out.find("the folder above it, '" + open_parent.string() +
+                     "', is writable by others and not sticky"),
             std::string::npos)
       << out;
 
   // No HOME, XDG_CACHE_HOME or SPACEARM_CACHE_DIR: no shared /tmp fallback.
-  out = test::run_command("env -u HOME -u XDG_CACHE_HOME -u SPACEARM_CACHE_DIR " + std::string(SPACEARM_CLI) +
-                              " eval " + kScene + " --q 0,0,0,0,0,0 2>&1",
-                          &status);
+  out =
+      test::run_command("env -u HOME -u XDG_CACHE_HOME -u SPACEARM_CACHE_DIR " +
+                            std::string(SPACEARM_CLI) + " eval " + kScene + " --q 0,0,0,0,0,0 2>&1",
+                        &status);
   EXPECT_NE(status, 0);
-  EXPECT_NE(out.find("set HOME, XDG_CACHE_HOME or SPACEARM_CACHE_DIR, or pass --cache-dir"), std::string::npos)
+  EXPECT_NE(out.find("set HOME, XDG_CACHE_HOME or SPACEARM_CACHE_DIR, or pass --cache-dir"),
+            std::string::npos)
       << out;
   fs::remove_all(dir);
 }
@@ -185,7 +195,8 @@ TEST(ModelCache, EntryPlantedByAnotherUserIsRefused) {
 TEST(ModelCache, LibraryWithoutTheNeededSymbolsIsAnErrorNotACrash) {
   const fs::path dir = scratch("symbols");
   std::ofstream(dir / "stub.cpp") << "extern \"C\" int spacearm_abi_version() { return 3; }\n";
-  const fs::path cc = fake_compiler(dir, "stub", "c++ -shared -fPIC '" + (dir / "stub.cpp").string() + "' -o \"$out\"");
+  const fs::path cc = fake_compiler(
+      dir, "stub", "c++ -shared -fPIC '" + (dir / "stub.cpp").string() + "' -o \"$out\"");
   int status = 0;
   const std::string out = test::run_command(eval_command(dir / "cache", cc) + " 2>&1", &status);
   EXPECT_EQ(WEXITSTATUS(status), 1) << out;
@@ -211,15 +222,18 @@ bool alive(pid_t pid) {
 TEST(ModelCache, InterruptDuringCompileStopsTheCompilerAndRemovesItsWorkFolder) {
   const fs::path dir = scratch("interrupt");
   const fs::path pid_file = dir / "compiler.pid";
-  const fs::path cc = fake_compiler(dir, "slow", "echo $$ > '" + pid_file.string() + "'; exec sleep 60");
+  const fs::path cc =
+      fake_compiler(dir, "slow", "echo $$ > '" + pid_file.string() + "'; exec sleep 60");
   const fs::path cache = dir / "cache";
   // A work folder left by a process that no longer runs is cleaned by the next run.
   fs::create_directories(cache / ".tmp-999999999-paper_reference-stale");
   fs::permissions(cache, fs::perms::owner_all, fs::perm_options::replace);
   // exec: the shell becomes spacearm, so the signal goes to it.
-  const pid_t pid = spawn_shell("CXX='" + cc.string() + "' exec " + SPACEARM_CLI + " eval --cache-dir '" +
-                                cache.string() + "' " + kScene + " --q 0,0,0,0,0,0 > /dev/null 2>&1");
-  for (int i = 0; i < 1500 && !fs::exists(pid_file); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  const pid_t pid =
+      spawn_shell("CXX='" + cc.string() + "' exec " + SPACEARM_CLI + " eval --cache-dir '" +
+                  cache.string() + "' " + kScene + " --q 0,0,0,0,0,0 > /dev/null 2>&1");
+  for (int i = 0; i < 1500 && !fs::exists(pid_file); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
   ASSERT_TRUE(fs::exists(pid_file)) << "the fake compiler never started";
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   const pid_t compiler = std::stoi(slurp(pid_file));
@@ -228,33 +242,40 @@ TEST(ModelCache, InterruptDuringCompileStopsTheCompilerAndRemovesItsWorkFolder) 
   int status = 0;
   const auto t0 = std::chrono::steady_clock::now();
   while (::waitpid(pid, &status, WNOHANG) == 0) {
-    ASSERT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(10)) << "spacearm did not stop";
+    ASSERT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(10))
+        << "spacearm did not stop";
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGINT) << "status " << status;
-  for (int i = 0; i < 100 && alive(compiler); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  for (int i = 0; i < 100 && alive(compiler); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
   EXPECT_FALSE(alive(compiler)) << "the compiler " << compiler << " was left running";
   for (const auto& e : fs::directory_iterator(cache))
-    EXPECT_EQ(e.path().filename().string().rfind(".tmp-", 0), std::string::npos) << "left behind: " << e.path();
+    EXPECT_EQ(e.path().filename().string().rfind(".tmp-", 0), std::string::npos)
+        << "left behind: " << e.path();
 
   // SIGKILL cannot be caught: the compiler dies with spacearm (PR_SET_PDEATHSIG), and the
   // work folder it leaves is removed by the next run.
   fs::remove(pid_file);
-  const pid_t killed = spawn_shell("CXX='" + cc.string() + "' exec " + SPACEARM_CLI + " eval --cache-dir '" +
-                                   cache.string() + "' " + kScene + " --q 0,0,0,0,0,0 > /dev/null 2>&1");
-  for (int i = 0; i < 1500 && !fs::exists(pid_file); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  const pid_t killed =
+      spawn_shell("CXX='" + cc.string() + "' exec " + SPACEARM_CLI + " eval --cache-dir '" +
+                  cache.string() + "' " + kScene + " --q 0,0,0,0,0,0 > /dev/null 2>&1");
+  for (int i = 0; i < 1500 && !fs::exists(pid_file); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
   ASSERT_TRUE(fs::exists(pid_file));
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   const pid_t orphan = std::stoi(slurp(pid_file));
   ASSERT_EQ(::kill(killed, SIGKILL), 0);
   ::waitpid(killed, &status, 0);
-  for (int i = 0; i < 100 && alive(orphan); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  for (int i = 0; i < 100 && alive(orphan); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
   EXPECT_FALSE(alive(orphan)) << "the compiler " << orphan << " outlived a killed spacearm";
   const fs::path fast = fake_compiler(dir, "copy", "cp '" + real_library().string() + "' \"$out\"");
   test::run_command(eval_command(cache, fast) + " > /dev/null 2>&1", &status);
   EXPECT_EQ(status, 0);
   for (const auto& e : fs::directory_iterator(cache))
-    EXPECT_EQ(e.path().filename().string().rfind(".tmp-", 0), std::string::npos) << "left behind: " << e.path();
+    EXPECT_EQ(e.path().filename().string().rfind(".tmp-", 0), std::string::npos)
+        << "left behind: " << e.path();
   fs::remove_all(dir);
 }
 

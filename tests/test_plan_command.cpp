@@ -30,7 +30,8 @@ struct Csv {
   }
   Eigen::VectorXd values(size_t row, const std::vector<std::string>& columns) const {
     Eigen::VectorXd v(static_cast<int>(columns.size()));
-    for (size_t i = 0; i < columns.size(); ++i) v[static_cast<int>(i)] = rows[row][column(columns[i])];
+    for (size_t i = 0; i < columns.size(); ++i)
+      v[static_cast<int>(i)] = rows[row][column(columns[i])];
     return v;
   }
 };
@@ -46,7 +47,8 @@ Csv read_csv(const std::string& path) {
   return csv;
 }
 
-std::vector<std::string> suffixed(const std::vector<std::string>& names, const std::string& suffix) {
+std::vector<std::string> suffixed(const std::vector<std::string>& names,
+                                  const std::string& suffix) {
   std::vector<std::string> out;
   for (const auto& n : names) out.push_back(n + suffix);
   return out;
@@ -56,7 +58,8 @@ class PlanCommand : public ::testing::Test {
  protected:
   static fs::path dir() {
     static const fs::path d = [] {
-      const fs::path p = fs::temp_directory_path() / ("spacearm_plan_test_" + std::to_string(::getpid()));
+      const fs::path p =
+          fs::temp_directory_path() / ("spacearm_plan_test_" + std::to_string(::getpid()));
       fs::create_directories(p);
       return p;
     }();
@@ -67,10 +70,11 @@ class PlanCommand : public ::testing::Test {
   static std::string cache() { return " --cache-dir " SPACEARM_TEST_CACHE_DIR; }
 
   // Runs plan; returns its status, with stderr in *out.
-  static int plan(const std::string& scene, const std::string& options, const std::string& csv, std::string* out) {
+  static int plan(const std::string& scene, const std::string& options, const std::string& csv,
+                  std::string* out) {
     int status = 0;
-    *out = test::run_command(cli() + "plan tests/scenes/" + scene + ".yaml " + options + " -o " + csv + cache() +
-                                 " 2>&1",
+    *out = test::run_command(cli() + "plan tests/scenes/" + scene + ".yaml " + options + " -o " +
+                                 csv + cache() + " 2>&1",
                              &status);
     return status;
   }
@@ -87,7 +91,8 @@ void check_plan(const Csv& csv, const Scene& scene, const std::map<std::string, 
   Eigen::VectorXd p = Eigen::VectorXd::Ones(N);
   for (size_t j = 0; j < chain.gears.size(); ++j) p[static_cast<int>(j)] = chain.gears[j].ratio;
   ASSERT_EQ(csv.rows.size(), static_cast<size_t>(std::lround(task.duration / task.dt)) + 1);
-  double tau_peak = 0, qd_peak = 0, qdd_peak = 0, worst_path = 0, worst_momentum = 0, worst_force = 0, worst_qd = 0, worst_qdd = 0;
+  double tau_peak = 0, qd_peak = 0, qdd_peak = 0, worst_path = 0, worst_momentum = 0,
+         worst_force = 0, worst_qd = 0, worst_qdd = 0;
   for (size_t k = 0; k < csv.rows.size(); ++k) {
     const double t = csv.rows[k][0];
     const Eigen::VectorXd q = csv.values(k, q_names), qd = csv.values(k, suffixed(q_names, "d")),
@@ -100,18 +105,27 @@ void check_plan(const Csv& csv, const Scene& scene, const std::map<std::string, 
     // The line, with the time law.
     const Eigen::Vector3d s = time_law(task.law, t / task.duration);
     const Eigen::VectorXd want = task.start + s[0] * (task.goal - task.start);
-    worst_path = std::max(worst_path, (oracle.end_effector_pose(q).head(rows) - want).cwiseAbs().maxCoeff());
-    if (nb > 0) worst_momentum = std::max(worst_momentum, oracle.momentum(q, qd).cwiseAbs().maxCoeff());
+    const Eigen::VectorXd pose = oracle.end_effector_pose(q);
+    worst_path = std::max(worst_path, (pose.head(rows) - want).cwiseAbs().maxCoeff());
+    if (nb > 0)
+      worst_momentum = std::max(worst_momentum, oracle.momentum(q, qd).cwiseAbs().maxCoeff());
     // Eq. 5: M qdd + b is no force on the base and tau / p at the joints (eq. 14).
     Eigen::VectorXd Q = Eigen::VectorXd::Zero(oracle.n());
     Q.tail(N) = tau.cwiseQuotient(p);
-    worst_force = std::max(worst_force, (oracle.mass_matrix(q) * qdd + oracle.bias_forces(q, qd) - Q).cwiseAbs().maxCoeff());
+    worst_force = std::max(
+        worst_force,
+        (oracle.mass_matrix(q) * qdd + oracle.bias_forces(q, qd) - Q).cwiseAbs().maxCoeff());
     if (k == 0 || k + 1 == csv.rows.size()) continue;
     // qd and qdd are the derivatives of q and qd (central differences, O(dt^2)).
     const double h = csv.rows[k + 1][0] - csv.rows[k - 1][0];
-    worst_qd = std::max(worst_qd, ((csv.values(k + 1, q_names) - csv.values(k - 1, q_names)) / h - qd).cwiseAbs().maxCoeff());
+    worst_qd = std::max(
+        worst_qd,
+        ((csv.values(k + 1, q_names) - csv.values(k - 1, q_names)) / h - qd).cwiseAbs().maxCoeff());
     const auto qd_names = suffixed(q_names, "d");
-    worst_qdd = std::max(worst_qdd, ((csv.values(k + 1, qd_names) - csv.values(k - 1, qd_names)) / h - qdd).cwiseAbs().maxCoeff());
+    worst_qdd =
+        std::max(worst_qdd, ((csv.values(k + 1, qd_names) - csv.values(k - 1, qd_names)) / h - qdd)
+                                .cwiseAbs()
+                                .maxCoeff());
   }
   EXPECT_GT(tau_peak, 0.0);
   EXPECT_LT(worst_path, 1e-10);
@@ -122,14 +136,17 @@ void check_plan(const Csv& csv, const Scene& scene, const std::map<std::string, 
   // with the rates (motor rates are p times the link ones).
   EXPECT_LT(worst_qd, 1e-4 * qd_peak);
   EXPECT_LT(worst_qdd, 1e-3 * qdd_peak);
-  std::printf("path %.1e, momentum %.1e, eq. 5 %.1e (tau peak %.2g), qd %.1e (peak %.2g), qdd %.1e (peak %.2g)\n",
-              worst_path, worst_momentum, worst_force, tau_peak, worst_qd, qd_peak, worst_qdd, qdd_peak);
+  std::printf(
+      "path %.1e, momentum %.1e, eq. 5 %.1e (tau peak %.2g), qd %.1e (peak %.2g), qdd %.1e (peak "
+      "%.2g)\n",
+      worst_path, worst_momentum, worst_force, tau_peak, worst_qd, qd_peak, worst_qdd, qdd_peak);
 }
 
 TEST_F(PlanCommand, FreeFiveLinkArmFollowsTheLineWithZeroMomentum) {
   const std::string csv = (dir() / "free_n5.csv").string();
   std::string out;
-  ASSERT_EQ(plan("free_n5", "--from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration 5", csv, &out), 0) << out;
+  ASSERT_EQ(plan("free_n5", "--from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration 5", csv, &out), 0)
+      << out;
   EXPECT_NE(out.find("max |momentum|"), std::string::npos) << out;
   StraightLineTask task;
   task.start = Eigen::Vector3d(1.6, 0.2, 0.3);
@@ -143,11 +160,14 @@ TEST_F(PlanCommand, FreeFiveLinkArmFollowsTheLineWithZeroMomentum) {
 // A geared fixed-base arm: link-side torques, motor coordinates; the torques replayed by
 // simulate (from plan's --torque-file) reproduce the line.
 TEST_F(PlanCommand, FixedFourLinkGearedArmReplaysThroughSimulate) {
-  const std::string csv = (dir() / "fixed_n4.csv").string(), sim = (dir() / "fixed_n4_sim.csv").string(),
+  const std::string csv = (dir() / "fixed_n4.csv").string(),
+                    sim = (dir() / "fixed_n4_sim.csv").string(),
                     tau = (dir() / "fixed_n4_tau.csv").string();
   std::string out;
   ASSERT_EQ(plan("fixed_n4_geared",
-                 "--from 1.0,0.3,0.2 --to 0.7,0.6,0.8 --duration 4 --time-law cubic --elbow -1 --torque-file " + tau,
+                 "--from 1.0,0.3,0.2 --to 0.7,0.6,0.8 --duration 4 --time-law cubic --elbow -1 "
+                 "--torque-file " +
+                     tau,
                  csv, &out),
             0)
       << out;
@@ -158,7 +178,7 @@ TEST_F(PlanCommand, FixedFourLinkGearedArmReplaysThroughSimulate) {
   task.law = TimeLaw::cubic;
   const Csv c = read_csv(csv);
   ASSERT_EQ(c.column("tau_motor4"), static_cast<int>(c.names.size()) - 1);  // no base_residual
-  EXPECT_LT(c.rows[0][c.column("qm2")], 0.0);                                // the elbow branch
+  EXPECT_LT(c.rows[0][c.column("qm2")], 0.0);                               // the elbow branch
   check_plan(c, load_scene("tests/scenes/fixed_n4_geared.yaml"), {{"p", 5.0}, {"Im", 1e-4}}, task);
 
   std::string q0;
@@ -179,7 +199,8 @@ TEST_F(PlanCommand, FixedFourLinkGearedArmReplaysThroughSimulate) {
 TEST_F(PlanCommand, TwoLinkArmPlansPositionOnly) {
   const std::string csv = (dir() / "free_n2.csv").string();
   std::string out;
-  ASSERT_EQ(plan("free_n2_geared", "--from 0.9,0.3 --to 0.7,0.5 --duration 4", csv, &out), 0) << out;
+  ASSERT_EQ(plan("free_n2_geared", "--from 0.9,0.3 --to 0.7,0.5 --duration 4", csv, &out), 0)
+      << out;
   StraightLineTask task;
   task.start = Eigen::Vector2d(0.9, 0.3);
   task.goal = Eigen::Vector2d(0.7, 0.5);
@@ -190,13 +211,18 @@ TEST_F(PlanCommand, TwoLinkArmPlansPositionOnly) {
 TEST_F(PlanCommand, BadRequestsNameTheOption) {
   const std::string csv = (dir() / "bad.csv").string();
   const std::vector<std::pair<std::string, std::string>> cases = {
-      {"free_n2_geared --from 0.9,0.3,0 --to 0.7,0.5,0 --duration 4", "a 2-link arm cannot follow a pose"},
-      {"free_n5 --from 1.6,0.2 --to 1.2,-0.2,0.5 --duration 4", "the goal has 3 values and the start 2"},
+      {"free_n2_geared --from 0.9,0.3,0 --to 0.7,0.5,0 --duration 4",
+       "a 2-link arm cannot follow a pose"},
+      {"free_n5 --from 1.6,0.2 --to 1.2,-0.2,0.5 --duration 4",
+       "the goal has 3 values and the start 2"},
       {"free_n5 --from 1.6 --to 1.2 --duration 4", "the start must be x,y (position) or x,y,phi"},
-      {"free_n5 --from 9,0,0 --to 1.2,0,0 --duration 4", "no start configuration on elbow branch 1"},
-      {"free_n5 --from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration 4 --elbow 0", "elbow must be +1 or -1, got 0"},
+      {"free_n5 --from 9,0,0 --to 1.2,0,0 --duration 4",
+       "no start configuration on elbow branch 1"},
+      {"free_n5 --from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration 4 --elbow 0",
+       "elbow must be +1 or -1, got 0"},
       {"free_n5 --from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration 4 --q0 1,2", "--q0"},
-      {"free_n5 --from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration 4 --time-law linear", "unknown time law 'linear'"},
+      {"free_n5 --from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration 4 --time-law linear",
+       "unknown time law 'linear'"},
       {"free_n5 --from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration -4", "--duration"},
       {"free_n5 --from 1.6,x,0.3 --to 1.2,-0.2,0.5 --duration 4", "--from"},
       {"free_n5 --from 0.5,0.2,0.3 --to 3,0.2,0.3 --duration 4", "singular"},

@@ -70,11 +70,13 @@ TEST(Scene, ErrorsNameTheFieldAndValue) {
   };
   const std::vector<Case> cases = {
       {"mass: 10", "mass: -10", "field 'base.mass': must be positive, got -10"},
-      {"inertia: 0.1, length: 0.5, com: [0.25, 0]}\n  - {mass: 1", "inertia: 0.1, length: 0, com: [0.25, 0]}\n  - {mass: 1",
+      {"inertia: 0.1, length: 0.5, com: [0.25, 0]}\n  - {mass: 1",
+       "inertia: 0.1, length: 0, com: [0.25, 0]}\n  - {mass: 1",
        "field 'links[0].length': must be positive, got 0"},
       {"mass: 10", "mass: .nan", "field 'base.mass'"},
       {"mass: 10", "mass: heavy", "refers to parameter 'heavy'"},
-      {"type: free_floating", "type: floating", "expected 'free_floating' or 'fixed', got 'floating'"},
+      {"type: free_floating", "type: floating",
+       "expected 'free_floating' or 'fixed', got 'floating'"},
       {"name: two_links", "name: two links", "field 'name'"},
       {"mount: [0.1, 0]", "mount: [0.1]", "field 'base.mount'"},
       {"mount: [0.1, 0]", "mount: [0.1, 0], colour: red", "field 'base.colour': unknown field"},
@@ -84,78 +86,111 @@ TEST(Scene, ErrorsNameTheFieldAndValue) {
       // Found by the fuzzer (fuzz/regressions/non_scalar_key.yaml): a key that is not a name.
       {"mass: 10,", "[mass]: 10,", "field 'base': expected a field name, got a list"},
       {"name: two_links", "name: two_links\n? {a: 1}\n: 2", "expected a field name, got a mapping"},
-      {"mass: 10", "mass: 1" + std::string(300, '0'), "field 'base.mass': value is too long (301 characters"},
+      {"mass: 10", "mass: 1" + std::string(300, '0'),
+       "field 'base.mass': value is too long (301 characters"},
       // A decimal comma in a flow mapping makes "0" a key: say what it probably is.
-      {"mass: 10,", "mass: 10,0,", "field 'base.0': unknown field (allowed here: inertia, mass, mount, type); a decimal comma?"},
+      {"mass: 10,", "mass: 10,0,",
+       "field 'base.0': unknown field (allowed here: inertia, mass, mount, type); a decimal "
+       "comma?"},
       // Digits lost to underflow, and names the preprocessor would rewrite.
       {"mount: [0.1, 0]", "mount: [0.1, 1e-400]", "'1e-400' is too small for double precision"},
-      {"name: two_links", "name: EOF", "'EOF' is reserved (a C++ keyword, a macro of the generated code's headers"},
+      {"name: two_links", "name: EOF",
+       "'EOF' is reserved (a C++ keyword, a macro of the generated code's headers"},
       {"name: two_links", "name: M_PI", "'M_PI' is reserved"},
       {"name: two_links", "name: two__links", "'two__links' is reserved"},
-      {"name: two_links", "description: [a]\nname: two_links", "field 'description': expected text"},
+      {"name: two_links", "description: [a]\nname: two_links",
+       "field 'description': expected text"},
       // Found by review: values whose products overflow double, exponents that overflow the
       // exact reader, names too long for a file name, a second YAML document.
       {"mass: 10", "mass: 1e200", "'1e200' is outside the supported magnitude range 1e-30 .. 1e30"},
-      {"mount: [0.1, 0]", "mount: [0.1, 0e99999999999999999999]", "has an exponent beyond the supported range"},
-      {"name: two_links", "name: " + std::string(65, 'a'), "field 'name': is 65 characters long, at most 64"},
+      {"mount: [0.1, 0]", "mount: [0.1, 0e99999999999999999999]",
+       "has an exponent beyond the supported range"},
+      {"name: two_links", "name: " + std::string(65, 'a'),
+       "field 'name': is 65 characters long, at most 64"},
       {"name: two_links", "name: two_links\n---\nname: other", "holds more than one YAML document"},
   };
   for (const auto& c : cases) {
     const std::string err = error_of(replaced(kValid, c.from, c.to));
-    EXPECT_NE(err.find(c.expected), std::string::npos) << "got: '" << err << "', expected to contain: " << c.expected;
+    EXPECT_NE(err.find(c.expected), std::string::npos)
+        << "got: '" << err << "', expected to contain: " << c.expected;
     EXPECT_NE(err.find("test.yaml"), std::string::npos) << err;
   }
 }
 
 TEST(Scene, GearAndParameterErrors) {
-  const std::string geared = std::string(kValid) + "gears: {ratio: p, motor_inertia: 1.0e-5}\nparameters: {p: 0}\n";
-  EXPECT_NE(error_of(geared).find("field 'gears.ratio': must be positive, got p = 0"), std::string::npos)
+  const std::string geared =
+      std::string(kValid) + "gears: {ratio: p, motor_inertia: 1.0e-5}\nparameters: {p: 0}\n";
+  EXPECT_NE(error_of(geared).find("field 'gears.ratio': must be positive, got p = 0"),
+            std::string::npos)
       << error_of(geared);
   const std::string big_motor = std::string(kValid) + "gears: {ratio: 10, motor_inertia: 0.5}\n";
-  EXPECT_NE(error_of(big_motor).find("must be smaller than the inertia of link 1"), std::string::npos)
+  EXPECT_NE(error_of(big_motor).find("must be smaller than the inertia of link 1"),
+            std::string::npos)
       << error_of(big_motor);
-  const std::string negative_motor = std::string(kValid) + "gears: {ratio: 10, motor_inertia: -1.0e-5}\n";
-  EXPECT_NE(error_of(negative_motor).find("field 'gears.motor_inertia': must not be negative, got -1.0e-5"),
+  const std::string negative_motor =
+      std::string(kValid) + "gears: {ratio: 10, motor_inertia: -1.0e-5}\n";
+  EXPECT_NE(error_of(negative_motor)
+                .find("field 'gears.motor_inertia': must not be negative, got -1.0e-5"),
             std::string::npos)
       << error_of(negative_motor);
   const std::string unused = std::string(kValid) + "parameters: {k: 1}\n";
-  EXPECT_NE(error_of(unused).find("parameter 'k' is declared but never used"), std::string::npos) << error_of(unused);
-  const std::string wrong_count = std::string(kValid) + "gears:\n  - {ratio: 10, motor_inertia: 0}\n";
+  EXPECT_NE(error_of(unused).find("parameter 'k' is declared but never used"), std::string::npos)
+      << error_of(unused);
+  const std::string wrong_count =
+      std::string(kValid) + "gears:\n  - {ratio: 10, motor_inertia: 0}\n";
   EXPECT_NE(error_of(wrong_count).find("expected one entry per link (2), got 1"), std::string::npos)
       << error_of(wrong_count);
-  const std::string reserved = std::string(kValid) + "gears: {ratio: q1, motor_inertia: 0}\nparameters: {q1: 2}\n";
-  EXPECT_NE(error_of(reserved).find("parameter name 'q1' is reserved"), std::string::npos) << error_of(reserved);
-  const std::string coupling = std::string(kValid) + "gears: {ratio: 10, motor_inertia: 0, rotor_coupling: approx}\n";
-  EXPECT_NE(error_of(coupling).find("field 'gears.rotor_coupling': expected 'exact' or 'armature', got 'approx'"),
+  const std::string reserved =
+      std::string(kValid) + "gears: {ratio: q1, motor_inertia: 0}\nparameters: {q1: 2}\n";
+  EXPECT_NE(error_of(reserved).find("parameter name 'q1' is reserved"), std::string::npos)
+      << error_of(reserved);
+  const std::string coupling =
+      std::string(kValid) + "gears: {ratio: 10, motor_inertia: 0, rotor_coupling: approx}\n";
+  EXPECT_NE(error_of(coupling).find(
+                "field 'gears.rotor_coupling': expected 'exact' or 'armature', got 'approx'"),
             std::string::npos)
       << error_of(coupling);
   EXPECT_TRUE(parse_scene(replaced(coupling, "approx", "armature"), "t.yaml").gears[1].armature);
-  const std::string twice = std::string(kValid) + "gears: {ratio: p, motor_inertia: 0}\nparameters: {p: 2, p: 3}\n";
-  EXPECT_NE(error_of(twice).find("field 'parameters.p': parameter 'p' given more than once"), std::string::npos)
+  const std::string twice =
+      std::string(kValid) + "gears: {ratio: p, motor_inertia: 0}\nparameters: {p: 2, p: 3}\n";
+  EXPECT_NE(error_of(twice).find("field 'parameters.p': parameter 'p' given more than once"),
+            std::string::npos)
       << error_of(twice);
   for (const char* v : {".inf", "-.inf", "1e400", ".nan"}) {
     const std::string err = error_of(replaced(kValid, "mass: 10", std::string("mass: ") + v));
-    EXPECT_NE(err.find("field 'base.mass': value '" + std::string(v) + "' is not finite"), std::string::npos) << err;
+    EXPECT_NE(err.find("field 'base.mass': value '" + std::string(v) + "' is not finite"),
+              std::string::npos)
+        << err;
   }
   // 0 < p < 1 (a speed-up) is allowed, with a warning naming the field.
   testing::internal::CaptureStderr();
-  const Scene speedup = parse_scene(std::string(kValid) + "gears: {ratio: 0.5, motor_inertia: 0}\n", "t.yaml");
+  const Scene speedup =
+      parse_scene(std::string(kValid) + "gears: {ratio: 0.5, motor_inertia: 0}\n", "t.yaml");
   const std::string warning = testing::internal::GetCapturedStderr();
   EXPECT_EQ(speedup.gears[0].ratio.value, 0.5);
-  EXPECT_NE(warning.find("warning: scene 't.yaml', field 'gears.ratio': 0.5 < 1"), std::string::npos) << warning;
+  EXPECT_NE(warning.find("warning: scene 't.yaml', field 'gears.ratio': 0.5 < 1"),
+            std::string::npos)
+      << warning;
   const std::string bad_output = std::string(kValid) + "outputs: [mass_matrix, jerk]\n";
-  EXPECT_NE(error_of(bad_output).find("unknown output 'jerk'"), std::string::npos) << error_of(bad_output);
+  EXPECT_NE(error_of(bad_output).find("unknown output 'jerk'"), std::string::npos)
+      << error_of(bad_output);
 }
 
 TEST(Scene, LinkCountLimits) {
-  EXPECT_NE(error_of(replaced(kValid, "links:\n  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.25, 0]}\n  - {mass: 1, "
-                                      "inertia: 0.1, length: 0.5, com: [0.25, 0]}\n",
-                              "links: []\n"))
-                .find("needs at least one link, got 0"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of(
+          replaced(
+              kValid,
+              "links:\n  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.25, 0]}\n  - {mass: 1, "
+              "inertia: 0.1, length: 0.5, com: [0.25, 0]}\n",
+              "links: []\n"))
+          .find("needs at least one link, got 0"),
+      std::string::npos);
   std::string many = "name: many\nbase: {type: fixed, mount: [0, 0]}\nlinks:\n";
-  for (int i = 0; i <= kMaxLinks; ++i) many += "  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.25, 0]}\n";
-  EXPECT_NE(error_of(many).find("at most 30 links are supported, got 31"), std::string::npos) << error_of(many);
+  for (int i = 0; i <= kMaxLinks; ++i)
+    many += "  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.25, 0]}\n";
+  EXPECT_NE(error_of(many).find("at most 30 links are supported, got 31"), std::string::npos)
+      << error_of(many);
 }
 
 // Every file the fuzzer starts from or has recorded a crash for (fuzz/), and the shipped and
@@ -167,7 +202,8 @@ TEST(Scene, FuzzCorpusAndRegressionsReplay) {
   for (const char* folder : {"fuzz/seeds", "fuzz/regressions", "models", "tests/scenes"}) {
     for (const auto& entry : fs::directory_iterator(fs::path(SPACEARM_SOURCE_DIR) / folder)) {
       std::ifstream in(entry.path(), std::ios::binary);
-      const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      const std::string text((std::istreambuf_iterator<char>(in)),
+                             std::istreambuf_iterator<char>());
       SCOPED_TRACE(entry.path().string());
       try {
         const auto verdict = fuzz::check_scene_text(text);
@@ -186,7 +222,7 @@ TEST(Scene, FuzzCorpusAndRegressionsReplay) {
 }
 
 TEST(Scene, ContentHashIsStable) {
-  EXPECT_EQ(content_hash(""), "cbf29ce484222325");  // FNV-1a 64 offset basis
+  EXPECT_EQ(content_hash(""), "cbf29ce484222325");   // FNV-1a 64 offset basis
   EXPECT_EQ(content_hash("a"), "af63dc4c8601ec8c");  // published FNV-1a 64 test vector
   EXPECT_NE(content_hash(kValid), content_hash(std::string(kValid) + " "));
 }
@@ -202,18 +238,21 @@ namespace {
 TEST(OutputRegistry, NamesAreUniqueAndClearOfGeneratedNames) {
   std::set<std::string> names, symbols;
   auto is_generated = [](const std::string& n) {
-    return n == "T" || n == "params" || (n.size() > 1 && n[0] == 't' && std::isdigit(static_cast<unsigned char>(n[1])));
+    return n == "T" || n == "params" ||
+           (n.size() > 1 && n[0] == 't' && std::isdigit(static_cast<unsigned char>(n[1])));
   };
   for (const OutputInfo& o : output_registry()) {
     SCOPED_TRACE(o.name);
     EXPECT_TRUE(names.insert(o.name).second);
     EXPECT_TRUE(symbols.insert(o.symbol).second);
-    for (char c : std::string(o.symbol)) EXPECT_TRUE(std::isalpha(static_cast<unsigned char>(c)));  // inspect's syntax
+    for (char c : std::string(o.symbol))
+      EXPECT_TRUE(std::isalpha(static_cast<unsigned char>(c)));  // inspect's syntax
     EXPECT_EQ(output_from_string(o.name), o.id);
     EXPECT_EQ(&info(o.id), &o);
     std::set<std::string> arguments;
     for (Input i : o.inputs) EXPECT_TRUE(arguments.insert(info(i).name).second) << info(i).name;
-    const bool scalar = o.results.size() == 1 && o.results[0].rows == Size::one && o.results[0].cols == Size::one;
+    const bool scalar =
+        o.results.size() == 1 && o.results[0].rows == Size::one && o.results[0].cols == Size::one;
     for (const ResultInfo& r : o.results) {
       if (!scalar) {
         EXPECT_FALSE(is_generated(r.name)) << r.name;  // a returned scalar is not an argument

@@ -24,7 +24,9 @@ struct Config {
 std::string config_name(const testing::TestParamInfo<Config>& info) {
   const Config& c = info.param;
   return "N" + std::to_string(c.links) + (c.free_floating ? "_free" : "_fixed") +
-         (c.gearing == Gearing::none ? "" : c.gearing == Gearing::parameters ? "_geared_params" : "_geared");
+         (c.gearing == Gearing::none         ? ""
+          : c.gearing == Gearing::parameters ? "_geared_params"
+                                             : "_geared");
 }
 
 ChainSpec spec_of(const Config& c) {
@@ -34,14 +36,17 @@ ChainSpec spec_of(const Config& c) {
   spec.geared = c.gearing != Gearing::none;
   spec.gear_parameters = c.gearing == Gearing::parameters;
   spec.seed = 100 * c.links + (c.free_floating ? 1 : 2) + 10 * static_cast<int>(c.gearing);
-  spec.outputs = c.free_floating ? "[mass_matrix, bias_forces, kinetic_energy, momentum, end_effector_pose]"
-                                 : "[mass_matrix, bias_forces, kinetic_energy, end_effector_pose]";
+  spec.outputs = c.free_floating
+                     ? "[mass_matrix, bias_forces, kinetic_energy, momentum, end_effector_pose]"
+                     : "[mass_matrix, bias_forces, kinetic_energy, end_effector_pose]";
   return spec;
 }
 
-Eigen::MatrixXd evaluate_matrix(const SymbolicModel& m, const GiNaC::matrix& mat, const Eigen::VectorXd& q,
-                                const Eigen::VectorXd& qd, const std::vector<double>& params = {}) {
-  const auto values = evaluate(m, mat, {q.data(), q.data() + q.size()}, {qd.data(), qd.data() + qd.size()}, params);
+Eigen::MatrixXd evaluate_matrix(const SymbolicModel& m, const GiNaC::matrix& mat,
+                                const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                                const std::vector<double>& params = {}) {
+  const auto values =
+      evaluate(m, mat, {q.data(), q.data() + q.size()}, {qd.data(), qd.data() + qd.size()}, params);
   return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
       values.data(), mat.rows(), mat.cols());
 }
@@ -56,7 +61,8 @@ TEST_P(SymbolicModelTest, MatchesIndependentNumericDerivation) {
   std::mt19937 rng(spec.seed);
   const int n = model.n();
   for (int trial = 0; trial < 2; ++trial) {
-    const Eigen::VectorXd q = test::random_vector(rng, n, 3.0), qd = test::random_vector(rng, n, 2.0);
+    const Eigen::VectorXd q = test::random_vector(rng, n, 3.0),
+                          qd = test::random_vector(rng, n, 2.0);
     const Eigen::MatrixXd M = evaluate_matrix(model, model.expression(Output::mass_matrix), q, qd);
 
     // M symmetric positive definite.
@@ -67,7 +73,8 @@ TEST_P(SymbolicModelTest, MatchesIndependentNumericDerivation) {
 
     // Against the body-by-body oracle.
     EXPECT_MATRIX_NEAR(M, oracle.mass_matrix(q), 1e-10);
-    const double T = evaluate(model, model.kinetic_energy, {q.data(), q.data() + n}, {qd.data(), qd.data() + n});
+    const double T =
+        evaluate(model, model.kinetic_energy, {q.data(), q.data() + n}, {qd.data(), qd.data() + n});
     EXPECT_NEAR(T, oracle.kinetic_energy(q, qd), 1e-12 * std::abs(T));
     EXPECT_NEAR(T, 0.5 * qd.dot(M * qd), 1e-12 * std::abs(T));
     // C qd (the bias) against the Euler-Lagrange terms by central differences (step 1e-6).
@@ -78,7 +85,8 @@ TEST_P(SymbolicModelTest, MatchesIndependentNumericDerivation) {
     // to its own rounding, about eps |M| |qd| / h (polarization and differences of M).
     const Eigen::MatrixXd b = evaluate_matrix(model, model.expression(Output::bias_forces), q, qd);
     bool identically_zero = true;
-    for (int i = 0; i < n; ++i) identically_zero &= model.expression(Output::bias_forces)(i, 0).is_zero();
+    for (int i = 0; i < n; ++i)
+      identically_zero &= model.expression(Output::bias_forces)(i, 0).is_zero();
     if (identically_zero) {
       EXPECT_TRUE(!spec.free_floating && spec.links == 1);
       EXPECT_LT(oracle.bias_forces(q, qd).cwiseAbs().maxCoeff(),
@@ -86,9 +94,11 @@ TEST_P(SymbolicModelTest, MatchesIndependentNumericDerivation) {
     } else {
       EXPECT_MATRIX_NEAR(b, oracle.bias_forces(q, qd), 1e-6);
     }
-    EXPECT_MATRIX_NEAR(evaluate_matrix(model, model.expression(Output::end_effector_pose), q, qd), oracle.end_effector_pose(q), 1e-12);
+    EXPECT_MATRIX_NEAR(evaluate_matrix(model, model.expression(Output::end_effector_pose), q, qd),
+                       oracle.end_effector_pose(q), 1e-12);
     if (spec.free_floating)
-      EXPECT_MATRIX_NEAR(evaluate_matrix(model, model.expression(Output::momentum), q, qd), oracle.momentum(q, qd), 1e-10);
+      EXPECT_MATRIX_NEAR(evaluate_matrix(model, model.expression(Output::momentum), q, qd),
+                         oracle.momentum(q, qd), 1e-10);
   }
 }
 
@@ -122,11 +132,13 @@ TEST(SymbolicIdentities, KineticEnergyIsHalfQdMQdAndCqdIsTheBias) {
     EXPECT_TRUE((m.kinetic_energy - quad / 2).expand().is_zero());
     const GiNaC::matrix Cqd = m.expression(Output::coriolis_matrix).mul(qd);
     for (int i = 0; i < n; ++i) {
-      EXPECT_TRUE((Cqd(i, 0) - m.expression(Output::bias_forces)(i, 0)).expand().is_zero()) << "row " << i;
+      EXPECT_TRUE((Cqd(i, 0) - m.expression(Output::bias_forces)(i, 0)).expand().is_zero())
+          << "row " << i;
       // C(q, 0) = 0: every entry of C is linear in qd.
       GiNaC::exmap zero;
       for (int k = 0; k < n; ++k) zero[m.qd[k]] = 0;
-      for (int j = 0; j < n; ++j) EXPECT_TRUE(m.expression(Output::coriolis_matrix)(i, j).subs(zero).expand().is_zero());
+      for (int j = 0; j < n; ++j)
+        EXPECT_TRUE(m.expression(Output::coriolis_matrix)(i, j).subs(zero).expand().is_zero());
     }
     // (Momentum is checked against sum m v and sum r x m v + I w by the numeric oracle above,
     // and against finite differences of the compiled T in test_generated_models.)
@@ -143,13 +155,15 @@ TEST(SymbolicIdentities, ArmatureDropsOnlyTheRotorCoupling) {
   const std::string exact = test::random_scene_yaml(spec);
   std::string armature = exact;
   const std::string key = "compensate_link_inertia: true}";
-  armature.replace(armature.find(key), key.size(), "compensate_link_inertia: true, rotor_coupling: armature}");
+  armature.replace(armature.find(key), key.size(),
+                   "compensate_link_inertia: true, rotor_coupling: armature}");
   const SymbolicModel e = derive(parse_scene(exact, "exact.yaml"));
   const SymbolicModel a = derive(parse_scene(armature, "armature.yaml"));
   ASSERT_TRUE(a.scene.gears[0].armature);
   const GiNaC::ex Im = e.parameters[1];
   GiNaC::ex coupling = 0;
-  for (int i = 1; i <= 3; ++i) coupling += Im * (e.omega[i - 1] * e.qd[2 + i] + e.omega[i - 1] * e.omega[i - 1] / 2);
+  for (int i = 1; i <= 3; ++i)
+    coupling += Im * (e.omega[i - 1] * e.qd[2 + i] + e.omega[i - 1] * e.omega[i - 1] / 2);
   // Same symbol names, different symbol objects: compare through the names.
   GiNaC::exmap to_e;
   for (int i = 0; i < e.n(); ++i) to_e[a.q[i]] = e.q[i], to_e[a.qd[i]] = e.qd[i];
@@ -159,7 +173,12 @@ TEST(SymbolicIdentities, ArmatureDropsOnlyTheRotorCoupling) {
   EXPECT_FALSE(coupling.expand().is_zero());
   // So the last motor's diagonal entry (no later rotor rides on it) and the base's linear
   // block are unchanged, while the base angle couples to the first motor only when exact.
-  auto same = [&](int i, int j) { return (e.expression(Output::mass_matrix)(i, j) - a.expression(Output::mass_matrix)(i, j).subs(to_e)).expand().is_zero(); };
+  auto same = [&](int i, int j) {
+    return (e.expression(Output::mass_matrix)(i, j) -
+            a.expression(Output::mass_matrix)(i, j).subs(to_e))
+        .expand()
+        .is_zero();
+  };
   EXPECT_TRUE(same(5, 5));
   EXPECT_TRUE(same(0, 0) && same(0, 1) && same(1, 1));
   EXPECT_FALSE(same(2, 3));
@@ -168,10 +187,11 @@ TEST(SymbolicIdentities, ArmatureDropsOnlyTheRotorCoupling) {
 
 TEST(SymbolicEntries, GearRatiosAppearAsTheyShould) {
   const SymbolicModel m = derive(parse_scene(test::random_scene_yaml([] {
-    ChainSpec s;
-    s.geared = s.gear_parameters = true;
-    return s;
-  }()), "r.yaml"));
+                                               ChainSpec s;
+                                               s.geared = s.gear_parameters = true;
+                                               return s;
+                                             }()),
+                                             "r.yaml"));
   const GiNaC::symbol& p = m.parameters[0];
   // Joint-joint block scales as 1/(p_i p_j), base-joint block as 1/p (MODEL-NOTES).
   EXPECT_EQ(m.expression(Output::mass_matrix)(0, 3).degree(p), -1);
@@ -183,32 +203,41 @@ TEST(SymbolicEntries, GearRatiosAppearAsTheyShould) {
   EXPECT_EQ(m.expression(Output::mass_matrix)(5, 5).degree(p), 0);
   EXPECT_EQ(m.expression(Output::mass_matrix)(5, 5).ldegree(p), -2);
   EXPECT_THROW(symbolic_entry(m, "M[6][0]"), std::invalid_argument);
-  EXPECT_THROW_MESSAGE(symbolic_entry(m, "Q[0]"), std::invalid_argument, "inspect what it is made of: M (mass_matrix)");
+  EXPECT_THROW_MESSAGE(symbolic_entry(m, "Q[0]"), std::invalid_argument,
+                       "inspect what it is made of: M (mass_matrix)");
   EXPECT_THROW_MESSAGE(symbolic_entry(m, "Z[0]"), std::invalid_argument, "unknown quantity 'Z'");
   // Wrong index counts and hostile lengths: clear errors, no silent acceptance, no crash
   // (the regular expression this replaced recursed once per character).
-  EXPECT_THROW_MESSAGE(symbolic_entry(m, "T[5]"), std::invalid_argument, "T takes 0 indices, got 1");
-  EXPECT_THROW_MESSAGE(symbolic_entry(m, "M[1]"), std::invalid_argument, "M takes 2 indices, got 1");
-  EXPECT_THROW_MESSAGE(symbolic_entry(m, "b[1][2]"), std::invalid_argument, "b takes 1 index, got 2");
-  EXPECT_THROW_MESSAGE(symbolic_entry(m, std::string(1000000, 'M')), std::invalid_argument, "too long");
+  EXPECT_THROW_MESSAGE(symbolic_entry(m, "T[5]"), std::invalid_argument,
+                       "T takes 0 indices, got 1");
+  EXPECT_THROW_MESSAGE(symbolic_entry(m, "M[1]"), std::invalid_argument,
+                       "M takes 2 indices, got 1");
+  EXPECT_THROW_MESSAGE(symbolic_entry(m, "b[1][2]"), std::invalid_argument,
+                       "b takes 1 index, got 2");
+  EXPECT_THROW_MESSAGE(symbolic_entry(m, std::string(1000000, 'M')), std::invalid_argument,
+                       "too long");
   EXPECT_THROW(symbolic_entry(m, "M[1][2]x"), std::invalid_argument);
   EXPECT_THROW(symbolic_entry(m, "M[99999999][0]"), std::invalid_argument);
   EXPECT_TRUE(symbolic_entry(m, " M [ 4 ] [5] ").is_equal(m.expression(Output::mass_matrix)(4, 5)));
   // Momentum of a fixed base is not defined (it printed 0 before).
   DeriveOptions all;
   all.all_outputs = true;
-  const SymbolicModel fixed = derive(load_scene(SPACEARM_SOURCE_DIR "/tests/scenes/fixed_n1.yaml"), all);
-  EXPECT_THROW_MESSAGE(symbolic_entry(fixed, "h[0]"), std::invalid_argument, "only defined for a free-floating base");
+  const SymbolicModel fixed =
+      derive(load_scene(SPACEARM_SOURCE_DIR "/tests/scenes/fixed_n1.yaml"), all);
+  EXPECT_THROW_MESSAGE(symbolic_entry(fixed, "h[0]"), std::invalid_argument,
+                       "only defined for a free-floating base");
   // Every closed form of the registry can be inspected (all_outputs derives them all).
   for (const OutputInfo& o : output_registry())
     if (o.composed_of.empty() && !o.free_floating_only) {
       EXPECT_EQ(fixed.outputs.count(o.id), 1u) << o.name;
     }
   // One coordinate: M is still a matrix, b and J keep their indices.
-  EXPECT_TRUE(symbolic_entry(fixed, "M[0][0]").is_equal(fixed.expression(Output::mass_matrix)(0, 0)));
+  EXPECT_TRUE(
+      symbolic_entry(fixed, "M[0][0]").is_equal(fixed.expression(Output::mass_matrix)(0, 0)));
   EXPECT_NO_THROW(symbolic_entry(fixed, "b[0]"));
   EXPECT_NO_THROW(symbolic_entry(fixed, "qj[0]"));
-  EXPECT_THROW_MESSAGE(symbolic_entry(fixed, "M[0]"), std::invalid_argument, "M takes 2 indices, got 1");
+  EXPECT_THROW_MESSAGE(symbolic_entry(fixed, "M[0]"), std::invalid_argument,
+                       "M takes 2 indices, got 1");
   EXPECT_TRUE(symbolic_entry(m, "M[4][5]").is_equal(m.expression(Output::mass_matrix)(4, 5)));
 }
 

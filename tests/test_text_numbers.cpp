@@ -22,20 +22,25 @@ TEST(TextNumbers, EverythingElseIsAnErrorNamingTheField) {
   struct Case {
     std::string text, message;
   };
-  for (const Case& c : std::vector<Case>{{"", "x: empty"},
-                                         {"abc", "x: 'abc' is not a number"},
-                                         {" 1", "x: ' 1' is not a number"},
-                                         {"1 ", "x: '1 ' is not a number"},
-                                         {"0x10", "x: '0x10' is not a number"},
-                                         {"1e999", "x: '1e999' is not finite"},
-                                         {"-inf", "x: '-inf' is not finite"},
-                                         {"nan", "x: 'nan' is not finite"},
-                                         {"1e-400", "x: '1e-400' is out of the range of double precision"},
-                                         {"3,5", "(a decimal comma? write a point)"},
-                                         {std::string("7\0" "5", 3), "holds a NUL byte"},
-                                         {std::string(200, '1'), "is too long for a number"}})
+  for (const Case& c :
+       std::vector<Case>{{"", "x: empty"},
+                         {"abc", "x: 'abc' is not a number"},
+                         {" 1", "x: ' 1' is not a number"},
+                         {"1 ", "x: '1 ' is not a number"},
+                         {"0x10", "x: '0x10' is not a number"},
+                         {"1e999", "x: '1e999' is not finite"},
+                         {"-inf", "x: '-inf' is not finite"},
+                         {"nan", "x: 'nan' is not finite"},
+                         {"1e-400", "x: '1e-400' is out of the range of double precision"},
+                         {"3,5", "(a decimal comma? write a point)"},
+                         {std::string("7\0"
+                                      "5",
+                                      3),
+                          "holds a NUL byte"},
+                         {std::string(200, '1'), "is too long for a number"}})
     EXPECT_THROW_MESSAGE(parse_number(c.text, "x"), std::invalid_argument, c.message);
-  EXPECT_THROW_MESSAGE(parse_number_list("1,2,", "--q"), std::invalid_argument, "--q[2]: empty item in '1,2,'");
+  EXPECT_THROW_MESSAGE(parse_number_list("1,2,", "--q"), std::invalid_argument,
+                       "--q[2]: empty item in '1,2,'");
   EXPECT_THROW_MESSAGE(parse_number_list(",1", "--q"), std::invalid_argument, "--q[0]: empty item");
   EXPECT_THROW_MESSAGE(parse_number_list("1,2", "--q", 3), std::invalid_argument,
                        "--q: expected 3 comma-separated values, got 2");

@@ -15,7 +15,8 @@ namespace {
 
 TEST(TorqueCsv, ColumnsAreFoundByNameInAnyOrder) {
   const TorqueTable a = read_torque_csv("t,tau1,tau2\n0,1,2\n0.5,3,4\n1,5,6\n", 2, "a.csv");
-  const TorqueTable b = read_torque_csv("\xEF\xBB\xBFtau2 , t,tau1\r\n2,0,1\r\n\r\n4,0.5,3\r\n6,1,5\r\n", 2, "b.csv");
+  const TorqueTable b =
+      read_torque_csv("\xEF\xBB\xBFtau2 , t,tau1\r\n2,0,1\r\n\r\n4,0.5,3\r\n6,1,5\r\n", 2, "b.csv");
   ASSERT_EQ(a.samples.size(), 3u);
   ASSERT_EQ(b.samples.size(), 3u);
   EXPECT_EQ(a.t0, 0);
@@ -42,10 +43,14 @@ TEST(TorqueCsv, EveryMistakeIsAnErrorNamingLineAndColumn) {
            {"t,tau1,tau2\n0,0,0\n1,0,nan\n", "line 3, column 'tau2': 'nan' is not finite"},
            {"t,tau1,tau2\n0,0,0\n1,0,3,0\n", "expected 3 fields"},
            {"t,tau1,tau2\n0,0,0\n1,0,\"3\"\n", "line 3, column 'tau2': '\"3\"' is not a number"},
-           {"t,tau1,tau2\n0,0,0\n1,2,0\n1.5,0,0\n", "line 4: time step 0.500000 differs from the first step 1.000000"},
+           {"t,tau1,tau2\n0,0,0\n1,2,0\n1.5,0,0\n",
+            "line 4: time step 0.500000 differs from the first step 1.000000"},
            {"t,tau1,tau2\n1,0,0\n0,0,0\n", "time step -1.000000 is not positive"},
            {"t,tau1,tau2\n1e6,0,0\n1000000.0000000001,0,0\n", "too small to resolve"},
-           {std::string("t,tau1,tau2\n0,0,0\n1,7\0" "5,0\n", 24), "holds a NUL byte"},
+           {std::string("t,tau1,tau2\n0,0,0\n1,7\0"
+                        "5,0\n",
+                        24),
+            "holds a NUL byte"},
        })
     EXPECT_THROW_MESSAGE(read_torque_csv(c.text, 2, "f.csv"), std::invalid_argument, c.message);
 }
@@ -61,7 +66,8 @@ TEST(TorqueCsv, DriftingGridsAreRefused) {
     text += row;
     t += k == 0 ? 0.001 : k < 2000 ? 0.001 * (1 - 0.9e-6) : 0.001 * (1 + 0.9e-6);
   }
-  EXPECT_THROW_MESSAGE(read_torque_csv(text, 1, "drift.csv"), std::invalid_argument, "steps off the uniform grid");
+  EXPECT_THROW_MESSAGE(read_torque_csv(text, 1, "drift.csv"), std::invalid_argument,
+                       "steps off the uniform grid");
 }
 
 TEST(TorqueCsv, FuzzSeedsAndRegressionsReplay) {
@@ -70,7 +76,8 @@ TEST(TorqueCsv, FuzzSeedsAndRegressionsReplay) {
   for (const char* folder : {"fuzz/text_seeds", "fuzz/text_regressions"})
     for (const auto& entry : fs::directory_iterator(fs::path(SPACEARM_SOURCE_DIR) / folder)) {
       std::ifstream in(entry.path(), std::ios::binary);
-      const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      const std::string text((std::istreambuf_iterator<char>(in)),
+                             std::istreambuf_iterator<char>());
       SCOPED_TRACE(entry.path().string());
       EXPECT_NO_THROW(fuzz::check_text(text));
       ++replayed;

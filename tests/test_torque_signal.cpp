@@ -31,9 +31,12 @@ TEST(TorqueSignal, OutsideTheSamplesIsAnErrorUnlessAskedFor) {
   const TorqueSignal<2> strict(0.0, 0.5, kSamples, Interpolation::linear);
   EXPECT_THROW(strict(1.5), std::runtime_error);
   EXPECT_THROW(strict(-0.1), std::runtime_error);
-  EXPECT_EQ(TorqueSignal<2>(0.0, 0.5, kSamples, Interpolation::linear, Extrapolation::zero)(1.5), J(0, 0));
-  EXPECT_EQ(TorqueSignal<2>(0.0, 0.5, kSamples, Interpolation::linear, Extrapolation::hold)(1.5), J(3, 20));
-  EXPECT_EQ(TorqueSignal<2>(0.0, 0.5, kSamples, Interpolation::hold, Extrapolation::hold)(-1), J(0, 10));
+  EXPECT_EQ(TorqueSignal<2>(0.0, 0.5, kSamples, Interpolation::linear, Extrapolation::zero)(1.5),
+            J(0, 0));
+  EXPECT_EQ(TorqueSignal<2>(0.0, 0.5, kSamples, Interpolation::linear, Extrapolation::hold)(1.5),
+            J(3, 20));
+  EXPECT_EQ(TorqueSignal<2>(0.0, 0.5, kSamples, Interpolation::hold, Extrapolation::hold)(-1),
+            J(0, 10));
   EXPECT_EQ(extrapolation_from_string("zero"), Extrapolation::zero);
   EXPECT_THROW(extrapolation_from_string("clamp"), std::invalid_argument);
 }
@@ -43,7 +46,8 @@ struct HeldBody {
   static constexpr double m = 2.0, dt_samples = 0.1;
   std::vector<Eigen::Matrix<double, 1, 1>> u;
   HeldBody() {
-    for (int k = 0; k <= 20; ++k) u.push_back(Eigen::Matrix<double, 1, 1>(std::sin(1.7 * k) + 0.3 * k));
+    for (int k = 0; k <= 20; ++k)
+      u.push_back(Eigen::Matrix<double, 1, 1>(std::sin(1.7 * k) + 0.3 * k));
   }
   Eigen::VectorXd exact(double T) const {
     Eigen::VectorXd x = Eigen::Vector2d(0.1, -0.2);

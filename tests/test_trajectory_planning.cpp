@@ -31,7 +31,8 @@ Replay plan_and_replay(const StraightLineTask& task, Interpolation mode = Interp
   const TorqueSignal<3> tau(0.0, task.dt, r.plan.tau, mode);
   IntegratorOptions opt;  // RK4, 0.01 s: the paper's setting
   opt.dt = task.dt;
-  r.reference = simulate<RG>(ref, r.plan.q.front(), Ref::Vector::Zero(), tau, task.duration, task.dt, opt);
+  r.reference =
+      simulate<RG>(ref, r.plan.q.front(), Ref::Vector::Zero(), tau, task.duration, task.dt, opt);
   return r;
 }
 
@@ -76,7 +77,8 @@ TEST(TrajectoryPlanning, ReplayIntoReferenceReproducesTheLine) {
   const auto r = plan_and_replay(task);
   double worst = 0;
   for (size_t k = 0; k < r.plan.t.size(); ++k)
-    worst = std::max(worst, (r.reference.end_effector[k] - Ref().end_effector_pose(r.plan.q[k])).norm());
+    worst = std::max(worst,
+                     (r.reference.end_effector[k] - Ref().end_effector_pose(r.plan.q[k])).norm());
   // Torques linearly interpolated between 0.01 s samples, RK4 at 0.01 s: a few micrometres.
   EXPECT_LT(worst, 1e-5);
   EXPECT_GT(worst, 0.0);
@@ -142,7 +144,8 @@ TEST(TrajectoryPlanning, DrivenReplayBalancesEnergyAndKeepsMomentum) {
   double peak = 0;
   for (double T : tr.kinetic_energy) peak = std::max(peak, T);
   ASSERT_GT(peak, 0.0);
-  EXPECT_LT(std::abs(tr.kinetic_energy.back() - tr.kinetic_energy.front() - tr.work.back()), 1e-4 * peak);
+  EXPECT_LT(std::abs(tr.kinetic_energy.back() - tr.kinetic_energy.front() - tr.work.back()),
+            1e-4 * peak);
   for (const auto& h : tr.momentum) EXPECT_LT(h.cwiseAbs().maxCoeff(), 1e-10);
 }
 
@@ -177,7 +180,8 @@ TEST(TrajectoryPlanning, RedundantFreeFloatingArmTakesMinimumNormRates) {
     A.bottomRows<3>() = model.mass_matrix(plan.q[k]).topRows<3>();
     const Eigen::Matrix<double, 6, 6> AAt = A * A.transpose();
     const Model<G>::Velocity projected = A.transpose() * AAt.ldlt().solve(A * plan.qd[k]);
-    EXPECT_LT((projected - plan.qd[k]).cwiseAbs().maxCoeff(), 1e-9 * qd_peak) << "t = " << plan.t[k];
+    EXPECT_LT((projected - plan.qd[k]).cwiseAbs().maxCoeff(), 1e-9 * qd_peak)
+        << "t = " << plan.t[k];
   }
 }
 
