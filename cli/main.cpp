@@ -66,6 +66,17 @@ CLI::Validator positive_number(bool allow_zero = false) {
       "POSITIVE");
 }
 
+// Runs a subcommand: its errors become one "spacearm: error:" line and exit status 1.
+template <class Run>
+int guarded(Run&& run) {
+  try {
+    return run();
+  } catch (const std::exception& e) {
+    std::cerr << "spacearm: error: " << e.what() << "\n";
+    return 1;
+  }
+}
+
 // The generate subcommand's options.
 CLI::App* add_generate(CLI::App& app, spacearm::GenerateArgs& a) {
   auto* command =
@@ -183,7 +194,8 @@ CLI::App* add_plan(CLI::App& app, spacearm::PlanArgs& a) {
       ->required()
       ->check(positive_number());
   command->add_option("--dt", a.dt, "Output grid [s]")->check(positive_number());
-  command->add_option("--time-law", a.time_law, "quintic (default) or cubic");
+  command->add_option("--time-law", a.time_law, "quintic (default) or cubic")
+      ->check(CLI::IsMember({"quintic", "cubic"}));
   auto* elbow_opt = command->add_option(
       "--elbow", a.elbow, "Start branch: sign of joint 2's angle, +1 (default) or -1");
   command
@@ -236,42 +248,21 @@ int main(int argc, char** argv) {
     return 1;
   }
 
-  if (*simulate) {
-    try {
+  if (*simulate)
+    return guarded([&] {
       if (!sim.zero_torque && sim.torque_file.empty())
         throw std::invalid_argument("simulate: give --torques FILE or --zero");
       return spacearm::run_simulate(sim);
-    } catch (const std::exception& e) {
-      std::cerr << "spacearm: error: " << e.what() << "\n";
-      return 1;
-    }
-  }
-
-  if (*plan) {
-    try {
-      return spacearm::run_plan(plan_args);
-    } catch (const std::exception& e) {
-      std::cerr << "spacearm: error: " << e.what() << "\n";
-      return 1;
-    }
-  }
-
-  if (*eval) {
-    try {
+    });
+  if (*plan) return guarded([&] { return spacearm::run_plan(plan_args); });
+  if (*eval)
+    return guarded([&] {
       const int status = spacearm::run_eval(eval_args);
       return status ? status : stdout_status();
-    } catch (const std::exception& e) {
-      std::cerr << "spacearm: error: " << e.what() << "\n";
-      return 1;
-    }
-  }
-
-  try {
+    });
+  return guarded([&] {
     const int status =
         *generate ? spacearm::run_generate(generate_args) : spacearm::run_inspect(inspect_args);
     return status ? status : stdout_status();
-  } catch (const std::exception& e) {
-    std::cerr << "spacearm: error: " << e.what() << "\n";
-    return 1;
-  }
+  });
 }

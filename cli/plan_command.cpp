@@ -1,6 +1,7 @@
 #include "plan_command.hpp"
 
 #include <cstdio>
+#include <filesystem>
 #include <string>
 
 #include "cli_input.hpp"
@@ -86,7 +87,7 @@ void write_plan(const Plan& plan, const CompiledModel& m, const Eigen::VectorXd&
 
 // t, tau1..N: the torque file simulate --torques reads.
 void write_torques(const Plan& plan, const std::string& path) {
-  RowWriter out(path);
+  RowWriter out(path, "--torque-file");
   std::string head = "t";
   for (long j = 1; j <= plan.tau.front().size(); ++j) head += ",tau" + std::to_string(j);
   out.row(head + "\n");
@@ -99,11 +100,24 @@ void write_torques(const Plan& plan, const std::string& path) {
   out.close();
 }
 
-}  // namespace
+// -o and --torque-file must be two places (both standard output, or one file, would mix them).
+void refuse_same_outputs(const PlanArgs& a) {
+  if (a.torque_file.empty()) return;
+  auto is_stdout = [](const std::string& p) { return p.empty() || p == "-"; };
+  bool same = is_stdout(a.output_file) && is_stdout(a.torque_file);
+  if (!is_stdout(a.output_file) && !is_stdout(a.torque_file)) {
+    std::error_code e1, e2;
+    same = std::filesystem::weakly_canonical(a.output_file, e1) ==
+           std::filesystem::weakly_canonical(a.torque_file, e2);
+  }
+  if (same)
+    throw std::invalid_argument("--torque-file '" + a.torque_file + "' is also the -o output '" +
+                                (is_stdout(a.output_file) ? "-" : a.output_file) +
+                                "': give two different files");
+}
 
-int run_plan(const PlanArgs& a) {
-  const Scene scene = load_scene(a.scene_path);
-  check_outputs(scene);
+// The task from the options, checked against the scene's sizes before anything is compiled.
+StraightLineTask task_from_options(const PlanArgs& a, const Scene& scene) {
   StraightLineTask task;
   const std::vector<double> from = parse_number_list(a.from_text, "--from"),
                             to = parse_number_list(a.to_text, "--to");
@@ -114,6 +128,23 @@ int run_plan(const PlanArgs& a) {
   task.law = time_law_from_string(a.time_law);
   task.elbow = a.elbow;
   if (!a.q0_text.empty()) task.q0 = cli::parse_vector(a.q0_text, "--q0", scene.num_coordinates());
+  PlanningModel sizes;
+  sizes.name = scene.name;
+  sizes.nq = scene.num_coordinates();
+  sizes.nv = scene.num_velocities();
+  sizes.num_links = scene.num_links();
+  sizes.free_floating = scene.free_floating();
+  check_task(sizes, task, {"--from", "--to", "--duration", "--dt", "--elbow", "--q0"});
+  return task;
+}
+
+}  // namespace
+
+int run_plan(const PlanArgs& a) {
+  const Scene scene = load_scene(a.scene_path);
+  check_outputs(scene);
+  const StraightLineTask task = task_from_options(a, scene);
+  refuse_same_outputs(a);
   const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, scene);
 
   CompileOptions options;
@@ -127,13 +158,21 @@ int run_plan(const PlanArgs& a) {
   const Plan plan = plan_straight_line(planning_model(model, params), task);
 
   refuse_input_as_output(a.output_file, {{"the scene", a.scene_path}});
-  refuse_input_as_output(a.torque_file, {{"the scene", a.scene_path}});
+  refuse_input_as_output(a.torque_file, {{"the scene", a.scene_path}}, "--torque-file");
   write_plan(plan, model, ratios, scene.geared(), a.output_file);
   if (!a.torque_file.empty()) write_torques(plan, a.torque_file);
   std::fprintf(stderr,
                "spacearm: plan of %zu samples: max path error %.2e, max |qdd - central differences "
                "of qd| %.2e\n",
                plan.t.size(), plan.max_path_error, plan.max_acceleration_mismatch);
+  double qdd_peak = 0;
+  for (const auto& qdd : plan.qdd) qdd_peak = std::max(qdd_peak, qdd.cwiseAbs().maxCoeff());
+  if (plan.max_acceleration_mismatch > 1e-3 * qdd_peak)
+    std::fprintf(stderr,
+                 "spacearm: warning: the planned qdd and the central differences of qd differ by "
+                 "%.2e (largest |qdd| %.2e): --dt is coarse for this motion, or the plan is "
+                 "inaccurate\n",
+                 plan.max_acceleration_mismatch, qdd_peak);
   if (!plan.base_residual.empty())
     std::fprintf(stderr,
                  "spacearm: free base: max |momentum| %.2e, max force on the base (eq. 5 base "

@@ -31,7 +31,8 @@ class OutputError : public std::exception {
 
 class RowWriter {
  public:
-  explicit RowWriter(const std::string& path)
+  // `option` names the path in errors (-o, --torque-file).
+  explicit RowWriter(const std::string& path, const std::string& option = "-o")
       : path_(path == "-" || path.empty() ? "standard output" : path) {
     if (path == "-" || path.empty()) {
       fd_ = 1;
@@ -39,7 +40,8 @@ class RowWriter {
     } else {
       fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
       if (fd_ < 0)
-        throw OutputError("-o: cannot open '" + path + "' for writing: " + std::strerror(errno));
+        throw OutputError(option + ": cannot open '" + path +
+                          "' for writing: " + std::strerror(errno));
     }
   }
   ~RowWriter() {
@@ -99,14 +101,15 @@ class RowWriter {
 // -o naming an input file (the scene, a torque file) would overwrite it: refused before the
 // output is opened. `inputs` are (what the file is, its path) pairs; empty paths are skipped.
 inline void refuse_input_as_output(const std::string& output,
-                                   const std::vector<std::pair<std::string, std::string>>& inputs) {
+                                   const std::vector<std::pair<std::string, std::string>>& inputs,
+                                   const std::string& option = "-o") {
   struct stat out {};
   if (output.empty() || output == "-" || ::stat(output.c_str(), &out) != 0) return;
   for (const auto& [what, path] : inputs) {
     struct stat in {};
     if (!path.empty() && ::stat(path.c_str(), &in) == 0 && in.st_dev == out.st_dev &&
         in.st_ino == out.st_ino)
-      throw std::invalid_argument("-o '" + output + "' is " + what +
+      throw std::invalid_argument(option + " '" + output + "' is " + what +
                                   " file: it would be overwritten");
   }
 }

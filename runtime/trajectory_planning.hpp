@@ -2,19 +2,23 @@
 // as used in the paper's Section 3): the end-effector follows a straight line in the world
 // frame (position, or position and constant-rate orientation) while, for a free-floating
 // base, the total momentum stays zero. Momentum conservation eliminates the base velocities
-// (generalized Jacobian): A qd = [v_task; 0] with A = [J_task; M_base,:]. Joint torques come
-// from eq. 5 (M qdd + b, joint rows; times the gear ratio on the link side, eq. 14).
-// Any chain: a fixed or free base, N >= 2 joints for a position task, N >= 3 for a pose.
-// Redundant arms take the minimum-norm joint rates. Dynamic sizes: the planner reads a model
-// through PlanningModel, so a linked Model<G> and a loaded CompiledModel share it.
+// (the generalized Jacobian, Umetani-Yoshida): v_task = J* z for the link-side joint rates z.
+// Joint torques come from eq. 5 (M qdd + b, joint rows; times the gear ratio on the link side,
+// eq. 14). Any chain: a fixed or free base, N >= 2 joints for a position task, N >= 3 for a
+// pose. Redundant arms take the minimum-norm link-side joint rates z = J*^+ v_task. Dynamic
+// sizes: the planner reads a model through PlanningModel, so a linked Model<G> and a loaded
+// CompiledModel share it.
 #pragma once
 
+#include <Eigen/Cholesky>
 #include <Eigen/QR>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -122,35 +126,64 @@ using Plan = BasicPlan<>;
 template <class G>
 using ModelPlan = BasicPlan<typename Model<G>::Vector, typename Model<G>::JointVector>;
 
-namespace detail {
+// The names a caller gives the task's fields, for error messages (the CLI: its options).
+struct TaskNames {
+  std::string start = "start", goal = "goal", duration = "duration", dt = "dt", elbow = "elbow",
+              q0 = "q0";
+};
 
-// Task rows of the end-effector pose: 2 (position) or 3 (pose); checks the model can do it.
-inline int task_rows(const PlanningModel& m, const StraightLineTask& task) {
+// Largest plan accepted: samples are held in memory until the plan is complete.
+inline constexpr double kMaxPlanSamples = 1e6;
+
+// Checks a task against a model's sizes, before anything is computed; returns the task rows of
+// the end-effector pose: 2 (position) or 3 (pose). Errors name the field (TaskNames).
+inline int check_task(const PlanningModel& m, const StraightLineTask& task,
+                      const TaskNames& names = {}) {
   const int rows = static_cast<int>(task.start.size());
   auto fail = [&](const std::string& why) {
     throw std::invalid_argument("planner, model " + m.name + ": " + why);
   };
+  auto text = [](double v) {  // shortest text that reads back as v
+    char buf[32];
+    const auto r = std::to_chars(buf, buf + sizeof buf, v);
+    return std::string(buf, r.ptr);
+  };
   if (rows != 2 && rows != 3)
-    fail("the start must be x,y (position) or x,y,phi (pose), got " + std::to_string(rows) +
+    fail(names.start + " must be x,y (position) or x,y,phi (pose), got " + std::to_string(rows) +
          " values");
   if (task.goal.size() != rows)
-    fail("the goal has " + std::to_string(task.goal.size()) + " values and the start " +
-         std::to_string(rows));
+    fail(names.goal + " has " + std::to_string(task.goal.size()) + " values and " + names.start +
+         " " + std::to_string(rows));
   if (m.num_links < rows)
     fail("a " + std::to_string(m.num_links) + "-link arm cannot follow a " +
          (rows == 3 ? "pose" : "position") + " (" + std::to_string(rows) + " task coordinates)" +
-         (m.num_links == 2 ? ": give x,y only" : ""));
+         (m.num_links == 2 ? ": give x,y only in " + names.start + " and " + names.goal : ""));
   if (m.nq != m.nv) fail("needs nq == nv (it integrates qd as dq/dt)");
-  if (!(task.duration > 0) || !(task.dt > 0) || !std::isfinite(task.duration))
-    fail("duration and dt must be positive");
-  if (!task.start.allFinite() || !task.goal.allFinite()) fail("start and goal must be finite");
+  if (!(task.duration > 0) || !std::isfinite(task.duration))
+    fail(names.duration + " must be positive and finite, got " + text(task.duration));
+  if (!(task.dt > 0)) fail(names.dt + " must be positive, got " + text(task.dt));
+  const double steps = task.duration / task.dt;
+  if (!(steps + 1 <= kMaxPlanSamples))
+    fail(names.duration + " / " + names.dt + " = " + text(steps) + " samples; at most " +
+         text(kMaxPlanSamples) + " are planned at once (a larger " + names.dt + ")");
+  if (std::abs(steps - std::round(steps)) > 1e-9 * std::max(1.0, steps))
+    fail(names.duration + " (" + text(task.duration) + " s) must be a whole multiple of " +
+         names.dt + " (" + text(task.dt) + " s)");
+  for (const auto& [v, name] :
+       {std::make_pair(&task.start, names.start), std::make_pair(&task.goal, names.goal)})
+    for (Eigen::Index i = 0; i < v->size(); ++i)
+      if (!(std::abs((*v)[i]) < 1e6))
+        fail(name + " value " + std::to_string(i + 1) +
+             " must be finite and below 1e6 in size, got " + text((*v)[i]));
   if (task.q0.size() != 0 && (task.q0.size() != m.nq || !task.q0.allFinite()))
-    fail("q0 must have " + std::to_string(m.nq) + " finite values, got " +
+    fail(names.q0 + " must have " + std::to_string(m.nq) + " finite values, got " +
          std::to_string(task.q0.size()));
   if (task.q0.size() == 0 && task.elbow != 1 && task.elbow != -1)
-    fail("elbow must be +1 or -1, got " + std::to_string(task.elbow));
+    fail(names.elbow + " must be +1 or -1, got " + std::to_string(task.elbow));
   return rows;
 }
+
+namespace detail {
 
 // Minimum-norm solutions of A x = r for a full-row-rank A (m x n, m <= n) through a QR
 // factorization of A^T = Q R P^T: x = A^T lambda with A A^T lambda = r. Exact for square A.
@@ -180,78 +213,100 @@ struct MinimumNorm {
   }
 };
 
-// A(q) = [J_task; M_base rows]: zero base-row momentum M_base qd = 0 is zero linear and
-// angular momentum (L = M_q0,: qd + x0 Py - y0 Px).
-inline Eigen::MatrixXd system_matrix(const PlanningModel& m, int rows, const Eigen::VectorXd& q) {
-  const int nb = m.num_base();
-  Eigen::MatrixXd A(rows + nb, m.nv);
-  A.topRows(rows) = m.end_effector_jacobian(q).topRows(rows);
+// The task in the link-side joint rates z (qd_joint = p z, eq. 9) at q. A free base's rates
+// follow from zero momentum, M_bb qd_b + M_bj qd_j = 0 (the base rows of the generalized
+// momentum: zero linear and angular momentum, L = M_q0,: qd + x0 Py - y0 Px), so
+// qd = E z with E = [-M_bb^-1 M_bj P; P], and the task velocity is A z with A = J_task E,
+// the generalized Jacobian (Umetani-Yoshida) on the link side. Fixed base: E = P.
+struct TaskMap {
+  Eigen::MatrixXd A, E;
+};
+inline TaskMap task_map(const PlanningModel& m, int rows, const Eigen::VectorXd& q) {
+  const int nb = m.num_base(), n = m.num_links;
+  TaskMap t;
+  t.E = Eigen::MatrixXd::Zero(m.nv, n);
+  t.E.bottomRows(n) = m.gear_ratios.asDiagonal();
   if (nb > 0) {
     Eigen::MatrixXd M;
     Eigen::VectorXd b;
     m.mass_matrix_and_bias(q, Eigen::VectorXd::Zero(m.nv), M, b);
-    A.bottomRows(nb) = M.topRows(nb);
+    t.E.topRows(nb) =
+        -M.topLeftCorner(nb, nb).ldlt().solve(M.topRightCorner(nb, n)) * m.gear_ratios.asDiagonal();
   }
-  return A;
+  t.A = m.end_effector_jacobian(q).topRows(rows) * t.E;
+  return t;
 }
 
-}  // namespace detail
-
-// Joint angles that put the end-effector at task.start (base coordinates at zero, or those of
-// task.q0), by Newton's method with minimum-norm steps on the task coordinates; `elbow` picks
-// the branch by the sign of joint 2 and seeds the iteration, task.q0 replaces the seed.
-inline Eigen::VectorXd initial_configuration(const PlanningModel& m, const StraightLineTask& task) {
-  const int rows = detail::task_rows(m, task), j0 = m.num_base(), n = m.num_links;
-  Eigen::VectorXd q = Eigen::VectorXd::Zero(m.nq);
-  if (task.q0.size() != 0) {
-    q = task.q0;
-  } else {
-    // Link-side angles; a geared model's coordinates are the motor angles qm = p q (eq. 12).
-    for (int i = 0; i < n; ++i)
-      q[j0 + i] = m.gear_ratios[i] * task.elbow * (i == 0 ? -0.3 : i == 1 ? 1.2 : -0.5 / (n - 2));
-  }
-  auto error = [&](const Eigen::VectorXd& x) {
-    const Eigen::VectorXd pose = m.end_effector_pose(x);
-    return Eigen::VectorXd(task.start - pose.head(rows));
-  };
-  for (int it = 0; it < 200 && !(error(q).norm() < 1e-14); ++it) {
-    const Eigen::MatrixXd J = m.end_effector_jacobian(q).block(0, j0, rows, n);
-    Eigen::VectorXd step = J.completeOrthogonalDecomposition().solve(error(q));
-    if (step.norm() > 0.5) step *= 0.5 / step.norm();  // stay near the seed's branch
-    q.segment(j0, n) += step;
-  }
-  const bool branch_ok = task.q0.size() != 0 || q[j0 + 1] * task.elbow > 0;
-  if (!(error(q).norm() < 1e-12) || !branch_ok) {
-    std::string pose;
-    for (int i = 0; i < rows; ++i) pose += (i ? ", " : "") + std::to_string(task.start[i]);
-    throw std::runtime_error("planner, model " + m.name + ": no start configuration " +
-                             (task.q0.size() ? std::string("near the given q0")
-                                             : "on elbow branch " + std::to_string(task.elbow)) +
-                             " puts the end-effector at (" + pose + ")" +
-                             (task.q0.size() ? "" : "; give a guess with q0"));
-  }
-  return q;
+// Rows of A scaled to unit length: the same solutions, and an rcond that does not depend on
+// the units of the task coordinates.
+inline Eigen::VectorXd row_scales(const Eigen::MatrixXd& A) {
+  Eigen::VectorXd s(A.rows());
+  for (Eigen::Index i = 0; i < A.rows(); ++i) s[i] = A.row(i).norm() > 0 ? 1 / A.row(i).norm() : 1;
+  return s;
 }
-namespace detail {
 
-// The time derivative of the minimum-norm rates qd = A^T lambda at one sample:
-// qdd = Adot^T lambda + A^T mu with A qdd = [a - Jdot qd; -b_base]. The base rows impose
-// M_base qdd = -b_base, i.e. no force on the base (eq. 5); this equals -(Mdot qd)_base because
-// b_base - (Mdot qd)_base = -dT/dq_base, zero on a zero-momentum motion (dT/dx0 = dT/dy0 = 0,
-// dT/dq0 = -r0d x P). Adot by central differences along qd. For a square A this is A^-1 rhs.
-inline Eigen::VectorXd planned_acceleration(const PlanningModel& m, int rows, const MinimumNorm& mn,
-                                            const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
-                                            const Eigen::VectorXd& lambda, const Eigen::VectorXd& a,
-                                            const Eigen::VectorXd& b) {
-  const int nb = m.num_base();
-  const double eps = 1e-6;
-  const Eigen::MatrixXd Adot =
-      (system_matrix(m, rows, q + eps * qd) - system_matrix(m, rows, q - eps * qd)) / (2 * eps);
-  Eigen::VectorXd rhs(rows + nb);
-  rhs.head(rows) = a - Adot.topRows(rows) * qd;
-  rhs.tail(nb) = -b.head(nb);
-  const Eigen::VectorXd At_lambda_dot = Adot.transpose() * lambda;
-  return At_lambda_dot + mn.x(mn.y(rhs - system_matrix(m, rows, q) * At_lambda_dot));
+// The straight line's desired pose, velocity and acceleration at t.
+struct Desired {
+  Eigen::VectorXd x, v, a;
+};
+inline Desired desired(const StraightLineTask& task, double t) {
+  const double T = task.duration;
+  const Eigen::Vector3d s = time_law(task.law, t / T);
+  const Eigen::VectorXd d = task.goal - task.start;
+  return {task.start + s[0] * d, s[1] / T * d, s[2] / (T * T) * d};
+}
+
+// One sample's rates: z = A^+ v (minimum norm on the link side), qd = E z.
+struct Rates {
+  TaskMap map;
+  Eigen::VectorXd scale, z, lambda, qd;
+};
+inline Rates rates(const PlanningModel& m, int rows, const Eigen::VectorXd& q,
+                   const Eigen::VectorXd& v, double t) {
+  Rates r{task_map(m, rows, q), {}, {}, {}, {}};
+  r.scale = row_scales(r.map.A);
+  const MinimumNorm mn(r.scale.asDiagonal() * r.map.A);
+  // Near a singularity of the generalized Jacobian (the arm stretched or folded at the edge
+  // of the workspace) the joint rates blow up: stop with a reason instead of integrating noise.
+  if (!(mn.rcond() > 1e-10)) {
+    std::ostringstream msg;
+    msg << "planner, model " << m.name << ": generalized Jacobian singular (rcond " << mn.rcond()
+        << ") at t = " << t << " s: the path leaves the workspace or crosses a singularity";
+    throw std::runtime_error(msg.str());
+  }
+  const Eigen::VectorXd y = mn.y(r.scale.cwiseProduct(v));
+  r.z = mn.x(y);
+  r.lambda = r.scale.asDiagonal() * mn.lambda(y);  // z = A^T lambda for the unscaled A
+  r.qd = r.map.E * r.z;
+  return r;
+}
+
+// The time derivative of the minimum-norm rates z = A^T lambda: zd = Adot^T lambda + A^T mu
+// with A zd = a - Adot z. Adot by central differences in time along qd (a step of 1e-6 in q
+// whatever the speed). Then qdd_j = P zd and the base from no force on it (eq. 5 base rows,
+// M_bb qdd_b = -b_b - M_bj qdd_j); on a zero-momentum motion this is the derivative of the
+// base rates, since b_b - (Mdot qd)_b = -dT/dq_b = 0 there (dT/dx0 = dT/dy0 = 0,
+// dT/dq0 = -r0d x P).
+inline Eigen::VectorXd accelerations(const PlanningModel& m, int rows, const Eigen::VectorXd& q,
+                                     const Rates& r, const Eigen::VectorXd& a,
+                                     const Eigen::MatrixXd& M, const Eigen::VectorXd& b) {
+  const int nb = m.num_base(), n = m.num_links;
+  const double speed = r.qd.cwiseAbs().maxCoeff();
+  Eigen::MatrixXd Adot = Eigen::MatrixXd::Zero(rows, n);
+  if (speed > 0) {
+    const double h = 1e-6 / speed;
+    Adot = (task_map(m, rows, q + h * r.qd).A - task_map(m, rows, q - h * r.qd).A) / (2 * h);
+  }
+  const MinimumNorm mn(r.scale.asDiagonal() * r.map.A);
+  const Eigen::VectorXd At_lambda_dot = Adot.transpose() * r.lambda;
+  const Eigen::VectorXd rhs = a - Adot * r.z - r.map.A * At_lambda_dot;
+  const Eigen::VectorXd zd = At_lambda_dot + mn.x(mn.y(r.scale.cwiseProduct(rhs)));
+  Eigen::VectorXd qdd(m.nv);
+  qdd.tail(n) = m.gear_ratios.cwiseProduct(zd);
+  if (nb > 0)
+    qdd.head(nb) =
+        M.topLeftCorner(nb, nb).ldlt().solve(-b.head(nb) - M.topRightCorner(nb, n) * qdd.tail(n));
+  return qdd;
 }
 
 // Independent checks of a plan: qdd by central differences of the planned qd, and the forces
@@ -274,36 +329,56 @@ inline void check_by_central_differences(const PlanningModel& m, Plan& plan) {
 
 }  // namespace detail
 
+// Joint angles that put the end-effector at task.start (base coordinates at zero, or those of
+// task.q0), by Newton's method on the link-side joint angles with minimum-norm steps (at most
+// 0.5 rad) and, for a redundant arm, a pull in the null space towards the seed, so that the
+// start stays near it. `elbow` picks the branch by the sign of joint 2 and seeds the
+// iteration; task.q0 replaces the seed.
+inline Eigen::VectorXd initial_configuration(const PlanningModel& m, const StraightLineTask& task) {
+  const int rows = check_task(m, task), j0 = m.num_base(), n = m.num_links;
+  const Eigen::VectorXd p = m.gear_ratios;
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(m.nq);
+  if (task.q0.size() != 0) {
+    q = task.q0;
+  } else {
+    // Link-side angles; a geared model's coordinates are the motor angles qm = p q (eq. 12).
+    for (int i = 0; i < n; ++i)
+      q[j0 + i] = p[i] * task.elbow * (i == 0 ? -0.3 : i == 1 ? 1.2 : -0.5 / (n - 2));
+  }
+  const Eigen::VectorXd seed = q.segment(j0, n).cwiseQuotient(p);  // link side
+  auto error = [&](const Eigen::VectorXd& x) {
+    const Eigen::VectorXd pose = m.end_effector_pose(x);
+    return Eigen::VectorXd(task.start - pose.head(rows));
+  };
+  for (int it = 0; it < 300; ++it) {
+    const Eigen::VectorXd err = error(q);
+    const Eigen::MatrixXd J = m.end_effector_jacobian(q).block(0, j0, rows, n) * p.asDiagonal();
+    const auto cod = J.completeOrthogonalDecomposition();
+    const Eigen::VectorXd pull = seed - q.segment(j0, n).cwiseQuotient(p);
+    const Eigen::VectorXd null_pull = pull - cod.solve(J * pull);
+    Eigen::VectorXd step = cod.solve(err) + 0.5 * null_pull;
+    if (!step.allFinite()) break;
+    if (err.norm() < 1e-14 && null_pull.norm() < 1e-10) break;
+    if (step.norm() > 0.5) step *= 0.5 / step.norm();  // stay near the seed's branch
+    q.segment(j0, n) += p.cwiseProduct(step);
+  }
+  const bool branch_ok = task.q0.size() != 0 || q[j0 + 1] * task.elbow > 0;
+  if (!(error(q).norm() < 1e-12) || !branch_ok) {
+    std::string pose;
+    for (int i = 0; i < rows; ++i) pose += (i ? ", " : "") + std::to_string(task.start[i]);
+    throw std::runtime_error("planner, model " + m.name + ": no start configuration " +
+                             (task.q0.size() ? std::string("near the given q0")
+                                             : "on elbow branch " + std::to_string(task.elbow)) +
+                             " puts the end-effector at (" + pose + ")" +
+                             (task.q0.size() ? "" : "; give a guess with q0"));
+  }
+  return q;
+}
+
 // The straight line of `task` for model `m` on the grid t = 0, dt, ..., T.
 inline Plan plan_straight_line(const PlanningModel& m, const StraightLineTask& task) {
   using Eigen::VectorXd;
-  const int rows = detail::task_rows(m, task), nb = m.num_base(), n = m.num_links;
-  const double T = task.duration;
-  auto desired = [&](double t, VectorXd& x, VectorXd& v, VectorXd& a) {
-    const Eigen::Vector3d s = time_law(task.law, t / T);
-    const VectorXd d = task.goal - task.start;
-    x = task.start + s[0] * d;
-    v = s[1] / T * d;
-    a = s[2] / (T * T) * d;
-  };
-  auto factor = [&](const VectorXd& q, double t) {
-    detail::MinimumNorm mn(detail::system_matrix(m, rows, q));
-    // Near a singularity of the generalized Jacobian (the arm stretched or folded at the edge
-    // of the workspace) the joint rates blow up: stop with a reason instead of integrating noise.
-    if (!(mn.rcond() > 1e-10))
-      throw std::runtime_error("planner, model " + m.name +
-                               ": generalized Jacobian singular (rcond " +
-                               std::to_string(mn.rcond()) + ") at t = " + std::to_string(t) +
-                               ": the path leaves the workspace or crosses a singularity");
-    return mn;
-  };
-  auto velocity = [&](const VectorXd& q, double t) {
-    VectorXd x, v, a, r = VectorXd::Zero(rows + nb);
-    desired(t, x, v, a);
-    r.head(rows) = v;
-    const auto mn = factor(q, t);
-    return VectorXd(mn.x(mn.y(r)));
-  };
+  const int rows = check_task(m, task), nb = m.num_base(), n = m.num_links;
 
   // Integrate q' = qd(q, t) on the grid.
   Plan plan;
@@ -312,47 +387,47 @@ inline Plan plan_straight_line(const PlanningModel& m, const StraightLineTask& t
   opt.method = Method::rkf78;
   opt.rtol = 1e-13;
   opt.atol = 1e-14;
-  auto f = [&](const VectorXd& s, VectorXd& dsdt, double t) { dsdt = velocity(s, t); };
+  auto f = [&](const VectorXd& s, VectorXd& dsdt, double t) {
+    dsdt = detail::rates(m, rows, s, detail::desired(task, t).v, t).qd;
+  };
   auto observe = [&](const VectorXd& s, double t) {
     plan.t.push_back(t);
     plan.q.push_back(s);
   };
   try {
-    integrate(opt, f, q, 0.0, T, task.dt, observe);
+    integrate(opt, f, q, 0.0, task.duration, task.dt, observe);
   } catch (const IntegrationError& e) {
-    throw std::runtime_error(
-        "planner, model " + m.name + ": cannot follow the line beyond t = " +
-        std::to_string(e.t()) + " s: the generalized Jacobian becomes singular there (rcond " +
-        std::to_string(detail::MinimumNorm(detail::system_matrix(m, rows, e.state())).rcond()) +
-        "; the arm is stretched or folded, or the line leaves the workspace). " + e.what());
+    const detail::TaskMap map = detail::task_map(m, rows, e.state());
+    const double rcond =
+        detail::MinimumNorm(detail::row_scales(map.A).asDiagonal() * map.A).rcond();
+    std::ostringstream msg;
+    msg << "planner, model " << m.name << ": cannot follow the line beyond t = " << e.t()
+        << " s: the generalized Jacobian becomes singular there (rcond " << rcond
+        << "; the arm is stretched or folded, or the line leaves the workspace). " << e.what();
+    throw std::runtime_error(msg.str());
   }
 
   // Rates, accelerations and torques per sample.
   plan.max_momentum = m.momentum || nb == 0 ? 0.0 : std::numeric_limits<double>::quiet_NaN();
   for (size_t k = 0; k < plan.t.size(); ++k) {
-    const double t = plan.t[k];
     const VectorXd& qk = plan.q[k];
-    VectorXd x, v, a, r = VectorXd::Zero(rows + nb);
-    desired(t, x, v, a);
-    r.head(rows) = v;
-    const auto mn = factor(qk, t);
-    const VectorXd y = mn.y(r), qd = mn.x(y), lambda = mn.lambda(y);
+    const detail::Desired d = detail::desired(task, plan.t[k]);
+    const detail::Rates r = detail::rates(m, rows, qk, d.v, plan.t[k]);
     Eigen::MatrixXd Mk;
     VectorXd b;
-    m.mass_matrix_and_bias(qk, qd, Mk, b);
-    const VectorXd qdd = detail::planned_acceleration(m, rows, mn, qk, qd, lambda, a, b);
+    m.mass_matrix_and_bias(qk, r.qd, Mk, b);
+    const VectorXd qdd = detail::accelerations(m, rows, qk, r, d.a, Mk, b);
     const VectorXd Q = Mk * qdd + b;  // eq. 5
-    plan.qd.push_back(qd);
+    plan.qd.push_back(r.qd);
     plan.qdd.push_back(qdd);
     plan.tau.push_back(Q.tail(n).cwiseProduct(m.gear_ratios));
     if (nb > 0) plan.base_residual.push_back(Q.head(nb).cwiseAbs().maxCoeff());
     const VectorXd pose = m.end_effector_pose(qk);
     plan.max_path_error =
-        std::max(plan.max_path_error, (pose.head(rows) - x).cwiseAbs().maxCoeff());
+        std::max(plan.max_path_error, (pose.head(rows) - d.x).cwiseAbs().maxCoeff());
     if (m.momentum && nb > 0)
-      plan.max_momentum = std::max(plan.max_momentum, m.momentum(qk, qd).cwiseAbs().maxCoeff());
+      plan.max_momentum = std::max(plan.max_momentum, m.momentum(qk, r.qd).cwiseAbs().maxCoeff());
   }
-
   detail::check_by_central_differences(m, plan);
   return plan;
 }

@@ -210,20 +210,24 @@ TEST_F(PlanCommand, TwoLinkArmPlansPositionOnly) {
 
 TEST_F(PlanCommand, BadRequestsNameTheOption) {
   const std::string csv = (dir() / "bad.csv").string();
+  const std::string scene = (fs::path(SPACEARM_SOURCE_DIR) / "tests/scenes/free_n5.yaml").string();
+  const std::string line = "free_n5 --from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 ";
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"free_n2_geared --from 0.9,0.3,0 --to 0.7,0.5,0 --duration 4",
        "a 2-link arm cannot follow a pose"},
-      {"free_n5 --from 1.6,0.2 --to 1.2,-0.2,0.5 --duration 4",
-       "the goal has 3 values and the start 2"},
-      {"free_n5 --from 1.6 --to 1.2 --duration 4", "the start must be x,y (position) or x,y,phi"},
+      {"free_n5 --from 1.6,0.2 --to 1.2,-0.2,0.5 --duration 4", "--to has 3 values and --from 2"},
+      {"free_n5 --from 1.6 --to 1.2 --duration 4", "--from must be x,y (position) or x,y,phi"},
       {"free_n5 --from 9,0,0 --to 1.2,0,0 --duration 4",
        "no start configuration on elbow branch 1"},
-      {"free_n5 --from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration 4 --elbow 0",
-       "elbow must be +1 or -1, got 0"},
-      {"free_n5 --from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration 4 --q0 1,2", "--q0"},
-      {"free_n5 --from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration 4 --time-law linear",
-       "unknown time law 'linear'"},
-      {"free_n5 --from 1.6,0.2,0.3 --to 1.2,-0.2,0.5 --duration -4", "--duration"},
+      {"free_n5 --from 1e300,0,0 --to 1.2,0,0 --duration 4", "--from value 1 must be finite"},
+      {line + "--duration 4 --elbow 0", "--elbow must be +1 or -1, got 0"},
+      {line + "--duration 4 --q0 1,2", "--q0"},
+      {line + "--duration 4 --time-law linear", "--time-law"},
+      {line + "--duration -4", "--duration"},
+      {line + "--duration 1 --dt 0.3", "--duration (1 s) must be a whole multiple of --dt (0.3"},
+      {line + "--duration 1e6", "= 1e+08 samples; at most 1e+06"},
+      {line + "--duration 4 --torque-file " + csv, "--torque-file '" + csv + "' is also the -o"},
+      {line + "--duration 4 --torque-file " + scene, "--torque-file '" + scene + "' is the scene"},
       {"free_n5 --from 1.6,x,0.3 --to 1.2,-0.2,0.5 --duration 4", "--from"},
       {"free_n5 --from 0.5,0.2,0.3 --to 3,0.2,0.3 --duration 4", "singular"},
   };
