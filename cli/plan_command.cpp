@@ -13,33 +13,6 @@ namespace spacearm {
 
 namespace {
 
-// The planner's view of a loaded model at fixed parameter values.
-PlanningModel planning_model(const CompiledModel& m, const Eigen::VectorXd& params) {
-  PlanningModel pm;
-  pm.name = m.name();
-  pm.nq = m.nq();
-  pm.nv = m.nv();
-  pm.num_links = m.num_links();
-  pm.free_floating = m.nv() > m.num_links();
-  pm.gear_ratios = m.gear_ratios(params);
-  pm.end_effector_pose = [&m, params](const Eigen::VectorXd& q) {
-    return m.end_effector_pose(q, params);
-  };
-  pm.end_effector_jacobian = [&m, params](const Eigen::VectorXd& q) {
-    return Eigen::MatrixXd(m.evaluate(Output::end_effector_jacobian, {q}, params).front());
-  };
-  pm.mass_matrix_and_bias = [&m, params](const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
-                                         Eigen::MatrixXd& M, Eigen::VectorXd& b) {
-    M = m.mass_matrix(q, params);
-    b = m.bias_forces(q, qd, params);
-  };
-  if (m.has(Output::momentum))
-    pm.momentum = [&m, params](const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
-      return m.momentum(q, qd, params);
-    };
-  return pm;
-}
-
 void check_outputs(const Scene& scene) {
   std::string missing;
   for (Output o : {Output::end_effector_pose, Output::end_effector_jacobian, Output::mass_matrix,
@@ -128,7 +101,7 @@ StraightLineTask task_from_options(const PlanArgs& a, const Scene& scene) {
   task.law = time_law_from_string(a.time_law);
   task.elbow = a.elbow;
   if (!a.q0_text.empty()) task.q0 = cli::parse_vector(a.q0_text, "--q0", scene.num_coordinates());
-  PlanningModel sizes;
+  DynamicModel sizes;
   sizes.name = scene.name;
   sizes.nq = scene.num_coordinates();
   sizes.nv = scene.num_velocities();
@@ -155,7 +128,7 @@ int run_plan(const PlanArgs& a) {
   };
   const auto model = CompiledModel::load(scene, options);
   const Eigen::VectorXd ratios = model.gear_ratios(params);
-  const Plan plan = plan_straight_line(planning_model(model, params), task);
+  const Plan plan = plan_straight_line(dynamic_model(model, params), task);
 
   refuse_input_as_output(a.output_file, {{"the scene", a.scene_path}});
   refuse_input_as_output(a.torque_file, {{"the scene", a.scene_path}}, "--torque-file");

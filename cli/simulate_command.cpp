@@ -1,6 +1,6 @@
 #include "simulate_command.hpp"
 
-#include <Eigen/Cholesky>
+#include <algorithm>
 
 #include <chrono>
 #include <csignal>
@@ -12,6 +12,7 @@
 
 #include "cli_input.hpp"
 #include "compiled_model.hpp"
+#include "dynamic_model.hpp"
 #include "integrators.hpp"
 #include "row_writer.hpp"
 #include "simulation.hpp"
@@ -89,15 +90,16 @@ std::unique_ptr<TorqueSignal<Eigen::Dynamic>> torque_signal(const SimulateArgs& 
                                                         outside);
 }
 
+// The columns of a row, from what the scene emits.
 struct Columns {
   bool geared, pose, energy, momentum;
 };
 
-std::string header(const CompiledModel& model, const Columns& c) {
+std::string header(const DynamicModel& model, const Columns& c) {
   std::string h = "t";
-  for (const auto& n : model.coordinate_names()) h += "," + n;
-  for (const auto& n : model.coordinate_names()) h += "," + n + "d";
-  const int N = model.num_links();
+  for (const auto& n : model.coordinate_names) h += "," + n;
+  for (const auto& n : model.coordinate_names) h += "," + n + "d";
+  const int N = model.num_links;
   // Geared: link-side angles q = qm / p and rates next to the motor coordinates.
   if (c.geared) {
     for (int j = 1; j <= N; ++j) h += ",q" + std::to_string(j);
@@ -119,6 +121,31 @@ void append(std::string& row, double v) {
   row += buf;
 }
 
+// One sample as a row of the header's columns.
+std::string row(const DynamicModel& model, const Columns& c, double t, const Eigen::VectorXd& q,
+                const Eigen::VectorXd& qd, const Eigen::VectorXd& tau) {
+  const int N = model.num_links, nq = model.nq, nv = model.nv;
+  const Eigen::VectorXd& p = model.gear_ratios;
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.17g", t);
+  std::string r = buf;
+  for (double v : q) append(r, v);
+  for (double v : qd) append(r, v);
+  if (c.geared) {
+    for (int j = 0; j < N; ++j) append(r, q[nq - N + j] / p[j]);
+    for (int j = 0; j < N; ++j) append(r, qd[nv - N + j] / p[j]);
+  }
+  for (int j = 0; j < N; ++j) append(r, tau[j]);
+  if (c.geared)
+    for (int j = 0; j < N; ++j) append(r, tau[j] / p[j]);
+  if (c.pose)
+    for (double v : model.end_effector_pose(q)) append(r, v);
+  if (c.energy) append(r, model.kinetic_energy(q, qd));
+  if (c.momentum)
+    for (double v : model.momentum(q, qd)) append(r, v);
+  return r + "\n";
+}
+
 // Says so before a run whose CSV would pass 1 GB.
 void warn_if_large(const SimulateArgs& a, double dt_out, int columns) {
   const double rows = a.t_end / dt_out + 1, bytes = rows * columns * 24.0;
@@ -135,9 +162,59 @@ void report_stop(const RowWriter& out, double t_reached, const std::string& why)
                out.where().c_str(), t_reached);
 }
 
+IntegratorOptions integrator_options(const SimulateArgs& a) {
+  IntegratorOptions opt;
+  opt.method = method_from_string(a.integrator);
+  opt.dt = a.dt;
+  opt.rtol = a.rtol;
+  opt.atol = a.atol;
+  return opt;
+}
+
+// The scene's model, compiled or from the cache, with the stages reported under --verbose.
+CompiledModel load_model(const SimulateArgs& a, const Scene& scene) {
+  CompileOptions options;
+  options.cache_dir = a.cache_dir;
+  options.progress = [&](const std::string& m) {
+    if (a.verbose || m.rfind("compiling", 0) == 0)
+      std::fprintf(stderr, "spacearm: %s\n", m.c_str());
+  };
+  StageReport rep;
+  CompiledModel model = CompiledModel::load(scene, options, &rep);
+  if (a.verbose)
+    std::fprintf(
+        stderr,
+        "spacearm: cache %s (%s); derive %.1f ms, emit %.1f ms, compile %.1f ms, load %.1f ms\n",
+        rep.cache_entry.c_str(), rep.compiled ? "built" : "hit", rep.derive_ms, rep.emit_ms,
+        rep.compile_ms, rep.load_ms);
+  return model;
+}
+
+// Progress on long runs: after 2 s of wall time, every 10 %.
+class Progress {
+ public:
+  explicit Progress(double t_end) : t_end_(t_end) {}
+  void at(double t) {
+    const int percent = static_cast<int>(100 * t / t_end_);
+    if (percent >= last_ + 10 && seconds() > 2) {
+      last_ = percent - percent % 10;
+      std::fprintf(stderr, "spacearm: simulated %d %% (t = %g s)\n", last_, t);
+    }
+  }
+  double seconds() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0_).count();
+  }
+
+ private:
+  double t_end_;
+  int last_ = 0;
+  std::chrono::steady_clock::time_point wall0_ = std::chrono::steady_clock::now();
+};
+
 }  // namespace
 
 int run_simulate(const SimulateArgs& a) {
+  // Everything the run needs is checked before the output file is opened.
   const Scene scene = load_scene(a.scene_path);
   if (!scene.wants(Output::forward_dynamics) &&
       !(scene.wants(Output::mass_matrix) && scene.wants(Output::bias_forces)))
@@ -150,33 +227,17 @@ int run_simulate(const SimulateArgs& a) {
   const Eigen::VectorXd qd0 =
       a.qd0_text.empty() ? Eigen::VectorXd::Zero(nv) : cli::parse_vector(a.qd0_text, "--qd0", nv);
   const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, scene);
-  IntegratorOptions opt;
-  opt.method = method_from_string(a.integrator);
-  opt.dt = a.dt;
-  opt.rtol = a.rtol;
-  opt.atol = a.atol;
+  IntegratorOptions opt = integrator_options(a);
   const double dt_out = a.dt_out > 0 ? a.dt_out : a.dt;
   const auto tau = torque_signal(a, N);
   // From a file: steps land on the samples, and a held torque is a true zero-order hold.
   std::unique_ptr<TorqueReplay<Eigen::Dynamic>> replay;
   if (!a.zero_torque) replay = std::make_unique<TorqueReplay<Eigen::Dynamic>>(*tau, opt, "--dt");
-  CompileOptions options;
-  options.cache_dir = a.cache_dir;
-  options.progress = [&](const std::string& m) {
-    if (a.verbose || m.rfind("compiling", 0) == 0)
-      std::fprintf(stderr, "spacearm: %s\n", m.c_str());
-  };
-  StageReport rep;
-  const auto model = CompiledModel::load(scene, options, &rep);
-  if (a.verbose)
-    std::fprintf(
-        stderr,
-        "spacearm: cache %s (%s); derive %.1f ms, emit %.1f ms, compile %.1f ms, load %.1f ms\n",
-        rep.cache_entry.c_str(), rep.compiled ? "built" : "hit", rep.derive_ms, rep.emit_ms,
-        rep.compile_ms, rep.load_ms);
-  const Eigen::VectorXd ratios = model.gear_ratios(params);
-  const Columns cols{scene.geared(), model.has(Output::end_effector_pose),
-                     model.has(Output::kinetic_energy), model.has(Output::momentum)};
+  const CompiledModel compiled = load_model(a, scene);
+  const DynamicModel model = dynamic_model(compiled, params);
+  const Columns cols{scene.geared(), bool(model.end_effector_pose), bool(model.kinetic_energy),
+                     bool(model.momentum)};
+
   // Opened only now: a run refused above leaves an existing output file untouched.
   refuse_input_as_output(a.output_file,
                          {{"the scene", a.scene_path}, {"--torques", a.torque_file}});
@@ -185,68 +246,27 @@ int run_simulate(const SimulateArgs& a) {
   warn_if_large(a, dt_out, static_cast<int>(std::count(head.begin(), head.end(), ',')) + 1);
   out.row(head);
 
-  auto torque_at = [&](double t) -> Eigen::VectorXd { return replay ? (*replay)(t) : (*tau)(t); };
-  using State = Eigen::VectorXd;
-  auto f = [&](const State& x, State& dxdt, double t) {
+  // The library's integrate_motion; a stop request is seen at every evaluation and sample.
+  auto torque = [&](double t) -> Eigen::VectorXd {
     StopOnSignals::check();
-    const Eigen::VectorXd q = x.head(nq), qd = x.tail(nv);
-    dxdt.resize(nq + nv);
-    dxdt.head(nq) = qd;  // dq/dt = qd: nq == nv for every planar model (Model::configuration_rate)
-    if (!x.allFinite()) throw std::runtime_error("state not finite at t = " + std::to_string(t));
-    Eigen::VectorXd Q = Eigen::VectorXd::Zero(nv);
-    Q.tail(N) = torque_at(t).cwiseQuotient(ratios);  // eq. 14
-    try {
-      dxdt.tail(nv) = model.forward_dynamics(q, qd, Q, params);
-    } catch (const DynamicsError& e) {
-      throw DynamicsError(std::string(e.what()) + " at t = " + std::to_string(t));
-    }
+    return replay ? (*replay)(t) : (*tau)(t);
   };
-  const auto wall0 = std::chrono::steady_clock::now();
-  int last_percent = 0;
+  Progress progress(a.t_end);
   double t_written = 0;
-  auto observe = [&](const State& x, double t) {
-    const Eigen::VectorXd q = x.head(nq), qd = x.tail(nv);
-    const Eigen::VectorXd tau_t = (*tau)(t);
-    std::string row;
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.17g", t);
-    row += buf;
-    for (int i = 0; i < nq + nv; ++i) append(row, x[i]);
-    if (cols.geared) {
-      for (int j = 0; j < N; ++j) append(row, q[nq - N + j] / ratios[j]);
-      for (int j = 0; j < N; ++j) append(row, qd[nv - N + j] / ratios[j]);
-    }
-    for (int j = 0; j < N; ++j) append(row, tau_t[j]);
-    if (cols.geared)
-      for (int j = 0; j < N; ++j) append(row, tau_t[j] / ratios[j]);
-    if (cols.pose)
-      for (double v : model.end_effector_pose(q, params)) append(row, v);
-    if (cols.energy) append(row, model.kinetic_energy(q, qd, params));
-    if (cols.momentum)
-      for (double v : model.momentum(q, qd, params)) append(row, v);
-    out.row(row + "\n");
+  auto observe = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+    out.row(row(model, cols, t, q, qd, (*tau)(t)));
     t_written = t;
     StopOnSignals::check();
-    // Progress on long runs (after 2 s of wall time, every 10 %).
-    const int percent = static_cast<int>(100 * t / a.t_end);
-    if (percent >= last_percent + 10 &&
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count() > 2) {
-      last_percent = percent - percent % 10;
-      std::fprintf(stderr, "spacearm: simulated %d %% (t = %g s)\n", last_percent, t);
-    }
+    progress.at(t);
   };
-  State x(nq + nv);
-  x << q0, qd0;
   const StopOnSignals signals;
   try {
-    const auto stats = integrate(opt, f, x, 0.0, a.t_end, dt_out, observe);
+    const auto stats = integrate_motion(model, q0, qd0, torque, a.t_end, dt_out, opt, observe);
     out.close();
     if (a.verbose)
-      std::fprintf(
-          stderr, "spacearm: run %.1f ms, %ld right-hand-side evaluations, %llu bytes written\n",
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - wall0)
-              .count(),
-          stats.rhs_evaluations, out.bytes());
+      std::fprintf(stderr,
+                   "spacearm: run %.1f ms, %ld right-hand-side evaluations, %llu bytes written\n",
+                   1e3 * progress.seconds(), stats.rhs_evaluations, out.bytes());
     return 0;
   } catch (const Interrupted& i) {
     out.close();

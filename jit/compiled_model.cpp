@@ -12,8 +12,10 @@
 
 #include <Eigen/Cholesky>
 
-#include "dynamics_checks.hpp"
 #include <sstream>
+#include <tuple>
+
+#include "dynamics_checks.hpp"
 
 #include "cpp_emitter.hpp"
 #include "outputs.hpp"
@@ -370,6 +372,14 @@ Eigen::Vector3d CompiledModel::end_effector_pose(const Eigen::VectorXd& q,
 Eigen::VectorXd CompiledModel::forward_dynamics(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                                                 const Eigen::VectorXd& Q,
                                                 const Eigen::VectorXd& params) const {
+  // Wrong sizes are the caller's error; non-finite values one of the dynamics (as Model<G>'s).
+  for (const auto& [what, v, size] :
+       {std::tuple{"q", &q, dims_.nq}, std::tuple{"qd", &qd, dims_.nv},
+        std::tuple{"Q", &Q, dims_.nv}})
+    if (v->size() != size)
+      throw std::invalid_argument(std::string(what) + ": expected " + std::to_string(size) +
+                                  " values, got " + std::to_string(v->size()));
+  check_finite_inputs(q, qd, Q, name_, coordinate_names_);
   Eigen::VectorXd qdd, pivots, scaled_pivots;
   if (has(Output::forward_dynamics)) {
     const auto r = evaluate(Output::forward_dynamics, {q, qd, Q}, params);
@@ -378,7 +388,6 @@ Eigen::VectorXd CompiledModel::forward_dynamics(const Eigen::VectorXd& q, const 
     scaled_pivots = r[2];
   } else {
     const Eigen::MatrixXd M = mass_matrix(q, params);
-    check("Q", Q, dims_.nv);
     const Eigen::LLT<Eigen::MatrixXd> llt(M);
     if (llt.info() != Eigen::Success)
       throw DynamicsError("model " + name_ + ": mass matrix is not positive definite");
@@ -391,6 +400,41 @@ Eigen::VectorXd CompiledModel::forward_dynamics(const Eigen::VectorXd& q, const 
 
 Eigen::VectorXd CompiledModel::gear_ratios(const Eigen::VectorXd& params) const {
   return call("gear_ratios", {{Size::num_links, Size::one}}, {}, params)[0];
+}
+
+DynamicModel dynamic_model(const CompiledModel& m, const Eigen::VectorXd& params) {
+  DynamicModel d;
+  d.name = m.name();
+  d.nq = m.nq();
+  d.nv = m.nv();
+  d.num_links = m.num_links();
+  d.free_floating = m.nv() > m.num_links();
+  d.coordinate_names = m.coordinate_names();
+  d.gear_ratios = m.gear_ratios(params);  // checks params (sizes, finite, ranges) once
+  // Only what the scene emits; evaluate() would refuse the rest.
+  using V = Eigen::VectorXd;
+  if (m.has(Output::end_effector_pose))
+    d.end_effector_pose = [&m, params](const V& q) { return m.end_effector_pose(q, params); };
+  if (m.has(Output::end_effector_jacobian))
+    d.end_effector_jacobian = [&m, params](const V& q) {
+      return Eigen::MatrixXd(m.evaluate(Output::end_effector_jacobian, {q}, params).front());
+    };
+  if (m.has(Output::mass_matrix) && m.has(Output::bias_forces))
+    d.mass_matrix_and_bias = [&m, params](const V& q, const V& qd, Eigen::MatrixXd& M, V& b) {
+      M = m.mass_matrix(q, params);
+      b = m.bias_forces(q, qd, params);
+    };
+  if (m.has(Output::forward_dynamics) || d.mass_matrix_and_bias)
+    d.forward_dynamics = [&m, params](const V& q, const V& qd, const V& Q) {
+      return m.forward_dynamics(q, qd, Q, params);
+    };
+  if (m.has(Output::kinetic_energy))
+    d.kinetic_energy = [&m, params](const V& q, const V& qd) {
+      return m.kinetic_energy(q, qd, params);
+    };
+  if (m.has(Output::momentum))
+    d.momentum = [&m, params](const V& q, const V& qd) { return m.momentum(q, qd, params); };
+  return d;
 }
 
 }  // namespace spacearm

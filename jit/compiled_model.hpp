@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "dynamic_model.hpp"
 #include "model_cache.hpp"
 #include "scene.hpp"
 
@@ -90,6 +91,10 @@ class CompiledModel {
                                     const std::vector<const double*>& inputs,
                                     const Eigen::VectorXd& params) const;
 };
+
+// The runtime's dynamic-size model (runtime/dynamic_model.hpp) of a loaded model at the
+// parameter values `params` (checked here). The result refers to m: keep m alive and in place.
+DynamicModel dynamic_model(const CompiledModel& m, const Eigen::VectorXd& params);
 
 // The cache folder in use: options.cache_dir, else $SPACEARM_CACHE_DIR, else
 // $XDG_CACHE_HOME/spacearm, else $HOME/.cache/spacearm; a CompileError naming what to set if

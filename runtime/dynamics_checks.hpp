@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -17,6 +18,23 @@ class DynamicsError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+// Forward dynamics' inputs must be finite: a DynamicsError names every entry that is not
+// (coordinate_names: the nq names of q).
+template <class Config, class Velocity, class Names>
+void check_finite_inputs(const Config& q, const Velocity& qd, const Velocity& Q,
+                         const std::string& model_name, const Names& coordinate_names) {
+  if (q.allFinite() && qd.allFinite() && Q.allFinite()) return;
+  std::ostringstream msg;
+  msg << "model " << model_name << ": non-finite input";
+  for (Eigen::Index i = 0; i < q.size(); ++i)
+    if (!std::isfinite(q[i])) msg << " q[" << i << "] (" << coordinate_names[i] << ") = " << q[i];
+  for (Eigen::Index i = 0; i < qd.size(); ++i) {
+    if (!std::isfinite(qd[i])) msg << " qd[" << i << "] = " << qd[i];
+    if (!std::isfinite(Q[i])) msg << " Q[" << i << "] = " << Q[i];
+  }
+  throw DynamicsError(msg.str());
+}
 
 // Largest condition number of diag(M)^-1/2 M diag(M)^-1/2 for which a double solve still
 // has correct digits.

@@ -9,7 +9,6 @@
 #include <Eigen/Eigenvalues>
 
 #include <cmath>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -125,8 +124,7 @@ class Model {
   // DynamicsError on non-finite input, a mass matrix that is not positive definite or one
   // too ill-conditioned to solve (check_forward_dynamics).
   Velocity forward_dynamics(const Vector& q, const Velocity& qd, const Velocity& Q) const {
-    if (!q.allFinite() || !qd.allFinite() || !Q.allFinite())
-      throw DynamicsError(describe_non_finite(q, qd, Q));
+    check_finite_inputs(q, qd, Q, Generated::kName, Generated::coordinate_names());
     Velocity qdd, pivots, scaled_pivots;
     if constexpr (Generated::kHas_forward_dynamics) {
       Generated::forward_dynamics(q, qd, Q, params_, qdd, pivots, scaled_pivots);
@@ -173,19 +171,6 @@ class Model {
         throw std::invalid_argument(std::string("model ") + Generated::kName +
                                     ": gear ratio of joint " + std::to_string(i + 1) +
                                     " must be positive, got " + std::to_string(ratios_[i]));
-  }
-
-  static std::string describe_non_finite(const Vector& q, const Velocity& qd, const Velocity& Q) {
-    std::ostringstream msg;
-    msg << "model " << Generated::kName << ": non-finite input";
-    for (int i = 0; i < kNq; ++i)
-      if (!std::isfinite(q[i]))
-        msg << " q[" << i << "] (" << Generated::coordinate_names()[i] << ") = " << q[i];
-    for (int i = 0; i < kNv; ++i) {
-      if (!std::isfinite(qd[i])) msg << " qd[" << i << "] = " << qd[i];
-      if (!std::isfinite(Q[i])) msg << " Q[" << i << "] = " << Q[i];
-    }
-    return msg.str();
   }
 };
 

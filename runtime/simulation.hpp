@@ -25,35 +25,62 @@ struct Trajectory {
   IntegrationStats stats;
 };
 
+// The state (q, qd) of a model as one vector for the integrators: fixed size for a Model<G>,
+// dynamic for a DynamicModel.
+template <class Mdl>
+using MotionState =
+    Eigen::Matrix<double,
+                  Mdl::Vector::RowsAtCompileTime == Eigen::Dynamic ||
+                          Mdl::Velocity::RowsAtCompileTime == Eigen::Dynamic
+                      ? Eigen::Dynamic
+                      : Mdl::Vector::RowsAtCompileTime + Mdl::Velocity::RowsAtCompileTime,
+                  1>;
+
+// Integrates the forward dynamics of any runtime model, a linked Model<G> or a DynamicModel
+// (dynamic_model.hpp), from (q0, qd0) at t = 0 to t_end under the joint (or motor) torques
+// tau(t), and calls observe(t, q, qd) every dt_out. The torques enter as generalized forces
+// (Model::generalized_forces, eq. 14); a failure of the dynamics names its time. Both
+// simulate() below and the CLI's simulate run on it.
+template <class Mdl, class Torque, class Observer>
+IntegrationStats integrate_motion(const Mdl& model, const typename Mdl::Vector& q0,
+                                  const typename Mdl::Velocity& qd0, const Torque& tau,
+                                  double t_end, double dt_out, const IntegratorOptions& options,
+                                  Observer&& observe) {
+  using State = MotionState<Mdl>;
+  using Vector = typename Mdl::Vector;
+  using Velocity = typename Mdl::Velocity;
+  const Eigen::Index nq = q0.size(), nv = qd0.size();
+  State x(nq + nv);
+  x << q0, qd0;
+  auto f = [&](const State& s, State& dsdt, double t) {
+    const Vector q = s.head(nq);
+    const Velocity qd = s.tail(nv);
+    dsdt.resize(nq + nv);  // a no-op at fixed size
+    dsdt.head(nq) = model.configuration_rate(q, qd);
+    try {
+      dsdt.tail(nv) = model.forward_dynamics(q, qd, model.generalized_forces(tau(t)));
+    } catch (const DynamicsError& e) {
+      throw DynamicsError(std::string(e.what()) + " at t = " + std::to_string(t));
+    }
+  };
+  auto on_sample = [&](const State& s, double t) {
+    observe(t, Vector(s.head(nq)), Velocity(s.tail(nv)));
+  };
+  return integrate(options, f, x, 0.0, t_end, dt_out, on_sample);
+}
+
 // Integrates from (q0, qd0) at t = 0 to t_end, sampling every dt_out into traj. tau(t) gives
-// the joint (or motor) torques; they enter as generalized forces through
-// Model::generalized_forces. On failure it throws IntegrationError (time and state of the
-// last accepted step) and traj keeps every sample taken up to then.
+// the joint (or motor) torques (integrate_motion). On failure it throws IntegrationError (time
+// and state of the last accepted step) and traj keeps every sample taken up to then.
 template <class G>
 void simulate(Trajectory<G>& traj, const Model<G>& model, const typename Model<G>::Vector& q0,
               const typename Model<G>::Velocity& qd0,
               const std::function<typename Model<G>::JointVector(double)>& tau, double t_end,
               double dt_out, const IntegratorOptions& options) {
   using M = Model<G>;
-  constexpr int nq = M::kNq, nv = M::kNv;
-  using State = Eigen::Matrix<double, nq + nv, 1>;  // (q, qd)
-  State x;
-  x << q0, qd0;
   traj = Trajectory<G>();
-  auto f = [&](const State& s, State& dsdt, double t) {
-    const typename M::Vector q = s.template head<nq>();
-    const typename M::Velocity qd = s.template tail<nv>();
-    dsdt.template head<nq>() = M::configuration_rate(q, qd);
-    try {
-      dsdt.template tail<nv>() = model.forward_dynamics(q, qd, model.generalized_forces(tau(t)));
-    } catch (const DynamicsError& e) {
-      throw DynamicsError(std::string(e.what()) + " at t = " + std::to_string(t));
-    }
-  };
   double power_prev = 0;
-  auto observe = [&](const State& s, double t) {
-    const typename M::Vector q = s.template head<nq>();
-    const typename M::Velocity qd = s.template tail<nv>();
+  auto record = [&](double t, const typename M::Vector& q, const typename M::Velocity& qd) {
     traj.t.push_back(t);
     traj.q.push_back(q);
     traj.qd.push_back(qd);
@@ -67,7 +94,7 @@ void simulate(Trajectory<G>& traj, const Model<G>& model, const typename Model<G
                                                                    (t - traj.t[traj.t.size() - 2]));
     power_prev = power;
   };
-  traj.stats = integrate(options, f, x, 0.0, t_end, dt_out, observe);
+  traj.stats = integrate_motion(model, q0, qd0, tau, t_end, dt_out, options, record);
 }
 
 // Sampled torques replayed by an integrator: adaptive steps land on every sample up to the

@@ -6,8 +6,8 @@
 // Joint torques come from eq. 5 (M qdd + b, joint rows; times the gear ratio on the link side,
 // eq. 14). Any chain: a fixed or free base, N >= 2 joints for a position task, N >= 3 for a
 // pose. Redundant arms take the minimum-norm link-side joint rates z = J*^+ v_task. Dynamic
-// sizes: the planner reads a model through PlanningModel, so a linked Model<G> and a loaded
-// CompiledModel share it.
+// sizes: the planner reads a model through DynamicModel (dynamic_model.hpp), so a linked
+// Model<G> and a loaded CompiledModel share it. It integrates qd as dq/dt (nq == nv).
 #pragma once
 
 #include <Eigen/Cholesky>
@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "dynamic_model.hpp"
 #include "integrators.hpp"
 #include "model.hpp"
 
@@ -43,54 +44,6 @@ inline Eigen::Vector3d time_law(TimeLaw law, double tau) {
   if (law == TimeLaw::cubic) return {3 * t2 - 2 * t3, 6 * tau - 6 * t2, 6 - 12 * tau};
   return {10 * t3 - 15 * t3 * tau + 6 * t3 * t2, 30 * t2 - 60 * t3 + 30 * t2 * t2,
           60 * tau - 180 * t2 + 120 * t3};
-}
-
-// What the planner reads of a model, at dynamic size. Coordinates are the model's own (motor
-// angles in a geared scene); the planner needs nq == nv, since it integrates qd as dq/dt.
-struct PlanningModel {
-  std::string name;
-  int nq = 0, nv = 0, num_links = 0;
-  bool free_floating = false;
-  Eigen::VectorXd gear_ratios;  // per joint: link-side torque = p * generalized force (eq. 14)
-  std::function<Eigen::Vector3d(const Eigen::VectorXd& q)> end_effector_pose;
-  std::function<Eigen::MatrixXd(const Eigen::VectorXd& q)> end_effector_jacobian;  // 3 x nv
-  std::function<void(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::MatrixXd& M,
-                     Eigen::VectorXd& b)>
-      mass_matrix_and_bias;
-  // Linear and angular momentum [Px, Py, L]; may be empty (then Plan::max_momentum is NaN).
-  std::function<Eigen::Vector3d(const Eigen::VectorXd& q, const Eigen::VectorXd& qd)> momentum;
-  int num_base() const { return free_floating ? 3 : 0; }
-};
-
-template <class G>
-PlanningModel planning_model(const Model<G>& m) {
-  using M = Model<G>;
-  PlanningModel pm;
-  pm.name = M::name();
-  pm.nq = M::kNq;
-  pm.nv = M::kNv;
-  pm.num_links = M::kNumLinks;
-  pm.free_floating = M::kFreeFloating;
-  pm.gear_ratios = m.gear_ratios();
-  pm.end_effector_pose = [&m](const Eigen::VectorXd& q) {
-    return Eigen::Vector3d(m.end_effector_pose(q));
-  };
-  pm.end_effector_jacobian = [&m](const Eigen::VectorXd& q) {
-    return Eigen::MatrixXd(m.end_effector_jacobian(q));
-  };
-  pm.mass_matrix_and_bias = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
-                                 Eigen::MatrixXd& Mq, Eigen::VectorXd& b) {
-    typename M::Matrix Mf;
-    typename M::Velocity bf;
-    m.mass_matrix_and_bias(q, qd, Mf, bf);
-    Mq = Mf;
-    b = bf;
-  };
-  if constexpr (M::kFreeFloating)
-    pm.momentum = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
-      return Eigen::Vector3d(m.momentum(q, qd));
-    };
-  return pm;
 }
 
 struct StraightLineTask {
@@ -137,7 +90,7 @@ inline constexpr double kMaxPlanSamples = 1e6;
 
 // Checks a task against a model's sizes, before anything is computed; returns the task rows of
 // the end-effector pose: 2 (position) or 3 (pose). Errors name the field (TaskNames).
-inline int check_task(const PlanningModel& m, const StraightLineTask& task,
+inline int check_task(const DynamicModel& m, const StraightLineTask& task,
                       const TaskNames& names = {}) {
   const int rows = static_cast<int>(task.start.size());
   auto fail = [&](const std::string& why) {
@@ -221,7 +174,7 @@ struct MinimumNorm {
 struct TaskMap {
   Eigen::MatrixXd A, E;
 };
-inline TaskMap task_map(const PlanningModel& m, int rows, const Eigen::VectorXd& q) {
+inline TaskMap task_map(const DynamicModel& m, int rows, const Eigen::VectorXd& q) {
   const int nb = m.num_base(), n = m.num_links;
   TaskMap t;
   t.E = Eigen::MatrixXd::Zero(m.nv, n);
@@ -261,7 +214,7 @@ struct Rates {
   TaskMap map;
   Eigen::VectorXd scale, z, lambda, qd;
 };
-inline Rates rates(const PlanningModel& m, int rows, const Eigen::VectorXd& q,
+inline Rates rates(const DynamicModel& m, int rows, const Eigen::VectorXd& q,
                    const Eigen::VectorXd& v, double t) {
   Rates r{task_map(m, rows, q), {}, {}, {}, {}};
   r.scale = row_scales(r.map.A);
@@ -287,7 +240,7 @@ inline Rates rates(const PlanningModel& m, int rows, const Eigen::VectorXd& q,
 // M_bb qdd_b = -b_b - M_bj qdd_j); on a zero-momentum motion this is the derivative of the
 // base rates, since b_b - (Mdot qd)_b = -dT/dq_b = 0 there (dT/dx0 = dT/dy0 = 0,
 // dT/dq0 = -r0d x P).
-inline Eigen::VectorXd accelerations(const PlanningModel& m, int rows, const Eigen::VectorXd& q,
+inline Eigen::VectorXd accelerations(const DynamicModel& m, int rows, const Eigen::VectorXd& q,
                                      const Rates& r, const Eigen::VectorXd& a,
                                      const Eigen::MatrixXd& M, const Eigen::VectorXd& b) {
   const int nb = m.num_base(), n = m.num_links;
@@ -311,7 +264,7 @@ inline Eigen::VectorXd accelerations(const PlanningModel& m, int rows, const Eig
 
 // Independent checks of a plan: qdd by central differences of the planned qd, and the forces
 // on the base (eq. 5 base rows) with those.
-inline void check_by_central_differences(const PlanningModel& m, Plan& plan) {
+inline void check_by_central_differences(const DynamicModel& m, Plan& plan) {
   using Eigen::VectorXd;
   const int nb = m.num_base();
   for (size_t k = 1; k + 1 < plan.t.size(); ++k) {
@@ -334,7 +287,7 @@ inline void check_by_central_differences(const PlanningModel& m, Plan& plan) {
 // 0.5 rad) and, for a redundant arm, a pull in the null space towards the seed, so that the
 // start stays near it. `elbow` picks the branch by the sign of joint 2 and seeds the
 // iteration; task.q0 replaces the seed.
-inline Eigen::VectorXd initial_configuration(const PlanningModel& m, const StraightLineTask& task) {
+inline Eigen::VectorXd initial_configuration(const DynamicModel& m, const StraightLineTask& task) {
   const int rows = check_task(m, task), j0 = m.num_base(), n = m.num_links;
   const Eigen::VectorXd p = m.gear_ratios;
   Eigen::VectorXd q = Eigen::VectorXd::Zero(m.nq);
@@ -376,9 +329,13 @@ inline Eigen::VectorXd initial_configuration(const PlanningModel& m, const Strai
 }
 
 // The straight line of `task` for model `m` on the grid t = 0, dt, ..., T.
-inline Plan plan_straight_line(const PlanningModel& m, const StraightLineTask& task) {
+inline Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
   using Eigen::VectorXd;
   const int rows = check_task(m, task), nb = m.num_base(), n = m.num_links;
+  if (!m.end_effector_pose || !m.end_effector_jacobian || !m.mass_matrix_and_bias)
+    throw std::invalid_argument("planner, model " + m.name +
+                                ": needs end_effector_pose, end_effector_jacobian, mass_matrix "
+                                "and bias_forces among the scene's outputs");
 
   // Integrate q' = qd(q, t) on the grid.
   Plan plan;
@@ -435,7 +392,7 @@ inline Plan plan_straight_line(const PlanningModel& m, const StraightLineTask& t
 // The same for a linked model, in its fixed-size types.
 template <class G>
 ModelPlan<G> plan_straight_line(const Model<G>& model, const StraightLineTask& task) {
-  const Plan p = plan_straight_line(planning_model(model), task);
+  const Plan p = plan_straight_line(dynamic_model(model), task);
   ModelPlan<G> out;
   out.t = p.t;
   out.base_residual = p.base_residual;

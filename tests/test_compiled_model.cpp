@@ -17,7 +17,9 @@
 
 #include "paper_geared.hpp"
 #include "paper_reference.hpp"
+#include "simulation.hpp"
 #include "support.hpp"
+#include "torque_signal.hpp"
 
 extern char** environ;
 
@@ -155,6 +157,45 @@ TEST(CompiledModel, ChangedSceneIsRebuilt) {
   EXPECT_NE(r1.cache_entry, r2.cache_entry);
   EXPECT_FALSE(r3.compiled);  // both entries stay valid
   fs::remove_all(cache);
+}
+
+// The loaded model at dynamic size (dynamic_model) gives the linked model's values at the same
+// parameters and the same DynamicsError for a NaN; it has only what the scene emits.
+TEST(CompiledModel, DynamicModelOfLoadedCodeEqualsTheLinkedModel) {
+  const fs::path dir = fresh_cache("dynamic");
+  CompileOptions options;
+  options.cache_dir = dir.string();
+  const Scene scene = load_scene(std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml");
+  const CompiledModel loaded = CompiledModel::load(scene, options);
+  Eigen::VectorXd params = Eigen::Map<const Eigen::VectorXd>(loaded.nominal_parameters().data(),
+                                                             loaded.nominal_parameters().size());
+  params[0] = 10;  // p
+  const DynamicModel d = dynamic_model(loaded, params);
+  using G = models::paper_geared::Model;
+  Model<G> linked;
+  linked.set_parameter("p", 10);
+  EXPECT_EQ(d.coordinate_names,
+            std::vector<std::string>(G::coordinate_names().begin(), G::coordinate_names().end()));
+  EXPECT_TRUE(d.free_floating);
+  EXPECT_MATRIX_NEAR(d.gear_ratios, Eigen::VectorXd(linked.gear_ratios()), 0);
+  Model<G>::Vector q;
+  q << 0.1, -0.2, 0.3, 3.0, 12.0, -5.0;
+  Model<G>::Velocity qd;
+  qd << 0.05, 0.02, -0.1, 2.0, -3.0, 4.0;
+  const Eigen::VectorXd Q = d.generalized_forces(Eigen::Vector3d(0.1, -0.2, 0.3));
+  EXPECT_MATRIX_NEAR(d.forward_dynamics(q, qd, Q), linked.forward_dynamics(q, qd, Q), 1e-13);
+  EXPECT_MATRIX_NEAR(d.momentum(q, qd), linked.momentum(q, qd), 1e-13);
+  EXPECT_NEAR(d.kinetic_energy(q, qd), linked.kinetic_energy(q, qd), 1e-13);
+  EXPECT_MATRIX_NEAR(d.end_effector_jacobian(q), linked.end_effector_jacobian(q), 1e-13);
+  Eigen::VectorXd bad = q;
+  bad[3] = std::nan("");
+  EXPECT_THROW_MESSAGE(d.forward_dynamics(bad, qd, Q), DynamicsError,
+                       "model paper_geared: non-finite input q[3] (qm1) = nan");
+  EXPECT_THROW_MESSAGE(d.forward_dynamics(q.head(5), qd, Q), std::invalid_argument,
+                       "q: expected 6 values, got 5");
+  params[0] = -1;
+  EXPECT_THROW(dynamic_model(loaded, params), std::invalid_argument);
+  fs::remove_all(dir);
 }
 
 TEST(CompiledModel, CompileFailureReportsTheCompilerMessage) {
@@ -405,6 +446,45 @@ TEST_F(SimulateCli, FailureMidRunKeepsTheSamplesComputedSoFar) {
   }
   fs::remove(torques);
   fs::remove(csv);
+}
+
+// One runtime interface: the CLI runs the loaded model through the library's integrate_motion,
+// so its samples are the library simulate() of the linked model (the same generated code,
+// compiled apart: equal to rounding), for a fixed-step and an adaptive method.
+TEST_F(SimulateCli, RunEqualsTheLibrarySimulationOfTheLinkedModel) {
+  const fs::path torques =
+      cache.parent_path() / ("same-torques-" + std::to_string(getpid()) + ".csv");
+  std::ofstream(torques) << "t,tau1,tau2,tau3\n0,0.1,0,0\n0.5,0.3,-0.2,0.1\n1,0,0.05,0\n";
+  using G = models::paper_geared::Model;
+  Model<G> linked;
+  linked.set_parameter("p", 10);
+  std::vector<Model<G>::JointVector> samples(3);
+  samples[0] << 0.1, 0, 0;
+  samples[1] << 0.3, -0.2, 0.1;
+  samples[2] << 0, 0.05, 0;
+  const TorqueSignal<3> tau(0.0, 0.5, samples, Interpolation::linear);
+  Model<G>::Vector q0;
+  q0 << 0.1, 0.2, 0.3, 1, 2, 3;
+  for (const std::string method : {"rk4", "dopri5"}) {
+    SCOPED_TRACE(method);
+    int status = 0;
+    const auto cli = rows(run(sim + "--torques " + torques.string() + " --t-end 1 --dt-out 0.1" +
+                                  " --param p=10 --q0 0.1,0.2,0.3,1,2,3 --integrator " + method,
+                              &status));
+    ASSERT_EQ(status, 0);
+    IntegratorOptions opt;
+    opt.method = method_from_string(method);
+    const auto lib = simulate(linked, q0, Model<G>::Velocity::Zero(), tau, 1.0, 0.1, opt);
+    ASSERT_EQ(cli.size(), lib.t.size());
+    for (size_t k = 0; k < cli.size(); ++k) {
+      Eigen::VectorXd state(12), expected(12);
+      for (int i = 0; i < 12; ++i) state[i] = cli[k][1 + i];
+      expected << lib.q[k], lib.qd[k];
+      EXPECT_MATRIX_NEAR(state, expected, 1e-12);
+    }
+    EXPECT_GT(std::abs(cli.back()[4] - 1), 1e-3);  // qm1 moved
+  }
+  fs::remove(torques);
 }
 
 TEST_F(SimulateCli, BadInputsGetClearErrors) {

@@ -1,0 +1,104 @@
+// The dynamic-size runtime model: one interface for code whose sizes are known only at run time
+// (a loaded CompiledModel, jit/) and for algorithms written once for every model (the planner,
+// simulate() behind the CLI). A linked Model<G> converts to it with dynamic_model(). Its
+// functions are the model's own, so the checks are shared: forward_dynamics throws the same
+// DynamicsError (dynamics_checks.hpp) whichever model is behind it.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "model.hpp"
+
+namespace spacearm {
+
+struct DynamicModel {
+  using Vector = Eigen::VectorXd;       // configuration q (nq)
+  using Velocity = Eigen::VectorXd;     // qd, qdd, generalized forces Q, bias b (nv)
+  using JointVector = Eigen::VectorXd;  // one value per joint
+  using Vector3 = Eigen::Vector3d;
+
+  std::string name;
+  int nq = 0, nv = 0, num_links = 0;
+  bool free_floating = false;
+  std::vector<std::string> coordinate_names;  // nq names
+  Eigen::VectorXd gear_ratios;  // per joint: link-side torque = p * generalized force (eq. 14)
+
+  // Each function is empty where the scene does not emit what it needs.
+  std::function<Vector3(const Vector& q)> end_effector_pose;
+  std::function<Eigen::MatrixXd(const Vector& q)> end_effector_jacobian;  // 3 x nv
+  std::function<void(const Vector& q, const Velocity& qd, Eigen::MatrixXd& M, Velocity& b)>
+      mass_matrix_and_bias;
+  // qdd = M^-1 (Q - b), eq. 8, with check_forward_dynamics (DynamicsError).
+  std::function<Velocity(const Vector& q, const Velocity& qd, const Velocity& Q)> forward_dynamics;
+  std::function<double(const Vector& q, const Velocity& qd)> kinetic_energy;
+  std::function<Vector3(const Vector& q, const Velocity& qd)> momentum;  // [Px, Py, L]
+
+  int num_base() const { return free_floating ? 3 : 0; }
+
+  // dq/dt for velocity qd: the identity for every planar model (Model::configuration_rate).
+  Velocity configuration_rate(const Vector& /*q*/, const Velocity& qd) const {
+    if (nq != nv) throw std::logic_error("model " + name + ": configuration_rate needs nq == nv");
+    return qd;
+  }
+
+  // Joint (or motor) torques as generalized forces, Q = tau / p on the joints, eq. 14.
+  Velocity generalized_forces(const JointVector& tau) const {
+    Velocity Q = Velocity::Zero(nv);
+    Q.tail(num_links) = tau.cwiseQuotient(gear_ratios);
+    return Q;
+  }
+};
+
+// A linked model at its current parameter values, at dynamic size. The result refers to m:
+// keep m alive while it is used. Vectors passed to it must have the model's sizes (nq, nv).
+template <class G>
+DynamicModel dynamic_model(const Model<G>& m) {
+  using M = Model<G>;
+  DynamicModel d;
+  d.name = M::name();
+  d.nq = M::kNq;
+  d.nv = M::kNv;
+  d.num_links = M::kNumLinks;
+  d.free_floating = M::kFreeFloating;
+  d.coordinate_names.assign(M::coordinate_names().begin(), M::coordinate_names().end());
+  d.gear_ratios = m.gear_ratios();
+  // Only what the scene emits (the Model<G> functions of an absent output do not exist).
+  if constexpr (G::kHas_end_effector_pose)
+    d.end_effector_pose = [&m](const Eigen::VectorXd& q) {
+      return Eigen::Vector3d(m.end_effector_pose(q));
+    };
+  if constexpr (G::kHas_end_effector_jacobian)
+    d.end_effector_jacobian = [&m](const Eigen::VectorXd& q) {
+      return Eigen::MatrixXd(m.end_effector_jacobian(q));
+    };
+  if constexpr (G::kHas_mass_matrix && G::kHas_bias_forces)
+    d.mass_matrix_and_bias = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                                  Eigen::MatrixXd& Mq, Eigen::VectorXd& b) {
+      typename M::Matrix Mf;
+      typename M::Velocity bf;
+      m.mass_matrix_and_bias(q, qd, Mf, bf);
+      Mq = Mf;
+      b = bf;
+    };
+  if constexpr (G::kHas_forward_dynamics || (G::kHas_mass_matrix && G::kHas_bias_forces))
+    d.forward_dynamics = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                              const Eigen::VectorXd& Q) {
+      return Eigen::VectorXd(m.forward_dynamics(q, qd, Q));
+    };
+  if constexpr (G::kHas_kinetic_energy)
+    d.kinetic_energy = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+      return m.kinetic_energy(q, qd);
+    };
+  if constexpr (G::kHas_momentum)
+    d.momentum = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+      return Eigen::Vector3d(m.momentum(q, qd));
+    };
+  return d;
+}
+
+}  // namespace spacearm
