@@ -15,6 +15,7 @@ grep -q "spacearm: generating model my_arm" "$work/log1" || { echo "FAIL: first 
 first=$("$work/build/my_controller")
 echo "$first"
 echo "$first" | grep -q "total mass 43.5 kg" || { echo "FAIL: unexpected output"; exit 1; }
+echo "$first" | grep -q "dynamic-size model agrees" || { echo "FAIL: dynamic-size model"; exit 1; }
 
 cmake --build "$work/build" > "$work/log2"
 if grep -q "generating model" "$work/log2"; then echo "FAIL: regenerated without a change"; exit 1; fi
