@@ -22,6 +22,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 namespace spacearm {
 
@@ -124,204 +125,235 @@ inline bool below_minimum_step(double dt, double t, double t0, double t1) {
 }
 }  // namespace detail
 
+namespace detail {
+
+// Checks the options against the span; returns the number of outputs after t0.
+inline long check_integration(const IntegratorOptions& opt, double t0, double t1, double dt_out) {
+  const long outputs = std::lround((t1 - t0) / dt_out);
+  if (outputs < 1 || std::abs(t0 + outputs * dt_out - t1) > 1e-9 * std::max(1.0, std::abs(t1)))
+    throw std::invalid_argument(
+        "integrate: (t1 - t0) = " + std::to_string(t1 - t0) +
+        " must be a positive multiple of dt_out = " + std::to_string(dt_out));
+  if (opt.method != Method::dopri5 && opt.method != Method::rkf78) {
+    if (!(opt.dt > 0) || !std::isfinite(opt.dt))
+      throw std::invalid_argument("integrate: dt = " + format(opt.dt) + " must be positive");
+    const long per = std::lround(dt_out / opt.dt);
+    if (per < 1 || std::abs(per * opt.dt - dt_out) > 1e-9 * dt_out)
+      throw std::invalid_argument("integrate: dt_out = " + std::to_string(dt_out) +
+                                  " must be a multiple of the step dt = " + std::to_string(opt.dt));
+    return outputs;
+  }
+  // As ode45 does: a relative tolerance below 100 ulps cannot be met in double precision.
+  const double rtol_min = 100 * std::numeric_limits<double>::epsilon();
+  if (!(opt.rtol >= rtol_min) || !std::isfinite(opt.rtol))
+    throw std::invalid_argument("integrate: rtol = " + format(opt.rtol) + " must be at least " +
+                                format(rtol_min) + " (100 x machine epsilon)");
+  if (!(opt.atol >= 0) || !std::isfinite(opt.atol))
+    throw std::invalid_argument("integrate: atol = " + format(opt.atol) + " must be >= 0");
+  if (!(opt.breakpoint_interval >= 0) || !std::isfinite(opt.breakpoint_interval) ||
+      !std::isfinite(opt.breakpoint_origin))
+    throw std::invalid_argument(
+        "integrate: breakpoint_interval = " + format(opt.breakpoint_interval) +
+        " must be >= 0 (0: none), with a finite origin");
+  // A grid that t cannot resolve, or one with more stops than any run can take, would never
+  // finish: refuse it up front.
+  const double every = opt.breakpoint_interval;
+  const double span = std::min(t1, opt.breakpoint_end) - t0;
+  if (every > 0 && span > 0 &&
+      (below_minimum_step(every, opt.breakpoint_origin, t0, t1) || span / every > 1e9))
+    throw std::invalid_argument("integrate: breakpoint_interval = " + format(every) +
+                                " (e.g. the torque grid's step) is too small for the time span [" +
+                                format(t0) + ", " + format(t1) + "]");
+  if (opt.method == Method::dopri5 && every == 0 && opt.step_begin)
+    throw std::invalid_argument(
+        "integrate: step_begin needs breakpoints with dopri5 (dense output)");
+  return outputs;
+}
+
+// One integration from t0 to t1: the stepping loops of the methods, and the last accepted
+// step (time and state) for the error report, since a failing step leaves x unspecified.
+template <class State, class Rhs, class Observer>
+class Integration {
+ public:
+  Integration(const IntegratorOptions& opt, Rhs& rhs, State& x, double t0, double t1, double dt_out,
+              long outputs, Observer& observe)
+      : opt_(opt),
+        rhs_(rhs),
+        x_(x),
+        t0_(t0),
+        t1_(t1),
+        dt_out_(dt_out),
+        outputs_(outputs),
+        observe_(observe),
+        t_ok(t0),
+        x_ok(x) {}
+
+  double t_ok;
+  State x_ok;
+
+  // Fixed steps of opt.dt; step(x, t, dt) advances x.
+  template <class Step>
+  void fixed_steps(Step&& step) {
+    const long per = std::lround(dt_out_ / opt_.dt);
+    for (long k = 0; k < outputs_; ++k) {
+      for (long s = 0; s < per; ++s) {
+        const double t = t0_ + (k * per + s) * opt_.dt;
+        if (opt_.step_begin) opt_.step_begin(t, t + opt_.dt);
+        step(x_, t, opt_.dt);
+        accept(t0_ + (k * per + s + 1) * opt_.dt, x_);
+      }
+      observe_(x_, t0_ + (k + 1) * dt_out_);
+    }
+  }
+
+  // Controlled steps that land on every output time and breakpoint; the step size the
+  // controller chose is kept across them (a step shortened to land does not shrink the next).
+  template <class Stepper>
+  void controlled_steps(Stepper& stepper) {
+    double dt = std::min(dt_out_, 0.01), t = t0_;
+    for (long k = 1; k <= outputs_; ++k) {
+      const double t_out = t0_ + k * dt_out_;
+      int rejected = 0;
+      while (t < t_out - 1e-12 * std::max(1.0, std::abs(t_out))) {
+        const double stop = next_stop(t, t_out), natural = dt;
+        const bool clamped = t + dt > stop;
+        const double step = clamped ? stop - t : dt;
+        // A stop that rounding puts on t itself would give steps of zero, forever.
+        if (below_minimum_step(step, t, t0_, t1_))
+          throw integration_error(opt_.method,
+                                  "no progress: the next stop at t = " + format(stop) +
+                                      " is within rounding of t (breakpoint interval " +
+                                      format(opt_.breakpoint_interval) + ")",
+                                  t_ok, x_ok);
+        if (opt_.step_begin) opt_.step_begin(t, clamped ? stop : t + step);
+        dt = step;
+        if (stepper.try_step(rhs_, x_, t, dt) == boost::numeric::odeint::success) {
+          if (clamped) {
+            t = stop;  // exactly on it, whatever rounding t + step gave
+            reset_first_same_as_last(stepper, 0);
+          }
+          accept(t, x_);
+          rejected = 0;
+          dt = clamped ? std::max(natural, dt) : dt;
+        } else if (++rejected > 500 || below_minimum_step(dt, t, t0_, t1_)) {
+          throw step_too_small(dt);
+        }
+      }
+      t = t_out;
+      observe_(x_, t_out);
+    }
+  }
+
+  // Dense output: steps of the controller's own size, states at the outputs by the method's
+  // continuous extension.
+  template <class Stepper>
+  void dense_output_steps(Stepper& stepper) {
+    stepper.initialize(x_, t0_, std::min(dt_out_, 0.01));
+    State out = x_;
+    for (long k = 1; k <= outputs_; ++k) {
+      const double t_out = t0_ + k * dt_out_;
+      while (stepper.current_time() < t_out) {
+        // No step past t1: its stages would evaluate the right-hand side beyond the span
+        // (e.g. past the last torque sample), and the outputs interpolate that step.
+        const double left = t1_ - stepper.current_time();
+        if (stepper.current_time_step() > left)
+          stepper.initialize(State(stepper.current_state()), stepper.current_time(), left);
+        stepper.do_step(rhs_);  // odeint throws step_adjustment_error after 500 rejections
+        accept(stepper.current_time(), stepper.current_state());
+        if (below_minimum_step(stepper.current_time_step(), t_ok, t0_, t1_))
+          throw step_too_small(stepper.current_time_step());
+      }
+      stepper.calc_state(t_out, out);
+      observe_(out, t_out);
+    }
+    x_ = out;
+  }
+
+ private:
+  const IntegratorOptions& opt_;
+  Rhs& rhs_;
+  State& x_;
+  double t0_, t1_, dt_out_;
+  long outputs_;
+  Observer& observe_;
+
+  void accept(double t, const State& reached) {
+    // A right-hand side that returns inf or NaN instead of throwing must not go on silently.
+    if (!reached.allFinite())
+      throw integration_error(opt_.method, "state not finite after the step to t = " + format(t),
+                              t_ok, x_ok);
+    t_ok = t;
+    x_ok = reached;
+  }
+  IntegrationError step_too_small(double dt) const {
+    return integration_error(
+        opt_.method, "step size " + format(dt) + " below the minimum, tolerance cannot be met",
+        t_ok, x_ok);
+  }
+  // The next output time or breakpoint after t.
+  double next_stop(double t, double t_out) const {
+    const double every = opt_.breakpoint_interval, origin = opt_.breakpoint_origin;
+    if (!(every > 0)) return t_out;
+    const double b = origin + std::floor((t - origin) / every + 1 + 1e-9) * every;
+    if (b > opt_.breakpoint_end * (1 + 1e-12) + 1e-300) return t_out;  // past the last sample
+    return std::min(t_out, b);
+  }
+};
+
+}  // namespace detail
+
 // Integrates dx/dt = f(x, t) from t0 to t1, calling observe(x, t) at t0 + k * dt_out
 // (and at t1). The fixed-step methods need dt_out to be a multiple of opt.dt.
 template <class State, class System, class Observer>
 IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, double t0, double t1,
                            double dt_out, Observer&& observe) {
   namespace odeint = boost::numeric::odeint;
+  using Algebra = odeint::vector_space_algebra;
   IntegrationStats stats;
   auto rhs = [&](const State& s, State& dsdt, double t) {
     ++stats.rhs_evaluations;
     f(s, dsdt, t);
   };
-  const long outputs = std::lround((t1 - t0) / dt_out);
-  if (outputs < 1 || std::abs(t0 + outputs * dt_out - t1) > 1e-9 * std::max(1.0, std::abs(t1)))
-    throw std::invalid_argument(
-        "integrate: (t1 - t0) = " + std::to_string(t1 - t0) +
-        " must be a positive multiple of dt_out = " + std::to_string(dt_out));
-  if (opt.method == Method::dopri5 || opt.method == Method::rkf78) {
-    // As ode45 does: a relative tolerance below 100 ulps cannot be met in double precision.
-    const double rtol_min = 100 * std::numeric_limits<double>::epsilon();
-    if (!(opt.rtol >= rtol_min) || !std::isfinite(opt.rtol))
-      throw std::invalid_argument("integrate: rtol = " + detail::format(opt.rtol) +
-                                  " must be at least " + detail::format(rtol_min) +
-                                  " (100 x machine epsilon)");
-    if (!(opt.atol >= 0) || !std::isfinite(opt.atol))
-      throw std::invalid_argument("integrate: atol = " + detail::format(opt.atol) +
-                                  " must be >= 0");
-    if (!(opt.breakpoint_interval >= 0) || !std::isfinite(opt.breakpoint_interval) ||
-        !std::isfinite(opt.breakpoint_origin))
-      throw std::invalid_argument(
-          "integrate: breakpoint_interval = " + detail::format(opt.breakpoint_interval) +
-          " must be >= 0 (0: none), with a finite origin");
-    // A grid that t cannot resolve, or one with more stops than any run can take, would
-    // never finish: refuse it up front.
-    const double every = opt.breakpoint_interval;
-    const double span = std::min(t1, opt.breakpoint_end) - t0;
-    if (every > 0 && span > 0 &&
-        (detail::below_minimum_step(every, opt.breakpoint_origin, t0, t1) || span / every > 1e9))
-      throw std::invalid_argument(
-          "integrate: breakpoint_interval = " + detail::format(every) +
-          " (e.g. the torque grid's step) is too small for the time span [" + detail::format(t0) +
-          ", " + detail::format(t1) + "]");
-    if (opt.method == Method::dopri5 && every == 0 && opt.step_begin)
-      throw std::invalid_argument(
-          "integrate: step_begin needs breakpoints with dopri5 (dense output)");
-  } else if (!(opt.dt > 0) || !std::isfinite(opt.dt)) {
-    throw std::invalid_argument("integrate: dt = " + detail::format(opt.dt) + " must be positive");
-  }
-  auto check_fixed = [&] {
-    const long per = std::lround(dt_out / opt.dt);
-    if (per < 1 || std::abs(per * opt.dt - dt_out) > 1e-9 * dt_out)
-      throw std::invalid_argument("integrate: dt_out = " + std::to_string(dt_out) +
-                                  " must be a multiple of the step dt = " + std::to_string(opt.dt));
-    return per;
-  };
+  const long outputs = detail::check_integration(opt, t0, t1, dt_out);
   observe(x, t0);
-  // Last accepted step, for the error report: a failing step leaves x unspecified.
-  double t_ok = t0;
-  State x_ok = x;
-  auto accept = [&](double t, const State& reached) {
-    // A right-hand side that returns inf or NaN instead of throwing must not go on silently.
-    if (!reached.allFinite())
-      throw detail::integration_error(
-          opt.method, "state not finite after the step to t = " + detail::format(t), t_ok, x_ok);
-    t_ok = t;
-    x_ok = reached;
-  };
-  auto step_too_small = [&](double dt) {
-    return detail::integration_error(
-        opt.method,
-        "step size " + detail::format(dt) + " below the minimum, tolerance cannot be met", t_ok,
-        x_ok);
-  };
-  // Controlled steps that land on every output time and breakpoint; the step size the
-  // controller chose is kept across them (a step shortened to land does not shrink the next).
-  auto controlled_steps = [&](auto& stepper) {
-    const double every = opt.breakpoint_interval;
-    const double origin = opt.breakpoint_origin;
-    auto next_stop = [&](double t, double t_out) {
-      if (!(every > 0)) return t_out;
-      const double b = origin + std::floor((t - origin) / every + 1 + 1e-9) * every;
-      if (b > opt.breakpoint_end * (1 + 1e-12) + 1e-300) return t_out;  // past the last sample
-      return std::min(t_out, b);
-    };
-    double dt = std::min(dt_out, 0.01), t = t0;
-    for (long k = 1; k <= outputs; ++k) {
-      const double t_out = t0 + k * dt_out;
-      int rejected = 0;
-      while (t < t_out - 1e-12 * std::max(1.0, std::abs(t_out))) {
-        const double stop = next_stop(t, t_out);
-        const double natural = dt;
-        const bool clamped = t + dt > stop;
-        double step = clamped ? stop - t : dt;
-        // A stop that rounding puts on t itself would give steps of zero, forever.
-        if (detail::below_minimum_step(step, t, t0, t1))
-          throw detail::integration_error(
-              opt.method,
-              "no progress: the next stop at t = " + detail::format(stop) +
-                  " is within rounding of t (breakpoint interval " + detail::format(every) + ")",
-              t_ok, x_ok);
-        if (opt.step_begin) opt.step_begin(t, clamped ? stop : t + step);
-        if (stepper.try_step(rhs, x, t, step) == odeint::success) {
-          if (clamped) {
-            t = stop;  // exactly on it, whatever rounding t + step gave
-            detail::reset_first_same_as_last(stepper, 0);
-          }
-          accept(t, x);
-          rejected = 0;
-          dt = clamped ? std::max(natural, step) : step;
-        } else {
-          dt = step;
-          if (++rejected > 500 || detail::below_minimum_step(dt, t, t0, t1))
-            throw step_too_small(dt);
-        }
-      }
-      t = t_out;
-      observe(x, t_out);
-    }
-  };
+  detail::Integration<State, decltype(rhs), std::remove_reference_t<Observer>> run(
+      opt, rhs, x, t0, t1, dt_out, outputs, observe);
   try {
     switch (opt.method) {
       case Method::rk4: {
-        const long per = check_fixed();
-        odeint::runge_kutta4<State, double, State, double, odeint::vector_space_algebra> stepper;
-        for (long k = 0; k < outputs; ++k) {
-          for (long s = 0; s < per; ++s) {
-            const double t = t0 + (k * per + s) * opt.dt;
-            if (opt.step_begin) opt.step_begin(t, t + opt.dt);
-            stepper.do_step(rhs, x, t, opt.dt);
-            accept(t0 + (k * per + s + 1) * opt.dt, x);
-          }
-          observe(x, t0 + (k + 1) * dt_out);
-        }
+        odeint::runge_kutta4<State, double, State, double, Algebra> stepper;
+        run.fixed_steps([&](State& s, double t, double h) { stepper.do_step(rhs, s, t, h); });
         break;
       }
       case Method::dopri5: {
+        using Dopri5 = odeint::runge_kutta_dopri5<State, double, State, double, Algebra>;
         if (opt.breakpoint_interval > 0) {
-          auto stepper =
-              odeint::make_controlled(opt.atol, opt.rtol,
-                                      odeint::runge_kutta_dopri5<State, double, State, double,
-                                                                 odeint::vector_space_algebra>());
-          controlled_steps(stepper);
-          break;
+          auto stepper = odeint::make_controlled(opt.atol, opt.rtol, Dopri5());
+          run.controlled_steps(stepper);
+        } else {
+          auto stepper = odeint::make_dense_output(opt.atol, opt.rtol, Dopri5());
+          run.dense_output_steps(stepper);
         }
-        // Dense output: steps of the controller's own size, states at the outputs by the
-        // method's continuous extension.
-        auto stepper =
-            odeint::make_dense_output(opt.atol, opt.rtol,
-                                      odeint::runge_kutta_dopri5<State, double, State, double,
-                                                                 odeint::vector_space_algebra>());
-        stepper.initialize(x, t0, std::min(dt_out, 0.01));
-        State out = x;
-        for (long k = 1; k <= outputs; ++k) {
-          const double t_out = t0 + k * dt_out;
-          while (stepper.current_time() < t_out) {
-            // No step past t1: its stages would evaluate the right-hand side beyond the span
-            // (e.g. past the last torque sample), and the outputs interpolate that step.
-            const double left = t1 - stepper.current_time();
-            if (stepper.current_time_step() > left)
-              stepper.initialize(State(stepper.current_state()), stepper.current_time(), left);
-            stepper.do_step(rhs);  // odeint throws step_adjustment_error after 500 rejections
-            accept(stepper.current_time(), stepper.current_state());
-            if (detail::below_minimum_step(stepper.current_time_step(), t_ok, t0, t1))
-              throw step_too_small(stepper.current_time_step());
-          }
-          stepper.calc_state(t_out, out);
-          observe(out, t_out);
-        }
-        x = out;
         break;
       }
       case Method::rkf78: {
-        auto stepper =
-            odeint::make_controlled(opt.atol, opt.rtol,
-                                    odeint::runge_kutta_fehlberg78<State, double, State, double,
-                                                                   odeint::vector_space_algebra>());
-        controlled_steps(stepper);
+        auto stepper = odeint::make_controlled(
+            opt.atol, opt.rtol,
+            odeint::runge_kutta_fehlberg78<State, double, State, double, Algebra>());
+        run.controlled_steps(stepper);
         break;
       }
-      case Method::implicit_midpoint: {
-        const long per = check_fixed();
-        for (long k = 0; k < outputs; ++k) {
-          for (long s = 0; s < per; ++s) {
-            const double t = t0 + (k * per + s) * opt.dt;
-            if (opt.step_begin) opt.step_begin(t, t + opt.dt);
-            implicit_midpoint_step(rhs, x, t, opt.dt);
-            accept(t0 + (k * per + s + 1) * opt.dt, x);
-          }
-          observe(x, t0 + (k + 1) * dt_out);
-        }
+      case Method::implicit_midpoint:
+        run.fixed_steps(
+            [&](State& s, double t, double h) { implicit_midpoint_step(rhs, s, t, h); });
         break;
-      }
     }
   } catch (const IntegrationError&) {
-    x = x_ok;
+    x = run.x_ok;
     throw;
   } catch (const std::runtime_error& e) {  // the right-hand side's or odeint's
-    x = x_ok;
-    throw detail::integration_error(opt.method, e.what(), t_ok, x_ok);
+    x = run.x_ok;
+    throw detail::integration_error(opt.method, e.what(), run.t_ok, run.x_ok);
   }
   return stats;
 }
