@@ -50,18 +50,19 @@ inline std::vector<std::string> torque_csv_columns(int num_joints) {
   return names;
 }
 
-inline TorqueTable read_torque_csv(const std::string& text, int num_joints,
-                                   const std::string& source) {
-  const std::string where = "torque file '" + source + "'";
-  auto fail = [&](long line, const std::string& what) -> std::invalid_argument {
+namespace detail {
+
+// Errors name the file and the line (0: the file as a whole).
+struct CsvErrors {
+  std::string where;
+  std::invalid_argument operator()(long line, const std::string& what) const {
     return std::invalid_argument(where + (line > 0 ? " line " + std::to_string(line) : "") + ": " +
                                  what);
-  };
-  const std::vector<std::string> expected = torque_csv_columns(num_joints);
-  std::string expected_list;
-  for (const auto& n : expected) expected_list += (expected_list.empty() ? "" : ",") + n;
+  }
+};
 
-  // Lines, without a byte-order mark and without the \r of CRLF.
+// The non-blank lines with their numbers, without a byte-order mark and without the \r of CRLF.
+inline std::vector<std::pair<long, std::string>> csv_lines(const std::string& text) {
   std::vector<std::pair<long, std::string>> lines;
   size_t start = text.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0;
   for (long number = 1; start < text.size(); ++number) {
@@ -72,35 +73,83 @@ inline TorqueTable read_torque_csv(const std::string& text, int num_joints,
     if (line.find_first_not_of(" \t") != std::string::npos) lines.push_back({number, line});
     start = end + 1;
   }
-  if (lines.empty())
-    throw fail(0, "empty; expected a header " + expected_list + " and at least two rows");
+  return lines;
+}
 
-  // Header: every expected name exactly once, nothing else.
-  const auto header = detail::split_csv_line(lines[0].second);
-  const long header_line = lines[0].first;
+// The header's column index of each expected name: every one exactly once, nothing else.
+inline std::map<std::string, size_t> csv_columns(const std::vector<std::string>& header, long line,
+                                                 const std::vector<std::string>& expected,
+                                                 const CsvErrors& fail) {
+  std::string list;
+  for (const auto& n : expected) list += (list.empty() ? "" : ",") + n;
   if (!header[0].empty() && (std::isdigit(static_cast<unsigned char>(header[0][0])) ||
                              header[0][0] == '-' || header[0][0] == '+' || header[0][0] == '.'))
-    throw fail(header_line, "starts with data (" + quoted_text(header[0]) +
-                                "), not a header; add the header line " + expected_list);
+    throw fail(line, "starts with data (" + quoted_text(header[0]) +
+                         "), not a header; add the header line " + list);
   std::map<std::string, size_t> column;
   for (size_t c = 0; c < header.size(); ++c) {
     if (std::find(expected.begin(), expected.end(), header[c]) == expected.end())
-      throw fail(header_line,
-                 "unknown column " + quoted_text(header[c]) + " (expected " + expected_list + ")");
+      throw fail(line, "unknown column " + quoted_text(header[c]) + " (expected " + list + ")");
     if (!column.insert({header[c], c}).second)
-      throw fail(header_line, "column " + quoted_text(header[c]) + " appears twice");
+      throw fail(line, "column " + quoted_text(header[c]) + " appears twice");
   }
   for (const auto& n : expected)
-    if (!column.count(n))
-      throw fail(header_line, "missing column '" + n + "' (expected " + expected_list + ")");
+    if (!column.count(n)) throw fail(line, "missing column '" + n + "' (expected " + list + ")");
+  return column;
+}
+
+// Sets table.t0 and table.dt from the sample times, which must lie on a uniform grid that t
+// can resolve; line_of(k) is the file line of sample k.
+template <class LineOf>
+void set_uniform_grid(TorqueTable& table, const std::vector<double>& times, LineOf&& line_of,
+                      const CsvErrors& fail) {
+  // A step that t can still resolve (16 ulps of the largest time).
+  table.t0 = times.front();
+  table.dt = (times.back() - times.front()) / static_cast<double>(times.size() - 1);
+  const double scale = std::max(std::abs(times.front()), std::abs(times.back()));
+  if (!(table.dt > 16 * std::numeric_limits<double>::epsilon() * std::max(scale, 1e-300)))
+    throw fail(0, "time step " + std::to_string(table.dt) +
+                      " is not positive or too small to resolve at t = " + std::to_string(scale));
+  // Each step equal to the first, within what a decimal file with 7 digits can hold.
+  const double first = times[1] - times[0];
+  for (size_t k = 1; k < times.size(); ++k) {
+    const double step = times[k] - times[k - 1];
+    if (!(std::abs(step - first) <= 1e-6 * std::abs(first)))
+      throw fail(line_of(k), "time step " + std::to_string(step) + " differs from the first step " +
+                                 std::to_string(first) + " (the grid must be uniform)");
+  }
+  // Small steps that each pass can still add up: every time must sit on t0 + k dt.
+  for (size_t k = 1; k < times.size(); ++k) {
+    const double off = times[k] - (table.t0 + table.dt * static_cast<double>(k));
+    if (!(std::abs(off) <= 1e-6 * table.dt))
+      throw fail(line_of(k), "time " + quoted_text(std::to_string(times[k])) + " is " +
+                                 std::to_string(off / table.dt) +
+                                 " steps off the uniform grid t0 + k dt (the steps drift)");
+  }
+}
+
+}  // namespace detail
+
+inline TorqueTable read_torque_csv(const std::string& text, int num_joints,
+                                   const std::string& source) {
+  const std::string where = "torque file '" + source + "'";
+  const detail::CsvErrors fail{where};
+  const std::vector<std::string> expected = torque_csv_columns(num_joints);
+  const auto lines = detail::csv_lines(text);
+  if (lines.empty()) {
+    std::string list;
+    for (const auto& n : expected) list += (list.empty() ? "" : ",") + n;
+    throw fail(0, "empty; expected a header " + list + " and at least two rows");
+  }
+  const auto header = detail::split_csv_line(lines[0].second);
+  const auto column = detail::csv_columns(header, lines[0].first, expected, fail);
 
   // Rows.
   TorqueTable table;
   std::vector<double> times;
   for (size_t r = 1; r < lines.size(); ++r) {
     const long number = lines[r].first;  // not a structured binding: lambdas capture it
-    const std::string& line = lines[r].second;
-    const auto fields = detail::split_csv_line(line);
+    const auto fields = detail::split_csv_line(lines[r].second);
     if (fields.size() != header.size())
       throw fail(number, "expected " + std::to_string(header.size()) + " fields, got " +
                              std::to_string(fields.size()));
@@ -115,31 +164,8 @@ inline TorqueTable read_torque_csv(const std::string& text, int num_joints,
   }
   if (times.size() < 2)
     throw fail(0, "needs at least two rows of samples, got " + std::to_string(times.size()));
-
-  // A uniform grid, with a step that t can still resolve (16 ulps of the largest time).
-  table.t0 = times.front();
-  table.dt = (times.back() - times.front()) / static_cast<double>(times.size() - 1);
-  const double scale = std::max(std::abs(times.front()), std::abs(times.back()));
-  if (!(table.dt > 16 * std::numeric_limits<double>::epsilon() * std::max(scale, 1e-300)))
-    throw fail(0, "time step " + std::to_string(table.dt) +
-                      " is not positive or too small to resolve at t = " + std::to_string(scale));
-  // Each step equal to the first, within what a decimal file with 7 digits can hold.
-  const double first = times[1] - times[0];
-  for (size_t k = 1; k < times.size(); ++k) {
-    const double step = times[k] - times[k - 1];
-    if (!(std::abs(step - first) <= 1e-6 * std::abs(first)))
-      throw fail(lines[k + 1].first, "time step " + std::to_string(step) +
-                                         " differs from the first step " + std::to_string(first) +
-                                         " (the grid must be uniform)");
-  }
-  // Small steps that each pass can still add up: every time must sit on t0 + k dt.
-  for (size_t k = 1; k < times.size(); ++k) {
-    const double off = times[k] - (table.t0 + table.dt * static_cast<double>(k));
-    if (!(std::abs(off) <= 1e-6 * table.dt))
-      throw fail(lines[k + 1].first, "time " + quoted_text(std::to_string(times[k])) + " is " +
-                                         std::to_string(off / table.dt) +
-                                         " steps off the uniform grid t0 + k dt (the steps drift)");
-  }
+  detail::set_uniform_grid(
+      table, times, [&](size_t k) { return lines[k + 1].first; }, fail);
   return table;
 }
 
