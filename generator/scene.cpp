@@ -239,77 +239,102 @@ std::string content_hash(const std::string& text) {
 
 namespace {
 
-Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yaml_text,
-                 const std::string& source_name) {
-  if (!root.IsMap()) r.fail("", "expected a mapping at the top level");
-  r.check_keys(root, "",
-               {"name", "description", "base", "links", "gears", "parameters", "outputs"});
+// Reads a scene's fields into a Scene, in the order in which they may refer to each other
+// (parameters first). Every error names the field (Reader::fail).
+class SceneReader {
+ public:
+  SceneReader(const Reader& r, const YAML::Node& root, const std::string& source_name)
+      : r(r), root(root), source_name(source_name) {}
 
+  Scene read(const std::string& yaml_text) {
+    if (!root.IsMap()) r.fail("", "expected a mapping at the top level");
+    r.check_keys(root, "",
+                 {"name", "description", "base", "links", "gears", "parameters", "outputs"});
+    s.source_path = source_name;
+    s.content = yaml_text;
+    read_name();
+    read_parameters();  // first: fields may refer to them
+    read_base();
+    read_links();
+    read_gears();
+    read_outputs();
+    for (const auto& p : s.parameters)
+      if (!used_parameters.count(p.name))
+        r.fail("parameters." + p.name, "parameter '" + p.name + "' is declared but never used",
+               root["parameters"]);
+    return s;
+  }
+
+ private:
+  const Reader& r;
+  const YAML::Node& root;
+  const std::string& source_name;
   Scene s;
-  s.source_path = source_name;
-  s.content = yaml_text;
-
-  const YAML::Node name = r.require(root, "name", "");
-  if (!name.IsScalar() || !is_identifier(r.bounded(name, "name").Scalar()))
-    r.fail("name",
-           "expected a C++ identifier (letters, digits, _), got '" +
-               (name.IsScalar() ? name.Scalar() : std::string("a non-scalar")) + "'",
-           name);
-  s.name = name.Scalar();
-  if (s.name.size() > 64)
-    r.fail("name",
-           "is " + std::to_string(s.name.size()) +
-               " characters long, at most 64 (it names files and a namespace)",
-           name);
-  if (is_reserved(s.name))
-    r.fail("name",
-           "'" + s.name +
-               "' is reserved (a C++ keyword, a macro of the generated code's headers or a "
-               "generated name)",
-           name);
-  if (root["description"].IsDefined()) {
-    if (!root["description"].IsScalar())
-      r.fail("description", "expected text", root["description"]);
-    s.description = root["description"].Scalar();
-    if (s.description.size() > 4000)
-      r.fail("description",
-             "text is too long (" + std::to_string(s.description.size()) +
-                 " characters, at most 4000)",
-             root["description"]);
-  }
-
-  // Parameters first: fields may refer to them.
   std::map<std::string, int> parameter_index;
-  if (root["parameters"].IsDefined() && !root["parameters"].IsNull()) {
-    const YAML::Node ps = root["parameters"];
-    if (!ps.IsMap())
-      r.fail("parameters", "expected a mapping of parameter name to nominal value, e.g. {p: 1.0}",
-             ps);
-    for (const auto& kv : ps) {
-      const std::string pname = r.key_text(kv.first, "parameters");
-      const std::string field = "parameters." + pname;
-      if (!is_identifier(pname))
-        r.fail(field, "parameter name '" + pname + "' is not an identifier", kv.first);
-      if (is_reserved(pname))
-        r.fail(field,
-               "parameter name '" + pname +
-                   "' is reserved (a coordinate, a generated symbol or a C++ keyword)",
-               kv.first);
-      if (parameter_index.count(pname))
-        r.fail(field, "parameter '" + pname + "' given more than once", kv.first);
-      Parameter p{pname, r.quantity(kv.second, field)};
-      if (p.nominal.is_parameter())
-        r.fail(field, "nominal value must be a number, got '" + p.nominal.parameter + "'",
-               kv.second);
-      parameter_index[pname] = static_cast<int>(s.parameters.size());
-      s.parameters.push_back(p);
-    }
-  }
   std::set<std::string> used_parameters;
 
+  void read_name() {
+    const YAML::Node name = r.require(root, "name", "");
+    if (!name.IsScalar() || !is_identifier(r.bounded(name, "name").Scalar()))
+      r.fail("name",
+             "expected a C++ identifier (letters, digits, _), got '" +
+                 (name.IsScalar() ? name.Scalar() : std::string("a non-scalar")) + "'",
+             name);
+    s.name = name.Scalar();
+    if (s.name.size() > 64)
+      r.fail("name",
+             "is " + std::to_string(s.name.size()) +
+                 " characters long, at most 64 (it names files and a namespace)",
+             name);
+    if (is_reserved(s.name))
+      r.fail("name",
+             "'" + s.name +
+                 "' is reserved (a C++ keyword, a macro of the generated code's headers or a "
+                 "generated name)",
+             name);
+    if (root["description"].IsDefined()) {
+      if (!root["description"].IsScalar())
+        r.fail("description", "expected text", root["description"]);
+      s.description = root["description"].Scalar();
+      if (s.description.size() > 4000)
+        r.fail("description",
+               "text is too long (" + std::to_string(s.description.size()) +
+                   " characters, at most 4000)",
+               root["description"]);
+    }
+  }
+
+  void read_parameters() {
+    if (root["parameters"].IsDefined() && !root["parameters"].IsNull()) {
+      const YAML::Node ps = root["parameters"];
+      if (!ps.IsMap())
+        r.fail("parameters", "expected a mapping of parameter name to nominal value, e.g. {p: 1.0}",
+               ps);
+      for (const auto& kv : ps) {
+        const std::string pname = r.key_text(kv.first, "parameters");
+        const std::string field = "parameters." + pname;
+        if (!is_identifier(pname))
+          r.fail(field, "parameter name '" + pname + "' is not an identifier", kv.first);
+        if (is_reserved(pname))
+          r.fail(field,
+                 "parameter name '" + pname +
+                     "' is reserved (a coordinate, a generated symbol or a C++ keyword)",
+                 kv.first);
+        if (parameter_index.count(pname))
+          r.fail(field, "parameter '" + pname + "' given more than once", kv.first);
+        Parameter p{pname, r.quantity(kv.second, field)};
+        if (p.nominal.is_parameter())
+          r.fail(field, "nominal value must be a number, got '" + p.nominal.parameter + "'",
+                 kv.second);
+        parameter_index[pname] = static_cast<int>(s.parameters.size());
+        s.parameters.push_back(p);
+      }
+    }
+  }
+
   // Resolves a quantity's value and checks its range; `positive` false allows zero.
-  auto checked = [&](Quantity q, const std::string& field, const YAML::Node& node, bool positive,
-                     bool allow_negative = false) {
+  Quantity checked(Quantity q, const std::string& field, const YAML::Node& node, bool positive,
+                   bool allow_negative = false) {
     if (q.is_parameter()) {
       auto it = parameter_index.find(q.parameter);
       if (it == parameter_index.end())
@@ -329,129 +354,135 @@ Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yam
       if (!positive && !(q.value >= 0)) r.fail(field, "must not be negative, got " + shown, node);
     }
     return q;
-  };
-  auto number = [&](const YAML::Node& map, const std::string& key, const std::string& field,
-                    bool positive, bool allow_negative = false) {
+  }
+  Quantity number(const YAML::Node& map, const std::string& key, const std::string& field,
+                  bool positive, bool allow_negative = false) {
     const YAML::Node n = r.require(map, key, field);
     const std::string path = field + "." + key;
     return checked(r.quantity(n, path), path, n, positive, allow_negative);
-  };
-  auto pair = [&](const YAML::Node& map, const std::string& key, const std::string& field,
-                  Quantity out[2]) {
+  }
+  void pair(const YAML::Node& map, const std::string& key, const std::string& field,
+            Quantity out[2]) {
     const YAML::Node n = r.require(map, key, field);
     const std::string path = field + "." + key;
     read_pair(r, n, path, out);
     for (int k = 0; k < 2; ++k)
       out[k] = checked(out[k], path + "[" + std::to_string(k) + "]", n[k], false, true);
-  };
-
-  // Base.
-  const YAML::Node base = r.require(root, "base", "");
-  r.check_keys(base, "base", {"type", "mass", "inertia", "mount"});
-  const YAML::Node type = r.require(base, "type", "base");
-  const std::string type_name = type.IsScalar() ? type.Scalar() : "";
-  if (type_name == "free_floating") {
-    s.base.type = BaseType::free_floating;
-    s.base.mass = number(base, "mass", "base", true);
-    s.base.inertia = number(base, "inertia", "base", true);
-  } else if (type_name == "fixed") {
-    s.base.type = BaseType::fixed;
-    if (base["mass"].IsDefined()) s.base.mass = number(base, "mass", "base", true);
-    if (base["inertia"].IsDefined()) s.base.inertia = number(base, "inertia", "base", true);
-  } else {
-    r.fail("base.type", "expected 'free_floating' or 'fixed', got '" + type_name + "'", type);
   }
-  pair(base, "mount", "base", s.base.mount);
 
-  // Links.
-  const YAML::Node links = r.require(root, "links", "");
-  if (!links.IsSequence()) r.fail("links", "expected a list of links", links);
-  if (links.size() == 0) r.fail("links", "needs at least one link, got 0", links);
-  if (links.size() > static_cast<size_t>(kMaxLinks))
-    r.fail("links",
-           "at most " + std::to_string(kMaxLinks) + " links are supported, got " +
-               std::to_string(links.size()),
-           links);
-  for (size_t i = 0; i < links.size(); ++i) {
-    const std::string field = "links[" + std::to_string(i) + "]";
-    const YAML::Node l = links[i];
-    r.check_keys(l, field, {"mass", "inertia", "length", "com"});
-    Link link;
-    link.mass = number(l, "mass", field, true);
-    link.inertia = number(l, "inertia", field, true);
-    link.length = number(l, "length", field, true);
-    pair(l, "com", field, link.com);
-    s.links.push_back(link);
+  void read_base() {
+    const YAML::Node base = r.require(root, "base", "");
+    r.check_keys(base, "base", {"type", "mass", "inertia", "mount"});
+    const YAML::Node type = r.require(base, "type", "base");
+    const std::string type_name = type.IsScalar() ? type.Scalar() : "";
+    if (type_name == "free_floating") {
+      s.base.type = BaseType::free_floating;
+      s.base.mass = number(base, "mass", "base", true);
+      s.base.inertia = number(base, "inertia", "base", true);
+    } else if (type_name == "fixed") {
+      s.base.type = BaseType::fixed;
+      if (base["mass"].IsDefined()) s.base.mass = number(base, "mass", "base", true);
+      if (base["inertia"].IsDefined()) s.base.inertia = number(base, "inertia", "base", true);
+    } else {
+      r.fail("base.type", "expected 'free_floating' or 'fixed', got '" + type_name + "'", type);
+    }
+    pair(base, "mount", "base", s.base.mount);
+  }
+
+  void read_links() {
+    const YAML::Node links = r.require(root, "links", "");
+    if (!links.IsSequence()) r.fail("links", "expected a list of links", links);
+    if (links.size() == 0) r.fail("links", "needs at least one link, got 0", links);
+    if (links.size() > static_cast<size_t>(kMaxLinks))
+      r.fail("links",
+             "at most " + std::to_string(kMaxLinks) + " links are supported, got " +
+                 std::to_string(links.size()),
+             links);
+    for (size_t i = 0; i < links.size(); ++i) {
+      const std::string field = "links[" + std::to_string(i) + "]";
+      const YAML::Node l = links[i];
+      r.check_keys(l, field, {"mass", "inertia", "length", "com"});
+      Link link;
+      link.mass = number(l, "mass", field, true);
+      link.inertia = number(l, "inertia", field, true);
+      link.length = number(l, "length", field, true);
+      pair(l, "com", field, link.com);
+      s.links.push_back(link);
+    }
   }
 
   // Gears: one mapping for all joints, or a list with one entry per joint.
-  if (root["gears"].IsDefined() && !root["gears"].IsNull()) {
-    const YAML::Node g = root["gears"];
-    std::vector<std::pair<Gear, std::string>> read;
-    if (g.IsMap()) {
-      Gear one = read_gear(r, g, "gears");
-      for (size_t i = 0; i < links.size(); ++i) read.push_back({one, "gears"});
-    } else if (g.IsSequence()) {
-      if (g.size() != links.size())
-        r.fail("gears",
-               "expected one entry per link (" + std::to_string(links.size()) + "), got " +
-                   std::to_string(g.size()),
-               g);
-      for (size_t i = 0; i < g.size(); ++i) {
-        const std::string field = "gears[" + std::to_string(i) + "]";
-        read.push_back({read_gear(r, g[i], field), field});
+  void read_gears() {
+    if (root["gears"].IsDefined() && !root["gears"].IsNull()) {
+      const YAML::Node g = root["gears"];
+      std::vector<std::pair<Gear, std::string>> read;
+      if (g.IsMap()) {
+        Gear one = read_gear(r, g, "gears");
+        for (size_t i = 0; i < s.links.size(); ++i) read.push_back({one, "gears"});
+      } else if (g.IsSequence()) {
+        if (g.size() != s.links.size())
+          r.fail("gears",
+                 "expected one entry per link (" + std::to_string(s.links.size()) + "), got " +
+                     std::to_string(g.size()),
+                 g);
+        for (size_t i = 0; i < g.size(); ++i) {
+          const std::string field = "gears[" + std::to_string(i) + "]";
+          read.push_back({read_gear(r, g[i], field), field});
+        }
+      } else {
+        r.fail("gears", "expected a mapping (all joints) or a list (one per joint)", g);
       }
-    } else {
-      r.fail("gears", "expected a mapping (all joints) or a list (one per joint)", g);
-    }
-    for (size_t i = 0; i < read.size(); ++i) {
-      auto [gear, field] = read[i];
-      const YAML::Node node = g.IsMap() ? g : g[i];
-      gear.ratio = checked(gear.ratio, field + ".ratio", node["ratio"], true);
-      if (gear.ratio.value < 1.0)
-        std::fprintf(
-            stderr, "warning: scene '%s', field '%s.ratio': %g < 1 (a speed-up, not a reduction)\n",
-            source_name.c_str(), field.c_str(), gear.ratio.value);
-      gear.motor_inertia =
-          checked(gear.motor_inertia, field + ".motor_inertia", node["motor_inertia"], false);
-      if (gear.compensate_link_inertia && !(gear.motor_inertia.value < s.links[i].inertia.value))
-        r.fail(field + ".motor_inertia",
-               "motor inertia " + std::to_string(gear.motor_inertia.value) +
-                   " must be smaller than the inertia of link " + std::to_string(i + 1) + " (" +
-                   std::to_string(s.links[i].inertia.value) + ") that it compensates",
-               node);
-      s.gears.push_back(gear);
+      for (size_t i = 0; i < read.size(); ++i) {
+        auto [gear, field] = read[i];
+        const YAML::Node node = g.IsMap() ? g : g[i];
+        gear.ratio = checked(gear.ratio, field + ".ratio", node["ratio"], true);
+        if (gear.ratio.value < 1.0)
+          std::fprintf(
+              stderr,
+              "warning: scene '%s', field '%s.ratio': %g < 1 (a speed-up, not a reduction)\n",
+              source_name.c_str(), field.c_str(), gear.ratio.value);
+        gear.motor_inertia =
+            checked(gear.motor_inertia, field + ".motor_inertia", node["motor_inertia"], false);
+        if (gear.compensate_link_inertia && !(gear.motor_inertia.value < s.links[i].inertia.value))
+          r.fail(field + ".motor_inertia",
+                 "motor inertia " + std::to_string(gear.motor_inertia.value) +
+                     " must be smaller than the inertia of link " + std::to_string(i + 1) + " (" +
+                     std::to_string(s.links[i].inertia.value) + ") that it compensates",
+                 node);
+        s.gears.push_back(gear);
+      }
     }
   }
 
   // Outputs: all unless the scene lists a subset.
-  if (root["outputs"].IsDefined()) {
-    const YAML::Node outs = root["outputs"];
-    if (!outs.IsSequence() || outs.size() == 0)
-      r.fail("outputs", "expected a non-empty list of output names", outs);
-    for (size_t i = 0; i < outs.size(); ++i) {
-      const std::string n = outs[i].IsScalar() ? outs[i].Scalar() : "";
-      auto o = output_from_string(n);
-      if (!o)
-        r.fail("outputs[" + std::to_string(i) + "]",
-               "unknown output '" + n + "' (known: " + output_names() + ")", outs[i]);
-      if (!s.outputs.insert(*o).second)
-        r.fail("outputs[" + std::to_string(i) + "]", "output '" + n + "' listed twice", outs[i]);
+  void read_outputs() {
+    if (root["outputs"].IsDefined()) {
+      const YAML::Node outs = root["outputs"];
+      if (!outs.IsSequence() || outs.size() == 0)
+        r.fail("outputs", "expected a non-empty list of output names", outs);
+      for (size_t i = 0; i < outs.size(); ++i) {
+        const std::string n = outs[i].IsScalar() ? outs[i].Scalar() : "";
+        auto o = output_from_string(n);
+        if (!o)
+          r.fail("outputs[" + std::to_string(i) + "]",
+                 "unknown output '" + n + "' (known: " + output_names() + ")", outs[i]);
+        if (!s.outputs.insert(*o).second)
+          r.fail("outputs[" + std::to_string(i) + "]", "output '" + n + "' listed twice", outs[i]);
+      }
+    } else {
+      for (const OutputInfo& o : output_registry())
+        if (o.by_default && (s.free_floating() || !o.free_floating_only)) s.outputs.insert(o.id);
     }
-  } else {
-    for (const OutputInfo& o : output_registry())
-      if (o.by_default && (s.free_floating() || !o.free_floating_only)) s.outputs.insert(o.id);
+    for (Output o : s.outputs)
+      if (info(o).free_floating_only && !s.free_floating())
+        r.fail("outputs", "'" + to_string(o) + "' is only defined for a free_floating base",
+               root["outputs"]);
   }
-  for (Output o : s.outputs)
-    if (info(o).free_floating_only && !s.free_floating())
-      r.fail("outputs", "'" + to_string(o) + "' is only defined for a free_floating base",
-             root["outputs"]);
+};
 
-  for (const auto& p : s.parameters)
-    if (!used_parameters.count(p.name))
-      r.fail("parameters." + p.name, "parameter '" + p.name + "' is declared but never used",
-             root["parameters"]);
-  return s;
+Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yaml_text,
+                 const std::string& source_name) {
+  return SceneReader(r, root, source_name).read(yaml_text);
 }
 
 }  // namespace
