@@ -108,6 +108,39 @@ SRef Program::pow(SRef base, int exponent) {
   return r;
 }
 
+namespace {
+
+using Pair = std::pair<SRef, SRef>;
+
+// The pair (a, b) in a canonical form: ordered, first operand not negated. flipped: the pair
+// was negated to get there (a sum's (b - a) is -(a - b)).
+Pair canonical(SRef a, SRef b, bool& flipped) {
+  if (b < a) std::swap(a, b);
+  flipped = a.neg;
+  if (flipped) {
+    a.neg = !a.neg;
+    b.neg = !b.neg;
+  }
+  return Pair{a, b};
+}
+
+// Position of the pair in a node's operands, as (i, j) with flipped, or i = -1.
+std::pair<int, int> find_pair(const std::vector<SRef>& args, const Pair& pair, bool& flipped) {
+  for (size_t i = 0; i < args.size(); ++i) {
+    if (args[i].id != pair.first.id && args[i].id != pair.second.id) continue;
+    for (size_t j = i + 1; j < args.size(); ++j) {
+      bool f;
+      if (canonical(args[i], args[j], f) == pair) {
+        flipped = f;
+        return {static_cast<int>(i), static_cast<int>(j)};
+      }
+    }
+  }
+  return {-1, -1};
+}
+
+}  // namespace
+
 void Program::extract_common_pairs(const std::vector<SRef>& roots) {
   extract_pass(Kind::mul, roots);
   extract_pass(Kind::add, roots);
@@ -119,32 +152,6 @@ void Program::extract_common_pairs(const std::vector<SRef>& roots) {
 // re-verified when taken, so each step costs about the size of the nodes it touches.
 // Deterministic: ties go to the smallest pair.
 void Program::extract_pass(Kind kind, const std::vector<SRef>& roots) {
-  using Pair = std::pair<SRef, SRef>;
-  auto canonical = [](SRef a, SRef b, bool& flipped) {
-    if (b < a) std::swap(a, b);
-    flipped = a.neg;
-    if (flipped) {
-      a.neg = !a.neg;
-      b.neg = !b.neg;
-    }
-    return Pair{a, b};
-  };
-  // Position of the pair in a node's operands, as (i, j, flipped), or i = -1.
-  auto find_pair = [&](const std::vector<SRef>& args, const Pair& pair,
-                       bool& flipped) -> std::pair<int, int> {
-    for (size_t i = 0; i < args.size(); ++i) {
-      if (args[i].id != pair.first.id && args[i].id != pair.second.id) continue;
-      for (size_t j = i + 1; j < args.size(); ++j) {
-        bool f;
-        if (canonical(args[i], args[j], f) == pair) {
-          flipped = f;
-          return {static_cast<int>(i), static_cast<int>(j)};
-        }
-      }
-    }
-    return {-1, -1};
-  };
-
   std::vector<int> containers;
   for (int id : schedule(roots))
     if (nodes_[id].kind == kind && nodes_[id].args.size() >= 2) containers.push_back(id);
