@@ -51,8 +51,8 @@ inline std::string mjcf_of(const Scene& s) {
   for (int i = 0; i < s.num_links(); ++i) {
     const Link& l = s.links[i];
     double I = value(l.inertia), armature = 0;
-    if (s.geared()) {
-      const Gear& g = s.gears[i];
+    if (s.has_gear(i)) {
+      const Gear& g = *s.gears[i];
       const double p = value(g.ratio), Im = value(g.motor_inertia);
       if (g.compensate_link_inertia) I -= Im;
       armature = Im * p * p;

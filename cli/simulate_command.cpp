@@ -124,7 +124,7 @@ void append(std::string& row, double v) {
 // One sample as a row of the header's columns.
 std::string row(const DynamicModel& model, const Columns& c, double t, const Eigen::VectorXd& q,
                 const Eigen::VectorXd& qd, const Eigen::VectorXd& tau) {
-  const int N = model.num_links, nq = model.nq, nv = model.nv;
+  const int N = model.num_links;
   const Eigen::VectorXd& p = model.gear_ratios;
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.17g", t);
@@ -132,8 +132,8 @@ std::string row(const DynamicModel& model, const Columns& c, double t, const Eig
   for (double v : q) append(r, v);
   for (double v : qd) append(r, v);
   if (c.geared) {
-    for (int j = 0; j < N; ++j) append(r, q[nq - N + j] / p[j]);
-    for (int j = 0; j < N; ++j) append(r, qd[nv - N + j] / p[j]);
+    for (double v : model.joint_angles(q)) append(r, v);
+    for (double v : model.joint_angles(qd)) append(r, v);
   }
   for (int j = 0; j < N; ++j) append(r, tau[j]);
   if (c.geared)
@@ -216,11 +216,14 @@ class Progress {
 int run_simulate(const SimulateArgs& a) {
   // Everything the run needs is checked before the output file is opened.
   const Scene scene = load_scene(a.scene_path);
+  const bool passive = (scene.features() & (needs::springs | needs::friction)) != 0;
   if (!scene.wants(Output::forward_dynamics) &&
-      !(scene.wants(Output::mass_matrix) && scene.wants(Output::bias_forces)))
+      (passive || !(scene.wants(Output::mass_matrix) && scene.wants(Output::bias_forces))))
     throw std::invalid_argument(
-        "simulate: the scene must emit forward_dynamics, or mass_matrix and bias_forces (field "
-        "'outputs')");
+        passive ? "simulate: a scene with springs, dampers or friction must emit forward_dynamics "
+                  "(field 'outputs')"
+                : "simulate: the scene must emit forward_dynamics, or mass_matrix and bias_forces "
+                  "(field 'outputs')");
   const int nq = scene.num_coordinates(), nv = scene.num_velocities(), N = scene.num_links();
   const Eigen::VectorXd q0 =
       a.q0_text.empty() ? Eigen::VectorXd::Zero(nq) : cli::parse_vector(a.q0_text, "--q0", nq);

@@ -31,7 +31,11 @@ inline std::string broken_rule(const Scene& s) {
   }
   if (s.geared() && s.gears.size() != s.links.size()) return "gear count";
   for (size_t i = 0; i < s.gears.size(); ++i) {
-    const Gear& g = s.gears[i];
+    if (!s.gears[i]) continue;
+    const Gear& g = *s.gears[i];
+    if (g.damping && !g.stiffness) return "damper without a spring";
+    if (g.stiffness && !(g.stiffness->value > 0 && g.motor_inertia.value > 0))
+      return "flexible joint without a positive stiffness and motor inertia";
     if (!(g.ratio.value > 0) || !finite(g.ratio)) return "gear ratio";
     if (!(g.motor_inertia.value >= 0) || !finite(g.motor_inertia)) return "motor inertia";
     if (g.compensate_link_inertia && !(g.motor_inertia.value < s.links[i].inertia.value))

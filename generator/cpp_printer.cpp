@@ -43,7 +43,8 @@ class BodyPrinter {
       if (plain_) break;
       const auto k = p_.node(id).kind;
       const bool is_op = k != Program::Kind::input && k != Program::Kind::constant;
-      const bool trig = k == Program::Kind::sin || k == Program::Kind::cos;
+      const bool trig = k == Program::Kind::sin || k == Program::Kind::cos ||
+                        k == Program::Kind::tanh || k == Program::Kind::exp;
       if (!is_op || (!trig && uses_[id] < 2)) continue;
       const std::string expr = print_node(id);
       names_[id] = "t" + std::to_string(next++);
@@ -98,6 +99,10 @@ class BodyPrinter {
         return "sin(" + ref(n.args[0].id) + ")";
       case Program::Kind::cos:
         return "cos(" + ref(n.args[0].id) + ")";
+      case Program::Kind::tanh:
+        return "tanh(" + ref(n.args[0].id) + ")";
+      case Program::Kind::exp:
+        return "exp(" + value(n.args[0]) + ")";
       case Program::Kind::pow:
         return "pow(" + ref(n.args[0].id) + ", " + n.text + ")";
       case Program::Kind::div:
@@ -165,8 +170,10 @@ std::string target(const ArraySpec& r, int rows, int cols, int i, int j) {
 std::string function_body(const FunctionSpec& f, const Dimensions& dims) {
   BodyPrinter printer(f.program, f.roots(), f.plain);
   std::ostringstream out;
+  const OpCounts ops = f.program.count(f.roots());
   out << "  using std::cos;\n  using std::sin;\n"
-      << (f.plain ? "  using std::pow;\n" : "") << printer.temporaries();
+      << (f.plain ? "  using std::pow;\n" : "")
+      << (ops.functions ? "  using std::exp;\n  using std::tanh;\n" : "") << printer.temporaries();
   if (returns_scalar(f)) {
     out << "  return " << printer.value(f.entries[0][0]) << ";\n";
     return out.str();
@@ -226,6 +233,13 @@ std::string parameter_error_function(const ModelFacts& facts) {
   return s.str();
 }
 
+// The kHas_ flag of an output that needs springs or friction is printed only for a scene that
+// has them, so that a scene without them generates exactly the code it did before they existed
+// (the runtime detects the flags' presence).
+bool flag_printed(const OutputInfo& o, const ModelFacts& facts) {
+  return (o.needs & (needs::springs | needs::friction) & ~facts.features) == 0;
+}
+
 std::string header_constants(const ModelFacts& facts) {
   std::ostringstream h;
   h << "inline constexpr int kNq = " << facts.dims.nq << ";\n"
@@ -245,8 +259,15 @@ std::string header_constants(const ModelFacts& facts) {
     << "inline constexpr const char* kSceneHash = \"" << facts.scene_hash << "\";\n"
     << parameter_error_function(facts);
   for (const auto& o : output_registry()) {
+    if (!flag_printed(o, facts)) continue;
     const bool has = std::count(facts.outputs.begin(), facts.outputs.end(), o.id) != 0;
     h << "inline constexpr bool kHas_" << o.name << " = " << (has ? "true" : "false") << ";\n";
+  }
+  if (!facts.actuated_coordinates.empty()) {
+    std::string list;
+    for (int c : facts.actuated_coordinates) list += (list.empty() ? "" : ", ") + std::to_string(c);
+    h << "// Velocity index that joint torque tau_i drives, as tau_i / p_i (eq. 14): the motor.\n"
+      << "inline constexpr std::array<int, kNumLinks> kActuatedCoordinates = {" << list << "};\n";
   }
   h << "\ntemplate <typename T> using Coordinates = Eigen::Matrix<T, kNq, 1>;\n"
     << "template <typename T> using Velocities = Eigen::Matrix<T, kNv, 1>;\n"
@@ -271,7 +292,11 @@ std::string model_struct(const LoweredModel& model, const std::string& ns) {
   for (const char* c : {"kFreeFloating", "kGeared"})
     h << "  static constexpr bool " << c << " = " << ns << "::" << c << ";\n";
   for (const auto& o : output_registry())
-    h << "  static constexpr bool kHas_" << o.name << " = " << ns << "::kHas_" << o.name << ";\n";
+    if (flag_printed(o, model.facts))
+      h << "  static constexpr bool kHas_" << o.name << " = " << ns << "::kHas_" << o.name << ";\n";
+  if (!model.facts.actuated_coordinates.empty())
+    h << "  static constexpr const std::array<int, kNumLinks>& actuated_coordinates() { return "
+         "kActuatedCoordinates; }\n";
   for (const char* alias : {"Coordinates", "Velocities", "Parameters", "MassMatrix", "Vector3",
                             "PoseJacobian", "JointVector", "JointPositions"})
     h << "  template <typename T> using " << alias << " = " << ns << "::" << alias << "<T>;\n";
@@ -317,7 +342,11 @@ std::string c_interface(const LoweredModel& model, const std::string& header,
        "Model::parameter_names()[i] : \"\"; }\n"
     << "double spacearm_nominal_parameter(int i) { return kNumParams ? "
        "Model::nominal_parameters()[i] : 0.0; }\n"
-    << "const char* spacearm_parameter_error(const double* p) { return parameter_error(P(p)); }\n";
+    << "const char* spacearm_parameter_error(const double* p) { return parameter_error(P(p)); }\n"
+    << "int spacearm_actuated_coordinate(int joint) { return "
+    << (model.facts.actuated_coordinates.empty() ? "kNv - kNumLinks + joint"
+                                                 : "kActuatedCoordinates[joint]")
+    << "; }\n";
   unsigned long mask = 0;
   for (Output o : model.facts.outputs) mask |= output_bit(o);
   s << "unsigned long spacearm_outputs() { return " << mask << "ul; }\n";
@@ -389,7 +418,8 @@ EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
       const OpCounts ops = f.program.count(f.roots());
       result.stats.push_back({f.name, ops, f.variant});
       s << "// Operations: " << ops.adds << " add, " << ops.muls << " mul, " << ops.divs << " div, "
-        << ops.trig << " sin/cos.\n";
+        << ops.trig << " sin/cos"
+        << (ops.functions ? ", " + std::to_string(ops.functions) + " tanh/exp" : "") << ".\n";
     }
     s << "template <typename T>\n"
       << signature(f, "T", true, true) << " {\n"

@@ -52,6 +52,10 @@ struct ModelFacts {
   std::vector<double> nominal_parameters;
   std::string scene_hash;  // "fnv1a64:..."
   std::vector<Output> outputs;
+  unsigned features = 0;  // needs:: bits of the scene (outputs.hpp)
+  // Velocity index that joint torque tau_i drives (as tau_i / p_i, eq. 14), where it is not
+  // the joint's own slot (a flexible joint's motor); empty: the joint slots, nv - N .. nv - 1.
+  std::vector<int> actuated_coordinates;
   Program checks_program;  // inputs: params(i)
   std::vector<ParameterCheck> checks;
 };

@@ -35,7 +35,11 @@ std::vector<Eigen::MatrixXd> composed(const SymbolicModel& model, Output o, cons
     return {J.rightCols(N) -
             J.leftCols(nb) * M.topLeftCorner(nb, nb).ldlt().solve(M.topRightCorner(nb, N))};
   }
-  const Eigen::VectorXd b = closed_form(model, Output::bias_forces, s);
+  Eigen::VectorXd b = closed_form(model, Output::bias_forces, s);
+  if (model.has_passive_forces()) {  // springs, dampers, friction: M qdd + b + these = Q
+    const std::vector<double> f = evaluate(model, model.passive_forces, s.q, s.qd, s.params);
+    b += Eigen::Map<const Eigen::VectorXd>(f.data(), n);
+  }
   if (o == Output::inverse_dynamics) return {M * extra + b};
   if (o == Output::forward_dynamics) {
     // Unpivoted pivots D_j = L_jj^2 of M = L L^T, and D_j / M_jj.

@@ -68,7 +68,9 @@ const std::vector<OutputInfo>& output_registry() {
   using I = Input;
   using S = Size;
   using O = Output;
-  constexpr bool kFreeBaseOnly = true, kAnyBase = false, kByDefault = true, kOnRequest = false;
+  constexpr unsigned kAnyBase = needs::nothing, kFreeBaseOnly = needs::free_base,
+                     kRigidFreeBase = needs::free_base | needs::rigid_joints;
+  constexpr bool kByDefault = true, kOnRequest = false;
   // clang-format off
   static const std::vector<OutputInfo> registry = {
       {O::mass_matrix, "mass_matrix", "M", {I::q}, {{"M", S::nv, S::nv, true}},
@@ -116,7 +118,7 @@ const std::vector<OutputInfo>& output_registry() {
        "positive for a positive definite M) and D_i / M_ii, the pivots of "
        "diag(M)^-1/2 M diag(M)^-1/2 (max/min bounds its condition number)."},
       {O::generalized_jacobian, "generalized_jacobian", "Jg", {I::q},
-       {{"Jg", S::three, S::num_links, false}}, kFreeBaseOnly, kByDefault,
+       {{"Jg", S::three, S::num_links, false}}, kRigidFreeBase, kByDefault,
        {O::mass_matrix, O::end_effector_jacobian}, "",
        "Generalized Jacobian J* (Umetani-Yoshida): end-effector velocity per rate of the joint "
        "coordinates (motor rates in a geared scene) with the base moving so that the momentum "
@@ -124,13 +126,34 @@ const std::vector<OutputInfo>& output_registry() {
       {O::free_base_inverse_dynamics, "free_base_inverse_dynamics", "tau",
        {I::q, I::qd, I::joint_accelerations},
        {{"tau", S::num_links, S::one, false}, {"qdd_base", S::num_base, S::one, false}},
-       kFreeBaseOnly, kByDefault, {O::mass_matrix, O::bias_forces}, "14",
+       kRigidFreeBase, kByDefault, {O::mass_matrix, O::bias_forces}, "14",
        "Joint torques tau that give the link-side joint accelerations qdd_joints with no force on "
        "the free base, and the base acceleration that follows; both tau and qdd_joints on the "
        "link side of the gears (tau = p Q, motor acceleration = p qdd_joints)."},
+      {O::potential_energy, "potential_energy", "V", {I::q}, {{"V", S::one, S::one, false}},
+       needs::springs, kByDefault, {}, "",
+       "Potential energy of the joint springs, V = sum 1/2 k_i (qm_i / p_i - q_i)^2."},
+      {O::spring_damper_forces, "spring_damper_forces", "fk", {I::q, I::qd},
+       {{"fk", S::nv, S::one, false}}, needs::springs, kByDefault, {}, "",
+       "Generalized forces of the joint springs and dampers, dV/dq + dD/dqd with the Rayleigh "
+       "function D = sum 1/2 d_i (qmd_i / p_i - qd_i)^2; they enter as M qdd + b + fk = Q."},
+      {O::friction_forces, "friction_forces", "ff", {I::qd}, {{"ff", S::nv, S::one, false}},
+       needs::friction, kByDefault, {}, "",
+       "Joint friction on the motor rate w (qd of an ungeared joint): f(w) = b w + Fc tanh(w/vs) "
+       "+ (Fs - Fc) exp(-(w/vst)^2) tanh(w/vs); it enters as M qdd + b + ff = Q."},
   };
   // clang-format on
   return registry;
+}
+
+std::string missing_feature(unsigned required, unsigned features) {
+  const unsigned missing = required & ~features;
+  if (missing & needs::free_base) return "is only defined for a free_floating base";
+  if (missing & needs::rigid_joints)
+    return "is not defined for a scene with flexible joints (the link and motor sides move apart)";
+  if (missing & needs::springs) return "needs a flexible joint (gears: stiffness)";
+  if (missing & needs::friction) return "needs joint friction (friction:)";
+  return "";
 }
 
 const OutputInfo& info(Output output) {

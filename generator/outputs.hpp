@@ -29,7 +29,23 @@ enum class Output {
   forward_dynamics,
   generalized_jacobian,
   free_base_inverse_dynamics,
+  potential_energy,
+  spring_damper_forces,
+  friction_forces,
 };
+
+// What a scene must have for an output to be defined (OutputInfo::needs, a bit mask;
+// Scene::features() says what a scene has).
+namespace needs {
+constexpr unsigned nothing = 0;
+constexpr unsigned free_base = 1;     // a free_floating base (momentum, base elimination)
+constexpr unsigned rigid_joints = 2;  // no flexible joint (the joint rows are the only joint state)
+constexpr unsigned springs = 4;       // a flexible joint (gears[i].stiffness)
+constexpr unsigned friction = 8;      // a `friction:` entry
+}  // namespace needs
+// Why a scene with `features` cannot have an output that needs `required`, e.g. "is only
+// defined for a free_floating base"; empty when it can.
+std::string missing_feature(unsigned required, unsigned features);
 
 // A size of the model: the shape of an input or a result.
 enum class Size { one, two, three, nq, nv, num_links, num_links_plus_one, num_base };
@@ -65,8 +81,8 @@ struct OutputInfo {
   const char* symbol;  // short name of its entries for `inspect` ("M" as in M[1][2])
   std::vector<Input> inputs;
   std::vector<ResultInfo> results;  // the first one is the output's value
-  bool free_floating_only;
-  bool by_default;  // emitted when a scene lists no outputs
+  unsigned needs;                   // needs::..., what the scene must have
+  bool by_default;  // emitted when a scene lists no outputs (and it has what the output needs)
   // Empty: a closed form derived symbolically (inspect shows its entries). Else composed in
   // the straight-line program from these outputs' closed forms (a solve, a product).
   std::vector<Output> composed_of;

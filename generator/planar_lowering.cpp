@@ -94,6 +94,9 @@ class FunctionBuilder {
         const int c = first_joint + j - 1;
         basis_subs_[m_.qd[c]] = (omega_symbols_[j] - prev) / m_.gear_map(c, c);
       }
+      // The motor rates of flexible joints (after the joint slots) are no body's rate.
+      for (int i = first_joint + N; i < n; ++i)
+        add_var(m_.qd[i], [this, i] { return prog.input("qd", i); });
     } else {
       for (int i = 0; i < n; ++i) add_var(m_.qd[i], [this, i] { return prog.input("qd", i); });
     }
@@ -122,7 +125,8 @@ class FunctionBuilder {
   Program prog;
 
   SRef build(const ex& e) {
-    ex x = e.subs(atom_subs_, GiNaC::subs_options::no_pattern);
+    ex x = function_atoms(e);
+    x = x.subs(atom_subs_, GiNaC::subs_options::no_pattern);
     if (omega_basis_) x = x.subs(basis_subs_, GiNaC::subs_options::no_pattern);
     x = x.expand();
     return horner(terms_of(x));
@@ -135,7 +139,39 @@ class FunctionBuilder {
   std::vector<std::function<SRef()>> var_builders_;
   std::map<int, SRef> var_nodes_, theta_nodes_, omega_nodes_;
   std::map<int, GiNaC::symbol> omega_symbols_;
-  GiNaC::exmap atom_subs_, basis_subs_;
+  GiNaC::exmap atom_subs_, basis_subs_, function_subs_;
+
+  // tanh and exp (smooth friction) become variables whose nodes compute them from their
+  // arguments; new ones are registered in canonical order, so that the variables' order (and
+  // the Horner scheme's ties) does not follow GiNaC's address-dependent operand order.
+  ex function_atoms(const ex& e) {
+    std::vector<std::pair<std::string, ex>> found;
+    collect_functions(e, found);
+    std::sort(found.begin(), found.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (const auto& [key, f] : found) {
+      if (function_subs_.count(f)) continue;
+      const bool is_tanh = ex_to<GiNaC::function>(f).get_name() == "tanh";
+      GiNaC::symbol a((is_tanh ? "tanh" : "exp") + std::to_string(function_subs_.size()));
+      const ex arg = f.op(0);
+      add_var(a, [this, arg, is_tanh] {
+        const SRef x = build(arg);
+        return is_tanh ? prog.tanh(x) : prog.exp(x);
+      });
+      function_subs_[f] = a;
+    }
+    return function_subs_.empty() ? e : e.subs(function_subs_, GiNaC::subs_options::no_pattern);
+  }
+  static void collect_functions(const ex& e, std::vector<std::pair<std::string, ex>>& found) {
+    if (is_a<GiNaC::function>(e)) {
+      const std::string name = ex_to<GiNaC::function>(e).get_name();
+      if (name == "tanh" || name == "exp") {
+        found.push_back({canonical_key(e), e});
+        return;
+      }
+    }
+    for (size_t i = 0; i < e.nops(); ++i) collect_functions(e.op(i), found);
+  }
 
   void add_var(const ex& symbol, std::function<SRef()> builder) {
     var_index_[symbol] = static_cast<int>(var_builders_.size());
@@ -145,7 +181,8 @@ class FunctionBuilder {
   SRef var(int v) {
     auto it = var_nodes_.find(v);
     if (it != var_nodes_.end()) return it->second;
-    const SRef r = var_builders_[v]();
+    const auto builder = var_builders_[v];  // a copy: building may register more variables
+    const SRef r = builder();
     var_nodes_[v] = r;
     return r;
   }
@@ -343,6 +380,8 @@ class PlainBuilder {
       const std::string name = ex_to<GiNaC::function>(e).get_name();
       if (name == "sin") return prog.sin(build(e.op(0)));
       if (name == "cos") return prog.cos(build(e.op(0)));
+      if (name == "tanh") return prog.tanh(build(e.op(0)));
+      if (name == "exp") return prog.exp(build(e.op(0)));
     }
     std::ostringstream s;
     s << e;
@@ -427,7 +466,7 @@ FunctionSpec cheapest_lowering(
     candidate.program = std::move(fb.prog);
     self_check(model, candidate, want);
     const OpCounts ops = candidate.program.count(candidate.roots());
-    const int cost = ops.total_arithmetic() + ops.trig;
+    const int cost = ops.total_arithmetic() + ops.trig + ops.functions;
     if (best_cost >= 0 && cost >= best_cost) continue;
     candidate.variant = uses_velocity ? (basis == 1 ? "omega" : "qd") : "";
     best = std::move(candidate);
@@ -536,6 +575,14 @@ struct Composer {
     for (int i = 0; i < n; ++i) b.push_back(fb.build(model.expression(Output::bias_forces)(i, 0)));
     return b;
   }
+  // Everything on the left of M qdd + ... = Q besides M qdd: the bias, and the spring, damper
+  // and friction forces where the scene has them.
+  std::vector<SRef> forces() {
+    std::vector<SRef> h = bias();
+    if (model.has_passive_forces())
+      for (int i = 0; i < n; ++i) h[i] = p.add({h[i], fb.build(model.passive_forces(i, 0))});
+    return h;
+  }
   SRef gear_ratio(int j) { return fb.build((1 / model.gear_map(nb + j, nb + j)).normal()); }
 
   // J* = J_m - J_b X with M_bb X = M_bm, column by column.
@@ -558,17 +605,17 @@ struct Composer {
     return {Jg};
   }
 
-  // Q = M qdd + b.
+  // Q = M qdd + b (+ spring, damper and friction forces).
   std::vector<std::vector<SRef>> inverse_dynamics() {
-    const std::vector<SRef> qdd = inputs("qdd", n), b = bias();
+    const std::vector<SRef> qdd = inputs("qdd", n), b = forces();
     std::vector<SRef> Q;
     for (int i = 0; i < n; ++i) Q.push_back(p.add({dot(p, row(M, n, i), qdd), b[i]}));
     return {Q};
   }
 
-  // M = L D L^T; qdd = M^-1 (Q - b), the pivots D and D_i / M_ii.
+  // M = L D L^T; qdd = M^-1 (Q - b (- spring, damper, friction)), the pivots D and D_i / M_ii.
   std::vector<std::vector<SRef>> forward_dynamics() {
-    const std::vector<SRef> Q = inputs("Q", n), b = bias();
+    const std::vector<SRef> Q = inputs("Q", n), b = forces();
     std::vector<SRef> rhs, scaled;
     for (int i = 0; i < n; ++i) rhs.push_back(p.add({Q[i], -b[i]}));
     const LdltProgram f = ldlt(p, M, n);
@@ -626,52 +673,87 @@ FunctionSpec lower_composed(const SymbolicModel& model, const FunctionSpec& f, O
 }
 
 // The scene's range checks for quantities that depend on run-time parameters (positive
-// mass, inertia, length and ratio, non-negative motor inertia, positive compensated link
-// inertia): the validation the scene parser does for literals, repeated at run time.
-void parameter_checks(const Scene& scene, ModelFacts& facts) {
-  std::map<std::string, int> index;
-  for (size_t i = 0; i < scene.parameters.size(); ++i)
-    index[scene.parameters[i].name] = static_cast<int>(i);
-  Program& p = facts.checks_program;
-  auto value = [&](const Quantity& q) {
-    if (q.is_parameter()) return p.input("params", index.at(q.parameter));
-    return q.value == 0 ? p.zero() : p.constant(q.value);
-  };
-  auto check = [&](bool uses_parameter, SRef v, bool strict, const std::string& what) {
-    if (uses_parameter) facts.checks.push_back({v, strict, what});
-  };
-  if (scene.free_floating()) {
-    check(scene.base.mass.is_parameter(), value(scene.base.mass), true,
-          "base.mass must be positive");
-    check(scene.base.inertia.is_parameter(), value(scene.base.inertia), true,
-          "base.inertia must be positive");
+// mass, inertia, length, ratio and stiffness, non-negative motor inertia, damping and friction,
+// positive compensated link inertia): the validation the scene parser does for literals,
+// repeated at run time.
+class ParameterChecks {
+ public:
+  ParameterChecks(const Scene& scene, ModelFacts& facts) : facts_(facts), p_(facts.checks_program) {
+    for (size_t i = 0; i < scene.parameters.size(); ++i)
+      index_[scene.parameters[i].name] = static_cast<int>(i);
+    if (scene.free_floating()) {
+      check(scene.base.mass, true, "base.mass must be positive");
+      check(scene.base.inertia, true, "base.inertia must be positive");
+    }
+    for (int i = 0; i < scene.num_links(); ++i) {
+      const Link& l = scene.links[i];
+      const std::string f = "links[" + std::to_string(i) + "]";
+      check(l.mass, true, f + ".mass must be positive");
+      check(l.inertia, true, f + ".inertia must be positive");
+      check(l.length, true, f + ".length must be positive");
+      if (scene.has_gear(i)) gear(*scene.gears[i], l, i);
+      if (scene.has_friction() && scene.friction[i]) friction(*scene.friction[i], i);
+    }
   }
-  for (int i = 0; i < scene.num_links(); ++i) {
-    const Link& l = scene.links[i];
-    const std::string f = "links[" + std::to_string(i) + "]";
-    check(l.mass.is_parameter(), value(l.mass), true, f + ".mass must be positive");
-    check(l.inertia.is_parameter(), value(l.inertia), true, f + ".inertia must be positive");
-    check(l.length.is_parameter(), value(l.length), true, f + ".length must be positive");
-    if (!scene.geared()) continue;
-    const Gear& g = scene.gears[i];
+
+ private:
+  ModelFacts& facts_;
+  Program& p_;
+  std::map<std::string, int> index_;
+
+  SRef value(const Quantity& q) {
+    if (q.is_parameter()) return p_.input("params", index_.at(q.parameter));
+    return q.value == 0 ? p_.zero() : p_.constant(q.value);
+  }
+  void check(bool uses_parameter, SRef v, bool strict, const std::string& what) {
+    if (uses_parameter) facts_.checks.push_back({v, strict, what});
+  }
+  void check(const Quantity& q, bool strict, const std::string& what) {
+    check(q.is_parameter(), value(q), strict, what);
+  }
+
+  void gear(const Gear& g, const Link& l, int i) {
     const std::string gf = "gears[" + std::to_string(i) + "]";
-    check(g.ratio.is_parameter(), value(g.ratio), true, gf + ".ratio must be positive");
-    check(g.motor_inertia.is_parameter(), value(g.motor_inertia), false,
-          gf + ".motor_inertia must not be negative");
+    check(g.ratio, true, gf + ".ratio must be positive");
+    check(g.motor_inertia, g.flexible(),
+          gf + (g.flexible() ? ".motor_inertia must be positive (a flexible joint)"
+                             : ".motor_inertia must not be negative"));
     if (g.compensate_link_inertia)
       check(g.motor_inertia.is_parameter() || l.inertia.is_parameter(),
-            p.add({value(l.inertia), -value(g.motor_inertia)}), true,
+            p_.add({value(l.inertia), -value(g.motor_inertia)}), true,
             gf + ".motor_inertia must be smaller than the inertia of link " +
                 std::to_string(i + 1) + " it compensates");
+    if (g.stiffness) check(*g.stiffness, true, gf + ".stiffness must be positive");
+    if (g.damping) check(*g.damping, false, gf + ".damping must not be negative");
   }
-}
+
+  void friction(const Friction& f, int i) {
+    const std::string ff = "friction[" + std::to_string(i) + "]";
+    check(f.viscous, false, ff + ".viscous must not be negative");
+    check(f.coulomb, false, ff + ".coulomb must not be negative");
+    if (f.has_coulomb) check(f.velocity_scale, true, ff + ".velocity_scale must be positive");
+    if (!f.has_stribeck) return;
+    check(f.stribeck_velocity, true, ff + ".stribeck_velocity must be positive");
+    check(f.stribeck_static.is_parameter() || f.coulomb.is_parameter(),
+          p_.add({value(f.stribeck_static), -value(f.coulomb)}), false,
+          ff + ".stribeck_static must not be below coulomb");
+  }
+};
 
 ModelFacts model_facts(const SymbolicModel& model, bool plain) {
   const Scene& scene = model.scene;
   ModelFacts facts;
   facts.name = scene.name + (plain ? "_plain" : "");
   facts.description = scene.description;
-  facts.coordinates_note = scene.geared() ? " (motor angles qm = p q, paper eq. 12)" : "";
+  facts.coordinates_note =
+      scene.num_flexible() ? " (q: link angles; qm: motor angles, qm = p q for a rigid gear, paper "
+                             "eq. 12; a flexible joint's qm follows the joint slots)"
+      : scene.geared()     ? " (motor angles qm = p q, paper eq. 12)"
+                           : "";
+  facts.features = scene.features();
+  if (scene.num_flexible())
+    for (int j = 0; j < scene.num_links(); ++j)
+      facts.actuated_coordinates.push_back(scene.motor_coordinate(j));
   facts.dims = dimensions(model);
   facts.free_floating = scene.free_floating();
   facts.geared = scene.geared();
@@ -683,7 +765,7 @@ ModelFacts model_facts(const SymbolicModel& model, bool plain) {
   facts.scene_hash = "fnv1a64:" + content_hash(scene.content);
   for (const auto& o : output_registry())
     if (scene.wants(o.id) && !(plain && !o.composed_of.empty())) facts.outputs.push_back(o.id);
-  parameter_checks(scene, facts);
+  ParameterChecks{scene, facts};
   return facts;
 }
 
@@ -722,11 +804,7 @@ LoweredModel lower(const SymbolicModel& model, const LowerOptions& options) {
   ratios.doc = "Gear ratio p_i of each joint (1 for the reference model): Q_g = tau / p.";
   ratios.equation = "14";
   ratios.results = {{"p", Size::num_links, Size::one, false}};
-  std::vector<ex> p;
-  const int first_joint = model.n() - scene.num_links();
-  for (int j = 0; j < scene.num_links(); ++j)
-    p.push_back((1 / model.gear_map(first_joint + j, first_joint + j)).normal());
-  lowered.functions.push_back(lower_closed_form(model, ratios, {p}, options.plain));
+  lowered.functions.push_back(lower_closed_form(model, ratios, {model.ratios}, options.plain));
   return lowered;
 }
 

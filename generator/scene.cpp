@@ -188,10 +188,14 @@ void read_pair(const Reader& r, const YAML::Node& n, const std::string& field, Q
 }
 
 Gear read_gear(const Reader& r, const YAML::Node& n, const std::string& field) {
-  r.check_keys(n, field, {"ratio", "motor_inertia", "compensate_link_inertia", "rotor_coupling"});
+  r.check_keys(n, field,
+               {"ratio", "motor_inertia", "compensate_link_inertia", "rotor_coupling", "stiffness",
+                "damping"});
   Gear g;
   g.ratio = r.quantity(r.require(n, "ratio", field), field + ".ratio");
   g.motor_inertia = r.quantity(r.require(n, "motor_inertia", field), field + ".motor_inertia");
+  if (n["stiffness"].IsDefined()) g.stiffness = r.quantity(n["stiffness"], field + ".stiffness");
+  if (n["damping"].IsDefined()) g.damping = r.quantity(n["damping"], field + ".damping");
   if (n["compensate_link_inertia"].IsDefined()) {
     const auto& c = n["compensate_link_inertia"];
     try {
@@ -218,11 +222,48 @@ Gear read_gear(const Reader& r, const YAML::Node& n, const std::string& field) {
 
 }  // namespace
 
+bool Scene::geared() const {
+  for (const auto& g : gears)
+    if (g) return true;
+  return false;
+}
+
+bool Scene::has_friction() const {
+  for (const auto& f : friction)
+    if (f) return true;
+  return false;
+}
+
+bool Scene::has_gear(int joint) const { return !gears.empty() && gears.at(joint).has_value(); }
+
+bool Scene::is_flexible(int joint) const { return has_gear(joint) && gears[joint]->flexible(); }
+
+int Scene::num_flexible() const {
+  int count = 0;
+  for (int j = 0; j < num_links(); ++j) count += is_flexible(j);
+  return count;
+}
+
+int Scene::motor_coordinate(int joint) const {
+  if (!is_flexible(joint)) return joint_coordinate(joint);
+  int before = 0;
+  for (int j = 0; j < joint; ++j) before += is_flexible(j);
+  return num_base() + num_links() + before;
+}
+
+unsigned Scene::features() const {
+  return (free_floating() ? needs::free_base : 0u) |
+         (num_flexible() == 0 ? needs::rigid_joints : needs::springs) |
+         (has_friction() ? needs::friction : 0u);
+}
+
 std::vector<std::string> Scene::coordinate_names() const {
   std::vector<std::string> names;
   if (free_floating()) names = {"x0", "y0", "q0"};
-  for (int i = 1; i <= num_links(); ++i)
-    names.push_back((geared() ? "qm" : "q") + std::to_string(i));
+  for (int j = 0; j < num_links(); ++j)
+    names.push_back((has_gear(j) && !is_flexible(j) ? "qm" : "q") + std::to_string(j + 1));
+  for (int j = 0; j < num_links(); ++j)
+    if (is_flexible(j)) names.push_back("qm" + std::to_string(j + 1));
   return names;
 }
 
@@ -248,8 +289,9 @@ class SceneReader {
 
   Scene read(const std::string& yaml_text) {
     if (!root.IsMap()) r.fail("", "expected a mapping at the top level");
-    r.check_keys(root, "",
-                 {"name", "description", "base", "links", "gears", "parameters", "outputs"});
+    r.check_keys(
+        root, "",
+        {"name", "description", "base", "links", "gears", "friction", "parameters", "outputs"});
     s.source_path = source_name;
     s.content = yaml_text;
     read_name();
@@ -257,6 +299,7 @@ class SceneReader {
     read_base();
     read_links();
     read_gears();
+    read_friction();
     read_outputs();
     for (const auto& p : s.parameters)
       if (!used_parameters.count(p.name))
@@ -332,6 +375,13 @@ class SceneReader {
     }
   }
 
+  // "0.5" or "Im = 1e-5" for messages.
+  std::string shown(const Quantity& q) {
+    return q.is_parameter()
+               ? q.parameter + " = " + s.parameters[parameter_index[q.parameter]].nominal.literal
+               : q.literal;
+  }
+
   // Resolves a quantity's value and checks its range; `positive` false allows zero.
   Quantity checked(Quantity q, const std::string& field, const YAML::Node& node, bool positive,
                    bool allow_negative = false) {
@@ -345,10 +395,7 @@ class SceneReader {
       q.value = s.parameters[it->second].nominal.value;
       used_parameters.insert(q.parameter);
     }
-    const std::string shown =
-        q.is_parameter()
-            ? q.parameter + " = " + s.parameters[parameter_index[q.parameter]].nominal.literal
-            : q.literal;
+    const std::string shown = this->shown(q);
     if (!allow_negative) {
       if (positive && !(q.value > 0)) r.fail(field, "must be positive, got " + shown, node);
       if (!positive && !(q.value >= 0)) r.fail(field, "must not be negative, got " + shown, node);
@@ -411,47 +458,128 @@ class SceneReader {
     }
   }
 
-  // Gears: one mapping for all joints, or a list with one entry per joint.
-  void read_gears() {
-    if (root["gears"].IsDefined() && !root["gears"].IsNull()) {
-      const YAML::Node g = root["gears"];
-      std::vector<std::pair<Gear, std::string>> read;
-      if (g.IsMap()) {
-        Gear one = read_gear(r, g, "gears");
-        for (size_t i = 0; i < s.links.size(); ++i) read.push_back({one, "gears"});
-      } else if (g.IsSequence()) {
-        if (g.size() != s.links.size())
-          r.fail("gears",
-                 "expected one entry per link (" + std::to_string(s.links.size()) + "), got " +
-                     std::to_string(g.size()),
-                 g);
-        for (size_t i = 0; i < g.size(); ++i) {
-          const std::string field = "gears[" + std::to_string(i) + "]";
-          read.push_back({read_gear(r, g[i], field), field});
-        }
-      } else {
-        r.fail("gears", "expected a mapping (all joints) or a list (one per joint)", g);
-      }
-      for (size_t i = 0; i < read.size(); ++i) {
-        auto [gear, field] = read[i];
-        const YAML::Node node = g.IsMap() ? g : g[i];
-        gear.ratio = checked(gear.ratio, field + ".ratio", node["ratio"], true);
-        if (gear.ratio.value < 1.0)
-          std::fprintf(
-              stderr,
-              "warning: scene '%s', field '%s.ratio': %g < 1 (a speed-up, not a reduction)\n",
-              source_name.c_str(), field.c_str(), gear.ratio.value);
-        gear.motor_inertia =
-            checked(gear.motor_inertia, field + ".motor_inertia", node["motor_inertia"], false);
-        if (gear.compensate_link_inertia && !(gear.motor_inertia.value < s.links[i].inertia.value))
-          r.fail(field + ".motor_inertia",
-                 "motor inertia " + std::to_string(gear.motor_inertia.value) +
-                     " must be smaller than the inertia of link " + std::to_string(i + 1) + " (" +
-                     std::to_string(s.links[i].inertia.value) + ") that it compensates",
-                 node);
-        s.gears.push_back(gear);
-      }
+  // Per-joint entries: one mapping for all joints, or a list with one entry per joint where
+  // null leaves a joint without it. Returns (node, field) per joint; a null node for none.
+  std::vector<std::pair<YAML::Node, std::string>> per_joint(const std::string& key) {
+    std::vector<std::pair<YAML::Node, std::string>> entries;
+    const YAML::Node g = root[key];
+    if (!g.IsDefined() || g.IsNull()) return entries;
+    if (g.IsMap()) {
+      for (size_t i = 0; i < s.links.size(); ++i) entries.push_back({g, key});
+    } else if (g.IsSequence()) {
+      if (g.size() != s.links.size())
+        r.fail(key,
+               "expected one entry per link (" + std::to_string(s.links.size()) + "), got " +
+                   std::to_string(g.size()),
+               g);
+      for (size_t i = 0; i < g.size(); ++i)
+        entries.push_back({g[i], key + "[" + std::to_string(i) + "]"});
+    } else {
+      r.fail(key, "expected a mapping (all joints) or a list (one per joint, null for none)", g);
     }
+    return entries;
+  }
+
+  void read_gears() {
+    const auto entries = per_joint("gears");
+    for (size_t i = 0; i < entries.size(); ++i) {
+      const auto& [node, field] = entries[i];
+      if (node.IsNull()) {
+        s.gears.emplace_back();
+        continue;
+      }
+      Gear gear = read_gear(r, node, field);
+      gear.ratio = checked(gear.ratio, field + ".ratio", node["ratio"], true);
+      if (gear.ratio.value < 1.0)
+        std::fprintf(
+            stderr, "warning: scene '%s', field '%s.ratio': %g < 1 (a speed-up, not a reduction)\n",
+            source_name.c_str(), field.c_str(), gear.ratio.value);
+      gear.motor_inertia =
+          checked(gear.motor_inertia, field + ".motor_inertia", node["motor_inertia"], false);
+      if (gear.compensate_link_inertia && !(gear.motor_inertia.value < s.links[i].inertia.value))
+        r.fail(field + ".motor_inertia",
+               "motor inertia " + std::to_string(gear.motor_inertia.value) +
+                   " must be smaller than the inertia of link " + std::to_string(i + 1) + " (" +
+                   std::to_string(s.links[i].inertia.value) + ") that it compensates",
+               node);
+      flexibility(gear, node, field);
+      s.gears.push_back(gear);
+    }
+    if (!entries.empty() && !s.geared())
+      r.fail("gears", "every entry is null: leave 'gears' out for a model without gears",
+             root["gears"]);
+  }
+
+  // A flexible joint needs a rotor (with I_m = 0 its motor coordinate has no inertia and M is
+  // singular) and a spring for its damper.
+  void flexibility(Gear& gear, const YAML::Node& node, const std::string& field) {
+    if (gear.damping && !gear.stiffness)
+      r.fail(field + ".damping", "a damper needs a spring: give 'stiffness' too", node["damping"]);
+    if (!gear.stiffness) return;
+    gear.stiffness = checked(*gear.stiffness, field + ".stiffness", node["stiffness"], true);
+    if (gear.damping)
+      gear.damping = checked(*gear.damping, field + ".damping", node["damping"], false);
+    if (!(gear.motor_inertia.value > 0))
+      r.fail(field + ".motor_inertia",
+             "a flexible joint (stiffness given) needs motor_inertia > 0, got " +
+                 shown(gear.motor_inertia) + " (the motor coordinate would have no inertia)",
+             node["motor_inertia"]);
+  }
+
+  void read_friction() {
+    const auto entries = per_joint("friction");
+    for (const auto& [node, field] : entries) {
+      if (node.IsNull()) {
+        s.friction.emplace_back();
+        continue;
+      }
+      s.friction.push_back(friction(node, field));
+    }
+    if (!entries.empty() && !s.has_friction())
+      r.fail("friction", "every entry is null: leave 'friction' out for no friction",
+             root["friction"]);
+  }
+
+  // f(w) = b w + Fc tanh(w/vs) + (Fs - Fc) exp(-(w/vst)^2) tanh(w/vs); missing fields are 0,
+  // Fs defaults to Fc. vs is needed by any tanh term, vst by a Stribeck hump (Fs != Fc).
+  Friction friction(const YAML::Node& n, const std::string& field) {
+    r.check_keys(n, field,
+                 {"viscous", "coulomb", "velocity_scale", "stribeck_static", "stribeck_velocity"});
+    auto optional = [&](const char* key, bool positive) {
+      Quantity q;
+      q.literal = "0";
+      if (n[key].IsDefined()) q = number(n, key, field, positive);
+      return q;
+    };
+    Friction f;
+    f.viscous = optional("viscous", false);
+    f.coulomb = optional("coulomb", false);
+    f.velocity_scale = optional("velocity_scale", true);
+    f.stribeck_static =
+        n["stribeck_static"].IsDefined() ? optional("stribeck_static", false) : f.coulomb;
+    f.stribeck_velocity = optional("stribeck_velocity", true);
+    auto present = [](const Quantity& q) { return q.is_parameter() || q.value != 0; };
+    f.has_coulomb = present(f.coulomb) || present(f.stribeck_static);
+    f.has_stribeck = n["stribeck_static"].IsDefined() &&
+                     (f.stribeck_static.is_parameter() || f.coulomb.is_parameter() ||
+                      f.stribeck_static.value != f.coulomb.value);
+    if (f.stribeck_static.value < f.coulomb.value)
+      r.fail(field + ".stribeck_static",
+             "the breakaway level Fs (" + std::to_string(f.stribeck_static.value) +
+                 ") must not be below the Coulomb level Fc (" + std::to_string(f.coulomb.value) +
+                 ")",
+             n["stribeck_static"]);
+    if (f.has_coulomb && !n["velocity_scale"].IsDefined())
+      r.fail(field + ".velocity_scale",
+             "Coulomb or static friction needs a positive velocity_scale vs [rad/s] (tanh(w/vs) "
+             "smooths sign(w))",
+             n);
+    if (f.has_stribeck && !n["stribeck_velocity"].IsDefined())
+      r.fail(field + ".stribeck_velocity",
+             "a Stribeck hump (stribeck_static differs from coulomb) needs a positive "
+             "stribeck_velocity [rad/s]",
+             n);
+    return f;
   }
 
   // Outputs: all unless the scene lists a subset.
@@ -471,12 +599,11 @@ class SceneReader {
       }
     } else {
       for (const OutputInfo& o : output_registry())
-        if (o.by_default && (s.free_floating() || !o.free_floating_only)) s.outputs.insert(o.id);
+        if (o.by_default && missing_feature(o.needs, s.features()).empty()) s.outputs.insert(o.id);
     }
     for (Output o : s.outputs)
-      if (info(o).free_floating_only && !s.free_floating())
-        r.fail("outputs", "'" + to_string(o) + "' is only defined for a free_floating base",
-               root["outputs"]);
+      if (const std::string why = missing_feature(info(o).needs, s.features()); !why.empty())
+        r.fail("outputs", "'" + to_string(o) + "' " + why, root["outputs"]);
   }
 };
 

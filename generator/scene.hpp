@@ -63,6 +63,19 @@ struct Gear {
   // joint's diagonal as MuJoCo, Drake and Pinocchio model it, without the coupling to the
   // previous body's rotation.
   bool armature = false;
+  // A flexible joint (Spong's model): a torsional spring of stiffness k [N m/rad] and an
+  // optional damper d [N m s/rad] between the gear's output qm/p and the link angle q, both on
+  // the link side. The joint then has two coordinates, q and qm (Scene::coordinate_names).
+  std::optional<Quantity> stiffness, damping;
+  bool flexible() const { return stiffness.has_value(); }
+};
+
+// Joint friction on the motor rate w (qd_m of a geared joint, qd of an ungeared one), opposing
+// motion: f(w) = b w + Fc tanh(w/vs) + (Fs - Fc) exp(-(w/vst)^2) tanh(w/vs). A field not given
+// is 0, except stribeck_static, which defaults to Fc (no Stribeck hump).
+struct Friction {
+  Quantity viscous, coulomb, velocity_scale, stribeck_static, stribeck_velocity;
+  bool has_coulomb = false, has_stribeck = false;  // terms present (given and not literal 0)
 };
 
 struct Scene {
@@ -72,21 +85,38 @@ struct Scene {
   std::string description;  // optional free text
   Base base;
   std::vector<Link> links;
-  std::vector<Gear> gears;  // empty: reference model; else one per link (geared model)
+  // Empty: the reference model; else one entry per link, empty for a joint without a gear.
+  std::vector<std::optional<Gear>> gears;
+  // Empty: no friction; else one entry per link, empty for a joint without friction.
+  std::vector<std::optional<Friction>> friction;
   std::vector<Parameter> parameters;
   std::set<Output> outputs;
 
   bool free_floating() const { return base.type == BaseType::free_floating; }
-  bool geared() const { return !gears.empty(); }
+  bool geared() const;                // any joint has a gear
+  bool has_gear(int joint) const;     // joint 0..N-1
+  bool is_flexible(int joint) const;  // has a gear with a stiffness
+  int num_flexible() const;           // joints with a spring
+  bool has_friction() const;          // any joint has friction
   int num_links() const { return static_cast<int>(links.size()); }
-  // The one place that names the sizes: configuration nq (x0, y0, q0 of a free base, then one
-  // angle per joint) and velocity nv (their rates: nv == nq for every planar chain; a base with
-  // a quaternion would make them differ). Everything downstream reads Dimensions.
-  int num_coordinates() const { return (free_floating() ? 3 : 0) + num_links(); }
-  int num_velocities() const { return (free_floating() ? 3 : 0) + num_links(); }
+  int num_base() const { return free_floating() ? 3 : 0; }
+  // The one place that names the sizes: configuration nq (x0, y0, q0 of a free base, one
+  // angle per joint, then the motor angle of each flexible joint) and velocity nv (their
+  // rates: nv == nq for every planar chain; a base with a quaternion would make them differ).
+  // Everything downstream reads Dimensions.
+  int num_coordinates() const { return num_base() + num_links() + num_flexible(); }
+  int num_velocities() const { return num_base() + num_links() + num_flexible(); }
+  // Coordinate of joint j's own slot (its link angle, or the motor angle of a rigid gear) and
+  // of its motor: the one that the joint torque drives (as tau / p, eq. 14) and friction
+  // brakes. They differ only for a flexible joint, whose motor angle follows all joint slots.
+  int joint_coordinate(int joint) const { return num_base() + joint; }
+  int motor_coordinate(int joint) const;
+  // What the scene has, as needs:: bits (outputs.hpp).
+  unsigned features() const;
   bool wants(Output o) const { return outputs.count(o) != 0; }
-  // Names of the generalized coordinates, in order: x0 y0 q0 (free base), then q1..qN
-  // (reference) or qm1..qmN (geared, motor angles; paper eq. 12).
+  // Names of the generalized coordinates, in order: x0 y0 q0 (free base); per joint q_i
+  // (no gear, or a flexible joint) or qm_i (a rigid gear: motor angle, paper eq. 12); then
+  // qm_i of each flexible joint.
   std::vector<std::string> coordinate_names() const;
 };
 

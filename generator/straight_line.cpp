@@ -99,6 +99,18 @@ SRef Program::cos(SRef angle) {
   return intern({Kind::cos, {{angle.id, false}}, "", 0});
 }
 
+SRef Program::tanh(SRef x) {
+  if (x.id < 0) return zero();
+  SRef r = intern({Kind::tanh, {{x.id, false}}, "", 0});
+  r.neg = x.neg;  // tanh(-x) = -tanh(x)
+  return r;
+}
+
+SRef Program::exp(SRef x) {
+  if (x.id < 0) return constant(1.0);
+  return intern({Kind::exp, {x}, "", 0});
+}
+
 SRef Program::pow(SRef base, int exponent) {
   if (share_) throw std::logic_error("pow is only for unshared (baseline) programs");
   if (base.id < 0) return zero();
@@ -264,6 +276,10 @@ OpCounts Program::count(const std::vector<SRef>& roots) const {
       case Kind::cos:
         c.trig += 1;
         break;
+      case Kind::tanh:
+      case Kind::exp:
+        c.functions += 1;
+        break;
       default:
         break;
     }
@@ -307,6 +323,12 @@ std::vector<double> Program::evaluate(
         break;
       case Kind::pow:
         x = std::pow(value(n.args[0]), n.value);
+        break;
+      case Kind::tanh:
+        x = std::tanh(value(n.args[0]));
+        break;
+      case Kind::exp:
+        x = std::exp(value(n.args[0]));
         break;
     }
     v[id] = x;

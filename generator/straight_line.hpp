@@ -27,13 +27,14 @@ struct OpCounts {
   int adds = 0;  // additions, subtractions and negations
   int muls = 0;
   int divs = 0;
-  int trig = 0;  // sin and cos calls (a sin/cos pair of one angle counts 2)
+  int trig = 0;       // sin and cos calls (a sin/cos pair of one angle counts 2)
+  int functions = 0;  // tanh and exp calls (smooth friction)
   int total_arithmetic() const { return adds + muls + divs; }
 };
 
 class Program {
  public:
-  enum class Kind { input, constant, add, mul, div, sin, cos, pow };
+  enum class Kind { input, constant, add, mul, div, sin, cos, pow, tanh, exp };
   struct Node {
     Kind kind;
     std::vector<SRef> args;  // add: signed terms; mul: factors (never negated); div: {num, den}
@@ -52,6 +53,8 @@ class Program {
   SRef div(SRef numerator, SRef denominator);
   SRef sin(SRef angle);
   SRef cos(SRef angle);
+  SRef tanh(SRef x);
+  SRef exp(SRef x);
   SRef pow(SRef base, int exponent);         // only in unshared programs (the baseline prints pow)
   SRef zero() const { return {-1, false}; }  // id -1: the constant 0
 

@@ -92,6 +92,9 @@ class Derivation {
     all_ = options.all_outputs;
   }
 
+  // Whether the scene can have output o at all (what it needs, outputs.hpp).
+  bool defined(Output o) const { return missing_feature(info(o).needs, scene_.features()).empty(); }
+
   void run() {
     symbols();
     angles();
@@ -100,6 +103,7 @@ class Derivation {
     joint_state();
     bias_and_momentum();
     end_effector();
+    passive_forces();
   }
 
  private:
@@ -116,8 +120,7 @@ class Derivation {
   matrix M_;
 
   bool wants(Output o) const {
-    return (all_ && (free_ || !info(o).free_floating_only) && info(o).composed_of.empty()) ||
-           wanted_.count(o);
+    return (all_ && defined(o) && info(o).composed_of.empty()) || wanted_.count(o);
   }
 
   // Symbols in a fixed order: coordinates, velocities, parameters.
@@ -146,14 +149,20 @@ class Derivation {
     for (int i = 0; i < n_; ++i) model_.gear_map(i, i) = 1;
     p_.assign(N_ + 1, 1);
     Im_.assign(N_ + 1, 0);
-    for (int j = 1; j <= N_ && geared_; ++j) {
-      p_[j] = b_.value(scene_.gears[j - 1].ratio);
-      Im_[j] = b_.value(scene_.gears[j - 1].motor_inertia);
-      model_.gear_map(first_joint_ + j - 1, first_joint_ + j - 1) = 1 / p_[j];
+    for (int j = 1; j <= N_; ++j) {
+      if (!scene_.has_gear(j - 1)) continue;
+      p_[j] = b_.value(scene_.gears[j - 1]->ratio);
+      Im_[j] = b_.value(scene_.gears[j - 1]->motor_inertia);
+      // A rigid gear's slot holds the motor angle; a flexible joint's slot the link angle.
+      if (!scene_.is_flexible(j - 1))
+        model_.gear_map(first_joint_ + j - 1, first_joint_ + j - 1) = 1 / p_[j];
     }
+    model_.ratios.assign(p_.begin() + 1, p_.end());
     model_.theta.push_back(theta0);
-    for (int j = 1; j <= N_; ++j)
-      model_.theta.push_back(model_.theta.back() + model_.q[first_joint_ + j - 1] / p_[j]);
+    for (int j = 1; j <= N_; ++j) {
+      const int c = first_joint_ + j - 1;
+      model_.theta.push_back(model_.theta.back() + model_.q[c] * model_.gear_map(c, c));
+    }
     for (const ex& th : model_.theta) model_.omega.push_back(b_.time_derivative(th).expand());
     for (int k = 0; k <= N_; ++k) {
       model_.angle_table[model_.theta[k].expand()] = {-1, k};
@@ -198,14 +207,15 @@ class Derivation {
     ex T = m0 * (r0d_.x * r0d_.x + r0d_.y * r0d_.y) / 2 + I0 * Omega[0] * Omega[0] / 2;
     for (int i = 1; i <= N_; ++i) {
       const Link& link = scene_.links[i - 1];
+      const std::optional<Gear>& gear = scene_.gears.empty() ? std::nullopt : scene_.gears[i - 1];
       ex I_link = b_.value(link.inertia);
-      if (geared_ && scene_.gears[i - 1].compensate_link_inertia) I_link -= Im_[i];
+      if (gear && gear->compensate_link_inertia) I_link -= Im_[i];
       T += b_.value(link.mass) * com_speed_squared(i) / 2 + I_link * Omega[i] * Omega[i] / 2;
-      if (geared_) {
+      if (gear) {
         // Motor i turns with the previous body plus its own rate (eq. 11), 1/2 I_m w^2 (eq. 10);
         // the armature approximation keeps only the motor's own rate.
-        const ex& qd_m = model_.qd[first_joint_ + i - 1];
-        const ex omega_m = scene_.gears[i - 1].armature ? qd_m : Omega[i - 1] + qd_m;
+        const ex& qd_m = model_.qd[scene_.motor_coordinate(i - 1)];
+        const ex omega_m = gear->armature ? qd_m : Omega[i - 1] + qd_m;
         T += Im_[i] * omega_m * omega_m / 2;
       }
     }
@@ -298,6 +308,50 @@ class Derivation {
           matrix{{dT_dqd_[0].expand()},
                  {dT_dqd_[1].expand()},
                  {(dT_dqd_[2] + r0_.x * dT_dqd_[1] - r0_.y * dT_dqd_[0]).expand()}};
+  }
+
+  // Springs and dampers of flexible joints: V = sum 1/2 k (qm/p - q)^2, Rayleigh's
+  // D = sum 1/2 d (qmd/p - qd)^2, generalized forces dV/dq + dD/dqd; friction f(w) on each
+  // motor coordinate (the joint's own for a rigid gear or no gear). M qdd + b + these = Q.
+  void passive_forces() {
+    ex V = 0, D = 0;
+    for (int j = 0; j < N_ && geared_; ++j) {
+      if (!scene_.is_flexible(j)) continue;
+      const Gear& g = *scene_.gears[j];
+      const int c = scene_.joint_coordinate(j), m = scene_.motor_coordinate(j);
+      const ex twist = model_.q[m] / p_[j + 1] - model_.q[c];
+      V += b_.value(*g.stiffness) * twist * twist / 2;
+      const ex twist_rate = model_.qd[m] / p_[j + 1] - model_.qd[c];
+      if (g.damping) D += b_.value(*g.damping) * twist_rate * twist_rate / 2;
+    }
+    model_.potential_energy = V.expand();
+    matrix fk(n_, 1), ff(n_, 1);
+    for (int i = 0; i < n_; ++i) fk(i, 0) = (V.diff(model_.q[i]) + D.diff(model_.qd[i])).expand();
+    for (int j = 0; j < N_ && scene_.has_friction(); ++j)
+      if (scene_.friction[j]) {
+        const int m = scene_.motor_coordinate(j);
+        ff(m, 0) = friction_force(*scene_.friction[j], model_.qd[m]);
+      }
+    model_.passive_forces = fk.add(ff);
+    if (wants(Output::potential_energy))
+      model_.outputs[Output::potential_energy] = matrix{{V.expand()}};
+    if (wants(Output::spring_damper_forces)) model_.outputs[Output::spring_damper_forces] = fk;
+    if (wants(Output::friction_forces)) model_.outputs[Output::friction_forces] = ff;
+  }
+
+  // f(w) = b w + Fc tanh(w/vs) + (Fs - Fc) exp(-(w/vst)^2) tanh(w/vs) (Scene::Friction).
+  ex friction_force(const Friction& f, const ex& w) const {
+    ex force = b_.value(f.viscous) * w;
+    if (f.has_coulomb) {
+      const ex smooth_sign = GiNaC::tanh(w / b_.value(f.velocity_scale));
+      force += b_.value(f.coulomb) * smooth_sign;
+      if (f.has_stribeck) {
+        const ex r = w / b_.value(f.stribeck_velocity);
+        force +=
+            (b_.value(f.stribeck_static) - b_.value(f.coulomb)) * GiNaC::exp(-r * r) * smooth_sign;
+      }
+    }
+    return force.expand();
   }
 
   // End-effector: tip of the last link, orientation of the last link; the joints' positions.
@@ -394,9 +448,8 @@ GiNaC::ex symbolic_entry(const SymbolicModel& model, const std::string& entry) {
           "inspect what it is made of: " +
           parts);
     }
-    if (o.free_floating_only && !model.scene.free_floating())
-      throw std::invalid_argument("entry '" + entry + "': " + o.name +
-                                  " is only defined for a free-floating base");
+    if (const std::string why = missing_feature(o.needs, model.scene.features()); !why.empty())
+      throw std::invalid_argument("entry '" + entry + "': " + o.name + " " + why);
     const matrix& m = model.expression(o.id);
     // A scalar takes no index, a vector one, a matrix two (by the registry's shape, so that
     // a one-coordinate model's M still takes two); each in range.

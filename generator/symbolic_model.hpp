@@ -24,6 +24,13 @@ struct SymbolicModel {
   // Constant Jacobian of the link-side relative joint angles with respect to q:
   // q_link = gear_map * q (identity for the reference model; 1/p_i on motor angles).
   GiNaC::matrix gear_map;
+  std::vector<GiNaC::ex> ratios;  // gear ratio p_i per joint (1 without a gear): Q = tau / p
+
+  GiNaC::ex potential_energy;  // V(q) of the joint springs (0 without)
+  // Generalized forces besides M qdd + b: springs, dampers and friction, so that
+  // M qdd + b + passive_forces = Q (n x 1; zero, and not used, in a scene without them).
+  GiNaC::matrix passive_forces;
+  bool has_passive_forces() const { return !passive_forces.is_zero_matrix(); }
 
   GiNaC::ex kinetic_energy;  // T(q, qd), eq. 3 + eq. 10
   // The closed-form outputs derived, by the registry's entries (outputs.hpp): each a matrix

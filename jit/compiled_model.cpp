@@ -96,7 +96,8 @@ std::vector<std::string> required_symbols(const Scene& scene) {
                                     "spacearm_parameter_name",
                                     "spacearm_nominal_parameter",
                                     "spacearm_outputs",
-                                    "spacearm_parameter_error"};
+                                    "spacearm_parameter_error",
+                                    "spacearm_actuated_coordinate"};
   for (const auto& f : exported_functions(scene)) names.push_back("spacearm_" + f);
   return names;
 }
@@ -277,6 +278,16 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
   }
   m.parameter_error_ =
       reinterpret_cast<const char* (*)(const double*)>(sym("spacearm_parameter_error"));
+  auto actuated = reinterpret_cast<int (*)(int)>(sym("spacearm_actuated_coordinate"));
+  for (int j = 0; j < m.dims_.num_links; ++j) {
+    m.actuated_.push_back(actuated(j));
+    if (m.actuated_.back() != scene.motor_coordinate(j)) {
+      why = "its actuated coordinates do not match the scene";
+      return m;
+    }
+  }
+  m.free_floating_ = scene.free_floating();
+  m.passive_forces_ = (scene.features() & (needs::springs | needs::friction)) != 0;
   for (const auto& f : exported_functions(scene))
     m.functions_[f] = reinterpret_cast<Function>(sym("spacearm_" + f));
   rep.load_ms = ms_since(t0);
@@ -297,6 +308,9 @@ CompiledModel& CompiledModel::operator=(CompiledModel&& o) noexcept {
   coordinate_names_ = std::move(o.coordinate_names_);
   parameter_names_ = std::move(o.parameter_names_);
   nominal_ = std::move(o.nominal_);
+  actuated_ = std::move(o.actuated_);
+  free_floating_ = o.free_floating_;
+  passive_forces_ = o.passive_forces_;
   return *this;
 }
 
@@ -387,6 +401,10 @@ Eigen::VectorXd CompiledModel::forward_dynamics(const Eigen::VectorXd& q, const 
     pivots = r[1];
     scaled_pivots = r[2];
   } else {
+    if (passive_forces_)
+      throw std::invalid_argument("model " + name_ +
+                                  ": a scene with springs, dampers or friction needs the "
+                                  "forward_dynamics output for its forward dynamics");
     const Eigen::MatrixXd M = mass_matrix(q, params);
     const Eigen::LLT<Eigen::MatrixXd> llt(M);
     if (llt.info() != Eigen::Success)
@@ -408,9 +426,11 @@ DynamicModel dynamic_model(const CompiledModel& m, const Eigen::VectorXd& params
   d.nq = m.nq();
   d.nv = m.nv();
   d.num_links = m.num_links();
-  d.free_floating = m.nv() > m.num_links();
+  d.free_floating = m.free_floating();
   d.coordinate_names = m.coordinate_names();
   d.gear_ratios = m.gear_ratios(params);  // checks params (sizes, finite, ranges) once
+  d.actuated_coordinates = m.actuated_coordinates();
+  d.passive_forces = m.passive_forces();
   // Only what the scene emits; evaluate() would refuse the rest.
   using V = Eigen::VectorXd;
   if (m.has(Output::end_effector_pose))

@@ -51,6 +51,11 @@ class CompiledModel {
   const std::vector<std::string>& coordinate_names() const { return coordinate_names_; }
   const std::vector<std::string>& parameter_names() const { return parameter_names_; }
   const std::vector<double>& nominal_parameters() const { return nominal_; }
+  bool free_floating() const { return free_floating_; }
+  // Per joint, the velocity index its torque drives (DynamicModel::actuated_coordinates).
+  const std::vector<int>& actuated_coordinates() const { return actuated_; }
+  // Springs, dampers or friction besides M qdd + b.
+  bool passive_forces() const { return passive_forces_; }
 
   // The results of an output (registry order and shapes, outputs.hpp) at its inputs, given
   // in the registry's order. Inputs are checked (sizes, finiteness, the parameters' ranges)
@@ -83,6 +88,8 @@ class CompiledModel {
   const char* (*parameter_error_)(const double*) = nullptr;
   std::vector<std::string> coordinate_names_, parameter_names_;
   std::vector<double> nominal_;
+  std::vector<int> actuated_;
+  bool free_floating_ = false, passive_forces_ = false;
   static CompiledModel open_verified(const Scene& scene, const Fd& library, StageReport& rep,
                                      std::string& why);
   void check(const char* what, const Eigen::VectorXd& v, int size) const;

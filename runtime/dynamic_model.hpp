@@ -27,6 +27,12 @@ struct DynamicModel {
   bool free_floating = false;
   std::vector<std::string> coordinate_names;  // nq names
   Eigen::VectorXd gear_ratios;  // per joint: link-side torque = p * generalized force (eq. 14)
+  // Per joint, the velocity index its torque drives: the joint's slot (num_base() + i), or the
+  // motor coordinate of a flexible joint (after all joint slots).
+  std::vector<int> actuated_coordinates;
+  // Springs, dampers or friction act besides M qdd + b (forward_dynamics includes them;
+  // mass_matrix_and_bias alone does not describe the dynamics).
+  bool passive_forces = false;
 
   // Each function is empty where the scene does not emit what it needs.
   std::function<Vector3(const Vector& q)> end_effector_pose;
@@ -39,6 +45,9 @@ struct DynamicModel {
   std::function<Vector3(const Vector& q, const Velocity& qd)> momentum;  // [Px, Py, L]
 
   int num_base() const { return free_floating ? 3 : 0; }
+  // Only the base and one slot per joint: no flexible joint's motor coordinates. The planner
+  // and the CLI's link-side columns need it.
+  bool rigid_joints() const { return nv == num_base() + num_links; }
 
   // dq/dt for velocity qd: the identity for every planar model (Model::configuration_rate).
   Velocity configuration_rate(const Vector& /*q*/, const Velocity& qd) const {
@@ -46,10 +55,21 @@ struct DynamicModel {
     return qd;
   }
 
+  // Link-side joint angles (or rates, from qd): a slot that the joint's torque drives holds the
+  // motor angle qm = p q (eq. 12; p = 1 without a gear); a flexible joint's slot holds q itself.
+  JointVector joint_angles(const Eigen::VectorXd& x) const {
+    JointVector a(num_links);
+    for (int i = 0; i < num_links; ++i) {
+      const int slot = num_base() + i;
+      a[i] = actuated_coordinates.at(i) == slot ? x[slot] / gear_ratios[i] : x[slot];
+    }
+    return a;
+  }
+
   // Joint (or motor) torques as generalized forces, Q = tau / p on the joints, eq. 14.
   Velocity generalized_forces(const JointVector& tau) const {
     Velocity Q = Velocity::Zero(nv);
-    Q.tail(num_links) = tau.cwiseQuotient(gear_ratios);
+    for (int i = 0; i < num_links; ++i) Q[actuated_coordinates.at(i)] = tau[i] / gear_ratios[i];
     return Q;
   }
 };
@@ -67,6 +87,9 @@ DynamicModel dynamic_model(const Model<G>& m) {
   d.free_floating = M::kFreeFloating;
   d.coordinate_names.assign(M::coordinate_names().begin(), M::coordinate_names().end());
   d.gear_ratios = m.gear_ratios();
+  const auto actuated = M::actuated_coordinates();
+  d.actuated_coordinates.assign(actuated.begin(), actuated.end());
+  d.passive_forces = M::kHasPassiveForces;
   // Only what the scene emits (the Model<G> functions of an absent output do not exist).
   if constexpr (G::kHas_end_effector_pose)
     d.end_effector_pose = [&m](const Eigen::VectorXd& q) {
@@ -85,7 +108,8 @@ DynamicModel dynamic_model(const Model<G>& m) {
       Mq = Mf;
       b = bf;
     };
-  if constexpr (G::kHas_forward_dynamics || (G::kHas_mass_matrix && G::kHas_bias_forces))
+  if constexpr (G::kHas_forward_dynamics ||
+                (G::kHas_mass_matrix && G::kHas_bias_forces && !M::kHasPassiveForces))
     d.forward_dynamics = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                               const Eigen::VectorXd& Q) {
       return Eigen::VectorXd(m.forward_dynamics(q, qd, Q));

@@ -8,13 +8,35 @@
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
 
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include "dynamics_checks.hpp"
 
 namespace spacearm {
+
+namespace detail {
+// The kHas_ flags of outputs that need springs or friction, and kActuatedCoordinates, exist
+// only in models of scenes with flexible joints or friction (a scene without them generates
+// exactly the code it did before they existed): detected here.
+template <class G, class = void>
+struct has_passive_forces : std::false_type {};
+template <class G>
+struct has_passive_forces<G, std::void_t<decltype(G::kHas_spring_damper_forces)>> : std::true_type {
+};
+template <class G, class = void>
+struct has_friction : std::false_type {};
+template <class G>
+struct has_friction<G, std::void_t<decltype(G::kHas_friction_forces)>> : std::true_type {};
+template <class G, class = void>
+struct has_actuated_coordinates : std::false_type {};
+template <class G>
+struct has_actuated_coordinates<G, std::void_t<decltype(G::actuated_coordinates())>>
+    : std::true_type {};
+}  // namespace detail
 
 template <class Generated>
 class Model {
@@ -25,9 +47,14 @@ class Model {
   static constexpr int kNumLinks = Generated::kNumLinks;
   static constexpr int kNumParams = Generated::kNumParams;
   static constexpr bool kFreeFloating = Generated::kFreeFloating;
-  static constexpr int kFirstJoint = kNv - kNumLinks;  // velocity index of joint 1
-  using Vector = Eigen::Matrix<double, kNq, 1>;        // configuration q
-  using Velocity = Eigen::Matrix<double, kNv, 1>;      // qd, qdd, generalized forces Q, bias b
+  // Velocity index of joint 1's slot, after the base's x0, y0, q0 (a flexible joint's motor
+  // coordinates follow the joint slots: actuated_coordinates()).
+  static constexpr int kFirstJoint = kFreeFloating ? 3 : 0;
+  // Springs, dampers or friction: forces besides M qdd + b (forward_dynamics includes them).
+  static constexpr bool kHasPassiveForces =
+      detail::has_passive_forces<Generated>::value || detail::has_friction<Generated>::value;
+  using Vector = Eigen::Matrix<double, kNq, 1>;    // configuration q
+  using Velocity = Eigen::Matrix<double, kNv, 1>;  // qd, qdd, generalized forces Q, bias b
   using Matrix = Eigen::Matrix<double, kNv, kNv>;
   using Params = Eigen::Matrix<double, kNumParams, 1>;
   using JointVector = Eigen::Matrix<double, kNumLinks, 1>;
@@ -79,6 +106,18 @@ class Model {
   // Gear ratio per joint (1 for the reference model), eq. 9.
   const JointVector& gear_ratios() const { return ratios_; }
 
+  // Velocity index that joint torque tau_i drives (as tau_i / p_i): the joint's own slot, or
+  // the motor coordinate of a flexible joint.
+  static std::array<int, kNumLinks> actuated_coordinates() {
+    if constexpr (detail::has_actuated_coordinates<Generated>::value) {
+      return Generated::actuated_coordinates();
+    } else {
+      std::array<int, kNumLinks> c{};
+      for (int i = 0; i < kNumLinks; ++i) c[i] = kNv - kNumLinks + i;
+      return c;
+    }
+  }
+
   Matrix mass_matrix(const Vector& q) const {
     Matrix M;
     Generated::mass_matrix(q, params_, M);
@@ -115,7 +154,7 @@ class Model {
   // or at the motors (the geared model, Q_g = tau / p, eq. 14); no force on the base.
   Velocity generalized_forces(const JointVector& tau) const {
     Velocity Q = Velocity::Zero();
-    Q.template tail<kNumLinks>() = tau.cwiseQuotient(ratios_);
+    for (int i = 0; i < kNumLinks; ++i) Q[actuated_[i]] = tau[i] / ratios_[i];
     return Q;
   }
 
@@ -129,6 +168,8 @@ class Model {
     if constexpr (Generated::kHas_forward_dynamics) {
       Generated::forward_dynamics(q, qd, Q, params_, qdd, pivots, scaled_pivots);
     } else {
+      static_assert(!kHasPassiveForces,
+                    "a model with springs, dampers or friction needs the forward_dynamics output");
       Matrix M;
       Velocity b;
       Generated::mass_matrix_and_bias(q, qd, params_, M, b);
@@ -161,6 +202,7 @@ class Model {
 
   Params params_;
   JointVector ratios_;
+  std::array<int, kNumLinks> actuated_ = actuated_coordinates();
 
   void update() {
     if (const char* error = Generated::parameter_error(params_))

@@ -1,12 +1,15 @@
 // An independent numeric reference for the symbolic models: forward kinematics and the
 // kinetic energy of eq. 3 (+ eq. 10 for motors) evaluated body by body in plain floating
-// point, with M by polarization of T and the Euler-Lagrange bias by finite differences.
-// It shares no code with the generator: tests use it as an oracle.
+// point, with M by polarization of T and the Euler-Lagrange bias by finite differences; the
+// joint springs' potential energy, the dampers' Rayleigh function and the friction law joint by
+// joint, their generalized forces by central differences. It shares no code with the
+// generator: tests use it as an oracle.
 #pragma once
 
 #include <Eigen/Core>
 
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
@@ -21,14 +24,36 @@ struct ChainParameters {
     double ratio, motor_inertia;
     bool compensate_link_inertia;
     bool armature = false;  // rotor energy 1/2 I_m qd_m^2 only (no coupling to the previous body)
+    double stiffness = 0;   // > 0: a flexible joint, spring between qm / p and the link angle
+    double damping = 0;     // damper beside the spring
+  };
+  // f(w) = b w + Fc tanh(w/vs) + (Fs - Fc) exp(-(w/vst)^2) tanh(w/vs) on the motor rate w.
+  struct Friction {
+    double viscous = 0, coulomb = 0, velocity_scale = 1, stribeck_static = 0, stribeck_velocity = 1;
   };
   bool free_floating = true;
   double base_mass = 0, base_inertia = 0;
   Eigen::Vector2d mount = Eigen::Vector2d::Zero();
   std::vector<Link> links;
-  std::vector<Gear> gears;  // empty: reference model
+  std::vector<std::optional<Gear>> gears;         // empty: reference model; empty entry: no gear
+  std::vector<std::optional<Friction>> friction;  // empty: none
 
-  int num_coordinates() const { return (free_floating ? 3 : 0) + static_cast<int>(links.size()); }
+  const Gear* gear(size_t joint) const {
+    return joint < gears.size() && gears[joint] ? &*gears[joint] : nullptr;
+  }
+  bool flexible(size_t joint) const { return gear(joint) && gear(joint)->stiffness > 0; }
+  int num_coordinates() const {
+    int n = (free_floating ? 3 : 0) + static_cast<int>(links.size());
+    for (size_t j = 0; j < links.size(); ++j) n += flexible(j);
+    return n;
+  }
+  // Coordinate of joint j's motor: its own slot, or after all joint slots if it is flexible.
+  int motor_coordinate(size_t joint) const {
+    int c = (free_floating ? 3 : 0) + static_cast<int>(links.size());
+    if (!flexible(joint)) return (free_floating ? 3 : 0) + static_cast<int>(joint);
+    for (size_t j = 0; j < joint; ++j) c += flexible(j);
+    return c;
+  }
 };
 
 class NumericLagrangian {
@@ -68,13 +93,16 @@ class NumericLagrangian {
     Eigen::Vector2d joint = r0 + rotate(theta, c_.mount);
     Eigen::Vector2d joint_velocity = v0 + cross(omega, joint - r0);
     for (int i = 0; i < N; ++i) {
-      const double p = c_.gears.empty() ? 1.0 : c_.gears[i].ratio;
-      // In motor coordinates the link angle is qm / p and its rate qmd / p (eq. 9).
+      const auto* gear = c_.gear(i);
+      // In motor coordinates the link angle is qm / p and its rate qmd / p (eq. 9); a flexible
+      // joint's slot holds the link angle itself.
+      const double p = gear && !c_.flexible(i) ? gear->ratio : 1.0;
       const double previous_rate = omega;
       theta += q[j0 + i] / p;
       omega += qd[j0 + i] / p;
-      const bool armature = !c_.gears.empty() && c_.gears[i].armature;
-      s.motor_rate.push_back((armature ? 0.0 : previous_rate) + qd[j0 + i]);  // eq. 11
+      const bool armature = gear && gear->armature;
+      const double qd_motor = qd[c_.motor_coordinate(i)];
+      s.motor_rate.push_back((armature ? 0.0 : previous_rate) + qd_motor);  // eq. 11
       const auto& link = c_.links[i];
       const Eigen::Vector2d com = joint + rotate(theta, link.com);
       s.com.push_back(com);
@@ -97,13 +125,12 @@ class NumericLagrangian {
            0.5 * c_.base_inertia * s.rate[0] * s.rate[0];
     for (size_t i = 0; i < c_.links.size(); ++i) {
       const auto& link = c_.links[i];
+      const auto* gear = c_.gear(i);
       double inertia = link.inertia;
-      if (!c_.gears.empty() && c_.gears[i].compensate_link_inertia)
-        inertia -= c_.gears[i].motor_inertia;
+      if (gear && gear->compensate_link_inertia) inertia -= gear->motor_inertia;
       T += 0.5 * link.mass * s.com_velocity[i + 1].squaredNorm() +
            0.5 * inertia * s.rate[i + 1] * s.rate[i + 1];
-      if (!c_.gears.empty())
-        T += 0.5 * c_.gears[i].motor_inertia * s.motor_rate[i] * s.motor_rate[i];
+      if (gear) T += 0.5 * gear->motor_inertia * s.motor_rate[i] * s.motor_rate[i];
     }
     return T;
   }
@@ -152,17 +179,72 @@ class NumericLagrangian {
       if (base && !c_.free_floating) continue;
       const double m = base ? c_.base_mass : c_.links[b - 1].mass;
       double inertia = base ? c_.base_inertia : c_.links[b - 1].inertia;
-      if (!base && !c_.gears.empty() && c_.gears[b - 1].compensate_link_inertia)
-        inertia -= c_.gears[b - 1].motor_inertia;
+      if (!base && c_.gear(b - 1) && c_.gear(b - 1)->compensate_link_inertia)
+        inertia -= c_.gear(b - 1)->motor_inertia;
       const Eigen::Vector2d p = m * s.com_velocity[b];
       h.head<2>() += p;
       h[2] += s.com[b].x() * p.y() - s.com[b].y() * p.x() + inertia * s.rate[b];
     }
     // A rotor adds I_m w_m to the angular momentum; with the armature approximation its
     // energy does not depend on the base rate, so it adds nothing to the conserved momentum.
-    for (size_t i = 0; i < c_.gears.size(); ++i)
-      if (!c_.gears[i].armature) h[2] += c_.gears[i].motor_inertia * s.motor_rate[i];
+    for (size_t i = 0; i < c_.links.size(); ++i)
+      if (c_.gear(i) && !c_.gear(i)->armature) h[2] += c_.gear(i)->motor_inertia * s.motor_rate[i];
     return h;
+  }
+
+  // The springs' twist qm / p - q of each flexible joint (0 for the others), at q or, for its
+  // rate, at qd.
+  std::vector<double> twists(const Vector& x) const {
+    const int j0 = c_.free_floating ? 3 : 0;
+    std::vector<double> twist(c_.links.size(), 0.0);
+    for (size_t j = 0; j < c_.links.size(); ++j)
+      if (c_.flexible(j)) twist[j] = x[c_.motor_coordinate(j)] / c_.gear(j)->ratio - x[j0 + j];
+    return twist;
+  }
+
+  // V = sum 1/2 k (qm/p - q)^2.
+  double potential_energy(const Vector& q) const {
+    const std::vector<double> twist = twists(q);
+    double V = 0;
+    for (size_t j = 0; j < twist.size(); ++j)
+      if (c_.flexible(j)) V += 0.5 * c_.gear(j)->stiffness * twist[j] * twist[j];
+    return V;
+  }
+
+  // Rayleigh's dissipation function D = sum 1/2 d (qmd/p - qd)^2: the dampers dissipate 2 D.
+  double dissipation_function(const Vector& qd) const {
+    const std::vector<double> rate = twists(qd);
+    double D = 0;
+    for (size_t j = 0; j < rate.size(); ++j)
+      if (c_.flexible(j)) D += 0.5 * c_.gear(j)->damping * rate[j] * rate[j];
+    return D;
+  }
+
+  // dV/dq + dD/dqd by central differences (exact but for rounding: both are quadratic).
+  Vector spring_damper_forces(const Vector& q, const Vector& qd, double h = 1e-3) const {
+    Vector f(n());
+    for (int i = 0; i < n(); ++i) {
+      Vector e = Vector::Zero(n());
+      e[i] = h;
+      f[i] = (potential_energy(q + e) - potential_energy(q - e)) / (2 * h) +
+             (dissipation_function(qd + e) - dissipation_function(qd - e)) / (2 * h);
+    }
+    return f;
+  }
+
+  // Friction on each joint's motor rate w (the joint's own rate without a gear).
+  Vector friction_forces(const Vector& qd) const {
+    Vector f = Vector::Zero(n());
+    for (size_t j = 0; j < c_.friction.size(); ++j) {
+      if (!c_.friction[j]) continue;
+      const auto& fr = *c_.friction[j];
+      const double w = qd[c_.motor_coordinate(j)];
+      const double smooth_sign = std::tanh(w / fr.velocity_scale);
+      const double hump = std::exp(-std::pow(w / fr.stribeck_velocity, 2));
+      f[c_.motor_coordinate(j)] = fr.viscous * w + fr.coulomb * smooth_sign +
+                                  (fr.stribeck_static - fr.coulomb) * hump * smooth_sign;
+    }
+    return f;
   }
 
   Eigen::Vector3d end_effector_pose(const Vector& q) const {

@@ -331,6 +331,10 @@ inline Eigen::VectorXd initial_configuration(const DynamicModel& m, const Straig
 // The straight line of `task` for model `m` on the grid t = 0, dt, ..., T.
 inline Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
   using Eigen::VectorXd;
+  if (m.passive_forces)
+    throw std::invalid_argument("planner, model " + m.name +
+                                ": plans models without springs, dampers or friction; plan on the "
+                                "scene without them and start the full model from that plan");
   const int rows = check_task(m, task), nb = m.num_base(), n = m.num_links;
   if (!m.end_effector_pose || !m.end_effector_jacobian || !m.mass_matrix_and_bias)
     throw std::invalid_argument("planner, model " + m.name +

@@ -90,8 +90,24 @@ inline ChainParameters chain_parameters(const Scene& s,
   c.mount = {v(s.base.mount[0]), v(s.base.mount[1])};
   for (const auto& l : s.links)
     c.links.push_back({v(l.mass), v(l.inertia), v(l.length), {v(l.com[0]), v(l.com[1])}});
-  for (const auto& g : s.gears)
-    c.gears.push_back({v(g.ratio), v(g.motor_inertia), g.compensate_link_inertia, g.armature});
+  for (const auto& g : s.gears) {
+    if (!g) {
+      c.gears.emplace_back();
+      continue;
+    }
+    c.gears.push_back(ChainParameters::Gear{
+        v(g->ratio), v(g->motor_inertia), g->compensate_link_inertia, g->armature,
+        g->stiffness ? v(*g->stiffness) : 0.0, g->damping ? v(*g->damping) : 0.0});
+  }
+  for (const auto& f : s.friction) {
+    if (!f) {
+      c.friction.emplace_back();
+      continue;
+    }
+    c.friction.push_back(ChainParameters::Friction{
+        v(f->viscous), v(f->coulomb), f->has_coulomb ? v(f->velocity_scale) : 1.0,
+        v(f->stribeck_static), f->has_stribeck ? v(f->stribeck_velocity) : 1.0});
+  }
   return c;
 }
 

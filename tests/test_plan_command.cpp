@@ -89,7 +89,7 @@ void check_plan(const Csv& csv, const Scene& scene, const std::map<std::string, 
   for (int i = 0; i < oracle.n(); ++i) q_names.push_back(csv.names[1 + i]);
   const int N = scene.num_links(), nb = oracle.n() - N, rows = static_cast<int>(task.start.size());
   Eigen::VectorXd p = Eigen::VectorXd::Ones(N);
-  for (size_t j = 0; j < chain.gears.size(); ++j) p[static_cast<int>(j)] = chain.gears[j].ratio;
+  for (size_t j = 0; j < chain.gears.size(); ++j) p[static_cast<int>(j)] = chain.gears[j]->ratio;
   ASSERT_EQ(csv.rows.size(), static_cast<size_t>(std::lround(task.duration / task.dt)) + 1);
   double tau_peak = 0, qd_peak = 0, qdd_peak = 0, worst_path = 0, worst_momentum = 0,
          worst_force = 0, worst_qd = 0, worst_qdd = 0;

@@ -48,7 +48,7 @@ TEST(Scene, PaperScenesParse) {
   const Scene geared = load_scene(SPACEARM_SOURCE_DIR "/models/paper_geared.yaml");
   ASSERT_TRUE(geared.geared());
   ASSERT_EQ(geared.gears.size(), 3u);
-  EXPECT_EQ(geared.gears[1].ratio.parameter, "p");
+  EXPECT_EQ(geared.gears[1]->ratio.parameter, "p");
   EXPECT_EQ(geared.parameters.size(), 2u);
   EXPECT_EQ(geared.coordinate_names()[3], "qm1");
 }
@@ -57,8 +57,11 @@ TEST(Scene, DefaultsToTheRegistrysDefaultOutputsAndFixedBaseHasNoFreeBaseOnes) {
   const Scene s = parse_scene(kValid, "t.yaml");
   const Scene fixed = parse_scene(replaced(kValid, "type: free_floating", "type: fixed"), "t.yaml");
   for (const OutputInfo& o : output_registry()) {
-    EXPECT_EQ(s.wants(o.id), o.by_default) << o.name;
-    EXPECT_EQ(fixed.wants(o.id), o.by_default && !o.free_floating_only) << o.name;
+    // A rigid scene without friction has neither springs nor friction.
+    EXPECT_EQ(s.wants(o.id),
+              o.by_default && (o.needs & ~(needs::free_base | needs::rigid_joints)) == 0)
+        << o.name;
+    EXPECT_EQ(fixed.wants(o.id), o.by_default && (o.needs & ~needs::rigid_joints) == 0) << o.name;
   }
   EXPECT_FALSE(fixed.wants(Output::momentum));
   EXPECT_EQ(fixed.num_coordinates(), 2);
@@ -150,7 +153,7 @@ TEST(Scene, GearAndParameterErrors) {
                 "field 'gears.rotor_coupling': expected 'exact' or 'armature', got 'approx'"),
             std::string::npos)
       << error_of(coupling);
-  EXPECT_TRUE(parse_scene(replaced(coupling, "approx", "armature"), "t.yaml").gears[1].armature);
+  EXPECT_TRUE(parse_scene(replaced(coupling, "approx", "armature"), "t.yaml").gears[1]->armature);
   const std::string twice =
       std::string(kValid) + "gears: {ratio: p, motor_inertia: 0}\nparameters: {p: 2, p: 3}\n";
   EXPECT_NE(error_of(twice).find("field 'parameters.p': parameter 'p' given more than once"),
@@ -167,7 +170,7 @@ TEST(Scene, GearAndParameterErrors) {
   const Scene speedup =
       parse_scene(std::string(kValid) + "gears: {ratio: 0.5, motor_inertia: 0}\n", "t.yaml");
   const std::string warning = testing::internal::GetCapturedStderr();
-  EXPECT_EQ(speedup.gears[0].ratio.value, 0.5);
+  EXPECT_EQ(speedup.gears[0]->ratio.value, 0.5);
   EXPECT_NE(warning.find("warning: scene 't.yaml', field 'gears.ratio': 0.5 < 1"),
             std::string::npos)
       << warning;
@@ -235,6 +238,67 @@ namespace {
 
 // The registry's names become identifiers in generated code and keys in eval's JSON: unique,
 // and clear of the names the printer uses itself (T the scalar, params, temporaries t<k>).
+// Flexible joints, joints without a gear and friction: the coordinate layout, and each
+// invalid field named with its value.
+TEST(Scene, FlexibleJointsMixedJointsAndFrictionLayOutTheirCoordinates) {
+  const Scene s = parse_scene(std::string(kValid) +
+                                  "gears:\n  - {ratio: 10, motor_inertia: 1e-4, stiffness: 500}\n"
+                                  "  - null\nfriction: {viscous: 0.01}\n",
+                              "t.yaml");
+  EXPECT_EQ(s.coordinate_names(), (std::vector<std::string>{"x0", "y0", "q0", "q1", "q2", "qm1"}));
+  EXPECT_EQ(s.num_coordinates(), 6);
+  EXPECT_EQ(s.motor_coordinate(0), 5);
+  EXPECT_EQ(s.motor_coordinate(1), 4);
+  EXPECT_TRUE(s.is_flexible(0));
+  EXPECT_FALSE(s.has_gear(1));
+  EXPECT_TRUE(s.has_friction());
+  EXPECT_TRUE(s.wants(Output::potential_energy));
+  EXPECT_TRUE(s.wants(Output::friction_forces));
+  EXPECT_FALSE(s.wants(Output::generalized_jacobian));  // not defined with flexible joints
+  // A rigid scene neither wants nor may ask for them.
+  EXPECT_FALSE(parse_scene(kValid, "t.yaml").wants(Output::potential_energy));
+}
+
+TEST(Scene, InvalidFlexibleJointsAndFrictionAreNamedErrors) {
+  const std::string gear = std::string(kValid) + "gears: {ratio: 10, ";
+  const std::string fr = std::string(kValid) + "friction: {";
+  const struct {
+    std::string yaml, message;
+  } cases[] = {
+      {gear + "motor_inertia: 0, stiffness: 100}\n",
+       "field 'gears.motor_inertia': a flexible joint (stiffness given) needs motor_inertia > 0, "
+       "got 0"},
+      {gear + "motor_inertia: 1e-5, damping: 1}\n",
+       "field 'gears.damping': a damper needs a spring"},
+      {gear + "motor_inertia: 1e-5, stiffness: -3}\n",
+       "field 'gears.stiffness': must be positive, got -3"},
+      {gear + "motor_inertia: 1e-5, stiffness: 3, damping: -1}\n",
+       "field 'gears.damping': must not be negative, got -1"},
+      {fr + "coulomb: 0.1}\n", "field 'friction.velocity_scale': Coulomb or static friction needs"},
+      {fr + "coulomb: 0.1, velocity_scale: 0}\n",
+       "field 'friction.velocity_scale': must be positive, got 0"},
+      {fr + "coulomb: 0.1, velocity_scale: 0.1, stribeck_static: 0.05}\n",
+       "field 'friction.stribeck_static': the breakaway level Fs (0.050000) must not be below the "
+       "Coulomb level Fc (0.100000)"},
+      {fr + "coulomb: 0.1, velocity_scale: 0.1, stribeck_static: 0.2}\n",
+       "field 'friction.stribeck_velocity': a Stribeck hump"},
+      {fr + "viscous: -1}\n", "field 'friction.viscous': must not be negative, got -1"},
+      {fr + "sticky: 1}\n", "field 'friction.sticky': unknown field"},
+      {std::string(kValid) + "friction: [null, null]\n", "field 'friction': every entry is null"},
+      {std::string(kValid) + "gears: [null, null]\n", "field 'gears': every entry is null"},
+      {std::string(kValid) + "friction: [{viscous: 1}]\n",
+       "field 'friction': expected one entry per link (2), got 1"},
+      {std::string(kValid) + "outputs: [potential_energy]\n",
+       "'potential_energy' needs a flexible joint"},
+      {gear + "motor_inertia: 1e-5, stiffness: 3}\noutputs: [generalized_jacobian]\n",
+       "'generalized_jacobian' is not defined for a scene with flexible joints"},
+  };
+  for (const auto& c : cases) {
+    const std::string err = error_of(c.yaml);
+    EXPECT_NE(err.find(c.message), std::string::npos) << "got: " << err << "\nfor:\n" << c.yaml;
+  }
+}
+
 TEST(OutputRegistry, NamesAreUniqueAndClearOfGeneratedNames) {
   std::set<std::string> names, symbols;
   auto is_generated = [](const std::string& n) {
