@@ -95,6 +95,13 @@ struct Columns {
   bool geared, pose, energy, momentum;
 };
 
+// Whether joint j (0-based) gets link-side angle and rate columns: only where its slot holds
+// the motor angle (a rigid gear); a flexible or ungeared joint's slot is already q_j, and a
+// repeated column name would make the CSV ambiguous.
+bool link_side_columns(const DynamicModel& model, int j) {
+  return model.coordinate_names.at(model.num_base() + j) != "q" + std::to_string(j + 1);
+}
+
 std::string header(const DynamicModel& model, const Columns& c) {
   std::string h = "t";
   for (const auto& n : model.coordinate_names) h += "," + n;
@@ -102,8 +109,10 @@ std::string header(const DynamicModel& model, const Columns& c) {
   const int N = model.num_links;
   // Geared: link-side angles q = qm / p and rates next to the motor coordinates.
   if (c.geared) {
-    for (int j = 1; j <= N; ++j) h += ",q" + std::to_string(j);
-    for (int j = 1; j <= N; ++j) h += ",q" + std::to_string(j) + "d";
+    for (int j = 1; j <= N; ++j)
+      if (link_side_columns(model, j - 1)) h += ",q" + std::to_string(j);
+    for (int j = 1; j <= N; ++j)
+      if (link_side_columns(model, j - 1)) h += ",q" + std::to_string(j) + "d";
   }
   // The applied torque, named by its side: tau on the link (gear output), tau/p at the motor.
   for (int j = 1; j <= N; ++j) h += ",tau" + std::to_string(j);
@@ -132,8 +141,11 @@ std::string row(const DynamicModel& model, const Columns& c, double t, const Eig
   for (double v : q) append(r, v);
   for (double v : qd) append(r, v);
   if (c.geared) {
-    for (double v : model.joint_angles(q)) append(r, v);
-    for (double v : model.joint_angles(qd)) append(r, v);
+    const Eigen::VectorXd angles = model.joint_angles(q), rates = model.joint_angles(qd);
+    for (int j = 0; j < N; ++j)
+      if (link_side_columns(model, j)) append(r, angles[j]);
+    for (int j = 0; j < N; ++j)
+      if (link_side_columns(model, j)) append(r, rates[j]);
   }
   for (int j = 0; j < N; ++j) append(r, tau[j]);
   if (c.geared)
