@@ -37,12 +37,14 @@ int stdout_status() {
 
 // Options that would have no effect are errors, not silently ignored.
 void check_simulate_options(const CLI::App& command, const spacearm::SimulateArgs& sim) {
-  const bool adaptive = sim.integrator == "dopri5" || sim.integrator == "rkf78";
+  const bool adaptive =
+      sim.integrator == "dopri5" || sim.integrator == "rkf78" || sim.integrator == "rosenbrock4";
   for (const char* option : {"--rtol", "--atol"})
     if (command.count(option) && !adaptive)
-      throw CLI::ValidationError(
-          option,
-          "applies only to the adaptive integrators (dopri5, rkf78), not to " + sim.integrator);
+      throw CLI::ValidationError(option,
+                                 "applies only to the adaptive integrators (dopri5, rkf78, "
+                                 "rosenbrock4), not to " +
+                                     sim.integrator);
   for (const char* option : {"--interpolation", "--extrapolate"})
     if (command.count(option) && sim.zero_torque)
       throw CLI::ValidationError(option, "has no effect with --zero (no torque file)");
@@ -150,7 +152,9 @@ CLI::App* add_simulate(CLI::App& app, spacearm::SimulateArgs& a) {
                           "joint's motor gets tau_i/p_i (eq. 14)");
   command->add_flag("--zero", a.zero_torque, "No torques (free motion)")->excludes(torques_opt);
   command->add_option("--t-end", a.t_end, "End time [s]")->required()->check(positive_number());
-  command->add_option("--integrator", a.integrator, "rk4, dopri5, rkf78 or implicit_midpoint");
+  command->add_option("--integrator", a.integrator,
+                      "rk4, dopri5, rkf78, implicit_midpoint or rosenbrock4 (stiff scenes; needs "
+                      "the output forward_dynamics_derivatives)");
   command->add_option("--dt", a.dt, "Step of the fixed-step methods [s]")->check(positive_number());
   command->add_option("--dt-out", a.dt_out, "Output interval [s] (default: --dt)")
       ->check(positive_number());

@@ -50,6 +50,22 @@ std::vector<Eigen::MatrixXd> composed(const SymbolicModel& model, Output o, cons
     llt_pivots(llt, M, d, scaled);
     return {llt.solve(extra - b), d, scaled};
   }
+  if (o == Output::forward_dynamics_derivatives) {
+    // dqdd/dx = -M^-1 dR/dx, dR/dx evaluated with GiNaC at the solved qdd.
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(M);
+    const Eigen::VectorXd qdd = ldlt.solve(extra - b);
+    GiNaC::exmap at_qdd;
+    for (int j = 0; j < n; ++j) at_qdd[model.qdd[j]] = GiNaC::numeric(qdd[j]);
+    auto minus_solve = [&](const GiNaC::matrix& dR) {
+      const auto v =
+          evaluate(model, GiNaC::ex_to<GiNaC::matrix>(dR.subs(at_qdd)), s.q, s.qd, s.params);
+      const Eigen::MatrixXd d =
+          Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+              v.data(), n, n);
+      return Eigen::MatrixXd(-ldlt.solve(d));
+    };
+    return {minus_solve(model.residual_dq), minus_solve(model.residual_dqd), qdd};
+  }
   if (o == Output::free_base_inverse_dynamics) {
     // extra: link-side joint accelerations; the motor ones are p times them, and tau = p Q.
     Eigen::VectorXd p(N);

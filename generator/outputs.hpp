@@ -32,6 +32,7 @@ enum class Output {
   potential_energy,
   spring_damper_forces,
   friction_forces,
+  forward_dynamics_derivatives,
 };
 
 // What a scene must have for an output to be defined (OutputInfo::needs, a bit mask;

@@ -124,6 +124,12 @@ class FunctionBuilder {
 
   Program prog;
 
+  // Makes `symbol` a variable whose value is an existing node (the solved qdd of a
+  // composed output, which the state Jacobian's expressions then use).
+  void bind(const ex& symbol, SRef node) {
+    add_var(symbol, [node] { return node; });
+  }
+
   SRef build(const ex& e) {
     ex x = function_atoms(e);
     x = x.subs(atom_subs_, GiNaC::subs_options::no_pattern);
@@ -623,6 +629,28 @@ struct Composer {
     return {ldlt_solve(p, f, rhs), f.d, scaled};
   }
 
+  // qdd as forward_dynamics; then each column of dqdd/dq and dqdd/dqd by the same LDL^T
+  // factors: M dqdd/dx_k = -dR/dx_k, with R's qdd symbols bound to the solved qdd.
+  std::vector<std::vector<SRef>> forward_dynamics_derivatives() {
+    const std::vector<SRef> Q = inputs("Q", n), h = forces();
+    std::vector<SRef> rhs;
+    for (int i = 0; i < n; ++i) rhs.push_back(p.add({Q[i], -h[i]}));
+    const LdltProgram f = ldlt(p, M, n);
+    const std::vector<SRef> qdd = ldlt_solve(p, f, rhs);
+    for (int j = 0; j < n; ++j) fb.bind(model.qdd[j], qdd[j]);
+    auto jacobian = [&](const GiNaC::matrix& dR) {
+      std::vector<SRef> J(n * n);
+      for (int k = 0; k < n; ++k) {
+        std::vector<SRef> minus_col;
+        for (int i = 0; i < n; ++i) minus_col.push_back(fb.build(-dR(i, k)));
+        const std::vector<SRef> col = ldlt_solve(p, f, minus_col);
+        for (int i = 0; i < n; ++i) J[i * n + k] = col[i];
+      }
+      return J;
+    };
+    return {jacobian(model.residual_dq), jacobian(model.residual_dqd), qdd};
+  }
+
   // M_bb a_b = -(M_bm a + b_b); Q_m = M_mb a_b + M_mm a + b_m, with a the joint rows of qdd
   // (motor accelerations p qdd_joints) and tau = p Q_m.
   std::vector<std::vector<SRef>> free_base_inverse_dynamics() {
@@ -656,6 +684,8 @@ std::vector<std::vector<SRef>> compose(const SymbolicModel& model, FunctionBuild
       return c.forward_dynamics();
     case Output::free_base_inverse_dynamics:
       return c.free_base_inverse_dynamics();
+    case Output::forward_dynamics_derivatives:
+      return c.forward_dynamics_derivatives();
     default:
       throw std::logic_error("compose: " + to_string(o) + " is not a composed output");
   }

@@ -104,6 +104,7 @@ class Derivation {
     bias_and_momentum();
     end_effector();
     passive_forces();
+    residual_derivatives();
   }
 
  private:
@@ -337,6 +338,25 @@ class Derivation {
       model_.outputs[Output::potential_energy] = matrix{{V.expand()}};
     if (wants(Output::spring_damper_forces)) model_.outputs[Output::spring_damper_forces] = fk;
     if (wants(Output::friction_forces)) model_.outputs[Output::friction_forces] = ff;
+  }
+
+  // The residual R = M qdd + b + passive forces with symbolic qdd, and its exact partial
+  // derivatives, from which the state Jacobian of qdd = M^-1 (Q - b - passive) follows:
+  // dqdd/dq = -M^-1 dR/dq, dqdd/dqd = -M^-1 dR/dqd (Q does not depend on the state).
+  void residual_derivatives() {
+    if (!wants(Output::forward_dynamics_derivatives)) return;
+    for (const auto& name : scene_.coordinate_names()) model_.qdd.emplace_back(name + "dd");
+    const matrix& bias = model_.outputs.at(Output::bias_forces);
+    model_.residual_dq = matrix(n_, n_);
+    model_.residual_dqd = matrix(n_, n_);
+    for (int i = 0; i < n_; ++i) {
+      ex R = bias(i, 0) + model_.passive_forces(i, 0);
+      for (int j = 0; j < n_; ++j) R += M_(i, j) * model_.qdd[j];
+      for (int k = 0; k < n_; ++k) {
+        model_.residual_dq(i, k) = R.diff(model_.q[k]).expand();
+        model_.residual_dqd(i, k) = R.diff(model_.qd[k]).expand();
+      }
+    }
   }
 
   // f(w) = b w + Fc tanh(w/vs) + (Fs - Fc) exp(-(w/vst)^2) tanh(w/vs) (Scene::Friction).

@@ -32,6 +32,12 @@ struct SymbolicModel {
   GiNaC::matrix passive_forces;
   bool has_passive_forces() const { return !passive_forces.is_zero_matrix(); }
 
+  // For the state Jacobian (forward_dynamics_derivatives) only: symbols of the accelerations
+  // and the partial derivatives of the residual R = M(q) qdd + b + passive_forces with them,
+  // dR/dq (n x n) and dR/dqd (n x n); empty otherwise.
+  std::vector<GiNaC::symbol> qdd;
+  GiNaC::matrix residual_dq, residual_dqd;
+
   GiNaC::ex kinetic_energy;  // T(q, qd), eq. 3 + eq. 10
   // The closed-form outputs derived, by the registry's entries (outputs.hpp): each a matrix
   // of the registry's shape (1 x 1 for a scalar).

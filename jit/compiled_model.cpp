@@ -448,6 +448,19 @@ DynamicModel dynamic_model(const CompiledModel& m, const Eigen::VectorXd& params
     d.forward_dynamics = [&m, params](const V& q, const V& qd, const V& Q) {
       return m.forward_dynamics(q, qd, Q, params);
     };
+  if (m.has(Output::forward_dynamics_derivatives))
+    d.forward_dynamics_derivatives = [&m, params](const V& q, const V& qd, const V& Q,
+                                                  Eigen::MatrixXd& dqdd_dq,
+                                                  Eigen::MatrixXd& dqdd_dqd) {
+      auto r = m.evaluate(Output::forward_dynamics_derivatives, {q, qd, Q}, params);
+      for (const auto& part : r)
+        if (!part.allFinite())
+          throw DynamicsError("model " + m.name() +
+                              ": the state Jacobian is not finite (mass matrix singular?)");
+      dqdd_dq = std::move(r[0]);
+      dqdd_dqd = std::move(r[1]);
+      return V(r[2]);
+    };
   if (m.has(Output::kinetic_energy))
     d.kinetic_energy = [&m, params](const V& q, const V& qd) {
       return m.kinetic_energy(q, qd, params);

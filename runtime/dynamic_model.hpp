@@ -21,6 +21,8 @@ struct DynamicModel {
   using Velocity = Eigen::VectorXd;     // qd, qdd, generalized forces Q, bias b (nv)
   using JointVector = Eigen::VectorXd;  // one value per joint
   using Vector3 = Eigen::Vector3d;
+  using Matrix = Eigen::MatrixXd;                 // nv x nv
+  using ConfigurationJacobian = Eigen::MatrixXd;  // nv x nq
 
   std::string name;
   int nq = 0, nv = 0, num_links = 0;
@@ -41,10 +43,15 @@ struct DynamicModel {
       mass_matrix_and_bias;
   // qdd = M^-1 (Q - b), eq. 8, with check_forward_dynamics (DynamicsError).
   std::function<Velocity(const Vector& q, const Velocity& qd, const Velocity& Q)> forward_dynamics;
+  // The state Jacobian dqdd/dq (nv x nq), dqdd/dqd (nv x nv) at constant Q; returns qdd.
+  std::function<Velocity(const Vector& q, const Velocity& qd, const Velocity& Q,
+                         ConfigurationJacobian& dqdd_dq, Matrix& dqdd_dqd)>
+      forward_dynamics_derivatives;
   std::function<double(const Vector& q, const Velocity& qd)> kinetic_energy;
   std::function<Vector3(const Vector& q, const Velocity& qd)> momentum;  // [Px, Py, L]
 
   int num_base() const { return free_floating ? 3 : 0; }
+  bool has_state_jacobian() const { return static_cast<bool>(forward_dynamics_derivatives); }
   // Only the base and one slot per joint: no flexible joint's motor coordinates. The planner
   // and the CLI's link-side columns need it.
   bool rigid_joints() const { return nv == num_base() + num_links; }
@@ -113,6 +120,17 @@ DynamicModel dynamic_model(const Model<G>& m) {
     d.forward_dynamics = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                               const Eigen::VectorXd& Q) {
       return Eigen::VectorXd(m.forward_dynamics(q, qd, Q));
+    };
+  if constexpr (M::kHasStateJacobian)
+    d.forward_dynamics_derivatives = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                                          const Eigen::VectorXd& Q, Eigen::MatrixXd& dqdd_dq,
+                                          Eigen::MatrixXd& dqdd_dqd) {
+      typename M::ConfigurationJacobian dq;
+      typename M::Matrix dqd;
+      const Eigen::VectorXd qdd = m.forward_dynamics_derivatives(q, qd, Q, dq, dqd);
+      dqdd_dq = dq;
+      dqdd_dqd = dqd;
+      return qdd;
     };
   if constexpr (G::kHas_kinetic_energy)
     d.kinetic_energy = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {

@@ -21,7 +21,8 @@ namespace spacearm {
 namespace detail {
 // The kHas_ flags of outputs that need springs or friction, and kActuatedCoordinates, exist
 // only in models of scenes with flexible joints or friction (a scene without them generates
-// exactly the code it did before they existed): detected here.
+// exactly the code it did before they existed), and the state Jacobian's flag (printed only
+// where the scene asks for it): detected here.
 template <class G, class = void>
 struct has_passive_forces : std::false_type {};
 template <class G>
@@ -31,6 +32,11 @@ template <class G, class = void>
 struct has_friction : std::false_type {};
 template <class G>
 struct has_friction<G, std::void_t<decltype(G::kHas_friction_forces)>> : std::true_type {};
+template <class G, class = void>
+struct has_state_jacobian : std::false_type {};
+template <class G>
+struct has_state_jacobian<G, std::void_t<decltype(G::kHas_forward_dynamics_derivatives)>>
+    : std::bool_constant<G::kHas_forward_dynamics_derivatives> {};
 template <class G, class = void>
 struct has_actuated_coordinates : std::false_type {};
 template <class G>
@@ -60,6 +66,10 @@ class Model {
   using JointVector = Eigen::Matrix<double, kNumLinks, 1>;
   using Vector3 = Eigen::Matrix<double, 3, 1>;
   using PoseJacobian = Eigen::Matrix<double, 3, kNv>;
+  using ConfigurationJacobian = Eigen::Matrix<double, kNv, kNq>;  // d(velocity-sized)/dq
+  // The scene emits forward_dynamics_derivatives (the state Jacobian).
+  static constexpr bool kHasStateJacobian = detail::has_state_jacobian<Generated>::value;
+  static constexpr bool has_state_jacobian() { return kHasStateJacobian; }
 
   Model() {
     for (int i = 0; i < kNumParams; ++i) params_[i] = Generated::nominal_parameters()[i];
@@ -181,6 +191,21 @@ class Model {
       qdd = llt.solve(Q - b);
     }
     check_forward_dynamics(pivots, scaled_pivots, qdd, Generated::kName);
+    return qdd;
+  }
+
+  // The state Jacobian of forward dynamics at constant Q: dqdd/dq and dqdd/dqd, exact (from
+  // the symbolic derivatives); returns qdd. Exists where the scene emits
+  // forward_dynamics_derivatives. Throws DynamicsError as forward_dynamics does.
+  template <class G2 = Generated, std::enable_if_t<detail::has_state_jacobian<G2>::value, int> = 0>
+  Velocity forward_dynamics_derivatives(const Vector& q, const Velocity& qd, const Velocity& Q,
+                                        ConfigurationJacobian& dqdd_dq, Matrix& dqdd_dqd) const {
+    check_finite_inputs(q, qd, Q, Generated::kName, Generated::coordinate_names());
+    Velocity qdd;
+    Generated::forward_dynamics_derivatives(q, qd, Q, params_, dqdd_dq, dqdd_dqd, qdd);
+    if (!dqdd_dq.allFinite() || !dqdd_dqd.allFinite() || !qdd.allFinite())
+      throw DynamicsError(std::string("model ") + Generated::kName +
+                          ": the state Jacobian is not finite (mass matrix singular?)");
     return qdd;
   }
 

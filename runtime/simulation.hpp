@@ -2,6 +2,8 @@
 // records the trajectory with its diagnostics (momentum, energy balance, cond(M)).
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <functional>
 #include <string>
 #include <vector>
@@ -36,6 +38,49 @@ using MotionState =
                       : Mdl::Vector::RowsAtCompileTime + Mdl::Velocity::RowsAtCompileTime,
                   1>;
 
+namespace detail {
+// The Jacobian of the motion's right-hand side f(q, qd, t) = (qd, qdd(q, qd, Q(t))) for
+// rosenbrock4: [[0, I], [dqdd/dq, dqdd/dqd]] from the model's exact state Jacobian, and
+// df/dt = (0, M^-1 dQ/dt), which is qdd(Q + dQ/dt) - qdd(Q) since qdd is affine in Q; dQ/dt
+// by a one-sided difference of the torque (exact on a piecewise-linear signal's segment).
+template <class Mdl, class Torque>
+auto motion_jacobian(const Mdl& model, const Torque& tau, Eigen::Index nq, Eigen::Index nv, int)
+    -> decltype(model.forward_dynamics_derivatives(
+                    std::declval<typename Mdl::Vector>(), std::declval<typename Mdl::Velocity>(),
+                    std::declval<typename Mdl::Velocity>(),
+                    std::declval<typename Mdl::ConfigurationJacobian&>(),
+                    std::declval<typename Mdl::Matrix&>()),
+                decltype(IntegratorOptions::jacobian)()) {
+  return [&model, &tau, nq, nv](const Eigen::VectorXd& x, double t, Eigen::MatrixXd& J,
+                                Eigen::VectorXd& dfdt) {
+    const typename Mdl::Vector q = x.head(nq);
+    const typename Mdl::Velocity qd = x.tail(nv);
+    const typename Mdl::Velocity Q = model.generalized_forces(tau(t));
+    typename Mdl::ConfigurationJacobian dq;
+    typename Mdl::Matrix dqd;
+    const typename Mdl::Velocity qdd = model.forward_dynamics_derivatives(q, qd, Q, dq, dqd);
+    J = Eigen::MatrixXd::Zero(nq + nv, nq + nv);
+    J.topRightCorner(nq, nv).setIdentity();
+    J.bottomLeftCorner(nv, nq) = dq;
+    J.bottomRightCorner(nv, nv) = dqd;
+    dfdt = Eigen::VectorXd::Zero(nq + nv);
+    const double h = 1e-6 * std::max(1.0, std::abs(t));
+    typename Mdl::Velocity dQ;
+    try {
+      dQ = (model.generalized_forces(tau(t + h)) - Q) / h;
+    } catch (const std::exception&) {  // no torque past the span's end: the left slope
+      dQ = (Q - model.generalized_forces(tau(t - h))) / h;
+    }
+    if (!dQ.isZero(0)) dfdt.tail(nv) = model.forward_dynamics(q, qd, Q + dQ) - qdd;
+  };
+}
+template <class Mdl, class Torque>
+decltype(IntegratorOptions::jacobian) motion_jacobian(const Mdl&, const Torque&, Eigen::Index,
+                                                      Eigen::Index, long) {
+  return {};  // the model has no state Jacobian: integrate() refuses rosenbrock4
+}
+}  // namespace detail
+
 // Integrates the forward dynamics of any runtime model, a linked Model<G> or a DynamicModel
 // (dynamic_model.hpp), from (q0, qd0) at t = 0 to t_end under the joint (or motor) torques
 // tau(t), and calls observe(t, q, qd) every dt_out. The torques enter as generalized forces
@@ -66,7 +111,10 @@ IntegrationStats integrate_motion(const Mdl& model, const typename Mdl::Vector& 
   auto on_sample = [&](const State& s, double t) {
     observe(t, Vector(s.head(nq)), Velocity(s.tail(nv)));
   };
-  return integrate(options, f, x, 0.0, t_end, dt_out, on_sample);
+  IntegratorOptions opt = options;
+  if (opt.method == Method::rosenbrock4 && !opt.jacobian && model.has_state_jacobian())
+    opt.jacobian = detail::motion_jacobian(model, tau, nq, nv, 0);
+  return integrate(opt, f, x, 0.0, t_end, dt_out, on_sample);
 }
 
 // Integrates from (q0, qd0) at t = 0 to t_end, sampling every dt_out into traj. tau(t) gives

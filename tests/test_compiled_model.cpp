@@ -512,6 +512,9 @@ TEST_F(SimulateCli, BadInputsGetClearErrors) {
             "is --torques file: it would be overwritten"},
            {"--zero --t-end 1 --q0 0,0,0,0,nan,0", "--q0[4]: 'nan' is not finite"},
            {"--zero --t-end 1 --integrator euler", "unknown integrator 'euler'"},
+           {"--zero --t-end 1 --integrator rosenbrock4",
+            "rosenbrock4 needs the Jacobian of the right-hand side (for a model: the scene's "
+            "output forward_dynamics_derivatives)"},
            {"--t-end 1", "give --torques FILE or --zero"},
        }) {
     int status = 0;

@@ -8,6 +8,9 @@
 #include "fixed_n5_geared_params.hpp"
 #include "free_n2_geared.hpp"
 #include "free_n3_base_params.hpp"
+#include "free_n4_mixed.hpp"
+#include "model.hpp"
+#include "paper_flexible.hpp"
 #include "paper_geared.hpp"
 #include "paper_geared_armature.hpp"
 #include "paper_reference.hpp"
@@ -160,6 +163,43 @@ void check_joint_state(Dyn<G>& d) {
   EXPECT_MATRIX_NEAR(rates, qd.template tail<N>().cwiseQuotient(d.ratios), 1e-15);
 }
 
+// The state Jacobian against fourth-order central differences of forward_dynamics, column by
+// column, compared row by row (a flexible joint's motor row is k / I_m times larger than a
+// link row); qdd is forward dynamics' own. Rates of size `rate` (small: inside the steep
+// part of tanh friction). Nominal parameters.
+template <class G>
+void check_state_jacobian(double rate) {
+  const typename G::template Parameters<double> params =
+      Eigen::Map<const typename G::template Parameters<double>>(G::nominal_parameters().data());
+  SCOPED_TRACE(G::kName);
+  static_assert(detail::has_state_jacobian<G>::value);
+  constexpr int n = G::kNv;
+  using Vec = Eigen::Matrix<double, n, 1>;
+  std::mt19937 rng(11);
+  const Model<G> model;  // forward dynamics: the emitted solve, or Cholesky of M and b
+  const auto qdd_at = [&](const Vec& q, const Vec& qd, const Vec& Q) {
+    return Vec(model.forward_dynamics(q, qd, Q));
+  };
+  for (int trial = 0; trial < 4; ++trial) {
+    const Vec q = test::random_vector(rng, n, 1.0), qd = test::random_vector(rng, n, rate),
+              Q = test::random_vector(rng, n, 5.0);
+    Eigen::Matrix<double, n, n> dq, dqd, fd_q, fd_qd;
+    Vec qdd;
+    G::forward_dynamics_derivatives(q, qd, Q, params, dq, dqd, qdd);
+    EXPECT_MATRIX_NEAR(qdd, qdd_at(q, qd, Q), 1e-12);
+    for (int k = 0; k < n; ++k) {
+      const Vec e = Vec::Unit(k);  // steps of 1e-3 (derivative_along)
+      fd_q.col(k) = derivative_along([&](const Vec& x) { return qdd_at(x, qd, Q); }, q, e);
+      fd_qd.col(k) = derivative_along([&](const Vec& x) { return qdd_at(q, x, Q); }, qd, e);
+    }
+    for (int i = 0; i < n; ++i) {
+      SCOPED_TRACE("row " + std::to_string(i));
+      EXPECT_MATRIX_NEAR(dq.row(i), fd_q.row(i), 1e-7);
+      EXPECT_MATRIX_NEAR(dqd.row(i), fd_qd.row(i), 1e-7);
+    }
+  }
+}
+
 template <class G>
 void check_all(const typename G::template Parameters<double>& params) {
   SCOPED_TRACE(G::kName);
@@ -201,6 +241,17 @@ TEST(DynamicsOutputs, FixedFiveGearedLinksWithParameters) {
 TEST(DynamicsOutputs, FreeThreeLinksLightBase) {
   check_all<models::free_n3_base_params::Model>(
       (Eigen::Vector4d() << 2.0, 0.05, 50, 1e-5).finished());
+}
+
+TEST(DynamicsOutputs, StateJacobianRigidGearedFreeBase) {
+  check_state_jacobian<models::free_n3_base_params::Model>(2.0);
+}
+TEST(DynamicsOutputs, StateJacobianFlexibleWithFriction) {
+  // Motor rates well above and inside the friction's velocity scale vs = 0.1 rad/s.
+  for (double rate : {2.0, 0.05}) check_state_jacobian<models::paper_flexible::Model>(rate);
+}
+TEST(DynamicsOutputs, StateJacobianMixedJoints) {
+  for (double rate : {2.0, 0.05}) check_state_jacobian<models::free_n4_mixed::Model>(rate);
 }
 
 }  // namespace
