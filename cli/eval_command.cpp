@@ -111,6 +111,21 @@ void evaluate_compiled(const Scene& scene, const EvalArgs& a, const EvalInputs& 
   if (a.verbose) std::fprintf(stderr, "spacearm: run %.3f ms\n", ms_since(t0));
 }
 
+// Generalized forces of joint torques tau (eq. 14): tau_j / p_j on the coordinate joint j
+// drives (its slot, or a flexible joint's motor coordinate), p_j at the parameters used.
+Eigen::VectorXd generalized_forces(const Scene& scene, const Eigen::VectorXd& params,
+                                   const Eigen::VectorXd& tau) {
+  auto value = [&](const Quantity& x) {
+    for (size_t i = 0; i < scene.parameters.size(); ++i)
+      if (x.is_parameter() && scene.parameters[i].name == x.parameter) return params[i];
+    return x.value;
+  };
+  Eigen::VectorXd Q = Eigen::VectorXd::Zero(scene.num_velocities());
+  for (int j = 0; j < scene.num_links(); ++j)
+    Q[scene.motor_coordinate(j)] = tau[j] / (scene.has_gear(j) ? value(scene.gears[j]->ratio) : 1);
+  return Q;
+}
+
 }  // namespace
 
 int run_eval(const EvalArgs& a) {
@@ -126,12 +141,16 @@ int run_eval(const EvalArgs& a) {
   in.values[Input::generalized_forces] = vector(a.forces_text, "--forces", nv);
   in.values[Input::joint_accelerations] = vector(a.qdd_joints_text, "--qdd-joints", N);
   in.params = cli::parse_parameters(a.param_assignments, scene);
+  if (!a.tau_text.empty())
+    in.values[Input::generalized_forces] =
+        generalized_forces(scene, in.params, cli::parse_vector(a.tau_text, "--tau", N));
   // An input that no output of the scene takes would do nothing: an error, not ignored.
   std::set<Input> used;
   for (Output o : scene.outputs) used.insert(info(o).inputs.begin(), info(o).inputs.end());
   for (const auto& [input, text, option] :
        {std::make_tuple(Input::qdd, a.qdd_text, "--qdd"),
         std::make_tuple(Input::generalized_forces, a.forces_text, "--forces"),
+        std::make_tuple(Input::generalized_forces, a.tau_text, "--tau"),
         std::make_tuple(Input::joint_accelerations, a.qdd_joints_text, "--qdd-joints")})
     if (!text.empty() && !used.count(input))
       throw std::invalid_argument(std::string(option) + ": the scene emits no output that takes " +
@@ -142,6 +161,10 @@ int run_eval(const EvalArgs& a) {
   for (const auto& [input, v] : in.values)
     if (input == Input::q || used.count(input))
       out[info(input).name] = std::vector<double>(v.data(), v.data() + v.size());
+  if (!a.tau_text.empty()) {
+    const Eigen::VectorXd tau = cli::parse_vector(a.tau_text, "--tau", N);
+    out["tau"] = std::vector<double>(tau.data(), tau.data() + tau.size());
+  }
   out["parameters"] = nlohmann::ordered_json::object();
   for (size_t i = 0; i < scene.parameters.size(); ++i)
     out["parameters"][scene.parameters[i].name] = in.params[i];

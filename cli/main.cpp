@@ -125,8 +125,14 @@ CLI::App* add_eval(CLI::App& app, spacearm::EvalArgs& a) {
   command->add_option("--q", a.q_text, "Coordinates, comma-separated")->required();
   command->add_option("--qd", a.qd_text, "Velocities, comma-separated (default: zeros)");
   command->add_option("--qdd", a.qdd_text, "Accelerations for inverse_dynamics (default: zeros)");
-  command->add_option("--forces", a.forces_text,
-                      "Generalized forces Q for forward_dynamics (default: zeros)");
+  auto* forces = command->add_option("--forces", a.forces_text,
+                                     "Generalized forces Q for forward_dynamics (default: zeros)");
+  command
+      ->add_option("--tau", a.tau_text,
+                   "Joint torques instead of --forces, one per joint, on the link side (as "
+                   "simulate --torques): Q = tau_i / p_i on the coordinate joint i drives (its "
+                   "motor), eq. 14")
+      ->excludes(forces);
   command->add_option("--qdd-joints", a.qdd_joints_text,
                       "Joint accelerations for free_base_inverse_dynamics (default: zeros)");
   command->add_option("--param", a.param_assignments,

@@ -92,7 +92,7 @@ std::unique_ptr<TorqueSignal<Eigen::Dynamic>> torque_signal(const SimulateArgs& 
 
 // The columns of a row, from what the scene emits.
 struct Columns {
-  bool geared, pose, energy, momentum;
+  bool geared, pose, energy, potential, momentum;
 };
 
 // Whether joint j (0-based) gets link-side angle and rate columns: only where its slot holds
@@ -120,6 +120,7 @@ std::string header(const DynamicModel& model, const Columns& c) {
     for (int j = 1; j <= N; ++j) h += ",tau_motor" + std::to_string(j);
   if (c.pose) h += ",ee_x,ee_y,ee_phi";
   if (c.energy) h += ",kinetic_energy";
+  if (c.potential) h += ",potential_energy";
   if (c.momentum) h += ",Px,Py,L";
   return h + "\n";
 }
@@ -153,6 +154,7 @@ std::string row(const DynamicModel& model, const Columns& c, double t, const Eig
   if (c.pose)
     for (double v : model.end_effector_pose(q)) append(r, v);
   if (c.energy) append(r, model.kinetic_energy(q, qd));
+  if (c.potential) append(r, model.potential_energy(q));
   if (c.momentum)
     for (double v : model.momentum(q, qd)) append(r, v);
   return r + "\n";
@@ -251,7 +253,7 @@ int run_simulate(const SimulateArgs& a) {
   const CompiledModel compiled = load_model(a, scene);
   const DynamicModel model = dynamic_model(compiled, params);
   const Columns cols{scene.geared(), bool(model.end_effector_pose), bool(model.kinetic_energy),
-                     bool(model.momentum)};
+                     bool(model.potential_energy), bool(model.momentum)};
 
   // Opened only now: a run refused above leaves an existing output file untouched.
   refuse_input_as_output(a.output_file,

@@ -465,6 +465,10 @@ DynamicModel dynamic_model(const CompiledModel& m, const Eigen::VectorXd& params
     d.kinetic_energy = [&m, params](const V& q, const V& qd) {
       return m.kinetic_energy(q, qd, params);
     };
+  if (m.has(Output::potential_energy))
+    d.potential_energy = [&m, params](const V& q) {
+      return m.evaluate(Output::potential_energy, {q}, params)[0](0, 0);
+    };
   if (m.has(Output::momentum))
     d.momentum = [&m, params](const V& q, const V& qd) { return m.momentum(q, qd, params); };
   return d;

@@ -49,6 +49,7 @@ struct DynamicModel {
       forward_dynamics_derivatives;
   std::function<double(const Vector& q, const Velocity& qd)> kinetic_energy;
   std::function<Vector3(const Vector& q, const Velocity& qd)> momentum;  // [Px, Py, L]
+  std::function<double(const Vector& q)> potential_energy;               // V of the joint springs
 
   int num_base() const { return free_floating ? 3 : 0; }
   bool has_state_jacobian() const { return static_cast<bool>(forward_dynamics_derivatives); }
@@ -136,6 +137,8 @@ DynamicModel dynamic_model(const Model<G>& m) {
     d.kinetic_energy = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
       return m.kinetic_energy(q, qd);
     };
+  if constexpr (M::kHasPotentialEnergy)
+    d.potential_energy = [&m](const Eigen::VectorXd& q) { return m.potential_energy(q); };
   if constexpr (G::kHas_momentum)
     d.momentum = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
       return Eigen::Vector3d(m.momentum(q, qd));

@@ -33,6 +33,11 @@ struct has_friction : std::false_type {};
 template <class G>
 struct has_friction<G, std::void_t<decltype(G::kHas_friction_forces)>> : std::true_type {};
 template <class G, class = void>
+struct has_potential_energy : std::false_type {};
+template <class G>
+struct has_potential_energy<G, std::void_t<decltype(G::kHas_potential_energy)>>
+    : std::bool_constant<G::kHas_potential_energy> {};
+template <class G, class = void>
 struct has_state_jacobian : std::false_type {};
 template <class G>
 struct has_state_jacobian<G, std::void_t<decltype(G::kHas_forward_dynamics_derivatives)>>
@@ -144,6 +149,13 @@ class Model {
   double kinetic_energy(const Vector& q, const Velocity& qd) const {
     return Generated::kinetic_energy(q, qd, params_);
   }
+  // V(q) of the joint springs, where the scene emits potential_energy.
+  template <class G2 = Generated,
+            std::enable_if_t<detail::has_potential_energy<G2>::value, int> = 0>
+  double potential_energy(const Vector& q) const {
+    return Generated::potential_energy(q, params_);
+  }
+  static constexpr bool kHasPotentialEnergy = detail::has_potential_energy<Generated>::value;
   Vector3 momentum(const Vector& q, const Velocity& qd) const {
     Vector3 h;
     Generated::momentum(q, qd, params_, h);

@@ -306,6 +306,40 @@ TEST_F(EvalCli, JsonEqualsGeneratedCodeAndSymbolicAgrees) {
   EXPECT_TRUE(compiled["free_base_inverse_dynamics"].contains("qdd_base"));
 }
 
+// Joint torques: --tau puts tau_i / p_i on the motor coordinate each joint drives (after the
+// joint slots in a flexible scene), as --forces would with those numbers there; the symbolic
+// path agrees, and potential_energy and qdd are in the JSON.
+TEST_F(EvalCli, JointTorquesDriveTheMotorCoordinates) {
+  const std::string scene = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_flexible.yaml";
+  const std::string state = " --q 0,0,0,0.6,1.1,-0.9,6.1,11,-9 --qd 0,0,0,0.1,0.2,0.3,1,2,3.5";
+  int status = 0;
+  const auto by_tau =
+      nlohmann::json::parse(run(cli + scene + state + " --tau 1,-2,3 --json", &status));
+  ASSERT_EQ(status, 0);
+  const auto by_forces = nlohmann::json::parse(
+      run(cli + scene + state + " --forces 0,0,0,0,0,0,0.1,-0.2,0.3 --json", &status));
+  ASSERT_EQ(status, 0);
+  EXPECT_EQ(by_tau["Q"], by_forces["Q"]);
+  EXPECT_EQ(by_tau["tau"], nlohmann::json::parse("[1.0, -2.0, 3.0]"));
+  EXPECT_EQ(by_tau["forward_dynamics"]["qdd"], by_forces["forward_dynamics"]["qdd"]);
+  EXPECT_GT(by_tau["potential_energy"].get<double>(), 0.0);
+  const auto symbolic =
+      nlohmann::json::parse(run(cli + scene + state + " --tau 1,-2,3 --json --symbolic", &status));
+  ASSERT_EQ(status, 0);
+  expect_json_near(symbolic["forward_dynamics"]["qdd"], by_tau["forward_dynamics"]["qdd"]);
+  // A run-time ratio divides too; and --tau excludes --forces.
+  const auto p20 = nlohmann::json::parse(
+      run(cli + scene + state + " --tau 1,-2,3 --param p=20 --json", &status));
+  ASSERT_EQ(status, 0);
+  EXPECT_DOUBLE_EQ(p20["Q"][6].get<double>(), 0.05);
+  const std::string both = run(cli + scene + state + " --tau 1,2,3 --forces 0 2>&1", &status);
+  EXPECT_NE(WEXITSTATUS(status), 0);
+  EXPECT_NE(both.find("excludes --tau"), std::string::npos) << both;
+  const std::string count = run(cli + scene + state + " --tau 1,2 2>&1", &status);
+  EXPECT_NE(count.find("--tau: expected 3 comma-separated values, got 2"), std::string::npos)
+      << count;
+}
+
 TEST_F(EvalCli, VerboseReportShowsTheCacheHit) {
   const std::string args = std::string(SPACEARM_SOURCE_DIR) +
                            "/models/paper_reference.yaml --q 0,0,0,0.1,0.2,0.3 --verbose 2>&1";
@@ -524,6 +558,26 @@ TEST_F(SimulateCli, BadInputsGetClearErrors) {
   }
   fs::remove(torques);
   fs::remove(grid);
+}
+
+// A stiff flexible scene: rosenbrock4 (the scene emits the state Jacobian) agrees with a
+// tight rkf78 run, and the rows carry the springs' potential energy.
+TEST_F(SimulateCli, FlexibleSceneRunsWithRosenbrock4AndWritesPotentialEnergy) {
+  const std::string flex = std::string(SPACEARM_CLI) + " simulate --cache-dir " + cache.string() +
+                           " " + SPACEARM_SOURCE_DIR + "/models/paper_flexible.yaml --zero " +
+                           "--t-end 0.2 --dt-out 0.1 --q0 0,0,0,0.6,1.1,-0.9,6.04,11.08,-8.88 ";
+  int status = 0;
+  const std::string head =
+      run(flex + "--integrator rosenbrock4 --rtol 1e-9 --atol 1e-11 | head -1", &status);
+  EXPECT_NE(head.find(",kinetic_energy,potential_energy,Px"), std::string::npos) << head;
+  const auto rb = rows(run(flex + "--integrator rosenbrock4 --rtol 1e-9 --atol 1e-11", &status));
+  ASSERT_EQ(status, 0);
+  const auto ref = rows(run(flex + "--integrator rkf78 --rtol 1e-12 --atol 1e-13", &status));
+  ASSERT_EQ(status, 0);
+  ASSERT_EQ(rb.size(), 3u);
+  ASSERT_EQ(ref.size(), 3u);
+  for (size_t c = 1; c < 19; ++c) EXPECT_NEAR(rb.back()[c], ref.back()[c], 1e-6) << "column " << c;
+  EXPECT_GT(rb.front()[rb.front().size() - 4], 0.0);  // the twisted springs hold energy at t = 0
 }
 
 std::string slurp(const fs::path& p) { return test::read_text_file(p.string()); }
