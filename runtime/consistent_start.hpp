@@ -1,0 +1,97 @@
+// A consistent initial state for flexible joints: the motor angle qm = p (q + e) with the
+// spring pre-deflected by e so that it carries the torque the link needs at t = 0, i.e. the
+// motor and the link side start with the same acceleration (qdd_m = p qdd_q), as a rigid gear
+// would have them; qm = p q instead would start the springs relaxed and ring the joint modes.
+// Only the model's forward dynamics is used: the accelerations are affine in the
+// pre-deflections (M does not depend on the motor angles; the spring forces are linear in
+// them), so one linear solve finds them, from N + 1 evaluations.
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "dynamic_model.hpp"
+
+namespace spacearm {
+
+namespace detail {
+// The two runtime models keep the gear ratios and actuated coordinates as functions
+// (Model<G>) or as data (DynamicModel).
+template <class G>
+Eigen::VectorXd gear_ratios_of(const Model<G>& m) {
+  return m.gear_ratios();
+}
+inline Eigen::VectorXd gear_ratios_of(const DynamicModel& m) { return m.gear_ratios; }
+template <class G>
+std::vector<int> actuated_of(const Model<G>& m) {
+  const auto a = m.actuated_coordinates();
+  return std::vector<int>(a.begin(), a.end());
+}
+inline std::vector<int> actuated_of(const DynamicModel& m) { return m.actuated_coordinates; }
+template <class G>
+int first_joint_of(const Model<G>&) {
+  return Model<G>::kFirstJoint;
+}
+inline int first_joint_of(const DynamicModel& m) { return m.num_base(); }
+}  // namespace detail
+
+// Sets the motor coordinates of the flexible joints of a linked Model<G> or a DynamicModel
+// in (q, qd): qd_m = p qd_q and qm = p (q + e) with e from the torques tau (link side, eq. 14)
+// acting at that state. The base and the joint slots (link angles of flexible joints, motor
+// angles of rigid gears) are kept. Returns e, one entry per joint (0 where not flexible).
+// Throws std::invalid_argument if the pre-deflections are not determined (no flexible joint
+// has a motor that the torque can balance, e.g. a degenerate model).
+template <class Mdl>
+Eigen::VectorXd consistent_start(const Mdl& model, typename Mdl::Vector& q,
+                                 typename Mdl::Velocity& qd, const typename Mdl::JointVector& tau) {
+  const int N = static_cast<int>(tau.size());
+  const std::vector<int> actuated = detail::actuated_of(model);
+  const Eigen::VectorXd ratios = detail::gear_ratios_of(model);
+  // Joint j's slot is first_joint + j, after the base; a flexible joint's torque drives a
+  // motor coordinate after all the slots instead.
+  const int first_joint = detail::first_joint_of(model);
+  std::vector<int> flexible;
+  for (int j = 0; j < N; ++j)
+    if (actuated[j] != first_joint + j) flexible.push_back(j);
+  Eigen::VectorXd e = Eigen::VectorXd::Zero(N);
+  if (flexible.empty()) return e;
+  auto slot = [&](int j) { return first_joint + j; };
+  const typename Mdl::Velocity Q = model.generalized_forces(tau);
+  for (int j : flexible) qd[actuated[j]] = ratios[j] * qd[slot(j)];
+  // The mismatch qdd_m - p qdd_q of each flexible joint for deflections d.
+  auto mismatch = [&](const Eigen::VectorXd& d) {
+    typename Mdl::Vector x = q;
+    for (size_t k = 0; k < flexible.size(); ++k) {
+      const int j = flexible[k];
+      x[actuated[j]] = ratios[j] * (q[slot(j)] + d[k]);
+    }
+    const typename Mdl::Velocity qdd = model.forward_dynamics(x, qd, Q);
+    Eigen::VectorXd r(flexible.size());
+    for (size_t k = 0; k < flexible.size(); ++k) {
+      const int j = flexible[k];
+      r[k] = qdd[actuated[j]] - ratios[j] * qdd[slot(j)];
+    }
+    return r;
+  };
+  const int F = static_cast<int>(flexible.size());
+  const Eigen::VectorXd r0 = mismatch(Eigen::VectorXd::Zero(F));
+  Eigen::MatrixXd A(F, F);
+  for (int k = 0; k < F; ++k) A.col(k) = mismatch(Eigen::VectorXd::Unit(F, k)) - r0;
+  const Eigen::FullPivLU<Eigen::MatrixXd> lu(A);
+  if (!lu.isInvertible())
+    throw std::invalid_argument(
+        "consistent_start: the springs' pre-deflections are not "
+        "determined by the accelerations (singular system)");
+  const Eigen::VectorXd d = lu.solve(-r0);
+  for (int k = 0; k < F; ++k) {
+    const int j = flexible[k];
+    e[j] = d[k];
+    q[actuated[j]] = ratios[j] * (q[slot(j)] + d[k]);
+  }
+  return e;
+}
+
+}  // namespace spacearm
