@@ -6,8 +6,11 @@
 // and energy balance (kinetic energy minus the work of the torques, integrated with the
 // state). Then float vs double vs long double for RK4, and the armature approximation of the
 // rotors against the exact coupling (the modelling error to set against the integration
-// error). Writes work_precision.csv, precision.csv, armature.csv; scripts/work_precision.sh
-// draws the figures.
+// error). Then the stiff case: the same torques into the paper's system with flexible joints
+// and friction (k = 1e4 N m/rad, a steep friction velocity scale), where the explicit methods
+// are held to tiny steps by stability and rosenbrock4 (with the emitted state Jacobian) is not.
+// Writes work_precision.csv, precision.csv, armature.csv, flexible.csv;
+// scripts/work_precision.sh draws the figures.
 #include <CLI/CLI.hpp>
 
 #include <Eigen/Cholesky>
@@ -18,6 +21,8 @@
 #include <fstream>
 #include <iostream>
 
+#include "consistent_start.hpp"
+#include "paper_flexible.hpp"
 #include "paper_geared.hpp"
 #include "paper_geared_armature.hpp"
 #include "paper_reference.hpp"
@@ -31,7 +36,7 @@ using Ref = Model<models::paper_reference::Model>;
 namespace {
 
 struct Outcome {
-  long evaluations = 0;
+  long evaluations = 0, jacobian_evaluations = 0;
   double seconds = 0;
   double ee_error = 0, momentum_error = 0, energy_error = 0;
   Eigen::Vector2d ee = Eigen::Vector2d::Zero();
@@ -52,6 +57,25 @@ Outcome run(const Model<G>& model, const typename Model<G>::Vector& q0, const To
     d.template segment<n>(n) = model.forward_dynamics(s.template head<n>(), qd, Q);
     d[2 * n] = Q.dot(qd);
   };
+  IntegratorOptions options = opt;
+  if constexpr (M::kHasStateJacobian)  // rosenbrock4: the motion's Jacobian, and W's row
+    if (opt.method == Method::rosenbrock4) {
+      const auto motion = detail::motion_jacobian(model, tau, n, n, 0);
+      options.jacobian = [motion, &model, &tau](const Eigen::VectorXd& s, double t,
+                                                Eigen::MatrixXd& J, Eigen::VectorXd& dfdt) {
+        Eigen::MatrixXd Jm;
+        Eigen::VectorXd dm;
+        motion(s.head(2 * n), t, Jm, dm);
+        J = Eigen::MatrixXd::Zero(2 * n + 1, 2 * n + 1);
+        J.topLeftCorner(2 * n, 2 * n) = Jm;
+        const typename M::Vector Q = model.generalized_forces(tau(t));
+        J.block(2 * n, n, 1, n) = Q.transpose();
+        dfdt = Eigen::VectorXd::Zero(2 * n + 1);
+        dfdt.head(2 * n) = dm;
+        const double h = 1e-6 * std::max(1.0, t);
+        dfdt[2 * n] = (model.generalized_forces(tau(t + h)) - Q).dot(s.segment(n, n)) / h;
+      };
+    }
   Outcome o;
   o.seconds = 1e300;
   State x;
@@ -60,10 +84,11 @@ Outcome run(const Model<G>& model, const typename Model<G>::Vector& q0, const To
     x.template head<n>() = q0;
     const auto start = std::chrono::steady_clock::now();
     const auto stats =
-        integrate(opt, f, x, 0.0, T, T, [](const State&, double) {});  // only the end
+        integrate(options, f, x, 0.0, T, T, [](const State&, double) {});  // only the end
     o.seconds = std::min(
         o.seconds, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     o.evaluations = stats.rhs_evaluations;
+    o.jacobian_evaluations = stats.jacobian_evaluations;
   }
   const typename M::Vector q = x.template head<n>(), qd = x.template segment<n>(n);
   o.ee = model.end_effector_pose(q).template head<2>();
@@ -99,6 +124,71 @@ Eigen::Vector2d rk4_in(const Model<models::paper_geared::Model>& g,
   m::Vector3<S> pose;
   m::end_effector_pose<S>(x.template head<6>(), params, pose);
   return pose.template head<2>().template cast<double>();
+}
+
+// The stiff case: the plan's torques into the flexible model from the consistent start
+// (springs carrying the initial torques), every method over its ladder; a run that fails (an
+// explicit method past its stability limit) is recorded with an error of inf.
+template <class Plan>
+void flexible_case(const std::string& out_dir, const StraightLineTask& task, const Plan& plan,
+                   const TorqueSignal<3>& tau, bool quick, int repeats) {
+  using Flex = Model<models::paper_flexible::Model>;
+  Flex m;
+  const double vs = 0.01;  // rad/s: friction slope Fs / vs / I_m = 1.5e4 1/s at rest
+  m.set_parameter("vs", vs);
+  Flex::Vector q0 = Flex::Vector::Zero();
+  Flex::Velocity qd0 = Flex::Velocity::Zero();
+  q0.head<6>() = plan.q.front();
+  consistent_start(m, q0, qd0, tau(0.0));
+  const double T = quick ? 1.0 : task.duration;
+  IntegratorOptions tight;
+  tight.method = Method::rkf78;
+  tight.rtol = 1e-12;
+  tight.atol = 1e-13;
+  tight.breakpoint_interval = task.dt / 4;
+  const Outcome reference = run(m, q0, tau, T, tight, 1);
+  std::printf("\nflexible joints (k = %g N m/rad, friction vs = %g rad/s), %g s: reference "
+              "(rkf78, 1e-12) %ld evaluations\n",
+              m.parameters()[2], vs, T, reference.evaluations);
+  std::ofstream csv(out_dir + "/flexible.csv");
+  csv.precision(6);
+  csv << "method,setting,evaluations,jacobians,wall_s,ee_error_m,energy_error_J\n";
+  auto record = [&](const std::string& method, double setting, const IntegratorOptions& opt) {
+    Outcome o;
+    long jacobians = 0;
+    double ee = std::numeric_limits<double>::infinity();
+    try {
+      o = run(m, q0, tau, T, opt, repeats);
+      jacobians = o.jacobian_evaluations;
+      ee = (o.ee - reference.ee).norm();
+    } catch (const std::exception& e) {  // unstable: the state overflowed or M broke down
+      o.seconds = std::numeric_limits<double>::quiet_NaN();
+    }
+    std::printf("%-18s %10g %12ld %9ld %11.3f %11.2e\n", method.c_str(), setting, o.evaluations,
+                jacobians, o.seconds * 1e3, ee);
+    csv << method << "," << setting << "," << o.evaluations << "," << jacobians << ","
+        << o.seconds << "," << ee << "," << o.energy_error << "\n";
+  };
+  std::printf("%-18s %10s %12s %9s %11s %11s\n", "method", "setting", "evaluations", "Jacobians",
+              "wall [ms]", "ee err [m]");
+  for (double dt : quick ? std::vector<double>{0.01, 1e-4}
+                         : std::vector<double>{0.01, 1e-3, 2e-4, 1e-4, 5e-5}) {
+    IntegratorOptions opt;
+    opt.method = Method::rk4;
+    opt.dt = dt;
+    record("rk4", dt, opt);
+  }
+  for (Method method : {Method::dopri5, Method::rkf78, Method::rosenbrock4})
+    for (double tol : quick ? std::vector<double>{1e-6} : std::vector<double>{1e-4, 1e-6, 1e-8,
+                                                                               1e-10}) {
+      IntegratorOptions opt;
+      opt.method = method;
+      opt.rtol = opt.atol = tol;
+      record(to_string(method), tol, opt);
+      if (method != Method::rosenbrock4) continue;
+      opt.breakpoint_interval = task.dt;  // steps land on the torque samples
+      record("rosenbrock4+samples", tol, opt);
+    }
 }
 
 }  // namespace
@@ -207,7 +297,9 @@ int main(int argc, char** argv) {
           "%.2e m\n",
           model_error);
     }
-    std::printf("\nwrote %s/work_precision.csv, precision.csv, armature.csv\n", out_dir.c_str());
+    flexible_case(out_dir, task, plan, tau, quick, repeats);
+    std::printf("\nwrote %s/work_precision.csv, precision.csv, armature.csv, flexible.csv\n",
+                out_dir.c_str());
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "work_precision: error: " << e.what() << "\n";

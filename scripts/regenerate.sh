@@ -3,6 +3,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 spacearm=${SPACEARM:-build/cli/spacearm}
-for scene in models/paper_reference.yaml models/paper_geared.yaml models/paper_geared_armature.yaml; do
+for scene in models/paper_reference.yaml models/paper_geared.yaml models/paper_geared_armature.yaml \
+             models/paper_flexible.yaml; do
   "$spacearm" generate "$scene" -o generated "$@"
 done

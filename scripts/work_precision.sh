@@ -5,6 +5,8 @@
 #   wp_time.png         end-effector error vs wall time
 #   wp_energy.png       energy-balance error vs evaluations
 #   wp_precision.png    RK4 in float, double and long double vs step
+#   wp_flexible.png     the stiff case (flexible joints, friction): error vs evaluations and
+#                       vs wall time (failed runs, past an explicit method's stability, omitted)
 # Options pass through, e.g. scripts/work_precision.sh --ratios 10 --repeats 5
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -58,5 +60,17 @@ do for [i = 1:words(ratios)] {
        with linespoints lw 2 pt 7 title (c == 3 ? "float" : c == 4 ? "double" : "long double")
 }
 unset multiplot
+set output "wp_flexible.png"
+set multiplot layout 1, 2 title "flexible joints with friction (stiff): end-effector error at T"
+fmethods = "rk4 dopri5 rkf78 rosenbrock4 rosenbrock4+samples"
+do for [c in "3 5"] {
+  col = c + 0
+  set title (col == 3 ? "against right-hand-side evaluations" : "against wall time")
+  set xlabel (col == 3 ? "right-hand-side evaluations (rosenbrock4: plus one Jacobian per step)" : "wall time [s]")
+  set ylabel "end-effector error at T [m]"
+  plot for [m in fmethods] sprintf("< awk -F, '\$1==\"%s\" && \$6 != \"inf\"' flexible.csv", m) \
+       using col:(\$6 > 0 ? \$6 : 1e-17) with linespoints lw 2 pt 7 title m
+}
+unset multiplot
 GP
-echo "figures: $out/wp_evaluations.png wp_time.png wp_energy.png wp_precision.png"
+echo "figures: $out/wp_evaluations.png wp_time.png wp_energy.png wp_precision.png wp_flexible.png"

@@ -1,0 +1,199 @@
+// Closed-loop joint control of the free-floating arm (the paper's future work: "analysis of
+// motor driving torques in the closed-loop system for the manipulator equipped with gears").
+// Two controllers, both giving link-side joint torques tau (the motor gets tau / p, eq. 14):
+//   PdController              tau = Kp e + Kd de, on the link-side joint errors;
+//   ComputedTorqueController  tau from the inverse dynamics of a chosen control model (the
+//                             reference, a rigid geared or a flexible one) with the base free
+//                             (no force on it), for the joint accelerations qdd_d + Kd de + Kp e.
+// The plant may be another model than the controller's. The controller is sampled: it reads
+// the plant's state every `period` and holds its torque until the next sample (zero-order
+// hold), as a digital joint controller does; integrate_closed_loop runs the loop.
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "dynamic_model.hpp"
+#include "simulation.hpp"
+
+namespace spacearm {
+
+// The desired link-side joint motion at one time.
+struct JointTarget {
+  Eigen::VectorXd q, qd, qdd;
+};
+
+// A joint trajectory through samples of (q, qd, qdd) on a uniform grid (e.g. a plan's), by the
+// quintic Hermite polynomial of each interval: q, qd and qdd are continuous and consistent.
+class SampledJointTrajectory {
+ public:
+  SampledJointTrajectory(double t0, double dt, std::vector<Eigen::VectorXd> q,
+                         std::vector<Eigen::VectorXd> qd, std::vector<Eigen::VectorXd> qdd)
+      : t0_(t0), dt_(dt), q_(std::move(q)), qd_(std::move(qd)), qdd_(std::move(qdd)) {
+    if (!(dt_ > 0) || q_.size() < 2 || qd_.size() != q_.size() || qdd_.size() != q_.size())
+      throw std::invalid_argument("SampledJointTrajectory: needs dt > 0 and at least two "
+                                  "samples of q, qd and qdd each");
+  }
+  // Clamped to the first and last samples (at rest there, for a plan from rest to rest).
+  JointTarget operator()(double t) const {
+    const double s = std::clamp((t - t0_) / dt_, 0.0, static_cast<double>(q_.size() - 1));
+    const size_t k = std::min(static_cast<size_t>(s), q_.size() - 2);
+    const double u = s - k, h = dt_;
+    // Quintic Hermite basis on [0, 1] and its derivatives (d/dt = d/du / h).
+    const double u2 = u * u, u3 = u2 * u, u4 = u3 * u, u5 = u4 * u;
+    const double H[6] = {1 - 10 * u3 + 15 * u4 - 6 * u5, u - 6 * u3 + 8 * u4 - 3 * u5,
+                         0.5 * (u2 - 3 * u3 + 3 * u4 - u5), 10 * u3 - 15 * u4 + 6 * u5,
+                         -4 * u3 + 7 * u4 - 3 * u5, 0.5 * (u3 - 2 * u4 + u5)};
+    const double dH[6] = {-30 * u2 + 60 * u3 - 30 * u4, 1 - 18 * u2 + 32 * u3 - 15 * u4,
+                          0.5 * (2 * u - 9 * u2 + 12 * u3 - 5 * u4), 30 * u2 - 60 * u3 + 30 * u4,
+                          -12 * u2 + 28 * u3 - 15 * u4, 0.5 * (3 * u2 - 8 * u3 + 5 * u4)};
+    const double ddH[6] = {-60 * u + 180 * u2 - 120 * u3, -36 * u + 96 * u2 - 60 * u3,
+                           0.5 * (2 - 18 * u + 36 * u2 - 20 * u3), 60 * u - 180 * u2 + 120 * u3,
+                           -24 * u + 84 * u2 - 60 * u3, 0.5 * (6 * u - 24 * u2 + 20 * u3)};
+    auto blend = [&](const double* B, double scale) {
+      return Eigen::VectorXd(scale * (B[0] * q_[k] + B[1] * h * qd_[k] + B[2] * h * h * qdd_[k] +
+                                      B[3] * q_[k + 1] + B[4] * h * qd_[k + 1] +
+                                      B[5] * h * h * qdd_[k + 1]));
+    };
+    const bool outside = t < t0_ || s >= q_.size() - 1;
+    if (outside) {  // hold the end sample
+      const size_t i = t < t0_ ? 0 : q_.size() - 1;
+      return {q_[i], qd_[i] * 0.0, qdd_[i] * 0.0};
+    }
+    return {blend(H, 1.0), blend(dH, 1 / h), blend(ddH, 1 / (h * h))};
+  }
+
+ private:
+  double t0_, dt_;
+  std::vector<Eigen::VectorXd> q_, qd_, qdd_;
+};
+
+// Per-joint gains: stiffness kp and damping kd (in torque units for PdController, in
+// acceleration units, 1/s^2 and 1/s, for ComputedTorqueController).
+struct JointGains {
+  Eigen::VectorXd kp, kd;
+  // Critically damped error dynamics e'' + kd e' + kp e = 0 of natural frequency omega.
+  static JointGains critically_damped(int joints, double omega) {
+    return {Eigen::VectorXd::Constant(joints, omega * omega),
+            Eigen::VectorXd::Constant(joints, 2 * omega)};
+  }
+};
+
+// tau = Kp (q_d - q) + Kd (qd_d - qd) on the link side.
+class PdController {
+ public:
+  explicit PdController(JointGains gains) : gains_(std::move(gains)) {}
+  Eigen::VectorXd torque(const JointTarget& target, const Eigen::VectorXd& q_joints,
+                         const Eigen::VectorXd& qd_joints) const {
+    return gains_.kp.cwiseProduct(target.q - q_joints) +
+           gains_.kd.cwiseProduct(target.qd - qd_joints);
+  }
+
+ private:
+  JointGains gains_;
+};
+
+// Inverse dynamics of the control model with the base free, from the plant's base state and
+// link-side joint state mapped into the control model's coordinates (motor angles p q of a
+// rigid gear; a flexible joint's motor at p q, the spring untwisted). With a = the commanded
+// link-side joint accelerations (motor ones p a): M_bb a_b = -(M_b,rest a_rest + h_b), then
+// r = M a + h, and tau_j = p_j r_motor(j) (+ r_link(j) for a flexible joint: the spring would
+// carry it, the k -> infinity limit). h = b + springs, dampers and friction, read as
+// -M qdd(Q = 0) from the model's forward dynamics (so friction is compensated too).
+class ComputedTorqueController {
+ public:
+  ComputedTorqueController(const DynamicModel& control, JointGains gains)
+      : model_(control), gains_(std::move(gains)) {
+    if (!model_.mass_matrix_and_bias || !model_.forward_dynamics)
+      throw std::invalid_argument("ComputedTorqueController: the control model '" + model_.name +
+                                  "' must emit mass_matrix, bias_forces and forward_dynamics");
+  }
+
+  const DynamicModel& model() const { return model_; }
+
+  // tau for the plant's base pose and rates (num_base values each) and link-side joint state.
+  Eigen::VectorXd torque(const JointTarget& target, const Eigen::VectorXd& base_q,
+                         const Eigen::VectorXd& base_qd, const Eigen::VectorXd& q_joints,
+                         const Eigen::VectorXd& qd_joints) const {
+    const Eigen::VectorXd a = target.qdd + gains_.kd.cwiseProduct(target.qd - qd_joints) +
+                              gains_.kp.cwiseProduct(target.q - q_joints);
+    return inverse_dynamics(base_q, base_qd, q_joints, qd_joints, a);
+  }
+
+  // Link-side joint torques for link-side joint accelerations a, no force on the base.
+  Eigen::VectorXd inverse_dynamics(const Eigen::VectorXd& base_q, const Eigen::VectorXd& base_qd,
+                                   const Eigen::VectorXd& q_joints,
+                                   const Eigen::VectorXd& qd_joints,
+                                   const Eigen::VectorXd& a) const {
+    const int nv = model_.nv, nb = model_.num_base(), N = model_.num_links;
+    Eigen::VectorXd q(nv), qd(nv), acc = Eigen::VectorXd::Zero(nv);
+    q.head(nb) = base_q;
+    qd.head(nb) = base_qd;
+    for (int j = 0; j < N; ++j) {
+      const int slot = nb + j, motor = model_.actuated_coordinates[j];
+      const double p = model_.gear_ratios[j];
+      const double link = motor == slot ? p : 1;  // a rigid gear's slot holds p q
+      q[slot] = link * q_joints[j];
+      qd[slot] = link * qd_joints[j];
+      acc[slot] = link * a[j];
+      q[motor] = p * q_joints[j];
+      qd[motor] = p * qd_joints[j];
+      acc[motor] = p * a[j];
+    }
+    Eigen::MatrixXd M;
+    Eigen::VectorXd b;
+    model_.mass_matrix_and_bias(q, qd, M, b);
+    const Eigen::VectorXd h = -M * model_.forward_dynamics(q, qd, Eigen::VectorXd::Zero(nv));
+    if (nb > 0)
+      acc.head(nb) = -M.topLeftCorner(nb, nb).ldlt().solve(
+          M.block(0, nb, nb, nv - nb) * acc.tail(nv - nb) + h.head(nb));
+    const Eigen::VectorXd r = M * acc + h;
+    Eigen::VectorXd tau(N);
+    for (int j = 0; j < N; ++j) {
+      const int slot = nb + j, motor = model_.actuated_coordinates[j];
+      tau[j] = model_.gear_ratios[j] * r[motor] + (motor == slot ? 0.0 : r[slot]);
+    }
+    return tau;
+  }
+
+ private:
+  const DynamicModel& model_;
+  JointGains gains_;
+};
+
+// Runs a sampled controller on a plant: every `period` from t = 0 the controller reads the
+// plant's state (t, q, qd) and returns link-side joint torques, held until the next sample;
+// record(t, q, qd, tau) sees each sample with the torque decided there. The integrator steps
+// land on the samples (a step never straddles a torque change): rk4 and implicit_midpoint
+// need `period` to be a multiple of options.dt; rosenbrock4 uses the plant's state Jacobian
+// (the held torque does not depend on the state within a step).
+template <class Control, class Record>
+IntegrationStats integrate_closed_loop(const DynamicModel& plant, const Eigen::VectorXd& q0,
+                                       const Eigen::VectorXd& qd0, Control&& control,
+                                       double period, double t_end, IntegratorOptions options,
+                                       Record&& record) {
+  if (!(period > 0) || !std::isfinite(period))
+    throw std::invalid_argument("integrate_closed_loop: the control period must be positive");
+  Eigen::VectorXd held = Eigen::VectorXd::Zero(plant.num_links);
+  auto torque = [&held](double) { return held; };
+  auto sample = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+    held = control(t, q, qd);
+    if (held.size() != plant.num_links || !held.allFinite())
+      throw std::runtime_error("integrate_closed_loop: the controller's torque at t = " +
+                               std::to_string(t) + " is not finite or has the wrong size");
+    record(t, q, qd, held);
+  };
+  if (options.method != Method::rk4 && options.method != Method::implicit_midpoint) {
+    options.breakpoint_interval = period;  // controlled steps that land on every sample
+    options.breakpoint_origin = 0;
+  }
+  return integrate_motion(plant, q0, qd0, torque, t_end, period, options, sample);
+}
+
+}  // namespace spacearm
