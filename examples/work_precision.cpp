@@ -147,9 +147,10 @@ void flexible_case(const std::string& out_dir, const StraightLineTask& task, con
   tight.atol = 1e-13;
   tight.breakpoint_interval = task.dt / 4;
   const Outcome reference = run(m, q0, tau, T, tight, 1);
-  std::printf("\nflexible joints (k = %g N m/rad, friction vs = %g rad/s), %g s: reference "
-              "(rkf78, 1e-12) %ld evaluations\n",
-              m.parameters()[2], vs, T, reference.evaluations);
+  std::printf(
+      "\nflexible joints (k = %g N m/rad, friction vs = %g rad/s), %g s: reference "
+      "(rkf78, 1e-12) %ld evaluations\n",
+      m.parameters()[2], vs, T, reference.evaluations);
   std::ofstream csv(out_dir + "/flexible.csv");
   csv.precision(6);
   csv << "method,setting,evaluations,jacobians,wall_s,ee_error_m,energy_error_J\n";
@@ -166,8 +167,8 @@ void flexible_case(const std::string& out_dir, const StraightLineTask& task, con
     }
     std::printf("%-18s %10g %12ld %9ld %11.3f %11.2e\n", method.c_str(), setting, o.evaluations,
                 jacobians, o.seconds * 1e3, ee);
-    csv << method << "," << setting << "," << o.evaluations << "," << jacobians << ","
-        << o.seconds << "," << ee << "," << o.energy_error << "\n";
+    csv << method << "," << setting << "," << o.evaluations << "," << jacobians << "," << o.seconds
+        << "," << ee << "," << o.energy_error << "\n";
   };
   std::printf("%-18s %10s %12s %9s %11s %11s\n", "method", "setting", "evaluations", "Jacobians",
               "wall [ms]", "ee err [m]");
@@ -179,8 +180,8 @@ void flexible_case(const std::string& out_dir, const StraightLineTask& task, con
     record("rk4", dt, opt);
   }
   for (Method method : {Method::dopri5, Method::rkf78, Method::rosenbrock4})
-    for (double tol : quick ? std::vector<double>{1e-6} : std::vector<double>{1e-4, 1e-6, 1e-8,
-                                                                               1e-10}) {
+    for (double tol :
+         quick ? std::vector<double>{1e-6} : std::vector<double>{1e-4, 1e-6, 1e-8, 1e-10}) {
       IntegratorOptions opt;
       opt.method = method;
       opt.rtol = opt.atol = tol;

@@ -37,34 +37,41 @@ class SampledJointTrajectory {
                          std::vector<Eigen::VectorXd> qd, std::vector<Eigen::VectorXd> qdd)
       : t0_(t0), dt_(dt), q_(std::move(q)), qd_(std::move(qd)), qdd_(std::move(qdd)) {
     if (!(dt_ > 0) || q_.size() < 2 || qd_.size() != q_.size() || qdd_.size() != q_.size())
-      throw std::invalid_argument("SampledJointTrajectory: needs dt > 0 and at least two "
-                                  "samples of q, qd and qdd each");
+      throw std::invalid_argument(
+          "SampledJointTrajectory: needs dt > 0 and at least two "
+          "samples of q, qd and qdd each");
   }
-  // Clamped to the first and last samples (at rest there, for a plan from rest to rest).
+  // Outside the samples: at rest at the first or last one (a plan from rest to rest).
   JointTarget operator()(double t) const {
     const double s = std::clamp((t - t0_) / dt_, 0.0, static_cast<double>(q_.size() - 1));
     const size_t k = std::min(static_cast<size_t>(s), q_.size() - 2);
     const double u = s - k, h = dt_;
     // Quintic Hermite basis on [0, 1] and its derivatives (d/dt = d/du / h).
     const double u2 = u * u, u3 = u2 * u, u4 = u3 * u, u5 = u4 * u;
-    const double H[6] = {1 - 10 * u3 + 15 * u4 - 6 * u5, u - 6 * u3 + 8 * u4 - 3 * u5,
+    const double H[6] = {1 - 10 * u3 + 15 * u4 - 6 * u5,    u - 6 * u3 + 8 * u4 - 3 * u5,
                          0.5 * (u2 - 3 * u3 + 3 * u4 - u5), 10 * u3 - 15 * u4 + 6 * u5,
-                         -4 * u3 + 7 * u4 - 3 * u5, 0.5 * (u3 - 2 * u4 + u5)};
-    const double dH[6] = {-30 * u2 + 60 * u3 - 30 * u4, 1 - 18 * u2 + 32 * u3 - 15 * u4,
-                          0.5 * (2 * u - 9 * u2 + 12 * u3 - 5 * u4), 30 * u2 - 60 * u3 + 30 * u4,
-                          -12 * u2 + 28 * u3 - 15 * u4, 0.5 * (3 * u2 - 8 * u3 + 5 * u4)};
-    const double ddH[6] = {-60 * u + 180 * u2 - 120 * u3, -36 * u + 96 * u2 - 60 * u3,
-                           0.5 * (2 - 18 * u + 36 * u2 - 20 * u3), 60 * u - 180 * u2 + 120 * u3,
-                           -24 * u + 84 * u2 - 60 * u3, 0.5 * (6 * u - 24 * u2 + 20 * u3)};
+                         -4 * u3 + 7 * u4 - 3 * u5,         0.5 * (u3 - 2 * u4 + u5)};
+    const double dH[6] = {-30 * u2 + 60 * u3 - 30 * u4,
+                          1 - 18 * u2 + 32 * u3 - 15 * u4,
+                          0.5 * (2 * u - 9 * u2 + 12 * u3 - 5 * u4),
+                          30 * u2 - 60 * u3 + 30 * u4,
+                          -12 * u2 + 28 * u3 - 15 * u4,
+                          0.5 * (3 * u2 - 8 * u3 + 5 * u4)};
+    const double ddH[6] = {-60 * u + 180 * u2 - 120 * u3,
+                           -36 * u + 96 * u2 - 60 * u3,
+                           0.5 * (2 - 18 * u + 36 * u2 - 20 * u3),
+                           60 * u - 180 * u2 + 120 * u3,
+                           -24 * u + 84 * u2 - 60 * u3,
+                           0.5 * (6 * u - 24 * u2 + 20 * u3)};
     auto blend = [&](const double* B, double scale) {
       return Eigen::VectorXd(scale * (B[0] * q_[k] + B[1] * h * qd_[k] + B[2] * h * h * qdd_[k] +
                                       B[3] * q_[k + 1] + B[4] * h * qd_[k + 1] +
                                       B[5] * h * h * qdd_[k + 1]));
     };
-    const bool outside = t < t0_ || s >= q_.size() - 1;
-    if (outside) {  // hold the end sample
+    const double t_last = t0_ + dt_ * static_cast<double>(q_.size() - 1);
+    if (t < t0_ || t > t_last) {  // before or after: at rest at the end sample
       const size_t i = t < t0_ ? 0 : q_.size() - 1;
-      return {q_[i], qd_[i] * 0.0, qdd_[i] * 0.0};
+      return {q_[i], Eigen::VectorXd::Zero(q_[i].size()), Eigen::VectorXd::Zero(q_[i].size())};
     }
     return {blend(H, 1.0), blend(dH, 1 / h), blend(ddH, 1 / (h * h))};
   }
@@ -175,9 +182,8 @@ class ComputedTorqueController {
 // (the held torque does not depend on the state within a step).
 template <class Control, class Record>
 IntegrationStats integrate_closed_loop(const DynamicModel& plant, const Eigen::VectorXd& q0,
-                                       const Eigen::VectorXd& qd0, Control&& control,
-                                       double period, double t_end, IntegratorOptions options,
-                                       Record&& record) {
+                                       const Eigen::VectorXd& qd0, Control&& control, double period,
+                                       double t_end, IntegratorOptions options, Record&& record) {
   if (!(period > 0) || !std::isfinite(period))
     throw std::invalid_argument("integrate_closed_loop: the control period must be positive");
   Eigen::VectorXd held = Eigen::VectorXd::Zero(plant.num_links);
