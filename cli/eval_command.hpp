@@ -10,7 +10,7 @@ namespace spacearm {
 struct EvalArgs {
   std::string scene_path, q_text, qd_text, cache_dir;
   std::string qdd_text, forces_text,
-      qdd_joints_text;  // inputs of the dynamics outputs (default zeros)
+      qdd_joints_text;   // inputs of the dynamics outputs (default zeros)
   std::string tau_text;  // joint torques, one per joint: Q = tau / p on the driven coordinates
   std::vector<std::string> param_assignments;
   bool compact_json = false, symbolic = false, verbose = false;
