@@ -171,6 +171,10 @@ CLI::App* add_simulate(CLI::App& app, spacearm::SimulateArgs& a) {
   command->add_option("--q0", a.q0_text,
                       "Initial coordinates (default: zeros; motor angles qm = p q if geared)");
   command->add_option("--qd0", a.qd0_text, "Initial velocities (default: zeros)");
+  command->add_flag("--consistent-start", a.consistent_start,
+                    "Flexible joints: motor angles qm = p (q + e) and rates p qd instead of "
+                    "their --q0/--qd0 values, the springs pre-deflected by e to carry the torque "
+                    "at t = 0 (motor and link start with the same acceleration)");
   command->add_option("--param", a.param_assignments,
                       "Run-time parameter name=value (repeatable, once per name)");
   command->add_option(

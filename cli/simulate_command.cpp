@@ -13,6 +13,7 @@
 #include "cli_input.hpp"
 #include "compiled_model.hpp"
 #include "dynamic_model.hpp"
+#include "consistent_start.hpp"
 #include "integrators.hpp"
 #include "row_writer.hpp"
 #include "simulation.hpp"
@@ -239,9 +240,12 @@ int run_simulate(const SimulateArgs& a) {
                 : "simulate: the scene must emit forward_dynamics, or mass_matrix and bias_forces "
                   "(field 'outputs')");
   const int nq = scene.num_coordinates(), nv = scene.num_velocities(), N = scene.num_links();
-  const Eigen::VectorXd q0 =
+  if (a.consistent_start && !scene.num_flexible())
+    throw std::invalid_argument(
+        "--consistent-start: the scene has no flexible joint (gears[i].stiffness)");
+  Eigen::VectorXd q0 =
       a.q0_text.empty() ? Eigen::VectorXd::Zero(nq) : cli::parse_vector(a.q0_text, "--q0", nq);
-  const Eigen::VectorXd qd0 =
+  Eigen::VectorXd qd0 =
       a.qd0_text.empty() ? Eigen::VectorXd::Zero(nv) : cli::parse_vector(a.qd0_text, "--qd0", nv);
   const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, scene);
   IntegratorOptions opt = integrator_options(a);
@@ -252,6 +256,7 @@ int run_simulate(const SimulateArgs& a) {
   if (!a.zero_torque) replay = std::make_unique<TorqueReplay<Eigen::Dynamic>>(*tau, opt, "--dt");
   const CompiledModel compiled = load_model(a, scene);
   const DynamicModel model = dynamic_model(compiled, params);
+  if (a.consistent_start) consistent_start(model, q0, qd0, (*tau)(0.0));
   const Columns cols{scene.geared(), bool(model.end_effector_pose), bool(model.kinetic_energy),
                      bool(model.potential_energy), bool(model.momentum)};
 

@@ -12,6 +12,9 @@ namespace spacearm {
 struct SimulateArgs {
   std::string scene_path, torque_file, output_file, cache_dir;
   bool zero_torque = false, verbose = false;
+  // Flexible joints: set the motor coordinates to qm = p (q + e), the springs pre-deflected
+  // for the torque at t = 0 (runtime/consistent_start.hpp), instead of taking them from --q0.
+  bool consistent_start = false;
   std::string integrator = "rk4", interpolation = "linear", extrapolate = "error";
   double t_end = 0, dt = 0.01, dt_out = 0, rtol = 1e-8, atol = 1e-10;
   std::string q0_text, qd0_text;
