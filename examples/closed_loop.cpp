@@ -5,8 +5,9 @@
 // paper's controller would use) or on the plant's own model, against
 //   - rigid geared plants over the paper's gear ratios, and
 //   - flexible-joint plants (with motor friction) over the joint stiffness k.
-// Per run: end-effector tracking error (max, final), torque effort (RMS, peak) and the extra
-// torque beyond the plan's open-loop torques, with where it peaks. Writes
+// Per run: end-effector tracking error (max, final), torque effort (RMS over joints and time,
+// peak of any joint) and the extra torque beyond the plan's open-loop torques, with where it
+// peaks. Writes
 // closed_loop_ratios.csv, closed_loop_stiffness.csv and closed_loop_torques.csv (the torque
 // histories at one ratio); scripts/closed_loop.sh draws the figures.
 #include <CLI/CLI.hpp>
@@ -81,8 +82,12 @@ Metrics run_loop(const Manoeuvre& m, const DynamicModel& plant, const DynamicMod
   const ComputedTorqueController ct(control, JointGains::critically_damped(3, omega));
   const int nv = plant.nv;
   auto decide = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
-    return ct.torque(m.target(t), q.head(3), qd.head(3), plant.joint_angles(q),
-                     plant.joint_angles(qd));
+    const JointTarget target = m.target(t);
+    const Eigen::VectorXd q_joints = plant.joint_angles(q);
+    // A loop gone unstable: stop instead of chasing a growing oscillation.
+    if ((q_joints - target.q).cwiseAbs().maxCoeff() > 0.1)
+      throw std::runtime_error("unstable: joint error above 0.1 rad at t = " + std::to_string(t));
+    return ct.torque(target, q.head(3), qd.head(3), q_joints, plant.joint_angles(qd));
   };
   Eigen::VectorXd q0 = Eigen::VectorXd::Zero(nv), qd0 = Eigen::VectorXd::Zero(nv);
   q0.head(3) = m.plan.q.front().head<3>();
@@ -92,13 +97,21 @@ Metrics run_loop(const Manoeuvre& m, const DynamicModel& plant, const DynamicMod
   consistent_start(plant, q0, qd0, decide(0.0, q0, qd0));
   Metrics r;
   double tau2 = 0, extra2 = 0;
-  long samples = 0;
-  const long per_plan_sample = std::lround(m.task.dt / period);
+  long samples = 0, applied = 0;
+  const long per_plan_sample = std::lround(m.task.dt / period);  // main checks: a whole number
+  const long last = std::lround(m.task.duration / period);
   auto record = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd&,
                     const Eigen::VectorXd& tau) {
     const Eigen::Vector3d extra = tau - m.plan_torque(t);
-    tau2 += tau.squaredNorm();
-    extra2 += extra.squaredNorm();
+    if (samples == last) {  // the torque decided at T is never applied: the end-effector only
+      const double e = (plant.end_effector_pose(q).head<2>() - m.ee.back()).norm();
+      r.ee_max = std::max(r.ee_max, e);
+      r.ee_final = e;
+      return;
+    }
+    ++applied;
+    tau2 += tau.squaredNorm() / 3;  // per joint: the RMS of the joints' torques
+    extra2 += extra.squaredNorm() / 3;
     r.tau_peak = std::max(r.tau_peak, tau.cwiseAbs().maxCoeff());
     Eigen::Index j;
     if (extra.cwiseAbs().maxCoeff(&j) > r.extra_peak) {
@@ -121,8 +134,8 @@ Metrics run_loop(const Manoeuvre& m, const DynamicModel& plant, const DynamicMod
   } catch (const std::exception& e) {  // diverged: the state or the dynamics broke down
     r.failure = e.what();
   }
-  r.tau_rms = std::sqrt(tau2 / std::max<long>(samples, 1));
-  r.extra_rms = std::sqrt(extra2 / std::max<long>(samples, 1));
+  r.tau_rms = std::sqrt(tau2 / std::max<long>(applied, 1));
+  r.extra_rms = std::sqrt(extra2 / std::max<long>(applied, 1));
   return r;
 }
 
@@ -146,91 +159,111 @@ void print_columns(const char* sweep) {
               "at [s]", "j");
 }
 
+// The study's settings (command-line options).
+struct Study {
+  std::vector<double> ratios{1, 1.05, 1.1, 1.25, 1.5, 2, 2.5, 5, 10};
+  std::vector<double> stiffnesses{1e2, 3e2, 1e3, 3e3, 1e4, 2.5e4, 1e5, 1e6};
+  double p_flexible = 10, damping = 1, rate = 1000, omega = 20, series_ratio = 10;
+  std::string out_dir = "out/closed_loop";
+  StraightLineTask task;
+};
+
+// Rigid geared plants over the ratios, RK4 at the control period; the torque histories of
+// both controllers at the series ratio go to closed_loop_torques.csv.
+void ratio_sweep(const Study& s, const Manoeuvre& m, const DynamicModel& reference) {
+  const double period = 1 / s.rate;
+  IntegratorOptions opt;
+  opt.method = Method::rk4;
+  opt.dt = period;
+  std::ofstream csv(s.out_dir + "/closed_loop_ratios.csv");
+  write_header(csv, "p");
+  std::printf("\nrigid geared plants\n");
+  print_columns("p");
+  std::vector<TorqueRow> series_ref, series_match;
+  for (double p : s.ratios) {
+    Model<models::paper_geared::Model> geared;
+    geared.set_parameter("p", p);
+    const DynamicModel plant = dynamic_model(geared);
+    const bool keep = p == s.series_ratio;
+    write_row(csv, p, "reference",
+              run_loop(m, plant, reference, s.omega, period, opt, keep ? &series_ref : nullptr));
+    write_row(csv, p, "matching",
+              run_loop(m, plant, plant, s.omega, period, opt, keep ? &series_match : nullptr));
+  }
+  std::ofstream torques(s.out_dir + "/closed_loop_torques.csv");
+  torques << "t,plan1,plan2,plan3,reference1,reference2,reference3,matching1,matching2,matching3\n";
+  for (size_t i = 0; i < series_ref.size() && i < series_match.size(); ++i) {
+    torques << series_ref[i].t;
+    for (const auto* v : {&series_ref[i].plan, &series_ref[i].tau, &series_match[i].tau})
+      for (int j = 0; j < 3; ++j) torques << "," << (*v)[j];
+    torques << "\n";
+  }
+}
+
+// Flexible plants over the stiffnesses: stiff, so rosenbrock4 with the plant's Jacobian.
+void stiffness_sweep(const Study& s, const Manoeuvre& m, const DynamicModel& reference) {
+  const double period = 1 / s.rate;
+  IntegratorOptions opt;
+  opt.method = Method::rosenbrock4;
+  opt.rtol = opt.atol = 1e-8;
+  std::ofstream csv(s.out_dir + "/closed_loop_stiffness.csv");
+  write_header(csv, "k");
+  std::printf(
+      "\nflexible plants, p = %g, d = %g N m s/rad, motor friction of "
+      "models/paper_flexible.yaml\n",
+      s.p_flexible, s.damping);
+  print_columns("k");
+  for (double k : s.stiffnesses) {
+    Model<models::paper_flexible::Model> flex;
+    flex.set_parameter("p", s.p_flexible);
+    flex.set_parameter("k", k);
+    flex.set_parameter("d", s.damping);
+    const DynamicModel plant = dynamic_model(flex);
+    write_row(csv, k, "reference", run_loop(m, plant, reference, s.omega, period, opt));
+    write_row(csv, k, "matching", run_loop(m, plant, plant, s.omega, period, opt));
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"Closed-loop tracking of the paper's straight line with geared and flexible arms"};
-  std::vector<double> ratios{1, 1.05, 1.1, 1.25, 1.5, 2, 2.5, 5, 10};
-  std::vector<double> stiffnesses{1e2, 3e2, 1e3, 3e3, 1e4, 2.5e4, 1e5, 1e6};
-  double p_flexible = 10, rate = 1000, omega = 20, series_ratio = 10;
-  std::string out_dir = "out/closed_loop";
-  StraightLineTask task;
-  app.add_option("--ratios", ratios, "Gear ratios of the rigid geared plants")->delimiter(',');
-  app.add_option("--stiffnesses", stiffnesses,
+  Study s;
+  app.add_option("--ratios", s.ratios, "Gear ratios of the rigid geared plants")->delimiter(',');
+  app.add_option("--stiffnesses", s.stiffnesses,
                  "Joint stiffnesses k of the flexible plants [N m/rad]")
       ->delimiter(',');
-  app.add_option("--flexible-ratio", p_flexible, "Gear ratio of the flexible plants");
-  app.add_option("--rate", rate, "Controller sampling rate [Hz]")->check(CLI::PositiveNumber);
-  app.add_option("--omega", omega, "Closed-loop natural frequency [rad/s] (critically damped)")
+  app.add_option("--flexible-ratio", s.p_flexible, "Gear ratio of the flexible plants");
+  app.add_option("--damping", s.damping, "Joint damping d of the flexible plants [N m s/rad]")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--rate", s.rate, "Controller sampling rate [Hz]")->check(CLI::PositiveNumber);
+  app.add_option("--omega", s.omega, "Closed-loop natural frequency [rad/s] (critically damped)")
       ->check(CLI::PositiveNumber);
-  app.add_option("--duration", task.duration, "Manoeuvre duration T [s]")
+  app.add_option("--duration", s.task.duration, "Manoeuvre duration T [s]")
       ->check(CLI::PositiveNumber);
-  app.add_option("--series-ratio", series_ratio, "Ratio whose torque histories are written");
-  app.add_option("--out", out_dir, "Output folder");
+  app.add_option("--series-ratio", s.series_ratio, "Ratio whose torque histories are written");
+  app.add_option("--out", s.out_dir, "Output folder");
   CLI11_PARSE(app, argc, argv);
+  const double per_sample = s.task.dt * s.rate;  // control samples per plan sample
+  if (std::abs(per_sample - std::round(per_sample)) > 1e-9 * per_sample || per_sample < 0.5) {
+    std::cerr << "closed_loop: error: --rate " << s.rate << " Hz: the plan's step (" << s.task.dt
+              << " s) must be a whole number of control periods\n";
+    return 1;
+  }
   try {
-    std::filesystem::create_directories(out_dir);
-    const Manoeuvre m(task);
-    const double period = 1 / rate;
+    std::filesystem::create_directories(s.out_dir);
+    const Manoeuvre m(s.task);
     const DynamicModel reference = dynamic_model(m.ref);
     std::printf(
-        "Closed loop: computed torque at %g Hz, omega = %g rad/s, the paper's line in %g s "
-        "(plan: %zu samples)\n",
-        rate, omega, task.duration, m.plan.t.size());
-    // Rigid geared plants: RK4 at the control period.
-    IntegratorOptions rigid_opt;
-    rigid_opt.method = Method::rk4;
-    rigid_opt.dt = period;
-    std::ofstream ratios_csv(out_dir + "/closed_loop_ratios.csv");
-    write_header(ratios_csv, "p");
-    std::printf("\nrigid geared plants\n");
-    print_columns("p");
-    std::vector<TorqueRow> series_ref, series_match;
-    for (double p : ratios) {
-      Model<models::paper_geared::Model> geared;
-      geared.set_parameter("p", p);
-      const DynamicModel plant = dynamic_model(geared);
-      const bool keep = p == series_ratio;
-      write_row(
-          ratios_csv, p, "reference",
-          run_loop(m, plant, reference, omega, period, rigid_opt, keep ? &series_ref : nullptr));
-      write_row(
-          ratios_csv, p, "matching",
-          run_loop(m, plant, plant, omega, period, rigid_opt, keep ? &series_match : nullptr));
-    }
-    // Flexible plants: stiff, so rosenbrock4 with the plant's state Jacobian.
-    IntegratorOptions stiff_opt;
-    stiff_opt.method = Method::rosenbrock4;
-    stiff_opt.rtol = stiff_opt.atol = 1e-8;
-    std::ofstream stiffness_csv(out_dir + "/closed_loop_stiffness.csv");
-    write_header(stiffness_csv, "k");
-    std::printf(
-        "\nflexible plants, p = %g, d = 1 N m s/rad, motor friction of "
-        "models/paper_flexible.yaml\n",
-        p_flexible);
-    print_columns("k");
-    for (double k : stiffnesses) {
-      Model<models::paper_flexible::Model> flex;
-      flex.set_parameter("p", p_flexible);
-      flex.set_parameter("k", k);
-      const DynamicModel plant = dynamic_model(flex);
-      write_row(stiffness_csv, k, "reference",
-                run_loop(m, plant, reference, omega, period, stiff_opt));
-      write_row(stiffness_csv, k, "matching", run_loop(m, plant, plant, omega, period, stiff_opt));
-    }
-    std::ofstream torques(out_dir + "/closed_loop_torques.csv");
-    torques
-        << "t,plan1,plan2,plan3,reference1,reference2,reference3,matching1,matching2,matching3\n";
-    for (size_t i = 0; i < series_ref.size() && i < series_match.size(); ++i) {
-      torques << series_ref[i].t;
-      for (const auto* v : {&series_ref[i].plan, &series_ref[i].tau, &series_match[i].tau})
-        for (int j = 0; j < 3; ++j) torques << "," << (*v)[j];
-      torques << "\n";
-    }
+        "Closed loop: computed torque at %g Hz, omega = %g rad/s, the paper's line in %g "
+        "s (plan: %zu samples)\n",
+        s.rate, s.omega, s.task.duration, m.plan.t.size());
+    ratio_sweep(s, m, reference);
+    stiffness_sweep(s, m, reference);
     std::printf(
         "\nwrote %s/closed_loop_ratios.csv, closed_loop_stiffness.csv, "
         "closed_loop_torques.csv\n",
-        out_dir.c_str());
+        s.out_dir.c_str());
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "closed_loop: error: " << e.what() << "\n";

@@ -126,6 +126,16 @@ Eigen::Vector2d rk4_in(const Model<models::paper_geared::Model>& g,
   return pose.template head<2>().template cast<double>();
 }
 
+// A reference run: rkf78 at tolerance tol (atol tol / 10), landing every `every` seconds.
+IntegratorOptions rkf78_reference(double tol, double every) {
+  IntegratorOptions o;
+  o.method = Method::rkf78;
+  o.rtol = tol;
+  o.atol = tol / 10;
+  o.breakpoint_interval = every;
+  return o;
+}
+
 // The stiff case: the plan's torques into the flexible model from the consistent start
 // (springs carrying the initial torques), every method over its ladder; a run that fails (an
 // explicit method past its stability limit) is recorded with an error of inf.
@@ -141,12 +151,7 @@ void flexible_case(const std::string& out_dir, const StraightLineTask& task, con
   q0.head<6>() = plan.q.front();
   consistent_start(m, q0, qd0, tau(0.0));
   const double T = quick ? 1.0 : task.duration;
-  IntegratorOptions tight;
-  tight.method = Method::rkf78;
-  tight.rtol = 1e-12;
-  tight.atol = 1e-13;
-  tight.breakpoint_interval = task.dt / 4;
-  const Outcome reference = run(m, q0, tau, T, tight, 1);
+  const Outcome reference = run(m, q0, tau, T, rkf78_reference(1e-12, task.dt / 4), 1);
   std::printf(
       "\nflexible joints (k = %g N m/rad, friction vs = %g rad/s), %g s: reference "
       "(rkf78, 1e-12) %ld evaluations\n",
@@ -235,15 +240,11 @@ int main(int argc, char** argv) {
       a.set_parameter("p", p);
       Eigen::Matrix<double, 6, 1> qm = plan.q.front();
       qm.tail<3>() *= p;
-      IntegratorOptions tight;
-      tight.method = Method::rkf78;
-      tight.rtol = 1e-13;
-      tight.atol = 1e-14;
       // The torques are linear between the plan's samples, so their derivative jumps every
       // task.dt: the reference lands on every sample time, so that none of its steps
       // straddles a kink, and takes 8 steps per sample interval (a computation none of the
       // runs below repeats).
-      tight.breakpoint_interval = task.dt / 8;
+      const IntegratorOptions tight = rkf78_reference(1e-13, task.dt / 8);
       const Outcome reference = run(g, qm, tau, T, tight, 1);
       std::printf(
           "\np = %g: reference (rkf78, tolerance 1e-13): %ld evaluations, momentum %.1e, energy "

@@ -5,8 +5,8 @@
 //   implicit_midpoint  fixed step, implicit, symmetric (time-reversible), second order. It
 //                      is applied to (q, qd), not to canonical (q, p = M qd), so it is not
 //                      symplectic here and does not conserve momentum exactly.
-//   rosenbrock4        adaptive, linearly implicit, L-stable, order 4 (Shampine's
-//                      coefficients), for stiff systems (flexible joints, steep friction):
+//   rosenbrock4        adaptive, linearly implicit, L-stable, order 4 (Hairer and Wanner's
+//                      RODAS coefficients), for stiff systems (flexible joints, steep friction):
 //                      needs the exact Jacobian of the right-hand side (options.jacobian).
 // The explicit methods and rosenbrock4 are Boost.Odeint's (Eigen states; rosenbrock4 works
 // on uBLAS and is adapted here). Odeint has no implicit midpoint rule for a general
@@ -235,7 +235,9 @@ class Integration {
       int rejected = 0;
       while (t < t_out - 1e-12 * std::max(1.0, std::abs(t_out))) {
         const double stop = next_stop(t, t_out), natural = dt;
-        const bool clamped = t + dt > stop;
+        // A step that ends on the stop counts as clamped too: the right-hand side may change
+        // there (a held torque), so an FSAL method must evaluate its first stage anew.
+        const bool clamped = t + dt >= stop;
         const double step = clamped ? stop - t : dt;
         // A stop that rounding puts on t itself would give steps of zero, forever.
         if (below_minimum_step(step, t, t0_, t1_))

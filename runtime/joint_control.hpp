@@ -40,8 +40,14 @@ class SampledJointTrajectory {
       throw std::invalid_argument(
           "SampledJointTrajectory: needs dt > 0 and at least two "
           "samples of q, qd and qdd each");
+    for (size_t k = 0; k < q_.size(); ++k)
+      if (q_[k].size() != q_[0].size() || qd_[k].size() != q_[0].size() ||
+          qdd_[k].size() != q_[0].size())
+        throw std::invalid_argument("SampledJointTrajectory: sample " + std::to_string(k) +
+                                    " has another joint count than sample 0");
   }
-  // Outside the samples: at rest at the first or last one (a plan from rest to rest).
+  // Outside the samples: at rest at the first or last one (meant for a plan from rest to
+  // rest; otherwise the rates jump there).
   JointTarget operator()(double t) const {
     const double s = std::clamp((t - t0_) / dt_, 0.0, static_cast<double>(q_.size() - 1));
     const size_t k = std::min(static_cast<size_t>(s), q_.size() - 2);
@@ -115,11 +121,16 @@ class PdController {
 // -M qdd(Q = 0) from the model's forward dynamics (so friction is compensated too).
 class ComputedTorqueController {
  public:
+  // Keeps a copy of `control`, whose functions refer to the model it was made from (keep that
+  // alive).
   ComputedTorqueController(const DynamicModel& control, JointGains gains)
       : model_(control), gains_(std::move(gains)) {
     if (!model_.mass_matrix_and_bias || !model_.forward_dynamics)
       throw std::invalid_argument("ComputedTorqueController: the control model '" + model_.name +
                                   "' must emit mass_matrix, bias_forces and forward_dynamics");
+    if (gains_.kp.size() != model_.num_links || gains_.kd.size() != model_.num_links)
+      throw std::invalid_argument("ComputedTorqueController: kp and kd need one gain per joint (" +
+                                  std::to_string(model_.num_links) + ")");
   }
 
   const DynamicModel& model() const { return model_; }
@@ -139,6 +150,12 @@ class ComputedTorqueController {
                                    const Eigen::VectorXd& qd_joints,
                                    const Eigen::VectorXd& a) const {
     const int nv = model_.nv, nb = model_.num_base(), N = model_.num_links;
+    if (base_q.size() != nb || base_qd.size() != nb || q_joints.size() != N ||
+        qd_joints.size() != N || a.size() != N)
+      throw std::invalid_argument("ComputedTorqueController: the control model '" + model_.name +
+                                  "' takes " + std::to_string(nb) + " base and " +
+                                  std::to_string(N) +
+                                  " joint values (a plant with another base or joint count?)");
     Eigen::VectorXd q(nv), qd(nv), acc = Eigen::VectorXd::Zero(nv);
     q.head(nb) = base_q;
     qd.head(nb) = base_qd;
@@ -170,7 +187,7 @@ class ComputedTorqueController {
   }
 
  private:
-  const DynamicModel& model_;
+  DynamicModel model_;
   JointGains gains_;
 };
 
@@ -184,8 +201,11 @@ template <class Control, class Record>
 IntegrationStats integrate_closed_loop(const DynamicModel& plant, const Eigen::VectorXd& q0,
                                        const Eigen::VectorXd& qd0, Control&& control, double period,
                                        double t_end, IntegratorOptions options, Record&& record) {
-  if (!(period > 0) || !std::isfinite(period))
-    throw std::invalid_argument("integrate_closed_loop: the control period must be positive");
+  const long samples = std::isfinite(t_end / period) ? std::lround(t_end / period) : 0;
+  if (!(period > 0) || samples < 1 || std::abs(samples * period - t_end) > 1e-9 * t_end)
+    throw std::invalid_argument("integrate_closed_loop: t_end = " + std::to_string(t_end) +
+                                " must be a positive multiple of the control period " +
+                                std::to_string(period));
   Eigen::VectorXd held = Eigen::VectorXd::Zero(plant.num_links);
   auto torque = [&held](double) { return held; };
   auto sample = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {

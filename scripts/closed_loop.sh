@@ -31,7 +31,7 @@ do for [sweep in "ratios stiffness"] {
   plot for [c in "reference matching"] sprintf("< awk -F, '$2==\"%s\" && $11==0' %s", c, file) using 1:3 with linespoints lw 2 pt 7 title c." max", \
        for [c in "reference matching"] sprintf("< awk -F, '$2==\"%s\" && $11==0' %s", c, file) using 1:4 with linespoints lw 2 dt 2 pt 6 title c." at T"
   set ylabel "torque [N m]"
-  set title "torque effort: RMS of |tau| (solid), peak (dashed)"
+  set title "torque effort: RMS over joints and time (solid), peak (dashed)"
   plot for [c in "reference matching"] sprintf("< awk -F, '$2==\"%s\" && $11==0' %s", c, file) using 1:5 with linespoints lw 2 pt 7 title c." RMS", \
        for [c in "reference matching"] sprintf("< awk -F, '$2==\"%s\" && $11==0' %s", c, file) using 1:6 with linespoints lw 2 dt 2 pt 6 title c." peak"
   set title "extra torque beyond the plan's: RMS (solid), peak (dashed)"

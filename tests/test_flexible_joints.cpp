@@ -173,6 +173,44 @@ TEST(FlexibleJoints, Rosenbrock4IntegratesTheStiffModel) {
   EXPECT_LT(2 * rb.rhs_evaluations, dp.rhs_evaluations);
 }
 
+// The Jacobian that integrate_motion hands to rosenbrock4: [[0, I], [dqdd/dq, dqdd/dqd]] and
+// df/dt from the torque's slope, against central differences of f(x, t) = (qd, qdd) in x and t.
+TEST(FlexibleJoints, MotionJacobianMatchesFiniteDifferences) {
+  const FlexModel m;
+  auto tau = [](double t) {
+    return FlexModel::JointVector(0.5 * std::sin(3 * t), -0.3 * t, 0.2 * std::cos(2 * t));
+  };
+  const auto jacobian = detail::motion_jacobian(m, tau, 9, 9, 0);
+  auto f = [&](const Eigen::VectorXd& x, double t) {
+    Eigen::VectorXd d(18);
+    d << x.tail(9), m.forward_dynamics(x.head(9), x.tail(9), m.generalized_forces(tau(t)));
+    return d;
+  };
+  FlexModel::Vector q;
+  FlexModel::Velocity qd;
+  twisted_start(m, q, qd);
+  const Eigen::VectorXd x = (Eigen::VectorXd(18) << q, qd).finished();
+  const double t = 0.7;
+  Eigen::MatrixXd J;
+  Eigen::VectorXd dfdt;
+  jacobian(x, t, J, dfdt);
+  Eigen::MatrixXd fd_J(18, 18);
+  for (int k = 0; k < 18; ++k) {
+    const double h = 1e-6;
+    const Eigen::VectorXd e = Eigen::VectorXd::Unit(18, k) * h;
+    fd_J.col(k) = (f(x + e, t) - f(x - e, t)) / (2 * h);
+  }
+  const Eigen::VectorXd fd_dfdt = (f(x, t + 1e-5) - f(x, t - 1e-5)) / 2e-5;
+  for (int i = 9; i < 18; ++i) {
+    SCOPED_TRACE("row " + std::to_string(i));
+    EXPECT_MATRIX_NEAR(J.row(i), fd_J.row(i), 1e-5);
+  }
+  EXPECT_EQ(J.topLeftCorner(9, 9), Eigen::MatrixXd::Zero(9, 9));
+  EXPECT_EQ(J.topRightCorner(9, 9), Eigen::MatrixXd::Identity(9, 9));
+  EXPECT_TRUE(dfdt.head(9).isZero(0));
+  EXPECT_MATRIX_NEAR(dfdt, fd_dfdt, 1e-5);
+}
+
 TEST(FlexibleJoints, EnergyIsConservedWithoutDampingOrFriction) {
   const FlexModel m = flexible({{"d", 0}, {"fv", 0}, {"fc", 0}, {"fs", 0}});
   FlexModel::Vector q0;
