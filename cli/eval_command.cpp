@@ -141,9 +141,9 @@ int run_eval(const EvalArgs& a) {
   in.values[Input::generalized_forces] = vector(a.forces_text, "--forces", nv);
   in.values[Input::joint_accelerations] = vector(a.qdd_joints_text, "--qdd-joints", N);
   in.params = cli::parse_parameters(a.param_assignments, scene);
-  if (!a.tau_text.empty())
-    in.values[Input::generalized_forces] =
-        generalized_forces(scene, in.params, cli::parse_vector(a.tau_text, "--tau", N));
+  const Eigen::VectorXd tau =
+      a.tau_text.empty() ? Eigen::VectorXd() : cli::parse_vector(a.tau_text, "--tau", N);
+  if (tau.size()) in.values[Input::generalized_forces] = generalized_forces(scene, in.params, tau);
   // An input that no output of the scene takes would do nothing: an error, not ignored.
   std::set<Input> used;
   for (Output o : scene.outputs) used.insert(info(o).inputs.begin(), info(o).inputs.end());
@@ -161,10 +161,7 @@ int run_eval(const EvalArgs& a) {
   for (const auto& [input, v] : in.values)
     if (input == Input::q || used.count(input))
       out[info(input).name] = std::vector<double>(v.data(), v.data() + v.size());
-  if (!a.tau_text.empty()) {
-    const Eigen::VectorXd tau = cli::parse_vector(a.tau_text, "--tau", N);
-    out["tau"] = std::vector<double>(tau.data(), tau.data() + tau.size());
-  }
+  if (tau.size()) out["tau"] = std::vector<double>(tau.data(), tau.data() + tau.size());
   out["parameters"] = nlohmann::ordered_json::object();
   for (size_t i = 0; i < scene.parameters.size(); ++i)
     out["parameters"][scene.parameters[i].name] = in.params[i];

@@ -18,6 +18,7 @@
 #include "compiled_model.hpp"
 #include "cli_input.hpp"
 #include "generate_command.hpp"
+#include "integrators.hpp"
 #include "outputs.hpp"
 #include "plan_command.hpp"
 #include "eval_command.hpp"
@@ -37,8 +38,11 @@ int stdout_status() {
 
 // Options that would have no effect are errors, not silently ignored.
 void check_simulate_options(const CLI::App& command, const spacearm::SimulateArgs& sim) {
-  const bool adaptive =
-      sim.integrator == "dopri5" || sim.integrator == "rkf78" || sim.integrator == "rosenbrock4";
+  bool adaptive = false;  // an unknown integrator is named by run_simulate
+  try {
+    adaptive = spacearm::adaptive(spacearm::method_from_string(sim.integrator));
+  } catch (const std::invalid_argument&) {
+  }
   for (const char* option : {"--rtol", "--atol"})
     if (command.count(option) && !adaptive)
       throw CLI::ValidationError(option,

@@ -23,6 +23,7 @@
 #include "paper_flexible.hpp"
 #include "paper_geared.hpp"
 #include "paper_reference.hpp"
+#include "torque_signal.hpp"
 #include "trajectory_planning.hpp"
 
 using namespace spacearm;
@@ -54,12 +55,8 @@ struct Manoeuvre {
     }
     return SampledJointTrajectory(0.0, dt, q, qd, qdd);
   }
-  // The plan's open-loop torque at t (linear between samples, as the paper replays it).
-  Eigen::Vector3d plan_torque(double t) const {
-    const double s = std::clamp(t / task.dt, 0.0, static_cast<double>(plan.tau.size() - 1));
-    const size_t k = std::min(static_cast<size_t>(s), plan.tau.size() - 2);
-    return plan.tau[k] + (s - k) * (plan.tau[k + 1] - plan.tau[k]);
-  }
+  // The plan's open-loop torque (linear between samples, as the paper replays it).
+  TorqueSignal<3> plan_torque{0.0, task.dt, plan.tau, Interpolation::linear, Extrapolation::hold};
 };
 
 struct Metrics {

@@ -72,8 +72,7 @@ Outcome run(const Model<G>& model, const typename Model<G>::Vector& q0, const To
         J.block(2 * n, n, 1, n) = Q.transpose();
         dfdt = Eigen::VectorXd::Zero(2 * n + 1);
         dfdt.head(2 * n) = dm;
-        const double h = 1e-6 * std::max(1.0, t);
-        dfdt[2 * n] = (model.generalized_forces(tau(t + h)) - Q).dot(s.segment(n, n)) / h;
+        dfdt[2 * n] = detail::force_slope(model, tau, t, Q).dot(s.segment(n, n));
       };
     }
   Outcome o;

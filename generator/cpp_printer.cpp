@@ -233,9 +233,6 @@ std::string parameter_error_function(const ModelFacts& facts) {
   return s.str();
 }
 
-// The kHas_ flag of an output that needs springs or friction is printed only for a scene that
-// has them, so that a scene without them generates exactly the code it did before they existed
-// (the runtime detects the flags' presence).
 // The kHas_ flags of outputs that need springs or friction, and that of the state Jacobian
 // (added with them), appear only where they can be true or are: the models of scenes
 // without them stay byte-identical to those generated before (the runtime detects them).

@@ -619,12 +619,17 @@ struct Composer {
     return {Q};
   }
 
-  // M = L D L^T; qdd = M^-1 (Q - b (- spring, damper, friction)), the pivots D and D_i / M_ii.
-  std::vector<std::vector<SRef>> forward_dynamics() {
+  // The right-hand side Q - b (- spring, damper, friction) of M qdd = ..., and M = L D L^T.
+  LdltProgram factored(std::vector<SRef>& rhs) {
     const std::vector<SRef> Q = inputs("Q", n), b = forces();
-    std::vector<SRef> rhs, scaled;
     for (int i = 0; i < n; ++i) rhs.push_back(p.add({Q[i], -b[i]}));
-    const LdltProgram f = ldlt(p, M, n);
+    return ldlt(p, M, n);
+  }
+
+  // qdd = M^-1 (Q - b (- spring, damper, friction)), the pivots D and D_i / M_ii.
+  std::vector<std::vector<SRef>> forward_dynamics() {
+    std::vector<SRef> rhs, scaled;
+    const LdltProgram f = factored(rhs);
     for (int i = 0; i < n; ++i) scaled.push_back(p.div(f.d[i], M[i * n + i]));
     return {ldlt_solve(p, f, rhs), f.d, scaled};
   }
@@ -632,10 +637,8 @@ struct Composer {
   // qdd as forward_dynamics; then each column of dqdd/dq and dqdd/dqd by the same LDL^T
   // factors: M dqdd/dx_k = -dR/dx_k, with R's qdd symbols bound to the solved qdd.
   std::vector<std::vector<SRef>> forward_dynamics_derivatives() {
-    const std::vector<SRef> Q = inputs("Q", n), h = forces();
     std::vector<SRef> rhs;
-    for (int i = 0; i < n; ++i) rhs.push_back(p.add({Q[i], -h[i]}));
-    const LdltProgram f = ldlt(p, M, n);
+    const LdltProgram f = factored(rhs);
     const std::vector<SRef> qdd = ldlt_solve(p, f, rhs);
     for (int j = 0; j < n; ++j) fb.bind(model.qdd[j], qdd[j]);
     auto jacobian = [&](const GiNaC::matrix& dR) {

@@ -17,58 +17,34 @@
 
 namespace spacearm {
 
-namespace detail {
-// The two runtime models keep the gear ratios and actuated coordinates as functions
-// (Model<G>) or as data (DynamicModel).
-template <class G>
-Eigen::VectorXd gear_ratios_of(const Model<G>& m) {
-  return m.gear_ratios();
-}
-inline Eigen::VectorXd gear_ratios_of(const DynamicModel& m) { return m.gear_ratios; }
-template <class G>
-std::vector<int> actuated_of(const Model<G>& m) {
-  const auto a = m.actuated_coordinates();
-  return std::vector<int>(a.begin(), a.end());
-}
-inline std::vector<int> actuated_of(const DynamicModel& m) { return m.actuated_coordinates; }
-template <class G>
-int first_joint_of(const Model<G>&) {
-  return Model<G>::kFirstJoint;
-}
-inline int first_joint_of(const DynamicModel& m) { return m.num_base(); }
-}  // namespace detail
-
-// Sets the motor coordinates of the flexible joints of a linked Model<G> or a DynamicModel
-// in (q, qd): qd_m = p qd_q and qm = p (q + e) with e from the torques tau (link side, eq. 14)
-// acting at that state. The base and the joint slots (link angles of flexible joints, motor
-// angles of rigid gears) are kept. Returns e, one entry per joint (0 where not flexible).
-// Throws std::invalid_argument if the pre-deflections are not determined (no flexible joint
-// has a motor that the torque can balance, e.g. a degenerate model).
-template <class Mdl>
-Eigen::VectorXd consistent_start(const Mdl& model, typename Mdl::Vector& q,
-                                 typename Mdl::Velocity& qd, const typename Mdl::JointVector& tau) {
-  const int N = static_cast<int>(tau.size());
-  const std::vector<int> actuated = detail::actuated_of(model);
-  const Eigen::VectorXd ratios = detail::gear_ratios_of(model);
-  // Joint j's slot is first_joint + j, after the base; a flexible joint's torque drives a
-  // motor coordinate after all the slots instead.
-  const int first_joint = detail::first_joint_of(model);
+// Sets the motor coordinates of the flexible joints in (q, qd): qd_m = p qd_q and
+// qm = p (q + e) with e from the torques tau (link side, eq. 14) acting at that state. The base
+// and the joint slots (link angles of flexible joints, motor angles of rigid gears) are kept.
+// Returns e, one entry per joint (0 where not flexible). Throws std::invalid_argument if the
+// pre-deflections are not determined by the accelerations (a degenerate model).
+inline Eigen::VectorXd consistent_start(const DynamicModel& model, Eigen::VectorXd& q,
+                                        Eigen::VectorXd& qd, const Eigen::VectorXd& tau) {
+  const int N = model.num_links;
+  const std::vector<int>& actuated = model.actuated_coordinates;
+  const Eigen::VectorXd& ratios = model.gear_ratios;
+  // Joint j's slot follows the base; a flexible joint's torque drives a motor coordinate
+  // after all the slots instead.
+  auto slot = [&](int j) { return model.num_base() + j; };
   std::vector<int> flexible;
   for (int j = 0; j < N; ++j)
-    if (actuated[j] != first_joint + j) flexible.push_back(j);
+    if (actuated[j] != slot(j)) flexible.push_back(j);
   Eigen::VectorXd e = Eigen::VectorXd::Zero(N);
   if (flexible.empty()) return e;
-  auto slot = [&](int j) { return first_joint + j; };
-  const typename Mdl::Velocity Q = model.generalized_forces(tau);
+  const Eigen::VectorXd Q = model.generalized_forces(tau);
   for (int j : flexible) qd[actuated[j]] = ratios[j] * qd[slot(j)];
   // The mismatch qdd_m - p qdd_q of each flexible joint for deflections d.
   auto mismatch = [&](const Eigen::VectorXd& d) {
-    typename Mdl::Vector x = q;
+    Eigen::VectorXd x = q;
     for (size_t k = 0; k < flexible.size(); ++k) {
       const int j = flexible[k];
       x[actuated[j]] = ratios[j] * (q[slot(j)] + d[k]);
     }
-    const typename Mdl::Velocity qdd = model.forward_dynamics(x, qd, Q);
+    const Eigen::VectorXd qdd = model.forward_dynamics(x, qd, Q);
     Eigen::VectorXd r(flexible.size());
     for (size_t k = 0; k < flexible.size(); ++k) {
       const int j = flexible[k];
@@ -91,6 +67,18 @@ Eigen::VectorXd consistent_start(const Mdl& model, typename Mdl::Vector& q,
     e[j] = d[k];
     q[actuated[j]] = ratios[j] * (q[slot(j)] + d[k]);
   }
+  return e;
+}
+
+// The same for a linked model, through its dynamic-size view.
+template <class G>
+Eigen::VectorXd consistent_start(const Model<G>& model, typename Model<G>::Vector& q,
+                                 typename Model<G>::Velocity& qd,
+                                 const typename Model<G>::JointVector& tau) {
+  Eigen::VectorXd x = q, v = qd;
+  const Eigen::VectorXd e = consistent_start(dynamic_model(model), x, v, Eigen::VectorXd(tau));
+  q = x;
+  qd = v;
   return e;
 }
 

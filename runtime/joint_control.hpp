@@ -117,8 +117,9 @@ class PdController {
 // rigid gear; a flexible joint's motor at p q, the spring untwisted). With a = the commanded
 // link-side joint accelerations (motor ones p a): M_bb a_b = -(M_b,rest a_rest + h_b), then
 // r = M a + h, and tau_j = p_j r_motor(j) (+ r_link(j) for a flexible joint: the spring would
-// carry it, the k -> infinity limit). h = b + springs, dampers and friction, read as
-// -M qdd(Q = 0) from the model's forward dynamics (so friction is compensated too).
+// carry it, the k -> infinity limit). h = b + springs, dampers and friction; where the model
+// has the latter, h is read as -M qdd(Q = 0) from its forward dynamics (so friction is
+// compensated too).
 class ComputedTorqueController {
  public:
   // Keeps a copy of `control`, whose functions refer to the model it was made from (keep that
@@ -173,7 +174,11 @@ class ComputedTorqueController {
     Eigen::MatrixXd M;
     Eigen::VectorXd b;
     model_.mass_matrix_and_bias(q, qd, M, b);
-    const Eigen::VectorXd h = -M * model_.forward_dynamics(q, qd, Eigen::VectorXd::Zero(nv));
+    // Springs, dampers and friction only where the model has them: else h is the bias itself.
+    const Eigen::VectorXd h =
+        model_.passive_forces
+            ? Eigen::VectorXd(-M * model_.forward_dynamics(q, qd, Eigen::VectorXd::Zero(nv)))
+            : b;
     if (nb > 0)
       acc.head(nb) = -M.topLeftCorner(nb, nb).ldlt().solve(
           M.block(0, nb, nb, nv - nb) * acc.tail(nv - nb) + h.head(nb));
@@ -215,7 +220,7 @@ IntegrationStats integrate_closed_loop(const DynamicModel& plant, const Eigen::V
                                std::to_string(t) + " is not finite or has the wrong size");
     record(t, q, qd, held);
   };
-  if (options.method != Method::rk4 && options.method != Method::implicit_midpoint) {
+  if (adaptive(options.method)) {
     options.breakpoint_interval = period;  // controlled steps that land on every sample
     options.breakpoint_origin = 0;
   }

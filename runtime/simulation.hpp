@@ -39,10 +39,23 @@ using MotionState =
                   1>;
 
 namespace detail {
+// dQ/dt, the slope of the generalized forces of the torque tau at t (whose value there is Q),
+// by a one-sided difference: exact on a piecewise-linear signal's segment. The right slope,
+// or the left one where the torque ends at t.
+template <class Mdl, class Torque>
+typename Mdl::Velocity force_slope(const Mdl& model, const Torque& tau, double t,
+                                   const typename Mdl::Velocity& Q) {
+  const double h = 1e-6 * std::max(1.0, std::abs(t));
+  try {
+    return (model.generalized_forces(tau(t + h)) - Q) / h;
+  } catch (const std::exception&) {
+    return (Q - model.generalized_forces(tau(t - h))) / h;
+  }
+}
+
 // The Jacobian of the motion's right-hand side f(q, qd, t) = (qd, qdd(q, qd, Q(t))) for
 // rosenbrock4: [[0, I], [dqdd/dq, dqdd/dqd]] from the model's exact state Jacobian, and
-// df/dt = (0, M^-1 dQ/dt), which is qdd(Q + dQ/dt) - qdd(Q) since qdd is affine in Q; dQ/dt
-// by a one-sided difference of the torque (exact on a piecewise-linear signal's segment).
+// df/dt = (0, M^-1 dQ/dt), which is qdd(Q + dQ/dt) - qdd(Q) since qdd is affine in Q.
 template <class Mdl, class Torque>
 auto motion_jacobian(const Mdl& model, const Torque& tau, Eigen::Index nq, Eigen::Index nv, int)
     -> decltype(model.forward_dynamics_derivatives(
@@ -64,13 +77,7 @@ auto motion_jacobian(const Mdl& model, const Torque& tau, Eigen::Index nq, Eigen
     J.bottomLeftCorner(nv, nq) = dq;
     J.bottomRightCorner(nv, nv) = dqd;
     dfdt = Eigen::VectorXd::Zero(nq + nv);
-    const double h = 1e-6 * std::max(1.0, std::abs(t));
-    typename Mdl::Velocity dQ;
-    try {
-      dQ = (model.generalized_forces(tau(t + h)) - Q) / h;
-    } catch (const std::exception&) {  // no torque past the span's end: the left slope
-      dQ = (Q - model.generalized_forces(tau(t - h))) / h;
-    }
+    const typename Mdl::Velocity dQ = force_slope(model, tau, t, Q);
     if (!dQ.isZero(0)) dfdt.tail(nv) = model.forward_dynamics(q, qd, Q + dQ) - qdd;
   };
 }
@@ -157,7 +164,7 @@ class TorqueReplay {
   using Joint = typename TorqueSignal<N>::Joint;
   TorqueReplay(const TorqueSignal<N>& tau, IntegratorOptions& options, const std::string& step_name)
       : tau_(tau), hold_(tau.mode() == Interpolation::hold) {
-    const bool fixed = options.method == Method::rk4 || options.method == Method::implicit_midpoint;
+    const bool fixed = !adaptive(options.method);
     auto multiple = [](double x, double of) {
       return std::abs(x / of - std::round(x / of)) <= 1e-9 * std::max(1.0, x / of);
     };
