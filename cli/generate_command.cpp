@@ -14,12 +14,14 @@ namespace spacearm {
 namespace {
 
 void print_stats(const EmittedModel& emitted, std::ostream& out) {
-  out << "function                     basis   adds   muls   divs  total  sin/cos  tanh/exp\n";
+  out << "function                     basis   adds   muls   divs  total  sin/cos  tanh/exp  "
+         "formulation\n";
   for (const auto& f : emitted.stats) {
-    char line[160];
-    std::snprintf(line, sizeof line, "%-28s %-6s %5d  %5d  %5d  %5d  %7d  %8d\n", f.name.c_str(),
-                  f.variant.empty() ? "-" : f.variant.c_str(), f.ops.adds, f.ops.muls, f.ops.divs,
-                  f.ops.total_arithmetic(), f.ops.trig, f.ops.functions);
+    char line[200];
+    std::snprintf(line, sizeof line, "%-28s %-6s %5d  %5d  %5d  %5d  %7d  %8d  %s\n",
+                  f.name.c_str(), f.variant.empty() ? "-" : f.variant.c_str(), f.ops.adds,
+                  f.ops.muls, f.ops.divs, f.ops.total_arithmetic(), f.ops.trig, f.ops.functions,
+                  f.formulation.c_str());
     out << line;
   }
 }

@@ -10,7 +10,7 @@
 
 namespace spacearm {
 
-inline constexpr const char* kGeneratorVersion = "0.2.0";
+inline constexpr const char* kGeneratorVersion = "0.3.0";
 // Version of the C interface (c_interface): each function is exported as
 //   void spacearm_<name>(const double* const* inputs, const double* params, double* const* results)
 // with arrays column-major in the order and shapes of its FunctionSpec.
@@ -25,7 +25,8 @@ struct PrintOptions {
 struct FunctionStats {
   std::string name;
   OpCounts ops;
-  std::string variant;  // e.g. the velocity basis; empty if lowering had no choice
+  std::string variant;      // e.g. the velocity basis; empty if lowering had no choice
+  std::string formulation;  // "closed form", "recursive (ABA)", ...
 };
 
 struct EmittedModel {

@@ -29,7 +29,9 @@ struct FunctionSpec {
   // triangle's roots below the diagonal).
   std::vector<std::vector<SRef>> entries;
   std::string variant;  // the lowering variant kept, e.g. the velocity basis "qd" or "omega"
-  bool plain = false;   // the benchmark baseline: every expression printed inline
+  // How its results were derived: "closed form" or "recursive (ABA)", ... (scene.hpp).
+  std::string formulation;
+  bool plain = false;               // the benchmark baseline: every expression printed inline
   std::vector<SRef> roots() const;  // every entry, each once
 };
 
@@ -50,7 +52,8 @@ struct ModelFacts {
   bool free_floating = false, geared = false;
   std::vector<std::string> coordinate_names, parameter_names;
   std::vector<double> nominal_parameters;
-  std::string scene_hash;  // "fnv1a64:..."
+  std::string scene_hash;   // "fnv1a64:..."
+  std::string formulation;  // the scene's: "auto", "closed" or "recursive"
   std::vector<Output> outputs;
   unsigned features = 0;  // needs:: bits of the scene (outputs.hpp)
   // Velocity index that joint torque tau_i drives (as tau_i / p_i, eq. 14), where it is not

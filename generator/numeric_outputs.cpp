@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "dynamics_checks.hpp"
+#include "recursive_dynamics.hpp"
 
 namespace spacearm {
 
@@ -19,6 +20,14 @@ struct State {
 };
 
 Eigen::MatrixXd closed_form(const SymbolicModel& model, Output o, const State& s) {
+  if (!model.outputs.count(o) && has_recursive_form(o)) {  // derived only recursively
+    auto input = [&](const std::string& a, int i) {
+      return a == "q" ? s.q.at(i) : a == "qd" ? s.qd.at(i) : s.params.at(i);
+    };
+    const std::vector<double> v = evaluate_recursive(model.scene, o, input)[0];
+    return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+        v.data(), model.n(), static_cast<Eigen::Index>(v.size()) / model.n());
+  }
   const GiNaC::matrix& e = model.expression(o);
   const auto v = evaluate(model, e, s.q, s.qd, s.params);
   return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(

@@ -1,5 +1,6 @@
 // The value of any output at a state, computed from the derivation alone: closed forms by
-// GiNaC's evaluation, composed outputs (registry's composed_of) by Eigen's dense solves and
+// GiNaC's evaluation (M and b by the recursive algorithms where only those were derived),
+// composed outputs (registry's composed_of) by Eigen's dense solves and
 // products of those values. It is what lowering checks its programs against and what
 // `eval --symbolic` prints; it shares no code with the emitted programs.
 #pragma once

@@ -11,6 +11,7 @@
 #include "emitted_text.hpp"
 #include "numeric_outputs.hpp"
 #include "program_algebra.hpp"
+#include "recursive_dynamics.hpp"
 
 namespace spacearm {
 
@@ -502,6 +503,7 @@ FunctionSpec lower_closed_form(const SymbolicModel& model, FunctionSpec f,
     }
     f.program = std::move(pb.prog);
     f.plain = true;
+    f.formulation = "closed form";
     return f;
   }
   const CheckPoint at(model);
@@ -524,7 +526,9 @@ FunctionSpec lower_closed_form(const SymbolicModel& model, FunctionSpec f,
     }
     return entries;
   };
-  return cheapest_lowering(model, f, build, want);
+  FunctionSpec lowered = cheapest_lowering(model, f, build, want);
+  lowered.formulation = "closed form";
+  return lowered;
 }
 
 std::vector<ex> entries_of(const GiNaC::matrix& m) {
@@ -558,6 +562,10 @@ struct Composer {
   std::vector<SRef> M;
 
   Composer(const SymbolicModel& m, FunctionBuilder& builder) : model(m), fb(builder), M(n * n) {
+    if (!model.outputs.count(Output::mass_matrix)) {  // derived only recursively
+      M = record_recursive(model.scene, Output::mass_matrix, p)[0];
+      return;
+    }
     const GiNaC::matrix& Me = model.expression(Output::mass_matrix);
     for (int i = 0; i < n; ++i)
       for (int j = i; j < n; ++j) M[i * n + j] = M[j * n + i] = fb.build(Me(i, j));
@@ -577,6 +585,8 @@ struct Composer {
     return v;
   }
   std::vector<SRef> bias() {
+    if (!model.outputs.count(Output::bias_forces))
+      return record_recursive(model.scene, Output::bias_forces, p)[0];
     std::vector<SRef> b;
     for (int i = 0; i < n; ++i) b.push_back(fb.build(model.expression(Output::bias_forces)(i, 0)));
     return b;
@@ -675,7 +685,7 @@ struct Composer {
   }
 };
 
-// Builds one composed output in fb's program from the closed forms of M, b and J.
+// Builds one composed output in fb's program from M, b and J.
 std::vector<std::vector<SRef>> compose(const SymbolicModel& model, FunctionBuilder& fb, Output o) {
   Composer c(model, fb);
   switch (o) {
@@ -701,8 +711,35 @@ FunctionSpec lower_composed(const SymbolicModel& model, const FunctionSpec& f, O
     const Eigen::MatrixXd rows = m.transpose();  // entries row by row
     want.emplace_back(rows.data(), rows.data() + rows.size());
   }
-  return cheapest_lowering(
+  FunctionSpec composed = cheapest_lowering(
       model, f, [&](FunctionBuilder& fb) { return compose(model, fb, o); }, want);
+  composed.formulation =
+      model.outputs.count(Output::mass_matrix) ? "closed form" : "recursive (CRBA, RNEA)";
+  return composed;
+}
+
+// A function whose results come from the recursive algorithms (recursive_dynamics.hpp), recorded
+// in one program and checked against the same algorithms run in double.
+FunctionSpec lower_recursive(const SymbolicModel& model, FunctionSpec f,
+                             const std::vector<Output>& parts) {
+  const CheckPoint at(model);
+  auto input = [&](const std::string& a, int i) { return at.input(a, i); };
+  std::vector<std::vector<double>> want;
+  std::string algorithms;
+  for (Output o : parts) {
+    for (auto& r : record_recursive(model.scene, o, f.program)) f.entries.push_back(std::move(r));
+    for (auto& w : evaluate_recursive(model.scene, o, input)) want.push_back(std::move(w));
+    algorithms += (algorithms.empty() ? "" : " + ") + std::string(recursive_algorithm(o));
+  }
+  f.program.extract_common_pairs(f.roots());
+  self_check(model, f, want);
+  f.formulation = "recursive (" + algorithms + ")";
+  return f;
+}
+
+int cost(const FunctionSpec& f) {
+  const OpCounts ops = f.program.count(f.roots());
+  return ops.total_arithmetic() + ops.trig + ops.functions;
 }
 
 // The scene's range checks for quantities that depend on run-time parameters (positive
@@ -796,10 +833,45 @@ ModelFacts model_facts(const SymbolicModel& model, bool plain) {
     facts.nominal_parameters.push_back(p.nominal.value);
   }
   facts.scene_hash = "fnv1a64:" + content_hash(scene.content);
+  facts.formulation = scene.formulation == Formulation::closed      ? "closed"
+                      : scene.formulation == Formulation::recursive ? "recursive"
+                                                                    : "auto";
   for (const auto& o : output_registry())
     if (scene.wants(o.id) && !(plain && !o.composed_of.empty())) facts.outputs.push_back(o.id);
   ParameterChecks{scene, facts};
   return facts;
+}
+
+// Whether `parts` (outputs, or what a composed one is made of) were all derived in closed form.
+bool has_closed_forms(const SymbolicModel& model, const std::vector<Output>& parts) {
+  return std::all_of(parts.begin(), parts.end(),
+                     [&](Output o) { return model.outputs.count(o) != 0; });
+}
+
+// One function of the outputs `parts` (one output, or M and b together): its closed form where
+// it was derived, its recursive form where the scene tries it, the cheaper of the two.
+FunctionSpec lower_function(const SymbolicModel& model, const FunctionSpec& f,
+                            const std::vector<Output>& parts, bool plain) {
+  const Scene& scene = model.scene;
+  const bool recursive =
+      !plain && scene.tries_recursive() &&
+      std::all_of(parts.begin(), parts.end(), [](Output o) { return has_recursive_form(o); });
+  const OutputInfo& first = info(parts[0]);
+  std::vector<FunctionSpec> candidates;
+  if (!first.composed_of.empty()) {
+    // Composed of M and b: from their closed forms, or from their recursive ones when only
+    // those were derived (no candidate of its own where a recursive algorithm covers it).
+    if (has_closed_forms(model, first.composed_of) || !recursive)
+      candidates.push_back(lower_composed(model, f, parts[0]));
+  } else if (has_closed_forms(model, parts)) {
+    std::vector<std::vector<ex>> results;
+    for (Output o : parts) results.push_back(entries_of(model.expression(o)));
+    candidates.push_back(lower_closed_form(model, f, results, plain));
+  }
+  if (recursive) candidates.push_back(lower_recursive(model, f, parts));
+  if (candidates.empty()) throw std::logic_error("lowering: no formulation derived for " + f.name);
+  auto cheaper = [](const FunctionSpec& a, const FunctionSpec& b) { return cost(a) < cost(b); };
+  return std::move(*std::min_element(candidates.begin(), candidates.end(), cheaper));
 }
 
 }  // namespace
@@ -813,10 +885,7 @@ LoweredModel lower(const SymbolicModel& model, const LowerOptions& options) {
     FunctionSpec f;
     describe(f, o);
     if (!o.composed_of.empty() && options.plain) continue;  // the baseline has closed forms only
-    lowered.functions.push_back(
-        o.composed_of.empty()
-            ? lower_closed_form(model, f, {entries_of(model.expression(o.id))}, options.plain)
-            : lower_composed(model, f, o.id));
+    lowered.functions.push_back(lower_function(model, f, {o.id}, options.plain));
     // M and b together, sharing the sin/cos and common terms (what forward dynamics needs).
     if (o.id == Output::bias_forces && scene.wants(Output::mass_matrix)) {
       FunctionSpec mb;
@@ -825,10 +894,7 @@ LoweredModel lower(const SymbolicModel& model, const LowerOptions& options) {
       mb.inputs = {{"q", Size::nq, Size::one}, {"qd", Size::nv, Size::one}};
       mb.results = {{"M", Size::nv, Size::nv, true}, {"b", Size::nv, Size::one, false}};
       lowered.functions.push_back(
-          lower_closed_form(model, mb,
-                            {entries_of(model.expression(Output::mass_matrix)),
-                             entries_of(model.expression(Output::bias_forces))},
-                            options.plain));
+          lower_function(model, mb, {Output::mass_matrix, Output::bias_forces}, options.plain));
     }
   }
   // Always emitted: the runtime maps joint torques to generalized forces tau / p (eq. 14).

@@ -545,6 +545,12 @@ bool has_recursive_form(Output o) {
          o == Output::forward_dynamics;
 }
 
+const char* recursive_algorithm(Output o) {
+  if (!has_recursive_form(o))
+    throw std::logic_error("recursive dynamics: no recursive form of " + to_string(o));
+  return o == Output::mass_matrix ? "CRBA" : o == Output::forward_dynamics ? "ABA" : "RNEA";
+}
+
 std::vector<std::vector<SRef>> record_recursive(const Scene& scene, Output o, Program& p) {
   Values<Sym> values{[&p](const std::string& a, int i) { return Sym(&p, p.input(a, i)); },
                      [&p](double v) { return Sym::number(&p, v); }};

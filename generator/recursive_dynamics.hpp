@@ -24,6 +24,8 @@ namespace spacearm {
 // Whether output o has a recursive form: mass_matrix, bias_forces, inverse_dynamics,
 // forward_dynamics.
 bool has_recursive_form(Output o);
+// The algorithm that gives it: "CRBA", "RNEA" or "ABA".
+const char* recursive_algorithm(Output o);
 
 // The results of output o (the registry's, each row by row; a symmetric one in full), recorded
 // in p from its inputs p.input(name, i) under the registry's names and p.input("params", i).

@@ -289,9 +289,9 @@ class SceneReader {
 
   Scene read(const std::string& yaml_text) {
     if (!root.IsMap()) r.fail("", "expected a mapping at the top level");
-    r.check_keys(
-        root, "",
-        {"name", "description", "base", "links", "gears", "friction", "parameters", "outputs"});
+    r.check_keys(root, "",
+                 {"name", "description", "base", "links", "gears", "friction", "parameters",
+                  "outputs", "formulation"});
     s.source_path = source_name;
     s.content = yaml_text;
     read_name();
@@ -301,6 +301,7 @@ class SceneReader {
     read_gears();
     read_friction();
     read_outputs();
+    read_formulation();
     for (const auto& p : s.parameters)
       if (!used_parameters.count(p.name))
         r.fail("parameters." + p.name, "parameter '" + p.name + "' is declared but never used",
@@ -580,6 +581,21 @@ class SceneReader {
              "stribeck_velocity [rad/s]",
              n);
     return f;
+  }
+
+  void read_formulation() {
+    const YAML::Node f = root["formulation"];
+    if (!f.IsDefined()) return;
+    const std::string v = f.IsScalar() ? r.bounded(f, "formulation").Scalar() : "";
+    if (v == "closed")
+      s.formulation = Formulation::closed;
+    else if (v == "recursive")
+      s.formulation = Formulation::recursive;
+    else if (v != "auto")
+      r.fail("formulation",
+             "expected 'closed', 'recursive' or 'auto', got '" +
+                 (f.IsScalar() ? v : std::string("a non-scalar")) + "'",
+             f);
   }
 
   // Outputs: all unless the scene lists a subset.

@@ -78,6 +78,16 @@ struct Friction {
   bool has_coulomb = false, has_stribeck = false;  // terms present (given and not literal 0)
 };
 
+// How M, the bias and the dynamics built on them are derived: closed (the Lagrangian's closed
+// form, eq. 6 and 7: inspectable entries), recursive (RNEA, CRBA and ABA recorded as straight-line
+// code: O(N)), or automatic (per function the cheaper in operations where the closed form is
+// affordable, N <= kClosedFormLinks; recursive beyond).
+enum class Formulation { automatic, closed, recursive };
+
+// Largest N at which `automatic` derives the closed form as well (it takes about a second there
+// and grows much faster than N; the recursive form is the cheaper beyond it).
+constexpr int kClosedFormLinks = 8;
+
 struct Scene {
   std::string name;         // C++ namespace of the emitted model
   std::string source_path;  // as given on the command line
@@ -91,7 +101,14 @@ struct Scene {
   std::vector<std::optional<Friction>> friction;
   std::vector<Parameter> parameters;
   std::set<Output> outputs;
+  Formulation formulation = Formulation::automatic;
 
+  // Whether the generator derives the closed forms of M and b, and tries the recursive ones.
+  bool tries_closed_form() const {
+    return formulation == Formulation::closed ||
+           (formulation == Formulation::automatic && num_links() <= kClosedFormLinks);
+  }
+  bool tries_recursive() const { return formulation != Formulation::closed; }
   bool free_floating() const { return base.type == BaseType::free_floating; }
   bool geared() const;                // any joint has a gear
   bool has_gear(int joint) const;     // joint 0..N-1

@@ -89,6 +89,12 @@ class Derivation {
     wanted_ = scene.outputs;
     for (Output o : scene.outputs)
       wanted_.insert(info(o).composed_of.begin(), info(o).composed_of.end());
+    // Where only the recursive form is tried, M and b are derived only for the state Jacobian,
+    // which differentiates them.
+    if (!scene.tries_closed_form() && !wanted_.count(Output::forward_dynamics_derivatives)) {
+      wanted_.erase(Output::mass_matrix);
+      wanted_.erase(Output::bias_forces);
+    }
     all_ = options.all_outputs;
   }
 
@@ -200,8 +206,19 @@ class Derivation {
     return v2;
   }
 
+  // Whether an output wanted in closed form is derived from T (at N = 30 expanding T and its
+  // gradient takes a minute: the recursive forms do without it).
+  bool needs_kinetic_energy() const {
+    for (Output o : {Output::kinetic_energy, Output::mass_matrix, Output::coriolis_matrix,
+                     Output::bias_forces, Output::momentum, Output::mass_matrix_derivative,
+                     Output::christoffel_coriolis_matrix, Output::forward_dynamics_derivatives})
+      if (wants(o)) return true;
+    return false;
+  }
+
   // Kinetic energy, eq. 3, plus the motors' (eq. 10).
   void kinetic_energy() {
+    if (!needs_kinetic_energy()) return;
     const auto& Omega = model_.omega;
     const ex m0 = free_ ? b_.value(scene_.base.mass) : ex(0);
     const ex I0 = free_ ? b_.value(scene_.base.inertia) : ex(0);

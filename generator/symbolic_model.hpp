@@ -38,7 +38,7 @@ struct SymbolicModel {
   std::vector<GiNaC::symbol> qdd;
   GiNaC::matrix residual_dq, residual_dqd;
 
-  GiNaC::ex kinetic_energy;  // T(q, qd), eq. 3 + eq. 10
+  GiNaC::ex kinetic_energy;  // T(q, qd), eq. 3 + eq. 10 (0: no closed-form output needs it)
   // The closed-form outputs derived, by the registry's entries (outputs.hpp): each a matrix
   // of the registry's shape (1 x 1 for a scalar).
   std::map<Output, GiNaC::matrix> outputs;
