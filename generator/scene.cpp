@@ -300,8 +300,8 @@ class SceneReader {
     read_links();
     read_gears();
     read_friction();
+    read_formulation();  // before the outputs: it decides which are affordable
     read_outputs();
-    read_formulation();
     for (const auto& p : s.parameters)
       if (!used_parameters.count(p.name))
         r.fail("parameters." + p.name, "parameter '" + p.name + "' is declared but never used",
@@ -614,12 +614,23 @@ class SceneReader {
           r.fail("outputs[" + std::to_string(i) + "]", "output '" + n + "' listed twice", outs[i]);
       }
     } else {
+      // Beyond the closed form's reach, the defaults are what the recursive forms give.
       for (const OutputInfo& o : output_registry())
-        if (o.by_default && missing_feature(o.needs, s.features()).empty()) s.outputs.insert(o.id);
+        if (o.by_default && missing_feature(o.needs, s.features()).empty() &&
+            (s.closed_form_affordable() || !closed_form_only(o.id)))
+          s.outputs.insert(o.id);
     }
-    for (Output o : s.outputs)
+    for (Output o : s.outputs) {
       if (const std::string why = missing_feature(info(o).needs, s.features()); !why.empty())
         r.fail("outputs", "'" + to_string(o) + "' " + why, root["outputs"]);
+      if (closed_form_only(o) && !s.closed_form_affordable())
+        r.fail("outputs",
+               "'" + to_string(o) + "' has only a closed form, derived up to " +
+                   std::to_string(kClosedFormLinks) + " links unless formulation: closed; got " +
+                   std::to_string(s.num_links()) +
+                   " links: leave it out, or set formulation: closed and expect minutes",
+               root["outputs"]);
+    }
   }
 };
 

@@ -109,6 +109,10 @@ struct Scene {
            (formulation == Formulation::automatic && num_links() <= kClosedFormLinks);
   }
   bool tries_recursive() const { return formulation != Formulation::closed; }
+  // Whether the outputs with only a closed form (outputs.hpp: closed_form_only) are derived.
+  bool closed_form_affordable() const {
+    return formulation == Formulation::closed || num_links() <= kClosedFormLinks;
+  }
   bool free_floating() const { return base.type == BaseType::free_floating; }
   bool geared() const;                // any joint has a gear
   bool has_gear(int joint) const;     // joint 0..N-1

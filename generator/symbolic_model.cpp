@@ -209,10 +209,10 @@ class Derivation {
   // Whether an output wanted in closed form is derived from T (at N = 30 expanding T and its
   // gradient takes a minute: the recursive forms do without it).
   bool needs_kinetic_energy() const {
-    for (Output o : {Output::kinetic_energy, Output::mass_matrix, Output::coriolis_matrix,
-                     Output::bias_forces, Output::momentum, Output::mass_matrix_derivative,
-                     Output::christoffel_coriolis_matrix, Output::forward_dynamics_derivatives})
-      if (wants(o)) return true;
+    for (const OutputInfo& o : output_registry())
+      if (wants(o.id) &&
+          (closed_form_only(o.id) || o.id == Output::mass_matrix || o.id == Output::bias_forces))
+        return true;
     return false;
   }
 

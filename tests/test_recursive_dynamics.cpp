@@ -8,6 +8,7 @@
 #include <map>
 
 #include "numeric_outputs.hpp"
+#include "planar_lowering.hpp"
 #include "recursive_dynamics.hpp"
 #include "support.hpp"
 #include "symbolic_model.hpp"
@@ -156,6 +157,38 @@ TEST(RecursiveDynamics, AgreesWithNumericOracleOnLongChains) {
         EXPECT_MATRIX_NEAR(rows_of(recorded[0], want.rows()), want, 1e-6);
       }
     }
+}
+
+// Which formulation lowering keeps, per function, under each setting of the scene.
+std::map<std::string, std::string> formulations(const std::string& yaml) {
+  std::map<std::string, std::string> by_function;
+  for (const FunctionSpec& f : lower(derive(parse_scene(yaml, "t.yaml"))).functions)
+    by_function[f.name] = f.formulation;
+  return by_function;
+}
+
+TEST(RecursiveDynamics, FormulationIsChosenPerFunctionAndCanBeForced) {
+  test::ChainSpec spec;
+  spec.geared = true;
+  spec.outputs =
+      "[mass_matrix, bias_forces, inverse_dynamics, forward_dynamics, end_effector_pose]";
+  const std::string paper_size = test::random_scene_yaml(spec);
+  for (const auto& [name, formulation] : formulations(paper_size + "formulation: closed\n"))
+    if (name != "gear_ratios") EXPECT_EQ(formulation, "closed form") << name;
+  auto forced = formulations(paper_size + "formulation: recursive\n");
+  EXPECT_EQ(forced["mass_matrix"], "recursive (CRBA)");
+  EXPECT_EQ(forced["bias_forces"], "recursive (RNEA)");
+  EXPECT_EQ(forced["mass_matrix_and_bias"], "recursive (CRBA + RNEA)");
+  EXPECT_EQ(forced["inverse_dynamics"], "recursive (RNEA)");
+  EXPECT_EQ(forced["forward_dynamics"], "recursive (ABA)");
+  EXPECT_EQ(forced["end_effector_pose"], "closed form");  // no recursive form
+  // Past the closed form's reach, auto takes the recursive forms without deriving the others.
+  spec.links = kClosedFormLinks + 4;
+  spec.outputs = "[mass_matrix, bias_forces, forward_dynamics, generalized_jacobian]";
+  auto long_chain = formulations(test::random_scene_yaml(spec));
+  EXPECT_EQ(long_chain["mass_matrix_and_bias"], "recursive (CRBA + RNEA)");
+  EXPECT_EQ(long_chain["forward_dynamics"], "recursive (ABA)");
+  EXPECT_EQ(long_chain["generalized_jacobian"], "recursive (CRBA, RNEA)");
 }
 
 }  // namespace

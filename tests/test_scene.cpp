@@ -196,6 +196,36 @@ TEST(Scene, LinkCountLimits) {
       << error_of(many);
 }
 
+// formulation: closed | recursive | auto; beyond kClosedFormLinks the outputs with only a closed
+// form leave the defaults, and asking for one is an error unless the formulation is closed.
+TEST(Scene, FormulationAndTheClosedFormsReach) {
+  EXPECT_EQ(parse_scene(kValid, "t.yaml").formulation, Formulation::automatic);
+  EXPECT_EQ(parse_scene(std::string(kValid) + "formulation: closed\n", "t.yaml").formulation,
+            Formulation::closed);
+  EXPECT_EQ(parse_scene(std::string(kValid) + "formulation: recursive\n", "t.yaml").formulation,
+            Formulation::recursive);
+  const std::string bad = error_of(std::string(kValid) + "formulation: fast\n");
+  EXPECT_NE(bad.find("field 'formulation': expected 'closed', 'recursive' or 'auto', got 'fast'"),
+            std::string::npos)
+      << bad;
+  std::string long_chain =
+      "name: long_chain\nbase: {type: free_floating, mass: 10, inertia: 1, "
+      "mount: [0.1, 0]}\nlinks:\n";
+  for (int i = 0; i <= kClosedFormLinks; ++i)
+    long_chain += "  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.25, 0]}\n";
+  const Scene defaults = parse_scene(long_chain, "t.yaml");
+  EXPECT_TRUE(defaults.wants(Output::forward_dynamics));
+  EXPECT_TRUE(defaults.wants(Output::generalized_jacobian));
+  for (Output o : defaults.outputs) EXPECT_FALSE(closed_form_only(o)) << to_string(o);
+  const std::string asked = error_of(long_chain + "outputs: [mass_matrix, coriolis_matrix]\n");
+  EXPECT_NE(asked.find("'coriolis_matrix' has only a closed form, derived up to 8 links unless "
+                       "formulation: closed; got 9 links"),
+            std::string::npos)
+      << asked;
+  EXPECT_TRUE(
+      parse_scene(long_chain + "formulation: closed\n", "t.yaml").wants(Output::coriolis_matrix));
+}
+
 // Every file the fuzzer starts from or has recorded a crash for (fuzz/), and the shipped and
 // test scenes: each is accepted as a scene that keeps the rules or rejected with an error that
 // names the file; nothing else escapes (scene_fuzz_target.hpp).
