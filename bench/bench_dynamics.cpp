@@ -1,5 +1,5 @@
 // Per-call cost of the generated code against its peers, over a fixed set of random states,
-// for the paper's models and chains of N = 2 .. 12 links: MuJoCo, the same chains derived and
+// for the paper's models and chains of N = 2 .. 30 links: MuJoCo, the same chains derived and
 // printed by SymPy with cse (bench/sympy_chain.py), and the same Lagrangian emitted without
 // common-subexpression elimination (the baseline). Before any timing, MuJoCo's and SymPy's M
 // and bias are checked against ours. After the runs it prints the ratios peer time / our
@@ -33,6 +33,9 @@
 #include "chain_n12.hpp"
 #include "chain_n12_armature.hpp"
 #include "chain_n12_geared.hpp"
+#include "chain_n30.hpp"
+#include "chain_n30_armature.hpp"
+#include "chain_n30_geared.hpp"
 // The full run adds the other sizes, the CSE-free baseline and the SymPy peer.
 #ifndef SPACEARM_BENCH_QUICK
 #include "paper_geared_folded.hpp"
@@ -53,6 +56,12 @@
 #include "chain_n10.hpp"
 #include "chain_n10_armature.hpp"
 #include "chain_n10_geared.hpp"
+#include "chain_n16.hpp"
+#include "chain_n16_armature.hpp"
+#include "chain_n16_geared.hpp"
+#include "chain_n20.hpp"
+#include "chain_n20_armature.hpp"
+#include "chain_n20_geared.hpp"
 #include "chain_n2_geared_plain.hpp"
 #include "chain_n2_plain.hpp"
 #include "chain_n3_geared_plain.hpp"
@@ -445,7 +454,7 @@ int main(int argc, char** argv) {
   bool ok = true;
   ok &= agrees_with_mujoco<m::paper_reference::Model>(
       SPACEARM_SOURCE_DIR "/models/paper_reference.yaml", "paper_reference");
-#define SPACEARM_CHAIN(N)                                                                         \
+#define SPACEARM_MUJOCO_CHAIN(N)                                                                  \
   ok &= agrees_with_mujoco<m::chain_n##N::Model>(scene_path("chain_n" #N), "chain_n" #N);         \
   ok &= agrees_with_mujoco<m::chain_n##N##_armature::Model>(scene_path("chain_n" #N "_armature"), \
                                                             "chain_n" #N "_armature");            \
@@ -454,7 +463,9 @@ int main(int argc, char** argv) {
   register_ours<m::chain_n##N##_armature::Model>("ours", "chain_n" #N "_armature", false);        \
   register_mujoco<m::chain_n##N::Model>(scene_path("chain_n" #N), "chain_n" #N);                  \
   register_mujoco<m::chain_n##N##_armature::Model>(scene_path("chain_n" #N "_armature"),          \
-                                                   "chain_n" #N "_armature");                     \
+                                                   "chain_n" #N "_armature");
+#define SPACEARM_CHAIN(N)                                                                         \
+  SPACEARM_MUJOCO_CHAIN(N)                                                                        \
   SPACEARM_SYMPY(chain_n##N, "chain_n" #N)                                                        \
   SPACEARM_SYMPY(chain_n##N##_geared, "chain_n" #N "_geared")
 #ifdef SPACEARM_BENCH_QUICK
@@ -479,6 +490,7 @@ int main(int argc, char** argv) {
                                              "paper_reference");
   SPACEARM_CHAIN(3)
   SPACEARM_CHAIN(12)
+  SPACEARM_MUJOCO_CHAIN(30)
 #ifndef SPACEARM_BENCH_QUICK
   register_ours<m::paper_geared_folded::Model>("ours", "paper_geared_folded", false);
   register_ours<m::paper_reference_plain::Model>("plain", "paper_reference", false);
@@ -488,6 +500,8 @@ int main(int argc, char** argv) {
   SPACEARM_CHAIN(6)
   SPACEARM_CHAIN(8)
   SPACEARM_CHAIN(10)
+  SPACEARM_MUJOCO_CHAIN(16)
+  SPACEARM_MUJOCO_CHAIN(20)
   SPACEARM_PLAIN(2)
   SPACEARM_PLAIN(3)
   SPACEARM_PLAIN(4)

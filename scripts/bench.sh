@@ -3,7 +3,7 @@
 # CSE-free baseline, with the ratio table at the end. Installs Google Benchmark, MuJoCo and
 # SymPy when missing.
 #   scripts/bench.sh [--quick] [benchmark options, e.g. --benchmark_filter=chain_n3]
-# --quick: only the MuJoCo comparison for N = 3 and N = 12 (reference, geared, armature) and
+# --quick: only the MuJoCo comparison for N = 3, 12 and 30 (reference, geared, armature) and
 # the paper's models; a few minutes from a clean clone (build folder build-bench-quick).
 # Build folder: build-bench (Release). Results vary with the machine and its load: compare
 # ratios measured in one run, not absolute times across machines.
