@@ -464,9 +464,9 @@ int main(int argc, char** argv) {
   register_mujoco<m::chain_n##N::Model>(scene_path("chain_n" #N), "chain_n" #N);                  \
   register_mujoco<m::chain_n##N##_armature::Model>(scene_path("chain_n" #N "_armature"),          \
                                                    "chain_n" #N "_armature");
-#define SPACEARM_CHAIN(N)                                                                         \
-  SPACEARM_MUJOCO_CHAIN(N)                                                                        \
-  SPACEARM_SYMPY(chain_n##N, "chain_n" #N)                                                        \
+#define SPACEARM_CHAIN(N)                  \
+  SPACEARM_MUJOCO_CHAIN(N)                 \
+  SPACEARM_SYMPY(chain_n##N, "chain_n" #N) \
   SPACEARM_SYMPY(chain_n##N##_geared, "chain_n" #N "_geared")
 #ifdef SPACEARM_BENCH_QUICK
 #define SPACEARM_SYMPY(MODEL, NAME)
