@@ -454,6 +454,12 @@ void self_check(const SymbolicModel& model, const FunctionSpec& f,
   }
 }
 
+// What lowering minimizes: arithmetic operations plus calls of sin/cos, tanh and exp.
+int cost(const FunctionSpec& f) {
+  const OpCounts ops = f.program.count(f.roots());
+  return ops.total_arithmetic() + ops.trig + ops.functions;
+}
+
 // Lowers f in each velocity basis (both when it uses velocities): `build` makes the entries
 // in the builder's program; CSE, the self-check against `want`, and the cheaper one is kept.
 FunctionSpec cheapest_lowering(
@@ -472,12 +478,11 @@ FunctionSpec cheapest_lowering(
     fb.prog.extract_common_pairs(candidate.roots());
     candidate.program = std::move(fb.prog);
     self_check(model, candidate, want);
-    const OpCounts ops = candidate.program.count(candidate.roots());
-    const int cost = ops.total_arithmetic() + ops.trig + ops.functions;
-    if (best_cost >= 0 && cost >= best_cost) continue;
+    const int candidate_cost = cost(candidate);
+    if (best_cost >= 0 && candidate_cost >= best_cost) continue;
     candidate.variant = uses_velocity ? (basis == 1 ? "omega" : "qd") : "";
     best = std::move(candidate);
-    best_cost = cost;
+    best_cost = candidate_cost;
   }
   return best;
 }
@@ -735,11 +740,6 @@ FunctionSpec lower_recursive(const SymbolicModel& model, FunctionSpec f,
   self_check(model, f, want);
   f.formulation = "recursive (" + algorithms + ")";
   return f;
-}
-
-int cost(const FunctionSpec& f) {
-  const OpCounts ops = f.program.count(f.roots());
-  return ops.total_arithmetic() + ops.trig + ops.functions;
 }
 
 // The scene's range checks for quantities that depend on run-time parameters (positive

@@ -469,9 +469,11 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
     const Force<T> col = IA[i] * Motion<T>{val_.number(1.0), T{}, T{}};
     U[i] = {J.g * col.n, J.g * col.x, J.g * col.y};
     D[i] = J.g * U[i].n;
-    const bool rotor_on_slot = J.rotor != Rotor::none && !J.flexible;
-    if (rotor_on_slot) D[i] += J.Im;
-    if (J.rotor == Rotor::exact && !J.flexible) U[i].n += J.Im;
+    // A rigid gear's rotor turns on the joint's own slot: its I_m joins D (and, carried by the
+    // parent, U and the inertia passed on).
+    const bool exact_on_slot = J.rotor == Rotor::exact && !J.flexible;
+    if (J.rotor != Rotor::none && !J.flexible) D[i] += J.Im;
+    if (exact_on_slot) U[i].n += J.Im;
     Force<T> pc = IA[i] * velocity_product(v[i], i);
     pc += pA[i];
     u[i] = Qe[J.c] - J.g * pc.n;
@@ -481,7 +483,7 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
     const Inertia<T>& I = IA[i];
     Inertia<T> Ia{I.a - U[i].n * W.n, I.b - U[i].n * W.x, I.c - U[i].n * W.y,
                   I.d - U[i].x * W.x, I.e - U[i].x * W.y, I.f - U[i].y * W.y};
-    if (J.rotor == Rotor::exact && !J.flexible) Ia.a += J.Im;
+    if (exact_on_slot) Ia.a += J.Im;
     pc += Force<T>{W.n * u[i], W.x * u[i], W.y * u[i]};
     // A flexible joint's rotor is a leaf of its own: it passes on only its coordinate's force.
     if (J.rotor == Rotor::exact && J.flexible) pc.n += Qe[J.m];
