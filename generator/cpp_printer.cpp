@@ -23,11 +23,17 @@ std::vector<SRef> FunctionSpec::roots() const {
 
 namespace {
 
+// How a body names array entries: the Eigen header's q(i) and M(i, j), or the C interface's
+// plain column-major arrays q[i] and M[i + rows * j] (no Eigen to compile: fast first use).
+enum class Spelling { eigen, c_arrays };
+
 // Prints the nodes of a program that several entries share (and every sin/cos) as named
 // temporaries t0, t1, ..., then each entry as an assignment. Plain: everything inline.
 class BodyPrinter {
  public:
-  BodyPrinter(const Program& p, const std::vector<SRef>& roots, bool plain) : p_(p), plain_(plain) {
+  BodyPrinter(const Program& p, const std::vector<SRef>& roots, bool plain,
+              Spelling spelling = Spelling::eigen)
+      : p_(p), plain_(plain), spelling_(spelling) {
     order_ = p_.schedule(roots);
     for (int id : order_)
       for (const SRef& a : p_.node(id).args)
@@ -60,6 +66,7 @@ class BodyPrinter {
  private:
   const Program& p_;
   bool plain_;
+  Spelling spelling_;
   std::vector<int> order_;
   std::map<int, int> uses_;
   std::map<int, std::string> names_;
@@ -92,7 +99,8 @@ class BodyPrinter {
     const auto& n = p_.node(id);
     switch (n.kind) {
       case Program::Kind::input:
-        return n.text + "(" + std::to_string(n.index) + ")";
+        return spelling_ == Spelling::eigen ? n.text + "(" + std::to_string(n.index) + ")"
+                                            : n.text + "[" + std::to_string(n.index) + "]";
       case Program::Kind::constant:
         return "T(" + n.text + ")";
       case Program::Kind::sin:
@@ -161,20 +169,25 @@ std::string signature(const FunctionSpec& f, const std::string& scalar, bool wit
   return s + ")";
 }
 
-std::string target(const ArraySpec& r, int rows, int cols, int i, int j) {
-  (void)rows;
+// Entry (i, j) of result k. C arrays: out[k] by position (a result named T would hide the type).
+std::string target(const ArraySpec& r, size_t k, int rows, int cols, int i, int j,
+                   Spelling spelling) {
+  if (spelling == Spelling::c_arrays)
+    return "out[" + std::to_string(k) + "][" + std::to_string(i + rows * j) + "]";
   if (cols == 1) return r.name + "(" + std::to_string(i) + ")";
   return r.name + "(" + std::to_string(i) + ", " + std::to_string(j) + ")";
 }
 
-std::string function_body(const FunctionSpec& f, const Dimensions& dims) {
-  BodyPrinter printer(f.program, f.roots(), f.plain);
+// C arrays: a 1 x 1 result is written to its array like any other, not returned.
+std::string function_body(const FunctionSpec& f, const Dimensions& dims,
+                          Spelling spelling = Spelling::eigen) {
+  BodyPrinter printer(f.program, f.roots(), f.plain, spelling);
   std::ostringstream out;
   const OpCounts ops = f.program.count(f.roots());
   out << "  using std::cos;\n  using std::sin;\n"
       << (f.plain ? "  using std::pow;\n" : "")
       << (ops.functions ? "  using std::exp;\n  using std::tanh;\n" : "") << printer.temporaries();
-  if (returns_scalar(f)) {
+  if (returns_scalar(f) && spelling == Spelling::eigen) {
     out << "  return " << printer.value(f.entries[0][0]) << ";\n";
     return out.str();
   }
@@ -183,13 +196,13 @@ std::string function_body(const FunctionSpec& f, const Dimensions& dims) {
     const int rows = dims(r.rows), cols = dims(r.cols);
     for (int i = 0; i < rows; ++i)
       for (int j = r.symmetric ? i : 0; j < cols; ++j)
-        out << "  " << target(r, rows, cols, i, j) << " = "
+        out << "  " << target(r, k, rows, cols, i, j, spelling) << " = "
             << printer.value(f.entries[k][i * cols + j]) << ";\n";
     if (r.symmetric)  // the lower triangle as copies of the upper one
       for (int i = 0; i < rows; ++i)
         for (int j = 0; j < i; ++j)
-          out << "  " << target(r, rows, cols, i, j) << " = " << target(r, rows, cols, j, i)
-              << ";\n";
+          out << "  " << target(r, k, rows, cols, i, j, spelling) << " = "
+              << target(r, k, rows, cols, j, i, spelling) << ";\n";
   }
   return out.str();
 }
@@ -224,20 +237,18 @@ std::string quoted_list(const std::vector<std::string>& items) {
   return s;
 }
 
-// parameter_error(): the scene's range checks, repeated for the parameters' actual values.
-std::string parameter_error_function(const ModelFacts& facts) {
+// The body of parameter_error(): the scene's range checks, repeated for the parameters'
+// actual values.
+std::string parameter_checks(const ModelFacts& facts, Spelling spelling) {
   std::ostringstream s;
-  s << "\n// nullptr if the run-time parameters describe a physical system, else what is wrong\n"
-    << "// (the scene's range checks, repeated for the parameters' values).\n"
-    << "inline const char* parameter_error([[maybe_unused]] const Eigen::Matrix<double, "
-       "kNumParams, 1>& params) {\n";
+  const bool eigen = spelling == Spelling::eigen;
   for (size_t i = 0; i < facts.parameter_names.size(); ++i)
-    s << "  if (!std::isfinite(params(" << i << "))) return \"parameter '"
-      << facts.parameter_names[i] << "' is not finite\";\n";
+    s << "  if (!std::isfinite(params" << (eigen ? "(" : "[") << i << (eigen ? ")" : "]")
+      << ")) return \"parameter '" << facts.parameter_names[i] << "' is not finite\";\n";
   std::vector<SRef> roots;
   for (const auto& c : facts.checks) roots.push_back(c.value);
   if (!roots.empty()) {
-    BodyPrinter printer(facts.checks_program, roots, true);
+    BodyPrinter printer(facts.checks_program, roots, true, spelling);
     s << "  using T [[maybe_unused]] = double;\n";
     for (const auto& c : facts.checks)
       s << "  if (!(" << printer.value(c.value) << (c.strict ? " > 0" : " >= 0") << ")) return \""
@@ -245,6 +256,14 @@ std::string parameter_error_function(const ModelFacts& facts) {
   }
   s << "  return nullptr;\n}\n";
   return s.str();
+}
+
+std::string parameter_error_function(const ModelFacts& facts) {
+  return "\n// nullptr if the run-time parameters describe a physical system, else what is wrong\n"
+         "// (the scene's range checks, repeated for the parameters' values).\n"
+         "inline const char* parameter_error([[maybe_unused]] const Eigen::Matrix<double, "
+         "kNumParams, 1>& params) {\n" +
+         parameter_checks(facts, Spelling::eigen);
 }
 
 // The kHas_ flags of outputs that need springs or friction, and that of the state Jacobian
@@ -338,57 +357,52 @@ std::string model_struct(const LoweredModel& model, const std::string& ns) {
   return h.str();
 }
 
-std::string c_interface(const LoweredModel& model, const std::string& header,
-                        const std::string& ns) {
+// The library the compile-and-load path builds: one self-contained translation unit with
+// only <cmath>, every function straight-line over plain arrays. Eigen's headers and the
+// templates' three instantiations cost seconds to compile; this compiles in a fraction.
+std::string c_interface(const LoweredModel& model) {
+  const ModelFacts& facts = model.facts;
+  std::string nominal, actuated;
+  for (double v : facts.nominal_parameters)
+    nominal += (nominal.empty() ? "" : ", ") + round_trip(v);
+  for (int j = 0; j < facts.dims.num_links; ++j)
+    actuated += (j ? ", " : "") + std::to_string(facts.actuated_coordinates.empty()
+                                                     ? facts.dims.nv - facts.dims.num_links + j
+                                                     : facts.actuated_coordinates[j]);
+  unsigned long mask = 0;
+  for (Output o : facts.outputs) mask |= output_bit(o);
   std::ostringstream s;
-  s << "// C interface of model " << model.facts.name
+  s << "// C interface of model " << facts.name
     << " for dlopen (written by spacearm; do not edit).\n"
-    << "#include \"" << header << "\"\n\n"
-    << "// C linkage: the symbols are spacearm_*, whatever the namespace.\n"
-    << "namespace " << ns << " {\n"
-    << "using P = Eigen::Map<const Parameters<double>>;\n\n"
+    << "// Arrays are column-major; spacearm's cpp_printer.hpp gives the calling convention.\n"
+    << "#include <cmath>\n\nnamespace {\nusing T = double;\n"
+    << "const char* const kCoordinateNames[] = {" << quoted_list(facts.coordinate_names) << "};\n"
+    << "const char* const kParameterNames[] = {"
+    << (nominal.empty() ? "\"\"" : quoted_list(facts.parameter_names)) << "};\n"
+    << "const double kNominalParameters[] = {" << (nominal.empty() ? "0.0" : nominal) << "};\n"
+    << "const int kActuatedCoordinates[] = {" << actuated << "};\n}  // namespace\n\n"
     << "extern \"C\" {\n"
     << "int spacearm_abi_version() { return " << kCInterfaceVersion << "; }\n"
-    << "int spacearm_nq() { return kNq; }\n"
-    << "int spacearm_nv() { return kNv; }\n"
-    << "int spacearm_num_links() { return kNumLinks; }\n"
-    << "int spacearm_num_params() { return kNumParams; }\n"
+    << "int spacearm_nq() { return " << facts.dims.nq << "; }\n"
+    << "int spacearm_nv() { return " << facts.dims.nv << "; }\n"
+    << "int spacearm_num_links() { return " << facts.dims.num_links << "; }\n"
+    << "int spacearm_num_params() { return " << facts.parameter_names.size() << "; }\n"
     << "const char* spacearm_coordinate_name(int i) { return kCoordinateNames[i]; }\n"
-    << "const char* spacearm_parameter_name(int i) { return kNumParams ? "
-       "Model::parameter_names()[i] : \"\"; }\n"
-    << "double spacearm_nominal_parameter(int i) { return kNumParams ? "
-       "Model::nominal_parameters()[i] : 0.0; }\n"
-    << "const char* spacearm_parameter_error(const double* p) { return parameter_error(P(p)); }\n"
-    << "int spacearm_actuated_coordinate(int joint) { return "
-    << (model.facts.actuated_coordinates.empty() ? "kNv - kNumLinks + joint"
-                                                 : "kActuatedCoordinates[joint]")
-    << "; }\n";
-  unsigned long mask = 0;
-  for (Output o : model.facts.outputs) mask |= output_bit(o);
-  s << "unsigned long spacearm_outputs() { return " << mask << "ul; }\n";
+    << "const char* spacearm_parameter_name(int i) { return kParameterNames[i]; }\n"
+    << "double spacearm_nominal_parameter(int i) { return kNominalParameters[i]; }\n"
+    << "int spacearm_actuated_coordinate(int joint) { return kActuatedCoordinates[joint]; }\n"
+    << "unsigned long spacearm_outputs() { return " << mask << "ul; }\n"
+    << "const char* spacearm_parameter_error([[maybe_unused]] const double* params) {\n"
+    << parameter_checks(facts, Spelling::c_arrays);
   for (const auto& f : model.functions) {
-    s << "void spacearm_" << f.name
-      << "([[maybe_unused]] const double* const* in, const double* p, double* const* out) {\n";
-    std::string call;
+    s << "\n// " << f.doc << "\nvoid spacearm_" << f.name
+      << "([[maybe_unused]] const double* const* in, [[maybe_unused]] const double* params, "
+         "double* const* out) {\n";
     for (size_t i = 0; i < f.inputs.size(); ++i)
-      call += matrix_type(f.inputs[i], "double") + "(Eigen::Map<const " +
-              matrix_type(f.inputs[i], "double") + ">(in[" + std::to_string(i) + "])), ";
-    call += "P(p)";
-    if (returns_scalar(f)) {
-      s << "  out[0][0] = " << f.name << "<double>(" << call << ");\n}\n";
-      continue;
-    }
-    for (size_t k = 0; k < f.results.size(); ++k) {
-      s << "  " << matrix_type(f.results[k], "double") << " r" << k << ";\n";
-      call += ", r" + std::to_string(k);
-    }
-    s << "  " << f.name << "<double>(" << call << ");\n";
-    for (size_t k = 0; k < f.results.size(); ++k)
-      s << "  Eigen::Map<" << matrix_type(f.results[k], "double") << ">{out[" << k << "]} = r" << k
-        << ";\n";
-    s << "}\n";
+      s << "  [[maybe_unused]] const double* " << f.inputs[i].name << " = in[" << i << "];\n";
+    s << function_body(f, facts.dims, Spelling::c_arrays) << "}\n";
   }
-  s << "}\n}  // namespace " << ns << "\n";
+  s << "}\n";
   return s.str();
 }
 
@@ -450,7 +464,7 @@ EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
   h << "\n}  // namespace " << ns << "\n";
   result.header = h.str();
   result.source = s.str();
-  result.c_interface = c_interface(model, result.header_name, ns);
+  result.c_interface = c_interface(model);
   return result;
 }
 

@@ -21,10 +21,6 @@
 #include "outputs.hpp"
 #include "symbolic_model.hpp"
 
-#ifndef SPACEARM_EIGEN_INCLUDE_DIR
-#define SPACEARM_EIGEN_INCLUDE_DIR "/usr/include/eigen3"
-#endif
-
 namespace spacearm {
 
 namespace fs = std::filesystem;
@@ -127,8 +123,8 @@ std::string build_entry(const Scene& scene, const CacheFolder& cache, const std:
     eo.scene_path = scene.source_path;
     eo.command = "spacearm (compile-and-load cache)";
     const EmittedModel emitted = emit_cpp(model, eo);
-    write_files(emitted, work);
-    write_file(fs::path(work) / "c_api.cpp", emitted.c_interface);
+    // Only the self-contained C interface is compiled (no Eigen: cpp_printer.cpp says why).
+    write_file(fs::path(work) / "libmodel.cpp", emitted.c_interface);
     rep.emit_ms = ms_since(t0);
     rep.generated = true;
 
@@ -136,9 +132,7 @@ std::string build_entry(const Scene& scene, const CacheFolder& cache, const std:
     t0 = std::chrono::steady_clock::now();
     std::vector<std::string> argv{compiler};
     for (const auto& f : split_flags(options.flags)) argv.push_back(f);
-    for (const std::string& a : {"-I" + std::string(SPACEARM_EIGEN_INCLUDE_DIR), "-I" + work,
-                                 work + "/" + emitted.source_name, work + "/c_api.cpp",
-                                 std::string("-o"), work + "/libmodel.so"})
+    for (const std::string& a : {work + "/libmodel.cpp", std::string("-o"), work + "/libmodel.so"})
       argv.push_back(a);
     std::string shown;
     for (const auto& a : argv) shown += (shown.empty() ? "" : " ") + a;
@@ -201,7 +195,7 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
 
   const std::string key =
       sha256_hex(scene.content + '\0' + kGeneratorVersion + '\0' + generator_identity() + '\0' +
-                 compiler_id + '\0' + options.flags + '\0' + SPACEARM_EIGEN_INCLUDE_DIR)
+                 compiler_id + '\0' + options.flags)
           .substr(0, 32);
   const std::string entry = scene.name + "-" + key;
   rep.cache_entry = cache.path() + "/" + entry;

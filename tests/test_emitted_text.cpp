@@ -110,21 +110,26 @@ void expect_marker_only_in_comments(const std::string& text, const std::string& 
     }
 }
 
+// The model's source (with Eigen) and the C interface the compile-and-load path builds
+// (alone, without Eigen) both compile without a warning.
 void expect_compiles(const EmittedModel& e, const std::string& label) {
   const fs::path dir =
       fs::temp_directory_path() / ("spacearm-emitted-text-" + std::to_string(getpid()));
   fs::remove_all(dir);
   write_files(e, dir.string());
-  const std::string command = std::string(SPACEARM_CXX) +
-                              " -std=c++17 -Wall -Wextra -Werror -fsyntax-only -I" +
-                              SPACEARM_EIGEN_INCLUDE_DIR + " -I'" + dir.string() + "' '" +
-                              (dir / e.source_name).string() + "' 2>&1";
-  std::string out;
-  FILE* p = popen(command.c_str(), "r");
-  ASSERT_NE(p, nullptr);
-  char buf[4096];
-  for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
-  EXPECT_EQ(pclose(p), 0) << label << " does not compile:\n" << out;
+  std::ofstream(dir / "libmodel.cpp") << e.c_interface;
+  for (const std::string& source : {e.source_name, std::string("libmodel.cpp")}) {
+    const std::string command = std::string(SPACEARM_CXX) +
+                                " -std=c++17 -Wall -Wextra -Werror -fsyntax-only -I" +
+                                SPACEARM_EIGEN_INCLUDE_DIR + " -I'" + dir.string() + "' '" +
+                                (dir / source).string() + "' 2>&1";
+    std::string out;
+    FILE* p = popen(command.c_str(), "r");
+    ASSERT_NE(p, nullptr);
+    char buf[4096];
+    for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
+    EXPECT_EQ(pclose(p), 0) << label << ": " << source << " does not compile:\n" << out;
+  }
   fs::remove_all(dir);
 }
 
@@ -190,6 +195,7 @@ TEST(EmittedText, EveryAcceptedSceneEmitsCodeThatCompilesWithUserTextOnlyInComme
       const EmittedModel e = emit_cpp(derive(scene), options);
       expect_marker_only_in_comments(e.header, kMarker, label + " header");
       expect_marker_only_in_comments(e.source, kMarker, label + " source");
+      expect_marker_only_in_comments(e.c_interface, kMarker, label + " C interface");
       expect_compiles(e, label + (plain ? " (plain)" : ""));
       if (label.rfind("hostile", 0) != 0) break;  // the baseline printer: hostile scenes only
     }
