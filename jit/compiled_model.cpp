@@ -310,6 +310,13 @@ CompiledModel& CompiledModel::operator=(CompiledModel&& o) noexcept {
 
 bool CompiledModel::has(Output o) const { return (outputs_ & output_bit(o)) != 0; }
 
+CompiledModel::Function CompiledModel::function(Output o) const {
+  if (!has(o))
+    throw std::invalid_argument("the scene does not emit '" + std::string(info(o).name) +
+                                "' (add it to outputs)");
+  return functions_.at(info(o).name);
+}
+
 void CompiledModel::check(const char* what, const Eigen::VectorXd& v, int size) const {
   if (v.size() != size)
     throw std::invalid_argument(std::string(what) + ": expected " + std::to_string(size) +
