@@ -27,41 +27,92 @@
 
 #include "paper_geared.hpp"
 #include "paper_reference.hpp"
+// The chains of the sizes CMake generated (SPACEARM_BENCH_SIZES), each registered in main().
+#if __has_include("chain_n2.hpp")
+#include "chain_n2.hpp"
+#include "chain_n2_armature.hpp"
+#include "chain_n2_geared.hpp"
+#define SPACEARM_BENCH_N2 SPACEARM_CHAIN(2)
+#else
+#define SPACEARM_BENCH_N2
+#endif
+#if __has_include("chain_n3.hpp")
 #include "chain_n3.hpp"
 #include "chain_n3_armature.hpp"
 #include "chain_n3_geared.hpp"
+#define SPACEARM_BENCH_N3 SPACEARM_CHAIN(3)
+#else
+#define SPACEARM_BENCH_N3
+#endif
+#if __has_include("chain_n4.hpp")
+#include "chain_n4.hpp"
+#include "chain_n4_armature.hpp"
+#include "chain_n4_geared.hpp"
+#define SPACEARM_BENCH_N4 SPACEARM_CHAIN(4)
+#else
+#define SPACEARM_BENCH_N4
+#endif
+#if __has_include("chain_n6.hpp")
+#include "chain_n6.hpp"
+#include "chain_n6_armature.hpp"
+#include "chain_n6_geared.hpp"
+#define SPACEARM_BENCH_N6 SPACEARM_CHAIN(6)
+#else
+#define SPACEARM_BENCH_N6
+#endif
+#if __has_include("chain_n8.hpp")
+#include "chain_n8.hpp"
+#include "chain_n8_armature.hpp"
+#include "chain_n8_geared.hpp"
+#define SPACEARM_BENCH_N8 SPACEARM_CHAIN(8)
+#else
+#define SPACEARM_BENCH_N8
+#endif
+#if __has_include("chain_n10.hpp")
+#include "chain_n10.hpp"
+#include "chain_n10_armature.hpp"
+#include "chain_n10_geared.hpp"
+#define SPACEARM_BENCH_N10 SPACEARM_CHAIN(10)
+#else
+#define SPACEARM_BENCH_N10
+#endif
+#if __has_include("chain_n12.hpp")
 #include "chain_n12.hpp"
 #include "chain_n12_armature.hpp"
 #include "chain_n12_geared.hpp"
+#define SPACEARM_BENCH_N12 SPACEARM_CHAIN(12)
+#else
+#define SPACEARM_BENCH_N12
+#endif
+#if __has_include("chain_n16.hpp")
+#include "chain_n16.hpp"
+#include "chain_n16_armature.hpp"
+#include "chain_n16_geared.hpp"
+#define SPACEARM_BENCH_N16 SPACEARM_MUJOCO_CHAIN(16)
+#else
+#define SPACEARM_BENCH_N16
+#endif
+#if __has_include("chain_n20.hpp")
+#include "chain_n20.hpp"
+#include "chain_n20_armature.hpp"
+#include "chain_n20_geared.hpp"
+#define SPACEARM_BENCH_N20 SPACEARM_MUJOCO_CHAIN(20)
+#else
+#define SPACEARM_BENCH_N20
+#endif
+#if __has_include("chain_n30.hpp")
 #include "chain_n30.hpp"
 #include "chain_n30_armature.hpp"
 #include "chain_n30_geared.hpp"
-// The full run adds the other sizes, the CSE-free baseline and the SymPy peer.
+#define SPACEARM_BENCH_N30 SPACEARM_MUJOCO_CHAIN(30)
+#else
+#define SPACEARM_BENCH_N30
+#endif
+// The full run adds the CSE-free baseline and the SymPy peer (N <= 12).
 #ifndef SPACEARM_BENCH_QUICK
 #include "paper_geared_folded.hpp"
 #include "paper_geared_plain.hpp"
 #include "paper_reference_plain.hpp"
-#include "chain_n2.hpp"
-#include "chain_n2_armature.hpp"
-#include "chain_n2_geared.hpp"
-#include "chain_n4.hpp"
-#include "chain_n4_armature.hpp"
-#include "chain_n4_geared.hpp"
-#include "chain_n6.hpp"
-#include "chain_n6_armature.hpp"
-#include "chain_n6_geared.hpp"
-#include "chain_n8.hpp"
-#include "chain_n8_armature.hpp"
-#include "chain_n8_geared.hpp"
-#include "chain_n10.hpp"
-#include "chain_n10_armature.hpp"
-#include "chain_n10_geared.hpp"
-#include "chain_n16.hpp"
-#include "chain_n16_armature.hpp"
-#include "chain_n16_geared.hpp"
-#include "chain_n20.hpp"
-#include "chain_n20_armature.hpp"
-#include "chain_n20_geared.hpp"
 #include "chain_n2_geared_plain.hpp"
 #include "chain_n2_plain.hpp"
 #include "chain_n3_geared_plain.hpp"
@@ -488,20 +539,20 @@ int main(int argc, char** argv) {
   register_ours<m::paper_geared::Model>("ours", "paper_geared", true);
   register_mujoco<m::paper_reference::Model>(SPACEARM_SOURCE_DIR "/models/paper_reference.yaml",
                                              "paper_reference");
-  SPACEARM_CHAIN(3)
-  SPACEARM_CHAIN(12)
-  SPACEARM_MUJOCO_CHAIN(30)
+  SPACEARM_BENCH_N2
+  SPACEARM_BENCH_N3
+  SPACEARM_BENCH_N4
+  SPACEARM_BENCH_N6
+  SPACEARM_BENCH_N8
+  SPACEARM_BENCH_N10
+  SPACEARM_BENCH_N12
+  SPACEARM_BENCH_N16
+  SPACEARM_BENCH_N20
+  SPACEARM_BENCH_N30
 #ifndef SPACEARM_BENCH_QUICK
   register_ours<m::paper_geared_folded::Model>("ours", "paper_geared_folded", false);
   register_ours<m::paper_reference_plain::Model>("plain", "paper_reference", false);
   register_ours<m::paper_geared_plain::Model>("plain", "paper_geared", false);
-  SPACEARM_CHAIN(2)
-  SPACEARM_CHAIN(4)
-  SPACEARM_CHAIN(6)
-  SPACEARM_CHAIN(8)
-  SPACEARM_CHAIN(10)
-  SPACEARM_MUJOCO_CHAIN(16)
-  SPACEARM_MUJOCO_CHAIN(20)
   SPACEARM_PLAIN(2)
   SPACEARM_PLAIN(3)
   SPACEARM_PLAIN(4)

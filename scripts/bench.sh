@@ -2,22 +2,34 @@
 # Builds and runs the benchmarks: per-call cost against MuJoCo, SymPy (with cse) and the
 # CSE-free baseline, with the ratio table at the end. Installs Google Benchmark, MuJoCo and
 # SymPy when missing.
-#   scripts/bench.sh [--quick] [benchmark options, e.g. --benchmark_filter=chain_n3]
+#   scripts/bench.sh [--quick [--all-sizes] | --first-use] [benchmark options, e.g. --benchmark_filter=chain_n3]
 # --quick: only the MuJoCo comparison for N = 3, 12 and 30 (reference, geared, armature) and
 # the paper's models; a few minutes from a clean clone (build folder build-bench-quick).
+# --quick --all-sizes: the MuJoCo comparison at every N of bench/scenes, 2 to 30
+# (build-bench-sizes; about 15 minutes to build on 2 cores).
+# --first-use: latency to the first result against time per call (bench/bench_first_use.cpp).
 # Build folder: build-bench (Release). Results vary with the machine and its load: compare
 # ratios measured in one run, not absolute times across machines.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 quick=0
-if [[ "${1:-}" == "--quick" ]]; then
+folder=build-bench-quick
+sizes=()
+program=bench_dynamics
+if [[ "${1:-}" == "--quick" || "${1:-}" == "--first-use" ]]; then
   quick=1
+  [[ "$1" == "--first-use" ]] && program=bench_first_use
   shift
+  if [[ "${1:-}" == "--all-sizes" ]]; then
+    folder=build-bench-sizes
+    sizes=("-DSPACEARM_BENCH_SIZES=2;3;4;6;8;10;12;16;20;30")
+    shift
+  fi
 fi
 if ((quick)); then
   scripts/install-packages.sh libbenchmark-dev libmujoco-dev
-  scripts/setup.sh build-bench-quick -DSPACEARM_BUILD_BENCH=ON -DSPACEARM_BENCH_QUICK=ON -DSPACEARM_BUILD_TESTS=OFF
-  binary=build-bench-quick/bench/bench_dynamics
+  scripts/setup.sh "$folder" -DSPACEARM_BUILD_BENCH=ON -DSPACEARM_BENCH_QUICK=ON -DSPACEARM_BUILD_TESTS=OFF "${sizes[@]}"
+  binary=$folder/bench/$program
 else
   scripts/install-packages.sh libbenchmark-dev libmujoco-dev python3-sympy python3-yaml
   # Debian's python3 and python3-sympy, not whatever python3 comes first on PATH.
