@@ -156,8 +156,6 @@ const std::vector<OutputInfo>& output_registry() {
 
 bool closed_form_only(Output o) {
   switch (o) {
-    case Output::kinetic_energy:
-    case Output::momentum:
     case Output::coriolis_matrix:
     case Output::mass_matrix_derivative:
     case Output::christoffel_coriolis_matrix:

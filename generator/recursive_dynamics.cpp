@@ -184,6 +184,11 @@ class Chain {
   std::vector<std::vector<T>> forward_dynamics(const std::vector<T>& Q) const;
   // Springs, dampers and friction, so that M qdd + b + passive = Q.
   std::vector<T> passive_forces() const;
+  // T = 1/2 sum v . I v over the bodies, plus 1/2 I_m w^2 of each rotor (eqs. 3 and 10).
+  T kinetic_energy() const;
+  // [Px, Py, L]: the base rows of M qd (the bodies' momenta gathered at the base's CoM), with L
+  // moved to the world origin, as symbolic_model.cpp defines it. Free base only.
+  std::vector<T> momentum() const;
   T input(const std::string& array, int i) const { return val_.input(array, i); }
   int n() const { return n_; }
 
@@ -222,6 +227,11 @@ class Chain {
   Motion<T> velocity_product(const Motion<T>& v, int i) const {
     const T u = joint_[i].g * qd_[joint_[i].c];
     return {T{}, v.y * u, -(v.x * u)};
+  }
+  // A rotor's rate: Omega_{i-1} + qd_m in the exact model (eq. 10), qd_m as armature.
+  T rotor_rate(const std::vector<Motion<T>>& v, int i) const {
+    const Joint& J = joint_[i];
+    return J.rotor == Rotor::exact ? v[i - 1].w + qd_[J.m] : qd_[J.m];
   }
   std::vector<T> mass_matrix_diagonal() const;
   void solve_base(const Inertia<T>& IA, const Force<T>& rhs, std::vector<T>& qdd,
@@ -515,6 +525,36 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
 }
 
 template <class T>
+T Chain<T>::kinetic_energy() const {
+  const std::vector<Motion<T>> v = velocities();
+  T twice{};
+  for (int i = free_ ? 0 : 1; i <= N_; ++i) twice += dot(body_[i].spatial() * v[i], v[i]);
+  for (int i = 1; i <= N_; ++i)
+    if (joint_[i].rotor != Rotor::none) {
+      const T w = rotor_rate(v, i);
+      twice += joint_[i].Im * w * w;
+    }
+  return twice * 0.5;
+}
+
+template <class T>
+std::vector<T> Chain<T>::momentum() const {
+  if (!free_) throw std::logic_error("recursive dynamics: momentum of a fixed base");
+  const std::vector<Motion<T>> v = velocities();
+  std::vector<Force<T>> h(N_ + 1);
+  for (int i = 0; i <= N_; ++i) h[i] = body_[i].spatial() * v[i];
+  // Tip first: each body's momentum to its parent; an exact rotor's spin I_m (Omega_{i-1} + qd_m)
+  // is a pure angular momentum on the body that carries it (an armature's is not: it does not
+  // turn with the base, so dT/dq0d leaves it out).
+  for (int i = N_; i >= 1; --i) {
+    if (joint_[i].rotor == Rotor::exact) h[i - 1].n += joint_[i].Im * rotor_rate(v, i);
+    h[i - 1] += X_[i].apply_transpose(h[i]);
+  }
+  // L about the world origin: L_CoM + r0 x P.
+  return {h[0].x, h[0].y, h[0].n + q_[0] * h[0].y - q_[1] * h[0].x};
+}
+
+template <class T>
 std::vector<std::vector<T>> compute(const Chain<T>& chain, Output o) {
   const int n = chain.n();
   auto inputs = [&](const char* name) {
@@ -535,6 +575,10 @@ std::vector<std::vector<T>> compute(const Chain<T>& chain, Output o) {
     }
     case Output::forward_dynamics:
       return chain.forward_dynamics(inputs(info(Input::generalized_forces).name));
+    case Output::kinetic_energy:
+      return {{chain.kinetic_energy()}};
+    case Output::momentum:
+      return {chain.momentum()};
     default:
       throw std::logic_error("recursive dynamics: no recursive form of " + to_string(o));
   }
@@ -542,16 +586,25 @@ std::vector<std::vector<T>> compute(const Chain<T>& chain, Output o) {
 
 }  // namespace
 
-bool has_recursive_form(Output o) {
-  return o == Output::mass_matrix || o == Output::bias_forces || o == Output::inverse_dynamics ||
-         o == Output::forward_dynamics;
+const char* recursive_algorithm(Output o) {
+  switch (o) {
+    case Output::mass_matrix:
+      return "CRBA";
+    case Output::bias_forces:
+    case Output::inverse_dynamics:
+      return "RNEA";
+    case Output::forward_dynamics:
+      return "ABA";
+    case Output::kinetic_energy:
+      return "body velocities";
+    case Output::momentum:
+      return "body momenta";
+    default:
+      return nullptr;
+  }
 }
 
-const char* recursive_algorithm(Output o) {
-  if (!has_recursive_form(o))
-    throw std::logic_error("recursive dynamics: no recursive form of " + to_string(o));
-  return o == Output::mass_matrix ? "CRBA" : o == Output::forward_dynamics ? "ABA" : "RNEA";
-}
+bool has_recursive_form(Output o) { return recursive_algorithm(o) != nullptr; }
 
 std::vector<std::vector<SRef>> record_recursive(const Scene& scene, Output o, Program& p) {
   Values<Sym> values{[&p](const std::string& a, int i) { return Sym(&p, p.input(a, i)); },

@@ -22,9 +22,10 @@
 namespace spacearm {
 
 // Whether output o has a recursive form: mass_matrix, bias_forces, inverse_dynamics,
-// forward_dynamics.
+// forward_dynamics, kinetic_energy, momentum.
 bool has_recursive_form(Output o);
-// The algorithm that gives it: "CRBA", "RNEA" or "ABA".
+// The algorithm that gives it: "CRBA", "RNEA", "ABA", "body velocities" or "body momenta";
+// nullptr if it has none.
 const char* recursive_algorithm(Output o);
 
 // The results of output o (the registry's, each row by row; a symmetric one in full), recorded

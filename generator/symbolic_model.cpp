@@ -90,7 +90,11 @@ class Derivation {
     for (Output o : scene.outputs)
       wanted_.insert(info(o).composed_of.begin(), info(o).composed_of.end());
     // Where only the recursive form is tried, M and b are derived only for the state Jacobian,
-    // which differentiates them.
+    // which differentiates them; T and the momentum not at all.
+    if (!scene.tries_closed_form()) {
+      wanted_.erase(Output::kinetic_energy);
+      wanted_.erase(Output::momentum);
+    }
     if (!scene.tries_closed_form() && !wanted_.count(Output::forward_dynamics_derivatives)) {
       wanted_.erase(Output::mass_matrix);
       wanted_.erase(Output::bias_forces);
@@ -211,7 +215,8 @@ class Derivation {
   bool needs_kinetic_energy() const {
     for (const OutputInfo& o : output_registry())
       if (wants(o.id) &&
-          (closed_form_only(o.id) || o.id == Output::mass_matrix || o.id == Output::bias_forces))
+          (closed_form_only(o.id) || o.id == Output::mass_matrix || o.id == Output::bias_forces ||
+           o.id == Output::kinetic_energy || o.id == Output::momentum))
         return true;
     return false;
   }
