@@ -426,6 +426,16 @@ class Derivation {
 }  // namespace
 
 SymbolicModel derive(const Scene& scene, const DeriveOptions& options) {
+  // Every closed form (for inspect) only within the closed form's reach: past it, expanding T
+  // alone takes minutes and gigabytes (issue 14 measured 6.8 GB at N = 30).
+  if (options.all_outputs && !scene.closed_form_affordable())
+    throw std::invalid_argument(
+        "scene '" + scene.name + "' has " + std::to_string(scene.num_links()) +
+        " links: the closed form's entries are printed up to " + std::to_string(kClosedFormLinks) +
+        " links; beyond, the closed form takes minutes and gigabytes to expand and the generated "
+        "functions come from the recursive algorithms, which have no entries to print. Evaluate "
+        "the quantity with 'spacearm eval', or add 'formulation: closed' to the scene to expand "
+        "it anyway");
   SymbolicModel model;
   model.scene = scene;
   Derivation(model.scene, options, model).run();

@@ -51,7 +51,10 @@ struct SymbolicModel {
 };
 
 struct DeriveOptions {
-  bool all_outputs = false;  // derive everything, not only what the scene asks for
+  // Derive every closed form, not only what the scene asks for (inspect); an error naming the
+  // scene and kClosedFormLinks past the closed form's reach unless the scene's formulation is
+  // closed.
+  bool all_outputs = false;
 };
 
 // Converts a scene literal to an exact rational ("0.181" -> 181/1000).

@@ -231,6 +231,14 @@ TEST(SymbolicEntries, GearRatiosAppearAsTheyShould) {
     if (o.composed_of.empty() && (o.needs & ~needs::rigid_joints) == 0) {
       EXPECT_EQ(fixed.outputs.count(o.id), 1u) << o.name;
     }
+  // Past the closed form's reach, every closed form is refused by name (unless forced).
+  test::ChainSpec spec;
+  spec.links = kClosedFormLinks + 1;
+  spec.outputs = "[mass_matrix]";
+  const Scene long_chain = parse_scene(test::random_scene_yaml(spec), "long.yaml");
+  EXPECT_THROW_MESSAGE(derive(long_chain, all), std::invalid_argument,
+                       "has 9 links: the closed form's entries are printed up to 8 links");
+  EXPECT_THROW_MESSAGE(derive(long_chain, all), std::invalid_argument, "formulation: closed");
   // One coordinate: M is still a matrix, b and J keep their indices.
   EXPECT_TRUE(
       symbolic_entry(fixed, "M[0][0]").is_equal(fixed.expression(Output::mass_matrix)(0, 0)));
