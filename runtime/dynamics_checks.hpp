@@ -9,6 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace spacearm {
 
@@ -20,10 +21,11 @@ class DynamicsError : public std::runtime_error {
 };
 
 // Forward dynamics' inputs must be finite: a DynamicsError names every entry that is not
-// (coordinate_names: the nq names of q).
+// (coordinate_names: the nq names of q). The model's name is a view: the checks run on every
+// call and build a string only to fail (a name past 15 characters would allocate each call).
 template <class Config, class Velocity, class Names>
 void check_finite_inputs(const Config& q, const Velocity& qd, const Velocity& Q,
-                         const std::string& model_name, const Names& coordinate_names) {
+                         std::string_view model_name, const Names& coordinate_names) {
   if (q.allFinite() && qd.allFinite() && Q.allFinite()) return;
   std::ostringstream msg;
   msg << "model " << model_name << ": non-finite input";
@@ -48,17 +50,19 @@ inline constexpr double kMaxScaledCondition = 1e14;
 // cond(S M S); past kMaxScaledCondition no digit of the solve is left.
 template <class Pivots, class Acceleration>
 void check_forward_dynamics(const Pivots& pivots, const Pivots& scaled_pivots,
-                            const Acceleration& qdd, const std::string& model_name) {
+                            const Acceleration& qdd, std::string_view model_name) {
   if (!pivots.allFinite() || !scaled_pivots.allFinite() || !(pivots.minCoeff() > 0))
-    throw DynamicsError("model " + model_name + ": mass matrix is not positive definite");
+    throw DynamicsError("model " + std::string(model_name) +
+                        ": mass matrix is not positive definite");
   const double lo = scaled_pivots.minCoeff(), hi = scaled_pivots.maxCoeff();
   if (!(hi / lo < kMaxScaledCondition))
     throw DynamicsError(
-        "model " + model_name +
+        "model " + std::string(model_name) +
         ": mass matrix numerically singular (condition number of the diagonally scaled matrix >= " +
         std::to_string(hi / lo) + ")");
   if (!qdd.allFinite())
-    throw DynamicsError("model " + model_name + ": accelerations not finite (overflow)");
+    throw DynamicsError("model " + std::string(model_name) +
+                        ": accelerations not finite (overflow)");
 }
 
 // The pivots D_i = L_ii^2 and D_i / M_ii of a Cholesky factorization M = L L^T, for the
