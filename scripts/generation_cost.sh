@@ -20,8 +20,8 @@ for n in 2 3 4 6 8 10 12 16 20 30; do
     derive=$(echo "$stats" | sed -n 's/^derive \([0-9]*\) ms, emit \([0-9]*\) ms$/\1/p')
     emit=$(echo "$stats" | sed -n 's/^derive \([0-9]*\) ms, emit \([0-9]*\) ms$/\2/p')
     # Columns of --stats: function basis adds muls divs total sin/cos tanh/exp formulation...
-    mb=$(echo "$stats" | awk '$1 == "mass_matrix_and_bias" {f = $10; for (i = 11; i <= NF; i++) f = f " " $i; print $6 "|" $7 "|" f}')
-    fd=$(echo "$stats" | awk '$1 == "forward_dynamics" {f = $10; for (i = 11; i <= NF; i++) f = f " " $i; print $6 "|" f}')
+    mb=$(echo "$stats" | awk '$1 == "mass_matrix_and_bias" {f = $9; for (i = 10; i <= NF; i++) f = f " " $i; print $6 "|" $7 "|" f}')
+    fd=$(echo "$stats" | awk '$1 == "forward_dynamics" {f = $9; for (i = 10; i <= NF; i++) f = f " " $i; print $6 "|" f}')
     start=$EPOCHREALTIME
     g++ -std=c++17 -O2 $eigen -c "$work/$scene.cpp" -o "$work/$scene.o"
     compile=$(awk -v a="$start" -v b="$EPOCHREALTIME" 'BEGIN {print b - a}')
