@@ -6,7 +6,7 @@
 # --quick: only the MuJoCo comparison for N = 3, 12 and 30 (reference, geared, armature) and
 # the paper's models; a few minutes from a clean clone (build folder build-bench-quick).
 # --quick --all-sizes: the MuJoCo comparison at every N of bench/scenes, 2 to 30
-# (build-bench-sizes; about 15 minutes to build on 2 cores).
+# (build-bench-sizes; about 25 minutes to build on 2 cores), M + bias and forward dynamics only.
 # --first-use: latency to the first result against time per call (bench/bench_first_use.cpp).
 # Build folder: build-bench (Release). Results vary with the machine and its load: compare
 # ratios measured in one run, not absolute times across machines.
@@ -15,6 +15,7 @@ cd "$(dirname "$0")/.."
 quick=0
 folder=build-bench-quick
 sizes=()
+filter=()
 program=bench_dynamics
 if [[ "${1:-}" == "--quick" || "${1:-}" == "--first-use" ]]; then
   quick=1
@@ -23,6 +24,7 @@ if [[ "${1:-}" == "--quick" || "${1:-}" == "--first-use" ]]; then
   if [[ "${1:-}" == "--all-sizes" ]]; then
     folder=build-bench-sizes
     sizes=("-DSPACEARM_BENCH_SIZES=2;3;4;6;8;10;12;16;20;30")
+    filter=("--benchmark_filter=FD|M\+bias")  # M + bias and forward dynamics; options given override
     shift
   fi
 fi
@@ -38,4 +40,4 @@ else
 fi
 # Five repetitions, interleaved at random so that a slow spell of the machine does not hit one
 # benchmark only; the ratio table takes each one's fastest repetition. Options given override.
-"$binary" --benchmark_repetitions=5 --benchmark_enable_random_interleaving=true --benchmark_min_time=0.1 "$@"
+"$binary" --benchmark_repetitions=5 --benchmark_enable_random_interleaving=true --benchmark_min_time=0.1 "${filter[@]}" "$@"
