@@ -23,12 +23,14 @@
 
 #include "model.hpp"
 #include "mujoco_chain.hpp"
+#include "recording_reporter.hpp"
 #include "scene.hpp"
 
 #include "paper_geared.hpp"
 #include "paper_reference.hpp"
-// The chains of the sizes CMake generated (SPACEARM_BENCH_SIZES), each registered in main().
-#if __has_include("chain_n2.hpp")
+// The chains of the sizes CMake generated (SPACEARM_BENCH_SIZES defines SPACEARM_BENCH_WITH_N<k>),
+// each registered in main().
+#ifdef SPACEARM_BENCH_WITH_N2
 #include "chain_n2.hpp"
 #include "chain_n2_armature.hpp"
 #include "chain_n2_geared.hpp"
@@ -36,7 +38,7 @@
 #else
 #define SPACEARM_BENCH_N2
 #endif
-#if __has_include("chain_n3.hpp")
+#ifdef SPACEARM_BENCH_WITH_N3
 #include "chain_n3.hpp"
 #include "chain_n3_armature.hpp"
 #include "chain_n3_geared.hpp"
@@ -44,7 +46,7 @@
 #else
 #define SPACEARM_BENCH_N3
 #endif
-#if __has_include("chain_n4.hpp")
+#ifdef SPACEARM_BENCH_WITH_N4
 #include "chain_n4.hpp"
 #include "chain_n4_armature.hpp"
 #include "chain_n4_geared.hpp"
@@ -52,7 +54,7 @@
 #else
 #define SPACEARM_BENCH_N4
 #endif
-#if __has_include("chain_n6.hpp")
+#ifdef SPACEARM_BENCH_WITH_N6
 #include "chain_n6.hpp"
 #include "chain_n6_armature.hpp"
 #include "chain_n6_geared.hpp"
@@ -60,7 +62,7 @@
 #else
 #define SPACEARM_BENCH_N6
 #endif
-#if __has_include("chain_n8.hpp")
+#ifdef SPACEARM_BENCH_WITH_N8
 #include "chain_n8.hpp"
 #include "chain_n8_armature.hpp"
 #include "chain_n8_geared.hpp"
@@ -68,7 +70,7 @@
 #else
 #define SPACEARM_BENCH_N8
 #endif
-#if __has_include("chain_n10.hpp")
+#ifdef SPACEARM_BENCH_WITH_N10
 #include "chain_n10.hpp"
 #include "chain_n10_armature.hpp"
 #include "chain_n10_geared.hpp"
@@ -76,7 +78,7 @@
 #else
 #define SPACEARM_BENCH_N10
 #endif
-#if __has_include("chain_n12.hpp")
+#ifdef SPACEARM_BENCH_WITH_N12
 #include "chain_n12.hpp"
 #include "chain_n12_armature.hpp"
 #include "chain_n12_geared.hpp"
@@ -84,7 +86,7 @@
 #else
 #define SPACEARM_BENCH_N12
 #endif
-#if __has_include("chain_n16.hpp")
+#ifdef SPACEARM_BENCH_WITH_N16
 #include "chain_n16.hpp"
 #include "chain_n16_armature.hpp"
 #include "chain_n16_geared.hpp"
@@ -92,7 +94,7 @@
 #else
 #define SPACEARM_BENCH_N16
 #endif
-#if __has_include("chain_n20.hpp")
+#ifdef SPACEARM_BENCH_WITH_N20
 #include "chain_n20.hpp"
 #include "chain_n20_armature.hpp"
 #include "chain_n20_geared.hpp"
@@ -100,7 +102,7 @@
 #else
 #define SPACEARM_BENCH_N20
 #endif
-#if __has_include("chain_n30.hpp")
+#ifdef SPACEARM_BENCH_WITH_N30
 #include "chain_n30.hpp"
 #include "chain_n30_armature.hpp"
 #include "chain_n30_geared.hpp"
@@ -143,24 +145,7 @@ namespace {
 constexpr int kStates = 64;  // fixed random states, cycled through by every benchmark
 constexpr double kStep = 1e-3;
 
-// Ratio table: seconds per call by benchmark name, filled by the reporter. With
-// --benchmark_repetitions, the fastest repetition: on a shared machine, noise only adds time.
-std::map<std::string, double> g_seconds;
-
-class RecordingReporter : public benchmark::ConsoleReporter {
- public:
-  void ReportRuns(const std::vector<Run>& runs) override {
-    for (const Run& r : runs) {
-      if (r.run_type != Run::RT_Iteration || r.error_occurred) continue;
-      std::string name = r.benchmark_name();
-      name = name.substr(0, name.find("/repeats:"));
-      const double t = r.real_accumulated_time / static_cast<double>(r.iterations);
-      const auto [it, inserted] = g_seconds.emplace(name, t);
-      if (!inserted) it->second = std::min(it->second, t);
-    }
-    ConsoleReporter::ReportRuns(runs);
-  }
-};
+std::map<std::string, double> g_seconds;  // fastest repetition per benchmark name
 
 template <class G>
 struct States {
@@ -564,7 +549,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   benchmark::Initialize(&argc, argv);
-  RecordingReporter reporter;
+  RecordingReporter reporter(g_seconds);
   benchmark::RunSpecifiedBenchmarks(&reporter);
   print_ratio_table();
   benchmark::Shutdown();

@@ -25,8 +25,11 @@ Eigen::MatrixXd closed_form(const SymbolicModel& model, Output o, const State& s
       return a == "q" ? s.q.at(i) : a == "qd" ? s.qd.at(i) : s.params.at(i);
     };
     const std::vector<double> v = evaluate_recursive(model.scene, o, input)[0];
+    // Shaped as the registry says (T is 1 x 1, h is 3 x 1), row by row.
+    const Dimensions dims = model.scene.dimensions();
+    const ResultInfo& shape = info(o).results[0];
     return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-        v.data(), model.n(), static_cast<Eigen::Index>(v.size()) / model.n());
+        v.data(), dims(shape.rows), dims(shape.cols));
   }
   const GiNaC::matrix& e = model.expression(o);
   const auto v = evaluate(model, e, s.q, s.qd, s.params);

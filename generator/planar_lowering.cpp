@@ -419,10 +419,6 @@ struct CheckPoint {
   }
 };
 
-Dimensions dimensions(const SymbolicModel& model) {
-  return {model.scene.num_coordinates(), model.scene.num_velocities(), model.scene.num_links()};
-}
-
 // The generator checks itself before it emits: the optimized straight-line program must
 // reproduce, at the check point, the values computed from the derivation alone (want: per
 // result, its entries row by row), else it names the entry that fails.
@@ -521,7 +517,7 @@ FunctionSpec lower_closed_form(const SymbolicModel& model, FunctionSpec f,
     std::vector<std::vector<SRef>> entries;
     for (size_t k = 0; k < results.size(); ++k) {
       auto& out = entries.emplace_back();
-      const int cols = dimensions(model)(f.results[k].cols);
+      const int cols = model.scene.dimensions()(f.results[k].cols);
       for (size_t e = 0; e < results[k].size(); ++e) {
         // A symmetric result's lower triangle repeats its upper one (built once).
         const int i = static_cast<int>(e) / cols, j = static_cast<int>(e) % cols;
@@ -548,7 +544,7 @@ std::vector<Eigen::MatrixXd> composed_reference(const SymbolicModel& model, Outp
                                                 const CheckPoint& at) {
   std::vector<Eigen::VectorXd> inputs;
   for (Input i : info(o).inputs) {
-    Eigen::VectorXd v(dimensions(model)(info(i).size));
+    Eigen::VectorXd v(model.scene.dimensions()(info(i).size));
     for (int k = 0; k < v.size(); ++k) v[k] = at.input(info(i).name, k);
     inputs.push_back(v);
   }
@@ -824,7 +820,7 @@ ModelFacts model_facts(const SymbolicModel& model, bool plain) {
   if (scene.num_flexible())
     for (int j = 0; j < scene.num_links(); ++j)
       facts.actuated_coordinates.push_back(scene.motor_coordinate(j));
-  facts.dims = dimensions(model);
+  facts.dims = model.scene.dimensions();
   facts.free_floating = scene.free_floating();
   facts.geared = scene.geared();
   facts.coordinate_names = scene.coordinate_names();

@@ -127,6 +127,7 @@ struct Scene {
   // Everything downstream reads Dimensions.
   int num_coordinates() const { return num_base() + num_links() + num_flexible(); }
   int num_velocities() const { return num_base() + num_links() + num_flexible(); }
+  Dimensions dimensions() const { return {num_coordinates(), num_velocities(), num_links()}; }
   // Coordinate of joint j's own slot (its link angle, or the motor angle of a rigid gear) and
   // of its motor: the one that the joint torque drives (as tau / p, eq. 14) and friction
   // brakes. They differ only for a flexible joint, whose motor angle follows all joint slots.

@@ -79,7 +79,8 @@ class CompiledModel {
                                    const Eigen::VectorXd& Q, const Eigen::VectorXd& params) const;
 
   // The exported C function of an output, called as cpp_printer.hpp says, with no checks:
-  // for callers that check their inputs once and then call it many times (benchmarks).
+  // for callers that check their inputs once and then call it many times (benchmarks). It
+  // points into the loaded library: valid while this model lives.
   using Function = void (*)(const double* const*, const double*, double* const*);
   Function function(Output o) const;
 
