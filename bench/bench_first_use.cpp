@@ -55,62 +55,27 @@ struct States {
   }
 };
 
-// The in-process option: the lowered forward_dynamics program, its nodes scheduled once and
-// run in order by a loop (what an interpreter of the straight-line program would do).
+// The in-process option: the lowered forward_dynamics program, scheduled once and run node by
+// node by Program::evaluate (what an interpreter of the straight-line program would do).
 class Interpreter {
  public:
-  explicit Interpreter(const FunctionSpec& f) : f_(f) {
-    order_ = f.program.schedule(f.roots());
+  explicit Interpreter(const FunctionSpec& f) : f_(f), order_(f.program.schedule(f.roots())) {
     for (const auto& a : f.inputs) slots_.push_back(a.name);
     slots_.push_back("params");
   }
-  // inputs: one array per slot (q, qd, Q, params); writes qdd.
-  void run(const std::vector<const double*>& inputs, double* qdd, std::vector<double>& v) const {
-    v.resize(f_.program.size());
-    auto value = [&](const SRef& r) { return r.id < 0 ? 0.0 : (r.neg ? -v[r.id] : v[r.id]); };
-    for (int id : order_) {
-      const Program::Node& n = f_.program.node(id);
-      double x = 0;
-      switch (n.kind) {
-        case Program::Kind::input:
-          x = inputs[slot(n.text)][n.index];
-          break;
-        case Program::Kind::constant:
-          x = n.value;
-          break;
-        case Program::Kind::add:
-          for (const SRef& a : n.args) x += value(a);
-          break;
-        case Program::Kind::mul:
-          x = 1;
-          for (const SRef& a : n.args) x *= value(a);
-          break;
-        case Program::Kind::div:
-          x = value(n.args[0]) / value(n.args[1]);
-          break;
-        case Program::Kind::sin:
-          x = std::sin(value(n.args[0]));
-          break;
-        case Program::Kind::cos:
-          x = std::cos(value(n.args[0]));
-          break;
-        default:
-          throw std::logic_error("interpreter: node kind not in forward dynamics");
-      }
-      v[id] = x;
-    }
-    for (size_t i = 0; i < f_.entries[0].size(); ++i) qdd[i] = value(f_.entries[0][i]);
+  // inputs: one array per slot (q, qd, Q, params); returns qdd.
+  std::vector<double> run(const std::vector<const double*>& inputs) const {
+    return f_.program.evaluate(order_, f_.entries[0], [&](const std::string& name, int i) {
+      for (size_t k = 0; k < slots_.size(); ++k)
+        if (slots_[k] == name) return inputs[k][i];
+      throw std::logic_error("interpreter: unknown input " + name);
+    });
   }
 
  private:
   const FunctionSpec& f_;
   std::vector<int> order_;
   std::vector<std::string> slots_;
-  size_t slot(const std::string& name) const {
-    for (size_t i = 0; i < slots_.size(); ++i)
-      if (slots_[i] == name) return i;
-    throw std::logic_error("interpreter: unknown input " + name);
-  }
 };
 
 const FunctionSpec& forward_dynamics_spec(const LoweredModel& lowered) {
@@ -203,10 +168,8 @@ void register_interpreted(const std::string& scene_file, const std::string& name
           const auto t0 = std::chrono::steady_clock::now();
           const LoweredModel lowered = lower(derive(scene));
           const Interpreter run(forward_dynamics_spec(lowered));
-          std::vector<double> qdd(scene.num_velocities()), v;
-          run.run({s.q[0].data(), s.qd[0].data(), s.Q[0].data(),
-                   lowered.facts.nominal_parameters.data()},
-                  qdd.data(), v);
+          const std::vector<double> qdd = run.run({s.q[0].data(), s.qd[0].data(), s.Q[0].data(),
+                                                   lowered.facts.nominal_parameters.data()});
           benchmark::DoNotOptimize(qdd.data());
           st.SetIterationTime(
               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
@@ -220,12 +183,10 @@ void register_interpreted(const std::string& scene_file, const std::string& name
     const LoweredModel lowered = lower(derive(scene));
     const Interpreter run(forward_dynamics_spec(lowered));
     const States s(scene.num_velocities());
-    std::vector<double> qdd(scene.num_velocities()), v;
     int k = 0;
     for (auto _ : st) {
-      run.run(
-          {s.q[k].data(), s.qd[k].data(), s.Q[k].data(), lowered.facts.nominal_parameters.data()},
-          qdd.data(), v);
+      const std::vector<double> qdd = run.run(
+          {s.q[k].data(), s.qd[k].data(), s.Q[k].data(), lowered.facts.nominal_parameters.data()});
       benchmark::DoNotOptimize(qdd.data());
       k = (k + 1) % kStates;
     }

@@ -231,6 +231,13 @@ std::string banner(const LoweredModel& model, const PrintOptions& options) {
          "off\n";
 }
 
+// Numbers as C++ literals that read back to the same doubles, comma-separated.
+std::string number_list(const std::vector<double>& values) {
+  std::string s;
+  for (double v : values) s += (s.empty() ? "" : ", ") + round_trip(v);
+  return s;
+}
+
 std::string quoted_list(const std::vector<std::string>& items) {
   std::string s;
   for (const auto& i : items) s += (s.empty() ? "" : ", ") + std::string("\"") + i + "\"";
@@ -285,12 +292,10 @@ std::string header_constants(const ModelFacts& facts) {
     << "inline constexpr bool kGeared = " << (facts.geared ? "true" : "false") << ";\n"
     << "inline constexpr std::array<const char*, kNq> kCoordinateNames = {"
     << quoted_list(facts.coordinate_names) << "};\n";
-  std::string nominal;
-  for (double v : facts.nominal_parameters)
-    nominal += (nominal.empty() ? "" : ", ") + round_trip(v);
   h << "inline constexpr std::array<const char*, kNumParams> kParameterNames = {"
     << quoted_list(facts.parameter_names) << "};\n"
-    << "inline constexpr std::array<double, kNumParams> kNominalParameters = {" << nominal << "};\n"
+    << "inline constexpr std::array<double, kNumParams> kNominalParameters = {"
+    << number_list(facts.nominal_parameters) << "};\n"
     << "inline constexpr const char* kSceneHash = \"" << facts.scene_hash << "\";\n"
     << parameter_error_function(facts);
   for (const auto& o : output_registry()) {
@@ -362,15 +367,12 @@ std::string model_struct(const LoweredModel& model, const std::string& ns) {
 // templates' three instantiations cost seconds to compile; this compiles in a fraction.
 std::string c_interface(const LoweredModel& model) {
   const ModelFacts& facts = model.facts;
-  std::string nominal, actuated;
-  for (double v : facts.nominal_parameters)
-    nominal += (nominal.empty() ? "" : ", ") + round_trip(v);
+  const std::string nominal = number_list(facts.nominal_parameters);
+  std::string actuated;
   for (int j = 0; j < facts.dims.num_links; ++j)
     actuated += (j ? ", " : "") + std::to_string(facts.actuated_coordinates.empty()
                                                      ? facts.dims.nv - facts.dims.num_links + j
                                                      : facts.actuated_coordinates[j]);
-  unsigned long mask = 0;
-  for (Output o : facts.outputs) mask |= output_bit(o);
   std::ostringstream s;
   s << "// C interface of model " << facts.name
     << " for dlopen (written by spacearm; do not edit).\n"
@@ -391,7 +393,7 @@ std::string c_interface(const LoweredModel& model) {
     << "const char* spacearm_parameter_name(int i) { return kParameterNames[i]; }\n"
     << "double spacearm_nominal_parameter(int i) { return kNominalParameters[i]; }\n"
     << "int spacearm_actuated_coordinate(int joint) { return kActuatedCoordinates[joint]; }\n"
-    << "unsigned long spacearm_outputs() { return " << mask << "ul; }\n"
+    << "unsigned long spacearm_outputs() { return " << output_mask(facts.outputs) << "ul; }\n"
     << "const char* spacearm_parameter_error([[maybe_unused]] const double* params) {\n"
     << parameter_checks(facts, Spelling::c_arrays);
   for (const auto& f : model.functions) {

@@ -103,6 +103,13 @@ std::string to_string(Output output);
 std::optional<Output> output_from_string(const std::string& name);
 // The bit of an output in the masks the C interface and the loader exchange.
 inline unsigned long output_bit(Output o) { return 1ul << static_cast<unsigned>(o); }
+// The bits of a set or list of outputs (what a compiled library reports it emits).
+template <class Outputs>
+unsigned long output_mask(const Outputs& outputs) {
+  unsigned long mask = 0;
+  for (Output o : outputs) mask |= output_bit(o);
+  return mask;
+}
 // "mass_matrix, coriolis_matrix, ..." for messages.
 std::string output_names();
 

@@ -829,9 +829,7 @@ ModelFacts model_facts(const SymbolicModel& model, bool plain) {
     facts.nominal_parameters.push_back(p.nominal.value);
   }
   facts.scene_hash = "fnv1a64:" + content_hash(scene.content);
-  facts.formulation = scene.formulation == Formulation::closed      ? "closed"
-                      : scene.formulation == Formulation::recursive ? "recursive"
-                                                                    : "auto";
+  facts.formulation = to_string(scene.formulation);
   for (const auto& o : output_registry())
     if (scene.wants(o.id) && !(plain && !o.composed_of.empty())) facts.outputs.push_back(o.id);
   ParameterChecks{scene, facts};

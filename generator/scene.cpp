@@ -222,6 +222,18 @@ Gear read_gear(const Reader& r, const YAML::Node& n, const std::string& field) {
 
 }  // namespace
 
+const char* to_string(Formulation f) {
+  switch (f) {
+    case Formulation::closed:
+      return "closed";
+    case Formulation::recursive:
+      return "recursive";
+    case Formulation::automatic:
+      break;
+  }
+  return "auto";
+}
+
 bool Scene::geared() const {
   for (const auto& g : gears)
     if (g) return true;
@@ -587,15 +599,15 @@ class SceneReader {
     const YAML::Node f = root["formulation"];
     if (!f.IsDefined()) return;
     const std::string v = f.IsScalar() ? r.bounded(f, "formulation").Scalar() : "";
-    if (v == "closed")
-      s.formulation = Formulation::closed;
-    else if (v == "recursive")
-      s.formulation = Formulation::recursive;
-    else if (v != "auto")
-      r.fail("formulation",
-             "expected 'closed', 'recursive' or 'auto', got '" +
-                 (f.IsScalar() ? v : std::string("a non-scalar")) + "'",
-             f);
+    for (Formulation k : {Formulation::closed, Formulation::recursive, Formulation::automatic})
+      if (v == to_string(k)) {
+        s.formulation = k;
+        return;
+      }
+    r.fail("formulation",
+           "expected 'closed', 'recursive' or 'auto', got '" +
+               (f.IsScalar() ? v : std::string("a non-scalar")) + "'",
+           f);
   }
 
   // Outputs: all unless the scene lists a subset.

@@ -83,6 +83,8 @@ struct Friction {
 // code: O(N)), or automatic (per function the cheaper in operations where the closed form is
 // affordable, N <= kClosedFormLinks; recursive beyond).
 enum class Formulation { automatic, closed, recursive };
+// A formulation as scene files spell it: "auto", "closed", "recursive".
+const char* to_string(Formulation f);
 
 // Largest N at which `automatic` derives the closed form as well (it takes about a second there
 // and grows much faster than N; the recursive form is the cheaper beyond it).

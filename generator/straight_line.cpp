@@ -293,9 +293,15 @@ OpCounts Program::count(const std::vector<SRef>& roots) const {
 std::vector<double> Program::evaluate(
     const std::vector<SRef>& roots,
     const std::function<double(const std::string&, int)>& input_value) const {
+  return evaluate(schedule(roots), roots, input_value);
+}
+
+std::vector<double> Program::evaluate(
+    const std::vector<int>& order, const std::vector<SRef>& roots,
+    const std::function<double(const std::string&, int)>& input_value) const {
   std::vector<double> v(nodes_.size(), 0.0);
   auto value = [&](const SRef& r) { return r.id < 0 ? 0.0 : (r.neg ? -v[r.id] : v[r.id]); };
-  for (int id : schedule(roots)) {
+  for (int id : order) {
     const Node& n = nodes_[id];
     double x = 0;
     switch (n.kind) {

@@ -68,6 +68,10 @@ class Program {
   std::vector<double> evaluate(
       const std::vector<SRef>& roots,
       const std::function<double(const std::string&, int)>& input_value) const;
+  // The same over `order`, schedule(roots) computed once, for repeated evaluation.
+  std::vector<double> evaluate(
+      const std::vector<int>& order, const std::vector<SRef>& roots,
+      const std::function<double(const std::string&, int)>& input_value) const;
 
   const Node& node(int id) const { return nodes_[id]; }
   size_t size() const { return nodes_.size(); }

@@ -94,10 +94,10 @@ class Derivation {
     if (!scene.tries_closed_form()) {
       wanted_.erase(Output::kinetic_energy);
       wanted_.erase(Output::momentum);
-    }
-    if (!scene.tries_closed_form() && !wanted_.count(Output::forward_dynamics_derivatives)) {
-      wanted_.erase(Output::mass_matrix);
-      wanted_.erase(Output::bias_forces);
+      if (!wanted_.count(Output::forward_dynamics_derivatives)) {
+        wanted_.erase(Output::mass_matrix);
+        wanted_.erase(Output::bias_forces);
+      }
     }
     all_ = options.all_outputs;
   }

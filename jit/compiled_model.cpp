@@ -98,12 +98,6 @@ std::vector<std::string> required_symbols(const Scene& scene) {
   return names;
 }
 
-unsigned long output_mask(const Scene& scene) {
-  unsigned long mask = 0;
-  for (Output o : scene.outputs) mask |= output_bit(o);
-  return mask;
-}
-
 // Generates and compiles the scene into a new work folder; returns it, ready to install.
 std::string build_entry(const Scene& scene, const CacheFolder& cache, const std::string& entry,
                         const std::string& compiler, const std::string& compiler_id,
@@ -258,7 +252,7 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
   const int np = number("spacearm_num_params");
   if (m.dims_.nq != scene.num_coordinates() || m.dims_.nv != scene.num_velocities() ||
       m.dims_.num_links != scene.num_links() || np != static_cast<int>(scene.parameters.size()) ||
-      m.outputs_ != output_mask(scene)) {
+      m.outputs_ != output_mask(scene.outputs)) {
     why = "its sizes or outputs do not match the scene";
     return m;
   }
