@@ -432,7 +432,7 @@ void momentum([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const V
   const T t35 = qd(1) * T(64.859) + t34;
   h(0) = t33;
   h(1) = t35;
-  h(2) = qd(2) * T(2.695) + params(1) * (qd(2) + qd(6)) + T(0.527253) * t9 + (T(0.091) - params(1) + T(0.09543279299999999)) * t10 + params(1) * (qd(7) + t10) + T(0.5292) * t15 + (T(0.081) - params(1) + T(0.10584000000000002)) * t16 + params(1) * (qd(8) + t16) + T(0.17499699999999999) * t21 + T(0.0033980000000000004) * t24 + (T(0.022) - params(1) + T(0.018031487)) * t22 + T(0.45) * t26 + T(0.449) * t29 + t7 * t34 - t4 * t32 + q(0) * t35 - q(1) * t33;
+  h(2) = qd(2) * T(2.695) + T(0.527253) * t9 + (T(0.091) - params(1) + T(0.09543279299999999)) * t10 + T(0.5292) * t15 + (T(0.081) - params(1) + T(0.10584000000000002)) * t16 + T(0.17499699999999999) * t21 + T(0.0033980000000000004) * t24 + (T(0.022) - params(1) + T(0.018031487)) * t22 + T(0.45) * t26 + params(1) * (qd(8) + t16) + T(0.449) * t29 + params(1) * (qd(7) + t10) + t7 * t34 - t4 * t32 + params(1) * (qd(2) + qd(6)) + q(0) * t35 - q(1) * t33;
 }
 
 // End-effector pose [x, y, phi]: tip of the last link, absolute angle of the last link.

@@ -558,7 +558,7 @@ void momentum([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const V
   const T t38 = qd(1) * T(64.859) + t37;
   h(0) = t36;
   h(1) = t38;
-  h(2) = qd(2) * T(2.695) + params(1) * (qd(2) + qd(3)) + T(0.527253) * t10 + (T(0.091) - params(1) + T(0.09543279299999999)) * t11 + params(1) * (qd(4) + t11) + T(0.5292) * t17 + (T(0.081) - params(1) + T(0.10584000000000002)) * t18 + params(1) * (qd(5) + t18) + T(0.17499699999999999) * t24 + T(0.0033980000000000004) * t27 + (T(0.022) - params(1) + T(0.018031487)) * t25 + T(0.45) * t29 + T(0.449) * t32 + t8 * t37 - t5 * t35 + q(0) * t38 - q(1) * t36;
+  h(2) = qd(2) * T(2.695) + T(0.527253) * t10 + (T(0.091) - params(1) + T(0.09543279299999999)) * t11 + T(0.5292) * t17 + (T(0.081) - params(1) + T(0.10584000000000002)) * t18 + T(0.17499699999999999) * t24 + T(0.0033980000000000004) * t27 + (T(0.022) - params(1) + T(0.018031487)) * t25 + T(0.45) * t29 + params(1) * (qd(5) + t18) + T(0.449) * t32 + params(1) * (qd(4) + t11) + t8 * t37 - t5 * t35 + params(1) * (qd(2) + qd(3)) + q(0) * t38 - q(1) * t36;
 }
 
 // End-effector pose [x, y, phi]: tip of the last link, absolute angle of the last link.

@@ -27,37 +27,40 @@ namespace {
 // plain column-major arrays q[i] and M[i + rows * j] (no Eigen to compile: fast first use).
 enum class Spelling { eigen, c_arrays };
 
+// One assignment of a function's body: a result entry (target = its value) or, with no root, a
+// copy of another entry (target = source).
+struct Assignment {
+  std::string target;
+  SRef root;
+  std::string source;
+};
+
 // Prints the nodes of a program that several entries share (and every sin/cos) as named
-// temporaries t0, t1, ..., then each entry as an assignment. Plain: everything inline.
+// temporaries t0, t1, ..., then each entry as an assignment, in parts of at most per_part
+// statements (PrintOptions::statements_per_part; 0: one part).
+// Plain: everything inline.
 class BodyPrinter {
  public:
-  BodyPrinter(const Program& p, const std::vector<SRef>& roots, bool plain,
-              Spelling spelling = Spelling::eigen)
+  BodyPrinter(const Program& p, const std::vector<Assignment>& assignments, bool plain,
+              Spelling spelling = Spelling::eigen, int per_part = 0)
       : p_(p), plain_(plain), spelling_(spelling) {
+    std::vector<SRef> roots;  // each once, as FunctionSpec::roots()
+    std::set<SRef> seen;
+    for (const Assignment& a : assignments)
+      if (a.source.empty() && seen.insert(a.root).second) roots.push_back(a.root);
     order_ = p_.schedule(roots);
     for (int id : order_)
       for (const SRef& a : p_.node(id).args)
         if (a.id >= 0) ++uses_[a.id];
     for (const SRef& r : roots)
       if (r.id >= 0) ++uses_[r.id];
+    name_temporaries(assignments, per_part);
   }
 
-  std::string temporaries() {
-    std::ostringstream out;
-    int next = 0;
-    for (int id : order_) {
-      if (plain_) break;
-      const auto k = p_.node(id).kind;
-      const bool is_op = k != Program::Kind::input && k != Program::Kind::constant;
-      const bool trig = k == Program::Kind::sin || k == Program::Kind::cos ||
-                        k == Program::Kind::tanh || k == Program::Kind::exp;
-      if (!is_op || (!trig && uses_[id] < 2)) continue;
-      const std::string expr = print_node(id);
-      names_[id] = "t" + std::to_string(next++);
-      out << "  const T " << names_[id] << " = " << expr << ";\n";
-    }
-    return out.str();
-  }
+  int num_parts() const { return static_cast<int>(parts_.size()); }
+  int work_size() const { return work_size_; }
+  // The statements of part k ("  const T t3 = ...;", "  w[2] = ...;", "  M[0] = ...;").
+  const std::string& part(int k) const { return parts_[k]; }
 
   std::string value(const SRef& root) const {
     return root.id < 0 ? "T(0)" : (root.neg ? "-" + wrap(root.id, 1) : ref(root.id));
@@ -70,6 +73,100 @@ class BodyPrinter {
   std::vector<int> order_;
   std::map<int, int> uses_;
   std::map<int, std::string> names_;
+  std::vector<std::string> parts_;
+  int work_size_ = 0;
+
+  bool named(int id) const {
+    const auto k = p_.node(id).kind;
+    const bool is_op = k != Program::Kind::input && k != Program::Kind::constant;
+    const bool trig = k == Program::Kind::sin || k == Program::Kind::cos ||
+                      k == Program::Kind::tanh || k == Program::Kind::exp;
+    return !plain_ && is_op && (trig || uses_.at(id) >= 2);
+  }
+  // The named nodes that printing node id's operands refers to (unnamed ones print inline).
+  void operands(int id, std::vector<int>& out) const {
+    for (const SRef& a : p_.node(id).args) {
+      if (a.id < 0) continue;
+      if (named(a.id))
+        out.push_back(a.id);
+      else
+        operands(a.id, out);
+    }
+  }
+  std::vector<int> references(const SRef& r) const {
+    std::vector<int> out;
+    if (r.id >= 0) (named(r.id) ? out.push_back(r.id) : operands(r.id, out));
+    return out;
+  }
+
+  // Parts, names (t<k> within a part, w[slot] across parts) and the statements of each part.
+  void name_temporaries(const std::vector<Assignment>& assignments, int max_per_part) {
+    std::vector<int> temps;
+    for (int id : order_)
+      if (named(id)) temps.push_back(id);
+    const int total = static_cast<int>(temps.size() + assignments.size());
+    const int per_part = max_per_part > 0 && total > max_per_part ? max_per_part : total + 1;
+    // The part of each temporary and of each assignment (that of its last operand), and the
+    // last part that reads each temporary.
+    std::map<int, int> part_of, last_read;
+    for (size_t k = 0; k < temps.size(); ++k) part_of[temps[k]] = static_cast<int>(k) / per_part;
+    for (int id : temps) {
+      std::vector<int> refs;
+      operands(id, refs);
+      for (int r : refs) last_read[r] = std::max(last_read[r], part_of[id]);
+    }
+    std::vector<int> assignment_part;
+    for (const Assignment& a : assignments) {
+      int part = 0;
+      for (int r : references(a.root)) part = std::max(part, part_of[r]);
+      for (int r : references(a.root)) last_read[r] = std::max(last_read[r], part);
+      assignment_part.push_back(part);
+    }
+    const int num_parts =
+        std::max(temps.empty() ? 1 : part_of[temps.back()] + 1,
+                 assignment_part.empty()
+                     ? 1
+                     : *std::max_element(assignment_part.begin(), assignment_part.end()) + 1);
+    // A copy of another entry runs last, when every entry has been written.
+    for (size_t k = 0; k < assignments.size(); ++k)
+      if (!assignments[k].source.empty()) assignment_part[k] = num_parts - 1;
+    assign_slots(temps, part_of, last_read);
+    // The statements, part by part.
+    parts_.assign(num_parts, "");
+    for (int id : temps) {
+      const std::string& name = names_[id];
+      parts_[part_of[id]] +=
+          (name[0] == 'w' ? "  " : "  const T ") + name + " = " + print_node(id) + ";\n";
+    }
+    for (size_t k = 0; k < assignments.size(); ++k) {
+      const Assignment& a = assignments[k];
+      parts_[assignment_part[k]] +=
+          a.target.empty()
+              ? "  return " + value(a.root) + ";\n"
+              : "  " + a.target + " = " + (a.source.empty() ? value(a.root) : a.source) + ";\n";
+    }
+  }
+
+  // A temporary read only in its own part is a local t<k>; one read later takes a slot w[i],
+  // free again after its last reader's part.
+  void assign_slots(const std::vector<int>& temps, std::map<int, int>& part_of,
+                    std::map<int, int>& last_read) {
+    std::vector<int> free_after;  // per slot: the last part that reads its value
+    int next_local = 0;
+    for (int id : temps) {
+      const int part = part_of[id], last = last_read.count(id) ? last_read[id] : part;
+      if (last <= part) {
+        names_[id] = "t" + std::to_string(next_local++);
+        continue;
+      }
+      size_t slot = 0;
+      while (slot < free_after.size() && free_after[slot] >= part) ++slot;
+      if (slot == free_after.size()) free_after.push_back(0);
+      free_after[slot] = last;
+      names_[id] = "w[" + std::to_string(slot) + "]";
+    }
+    work_size_ = static_cast<int>(free_after.size());
+  }
 
   std::string ref(int id) const {
     auto it = names_.find(id);
@@ -152,19 +249,22 @@ std::string matrix_type(const ArraySpec& a, const std::string& scalar) {
 
 // with_names: a declaration or definition (definition: inputs may be unused, e.g. a
 // constant mass matrix); otherwise the form of an explicit instantiation.
+// part: the name suffix of one part of a split body (BodyPrinter), which also takes the work
+// array w.
 std::string signature(const FunctionSpec& f, const std::string& scalar, bool with_names,
-                      bool definition = false) {
-  std::string s = (returns_scalar(f) ? scalar : "void") + " " + f.name +
+                      bool definition = false, const std::string& part = "") {
+  std::string s = (returns_scalar(f) && part.empty() ? scalar : "void") + " " + f.name + part +
                   (with_names ? "" : "<" + scalar + ">") + "(";
   std::vector<std::string> parts;
   auto arg = [&](const std::string& type, const std::string& name, bool input) {
-    parts.push_back(std::string(definition && input ? "[[maybe_unused]] " : "") + type +
-                    (with_names ? " " + name : ""));
+    parts.push_back(std::string(definition && (input || !part.empty()) ? "[[maybe_unused]] " : "") +
+                    type + (with_names ? " " + name : ""));
   };
   for (const auto& a : f.inputs) arg("const " + matrix_type(a, scalar) + "&", a.name, true);
   arg("const Parameters<" + scalar + ">&", "params", true);
-  if (!returns_scalar(f))
+  if (!returns_scalar(f) || !part.empty())
     for (const auto& r : f.results) arg(matrix_type(r, scalar) + "&", r.name, false);
+  if (!part.empty()) arg(scalar + "*", "w", false);
   for (size_t i = 0; i < parts.size(); ++i) s += (i ? ", " : "") + parts[i];
   return s + ")";
 }
@@ -178,33 +278,68 @@ std::string target(const ArraySpec& r, size_t k, int rows, int cols, int i, int 
   return r.name + "(" + std::to_string(i) + ", " + std::to_string(j) + ")";
 }
 
-// C arrays: a 1 x 1 result is written to its array like any other, not returned.
-std::string function_body(const FunctionSpec& f, const Dimensions& dims,
-                          Spelling spelling = Spelling::eigen) {
-  BodyPrinter printer(f.program, f.roots(), f.plain, spelling);
-  std::ostringstream out;
-  const OpCounts ops = f.program.count(f.roots());
-  out << "  using std::cos;\n  using std::sin;\n"
-      << (f.plain ? "  using std::pow;\n" : "")
-      << (ops.functions ? "  using std::exp;\n  using std::tanh;\n" : "") << printer.temporaries();
-  if (returns_scalar(f) && spelling == Spelling::eigen) {
-    out << "  return " << printer.value(f.entries[0][0]) << ";\n";
-    return out.str();
-  }
-  for (size_t k = 0; k < f.results.size(); ++k) {
+// The C interface's names for a function's inputs: q = in[0], ...
+std::string c_input_aliases(const FunctionSpec& f) {
+  std::string s;
+  for (size_t i = 0; i < f.inputs.size(); ++i)
+    s += "  [[maybe_unused]] const double* " + f.inputs[i].name + " = in[" + std::to_string(i) +
+         "];\n";
+  return s;
+}
+
+// A function's body, and the functions of its parts where it is split (BodyPrinter).
+struct Body {
+  std::string parts;  // definitions, printed before the function
+  std::string body;
+};
+
+// C arrays: a 1 x 1 result is written to its array like any other, not returned. Eigen: a
+// function that returns its value is not split.
+Body function_body(const FunctionSpec& f, const Dimensions& dims, int per_part,
+                   Spelling spelling = Spelling::eigen) {
+  const bool returns = returns_scalar(f) && spelling == Spelling::eigen;
+  std::vector<Assignment> assignments;
+  for (size_t k = 0; k < f.results.size() && !returns; ++k) {
     const ArraySpec& r = f.results[k];
     const int rows = dims(r.rows), cols = dims(r.cols);
     for (int i = 0; i < rows; ++i)
       for (int j = r.symmetric ? i : 0; j < cols; ++j)
-        out << "  " << target(r, k, rows, cols, i, j, spelling) << " = "
-            << printer.value(f.entries[k][i * cols + j]) << ";\n";
+        assignments.push_back(
+            {target(r, k, rows, cols, i, j, spelling), f.entries[k][i * cols + j], ""});
     if (r.symmetric)  // the lower triangle as copies of the upper one
       for (int i = 0; i < rows; ++i)
         for (int j = 0; j < i; ++j)
-          out << "  " << target(r, k, rows, cols, i, j, spelling) << " = "
-              << target(r, k, rows, cols, j, i, spelling) << ";\n";
+          assignments.push_back({target(r, k, rows, cols, i, j, spelling), SRef{},
+                                 target(r, k, rows, cols, j, i, spelling)});
   }
-  return out.str();
+  if (returns) assignments.push_back({"", f.entries[0][0], ""});
+  const BodyPrinter printer(f.program, assignments, f.plain, spelling, returns ? 0 : per_part);
+  const OpCounts ops = f.program.count(f.roots());
+  const std::string usings = std::string("  using std::cos;\n  using std::sin;\n") +
+                             (f.plain ? "  using std::pow;\n" : "") +
+                             (ops.functions ? "  using std::exp;\n  using std::tanh;\n" : "");
+  if (printer.num_parts() == 1) return {"", usings + printer.part(0)};
+  // Split: each part a function of the same arguments and the work array.
+  const bool c = spelling == Spelling::c_arrays;
+  std::string args = c ? "in, params, out" : "";
+  if (!c) {
+    for (const auto& a : f.inputs) args += a.name + ", ";
+    args += "params";
+    for (const auto& r : f.results) args += ", " + r.name;
+  }
+  Body b{"", usings + "  T w[" + std::to_string(printer.work_size()) + "];\n"};
+  for (int k = 0; k < printer.num_parts(); ++k) {
+    const std::string suffix = "_part" + std::to_string(k);
+    b.parts += (c ? "[[gnu::noinline]] static void spacearm_" + f.name + suffix +
+                        "([[maybe_unused]] const double* const* in, [[maybe_unused]] const double* "
+                        "params, [[maybe_unused]] double* const* out, [[maybe_unused]] T* w) {\n" +
+                        c_input_aliases(f)
+                  : "template <typename T>\n[[gnu::noinline]] static " +
+                        signature(f, "T", true, true, suffix) + " {\n") +
+               usings + printer.part(k) + "}\n\n";
+    b.body += "  " + std::string(c ? "spacearm_" : "") + f.name + suffix + "(" + args + ", w);\n";
+  }
+  return b;
 }
 
 // Which formulation each function was derived by (scene.hpp: Formulation), one line each.
@@ -252,10 +387,10 @@ std::string parameter_checks(const ModelFacts& facts, Spelling spelling) {
   for (size_t i = 0; i < facts.parameter_names.size(); ++i)
     s << "  if (!std::isfinite(params" << (eigen ? "(" : "[") << i << (eigen ? ")" : "]")
       << ")) return \"parameter '" << facts.parameter_names[i] << "' is not finite\";\n";
-  std::vector<SRef> roots;
-  for (const auto& c : facts.checks) roots.push_back(c.value);
-  if (!roots.empty()) {
-    BodyPrinter printer(facts.checks_program, roots, true, spelling);
+  std::vector<Assignment> values;  // printed inline (plain), in the checks below
+  for (const auto& c : facts.checks) values.push_back({"", c.value, ""});
+  if (!values.empty()) {
+    const BodyPrinter printer(facts.checks_program, values, true, spelling);
     s << "  using T [[maybe_unused]] = double;\n";
     for (const auto& c : facts.checks)
       s << "  if (!(" << printer.value(c.value) << (c.strict ? " > 0" : " >= 0") << ")) return \""
@@ -365,7 +500,7 @@ std::string model_struct(const LoweredModel& model, const std::string& ns) {
 // The library the compile-and-load path builds: one self-contained translation unit with
 // only <cmath>, every function straight-line over plain arrays. Eigen's headers and the
 // templates' three instantiations cost seconds to compile; this compiles in a fraction.
-std::string c_interface(const LoweredModel& model) {
+std::string c_interface(const LoweredModel& model, int per_part) {
   const ModelFacts& facts = model.facts;
   const std::string nominal = number_list(facts.nominal_parameters);
   std::string actuated;
@@ -397,12 +532,12 @@ std::string c_interface(const LoweredModel& model) {
     << "const char* spacearm_parameter_error([[maybe_unused]] const double* params) {\n"
     << parameter_checks(facts, Spelling::c_arrays);
   for (const auto& f : model.functions) {
-    s << "\n// " << f.doc << "\nvoid spacearm_" << f.name
+    const Body b = function_body(f, facts.dims, per_part, Spelling::c_arrays);
+    s << "\n// " << f.doc << "\n"
+      << b.parts << "void spacearm_" << f.name
       << "([[maybe_unused]] const double* const* in, [[maybe_unused]] const double* params, "
-         "double* const* out) {\n";
-    for (size_t i = 0; i < f.inputs.size(); ++i)
-      s << "  [[maybe_unused]] const double* " << f.inputs[i].name << " = in[" << i << "];\n";
-    s << function_body(f, facts.dims, Spelling::c_arrays) << "}\n";
+         "double* const* out) {\n"
+      << (b.parts.empty() ? c_input_aliases(f) : "") << b.body << "}\n";
   }
   s << "}\n";
   return s.str();
@@ -454,9 +589,10 @@ EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
         << (ops.functions ? ", " + std::to_string(ops.functions) + " tanh/exp" : "") << ".\n"
         << "// Formulation: " << f.formulation << ".\n";
     }
-    s << "template <typename T>\n"
+    const Body b = function_body(f, facts.dims, options.statements_per_part);
+    s << b.parts << "template <typename T>\n"
       << signature(f, "T", true, true) << " {\n"
-      << function_body(f, facts.dims) << "}\n";
+      << b.body << "}\n";
   }
   h << model_struct(model, ns);
   s << "\n// Explicit instantiations.\n";
@@ -466,7 +602,7 @@ EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
   h << "\n}  // namespace " << ns << "\n";
   result.header = h.str();
   result.source = s.str();
-  result.c_interface = c_interface(model);
+  result.c_interface = c_interface(model, options.statements_per_part);
   return result;
 }
 

@@ -19,18 +19,31 @@ struct State {
   std::vector<double> q, qd, params;
 };
 
-Eigen::MatrixXd closed_form(const SymbolicModel& model, Output o, const State& s) {
-  if (!model.outputs.count(o) && has_recursive_form(o)) {  // derived only recursively
-    auto input = [&](const std::string& a, int i) {
-      return a == "q" ? s.q.at(i) : a == "qd" ? s.qd.at(i) : s.params.at(i);
-    };
-    const std::vector<double> v = evaluate_recursive(model.scene, o, input)[0];
-    // Shaped as the registry says (T is 1 x 1, h is 3 x 1), row by row.
-    const Dimensions dims = model.scene.dimensions();
-    const ResultInfo& shape = info(o).results[0];
-    return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-        v.data(), dims(shape.rows), dims(shape.cols));
+// Output o by the recursive algorithms run in double (extra: its input besides q and qd), each
+// result shaped as the registry says (T is 1 x 1, h is 3 x 1), row by row.
+std::vector<Eigen::MatrixXd> recursive_values(const SymbolicModel& model, Output o, const State& s,
+                                              const Eigen::VectorXd& extra) {
+  auto input = [&](const std::string& a, int i) {
+    return a == "q"        ? s.q.at(i)
+           : a == "qd"     ? s.qd.at(i)
+           : a == "params" ? s.params.at(i)
+                           : extra[i];
+  };
+  const std::vector<std::vector<double>> v = evaluate_recursive(model.scene, o, input);
+  const Dimensions dims = model.scene.dimensions();
+  std::vector<Eigen::MatrixXd> results;
+  for (size_t k = 0; k < v.size(); ++k) {
+    const ResultInfo& shape = info(o).results.at(k);
+    results.push_back(
+        Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+            v[k].data(), dims(shape.rows), dims(shape.cols)));
   }
+  return results;
+}
+
+Eigen::MatrixXd closed_form(const SymbolicModel& model, Output o, const State& s) {
+  if (!model.outputs.count(o) && has_recursive_form(o))  // derived only recursively
+    return recursive_values(model, o, s, Eigen::VectorXd())[0];
   const GiNaC::matrix& e = model.expression(o);
   const auto v = evaluate(model, e, s.q, s.qd, s.params);
   return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
@@ -63,6 +76,7 @@ std::vector<Eigen::MatrixXd> composed(const SymbolicModel& model, Output o, cons
     return {llt.solve(extra - b), d, scaled};
   }
   if (o == Output::forward_dynamics_derivatives) {
+    if (!model.outputs.count(Output::bias_forces)) return recursive_values(model, o, s, extra);
     // dqdd/dx = -M^-1 dR/dx, dR/dx evaluated with GiNaC at the solved qdd.
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(M);
     const Eigen::VectorXd qdd = ldlt.solve(extra - b);

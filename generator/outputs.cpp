@@ -154,18 +154,6 @@ const std::vector<OutputInfo>& output_registry() {
   return registry;
 }
 
-bool closed_form_only(Output o) {
-  switch (o) {
-    case Output::coriolis_matrix:
-    case Output::mass_matrix_derivative:
-    case Output::christoffel_coriolis_matrix:
-    case Output::forward_dynamics_derivatives:
-      return true;
-    default:
-      return false;
-  }
-}
-
 std::string missing_feature(unsigned required, unsigned features) {
   const unsigned missing = required & ~features;
   if (missing & needs::free_base) return "is only defined for a free_floating base";

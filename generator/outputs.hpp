@@ -91,11 +91,6 @@ struct OutputInfo {
   const char* doc;       // one line, shown in generated code and --help
 };
 
-// Whether output o is derived only from the closed-form kinetic energy T (the recursive forms do
-// not give it): its expansion and gradient grow much faster than N, so beyond kClosedFormLinks
-// (scene.hpp) only `formulation: closed` derives it.
-bool closed_form_only(Output o);
-
 // Every output, in emission order.
 const std::vector<OutputInfo>& output_registry();
 const OutputInfo& info(Output output);

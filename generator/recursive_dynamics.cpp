@@ -59,6 +59,7 @@ class Sym {
     if (a.is_zero()) throw std::logic_error("recursive dynamics: cos of a folded zero");
     return Sym(a.p_, a.p_->cos(a.r_));
   }
+  friend Sym reciprocal(const Sym& a) { return number(a.p_, 1.0) / a; }
   friend Sym tanh(const Sym& a) { return a.is_zero() ? a : Sym(a.p_, a.p_->tanh(a.r_)); }
   friend Sym exp(const Sym& a) { return Sym(a.p_, a.p_->exp(a.r_)); }
 
@@ -67,12 +68,66 @@ class Sym {
   SRef r_;
 };
 
+inline double reciprocal(double x) { return 1 / x; }
+
+// Forward-mode differentiation: a value and its derivative along one direction, seeded in the
+// inputs. The chain's algorithms run on it unchanged; on Sym, the tangents that are zero fold
+// away, so a direction costs only the work that depends on it.
+template <class T>
+struct Dual {
+  T v, d;
+  friend Dual operator-(const Dual& a) { return {-a.v, -a.d}; }
+  friend Dual operator+(const Dual& a, const Dual& b) { return {a.v + b.v, a.d + b.d}; }
+  friend Dual operator-(const Dual& a, const Dual& b) { return {a.v - b.v, a.d - b.d}; }
+  friend Dual operator*(const Dual& a, double k) { return {a.v * k, a.d * k}; }
+  friend Dual operator*(const Dual& a, const Dual& b) { return {a.v * b.v, a.d * b.v + a.v * b.d}; }
+  // One reciprocal per divisor, shared by every direction that divides by it.
+  friend Dual operator/(const Dual& a, const Dual& b) {
+    const T r = reciprocal(b.v), q = a.v * r;
+    return {q, (a.d - q * b.d) * r};
+  }
+  Dual& operator+=(const Dual& b) { return *this = *this + b; }
+  Dual& operator-=(const Dual& b) { return *this = *this - b; }
+  friend Dual sin(const Dual& a) {
+    using std::cos;
+    using std::sin;
+    return {sin(a.v), cos(a.v) * a.d};
+  }
+  friend Dual cos(const Dual& a) {
+    using std::cos;
+    using std::sin;
+    return {cos(a.v), -(sin(a.v) * a.d)};
+  }
+  friend Dual tanh(const Dual& a) {
+    using std::tanh;
+    const T t = tanh(a.v);
+    return {t, a.d - t * t * a.d};
+  }
+  friend Dual exp(const Dual& a) {
+    using std::exp;
+    const T e = exp(a.v);
+    return {e, e * a.d};
+  }
+};
+
 // Where the algorithms get their numbers: input arrays by name and literals.
 template <class T>
 struct Values {
   std::function<T(const std::string&, int)> input;
   std::function<T(double)> number;
 };
+
+// The inputs as duals, each with the tangent seed(array, i) (T{} where it has none).
+template <class T>
+Values<Dual<T>> seeded(const Values<T>& values,
+                       const std::function<T(const std::string&, int)>& seed) {
+  return {[values, seed](const std::string& a, int i) {
+            return Dual<T>{values.input(a, i), seed(a, i)};
+          },
+          [values](double v) {
+            return Dual<T>{values.number(v), T{}};
+          }};
+}
 
 // Planar spatial algebra (Featherstone ch. 2.16): motions (omega, vx, vy), forces (n, fx, fy).
 template <class T>
@@ -186,8 +241,11 @@ class Chain {
   std::vector<T> passive_forces() const;
   // T = 1/2 sum v . I v over the bodies, plus 1/2 I_m w^2 of each rotor (eqs. 3 and 10).
   T kinetic_energy() const;
-  // [Px, Py, L]: the base rows of M qd (the bodies' momenta gathered at the base's CoM), with L
-  // moved to the world origin, as symbolic_model.cpp defines it. Free base only.
+  // p = M qd = dT/dqd: the bodies' momenta gathered from the tip inward and projected on the
+  // joints, as inverse dynamics gathers forces.
+  std::vector<T> generalized_momentum() const;
+  // [Px, Py, L]: the base rows of M qd (momenta at the base's CoM), with L moved to the world
+  // origin, as symbolic_model.cpp defines it. Free base only.
   std::vector<T> momentum() const;
   T input(const std::string& array, int i) const { return val_.input(array, i); }
   int n() const { return n_; }
@@ -538,43 +596,130 @@ T Chain<T>::kinetic_energy() const {
 }
 
 template <class T>
-std::vector<T> Chain<T>::momentum() const {
-  if (!free_) throw std::logic_error("recursive dynamics: momentum of a fixed base");
+std::vector<T> Chain<T>::generalized_momentum() const {
   const std::vector<Motion<T>> v = velocities();
   std::vector<Force<T>> h(N_ + 1);
-  for (int i = 0; i <= N_; ++i) h[i] = body_[i].spatial() * v[i];
-  // Tip first: each body's momentum to its parent; an exact rotor's spin I_m (Omega_{i-1} + qd_m)
-  // is a pure angular momentum on the body that carries it (an armature's is not: it does not
-  // turn with the base, so dT/dq0d leaves it out).
+  for (int i = free_ ? 0 : 1; i <= N_; ++i) h[i] = body_[i].spatial() * v[i];
+  std::vector<T> p(n_, T{});
+  // Tip first: each body's momentum to its joint and its parent; a rotor's spin I_m (Omega_{i-1}
+  // + qd_m) to its coordinate and, as a pure angular momentum, to the body that carries it (an
+  // armature's spin I_m qd_m only to its coordinate: it does not turn with the parent).
   for (int i = N_; i >= 1; --i) {
-    if (joint_[i].rotor == Rotor::exact) h[i - 1].n += joint_[i].Im * rotor_rate(v, i);
-    h[i - 1] += X_[i].apply_transpose(h[i]);
+    const Joint& J = joint_[i];
+    p[J.c] += J.g * h[i].n;
+    if (has_moving_parent(i)) h[i - 1] += X_[i].apply_transpose(h[i]);
+    if (J.rotor == Rotor::none) continue;
+    const T spin = J.Im * rotor_rate(v, i);
+    p[J.m] += spin;
+    if (J.rotor == Rotor::exact && has_moving_parent(i)) h[i - 1].n += spin;
   }
-  // L about the world origin: L_CoM + r0 x P.
-  return {h[0].x, h[0].y, h[0].n + q_[0] * h[0].y - q_[1] * h[0].x};
+  if (free_) p[0] = h[0].x, p[1] = h[0].y, p[2] = h[0].n;
+  return p;
 }
 
 template <class T>
-std::vector<std::vector<T>> compute(const Chain<T>& chain, Output o) {
-  const int n = chain.n();
-  auto inputs = [&](const char* name) {
-    std::vector<T> x;
-    for (int i = 0; i < n; ++i) x.push_back(chain.input(name, i));
-    return x;
-  };
+std::vector<T> Chain<T>::momentum() const {
+  if (!free_) throw std::logic_error("recursive dynamics: momentum of a fixed base");
+  const std::vector<T> p = generalized_momentum();
+  // L about the world origin: L_CoM + r0 x P.
+  return {p[0], p[1], p[2] + q_[0] * p[1] - q_[1] * p[0]};
+}
+
+// The chain's inputs as duals with the tangent `direction` on q and none elsewhere.
+template <class T>
+Values<Dual<T>> along_q(const Values<T>& values,
+                        const std::function<T(const std::string&, int)>& direction) {
+  return seeded<T>(values, [direction](const std::string& a, int i) {
+    return a == info(Input::q).name ? direction(a, i) : T{};
+  });
+}
+
+// The tangents of a dual vector.
+template <class T>
+std::vector<T> tangents(const std::vector<Dual<T>>& x) {
+  std::vector<T> d;
+  for (const Dual<T>& y : x) d.push_back(y.d);
+  return d;
+}
+
+// dy/dx, row-major, of y = f(chain) with x the input array `x` (one forward pass per entry: each
+// costs what the entry's dependents cost, so O(N) for the recursive algorithms).
+template <class T>
+std::vector<T> jacobian(const Scene& scene, const Values<T>& values, const char* x,
+                        const std::function<std::vector<Dual<T>>(const Chain<Dual<T>>&)>& f) {
+  const int n = scene.num_coordinates();
+  std::vector<T> J;
+  for (int k = 0; k < n; ++k) {
+    const Values<Dual<T>> unit = seeded<T>(values, [&values, x, k](const std::string& a, int i) {
+      return a == x && i == k ? values.number(1.0) : T{};
+    });
+    const std::vector<T> column = tangents(f(Chain<Dual<T>>(scene, unit)));
+    if (J.empty()) J.resize(column.size() * n);
+    for (size_t r = 0; r < column.size(); ++r) J[r * n + k] = column[r];
+  }
+  return J;
+}
+
+template <class T>
+std::vector<T> inputs(const Chain<T>& chain, Input x) {
+  std::vector<T> v;
+  for (int i = 0; i < chain.n(); ++i) v.push_back(chain.input(info(x).name, i));
+  return v;
+}
+
+// The outputs made by differentiating the algorithms forward: Mdot = dM/dq qd; with P = d(M
+// qd)/dq (qd held), C of eq. 7 = Mdot - P^T / 2 and the Christoffel form (Mdot + P - P^T) / 2;
+// the state Jacobian of forward dynamics at constant Q, column by column.
+template <class T>
+std::vector<std::vector<T>> differentiated(const Scene& scene, const Values<T>& values, Output o) {
+  const int n = scene.num_coordinates();
+  const char* q = info(Input::q).name;
+  if (o == Output::forward_dynamics_derivatives) {
+    auto qdd = [](const Chain<Dual<T>>& c) {
+      return c.forward_dynamics(inputs(c, Input::generalized_forces))[0];
+    };
+    const Chain<T> chain(scene, values);
+    return {jacobian<T>(scene, values, q, qdd),
+            jacobian<T>(scene, values, info(Input::qd).name, qdd),
+            chain.forward_dynamics(inputs(chain, Input::generalized_forces))[0]};
+  }
+  const std::vector<T> Mdot =
+      tangents(Chain<Dual<T>>(scene, along_q<T>(values,
+                                                [&values](const std::string&, int i) {
+                                                  return values.input(info(Input::qd).name, i);
+                                                }))
+                   .mass_matrix());
+  if (o == Output::mass_matrix_derivative) return {Mdot};
+  const std::vector<T> P = jacobian<T>(
+      scene, values, q, [](const Chain<Dual<T>>& c) { return c.generalized_momentum(); });
+  std::vector<T> C(n * n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      C[i * n + j] = o == Output::coriolis_matrix
+                         ? Mdot[i * n + j] - P[j * n + i] * 0.5
+                         : (Mdot[i * n + j] + P[i * n + j] - P[j * n + i]) * 0.5;
+  return {C};
+}
+
+template <class T>
+std::vector<std::vector<T>> compute(const Scene& scene, const Values<T>& values, Output o) {
+  if (o == Output::mass_matrix_derivative || o == Output::coriolis_matrix ||
+      o == Output::christoffel_coriolis_matrix || o == Output::forward_dynamics_derivatives)
+    return differentiated(scene, values, o);
+  const Chain<T> chain(scene, values);
   switch (o) {
     case Output::mass_matrix:
       return {chain.mass_matrix()};
     case Output::bias_forces:
-      return {chain.inverse_dynamics(std::vector<T>(n, T{}))};
+      return {chain.inverse_dynamics(std::vector<T>(chain.n(), T{}))};
     case Output::inverse_dynamics: {
-      std::vector<T> Q = chain.inverse_dynamics(inputs(info(Input::qdd).name));
+      std::vector<T> Q = chain.inverse_dynamics(inputs(chain, Input::qdd));
       const std::vector<T> passive = chain.passive_forces();
-      for (int i = 0; i < n; ++i) Q[i] += passive[i];
+      for (int i = 0; i < chain.n(); ++i) Q[i] += passive[i];
       return {Q};
     }
     case Output::forward_dynamics:
-      return chain.forward_dynamics(inputs(info(Input::generalized_forces).name));
+      return chain.forward_dynamics(inputs(chain, Input::generalized_forces));
     case Output::kinetic_energy:
       return {{chain.kinetic_energy()}};
     case Output::momentum:
@@ -599,6 +744,13 @@ const char* recursive_algorithm(Output o) {
       return "body velocities";
     case Output::momentum:
       return "body momenta";
+    case Output::mass_matrix_derivative:
+      return "CRBA, forward-mode";
+    case Output::coriolis_matrix:
+    case Output::christoffel_coriolis_matrix:
+      return "CRBA and momenta, forward-mode";
+    case Output::forward_dynamics_derivatives:
+      return "ABA, forward-mode";
     default:
       return nullptr;
   }
@@ -610,7 +762,7 @@ std::vector<std::vector<SRef>> record_recursive(const Scene& scene, Output o, Pr
   Values<Sym> values{[&p](const std::string& a, int i) { return Sym(&p, p.input(a, i)); },
                      [&p](double v) { return Sym::number(&p, v); }};
   std::vector<std::vector<SRef>> refs;
-  for (const auto& result : compute(Chain<Sym>(scene, values), o)) {
+  for (const auto& result : compute(scene, values, o)) {
     auto& r = refs.emplace_back();
     for (const Sym& x : result) r.push_back(x.ref());
   }
@@ -620,7 +772,7 @@ std::vector<std::vector<SRef>> record_recursive(const Scene& scene, Output o, Pr
 std::vector<std::vector<double>> evaluate_recursive(
     const Scene& scene, Output o, const std::function<double(const std::string&, int)>& input) {
   Values<double> values{input, [](double v) { return v; }};
-  return compute(Chain<double>(scene, values), o);
+  return compute(scene, values, o);
 }
 
 }  // namespace spacearm

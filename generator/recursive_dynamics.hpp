@@ -4,6 +4,8 @@
 // Algorithms, 2008, ch. 5), the composite-rigid-body algorithm for M (ch. 6) and the
 // articulated-body algorithm for forward dynamics (ch. 7), in planar spatial algebra with body
 // frames. Each costs O(N) (M: O(N^2), its entries), where the closed form grows much faster.
+// Derivatives (Mdot, C, Cc, the state Jacobian) run the same algorithms on dual numbers
+// (forward-mode differentiation), one direction per pass: O(N) per column, O(N^2) in all.
 //
 // A geared joint's motor is its own body carried by the previous body, turning at
 // Omega_{i-1} + qd_m (the exact coupling of eqs. 10 and 11); with rotor_coupling: armature it
@@ -21,11 +23,11 @@
 
 namespace spacearm {
 
-// Whether output o has a recursive form: mass_matrix, bias_forces, inverse_dynamics,
-// forward_dynamics, kinetic_energy, momentum.
+// Whether output o has a recursive form: every output derived from the kinetic energy (M, b, T,
+// the momentum, C, Mdot, Cc) and the dynamics (inverse, forward, forward's state Jacobian).
 bool has_recursive_form(Output o);
-// The algorithm that gives it: "CRBA", "RNEA", "ABA", "body velocities" or "body momenta";
-// nullptr if it has none.
+// The algorithm that gives it, e.g. "CRBA", "RNEA", "ABA" or "ABA, forward-mode" (a derivative
+// by forward-mode differentiation of the recorded algorithm); nullptr if it has none.
 const char* recursive_algorithm(Output o);
 
 // The results of output o (the registry's, each row by row; a symmetric one in full), recorded

@@ -111,7 +111,7 @@ struct Scene {
            (formulation == Formulation::automatic && num_links() <= kClosedFormLinks);
   }
   bool tries_recursive() const { return formulation != Formulation::closed; }
-  // Whether the outputs with only a closed form (outputs.hpp: closed_form_only) are derived.
+  // Whether every closed form can be expanded in reasonable time (what `inspect` prints).
   bool closed_form_affordable() const {
     return formulation == Formulation::closed || num_links() <= kClosedFormLinks;
   }

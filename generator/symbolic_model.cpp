@@ -89,16 +89,10 @@ class Derivation {
     wanted_ = scene.outputs;
     for (Output o : scene.outputs)
       wanted_.insert(info(o).composed_of.begin(), info(o).composed_of.end());
-    // Where only the recursive form is tried, M and b are derived only for the state Jacobian,
-    // which differentiates them; T and the momentum not at all.
-    if (!scene.tries_closed_form()) {
-      wanted_.erase(Output::kinetic_energy);
-      wanted_.erase(Output::momentum);
-      if (!wanted_.count(Output::forward_dynamics_derivatives)) {
-        wanted_.erase(Output::mass_matrix);
-        wanted_.erase(Output::bias_forces);
-      }
-    }
+    // Where only the recursive forms are tried, nothing is derived from T.
+    if (!scene.tries_closed_form())
+      for (const OutputInfo& o : output_registry())
+        if (from_kinetic_energy(o.id)) wanted_.erase(o.id);
     all_ = options.all_outputs;
   }
 
@@ -210,14 +204,26 @@ class Derivation {
     return v2;
   }
 
-  // Whether an output wanted in closed form is derived from T (at N = 30 expanding T and its
-  // gradient takes a minute: the recursive forms do without it).
+  // Whether output o's closed form is derived from T (at N = 30 expanding T and its gradient
+  // takes a minute: the recursive forms do without it).
+  static bool from_kinetic_energy(Output o) {
+    switch (o) {
+      case Output::mass_matrix:
+      case Output::coriolis_matrix:
+      case Output::bias_forces:
+      case Output::kinetic_energy:
+      case Output::momentum:
+      case Output::mass_matrix_derivative:
+      case Output::christoffel_coriolis_matrix:
+      case Output::forward_dynamics_derivatives:
+        return true;
+      default:
+        return false;
+    }
+  }
   bool needs_kinetic_energy() const {
     for (const OutputInfo& o : output_registry())
-      if (wants(o.id) &&
-          (closed_form_only(o.id) || o.id == Output::mass_matrix || o.id == Output::bias_forces ||
-           o.id == Output::kinetic_energy || o.id == Output::momentum))
-        return true;
+      if (wants(o.id) && from_kinetic_energy(o.id)) return true;
     return false;
   }
 

@@ -177,6 +177,71 @@ TEST(RecursiveDynamics, AgreesWithNumericOracleOnLongChains) {
     }
 }
 
+// The derivatives past the closed form's reach, by central differences: Mdot along qd and P = d(M
+// qd)/dq from the oracle's M (exact by polarization), so C of eq. 7 = Mdot - P^T / 2 and the
+// Christoffel form (Mdot + P - P^T) / 2; C qd and Cc qd against the oracle's bias; the state
+// Jacobian against differences of forward dynamics run in double (checked above against the
+// oracle). Cost: about 3 s, most of it recording and CSE of N = 30's state Jacobian.
+TEST(RecursiveDynamics, DerivativesAgreeWithDifferencesOnLongChains) {
+  for (int links : {12, 30}) {
+    test::ChainSpec spec;
+    spec.links = links;
+    spec.geared = true;
+    spec.outputs = "[mass_matrix]";
+    spec.seed = 3 * links;
+    const Scene s = parse_scene(test::random_scene_yaml(spec), "long.yaml");
+    SCOPED_TRACE(s.name);
+    const NumericLagrangian oracle(test::chain_parameters(s));
+    State x(s, spec.seed);
+    const Eigen::VectorXd q = x.arrays.at("q"), qd = x.arrays.at("qd");
+    const int n = s.num_coordinates();
+    const double h = 1e-5;
+    const Eigen::MatrixXd Mdot =
+        (oracle.mass_matrix(q + h * qd) - oracle.mass_matrix(q - h * qd)) / (2 * h);
+    Eigen::MatrixXd P(n, n);
+    for (int k = 0; k < n; ++k) {
+      const Eigen::VectorXd e = h * Eigen::VectorXd::Unit(n, k);
+      P.col(k) = (oracle.mass_matrix(q + e) - oracle.mass_matrix(q - e)) * qd / (2 * h);
+    }
+    const Eigen::VectorXd b = oracle.bias_forces(q, qd);
+    const std::map<Output, Eigen::MatrixXd> want = {
+        {Output::mass_matrix_derivative, Mdot},
+        {Output::coriolis_matrix, Mdot - P.transpose() / 2},
+        {Output::christoffel_coriolis_matrix, (Mdot + P - P.transpose()) / 2}};
+    for (const auto& [o, value] : want) {
+      SCOPED_TRACE(to_string(o));
+      const auto [run, recorded] = recursive(s, o, x);
+      EXPECT_MATRIX_NEAR(rows_of(run[0], n), value, 1e-7);
+      EXPECT_MATRIX_NEAR(rows_of(recorded[0], n), value, 1e-7);
+      if (o != Output::mass_matrix_derivative) EXPECT_MATRIX_NEAR(rows_of(run[0], n) * qd, b, 1e-6);
+    }
+    // Forward dynamics' state Jacobian, column by column; its qdd is forward dynamics'.
+    auto qdd = [&](const State& at) {
+      return rows_of(recursive(s, Output::forward_dynamics, at).first[0], n);
+    };
+    Eigen::MatrixXd dq(n, n), dqd(n, n);
+    for (int k = 0; k < n; ++k)
+      for (const char* wrt : {"q", "qd"}) {
+        State plus = x, minus = x;
+        plus.arrays[wrt][k] += h;
+        minus.arrays[wrt][k] -= h;
+        (wrt[1] ? dqd : dq).col(k) = (qdd(plus) - qdd(minus)) / (2 * h);
+      }
+    const auto [run, recorded] = recursive(s, Output::forward_dynamics_derivatives, x);
+    for (const auto& r : {run, recorded}) {
+      EXPECT_MATRIX_NEAR(rows_of(r[0], n), dq, 1e-6);
+      EXPECT_MATRIX_NEAR(rows_of(r[1], n), dqd, 1e-6);
+      EXPECT_MATRIX_NEAR(rows_of(r[2], n), qdd(x), 1e-15);
+    }
+    // eval --symbolic's values where no closed form was derived.
+    const SymbolicModel model = derive(s);
+    const auto symbolic = evaluate_output(model, Output::forward_dynamics_derivatives,
+                                          {q, qd, x.arrays.at("Q")}, x.arrays.at("params"));
+    EXPECT_MATRIX_NEAR(symbolic[0], rows_of(run[0], n), 1e-15);
+    EXPECT_MATRIX_NEAR(symbolic[1], rows_of(run[1], n), 1e-15);
+  }
+}
+
 // Which formulation lowering keeps, per function, under each setting of the scene.
 std::map<std::string, std::string> formulations(const std::string& yaml) {
   std::map<std::string, std::string> by_function;
@@ -207,6 +272,16 @@ TEST(RecursiveDynamics, FormulationIsChosenPerFunctionAndCanBeForced) {
   EXPECT_EQ(long_chain["mass_matrix_and_bias"], "recursive (CRBA + RNEA)");
   EXPECT_EQ(long_chain["forward_dynamics"], "recursive (ABA)");
   EXPECT_EQ(long_chain["generalized_jacobian"], "recursive (CRBA, RNEA)");
+  // The derivatives too, by forward-mode differentiation of the algorithms.
+  spec.outputs =
+      "[coriolis_matrix, mass_matrix_derivative, christoffel_coriolis_matrix, "
+      "forward_dynamics_derivatives]";
+  long_chain = formulations(test::random_scene_yaml(spec));
+  EXPECT_EQ(long_chain["coriolis_matrix"], "recursive (CRBA and momenta, forward-mode)");
+  EXPECT_EQ(long_chain["mass_matrix_derivative"], "recursive (CRBA, forward-mode)");
+  EXPECT_EQ(long_chain["christoffel_coriolis_matrix"],
+            "recursive (CRBA and momenta, forward-mode)");
+  EXPECT_EQ(long_chain["forward_dynamics_derivatives"], "recursive (ABA, forward-mode)");
 }
 
 }  // namespace

@@ -196,8 +196,8 @@ TEST(Scene, LinkCountLimits) {
       << error_of(many);
 }
 
-// formulation: closed | recursive | auto; beyond kClosedFormLinks the outputs with only a closed
-// form leave the defaults, and asking for one is an error unless the formulation is closed.
+// formulation: closed | recursive | auto; beyond kClosedFormLinks every output has a recursive
+// form and can be asked for; the defaults leave out only C (its cost).
 TEST(Scene, FormulationAndTheClosedFormsReach) {
   EXPECT_EQ(parse_scene(kValid, "t.yaml").formulation, Formulation::automatic);
   EXPECT_EQ(parse_scene(std::string(kValid) + "formulation: closed\n", "t.yaml").formulation,
@@ -214,14 +214,16 @@ TEST(Scene, FormulationAndTheClosedFormsReach) {
   for (int i = 0; i <= kClosedFormLinks; ++i)
     long_chain += "  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.25, 0]}\n";
   const Scene defaults = parse_scene(long_chain, "t.yaml");
-  EXPECT_TRUE(defaults.wants(Output::forward_dynamics));
-  EXPECT_TRUE(defaults.wants(Output::generalized_jacobian));
-  for (Output o : defaults.outputs) EXPECT_FALSE(closed_form_only(o)) << to_string(o);
-  const std::string asked = error_of(long_chain + "outputs: [mass_matrix, coriolis_matrix]\n");
-  EXPECT_NE(asked.find("'coriolis_matrix' has only a closed form, derived up to 8 links unless "
-                       "formulation: closed; got 9 links"),
-            std::string::npos)
-      << asked;
+  for (const OutputInfo& o : output_registry())
+    EXPECT_EQ(defaults.wants(o.id), o.by_default && o.id != Output::coriolis_matrix &&
+                                        (o.needs & ~needs::free_base & ~needs::rigid_joints) == 0)
+        << o.name;
+  EXPECT_TRUE(parse_scene(long_chain + "outputs: [coriolis_matrix]\n", "t.yaml")
+                  .wants(Output::coriolis_matrix));
+  const Scene asked = parse_scene(
+      long_chain + "outputs: [christoffel_coriolis_matrix, forward_dynamics_derivatives]\n",
+      "t.yaml");
+  EXPECT_TRUE(asked.wants(Output::forward_dynamics_derivatives));
   EXPECT_TRUE(
       parse_scene(long_chain + "formulation: closed\n", "t.yaml").wants(Output::coriolis_matrix));
 }
