@@ -37,7 +37,8 @@ struct Assignment {
 
 // Prints the nodes of a program that several entries share (and every sin/cos) as named
 // temporaries t0, t1, ..., then each entry as an assignment, in parts of at most per_part
-// statements (PrintOptions::statements_per_part; 0: one part).
+// temporaries (PrintOptions::statements_per_part; 0: one part), each entry in the part of its
+// last operand and the copies of symmetric entries in the last.
 // Plain: everything inline.
 class BodyPrinter {
  public:
@@ -327,7 +328,7 @@ Body function_body(const FunctionSpec& f, const Dimensions& dims, int per_part,
     args += "params";
     for (const auto& r : f.results) args += ", " + r.name;
   }
-  Body b{"", usings + "  T w[" + std::to_string(printer.work_size()) + "];\n"};
+  Body b{"", usings + "  T w[" + std::to_string(std::max(1, printer.work_size())) + "];\n"};
   for (int k = 0; k < printer.num_parts(); ++k) {
     const std::string suffix = "_part" + std::to_string(k);
     b.parts += (c ? "[[gnu::noinline]] static void spacearm_" + f.name + suffix +

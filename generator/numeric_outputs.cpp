@@ -53,6 +53,9 @@ Eigen::MatrixXd closed_form(const SymbolicModel& model, Output o, const State& s
 // The composed outputs, as outputs.cpp describes them, with Eigen's solvers.
 std::vector<Eigen::MatrixXd> composed(const SymbolicModel& model, Output o, const State& s,
                                       const Eigen::VectorXd& extra) {
+  const int rows = static_cast<int>(model.residual_dq.rows());
+  if (o == Output::forward_dynamics_derivatives && rows != model.n())  // derived only recursively
+    return recursive_values(model, o, s, extra);
   const Eigen::MatrixXd M = closed_form(model, Output::mass_matrix, s);
   const int n = model.n(), N = model.scene.num_links(), nb = n - N;
   if (o == Output::generalized_jacobian) {
@@ -76,7 +79,6 @@ std::vector<Eigen::MatrixXd> composed(const SymbolicModel& model, Output o, cons
     return {llt.solve(extra - b), d, scaled};
   }
   if (o == Output::forward_dynamics_derivatives) {
-    if (!model.outputs.count(Output::bias_forces)) return recursive_values(model, o, s, extra);
     // dqdd/dx = -M^-1 dR/dx, dR/dx evaluated with GiNaC at the solved qdd.
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(M);
     const Eigen::VectorXd qdd = ldlt.solve(extra - b);

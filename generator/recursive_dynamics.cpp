@@ -59,7 +59,10 @@ class Sym {
     if (a.is_zero()) throw std::logic_error("recursive dynamics: cos of a folded zero");
     return Sym(a.p_, a.p_->cos(a.r_));
   }
-  friend Sym reciprocal(const Sym& a) { return number(a.p_, 1.0) / a; }
+  friend Sym reciprocal(const Sym& a) {
+    if (a.is_zero()) throw std::logic_error("recursive dynamics: division by zero");
+    return number(a.p_, 1.0) / a;
+  }
   friend Sym tanh(const Sym& a) { return a.is_zero() ? a : Sym(a.p_, a.p_->tanh(a.r_)); }
   friend Sym exp(const Sym& a) { return Sym(a.p_, a.p_->exp(a.r_)); }
 
