@@ -118,9 +118,10 @@ class BodyPrinter {
     }
     std::vector<int> assignment_part;
     for (const Assignment& a : assignments) {
+      const std::vector<int> refs = references(a.root);
       int part = 0;
-      for (int r : references(a.root)) part = std::max(part, part_of[r]);
-      for (int r : references(a.root)) last_read[r] = std::max(last_read[r], part);
+      for (int r : refs) part = std::max(part, part_of[r]);
+      for (int r : refs) last_read[r] = std::max(last_read[r], part);
       assignment_part.push_back(part);
     }
     const int num_parts =
@@ -251,10 +252,10 @@ std::string matrix_type(const ArraySpec& a, const std::string& scalar) {
 // with_names: a declaration or definition (definition: inputs may be unused, e.g. a
 // constant mass matrix); otherwise the form of an explicit instantiation.
 // part: the name suffix of one part of a split body (BodyPrinter), which also takes the work
-// array w.
+// array w (a function that returns its value is never split).
 std::string signature(const FunctionSpec& f, const std::string& scalar, bool with_names,
                       bool definition = false, const std::string& part = "") {
-  std::string s = (returns_scalar(f) && part.empty() ? scalar : "void") + " " + f.name + part +
+  std::string s = (returns_scalar(f) ? scalar : "void") + " " + f.name + part +
                   (with_names ? "" : "<" + scalar + ">") + "(";
   std::vector<std::string> parts;
   auto arg = [&](const std::string& type, const std::string& name, bool input) {
@@ -263,7 +264,7 @@ std::string signature(const FunctionSpec& f, const std::string& scalar, bool wit
   };
   for (const auto& a : f.inputs) arg("const " + matrix_type(a, scalar) + "&", a.name, true);
   arg("const Parameters<" + scalar + ">&", "params", true);
-  if (!returns_scalar(f) || !part.empty())
+  if (!returns_scalar(f))
     for (const auto& r : f.results) arg(matrix_type(r, scalar) + "&", r.name, false);
   if (!part.empty()) arg(scalar + "*", "w", false);
   for (size_t i = 0; i < parts.size(); ++i) s += (i ? ", " : "") + parts[i];

@@ -114,6 +114,16 @@ void expect_marker_only_in_comments(const std::string& text, const std::string& 
     }
 }
 
+// Runs a shell command; its output, and whether it succeeded.
+std::pair<bool, std::string> run(const std::string& command) {
+  std::string out;
+  FILE* p = popen((command + " 2>&1").c_str(), "r");
+  if (!p) return {false, "popen failed"};
+  char buf[4096];
+  for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
+  return {pclose(p) == 0, out};
+}
+
 // The model's source (with Eigen) and the C interface the compile-and-load path builds
 // (alone, without Eigen) both compile without a warning.
 void expect_compiles(const EmittedModel& e, const std::string& label) {
@@ -123,16 +133,10 @@ void expect_compiles(const EmittedModel& e, const std::string& label) {
   write_files(e, dir.string());
   std::ofstream(dir / "libmodel.cpp") << e.c_interface;
   for (const std::string& source : {e.source_name, std::string("libmodel.cpp")}) {
-    const std::string command = std::string(SPACEARM_CXX) +
-                                " -std=c++17 -Wall -Wextra -Werror -fsyntax-only -I" +
-                                SPACEARM_EIGEN_INCLUDE_DIR + " -I'" + dir.string() + "' '" +
-                                (dir / source).string() + "' 2>&1";
-    std::string out;
-    FILE* p = popen(command.c_str(), "r");
-    ASSERT_NE(p, nullptr);
-    char buf[4096];
-    for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
-    EXPECT_EQ(pclose(p), 0) << label << ": " << source << " does not compile:\n" << out;
+    const auto [ok, out] = run(
+        std::string(SPACEARM_CXX) + " -std=c++17 -Wall -Wextra -Werror -fsyntax-only -I" +
+        SPACEARM_EIGEN_INCLUDE_DIR + " -I'" + dir.string() + "' '" + (dir / source).string() + "'");
+    EXPECT_TRUE(ok) << label << ": " << source << " does not compile:\n" << out;
   }
   fs::remove_all(dir);
 }
@@ -208,16 +212,6 @@ TEST(EmittedText, EveryAcceptedSceneEmitsCodeThatCompilesWithUserTextOnlyInComme
   EXPECT_THROW_MESSAGE(
       emit_cpp(derive(parse_scene(scenes.back().second, "t.yaml")), {"", "", "../../evil", false}),
       std::invalid_argument, "file stem");
-}
-
-// Runs a shell command; its output, and whether it succeeded.
-std::pair<bool, std::string> run(const std::string& command) {
-  std::string out;
-  FILE* p = popen((command + " 2>&1").c_str(), "r");
-  if (!p) return {false, "popen failed"};
-  char buf[4096];
-  for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
-  return {pclose(p) == 0, out};
 }
 
 // Every function of a C interface, compiled and loaded, called at one state (inputs and
