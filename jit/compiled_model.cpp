@@ -128,6 +128,7 @@ std::string build_entry(const Scene& scene, const CacheFolder& cache, const std:
     for (const auto& f : split_flags(options.flags)) argv.push_back(f);
     for (const std::string& a : {work + "/libmodel.cpp", std::string("-o"), work + "/libmodel.so"})
       argv.push_back(a);
+    for (const auto& l : split_flags(options.libraries)) argv.push_back(l);
     std::string shown;
     for (const auto& a : argv) shown += (shown.empty() ? "" : " ") + a;
     write_file(fs::path(work) / "compile_command.txt", shown + "\n");
@@ -149,7 +150,7 @@ std::string build_entry(const Scene& scene, const CacheFolder& cache, const std:
     write_file(fs::path(work) / "COMPLETE",
                "sha256 " + sha256_hex(read_file(fs::path(work) / "libmodel.so")) + "\ngenerator " +
                    kGeneratorVersion + "\ncompiler " + compiler_id + "\nflags " + options.flags +
-                   "\n");
+                   "\nlibraries " + options.libraries + "\n");
     return work;
   } catch (...) {
     std::error_code ec;
@@ -189,7 +190,7 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
 
   const std::string key =
       sha256_hex(scene.content + '\0' + kGeneratorVersion + '\0' + generator_identity() + '\0' +
-                 compiler_id + '\0' + options.flags)
+                 compiler_id + '\0' + options.flags + '\0' + options.libraries)
           .substr(0, 32);
   const std::string entry = scene.name + "-" + key;
   rep.cache_entry = cache.path() + "/" + entry;

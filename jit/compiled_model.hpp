@@ -18,13 +18,25 @@
 
 namespace spacearm {
 
+// sin and cos through glibc's vector math library, which the generated code uses where its
+// macro is defined (cpp_printer.cpp, kTrigBatchHelper): the macro, and the library to link
+// after the source.
+#if defined(__x86_64__) && defined(__GLIBC__)
+inline constexpr const char* kVectorTrigFlag = " -DSPACEARM_VECTOR_TRIG";
+inline constexpr const char* kVectorTrigLibraries = "-lmvec";
+#else
+inline constexpr const char* kVectorTrigFlag = "";
+inline constexpr const char* kVectorTrigLibraries = "";
+#endif
+
 struct CompileOptions {
   std::string cache_dir;  // empty: $SPACEARM_CACHE_DIR, else $XDG_CACHE_HOME/spacearm, else
                           // ~/.cache/spacearm
   std::string compiler;   // empty: $CXX, else c++ (one program, run without a shell)
   // -O1: as fast per call as -O2 (bench_first_use) and up to 40 % quicker to compile.
-  std::string flags = "-O1 -std=c++17 -fPIC -shared";  // split at spaces
-  std::function<void(const std::string&)> progress;    // stage messages (may be empty)
+  std::string flags = std::string("-O1 -std=c++17 -fPIC -shared") + kVectorTrigFlag;  // at spaces
+  std::string libraries = kVectorTrigLibraries;      // after the source, split at spaces
+  std::function<void(const std::string&)> progress;  // stage messages (may be empty)
 };
 
 // What a load did, stage by stage (for --verbose and for the cache tests).

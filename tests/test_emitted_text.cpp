@@ -10,10 +10,12 @@
 
 #include <dlfcn.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 
 #include "cpp_emitter.hpp"
@@ -214,16 +216,18 @@ TEST(EmittedText, EveryAcceptedSceneEmitsCodeThatCompilesWithUserTextOnlyInComme
       std::invalid_argument, "file stem");
 }
 
-// Every function of a C interface, compiled and loaded, called at one state (inputs and
-// parameters from `value`): each result's entries, by function.
+// Every function of a C interface, compiled (with `extra` flags and libraries after the source)
+// and loaded, called at one state (inputs 0.3, 0.4, ..., the nominal parameters): each
+// result's entries, by function.
 std::map<std::string, std::vector<double>> call_every_function(const LoweredModel& model,
                                                                const std::string& c_interface,
-                                                               const fs::path& dir) {
+                                                               const fs::path& dir,
+                                                               const std::string& extra = "") {
   fs::create_directories(dir);
   std::ofstream(dir / "libmodel.cpp") << c_interface;
-  const auto [ok, log] =
-      run(std::string(SPACEARM_CXX) + " -O1 -std=c++17 -fPIC -shared '" +
-          (dir / "libmodel.cpp").string() + "' -o '" + (dir / "libmodel.so").string() + "'");
+  const auto [ok, log] = run(std::string(SPACEARM_CXX) + " -O1 -std=c++17 -fPIC -shared '" +
+                             (dir / "libmodel.cpp").string() + "' -o '" +
+                             (dir / "libmodel.so").string() + "'" + extra);
   EXPECT_TRUE(ok) << log;
   void* lib = dlopen((dir / "libmodel.so").c_str(), RTLD_NOW | RTLD_LOCAL);
   EXPECT_NE(lib, nullptr) << dlerror();
@@ -281,6 +285,89 @@ TEST(EmittedText, SplitBodiesComputeWhatWholeBodiesCompute) {
     expect_compiles(parts, std::string(scene) + " (split)");
   }
   fs::remove_all(dir);
+}
+
+// The sin and cos of a function are printed as one sincos_batch call per level (angles that
+// depend on no sin/cos, then those that depend on the first level's, ...). A hand-made function
+// nests three levels, read across parts: its values equal std::sin/std::cos evaluated here.
+// Cost: two compiles of a small C interface, about 1 s.
+TEST(EmittedText, NestedSinCosBatchesComputeWhatTheyRead) {
+  LoweredModel model =
+      lower(derive(load_scene(SPACEARM_SOURCE_DIR "/models/paper_reference.yaml")));
+  FunctionSpec f;
+  f.name = "nested_trig";
+  f.doc = "nested sin and cos";
+  f.inputs = {{"q", Size::nq, Size::one}};
+  f.results = {{"r", Size::nq, Size::one}};
+  Program& p = f.program;
+  const SRef q0 = p.input("q", 0), q1 = p.input("q", 1), q2 = p.input("q", 2);
+  // Two angles at each level: q0, q1, q2; a, a2 (sin/cos of level 0); b, b2 (of level 1).
+  const SRef a = p.add({p.sin(q0), q1}), a2 = p.mul({p.cos(q1), q2});
+  const SRef b = p.mul({p.cos(a), p.cos(q2)}), b2 = p.add({p.sin(a2), q0});
+  f.entries = {{a, b, p.add({p.sin(b), p.mul({p.sin(a), q2})}), p.cos(b2), p.cos(a2),
+                p.mul({p.cos(q0), p.sin(q2)})}};
+  model.functions = {f};
+  const double x0 = 0.3, x1 = 0.4, x2 = 0.5;  // call_every_function's inputs
+  const double ea = std::sin(x0) + x1, ea2 = std::cos(x1) * x2;
+  const double eb = std::cos(ea) * std::cos(x2), eb2 = std::sin(ea2) + x0;
+  const std::vector<double> want = {ea,
+                                    eb,
+                                    std::sin(eb) + std::sin(ea) * x2,
+                                    std::cos(eb2),
+                                    std::cos(ea2),
+                                    std::cos(x0) * std::sin(x2)};
+  PrintOptions split;
+  split.statements_per_part = 3;
+  const fs::path dir = fs::temp_directory_path() / ("spacearm-trig-" + std::to_string(getpid()));
+  for (const PrintOptions& options : {PrintOptions{}, split}) {
+    const EmittedModel e = print_cpp(model, options);
+    ASSERT_NE(e.c_interface.find("sincos_batch(angles2, sines2, cosines2)"), std::string::npos)
+        << e.c_interface;
+    if (options.statements_per_part == 3)
+      ASSERT_NE(e.c_interface.find("_part2("), std::string::npos);
+    const auto got = call_every_function(model, e.c_interface, dir);
+    ASSERT_EQ(got.at("nested_trig").size(), want.size());
+    for (size_t i = 0; i < want.size(); ++i)
+      EXPECT_NEAR(got.at("nested_trig")[i], want[i], 1e-15) << "entry " << i;
+    expect_compiles(e, "nested trig");
+  }
+  fs::remove_all(dir);
+}
+
+// With SPACEARM_VECTOR_TRIG and libmvec (the default build rules on x86-64 glibc), the batches
+// go through glibc's vector sin/cos: every function of the paper's geared and flexible models
+// agrees with the libm build to 1e-13 of its largest entry, the library does call libmvec, and
+// on a CPU with AVX2 and FMA some entry differs (the vector path ran, not the fallback).
+// Cost: four compiles of the C interface at -O1, about 3 s.
+TEST(EmittedText, VectorSinCosAgreesWithLibm) {
+#if !(defined(__x86_64__) && defined(__GLIBC__))
+  GTEST_SKIP() << "libmvec's AVX2 variants exist on x86-64 glibc only";
+#else
+  const fs::path dir = fs::temp_directory_path() / ("spacearm-vtrig-" + std::to_string(getpid()));
+  for (const char* scene : {"/models/paper_geared.yaml", "/models/paper_flexible.yaml"}) {
+    SCOPED_TRACE(scene);
+    const LoweredModel model = lower(derive(load_scene(std::string(SPACEARM_SOURCE_DIR) + scene)));
+    const EmittedModel e = print_cpp(model, {});
+    const auto libm = call_every_function(model, e.c_interface, dir / "libm");
+    const auto vector =
+        call_every_function(model, e.c_interface, dir / "vector", " -DSPACEARM_VECTOR_TRIG -lmvec");
+    std::ifstream so(dir / "vector" / "libmodel.so", std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(so)), std::istreambuf_iterator<char>());
+    EXPECT_NE(bytes.find("_ZGVdN4v_sin"), std::string::npos) << "libmvec not called";
+    int differ = 0;
+    for (const auto& [name, values] : libm) {
+      double scale = 0;
+      for (double v : values) scale = std::max(scale, std::abs(v));
+      ASSERT_EQ(vector.at(name).size(), values.size()) << name;
+      for (size_t i = 0; i < values.size(); ++i) {
+        EXPECT_NEAR(vector.at(name)[i], values[i], 1e-13 * scale) << name << " entry " << i;
+        differ += vector.at(name)[i] != values[i];
+      }
+    }
+    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) EXPECT_GT(differ, 0);
+  }
+  fs::remove_all(dir);
+#endif
 }
 
 }  // namespace
