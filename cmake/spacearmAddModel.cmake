@@ -10,7 +10,8 @@
 # sources compute each function's sin and cos four at a time through libmvec on CPUs with AVX2
 # and FMA (within 4 ulp instead of libm's 1); OFF keeps std::sin and std::cos.
 find_library(SPACEARM_LIBMVEC mvec)
-if(CMAKE_SYSTEM_PROCESSOR MATCHES "^(x86_64|AMD64|amd64)$" AND SPACEARM_LIBMVEC)
+if(CMAKE_SYSTEM_PROCESSOR MATCHES "^(x86_64|AMD64|amd64)$" AND CMAKE_SIZEOF_VOID_P EQUAL 8
+   AND SPACEARM_LIBMVEC)
   option(SPACEARM_VECTOR_TRIG "generated models: sin and cos through glibc's libmvec" ON)
 else()
   option(SPACEARM_VECTOR_TRIG "generated models: sin and cos through glibc's libmvec" OFF)
@@ -23,7 +24,8 @@ function(spacearm_model_build_options target)
       message(FATAL_ERROR "SPACEARM_VECTOR_TRIG is ON but glibc's libmvec was not found")
     endif()
     target_compile_definitions(${target} PRIVATE SPACEARM_VECTOR_TRIG)
-    target_link_libraries(${target} PUBLIC "${SPACEARM_LIBMVEC}")
+    # By name: glibc's libm (linker script) pulls in libmvec where it is used, shared or static.
+    target_link_libraries(${target} PUBLIC m)
   endif()
 endfunction()
 

@@ -17,8 +17,8 @@
 // Four doubles in an AVX register, as glibc's libmvec (link -lmvec) takes them. Not
 // <immintrin.h>: it would add 0.5 s to every compile.
 typedef double spacearm_double4 __attribute__((vector_size(32)));
-extern "C" [[gnu::target("avx2,fma")]] spacearm_double4 _ZGVdN4v_sin(spacearm_double4);
-extern "C" [[gnu::target("avx2,fma")]] spacearm_double4 _ZGVdN4v_cos(spacearm_double4);
+extern "C" [[gnu::target("avx2,fma")]] ::spacearm_double4 _ZGVdN4v_sin(::spacearm_double4);
+extern "C" [[gnu::target("avx2,fma")]] ::spacearm_double4 _ZGVdN4v_cos(::spacearm_double4);
 #endif
 
 namespace spacearm::models::paper_geared_armature {
@@ -32,9 +32,9 @@ inline void sincos_batch(const T (&angle)[K], T (&s)[K], T (&c)[K]) {
 }
 #if defined(SPACEARM_VECTOR_TRIG) && defined(__x86_64__) && defined(__GLIBC__)
 [[gnu::target("avx2,fma")]] inline void sincos4(const double* angle, double* s, double* c) {
-  spacearm_double4 a;
+  ::spacearm_double4 a;
   __builtin_memcpy(&a, angle, sizeof a);
-  const spacearm_double4 sines = _ZGVdN4v_sin(a), cosines = _ZGVdN4v_cos(a);
+  const ::spacearm_double4 sines = ::_ZGVdN4v_sin(a), cosines = ::_ZGVdN4v_cos(a);
   __builtin_memcpy(s, &sines, sizeof sines);
   __builtin_memcpy(c, &cosines, sizeof cosines);
 }

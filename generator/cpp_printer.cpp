@@ -36,9 +36,10 @@ struct Assignment {
 };
 
 // Prints the nodes of a program that several entries share (and every sin/cos) as named
-// temporaries t0, t1, ..., then each entry as an assignment, in parts of at most per_part
-// temporaries (PrintOptions::statements_per_part; 0: one part), each entry in the part of its
-// last operand and the copies of symmetric entries in the last.
+// temporaries t0, t1, ..., then each entry as an assignment, in parts of per_part temporaries
+// (PrintOptions::statements_per_part; 0: one part; a sin/cos batch stays whole, in the part of
+// its first sin/cos), each entry in the part of its last operand and the copies of symmetric
+// entries in the last.
 // Plain: everything inline.
 class BodyPrinter {
  public:
@@ -88,10 +89,11 @@ class BodyPrinter {
     return k == Program::Kind::sin || k == Program::Kind::cos;
   }
 
-  // The sin/cos nodes whose angles depend on L other sin/cos calls form level L; a level of two
-  // angles or more becomes one sincos_batch call (vectorized where the build allows: see
-  // kTrigBatchHelper). The schedule is reordered by level, each level's calls as early as they
-  // can be: first the statements the calls need, then the calls, then the rest.
+  // The sin/cos nodes whose angles depend on L other sin/cos calls form level L, computed by one
+  // sincos_batch call (vectorized where the build allows: kTrigBatchHelper), so that every sine
+  // of a model comes from the same implementation. The schedule is reordered by level, each
+  // level's call as early as it can be: first the statements it needs, then the call, then the
+  // rest.
   void batch_trig() {
     std::map<int, int> level;
     std::map<int, std::vector<int>> angles;  // per level, in schedule order, each once
@@ -106,11 +108,10 @@ class BodyPrinter {
         v.push_back(p_.node(id).args[0].id);
     }
     std::map<int, int> batch_at_level;
-    for (const auto& [l, v] : angles)
-      if (v.size() >= 2) {
-        batch_at_level[l] = static_cast<int>(batches_.size());
-        batches_.push_back(v);
-      }
+    for (const auto& [l, v] : angles) {
+      batch_at_level[l] = static_cast<int>(batches_.size());
+      batches_.push_back(v);
+    }
     if (batches_.empty()) return;
     // The statements of each level that the calls of that level read.
     std::set<int> needed;
@@ -421,18 +422,18 @@ Body function_body(const FunctionSpec& f, const Dimensions& dims, int per_part,
   return b;
 }
 
-// sin and cos of a function's angles in one call (BodyPrinter batches them). Where the build
-// defines SPACEARM_VECTOR_TRIG (spacearm's build rules do on x86-64 with glibc, and link
+// sin and cos of a function's angles in one call per level (BodyPrinter batches them). Where
+// the build defines SPACEARM_VECTOR_TRIG (spacearm's build rules do on x86-64 where glibc has
 // libmvec), doubles go four at a time through glibc's vector math library on CPUs with AVX2 and
-// FMA: sin and cos within 4 ulp instead of libm's 1, branch-free (the 3-link geared chain's
-// forward dynamics 127 -> 108 ns over random states). Elsewhere std::sin and std::cos.
+// FMA: within 4 ulp instead of libm's 1, but branch-free and four at once (README: Long chains).
+// Elsewhere std::sin and std::cos.
 constexpr const char* kTrigBatchIncludes = R"(
 #if defined(SPACEARM_VECTOR_TRIG) && defined(__x86_64__) && defined(__GLIBC__)
 // Four doubles in an AVX register, as glibc's libmvec (link -lmvec) takes them. Not
 // <immintrin.h>: it would add 0.5 s to every compile.
 typedef double spacearm_double4 __attribute__((vector_size(32)));
-extern "C" [[gnu::target("avx2,fma")]] spacearm_double4 _ZGVdN4v_sin(spacearm_double4);
-extern "C" [[gnu::target("avx2,fma")]] spacearm_double4 _ZGVdN4v_cos(spacearm_double4);
+extern "C" [[gnu::target("avx2,fma")]] ::spacearm_double4 _ZGVdN4v_sin(::spacearm_double4);
+extern "C" [[gnu::target("avx2,fma")]] ::spacearm_double4 _ZGVdN4v_cos(::spacearm_double4);
 #endif
 )";
 constexpr const char* kTrigBatchHelper = R"(
@@ -445,9 +446,9 @@ inline void sincos_batch(const T (&angle)[K], T (&s)[K], T (&c)[K]) {
 }
 #if defined(SPACEARM_VECTOR_TRIG) && defined(__x86_64__) && defined(__GLIBC__)
 [[gnu::target("avx2,fma")]] inline void sincos4(const double* angle, double* s, double* c) {
-  spacearm_double4 a;
+  ::spacearm_double4 a;
   __builtin_memcpy(&a, angle, sizeof a);
-  const spacearm_double4 sines = _ZGVdN4v_sin(a), cosines = _ZGVdN4v_cos(a);
+  const ::spacearm_double4 sines = ::_ZGVdN4v_sin(a), cosines = ::_ZGVdN4v_cos(a);
   __builtin_memcpy(s, &sines, sizeof sines);
   __builtin_memcpy(c, &cosines, sizeof cosines);
 }
@@ -705,24 +706,24 @@ EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
                    (f.equation.find(' ') == std::string::npos ? ". " : "s. ") + f.equation + ".") +
         "\n";
     h << "\n" << doc << "template <typename T>\n" << signature(f, "T", true) << ";\n";
-    std::ostringstream& s = functions;
-    s << "\n" << doc;
+    functions << "\n" << doc;
     if (f.plain) {
       result.stats.push_back({f.name, {}, "", f.formulation});
-      s << "// Baseline: expanded expressions, no common-subexpression elimination.\n";
+      functions << "// Baseline: expanded expressions, no common-subexpression elimination.\n";
     } else {
       const OpCounts ops = f.program.count(f.roots());
       result.stats.push_back({f.name, ops, f.variant, f.formulation});
-      s << "// Operations: " << ops.adds << " add, " << ops.muls << " mul, " << ops.divs << " div, "
-        << ops.trig << " sin/cos"
-        << (ops.functions ? ", " + std::to_string(ops.functions) + " tanh/exp" : "") << ".\n"
-        << "// Formulation: " << f.formulation << ".\n";
+      functions << "// Operations: " << ops.adds << " add, " << ops.muls << " mul, " << ops.divs
+                << " div, " << ops.trig << " sin/cos"
+                << (ops.functions ? ", " + std::to_string(ops.functions) + " tanh/exp" : "")
+                << ".\n"
+                << "// Formulation: " << f.formulation << ".\n";
     }
     const Body b = function_body(f, facts.dims, options.statements_per_part);
     trig_batches |= b.trig_batches;
-    s << b.parts << "template <typename T>\n"
-      << signature(f, "T", true, true) << " {\n"
-      << b.body << "}\n";
+    functions << b.parts << "template <typename T>\n"
+              << signature(f, "T", true, true) << " {\n"
+              << b.body << "}\n";
   }
   h << model_struct(model, ns);
   s << banner(model, options) << "#include \"" << result.header_name << "\"\n\n#include <cmath>\n"

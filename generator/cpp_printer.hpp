@@ -21,11 +21,11 @@ struct PrintOptions {
   std::string command;     // the regeneration command shown in the banner
   std::string file_stem;   // file names STEM.hpp/STEM.cpp; empty: the model's name
   // Bodies of more statements than this are split into parts of this many temporaries (the
-  // entries they write join the part of their last operand), each its own non-inlined function:
-  // a compiler's register allocation grows faster than linearly with one function's length
-  // (N = 30's state Jacobian, 42 000 statements in one function, took 259 s and 8.9 GB to
-  // compile at -O1; in parts of 2000, 33 s and 0.6 GB). Values a later part reads pass through a
-  // work array on the stack whose slots are reused after their last reader.
+  // entries they write join the part of their last operand; a sin/cos batch stays whole), each its
+  // own non-inlined function: a compiler's register allocation grows faster than linearly with one
+  // function's length (N = 30's state Jacobian, 42 000 statements in one function, took 259 s
+  // and 8.9 GB to compile at -O1; in parts of 2000, 33 s and 0.6 GB). Values a later part reads
+  // pass through a work array on the stack whose slots are reused after their last reader.
   int statements_per_part = 2000;
 };
 

@@ -29,9 +29,11 @@ bool is_reserved(const std::string& s) {
   static const std::regex generated(
       "(x0|y0|x0d|y0d|q|qd|T|params|q[0-9]+d?|qm[0-9]+d?|c[0-9]+(_[0-9]+)?|s[0-9]+(_[0-9]+)?|Omega["
       "0-9]+|t[0-9]+)");
-  static const std::set<std::string> names = {"std", "Eigen", "spacearm", "models",  "Model",
-                                              "I",   "Pi",    "Euler",    "Catalan", "sin",
-                                              "cos", "pow",   "sqrt"};
+  static const std::set<std::string> names = {
+      "std", "Eigen", "spacearm", "models", "Model", "I", "Pi", "Euler", "Catalan", "sin", "cos",
+      "pow", "sqrt",
+      // the generated sources' sin/cos helpers (cpp_printer.cpp) and their macro
+      "sincos_batch", "sincos4", "spacearm_double4", "SPACEARM_VECTOR_TRIG"};
   return std::regex_match(s, generated) || names.count(s) != 0 || is_cpp_reserved(s);
 }
 

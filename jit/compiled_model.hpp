@@ -1,6 +1,6 @@
 // Compile-and-load: generate a scene's C++ with the generator, compile it with the system
 // C++ compiler into a shared library, load it with dlopen, and cache the result by the
-// content hash of scene + generator version + compiler + flags, so that an unchanged
+// content hash of scene + generator version + compiler + flags + libraries, so that an unchanged
 // scene is neither regenerated nor recompiled.
 #pragma once
 
@@ -20,10 +20,11 @@ namespace spacearm {
 
 // sin and cos through glibc's vector math library, which the generated code uses where its
 // macro is defined (cpp_printer.cpp, kTrigBatchHelper): the macro, and the library to link
-// after the source.
-#if defined(__x86_64__) && defined(__GLIBC__)
+// after the source (libm's linker script pulls in libmvec). On where CMake's
+// SPACEARM_VECTOR_TRIG is (cmake/spacearmAddModel.cmake), as for linked models.
+#if SPACEARM_JIT_VECTOR_TRIG
 inline constexpr const char* kVectorTrigFlag = " -DSPACEARM_VECTOR_TRIG";
-inline constexpr const char* kVectorTrigLibraries = "-lmvec";
+inline constexpr const char* kVectorTrigLibraries = "-lm";
 #else
 inline constexpr const char* kVectorTrigFlag = "";
 inline constexpr const char* kVectorTrigLibraries = "";
@@ -34,7 +35,8 @@ struct CompileOptions {
                           // ~/.cache/spacearm
   std::string compiler;   // empty: $CXX, else c++ (one program, run without a shell)
   // -O1: as fast per call as -O2 (bench_first_use) and up to 40 % quicker to compile.
-  std::string flags = std::string("-O1 -std=c++17 -fPIC -shared") + kVectorTrigFlag;  // at spaces
+  // Split at spaces.
+  std::string flags = std::string("-O1 -std=c++17 -fPIC -shared") + kVectorTrigFlag;
   std::string libraries = kVectorTrigLibraries;      // after the source, split at spaces
   std::function<void(const std::string&)> progress;  // stage messages (may be empty)
 };

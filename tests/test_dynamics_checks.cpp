@@ -41,7 +41,7 @@ TEST(DynamicsChecks, InputsNameTheNonFiniteEntry) {
   EXPECT_NO_THROW(check_finite_inputs(ok, ok, ok, "m", names));
 }
 
-// Scaled pivots D_i / M_ii start at 1; the solve is refused when one falls to
+// Scaled pivots D_i / M_ii are at most 1; the solve is refused when one falls to
 // 1 / kMaxScaledCondition or below.
 TEST(DynamicsChecks, ForwardDynamicsFailuresSayWhich) {
   const Vector3 qdd(1, 2, 3), pivots(4, 2, 1);

@@ -101,6 +101,8 @@ TEST(Scene, ErrorsNameTheFieldAndValue) {
        "'EOF' is reserved (a C++ keyword, a macro of the generated code's headers"},
       {"name: two_links", "name: M_PI", "'M_PI' is reserved"},
       {"name: two_links", "name: two__links", "'two__links' is reserved"},
+      {"name: two_links", "name: spacearm_double4", "'spacearm_double4' is reserved"},
+      {"name: two_links", "name: SPACEARM_VECTOR_TRIG", "'SPACEARM_VECTOR_TRIG' is reserved"},
       {"name: two_links", "description: [a]\nname: two_links",
        "field 'description': expected text"},
       // Found by review: values whose products overflow double, exponents that overflow the
