@@ -1,0 +1,13 @@
+"""spacearm: exact dynamics of planar free-floating space manipulators, from Python.
+
+    import spacearm
+    model = spacearm.load("models/paper_geared.yaml", params={"p": 10})
+    M = model.mass_matrix([0, 0, 0.1, 0.2, 0.3, 0.4])
+
+load() compiles the scene into a shared library through spacearm's compile-and-load cache (or
+takes it from there) and returns a Model: every output the scene emits is a method taking numpy
+arrays, one state of shape (n,) or k states of shape (k, n).
+"""
+from ._spacearm import CompileError, DynamicsError, Model, load
+
+__all__ = ["load", "Model", "DynamicsError", "CompileError"]

@@ -1,0 +1,248 @@
+// The Python binding (module spacearm._spacearm, imported by the package `spacearm`):
+// load() compiles and loads a scene through the compile-and-load cache (jit/), and a Model has
+// every output of the registry (outputs.hpp) as a method over numpy arrays. A 1-D input is one
+// state; a 2-D input of shape (k, n) is k states, evaluated in C++ without the GIL.
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "compiled_model.hpp"
+#include "dynamics_checks.hpp"
+#include "scene.hpp"
+
+namespace py = pybind11;
+
+namespace spacearm {
+namespace {
+
+using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+// A loaded model and the parameter values its methods use unless given others.
+class PyModel {
+ public:
+  PyModel(CompiledModel model, Eigen::VectorXd params)
+      : model_(std::move(model)), params_(std::move(params)) {}
+
+  const CompiledModel& model() const { return model_; }
+  const Eigen::VectorXd& params() const { return params_; }
+
+  // Output o at the inputs (arrays, in the registry's order), one state or a batch.
+  py::object call(Output o, const py::args& args, const py::object& params) const;
+
+  std::string repr() const {
+    std::string outputs;
+    for (const auto& o : output_registry())
+      if (model_.has(o.id)) outputs += (outputs.empty() ? "" : ", ") + std::string(o.name);
+    return "<spacearm.Model '" + model_.name() + "': nq = " + std::to_string(model_.nq()) +
+           ", nv = " + std::to_string(model_.nv()) + ", " + std::to_string(model_.num_links()) +
+           " links; outputs " + outputs + ">";
+  }
+
+ private:
+  CompiledModel model_;
+  Eigen::VectorXd params_;
+  Eigen::VectorXd parameters(const py::object& given) const;
+  std::vector<Eigen::MatrixXd> one_state(Output o, const std::vector<Eigen::VectorXd>& in,
+                                         const Eigen::VectorXd& params) const;
+};
+
+// The values of named parameters: the model's, with those of `given` (a dict) replaced. An
+// unknown name is a ValueError naming it and the known ones.
+Eigen::VectorXd named_parameters(const CompiledModel& m, Eigen::VectorXd values,
+                                 const py::dict& given) {
+  const auto& names = m.parameter_names();
+  for (const auto& [key, value] : given) {
+    const std::string name = py::str(key);
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it == names.end()) {
+      std::string known;
+      for (const auto& n : names) known += (known.empty() ? "" : ", ") + n;
+      throw py::value_error("params: model '" + m.name() + "' has no parameter '" + name +
+                            "' (it has: " + (known.empty() ? "none" : known) + ")");
+    }
+    values[it - names.begin()] = value.cast<double>();
+  }
+  return values;
+}
+
+Eigen::VectorXd PyModel::parameters(const py::object& given) const {
+  if (given.is_none()) return params_;
+  if (!py::isinstance<py::dict>(given))
+    throw py::type_error("params: a dict of parameter names and values");
+  return named_parameters(model_, params_, given.cast<py::dict>());
+}
+
+// forward_dynamics passes the runtime's checks (an acceleration is never silently wrong) and
+// returns qdd alone: the pivots serve the checks.
+std::vector<Eigen::MatrixXd> PyModel::one_state(Output o, const std::vector<Eigen::VectorXd>& in,
+                                                const Eigen::VectorXd& params) const {
+  std::vector<Eigen::MatrixXd> r = model_.evaluate(o, in, params);
+  if (o == Output::forward_dynamics) {
+    check_forward_dynamics(Eigen::VectorXd(r[1]), Eigen::VectorXd(r[2]), Eigen::VectorXd(r[0]),
+                           model_.name());
+    r.resize(1);
+  }
+  return r;
+}
+
+// Result r of every state as numpy: per state a number (1 x 1), a vector (a column) or a
+// matrix, rows x cols; with a batch, the state index first.
+py::array to_numpy(const std::vector<std::vector<Eigen::MatrixXd>>& results, size_t r, int rows,
+                   int cols, bool batch) {
+  std::vector<py::ssize_t> shape;
+  if (batch) shape.push_back(static_cast<py::ssize_t>(results.size()));
+  if (rows * cols > 1) shape.push_back(rows);
+  if (cols > 1) shape.push_back(cols);
+  py::array_t<double> a(shape);
+  double* out = a.mutable_data();
+  for (const auto& state : results)
+    for (int i = 0; i < rows; ++i)
+      for (int j = 0; j < cols; ++j) *out++ = state[r](i, j);
+  return std::move(a);
+}
+
+py::object PyModel::call(Output o, const py::args& args, const py::object& params_given) const {
+  const OutputInfo& out = info(o);
+  if (args.size() != out.inputs.size()) {
+    std::string names;
+    for (Input i : out.inputs) names += (names.empty() ? "" : ", ") + std::string(info(i).name);
+    throw py::type_error(std::string(out.name) + "() takes " + names + " (" +
+                         std::to_string(out.inputs.size()) + " arrays), got " +
+                         std::to_string(args.size()));
+  }
+  // Inputs: all one state (1-D) or all batches (2-D) of one length k.
+  std::vector<Array> arrays;
+  for (size_t i = 0; i < args.size(); ++i) {
+    arrays.push_back(Array::ensure(args[i]));
+    if (!arrays.back())
+      throw py::type_error(std::string(info(out.inputs[i]).name) + ": not an array of numbers");
+  }
+  const bool batch = !arrays.empty() && arrays[0].ndim() == 2;
+  const py::ssize_t k = batch ? arrays[0].shape(0) : 1;
+  for (size_t i = 0; i < arrays.size(); ++i) {
+    const std::string name = info(out.inputs[i]).name, first = info(out.inputs[0]).name;
+    if (arrays[i].ndim() != 1 && arrays[i].ndim() != 2)
+      throw py::value_error(name + ": shape (n,) for one state or (k, n) for k states, not " +
+                            std::to_string(arrays[i].ndim()) + " dimensions");
+    if (arrays[i].ndim() != arrays[0].ndim())
+      throw py::value_error(name + (batch ? ": one state where " + first + " has k states"
+                                          : ": k states where " + first + " is one state"));
+    if (batch && arrays[i].shape(0) != k)
+      throw py::value_error(name + ": " + std::to_string(arrays[i].shape(0)) + " states where " +
+                            first + " has " + std::to_string(k));
+  }
+  const Eigen::VectorXd params = parameters(params_given);
+  std::vector<std::vector<Eigen::VectorXd>> states(k);
+  for (py::ssize_t s = 0; s < k; ++s)
+    for (const Array& a : arrays) {
+      const py::ssize_t n = a.shape(a.ndim() - 1);
+      states[s].push_back(Eigen::Map<const Eigen::VectorXd>(a.data() + s * (batch ? n : 0), n));
+    }
+  // The model's calls, without the GIL.
+  std::vector<std::vector<Eigen::MatrixXd>> results(k);
+  {
+    py::gil_scoped_release release;
+    for (py::ssize_t s = 0; s < k; ++s) try {
+        results[s] = one_state(o, states[s], params);
+      } catch (const DynamicsError& e) {  // which state of a batch, in the same type
+        throw batch ? DynamicsError("state " + std::to_string(s) + ": " + e.what()) : e;
+      } catch (const std::invalid_argument& e) {
+        throw batch ? std::invalid_argument("state " + std::to_string(s) + ": " + e.what()) : e;
+      }
+  }
+  const size_t num_results = o == Output::forward_dynamics ? 1 : out.results.size();
+  const Dimensions& dims = model_.dimensions();
+  std::vector<py::array> arrays_out;
+  for (size_t r = 0; r < num_results; ++r)
+    arrays_out.push_back(
+        to_numpy(results, r, dims(out.results[r].rows), dims(out.results[r].cols), batch));
+  if (arrays_out.size() == 1) {
+    if (!batch && results[0][0].size() == 1) return py::float_(results[0][0](0, 0));
+    return arrays_out[0];
+  }
+  py::dict d;
+  for (size_t r = 0; r < arrays_out.size(); ++r) d[out.results[r].name] = arrays_out[r];
+  return std::move(d);
+}
+
+// A path to a scene file, or the YAML text of one (anything with a line break or a ':').
+Scene scene_from(const std::string& path_or_text) {
+  if (path_or_text.find('\n') != std::string::npos || path_or_text.find(": ") != std::string::npos)
+    return parse_scene(path_or_text, "<yaml text>");
+  return load_scene(path_or_text);
+}
+
+PyModel load(const std::string& scene_text, const py::object& params,
+             const std::string& cache_dir) {
+  const Scene scene = scene_from(scene_text);
+  CompileOptions options;
+  options.cache_dir = cache_dir;
+  CompiledModel m = [&] {
+    py::gil_scoped_release release;  // a compile can take seconds
+    return CompiledModel::load(scene, options);
+  }();
+  Eigen::VectorXd values = Eigen::Map<const Eigen::VectorXd>(
+      m.nominal_parameters().data(), static_cast<Eigen::Index>(m.nominal_parameters().size()));
+  if (!params.is_none()) {
+    if (!py::isinstance<py::dict>(params))
+      throw py::type_error("params: a dict of parameter names and values");
+    values = named_parameters(m, values, params.cast<py::dict>());
+  }
+  // The parameters' ranges, checked now: an error at load, not at the first call.
+  dynamic_model(m, values);
+  return PyModel(std::move(m), values);
+}
+
+}  // namespace
+}  // namespace spacearm
+
+PYBIND11_MODULE(_spacearm, module) {
+  using namespace spacearm;
+  module.doc() = "spacearm: exact dynamics of planar free-floating space manipulators";
+  py::register_exception<DynamicsError>(module, "DynamicsError", PyExc_ArithmeticError);
+  py::register_exception<CompileError>(module, "CompileError", PyExc_RuntimeError);
+  module.def("load", &load, py::arg("scene"), py::arg("params") = py::none(),
+             py::arg("cache_dir") = "",
+             "Compile (or take from the cache) and load the model of a scene: a path to a scene "
+             "file or its YAML text. params: a dict of parameter values (default: the scene's).");
+  py::class_<PyModel> model(module, "Model");
+  model.def_property_readonly("name", [](const PyModel& m) { return m.model().name(); })
+      .def_property_readonly("nq", [](const PyModel& m) { return m.model().nq(); })
+      .def_property_readonly("nv", [](const PyModel& m) { return m.model().nv(); })
+      .def_property_readonly("num_links", [](const PyModel& m) { return m.model().num_links(); })
+      .def_property_readonly("coordinate_names",
+                             [](const PyModel& m) { return m.model().coordinate_names(); })
+      .def_property_readonly("parameter_names",
+                             [](const PyModel& m) { return m.model().parameter_names(); })
+      .def_property_readonly("params", [](const PyModel& m) { return m.params(); })
+      .def_property_readonly("outputs",
+                             [](const PyModel& m) {
+                               std::vector<std::string> names;
+                               for (const auto& o : output_registry())
+                                 if (m.model().has(o.id)) names.push_back(o.name);
+                               return names;
+                             })
+      .def("__repr__", &PyModel::repr);
+  // Every output of the registry: model.mass_matrix(q), model.forward_dynamics(q, qd, Q), ...
+  for (const OutputInfo& o : output_registry()) {
+    std::string inputs;
+    for (Input i : o.inputs) inputs += std::string(info(i).name) + ", ";
+    const Output id = o.id;
+    model.def(
+        o.name,
+        [id](const PyModel& m, const py::args& args, const py::object& params) {
+          return m.call(id, args, params);
+        },
+        py::arg("params") = py::none(),
+        (std::string(o.name) + "(" + inputs + "params=None): " + o.doc +
+         " Each input (n,) for one state or (k, n) for k states.")
+            .c_str());
+  }
+}

@@ -1,0 +1,102 @@
+"""The Python binding (python/spacearm_module.cpp): load, every output as a method over numpy
+arrays, batches, parameters and errors. Cost: one compile of the paper's geared model into the
+test cache (about 1 s), then milliseconds."""
+import os
+
+import numpy as np
+import pytest
+
+import spacearm
+
+SOURCE = os.path.join(os.path.dirname(__file__), "..", "..")
+CACHE = os.environ.get("SPACEARM_TEST_CACHE_DIR", "")
+
+
+@pytest.fixture(scope="module")
+def geared():
+    return spacearm.load(os.path.join(SOURCE, "models", "paper_geared.yaml"), cache_dir=CACHE)
+
+
+def states(model, k, seed=1):
+    rng = np.random.default_rng(seed)
+    return rng.uniform(-1, 1, (k, model.nq)), rng.uniform(-1, 1, (k, model.nv))
+
+
+def test_mass_matrix_is_symmetric_positive_definite(geared):
+    q, _ = states(geared, 1)
+    M = geared.mass_matrix(q[0])
+    assert M.shape == (geared.nv, geared.nv)
+    assert np.allclose(M, M.T, rtol=0, atol=1e-15 * abs(M).max())
+    assert np.linalg.eigvalsh(M).min() > 0
+
+
+def test_forward_dynamics_solves_the_equations_of_motion(geared):
+    """M qdd + b = Q (eq. 8), each output through its own method."""
+    q, qd = states(geared, 3)
+    Q = np.arange(geared.nv, dtype=float)
+    for i in range(3):
+        qdd = geared.forward_dynamics(q[i], qd[i], Q)
+        M, b = geared.mass_matrix(q[i]), geared.bias_forces(q[i], qd[i])
+        assert np.allclose(M @ qdd + b, Q, rtol=0, atol=1e-12 * abs(Q).max())
+        assert np.allclose(geared.inverse_dynamics(q[i], qd[i], qdd), Q, atol=1e-11)
+
+
+def test_a_batch_equals_its_states_one_by_one(geared):
+    q, qd = states(geared, 7)
+    M = geared.mass_matrix(q)
+    T = geared.kinetic_energy(q, qd)
+    assert M.shape == (7, geared.nv, geared.nv) and T.shape == (7,)
+    for i in range(7):
+        assert np.array_equal(M[i], geared.mass_matrix(q[i]))
+        assert T[i] == geared.kinetic_energy(q[i], qd[i])
+        assert np.isclose(T[i], 0.5 * qd[i] @ M[i] @ qd[i], rtol=1e-13)
+
+
+def test_parameters_by_name(geared):
+    q, _ = states(geared, 1)
+    assert geared.parameter_names == ["p", "Im"]
+    p10 = spacearm.load(os.path.join(SOURCE, "models", "paper_geared.yaml"), params={"p": 10},
+                        cache_dir=CACHE)
+    assert list(p10.params) == [10, geared.params[1]]
+    assert np.array_equal(p10.mass_matrix(q[0]), geared.mass_matrix(q[0], params={"p": 10}))
+    assert not np.allclose(p10.mass_matrix(q[0]), geared.mass_matrix(q[0]))
+
+
+def test_scene_as_yaml_text_and_repr():
+    with open(os.path.join(SOURCE, "models", "paper_reference.yaml")) as f:
+        model = spacearm.load(f.read(), cache_dir=CACHE)
+    assert model.coordinate_names == ["x0", "y0", "q0", "q1", "q2", "q3"]
+    assert repr(model).startswith("<spacearm.Model 'paper_reference': nq = 6, nv = 6, 3 links;")
+    assert "forward_dynamics" in model.outputs
+
+
+def test_results_of_several_arrays_and_empty_batches(geared):
+    q, qd = states(geared, 2)
+    r = geared.free_base_inverse_dynamics(q, qd, np.zeros((2, geared.num_links)))
+    assert sorted(r) == ["qdd_base", "tau"] and r["tau"].shape == (2, geared.num_links)
+    assert geared.mass_matrix(np.zeros((0, geared.nq))).shape == (0, geared.nv, geared.nv)
+
+
+def test_errors_name_what_is_wrong(geared):
+    q, qd = states(geared, 2)
+    with pytest.raises(ValueError, match="no parameter 'mass' \\(it has: p, Im\\)"):
+        geared.mass_matrix(q[0], params={"mass": 1})
+    with pytest.raises(TypeError, match=r"forward_dynamics\(\) takes q, qd, Q \(3 arrays\), got 2"):
+        geared.forward_dynamics(q[0], qd[0])
+    with pytest.raises(ValueError, match="qd: one state where q has k states"):
+        geared.bias_forces(q, qd[0])
+    with pytest.raises(ValueError, match="q: expected 6 values, got 3"):
+        geared.mass_matrix(q[0][:3])
+    with pytest.raises(TypeError, match="q: not an array of numbers"):
+        geared.mass_matrix("abc")
+    bad = q.copy()
+    bad[1, 2] = np.nan
+    with pytest.raises(ValueError, match=r"state 1: q\[2\] is not finite: nan"):
+        geared.mass_matrix(bad)
+    with pytest.raises(spacearm.DynamicsError, match="accelerations not finite"):
+        geared.forward_dynamics(q[0], qd[0], np.full(geared.nv, 1e308))
+    with pytest.raises(ValueError, match="gears\\[0\\].ratio must be positive"):
+        spacearm.load(os.path.join(SOURCE, "models", "paper_geared.yaml"), params={"p": -1},
+                      cache_dir=CACHE)
+    with pytest.raises(RuntimeError, match="no_such_scene.yaml"):
+        spacearm.load("no_such_scene.yaml", cache_dir=CACHE)
