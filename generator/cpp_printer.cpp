@@ -668,6 +668,7 @@ std::string c_interface(const LoweredModel& model, int per_part) {
     << "double spacearm_nominal_parameter(int i) { return kNominalParameters[i]; }\n"
     << "int spacearm_actuated_coordinate(int joint) { return kActuatedCoordinates[joint]; }\n"
     << "unsigned long spacearm_outputs() { return " << output_mask(facts.outputs) << "ul; }\n"
+    << "const char* spacearm_scene_hash() { return \"" << facts.scene_hash << "\"; }\n"
     << "const char* spacearm_parameter_error([[maybe_unused]] const double* params) {\n"
     << parameter_checks(facts, Spelling::c_arrays) << functions.str() << "}\n";
   return s.str();

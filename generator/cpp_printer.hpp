@@ -14,7 +14,7 @@ inline constexpr const char* kGeneratorVersion = "0.3.0";
 // Version of the C interface (c_interface): each function is exported as
 //   void spacearm_<name>(const double* const* inputs, const double* params, double* const* results)
 // with arrays column-major in the order and shapes of its FunctionSpec.
-inline constexpr int kCInterfaceVersion = 5;
+inline constexpr int kCInterfaceVersion = 6;
 
 struct PrintOptions {
   std::string scene_path;  // as shown in the banner (keep it relative for reproducibility)

@@ -3,10 +3,13 @@
 #include <dlfcn.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -92,6 +95,7 @@ std::vector<std::string> required_symbols(const Scene& scene) {
                                     "spacearm_parameter_name",
                                     "spacearm_nominal_parameter",
                                     "spacearm_outputs",
+                                    "spacearm_scene_hash",
                                     "spacearm_parameter_error",
                                     "spacearm_actuated_coordinate"};
   for (const auto& f : exported_functions(scene)) names.push_back("spacearm_" + f);
@@ -224,13 +228,26 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
 }
 
 // dlopen of the verified open file (through /proc/self/fd, so the bytes hashed are the
-// bytes mapped), then every symbol the scene needs is looked up before any is called.
+// bytes mapped), then every symbol the scene needs is looked up before any is called. dlopen
+// hands back a loaded library for any name that library was opened by, and /proc/self/fd/N
+// names another file once N is reused: each load opens the file through a link of a name never
+// used before, and the library's scene hash must be this scene's.
 CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library, StageReport& rep,
                                            std::string& why) {
   const auto t0 = std::chrono::steady_clock::now();
   CompiledModel m;
+  static std::atomic<unsigned> loads{0};
+  const std::string link =
+      (fs::path(rep.cache_entry).parent_path() /
+       (".tmp-" + std::to_string(getpid()) + "-load-" + std::to_string(loads++)))
+          .string();
   const std::string path = "/proc/self/fd/" + std::to_string(library.get());
-  m.handle_ = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (symlink(path.c_str(), link.c_str()) != 0) {
+    why = "cannot create the link " + link + " to load it: " + std::strerror(errno);
+    return m;
+  }
+  m.handle_ = dlopen(link.c_str(), RTLD_NOW | RTLD_LOCAL);
+  unlink(link.c_str());
   if (!m.handle_) {
     const char* e = dlerror();
     why = e ? e : "dlopen failed";
@@ -245,6 +262,12 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
   auto number = [&](const char* name) { return reinterpret_cast<int (*)()>(sym(name))(); };
   if (number("spacearm_abi_version") != kCInterfaceVersion) {
     why = "wrong interface version";
+    return m;
+  }
+  // The library of this scene, not another one the process has loaded (dlopen matches names).
+  const std::string hash = reinterpret_cast<const char* (*)()>(sym("spacearm_scene_hash"))();
+  if (hash != "fnv1a64:" + content_hash(scene.content)) {
+    why = "it was built from another scene (" + hash + ")";
     return m;
   }
   m.dims_ = {number("spacearm_nq"), number("spacearm_nv"), number("spacearm_num_links")};

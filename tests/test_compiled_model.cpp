@@ -159,6 +159,28 @@ TEST(CompiledModel, ChangedSceneIsRebuilt) {
   fs::remove_all(cache);
 }
 
+// Two models loaded at once are two libraries: dlopen matches the name it is given
+// (/proc/self/fd/N), so a second model opened under the first one's number would silently be
+// the first one.
+TEST(CompiledModel, ModelsLoadedAtOnceAreTheirOwn) {
+  const fs::path cache = fresh_cache("two-at-once");
+  CompileOptions options;
+  options.cache_dir = cache.string();
+  std::ifstream in(SPACEARM_SOURCE_DIR "/models/paper_reference.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string heavier = text.str();
+  heavier.replace(heavier.find("mass: 64.859"), 12, "mass: 100.0");
+  const CompiledModel a = CompiledModel::load(parse_scene(text.str(), "a.yaml"), options);
+  const CompiledModel b = CompiledModel::load(parse_scene(heavier, "b.yaml"), options);
+  const Eigen::VectorXd q = Eigen::VectorXd::Zero(6);
+  const Eigen::VectorXd params(0);
+  // M(0, 0) is the total mass.
+  EXPECT_NEAR(b.mass_matrix(q, params)(0, 0) - a.mass_matrix(q, params)(0, 0), 100.0 - 64.859,
+              1e-12);
+  fs::remove_all(cache);
+}
+
 // The loaded model at dynamic size (dynamic_model) gives the linked model's values at the same
 // parameters and the same DynamicsError for a NaN; it has only what the scene emits.
 TEST(CompiledModel, DynamicModelOfLoadedCodeEqualsTheLinkedModel) {
