@@ -59,6 +59,9 @@ Eigen::VectorXd named_parameters(const CompiledModel& m, Eigen::VectorXd values,
                                  const py::dict& given) {
   const auto& names = m.parameter_names();
   for (const auto& [key, value] : given) {
+    if (!py::isinstance<py::str>(key))
+      throw py::type_error("params: parameter names are strings, not " +
+                           std::string(py::str(py::type::of(key).attr("__name__"))));
     const std::string name = py::str(key);
     const auto it = std::find(names.begin(), names.end(), name);
     if (it == names.end()) {
@@ -67,6 +70,9 @@ Eigen::VectorXd named_parameters(const CompiledModel& m, Eigen::VectorXd values,
       throw py::value_error("params: model '" + m.name() + "' has no parameter '" + name +
                             "' (it has: " + (known.empty() ? "none" : known) + ")");
     }
+    if (!py::isinstance<py::float_>(value) && !py::isinstance<py::int_>(value))
+      throw py::type_error("params['" + name + "']: a number, not " +
+                           std::string(py::str(py::type::of(value).attr("__name__"))));
     values[it - names.begin()] = value.cast<double>();
   }
   return values;
@@ -89,17 +95,22 @@ std::vector<Eigen::MatrixXd> PyModel::one_state(Output o, const std::vector<Eige
                            model_.name());
     r.resize(1);
   }
+  for (size_t k = 0; k < r.size(); ++k)  // as eval's: no overflow passes as a number
+    if (!all_finite(r[k]))
+      throw DynamicsError(std::string(info(o).results[k].name) +
+                          " is not finite: the state or parameters overflow");
   return r;
 }
 
 // Result r of every state as numpy: per state a number (1 x 1), a vector (a column) or a
 // matrix, rows x cols; with a batch, the state index first.
-py::array to_numpy(const std::vector<std::vector<Eigen::MatrixXd>>& results, size_t r, int rows,
-                   int cols, bool batch) {
+py::array to_numpy(const std::vector<std::vector<Eigen::MatrixXd>>& results, size_t r,
+                   const ResultInfo& spec, const Dimensions& dims, bool batch) {
+  const int rows = dims(spec.rows), cols = dims(spec.cols);
   std::vector<py::ssize_t> shape;
   if (batch) shape.push_back(static_cast<py::ssize_t>(results.size()));
-  if (rows * cols > 1) shape.push_back(rows);
-  if (cols > 1) shape.push_back(cols);
+  if (spec.rows != Size::one || spec.cols != Size::one) shape.push_back(rows);
+  if (spec.cols != Size::one) shape.push_back(cols);
   py::array_t<double> a(shape);
   double* out = a.mutable_data();
   for (const auto& state : results)
@@ -120,9 +131,11 @@ py::object PyModel::call(Output o, const py::args& args, const py::object& param
   // Inputs: all one state (1-D) or all batches (2-D) of one length k.
   std::vector<Array> arrays;
   for (size_t i = 0; i < args.size(); ++i) {
-    arrays.push_back(Array::ensure(args[i]));
-    if (!arrays.back())
+    const py::array raw = py::array::ensure(args[i]);
+    const char kind = raw ? raw.dtype().kind() : 'O';
+    if (kind != 'i' && kind != 'u' && kind != 'f')
       throw py::type_error(std::string(info(out.inputs[i]).name) + ": not an array of numbers");
+    arrays.push_back(Array::ensure(raw));
   }
   const bool batch = !arrays.empty() && arrays[0].ndim() == 2;
   const py::ssize_t k = batch ? arrays[0].shape(0) : 1;
@@ -137,6 +150,10 @@ py::object PyModel::call(Output o, const py::args& args, const py::object& param
     if (batch && arrays[i].shape(0) != k)
       throw py::value_error(name + ": " + std::to_string(arrays[i].shape(0)) + " states where " +
                             first + " has " + std::to_string(k));
+    const int n = model_.dimensions()(info(out.inputs[i]).size);
+    if (arrays[i].shape(arrays[i].ndim() - 1) != n)
+      throw py::value_error(name + ": expected " + std::to_string(n) + " values, got " +
+                            std::to_string(arrays[i].shape(arrays[i].ndim() - 1)));
   }
   const Eigen::VectorXd params = parameters(params_given);
   std::vector<std::vector<Eigen::VectorXd>> states(k);
@@ -161,10 +178,10 @@ py::object PyModel::call(Output o, const py::args& args, const py::object& param
   const Dimensions& dims = model_.dimensions();
   std::vector<py::array> arrays_out;
   for (size_t r = 0; r < num_results; ++r)
-    arrays_out.push_back(
-        to_numpy(results, r, dims(out.results[r].rows), dims(out.results[r].cols), batch));
+    arrays_out.push_back(to_numpy(results, r, out.results[r], dims, batch));
   if (arrays_out.size() == 1) {
-    if (!batch && results[0][0].size() == 1) return py::float_(results[0][0](0, 0));
+    if (!batch && out.results[0].rows == Size::one && out.results[0].cols == Size::one)
+      return py::float_(results[0][0](0, 0));
     return arrays_out[0];
   }
   py::dict d;
@@ -172,10 +189,9 @@ py::object PyModel::call(Output o, const py::args& args, const py::object& param
   return std::move(d);
 }
 
-// A path to a scene file, or the YAML text of one (anything with a line break or a ':').
+// The YAML text of a scene (it has line breaks), else the path of a scene file.
 Scene scene_from(const std::string& path_or_text) {
-  if (path_or_text.find('\n') != std::string::npos || path_or_text.find(": ") != std::string::npos)
-    return parse_scene(path_or_text, "<yaml text>");
+  if (path_or_text.find('\n') != std::string::npos) return parse_scene(path_or_text, "<yaml text>");
   return load_scene(path_or_text);
 }
 
@@ -208,10 +224,6 @@ PYBIND11_MODULE(_spacearm, module) {
   module.doc() = "spacearm: exact dynamics of planar free-floating space manipulators";
   py::register_exception<DynamicsError>(module, "DynamicsError", PyExc_ArithmeticError);
   py::register_exception<CompileError>(module, "CompileError", PyExc_RuntimeError);
-  module.def("load", &load, py::arg("scene"), py::arg("params") = py::none(),
-             py::arg("cache_dir") = "",
-             "Compile (or take from the cache) and load the model of a scene: a path to a scene "
-             "file or its YAML text. params: a dict of parameter values (default: the scene's).");
   py::class_<PyModel> model(module, "Model");
   model.def_property_readonly("name", [](const PyModel& m) { return m.model().name(); })
       .def_property_readonly("nq", [](const PyModel& m) { return m.model().nq(); })
@@ -230,6 +242,10 @@ PYBIND11_MODULE(_spacearm, module) {
                                return names;
                              })
       .def("__repr__", &PyModel::repr);
+  module.def("load", &load, py::arg("scene"), py::arg("params") = py::none(),
+             py::arg("cache_dir") = "",
+             "Compile (or take from the cache) and load the model of a scene: a path to a scene "
+             "file or its YAML text. params: a dict of parameter values (default: the scene's).");
   // Every output of the registry: model.mass_matrix(q), model.forward_dynamics(q, qd, Q), ...
   for (const OutputInfo& o : output_registry()) {
     std::string inputs;

@@ -100,3 +100,36 @@ def test_errors_name_what_is_wrong(geared):
                       cache_dir=CACHE)
     with pytest.raises(RuntimeError, match="no_such_scene.yaml"):
         spacearm.load("no_such_scene.yaml", cache_dir=CACHE)
+
+
+def test_two_models_at_once_are_their_own():
+    with open(os.path.join(SOURCE, "models", "paper_reference.yaml")) as f:
+        text = f.read()
+    a = spacearm.load(text, cache_dir=CACHE)
+    b = spacearm.load(text.replace("mass: 64.859", "mass: 100.0"), cache_dir=CACHE)
+    q = np.zeros(6)
+    assert b.mass_matrix(q)[0, 0] - a.mass_matrix(q)[0, 0] == pytest.approx(100 - 64.859, abs=1e-12)
+
+
+def test_shapes_follow_the_outputs_not_the_sizes():
+    """A one-link fixed-base arm: M is 1 x 1 and J is 3 x 1, still a matrix."""
+    m = spacearm.load(os.path.join(SOURCE, "tests", "scenes", "fixed_n1.yaml"), cache_dir=CACHE)
+    assert m.nq == 1
+    assert m.mass_matrix([0.3]).shape == (1, 1)
+    assert m.mass_matrix(np.zeros((4, 1))).shape == (4, 1, 1)
+    assert m.end_effector_jacobian([0.3]).shape == (3, 1)
+    assert isinstance(m.kinetic_energy([0.3], [0.1]), float)
+
+
+def test_bad_values_are_refused(geared):
+    q, qd = states(geared, 1)
+    with pytest.raises(TypeError, match=r"params\['p'\]: a number, not str"):
+        geared.mass_matrix(q[0], params={"p": "10"})
+    with pytest.raises(TypeError, match="parameter names are strings, not int"):
+        geared.mass_matrix(q[0], params={1: 10})
+    with pytest.raises(TypeError, match="q: not an array of numbers"):
+        geared.mass_matrix([str(x) for x in q[0]])
+    with pytest.raises(ValueError, match="q: expected 6 values, got 3"):
+        geared.mass_matrix(np.zeros((0, 3)))
+    with pytest.raises(spacearm.DynamicsError, match="b is not finite"):
+        geared.bias_forces(q[0], np.full(geared.nv, 1e200))
