@@ -101,7 +101,7 @@ std::string fresh_cache() {
 
 CompileOptions options(const std::string& level) {
   CompileOptions o;
-  o.flags = level + " -std=c++17 -fPIC -shared" + kVectorTrigFlag;  // the default's, at `level`
+  o.flags = compile_flags(level);
   return o;
 }
 

@@ -53,9 +53,7 @@ nlohmann::ordered_json to_json(const std::string& name, const Eigen::MatrixXd& m
 // forward_dynamics passes the runtime's checks first: no meaningless accelerations.
 nlohmann::ordered_json results_json(const Scene& scene, const OutputInfo& o,
                                     const std::vector<Eigen::MatrixXd>& r) {
-  if (o.id == Output::forward_dynamics)
-    check_forward_dynamics(Eigen::VectorXd(r[1]), Eigen::VectorXd(r[2]), Eigen::VectorXd(r[0]),
-                           scene.name);
+  if (o.id == Output::forward_dynamics) check_forward_dynamics(r, scene.name);
   if (r.size() == 1) return to_json(o.name, r[0]);
   nlohmann::ordered_json all;
   for (size_t k = 0; k < r.size(); ++k)

@@ -58,8 +58,6 @@ inline void sincos_batch(const double (&angle)[K], double (&s)[K], double (&c)[K
 // Formulation: recursive (CRBA).
 template <typename T>
 void mass_matrix([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, kNv, kNv>& M) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T angles0[4] = {t0, q(4), q(5), q(2)};
   T sines0[4], cosines0[4];
@@ -189,8 +187,6 @@ void mass_matrix([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] cons
 // Formulation: closed form.
 template <typename T>
 void bias_forces([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& b) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T t1 = t0 + q(4);
   const T t2 = t1 + q(5);
@@ -239,8 +235,6 @@ void bias_forces([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] cons
 // Formulation: closed form.
 template <typename T>
 void mass_matrix_and_bias([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, kNv, kNv>& M, Velocities<T>& b) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T t1 = t0 + q(4);
   const T t2 = t1 + q(5);
@@ -404,8 +398,6 @@ void mass_matrix_and_bias([[maybe_unused]] const Coordinates<T>& q, [[maybe_unus
 // Formulation: recursive (body velocities).
 template <typename T>
 T kinetic_energy([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T angles0[4] = {t0, q(2), q(4), q(5)};
   T sines0[4], cosines0[4];
@@ -442,8 +434,6 @@ T kinetic_energy([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] cons
 // Formulation: recursive (body momenta).
 template <typename T>
 void momentum([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, 3, 1>& h) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T angles0[4] = {t0, q(2), q(4), q(5)};
   T sines0[4], cosines0[4];
@@ -493,8 +483,6 @@ void momentum([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const V
 // Formulation: closed form.
 template <typename T>
 void end_effector_pose([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, 3, 1>& x) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T t1 = t0 + q(4);
   const T t2 = t1 + q(5);
@@ -519,8 +507,6 @@ void end_effector_pose([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]
 // Formulation: closed form.
 template <typename T>
 void end_effector_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, 3, kNv>& J) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T t1 = t0 + q(4);
   const T t2 = t1 + q(5);
@@ -575,8 +561,6 @@ void end_effector_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unu
 // Formulation: closed form.
 template <typename T>
 void joint_angles([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, JointVector<T>& q_joints) {
-  using std::cos;
-  using std::sin;
   q_joints(0) = q(3);
   q_joints(1) = q(4);
   q_joints(2) = q(5);
@@ -587,8 +571,6 @@ void joint_angles([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] con
 // Formulation: closed form.
 template <typename T>
 void joint_rates([[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params, JointVector<T>& qd_joints) {
-  using std::cos;
-  using std::sin;
   qd_joints(0) = qd(3);
   qd_joints(1) = qd(4);
   qd_joints(2) = qd(5);
@@ -599,8 +581,6 @@ void joint_rates([[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] cons
 // Formulation: recursive (RNEA).
 template <typename T>
 void inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& qdd, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& Q) {
-  using std::cos;
-  using std::sin;
   using std::exp;
   using std::tanh;
   const T t0 = q(2) + q(3);
@@ -695,8 +675,6 @@ void inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]]
 // Formulation: recursive (ABA).
 template <typename T>
 void forward_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& Q, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& qdd, Velocities<T>& pivots, Velocities<T>& scaled_pivots) {
-  using std::cos;
-  using std::sin;
   using std::exp;
   using std::tanh;
   const T t0 = q(2) + q(3);
@@ -914,8 +892,6 @@ void forward_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]]
 // Formulation: closed form.
 template <typename T>
 T potential_energy([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0) * params(2);
   const T t1 = params(2) * T(0.5);
   const T t2 = T(1) / (params(0) * params(0)) * t1;
@@ -927,8 +903,6 @@ T potential_energy([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] co
 // Formulation: closed form.
 template <typename T>
 void spring_damper_forces([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& fk) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0);
   const T t1 = params(3) * t0;
   const T t2 = t0 * params(2);
@@ -951,8 +925,6 @@ void spring_damper_forces([[maybe_unused]] const Coordinates<T>& q, [[maybe_unus
 // Formulation: closed form.
 template <typename T>
 void friction_forces([[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& ff) {
-  using std::cos;
-  using std::sin;
   using std::exp;
   using std::tanh;
   const T t0 = T(1) / params(6);
@@ -980,8 +952,6 @@ void friction_forces([[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] 
 // Formulation: closed form.
 template <typename T>
 void forward_dynamics_derivatives([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& Q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, kNv, kNq>& dqdd_dq, Eigen::Matrix<T, kNv, kNv>& dqdd_dqd, Velocities<T>& qdd) {
-  using std::cos;
-  using std::sin;
   using std::exp;
   using std::tanh;
   const T t0 = q(2) + q(3);
@@ -1623,8 +1593,6 @@ void forward_dynamics_derivatives([[maybe_unused]] const Coordinates<T>& q, [[ma
 // Formulation: closed form.
 template <typename T>
 void gear_ratios([[maybe_unused]] const Parameters<T>& params, JointVector<T>& p) {
-  using std::cos;
-  using std::sin;
   p(0) = params(0);
   p(1) = params(0);
   p(2) = params(0);

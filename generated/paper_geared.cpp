@@ -58,8 +58,6 @@ inline void sincos_batch(const double (&angle)[K], double (&s)[K], double (&c)[K
 // Formulation: recursive (CRBA).
 template <typename T>
 void mass_matrix([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, kNv, kNv>& M) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0);
   const T t1 = q(2) + q(3) * t0;
   const T t2 = q(4) * t0;
@@ -149,8 +147,6 @@ void mass_matrix([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] cons
 // Formulation: closed form.
 template <typename T>
 void coriolis_matrix([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, kNv, kNv>& C) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0);
   const T t1 = q(2) + t0 * q(3);
   const T t2 = t1 + t0 * q(4);
@@ -312,8 +308,6 @@ void coriolis_matrix([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] 
 // Formulation: recursive (RNEA).
 template <typename T>
 void bias_forces([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& b) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0);
   const T t1 = q(2) + q(3) * t0;
   const T t2 = q(4) * t0;
@@ -387,8 +381,6 @@ void bias_forces([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] cons
 // Formulation: recursive (CRBA + RNEA).
 template <typename T>
 void mass_matrix_and_bias([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, kNv, kNv>& M, Velocities<T>& b) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0);
   const T t1 = q(2) + q(3) * t0;
   const T t2 = q(4) * t0;
@@ -527,8 +519,6 @@ void mass_matrix_and_bias([[maybe_unused]] const Coordinates<T>& q, [[maybe_unus
 // Formulation: recursive (body velocities).
 template <typename T>
 T kinetic_energy([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0);
   const T t1 = q(2) + q(3) * t0;
   const T t2 = q(4) * t0;
@@ -568,8 +558,6 @@ T kinetic_energy([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] cons
 // Formulation: recursive (body momenta).
 template <typename T>
 void momentum([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, 3, 1>& h) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0);
   const T t1 = q(2) + q(3) * t0;
   const T t2 = q(4) * t0;
@@ -622,8 +610,6 @@ void momentum([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const V
 // Formulation: closed form.
 template <typename T>
 void end_effector_pose([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, 3, 1>& x) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0);
   const T t1 = q(2) + t0 * q(3);
   const T t2 = t1 + t0 * q(4);
@@ -649,8 +635,6 @@ void end_effector_pose([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]
 // Formulation: closed form.
 template <typename T>
 void end_effector_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, 3, kNv>& J) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0);
   const T t1 = q(2) + t0 * q(3);
   const T t2 = t1 + t0 * q(4);
@@ -698,8 +682,6 @@ void end_effector_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unu
 // Formulation: closed form.
 template <typename T>
 void joint_positions([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, 2, kNumLinks + 1>& P) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0);
   const T t1 = q(2) + t0 * q(3);
   const T t2 = t1 + t0 * q(4);
@@ -736,8 +718,6 @@ void joint_positions([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] 
 // Formulation: closed form.
 template <typename T>
 void joint_angles([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, JointVector<T>& q_joints) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0);
   q_joints(0) = t0 * q(3);
   q_joints(1) = t0 * q(4);
@@ -749,8 +729,6 @@ void joint_angles([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] con
 // Formulation: closed form.
 template <typename T>
 void joint_rates([[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params, JointVector<T>& qd_joints) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0);
   qd_joints(0) = t0 * qd(3);
   qd_joints(1) = t0 * qd(4);
@@ -762,8 +740,6 @@ void joint_rates([[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] cons
 // Formulation: recursive (RNEA).
 template <typename T>
 void inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& qdd, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& Q) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0);
   const T t1 = q(2) + q(3) * t0;
   const T t2 = q(4) * t0;
@@ -845,8 +821,6 @@ void inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]]
 // Formulation: closed form.
 template <typename T>
 void forward_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& Q, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& qdd, Velocities<T>& pivots, Velocities<T>& scaled_pivots) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0);
   const T t1 = q(2) + t0 * q(3);
   const T t2 = t1 + t0 * q(4);
@@ -1005,8 +979,6 @@ void forward_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]]
 // Formulation: closed form.
 template <typename T>
 void generalized_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, 3, kNumLinks>& Jg) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0);
   const T t1 = q(2) + t0 * q(3);
   const T t2 = t1 + t0 * q(4);
@@ -1083,8 +1055,6 @@ void generalized_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unus
 // Formulation: closed form.
 template <typename T>
 void free_base_inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const JointVector<T>& qdd_joints, [[maybe_unused]] const Parameters<T>& params, JointVector<T>& tau, Eigen::Matrix<T, kNv - kNumLinks, 1>& qdd_base) {
-  using std::cos;
-  using std::sin;
   const T t0 = T(1) / params(0);
   const T t1 = q(2) + t0 * q(3);
   const T t2 = t1 + t0 * q(4);
@@ -1207,8 +1177,6 @@ void free_base_inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[mayb
 // Formulation: closed form.
 template <typename T>
 void gear_ratios([[maybe_unused]] const Parameters<T>& params, JointVector<T>& p) {
-  using std::cos;
-  using std::sin;
   p(0) = params(0);
   p(1) = params(0);
   p(2) = params(0);

@@ -57,8 +57,6 @@ inline void sincos_batch(const double (&angle)[K], double (&s)[K], double (&c)[K
 // Formulation: recursive (CRBA).
 template <typename T>
 void mass_matrix([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, kNv, kNv>& M) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T angles0[4] = {t0, q(4), q(5), q(2)};
   T sines0[4], cosines0[4];
@@ -142,8 +140,6 @@ void mass_matrix([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] cons
 // Formulation: closed form.
 template <typename T>
 void coriolis_matrix([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, kNv, kNv>& C) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T t1 = t0 + q(4);
   const T t2 = t1 + q(5);
@@ -287,8 +283,6 @@ void coriolis_matrix([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] 
 // Formulation: closed form.
 template <typename T>
 void bias_forces([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& b) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T t1 = t0 + q(4);
   const T t2 = t1 + q(5);
@@ -334,8 +328,6 @@ void bias_forces([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] cons
 // Formulation: closed form.
 template <typename T>
 void mass_matrix_and_bias([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, kNv, kNv>& M, Velocities<T>& b) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T t1 = t0 + q(4);
   const T t2 = t1 + q(5);
@@ -450,8 +442,6 @@ void mass_matrix_and_bias([[maybe_unused]] const Coordinates<T>& q, [[maybe_unus
 // Formulation: recursive (body velocities).
 template <typename T>
 T kinetic_energy([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T angles0[4] = {t0, q(2), q(4), q(5)};
   T sines0[4], cosines0[4];
@@ -485,8 +475,6 @@ T kinetic_energy([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] cons
 // Formulation: recursive (body momenta).
 template <typename T>
 void momentum([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, 3, 1>& h) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T angles0[4] = {t0, q(2), q(4), q(5)};
   T sines0[4], cosines0[4];
@@ -536,8 +524,6 @@ void momentum([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const V
 // Formulation: closed form.
 template <typename T>
 void end_effector_pose([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, 3, 1>& x) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T t1 = t0 + q(4);
   const T t2 = t1 + q(5);
@@ -562,8 +548,6 @@ void end_effector_pose([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]
 // Formulation: closed form.
 template <typename T>
 void end_effector_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, 3, kNv>& J) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T t1 = t0 + q(4);
   const T t2 = t1 + q(5);
@@ -609,8 +593,6 @@ void end_effector_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unu
 // Formulation: closed form.
 template <typename T>
 void joint_positions([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, 2, kNumLinks + 1>& P) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T t1 = t0 + q(4);
   const T t2 = t1 + q(5);
@@ -646,8 +628,6 @@ void joint_positions([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] 
 // Formulation: closed form.
 template <typename T>
 void joint_angles([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, JointVector<T>& q_joints) {
-  using std::cos;
-  using std::sin;
   q_joints(0) = q(3);
   q_joints(1) = q(4);
   q_joints(2) = q(5);
@@ -658,8 +638,6 @@ void joint_angles([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] con
 // Formulation: closed form.
 template <typename T>
 void joint_rates([[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Parameters<T>& params, JointVector<T>& qd_joints) {
-  using std::cos;
-  using std::sin;
   qd_joints(0) = qd(3);
   qd_joints(1) = qd(4);
   qd_joints(2) = qd(5);
@@ -670,8 +648,6 @@ void joint_rates([[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] cons
 // Formulation: recursive (RNEA).
 template <typename T>
 void inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& qdd, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& Q) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T angles0[4] = {t0, q(2), q(4), q(5)};
   T sines0[4], cosines0[4];
@@ -744,8 +720,6 @@ void inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]]
 // Formulation: closed form.
 template <typename T>
 void forward_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& Q, [[maybe_unused]] const Parameters<T>& params, Velocities<T>& qdd, Velocities<T>& pivots, Velocities<T>& scaled_pivots) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T t1 = t0 + q(4);
   const T t2 = t1 + q(5);
@@ -882,8 +856,6 @@ void forward_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]]
 // Formulation: closed form.
 template <typename T>
 void generalized_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, 3, kNumLinks>& Jg) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T t1 = t0 + q(4);
   const T t2 = t1 + q(5);
@@ -957,8 +929,6 @@ void generalized_jacobian([[maybe_unused]] const Coordinates<T>& q, [[maybe_unus
 // Formulation: closed form.
 template <typename T>
 void free_base_inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const JointVector<T>& qdd_joints, [[maybe_unused]] const Parameters<T>& params, JointVector<T>& tau, Eigen::Matrix<T, kNv - kNumLinks, 1>& qdd_base) {
-  using std::cos;
-  using std::sin;
   const T t0 = q(2) + q(3);
   const T t1 = t0 + q(4);
   const T t2 = t1 + q(5);
@@ -1057,8 +1027,6 @@ void free_base_inverse_dynamics([[maybe_unused]] const Coordinates<T>& q, [[mayb
 // Formulation: closed form.
 template <typename T>
 void gear_ratios([[maybe_unused]] const Parameters<T>& params, JointVector<T>& p) {
-  using std::cos;
-  using std::sin;
   p(0) = T(1);
   p(1) = T(1);
   p(2) = T(1);

@@ -124,7 +124,7 @@ class BodyPrinter {
     for (int id : order_) key[id] = 2 * level[id] + (is_trig(id) ? 1 : needed.count(id) ? 0 : 2);
     std::stable_sort(order_.begin(), order_.end(), [&](int a, int b) { return key[a] < key[b]; });
     for (int id : order_) {
-      if (!is_trig(id) || !batch_at_level.count(level[id])) continue;
+      if (!is_trig(id)) continue;
       const int b = batch_at_level[level[id]];
       const auto& v = batches_[b];
       const auto j = std::find(v.begin(), v.end(), p_.node(id).args[0].id) - v.begin();
@@ -394,9 +394,10 @@ Body function_body(const FunctionSpec& f, const Dimensions& dims, int per_part,
   if (returns) assignments.push_back({"", f.entries[0][0], ""});
   const BodyPrinter printer(f.program, assignments, f.plain, spelling, returns ? 0 : per_part);
   const OpCounts ops = f.program.count(f.roots());
-  const std::string usings = std::string("  using std::cos;\n  using std::sin;\n") +
-                             (f.plain ? "  using std::pow;\n" : "") +
-                             (ops.functions ? "  using std::exp;\n  using std::tanh;\n" : "");
+  // sin and cos appear only in plain bodies: the others call sincos_batch.
+  const std::string usings =
+      std::string(f.plain ? "  using std::cos;\n  using std::sin;\n  using std::pow;\n" : "") +
+      (ops.functions ? "  using std::exp;\n  using std::tanh;\n" : "");
   if (printer.num_parts() == 1) return {"", usings + printer.part(0), printer.has_trig_batches()};
   // Split: each part a function of the same arguments and the work array.
   const bool c = spelling == Spelling::c_arrays;

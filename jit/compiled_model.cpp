@@ -439,6 +439,12 @@ Eigen::VectorXd CompiledModel::gear_ratios(const Eigen::VectorXd& params) const 
   return call("gear_ratios", {{Size::num_links, Size::one}}, {}, params)[0];
 }
 
+void check_forward_dynamics(const std::vector<Eigen::MatrixXd>& results,
+                            std::string_view model_name) {
+  check_forward_dynamics(Eigen::VectorXd(results[1]), Eigen::VectorXd(results[2]),
+                         Eigen::VectorXd(results[0]), model_name);
+}
+
 DynamicModel dynamic_model(const CompiledModel& m, const Eigen::VectorXd& params) {
   DynamicModel d;
   d.name = m.name();

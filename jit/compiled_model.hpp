@@ -10,6 +10,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "dynamic_model.hpp"
@@ -30,13 +31,19 @@ inline constexpr const char* kVectorTrigFlag = "";
 inline constexpr const char* kVectorTrigLibraries = "";
 #endif
 
+// The compile flags at an optimization level ("-O1" by default): a shared, position-independent
+// C++17 library, with the vector sin/cos where the build has them.
+inline std::string compile_flags(const std::string& optimization = "-O1") {
+  return optimization + " -std=c++17 -fPIC -shared" + kVectorTrigFlag;
+}
+
 struct CompileOptions {
   std::string cache_dir;  // empty: $SPACEARM_CACHE_DIR, else $XDG_CACHE_HOME/spacearm, else
                           // ~/.cache/spacearm
   std::string compiler;   // empty: $CXX, else c++ (one program, run without a shell)
   // -O1: as fast per call as -O2 (bench_first_use) and up to 40 % quicker to compile.
   // Split at spaces.
-  std::string flags = std::string("-O1 -std=c++17 -fPIC -shared") + kVectorTrigFlag;
+  std::string flags = compile_flags();
   std::string libraries = kVectorTrigLibraries;      // after the source, split at spaces
   std::function<void(const std::string&)> progress;  // stage messages (may be empty)
 };
@@ -122,6 +129,11 @@ class CompiledModel {
 // The runtime's dynamic-size model (runtime/dynamic_model.hpp) of a loaded model at the
 // parameter values `params` (checked here). The result refers to m: keep m alive and in place.
 DynamicModel dynamic_model(const CompiledModel& m, const Eigen::VectorXd& params);
+
+// runtime/dynamics_checks.hpp's checks on the results of evaluate(Output::forward_dynamics, ...)
+// (qdd, pivots, scaled_pivots: the registry's order); DynamicsError when one fails.
+void check_forward_dynamics(const std::vector<Eigen::MatrixXd>& results,
+                            std::string_view model_name);
 
 // The cache folder in use: options.cache_dir, else $SPACEARM_CACHE_DIR, else
 // $XDG_CACHE_HOME/spacearm, else $HOME/.cache/spacearm; a CompileError naming what to set if

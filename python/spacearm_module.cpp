@@ -36,10 +36,17 @@ class PyModel {
   // Output o at the inputs (arrays, in the registry's order), one state or a batch.
   py::object call(Output o, const py::args& args, const py::object& params) const;
 
+  // The names of the outputs the scene emits, in the registry's order.
+  std::vector<std::string> outputs() const {
+    std::vector<std::string> names;
+    for (const auto& o : output_registry())
+      if (model_.has(o.id)) names.push_back(o.name);
+    return names;
+  }
+
   std::string repr() const {
     std::string outputs;
-    for (const auto& o : output_registry())
-      if (model_.has(o.id)) outputs += (outputs.empty() ? "" : ", ") + std::string(o.name);
+    for (const auto& name : this->outputs()) outputs += (outputs.empty() ? "" : ", ") + name;
     return "<spacearm.Model '" + model_.name() + "': nq = " + std::to_string(model_.nq()) +
            ", nv = " + std::to_string(model_.nv()) + ", " + std::to_string(model_.num_links()) +
            " links; outputs " + outputs + ">";
@@ -48,17 +55,19 @@ class PyModel {
  private:
   CompiledModel model_;
   Eigen::VectorXd params_;
-  Eigen::VectorXd parameters(const py::object& given) const;
   std::vector<Eigen::MatrixXd> one_state(Output o, const std::vector<Eigen::VectorXd>& in,
                                          const Eigen::VectorXd& params) const;
 };
 
-// The values of named parameters: the model's, with those of `given` (a dict) replaced. An
-// unknown name is a ValueError naming it and the known ones.
+// The values of named parameters: `values`, with those of `given` (None or a dict) replaced.
+// An unknown name is a ValueError naming it and the known ones.
 Eigen::VectorXd named_parameters(const CompiledModel& m, Eigen::VectorXd values,
-                                 const py::dict& given) {
+                                 const py::object& given) {
+  if (given.is_none()) return values;
+  if (!py::isinstance<py::dict>(given))
+    throw py::type_error("params: a dict of parameter names and values");
   const auto& names = m.parameter_names();
-  for (const auto& [key, value] : given) {
+  for (const auto& [key, value] : given.cast<py::dict>()) {
     if (!py::isinstance<py::str>(key))
       throw py::type_error("params: parameter names are strings, not " +
                            std::string(py::str(py::type::of(key).attr("__name__"))));
@@ -78,21 +87,13 @@ Eigen::VectorXd named_parameters(const CompiledModel& m, Eigen::VectorXd values,
   return values;
 }
 
-Eigen::VectorXd PyModel::parameters(const py::object& given) const {
-  if (given.is_none()) return params_;
-  if (!py::isinstance<py::dict>(given))
-    throw py::type_error("params: a dict of parameter names and values");
-  return named_parameters(model_, params_, given.cast<py::dict>());
-}
-
 // forward_dynamics passes the runtime's checks (an acceleration is never silently wrong) and
 // returns qdd alone: the pivots serve the checks.
 std::vector<Eigen::MatrixXd> PyModel::one_state(Output o, const std::vector<Eigen::VectorXd>& in,
                                                 const Eigen::VectorXd& params) const {
   std::vector<Eigen::MatrixXd> r = model_.evaluate(o, in, params);
   if (o == Output::forward_dynamics) {
-    check_forward_dynamics(Eigen::VectorXd(r[1]), Eigen::VectorXd(r[2]), Eigen::VectorXd(r[0]),
-                           model_.name());
+    check_forward_dynamics(r, model_.name());
     r.resize(1);
   }
   for (size_t k = 0; k < r.size(); ++k)  // as eval's: no overflow passes as a number
@@ -155,7 +156,7 @@ py::object PyModel::call(Output o, const py::args& args, const py::object& param
       throw py::value_error(name + ": expected " + std::to_string(n) + " values, got " +
                             std::to_string(arrays[i].shape(arrays[i].ndim() - 1)));
   }
-  const Eigen::VectorXd params = parameters(params_given);
+  const Eigen::VectorXd params = named_parameters(model_, params_, params_given);
   std::vector<std::vector<Eigen::VectorXd>> states(k);
   for (py::ssize_t s = 0; s < k; ++s)
     for (const Array& a : arrays) {
@@ -204,13 +205,11 @@ PyModel load(const std::string& scene_text, const py::object& params,
     py::gil_scoped_release release;  // a compile can take seconds
     return CompiledModel::load(scene, options);
   }();
-  Eigen::VectorXd values = Eigen::Map<const Eigen::VectorXd>(
-      m.nominal_parameters().data(), static_cast<Eigen::Index>(m.nominal_parameters().size()));
-  if (!params.is_none()) {
-    if (!py::isinstance<py::dict>(params))
-      throw py::type_error("params: a dict of parameter names and values");
-    values = named_parameters(m, values, params.cast<py::dict>());
-  }
+  const Eigen::VectorXd values = named_parameters(
+      m,
+      Eigen::Map<const Eigen::VectorXd>(m.nominal_parameters().data(),
+                                        static_cast<Eigen::Index>(m.nominal_parameters().size())),
+      params);
   // The parameters' ranges, checked now: an error at load, not at the first call.
   dynamic_model(m, values);
   return PyModel(std::move(m), values);
@@ -234,13 +233,7 @@ PYBIND11_MODULE(_spacearm, module) {
       .def_property_readonly("parameter_names",
                              [](const PyModel& m) { return m.model().parameter_names(); })
       .def_property_readonly("params", [](const PyModel& m) { return m.params(); })
-      .def_property_readonly("outputs",
-                             [](const PyModel& m) {
-                               std::vector<std::string> names;
-                               for (const auto& o : output_registry())
-                                 if (m.model().has(o.id)) names.push_back(o.name);
-                               return names;
-                             })
+      .def_property_readonly("outputs", &PyModel::outputs)
       .def("__repr__", &PyModel::repr);
   module.def("load", &load, py::arg("scene"), py::arg("params") = py::none(),
              py::arg("cache_dir") = "",
