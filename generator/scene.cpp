@@ -1,6 +1,7 @@
 #include "scene.hpp"
 
 #include "emitted_text.hpp"
+#include "yaml_reader.hpp"
 
 #include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
@@ -17,11 +18,6 @@ namespace spacearm {
 
 namespace {
 
-bool is_identifier(const std::string& s) {
-  static const std::regex re("[A-Za-z][A-Za-z0-9_]*");
-  return std::regex_match(s, re);
-}
-
 // Names the emitted code or the emitter uses itself (coordinates, velocities, trig and
 // rate symbols, temporaries, namespaces), and every name C++ or the included headers'
 // macros would reinterpret: not allowed as scene or parameter names.
@@ -37,151 +33,7 @@ bool is_reserved(const std::string& s) {
   return std::regex_match(s, generated) || names.count(s) != 0 || is_cpp_reserved(s);
 }
 
-bool is_decimal(const std::string& s) {
-  static const std::regex re(R"([+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?)");
-  return std::regex_match(s, re);
-}
-
-// Counts the YAML documents in `text`, stopping at `limit`: YAML::LoadAll never returns on
-// some malformed input (fuzz/regressions/loadall_endless_documents.yaml), so the documents
-// are walked with a parser that builds nothing.
-int count_documents(const std::string& text, int limit) {
-  struct Ignore : YAML::EventHandler {
-    void OnDocumentStart(const YAML::Mark&) override {}
-    void OnDocumentEnd() override {}
-    void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
-    void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
-    void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t,
-                  const std::string&) override {}
-    void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
-                         YAML::EmitterStyle::value) override {}
-    void OnSequenceEnd() override {}
-    void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
-                    YAML::EmitterStyle::value) override {}
-    void OnMapEnd() override {}
-  } ignore;
-  std::istringstream in(text);
-  YAML::Parser parser(in);
-  int documents = 0;
-  while (documents < limit && parser.HandleNextDocument(ignore)) ++documents;
-  return documents;
-}
-
-// Reads one scene file, collecting the context (file, field path) for error messages.
-class Reader {
- public:
-  explicit Reader(std::string source) : source_(std::move(source)) {}
-
-  [[noreturn]] void fail(const std::string& field, const std::string& what,
-                         const YAML::Node& node = YAML::Node()) const {
-    std::ostringstream msg;
-    msg << "scene '" << source_ << "'";
-    if (node.IsDefined() && node.Mark().line >= 0) msg << " line " << node.Mark().line + 1;
-    if (!field.empty()) msg << ", field '" << field << "'";
-    msg << ": " << what;
-    throw SceneError(msg.str());
-  }
-
-  // A mapping key as text; YAML also allows lists, mappings and nulls as keys.
-  std::string key_text(const YAML::Node& key, const std::string& field) const {
-    if (!key.IsScalar()) fail(field, std::string("expected a field name, got ") + kind(key), key);
-    return bounded(key, field).Scalar();
-  }
-
-  // A scalar of at most kMaxScalarLength characters: every real scene value is short, and
-  // the checks below (std::regex) should not see megabyte-long tokens.
-  const YAML::Node& bounded(const YAML::Node& n, const std::string& field) const {
-    static constexpr size_t kMaxScalarLength = 200;
-    if (n.IsScalar() && n.Scalar().size() > kMaxScalarLength)
-      fail(field,
-           "value is too long (" + std::to_string(n.Scalar().size()) + " characters, at most " +
-               std::to_string(kMaxScalarLength) + ")",
-           n);
-    return n;
-  }
-
-  static const char* kind(const YAML::Node& n) {
-    if (n.IsMap()) return "a mapping";
-    if (n.IsSequence()) return "a list";
-    if (n.IsNull()) return "nothing (null)";
-    return "a scalar";
-  }
-
-  // Rejects keys that are not in `allowed` and keys given twice.
-  void check_keys(const YAML::Node& map, const std::string& field,
-                  const std::set<std::string>& allowed) const {
-    if (!map.IsMap()) fail(field, "expected a mapping", map);
-    std::set<std::string> seen;
-    for (const auto& kv : map) {
-      const std::string key = key_text(kv.first, field);
-      const std::string path = field.empty() ? key : field + "." + key;
-      if (!allowed.count(key)) {
-        std::string list;
-        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-        const bool number = is_decimal(key);
-        fail(path,
-             "unknown field (allowed here: " + list + ")" +
-                 (number ? "; a decimal comma? write numbers with a point, e.g. 3.0 not 3,0" : ""),
-             kv.first);
-      }
-      if (!seen.insert(key).second) fail(path, "given more than once", kv.first);
-    }
-  }
-
-  YAML::Node require(const YAML::Node& map, const std::string& key,
-                     const std::string& field) const {
-    YAML::Node n = map[key];
-    if (!n.IsDefined() || n.IsNull())
-      fail(field.empty() ? key : field + "." + key, "missing required field", map);
-    return n;
-  }
-
-  Quantity quantity(const YAML::Node& n, const std::string& field) const {
-    if (!n.IsScalar()) fail(field, "expected a number or a parameter name", n);
-    const std::string text = bounded(n, field).Scalar();
-    Quantity q;
-    // YAML's spellings of infinity and NaN (.inf, -.Inf, .NaN, ...) are numbers, just not finite.
-    static const std::set<std::string> yaml_special = {".inf",  ".Inf",  ".INF",  "+.inf",
-                                                       "+.Inf", "+.INF", "-.inf", "-.Inf",
-                                                       "-.INF", ".nan",  ".NaN",  ".NAN"};
-    if (yaml_special.count(text)) fail(field, "value '" + text + "' is not finite", n);
-    if (is_decimal(text)) {
-      q.literal = text;
-      q.value = std::strtod(text.c_str(), nullptr);
-      if (!std::isfinite(q.value)) fail(field, "value '" + text + "' is not finite", n);
-      // Physical values in SI units: magnitudes beyond 1e30 (or non-zero below 1e-30) are
-      // mistakes, and products of them would overflow double in the generated code.
-      const size_t e = text.find_first_of("eE");
-      if (e != std::string::npos && text.size() - e > 5)
-        fail(field,
-             "value '" + text + "' has an exponent beyond the supported range (1e-30 .. 1e30)", n);
-      if (std::abs(q.value) > 1e30 || (q.value != 0 && std::abs(q.value) < 1e-30))
-        fail(field,
-             "value '" + text + "' is outside the supported magnitude range 1e-30 .. 1e30 (or 0)",
-             n);
-      // A literal that is not zero but reads as 0 or a subnormal double has lost its digits.
-      const bool nonzero_digits =
-          text.substr(0, text.find_first_of("eE")).find_first_of("123456789") != std::string::npos;
-      if (nonzero_digits && !(std::abs(q.value) >= DBL_MIN))
-        fail(field,
-             "value '" + text +
-                 "' is too small for double precision (below 2.2e-308); write 0 for zero",
-             n);
-    } else if (is_identifier(text)) {
-      if (text == "nan" || text == "NaN" || text == "inf" || text == "Inf")
-        fail(field, "value '" + text + "' is not finite", n);
-      q.parameter = text;
-    } else {
-      fail(field, "value '" + text + "' is neither a decimal number nor a parameter name", n);
-    }
-    return q;
-  }
-
-  const std::string& source() const { return source_; }
-
- private:
-  std::string source_;
-};
+using Reader = YamlReader;
 
 void read_pair(const Reader& r, const YAML::Node& n, const std::string& field, Quantity out[2]) {
   if (!n.IsSequence() || n.size() != 2) r.fail(field, "expected a list of two numbers [x, y]", n);
@@ -650,16 +502,8 @@ Scene read_scene(const Reader& r, const YAML::Node& root, const std::string& yam
 }  // namespace
 
 Scene parse_scene(const std::string& yaml_text, const std::string& source_name) {
-  Reader r(source_name);
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-    // A second document after `---` would be ignored: refuse it instead.
-    if (count_documents(yaml_text, 2) > 1)
-      r.fail("", "holds more than one YAML document (separated by ---); give one scene");
-  } catch (const YAML::Exception& e) {
-    r.fail("", std::string("not valid YAML: ") + e.what());
-  }
+  const Reader r("scene", source_name, [](const std::string& m) { throw SceneError(m); });
+  const YAML::Node root = r.load(yaml_text);
   try {
     return read_scene(r, root, yaml_text, source_name);
   } catch (const YAML::Exception& e) {
