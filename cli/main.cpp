@@ -4,8 +4,9 @@
 //   spacearm eval SCENE --q ...                every output of a scene at a state, as JSON
 //   spacearm simulate SCENE --torques F ...    integrate the dynamics, write CSV
 //   spacearm plan SCENE --from P --to P ...    zero-momentum straight-line plan, write CSV
+//   spacearm sweep STUDY -o DIR [--shard i/n]  the runs of a parameter study, one row each
 // Each subcommand's work is in its own file (generate_command, eval_command,
-// simulate_command, plan_command); this file declares the options and maps errors to exit
+// simulate_command, plan_command, sweep_command); this file declares the options and maps errors to exit
 // codes.
 #include <CLI/CLI.hpp>
 
@@ -24,6 +25,7 @@
 #include "eval_command.hpp"
 #include "scene.hpp"
 #include "simulate_command.hpp"
+#include "sweep_command.hpp"
 
 namespace {
 
@@ -235,6 +237,21 @@ CLI::App* add_plan(CLI::App& app, spacearm::PlanArgs& a) {
   return command;
 }
 
+// The sweep subcommand's options.
+CLI::App* add_sweep(CLI::App& app, spacearm::SweepArgs& a) {
+  CLI::App* command = app.add_subcommand(
+      "sweep", "Run a parameter study (grid or random draws) and write one row of metrics per run");
+  command->add_option("study", a.study_path, "Study file (YAML)")->required();
+  command->add_option("-o,--output", a.out_dir, "Results folder (created; a killed sweep resumes)")
+      ->required();
+  command->add_option("--shard", a.shard, "Run part i of n of the runs, e.g. 3/8 (default 1/1)");
+  command->add_option("--threads", a.threads, "Worker threads (default: one per hardware thread)")
+      ->check(CLI::Range(1, 1024));
+  command->add_option("--cache-dir", a.cache_dir, "Cache folder for compiled models");
+  command->add_flag("--verbose", a.verbose, "Report the stages on stderr");
+  return command;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -246,19 +263,21 @@ int main(int argc, char** argv) {
   spacearm::EvalArgs eval_args;
   spacearm::SimulateArgs sim;
   spacearm::PlanArgs plan_args;
+  spacearm::SweepArgs sweep_args;
   CLI::App* generate = add_generate(app, generate_args);
   add_inspect(app, inspect_args);
   CLI::App* eval = add_eval(app, eval_args);
   CLI::App* simulate = add_simulate(app, sim);
   CLI::App* plan = add_plan(app, plan_args);
+  CLI::App* sweep = add_sweep(app, sweep_args);
 
   // Parse errors get the same prefix and exit code (1) as every other error; --help exits 0.
   try {
     app.parse(argc, argv);
     if (*simulate) check_simulate_options(*simulate, sim);
-    for (const CLI::App* command : {eval, simulate, plan})
+    for (const CLI::App* command : {eval, simulate, plan, sweep})
       if (command->count("--cache-dir") && eval_args.cache_dir.empty() && sim.cache_dir.empty() &&
-          plan_args.cache_dir.empty())
+          plan_args.cache_dir.empty() && sweep_args.cache_dir.empty())
         throw CLI::ValidationError("--cache-dir", "empty path");
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);
@@ -273,6 +292,7 @@ int main(int argc, char** argv) {
       return spacearm::run_simulate(sim);
     });
   if (*plan) return guarded([&] { return spacearm::run_plan(plan_args); });
+  if (*sweep) return guarded([&] { return spacearm::run_sweep_command(sweep_args); });
   if (*eval)
     return guarded([&] {
       const int status = spacearm::run_eval(eval_args);

@@ -74,6 +74,20 @@ struct DynamicModel {
     return a;
   }
 
+  // The configuration (or velocity, from rates) with the base pose `base` and link-side joint
+  // angles: joint_angles' inverse. A flexible joint's motor angle is p q, its spring relaxed
+  // (consistent_start.hpp pre-deflects it).
+  Vector from_joint_angles(const Eigen::VectorXd& base, const JointVector& angles) const {
+    Vector x(nq);
+    x.head(num_base()) = base;
+    for (int i = 0; i < num_links; ++i) {
+      const int slot = num_base() + i, motor = actuated_coordinates.at(i);
+      x[slot] = motor == slot ? gear_ratios[i] * angles[i] : angles[i];
+      if (motor != slot) x[motor] = gear_ratios[i] * angles[i];
+    }
+    return x;
+  }
+
   // Joint (or motor) torques as generalized forces, Q = tau / p on the joints, eq. 14.
   Velocity generalized_forces(const JointVector& tau) const {
     Velocity Q = Velocity::Zero(nv);

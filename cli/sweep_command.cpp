@@ -1,0 +1,84 @@
+#include "sweep_command.hpp"
+
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <thread>
+
+#include "sweep.hpp"
+
+namespace spacearm {
+
+namespace {
+
+std::atomic<int> g_signal{0};
+static_assert(std::atomic<int>::is_always_lock_free, "set from a signal handler");
+void request_stop(int sig) { g_signal = sig; }
+
+// SIGINT/SIGTERM handlers for the lifetime of the sweep; an ignored signal stays ignored.
+class StopOnSignals {
+ public:
+  StopOnSignals() {
+    g_signal = 0;
+    struct sigaction sa {};
+    sa.sa_handler = request_stop;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, nullptr, &old_int_);
+    sigaction(SIGTERM, nullptr, &old_term_);
+    if (old_int_.sa_handler != SIG_IGN) sigaction(SIGINT, &sa, nullptr);
+    if (old_term_.sa_handler != SIG_IGN) sigaction(SIGTERM, &sa, nullptr);
+  }
+  ~StopOnSignals() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+
+ private:
+  struct sigaction old_int_ {
+  }, old_term_{};
+};
+
+void say(const std::string& line) { std::fprintf(stderr, "spacearm: %s\n", line.c_str()); }
+
+}  // namespace
+
+int run_sweep_command(const SweepArgs& a) {
+  const Shard shard = parse_shard(a.shard);
+  Study study = load_study(a.study_path);
+  const long runs = study.num_runs();
+  CompileOptions compile;
+  compile.cache_dir = a.cache_dir;
+  compile.progress = [&](const std::string& m) {
+    if (a.verbose || m.rfind("compiling", 0) == 0) say(m);
+  };
+  const StudyRunner runner(std::move(study), compile);
+  SweepOptions o;
+  o.out_dir = a.out_dir;
+  o.shard = shard;
+  o.threads = a.threads > 0 ? a.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  o.progress = say;
+  o.stop = &g_signal;
+  say("sweep: study '" + a.study_path + "', " + std::to_string(runs) + " runs" +
+      (shard.count > 1 ? ", shard " + a.shard : "") + ", " + std::to_string(o.threads) +
+      " threads, into '" + a.out_dir + "'");
+  const StopOnSignals signals;
+  const SweepSummary s = run_sweep(runner, o);
+  char line[256];
+  std::snprintf(line, sizeof line, "sweep: %ld runs now, %ld found done, %ld of the shard's %ld failed",
+                s.ran, s.already_done, s.failed, s.shard_runs);
+  say(line);
+  if (s.interrupted) {
+    say(std::string("sweep: interrupted by ") + (g_signal == SIGINT ? "SIGINT" : "SIGTERM") +
+        "; every finished run is in '" + a.out_dir + "': the same command resumes");
+    return 128 + g_signal;
+  }
+  if (!s.results.empty())
+    say("sweep: wrote " + s.results + " (" + std::to_string(runs) + " runs)");
+  else
+    say("sweep: the folder holds " + std::to_string(s.study_done) + " of " + std::to_string(runs) +
+        " runs; results.csv follows once every shard's runs-*.csv is in one folder and a sweep "
+        "of it runs (it only merges then)");
+  return 0;
+}
+
+}  // namespace spacearm

@@ -1,0 +1,333 @@
+#include "study.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <set>
+#include <sstream>
+
+#include "yaml_reader.hpp"
+
+namespace spacearm {
+
+namespace {
+
+std::string read_file(const std::string& path, const std::string& what) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw StudyError(what + ": cannot open '" + path + "'");
+  std::ostringstream s;
+  s << in.rdbuf();
+  if (in.bad()) throw StudyError(what + ": cannot read '" + path + "'");
+  return s.str();
+}
+
+// Reads a study's fields; every error names the field (YamlReader::fail).
+class StudyReader {
+ public:
+  StudyReader(const YamlReader& r, std::string dir) : r_(r), dir_(std::move(dir)) {}
+
+  double number(const YAML::Node& n, const std::string& field) const {
+    const Quantity q = r_.quantity(n, field);
+    if (q.is_parameter()) r_.fail(field, "expected a number, got '" + q.parameter + "'", n);
+    return q.value;
+  }
+  double positive(const YAML::Node& n, const std::string& field) const {
+    const double v = number(n, field);
+    if (!(v > 0)) r_.fail(field, "must be positive, got " + n.Scalar(), n);
+    return v;
+  }
+  long count(const YAML::Node& n, const std::string& field, long max) const {
+    const double v = number(n, field);
+    if (!(v >= 1 && v <= static_cast<double>(max) && v == std::floor(v)))
+      r_.fail(field, "expected a whole number from 1 to " + std::to_string(max) + ", got " +
+                         n.Scalar(), n);
+    return static_cast<long>(v);
+  }
+  std::string text(const YAML::Node& n, const std::string& field) const {
+    if (!n.IsScalar()) r_.fail(field, std::string("expected text, got ") + r_.kind(n), n);
+    return r_.bounded(n, field).Scalar();
+  }
+  Eigen::VectorXd numbers(const YAML::Node& n, const std::string& field, int min, int max) const {
+    if (!n.IsSequence() || static_cast<int>(n.size()) < min || static_cast<int>(n.size()) > max)
+      r_.fail(field, "expected a list of " +
+                         (min == max ? std::to_string(min)
+                                     : std::to_string(min) + " to " + std::to_string(max)) +
+                         " numbers", n);
+    Eigen::VectorXd v(static_cast<int>(n.size()));
+    for (int i = 0; i < v.size(); ++i) v[i] = number(n[i], field + "[" + std::to_string(i) + "]");
+    return v;
+  }
+  // A file named relative to the study's folder.
+  std::string path(const YAML::Node& n, const std::string& field) const {
+    const std::filesystem::path p(text(n, field));
+    return (p.is_absolute() ? p : std::filesystem::path(dir_) / p).string();
+  }
+  Scene scene(const YAML::Node& n, const std::string& field) const {
+    const std::string p = path(n, field);
+    if (!std::filesystem::is_regular_file(p)) r_.fail(field, "no scene file '" + p + "'", n);
+    return load_scene(p);
+  }
+  int parameter(const Study& s, const YAML::Node& key, const std::string& field) const {
+    const std::string name = r_.key_text(key, field);
+    for (size_t i = 0; i < s.scene.parameters.size(); ++i)
+      if (s.scene.parameters[i].name == name) return static_cast<int>(i);
+    std::string known;
+    for (const auto& p : s.scene.parameters) known += (known.empty() ? "" : ", ") + p.name;
+    r_.fail(field + "." + name, "not a run-time parameter of scene '" + s.scene.name +
+                                    "' (known: " + (known.empty() ? "none" : known) + ")", key);
+  }
+
+  void manoeuvre(Study& s, const YAML::Node& n) const;
+  void integrator(Study& s, const YAML::Node& n) const;
+  void grid(Study& s, const YAML::Node& n) const;
+  void random(Study& s, const YAML::Node& n) const;
+  void time_series(Study& s, const YAML::Node& n) const;
+
+ private:
+  const YamlReader& r_;
+  std::string dir_;
+};
+
+void StudyReader::manoeuvre(Study& s, const YAML::Node& n) const {
+  r_.check_keys(n, "manoeuvre", {"plan", "torques", "q0", "target"});
+  if (n["plan"].IsDefined() == n["torques"].IsDefined())
+    r_.fail("manoeuvre", "give either plan (a straight line) or torques (a CSV file)", n);
+  const int nq = s.scene.num_base() + s.scene.num_links();  // base pose, link-side angles
+  if (n["target"].IsDefined()) s.target = numbers(n["target"], "manoeuvre.target", 2, 2);
+  if (n["torques"].IsDefined()) {
+    s.torque_path = path(n["torques"], "manoeuvre.torques");
+    s.torques = read_torque_csv(read_file(s.torque_path, "manoeuvre.torques"), s.scene.num_links(),
+                                s.torque_path);
+    s.q0 = n["q0"].IsDefined() ? numbers(n["q0"], "manoeuvre.q0", nq, nq)
+                               : Eigen::VectorXd::Zero(nq);
+    return;
+  }
+  for (const char* f : {"q0", "target"})
+    if (n[f].IsDefined())
+      r_.fail(std::string("manoeuvre.") + f, "belongs to a torque manoeuvre; a plan starts at "
+                                             "its line's start and aims at its end", n[f]);
+  const YAML::Node p = n["plan"];
+  r_.check_keys(p, "manoeuvre.plan", {"from", "to", "duration", "time_law", "elbow", "scene"});
+  StraightLineTask task;
+  task.start = numbers(r_.require(p, "from", "manoeuvre.plan"), "manoeuvre.plan.from", 2, 3);
+  task.goal = numbers(r_.require(p, "to", "manoeuvre.plan"), "manoeuvre.plan.to", 2, 3);
+  task.duration =
+      positive(r_.require(p, "duration", "manoeuvre.plan"), "manoeuvre.plan.duration");
+  if (p["time_law"].IsDefined()) {
+    const std::string law = text(p["time_law"], "manoeuvre.plan.time_law");
+    if (law != "quintic" && law != "cubic")
+      r_.fail("manoeuvre.plan.time_law", "expected quintic or cubic, got '" + law + "'",
+              p["time_law"]);
+    task.law = time_law_from_string(law);
+  }
+  if (p["elbow"].IsDefined()) {
+    const double e = number(p["elbow"], "manoeuvre.plan.elbow");
+    if (e != 1 && e != -1) r_.fail("manoeuvre.plan.elbow", "expected 1 or -1", p["elbow"]);
+    task.elbow = static_cast<int>(e);
+  }
+  if (p["scene"].IsDefined()) s.plan_scene = scene(p["scene"], "manoeuvre.plan.scene");
+  s.target = task.goal.head(2);
+  s.plan = task;
+}
+
+void StudyReader::integrator(Study& s, const YAML::Node& n) const {
+  if (n.IsDefined())
+    r_.check_keys(n, "integrator", {"method", "dt", "t_end", "interpolation", "rtol", "atol"});
+  IntegratorOptions& opt = s.integrator;
+  auto field = [&](const char* key) { return n.IsDefined() ? n[key] : YAML::Node(); };
+  if (field("method").IsDefined()) {
+    const std::string m = text(field("method"), "integrator.method");
+    try {
+      opt.method = method_from_string(m);
+    } catch (const std::invalid_argument& e) {
+      r_.fail("integrator.method", e.what(), field("method"));
+    }
+  }
+  if (field("dt").IsDefined()) opt.dt = positive(field("dt"), "integrator.dt");
+  if (field("rtol").IsDefined()) opt.rtol = positive(field("rtol"), "integrator.rtol");
+  if (field("atol").IsDefined()) opt.atol = positive(field("atol"), "integrator.atol");
+  if (field("interpolation").IsDefined()) {
+    const std::string i = text(field("interpolation"), "integrator.interpolation");
+    if (i != "linear" && i != "hold")
+      r_.fail("integrator.interpolation", "expected linear or hold, got '" + i + "'",
+              field("interpolation"));
+    s.interpolation = interpolation_from_string(i);
+  }
+  // The run ends with the manoeuvre unless told otherwise.
+  s.t_end = field("t_end").IsDefined() ? positive(field("t_end"), "integrator.t_end")
+            : s.plan                   ? s.plan->duration
+                                       : s.torques->t_last();
+  if (s.plan) s.plan->dt = opt.dt;  // the torque samples fall on the steps
+  const double steps = s.t_end / opt.dt;
+  if (!(steps <= 1e8) || std::abs(steps - std::round(steps)) > 1e-9 * std::max(1.0, steps))
+    r_.fail("integrator.t_end", "must be a whole multiple of integrator.dt (" +
+                                    std::to_string(opt.dt) + " s), at most 1e8 steps", n);
+}
+
+void StudyReader::grid(Study& s, const YAML::Node& n) const {
+  if (!n.IsMap() || n.size() == 0) r_.fail("grid", "expected a mapping of parameter: values", n);
+  std::set<int> seen;
+  for (const auto& kv : n) {
+    const int index = parameter(s, kv.first, "grid");
+    const std::string field = "grid." + s.scene.parameters[index].name;
+    if (!seen.insert(index).second) r_.fail(field, "given more than once", kv.first);
+    const YAML::Node& v = kv.second;
+    std::vector<double> values;
+    if (v.IsSequence()) {
+      const Eigen::VectorXd list = numbers(v, field, 1, 1'000'000);
+      values.assign(list.data(), list.data() + list.size());
+    } else {
+      r_.check_keys(v, field, {"from", "to", "num", "spacing"});
+      const double a = number(r_.require(v, "from", field), field + ".from");
+      const double b = number(r_.require(v, "to", field), field + ".to");
+      const long num = count(r_.require(v, "num", field), field + ".num", 1'000'000);
+      const std::string spacing =
+          v["spacing"].IsDefined() ? text(v["spacing"], field + ".spacing") : "linear";
+      if (spacing != "linear" && spacing != "log")
+        r_.fail(field + ".spacing", "expected linear or log, got '" + spacing + "'", v);
+      if (spacing == "log" && !(a > 0 && b > 0))
+        r_.fail(field, "log spacing needs from and to above zero", v);
+      for (long k = 0; k < num; ++k) {
+        const double w = num == 1 ? 0.0 : static_cast<double>(k) / static_cast<double>(num - 1);
+        values.push_back(spacing == "log" ? a * std::pow(b / a, w) : a + (b - a) * w);
+      }
+    }
+    s.grid.emplace_back(index, std::move(values));
+  }
+}
+
+void StudyReader::random(Study& s, const YAML::Node& n) const {
+  r_.check_keys(n, "random", {"runs", "seed", "draws"});
+  s.draws_per_point = count(r_.require(n, "runs", "random"), "random.runs", kMaxRuns);
+  const double seed = number(r_.require(n, "seed", "random"), "random.seed");
+  if (!(seed >= 0 && seed < 9.007e15 && seed == std::floor(seed)))
+    r_.fail("random.seed", "expected a whole number from 0 to 2^53", n["seed"]);
+  s.seed = static_cast<std::uint64_t>(seed);
+  const YAML::Node d = r_.require(n, "draws", "random");
+  if (!d.IsMap() || d.size() == 0)
+    r_.fail("random.draws", "expected a mapping of parameter: distribution", d);
+  for (const auto& kv : d) {
+    const int index = parameter(s, kv.first, "random.draws");
+    const std::string field = "random.draws." + s.scene.parameters[index].name;
+    for (const auto& [i, values] : s.grid)
+      if (i == index) r_.fail(field, "is already on the grid; give it in one place", kv.first);
+    for (const auto& [i, dist] : s.draws)
+      if (i == index) r_.fail(field, "given more than once", kv.first);
+    r_.check_keys(kv.second, field, {"uniform", "normal", "log_uniform"});
+    if (kv.second.size() != 1)
+      r_.fail(field, "give one distribution: uniform, normal or log_uniform", kv.second);
+    const std::string kind = r_.key_text(kv.second.begin()->first, field);
+    const Eigen::VectorXd ab = numbers(kv.second.begin()->second, field + "." + kind, 2, 2);
+    Distribution dist{kind == "uniform"  ? Distribution::Kind::uniform
+                      : kind == "normal" ? Distribution::Kind::normal
+                                         : Distribution::Kind::log_uniform,
+                      ab[0], ab[1]};
+    const bool ordered = kind == "normal" ? ab[1] > 0 : ab[0] < ab[1];
+    if (!ordered || (kind == "log_uniform" && !(ab[0] > 0)))
+      r_.fail(field + "." + kind,
+              kind == "normal" ? "expected [mean, standard deviation] with a positive deviation"
+                               : "expected [low, high] with low < high" +
+                                     std::string(kind == "log_uniform" ? " and low > 0" : ""),
+              kv.second);
+    s.draws.emplace_back(index, dist);
+  }
+}
+
+void StudyReader::time_series(Study& s, const YAML::Node& n) const {
+  r_.check_keys(n, "time_series", {"dt"});
+  const double dt = positive(r_.require(n, "dt", "time_series"), "time_series.dt");
+  const double every = dt / s.integrator.dt;
+  if (std::abs(every - std::round(every)) > 1e-9 * every || std::round(every) < 1)
+    r_.fail("time_series.dt", "must be a whole multiple of integrator.dt", n["dt"]);
+  s.series_every = std::lround(every);
+}
+
+}  // namespace
+
+long Study::num_runs() const {
+  long runs = draws_per_point;
+  for (const auto& g : grid) runs *= static_cast<long>(g.second.size());
+  return runs;
+}
+
+std::vector<std::string> Study::parameter_names() const {
+  std::vector<std::string> names;
+  for (const auto& p : scene.parameters) names.push_back(p.name);
+  return names;
+}
+
+Eigen::VectorXd Study::parameters(long run) const {
+  if (run < 0 || run >= num_runs())
+    throw std::out_of_range("study: run " + std::to_string(run) + " of " +
+                            std::to_string(num_runs()));
+  Eigen::VectorXd p(static_cast<int>(scene.parameters.size()));
+  for (int i = 0; i < p.size(); ++i) p[i] = scene.parameters[i].nominal.value;
+  // The grid point, in mixed radix with the last grid parameter fastest.
+  long point = run / draws_per_point;
+  for (auto g = grid.rbegin(); g != grid.rend(); ++g) {
+    const long size = static_cast<long>(g->second.size());
+    p[g->first] = g->second[point % size];
+    point /= size;
+  }
+  if (draws.empty()) return p;
+  // The run's own generator: std::seed_seq and mt19937_64 are specified exactly by the
+  // standard; the distributions are not (their algorithms are the library's), so the draws are
+  // written out here to be identical on every standard library.
+  std::seed_seq seq{static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32),
+                    static_cast<std::uint32_t>(run), static_cast<std::uint32_t>(run >> 32)};
+  std::mt19937_64 gen(seq);
+  auto unit = [&] { return static_cast<double>(gen() >> 11) * 0x1p-53; };  // [0, 1)
+  for (const auto& [index, d] : draws) {
+    const double u1 = unit(), u2 = unit();
+    switch (d.kind) {
+      case Distribution::Kind::uniform:
+        p[index] = d.a + (d.b - d.a) * u1;
+        break;
+      case Distribution::Kind::log_uniform:
+        p[index] = d.a * std::pow(d.b / d.a, u1);
+        break;
+      case Distribution::Kind::normal:  // Box-Muller
+        p[index] = d.a + d.b * std::sqrt(-2 * std::log1p(-u1)) * std::cos(2 * M_PI * u2);
+        break;
+    }
+  }
+  return p;
+}
+
+Study parse_study(const std::string& yaml_text, const std::string& source_path) {
+  const YamlReader r("study", source_path, [](const std::string& m) { throw StudyError(m); });
+  const YAML::Node root = r.load(yaml_text);
+  try {
+    r.check_keys(root, "",
+                 {"scene", "manoeuvre", "integrator", "grid", "random", "time_series"});
+    const StudyReader read(r, std::filesystem::path(source_path).parent_path().string());
+    Study s;
+    s.source_path = source_path;
+    s.content = yaml_text;
+    s.scene = read.scene(r.require(root, "scene", ""), "scene");
+    read.manoeuvre(s, r.require(root, "manoeuvre", ""));
+    read.integrator(s, root["integrator"]);
+    if (root["grid"].IsDefined()) read.grid(s, root["grid"]);
+    if (root["random"].IsDefined()) read.random(s, root["random"]);
+    if (root["time_series"].IsDefined()) read.time_series(s, root["time_series"]);
+    double runs = static_cast<double>(s.draws_per_point);
+    for (const auto& g : s.grid) runs *= static_cast<double>(g.second.size());
+    if (runs > static_cast<double>(kMaxRuns))
+      r.fail("grid", "the study has " + std::to_string(runs) + " runs, at most " +
+                         std::to_string(kMaxRuns));
+    std::string identity = yaml_text + '\0' + s.scene.content;
+    if (s.plan_scene) identity += '\0' + s.plan_scene->content;
+    if (s.torques) identity += '\0' + read_file(s.torque_path, "manoeuvre.torques");
+    s.identity = content_hash(identity);
+    return s;
+  } catch (const YAML::Exception& e) {
+    r.fail("", std::string("unexpected YAML structure: ") + e.what());
+  }
+}
+
+Study load_study(const std::string& path) {
+  return parse_study(read_file(path, "study"), path);
+}
+
+}  // namespace spacearm

@@ -1,0 +1,73 @@
+// A study (issue 15): one scene, one manoeuvre (a straight-line plan or a torque file), one
+// integrator, and the runs' run-time parameters as a grid and/or random draws from named
+// distributions with a seed. Read from an untrusted YAML file (generator/yaml_reader.hpp):
+// errors name the file, line and field. A run's parameters depend only on the study and the
+// run's index, so that any split of the runs (threads, shards, Dask) computes the same numbers.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "integrators.hpp"
+#include "scene.hpp"
+#include "torque_csv.hpp"
+#include "torque_signal.hpp"
+#include "trajectory_planning.hpp"
+
+namespace spacearm {
+
+class StudyError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// A named distribution of one parameter's random draws.
+struct Distribution {
+  enum class Kind { uniform, normal, log_uniform } kind = Kind::uniform;
+  double a = 0, b = 0;  // uniform, log_uniform: [a, b); normal: mean a, standard deviation b
+};
+
+struct Study {
+  std::string source_path, content;  // the study file
+  std::string identity;  // hash of the study, its scenes and its torque file (results/ checks it)
+  Scene scene;           // the model of every run
+  // The manoeuvre: a straight-line plan, computed once with the nominal parameters of
+  // plan_scene (the run scene if not given) and replayed open loop into every run (the paper's
+  // experiment, Section 3); or torques from a file, from q0.
+  std::optional<StraightLineTask> plan;
+  std::optional<Scene> plan_scene;
+  std::optional<TorqueTable> torques;
+  std::string torque_path;
+  // Torque manoeuvre: the start, as the base pose and link-side joint angles (num_base + N).
+  Eigen::VectorXd q0;
+  Eigen::VectorXd target;  // end-effector goal (x, y) for ee_error: the plan's, or given
+  IntegratorOptions integrator;
+  Interpolation interpolation = Interpolation::linear;
+  double t_end = 0;
+  // Runs: every grid point (last grid parameter fastest) times random.runs draws.
+  std::vector<std::pair<int, std::vector<double>>> grid;  // parameter index, its values
+  std::vector<std::pair<int, Distribution>> draws;         // in the study's order
+  long draws_per_point = 1;
+  std::uint64_t seed = 0;
+  long series_every = 0;  // > 0: per-run time series, every this many integrator steps
+
+  long num_runs() const;
+  // The run's parameter values (the scene's order): nominal, then its grid point, then its
+  // draws from a generator seeded with (seed, run) alone.
+  Eigen::VectorXd parameters(long run) const;
+  std::vector<std::string> parameter_names() const;
+};
+
+// Largest number of runs a study may have.
+inline constexpr long kMaxRuns = 100'000'000;
+
+Study parse_study(const std::string& yaml_text, const std::string& source_path);
+Study load_study(const std::string& path);
+
+}  // namespace spacearm

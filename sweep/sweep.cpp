@@ -1,0 +1,194 @@
+#include "sweep.hpp"
+
+
+#include <algorithm>
+#include <cstdio>
+
+#include "consistent_start.hpp"
+#include "simulation.hpp"
+#include "text_numbers.hpp"
+
+namespace spacearm {
+
+
+namespace {
+
+void append(std::string& row, double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, ",%.17g", v);
+  row += buf;
+}
+
+// A CSV field that holds any text: quoted, quotes doubled, line breaks as spaces.
+std::string csv_text(std::string s) {
+  std::replace(s.begin(), s.end(), '\n', ' ');
+  std::replace(s.begin(), s.end(), '\r', ' ');
+  std::string out = "\"";
+  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+Eigen::VectorXd nominal(const Scene& scene) {
+  Eigen::VectorXd p(static_cast<int>(scene.parameters.size()));
+  for (int i = 0; i < p.size(); ++i) p[i] = scene.parameters[i].nominal.value;
+  return p;
+}
+
+// What the sweep reads from a scene, with an error naming the field if it is missing.
+void check_outputs(const Study& s) {
+  const Scene& sc = s.scene;
+  auto fail = [&](const std::string& why) {
+    throw StudyError("study '" + s.source_path + "', field 'scene': scene '" + sc.source_path +
+                     "' " + why + " (field 'outputs')");
+  };
+  const bool passive = (sc.features() & (needs::springs | needs::friction)) != 0;
+  if (!sc.wants(Output::forward_dynamics) &&
+      (passive || !(sc.wants(Output::mass_matrix) && sc.wants(Output::bias_forces))))
+    fail("must emit forward_dynamics (or mass_matrix and bias_forces without springs)");
+  if (!sc.wants(Output::end_effector_pose)) fail("must emit end_effector_pose");
+  if (sc.free_floating() && !sc.wants(Output::momentum)) fail("must emit momentum (free base)");
+}
+
+// The metrics of one run, observed at every integrator step.
+struct Metrics {
+  Eigen::Vector3d base0, h0, pose;
+  double base_drift = 0, base_rotation = 0, momentum_drift = 0, tau_squares = 0;
+  long samples = 0;
+};
+
+}  // namespace
+
+struct StudyRunner::Loaded {
+  CompiledModel model;
+  std::unique_ptr<TorqueSignal<Eigen::Dynamic>> tau;
+  Eigen::VectorXd base, angles, base_rate, rates;  // the start, link side
+};
+
+StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(std::move(study)) {
+  const Study& s = study_;
+  check_outputs(s);
+  loaded_ = std::make_unique<Loaded>(Loaded{CompiledModel::load(s.scene, options), {}, {}, {}, {},
+                                            {}});
+  const int nb = s.scene.num_base(), N = s.scene.num_links();
+  if (s.plan) {
+    // Planned once, with the plan scene's nominal parameters (the paper's experiment).
+    const Scene& ps = s.plan_scene ? *s.plan_scene : s.scene;
+    if (ps.num_links() != N || ps.free_floating() != s.scene.free_floating())
+      throw StudyError("study '" + s.source_path + "', field 'manoeuvre.plan.scene': scene '" +
+                       ps.source_path + "' must have the run scene's base and joints");
+    std::optional<CompiledModel> own;
+    if (s.plan_scene) own.emplace(CompiledModel::load(ps, options));
+    const CompiledModel& pm = own ? *own : loaded_->model;
+    const DynamicModel planner = dynamic_model(pm, nominal(ps));
+    const Plan plan = plan_straight_line(planner, *s.plan);
+    loaded_->tau = std::make_unique<TorqueSignal<Eigen::Dynamic>>(0.0, s.plan->dt, plan.tau,
+                                                                  s.interpolation);
+    loaded_->base = plan.q.front().head(nb);
+    loaded_->angles = planner.joint_angles(plan.q.front());
+    loaded_->base_rate = plan.qd.front().head(nb);
+    loaded_->rates = planner.joint_angles(plan.qd.front());
+  } else {
+    loaded_->tau = std::make_unique<TorqueSignal<Eigen::Dynamic>>(
+        s.torques->t0, s.torques->dt, s.torques->samples, s.interpolation);
+    loaded_->base = s.q0.head(nb);
+    loaded_->angles = s.q0.tail(N);
+    loaded_->base_rate = Eigen::VectorXd::Zero(nb);
+    loaded_->rates = Eigen::VectorXd::Zero(N);
+  }
+  const double tol = 1e-9 * std::max(1.0, s.t_end);
+  if (loaded_->tau->t_first() > tol || loaded_->tau->t_last() < s.t_end - tol)
+    throw StudyError("study '" + s.source_path + "', field 'integrator.t_end': the torques cover " +
+                     std::to_string(loaded_->tau->t_first()) + " .. " +
+                     std::to_string(loaded_->tau->t_last()) + " s, the runs need 0 .. " +
+                     std::to_string(s.t_end) + " s");
+  // The header: one place names the columns, row() follows it.
+  header_ = "run,status";
+  for (const auto& n : s.parameter_names()) header_ += "," + n;
+  header_ += ",ee_x,ee_y,ee_phi";
+  if (s.target.size()) header_ += ",ee_error";
+  if (s.scene.free_floating()) header_ += ",base_drift,base_rotation,momentum_drift";
+  header_ += ",torque_rms,message\n";
+}
+
+StudyRunner::~StudyRunner() = default;
+
+std::string StudyRunner::row(long run, std::string* series) const {
+  const Study& s = study_;
+  const Eigen::VectorXd params = s.parameters(run);
+  std::string r = std::to_string(run);
+  std::string values;
+  for (double v : params) append(values, v);
+  const long metrics = std::count(header_.begin(), header_.end(), ',') - 2 - params.size();
+  try {
+    const DynamicModel model = dynamic_model(loaded_->model, params);
+    Eigen::VectorXd q0 = model.from_joint_angles(loaded_->base, loaded_->angles);
+    Eigen::VectorXd qd0 = model.from_joint_angles(loaded_->base_rate, loaded_->rates);
+    IntegratorOptions opt = s.integrator;
+    const TorqueSignal<Eigen::Dynamic>& tau = *loaded_->tau;
+    const TorqueReplay<Eigen::Dynamic> replay(tau, opt, "integrator.dt");
+    if (s.scene.num_flexible()) consistent_start(model, q0, qd0, tau(0.0));
+    // Metrics at every step; the time series every series_every steps.
+    Metrics m;
+    const int nb = model.num_base();
+    std::string csv;
+    auto observe = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+      m.pose = model.end_effector_pose(q);
+      if (nb) {
+        const Eigen::Vector3d h = model.momentum(q, qd);
+        if (m.samples == 0) m.base0 = q.head(3), m.h0 = h;
+        m.base_drift = std::max(m.base_drift, (q.head(2) - m.base0.head(2)).norm());
+        m.base_rotation = std::max(m.base_rotation, std::abs(q[2] - m.base0[2]));
+        m.momentum_drift = std::max(m.momentum_drift, (h - m.h0).cwiseAbs().maxCoeff());
+      }
+      m.tau_squares += tau(t).squaredNorm();
+      if (series && s.series_every && m.samples % s.series_every == 0) {
+        char buf[32];
+        std::snprintf(buf, sizeof buf, "%.17g", t);
+        csv += buf;
+        for (double v : q) append(csv, v);
+        for (double v : qd) append(csv, v);
+        for (double v : m.pose) append(csv, v);
+        csv += "\n";
+      }
+      ++m.samples;
+    };
+    integrate_motion(model, q0, qd0, [&](double t) { return replay(t); }, s.t_end,
+                     s.integrator.dt, opt, observe);
+    for (double v : m.pose) append(values, v);
+    if (s.target.size()) append(values, (m.pose.head(2) - s.target).norm());
+    if (nb) append(values, m.base_drift), append(values, m.base_rotation),
+        append(values, m.momentum_drift);
+    append(values, std::sqrt(m.tau_squares / static_cast<double>(m.samples * model.num_links)));
+    if (series && s.series_every) {
+      std::string head = "t";
+      for (const auto& n : model.coordinate_names) head += "," + n;
+      for (const auto& n : model.coordinate_names) head += "," + n + "d";
+      *series = head + ",ee_x,ee_y,ee_phi\n" + csv;
+    }
+    return r + ",ok" + values + ",\n";
+  } catch (const std::exception& e) {
+    return r + ",failed" + values + std::string(metrics, ',') + "," + csv_text(e.what()) + "\n";
+  }
+}
+
+Shard parse_shard(const std::string& text) {
+  const size_t slash = text.find('/');
+  auto fail = [&] {
+    throw std::invalid_argument("--shard " + quoted_text(text) +
+                                ": expected i/n with whole numbers 1 <= i <= n, e.g. 2/8");
+  };
+  if (slash == std::string::npos) fail();
+  Shard s;
+  try {
+    const double i = parse_number(text.substr(0, slash), "--shard");
+    const double n = parse_number(text.substr(slash + 1), "--shard");
+    if (!(i >= 1 && i <= n && n <= 1e6 && i == std::floor(i) && n == std::floor(n))) fail();
+    s.index = static_cast<long>(i);
+    s.count = static_cast<long>(n);
+  } catch (const std::invalid_argument&) {
+    fail();
+  }
+  return s;
+}
+
+}  // namespace spacearm

@@ -1,0 +1,79 @@
+// Running a study (study.hpp, issue 15). A run replays the study's manoeuvre open loop into the
+// scene's compiled model at the run's parameters and reduces the motion to one CSV row of
+// summary metrics. A sweep runs one shard of the runs on a thread pool into a results folder
+// that records each finished row at once, resumes where a killed sweep stopped, and writes
+// results.csv, sorted by run, once every run of the study is there. A row depends only on the
+// study and the run's index, never on the split: threads, shards and Dask give the same file.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "compiled_model.hpp"
+#include "study.hpp"
+
+namespace spacearm {
+
+// Runs of a study, one at a time, from any thread.
+class StudyRunner {
+ public:
+  // Compiles or loads the scenes (the cache of CompileOptions) and plans the manoeuvre once.
+  StudyRunner(Study study, const CompileOptions& options);
+  ~StudyRunner();
+
+  const Study& study() const { return study_; }
+  // The CSV header of the rows: run, status, every parameter, the metrics, message.
+  const std::string& header() const { return header_; }
+  // The row of one run, with its newline. A run that fails (a parameter out of range, a
+  // singular mass matrix, a diverging integration) is a row with status 'failed', empty
+  // metrics and the message. series: receives the run's time series CSV if the study asks.
+  std::string row(long run, std::string* series = nullptr) const;
+
+ private:
+  struct Loaded;
+  Study study_;
+  std::unique_ptr<Loaded> loaded_;
+  std::string header_;
+};
+
+// Part i of n (1-based) of a study's runs: run r belongs to part (r mod n) + 1.
+struct Shard {
+  long index = 1, count = 1;
+};
+// "i/n" as the --shard option spells it; errors name the option and the value.
+Shard parse_shard(const std::string& text);
+
+struct SweepOptions {
+  std::string out_dir;
+  Shard shard;
+  int threads = 1;
+  // Progress lines (about every 2 s, with the rate and an estimate of the time left).
+  std::function<void(const std::string&)> progress;
+  // Set (by a signal handler) to stop after the runs under way; their rows are kept.
+  const std::atomic<int>* stop = nullptr;
+};
+
+struct SweepSummary {
+  long shard_runs = 0;     // runs in this shard
+  long already_done = 0;   // of them, found in the folder
+  long ran = 0;            // run now
+  long failed = 0;         // rows of this shard with status 'failed'
+  long study_done = 0;     // rows of the whole study in the folder
+  bool interrupted = false;
+  std::string results;  // results.csv's path once every run of the study is in the folder
+};
+
+// Runs the shard's runs that the folder lacks. Throws StudyError (folder of another study,
+// a damaged row, another sweep writing the shard's file).
+SweepSummary run_sweep(const StudyRunner& runner, const SweepOptions& options);
+
+// results.csv: the header, then one row per run in run order, from rows in any order (each with
+// its newline). Throws StudyError if a run is missing or given twice with different rows.
+std::string merge_rows(const StudyRunner& runner, const std::vector<std::string>& rows);
+
+}  // namespace spacearm
