@@ -6,8 +6,8 @@
 //   spacearm plan SCENE --from P --to P ...    zero-momentum straight-line plan, write CSV
 //   spacearm sweep STUDY -o DIR [--shard i/n]  the runs of a parameter study, one row each
 // Each subcommand's work is in its own file (generate_command, eval_command,
-// simulate_command, plan_command, sweep_command); this file declares the options and maps errors to exit
-// codes.
+// simulate_command, plan_command, sweep_command); this file declares the options and maps errors to
+// exit codes.
 #include <CLI/CLI.hpp>
 
 #include <chrono>

@@ -55,7 +55,8 @@ int run_sweep_command(const SweepArgs& a) {
   SweepOptions o;
   o.out_dir = a.out_dir;
   o.shard = shard;
-  o.threads = a.threads > 0 ? a.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  o.threads = a.threads > 0 ? a.threads
+                            : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   o.progress = say;
   o.stop = &g_signal;
   say("sweep: study '" + a.study_path + "', " + std::to_string(runs) + " runs" +
@@ -64,8 +65,9 @@ int run_sweep_command(const SweepArgs& a) {
   const StopOnSignals signals;
   const SweepSummary s = run_sweep(runner, o);
   char line[256];
-  std::snprintf(line, sizeof line, "sweep: %ld runs now, %ld found done, %ld of the shard's %ld failed",
-                s.ran, s.already_done, s.failed, s.shard_runs);
+  std::snprintf(line, sizeof line,
+                "sweep: %ld runs now, %ld found done, %ld of the shard's %ld failed", s.ran,
+                s.already_done, s.failed, s.shard_runs);
   say(line);
   if (s.interrupted) {
     say(std::string("sweep: interrupted by ") + (g_signal == SIGINT ? "SIGINT" : "SIGTERM") +

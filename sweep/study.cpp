@@ -40,8 +40,9 @@ class StudyReader {
   long count(const YAML::Node& n, const std::string& field, long max) const {
     const double v = number(n, field);
     if (!(v >= 1 && v <= static_cast<double>(max) && v == std::floor(v)))
-      r_.fail(field, "expected a whole number from 1 to " + std::to_string(max) + ", got " +
-                         n.Scalar(), n);
+      r_.fail(field,
+              "expected a whole number from 1 to " + std::to_string(max) + ", got " + n.Scalar(),
+              n);
     return static_cast<long>(v);
   }
   std::string text(const YAML::Node& n, const std::string& field) const {
@@ -50,10 +51,12 @@ class StudyReader {
   }
   Eigen::VectorXd numbers(const YAML::Node& n, const std::string& field, int min, int max) const {
     if (!n.IsSequence() || static_cast<int>(n.size()) < min || static_cast<int>(n.size()) > max)
-      r_.fail(field, "expected a list of " +
-                         (min == max ? std::to_string(min)
-                                     : std::to_string(min) + " to " + std::to_string(max)) +
-                         " numbers", n);
+      r_.fail(field,
+              "expected a list of " +
+                  (min == max ? std::to_string(min)
+                              : std::to_string(min) + " to " + std::to_string(max)) +
+                  " numbers",
+              n);
     Eigen::VectorXd v(static_cast<int>(n.size()));
     for (int i = 0; i < v.size(); ++i) v[i] = number(n[i], field + "[" + std::to_string(i) + "]");
     return v;
@@ -74,8 +77,10 @@ class StudyReader {
       if (s.scene.parameters[i].name == name) return static_cast<int>(i);
     std::string known;
     for (const auto& p : s.scene.parameters) known += (known.empty() ? "" : ", ") + p.name;
-    r_.fail(field + "." + name, "not a run-time parameter of scene '" + s.scene.name +
-                                    "' (known: " + (known.empty() ? "none" : known) + ")", key);
+    r_.fail(field + "." + name,
+            "not a run-time parameter of scene '" + s.scene.name +
+                "' (known: " + (known.empty() ? "none" : known) + ")",
+            key);
   }
 
   void manoeuvre(Study& s, const YAML::Node& n) const;
@@ -99,21 +104,22 @@ void StudyReader::manoeuvre(Study& s, const YAML::Node& n) const {
     s.torque_path = path(n["torques"], "manoeuvre.torques");
     s.torques = read_torque_csv(read_file(s.torque_path, "manoeuvre.torques"), s.scene.num_links(),
                                 s.torque_path);
-    s.q0 = n["q0"].IsDefined() ? numbers(n["q0"], "manoeuvre.q0", nq, nq)
-                               : Eigen::VectorXd::Zero(nq);
+    s.q0 =
+        n["q0"].IsDefined() ? numbers(n["q0"], "manoeuvre.q0", nq, nq) : Eigen::VectorXd::Zero(nq);
     return;
   }
   for (const char* f : {"q0", "target"})
     if (n[f].IsDefined())
-      r_.fail(std::string("manoeuvre.") + f, "belongs to a torque manoeuvre; a plan starts at "
-                                             "its line's start and aims at its end", n[f]);
+      r_.fail(std::string("manoeuvre.") + f,
+              "belongs to a torque manoeuvre; a plan starts at "
+              "its line's start and aims at its end",
+              n[f]);
   const YAML::Node p = n["plan"];
   r_.check_keys(p, "manoeuvre.plan", {"from", "to", "duration", "time_law", "elbow", "scene"});
   StraightLineTask task;
   task.start = numbers(r_.require(p, "from", "manoeuvre.plan"), "manoeuvre.plan.from", 2, 3);
   task.goal = numbers(r_.require(p, "to", "manoeuvre.plan"), "manoeuvre.plan.to", 2, 3);
-  task.duration =
-      positive(r_.require(p, "duration", "manoeuvre.plan"), "manoeuvre.plan.duration");
+  task.duration = positive(r_.require(p, "duration", "manoeuvre.plan"), "manoeuvre.plan.duration");
   if (p["time_law"].IsDefined()) {
     const std::string law = text(p["time_law"], "manoeuvre.plan.time_law");
     if (law != "quintic" && law != "cubic")
@@ -161,8 +167,10 @@ void StudyReader::integrator(Study& s, const YAML::Node& n) const {
   if (s.plan) s.plan->dt = opt.dt;  // the torque samples fall on the steps
   const double steps = s.t_end / opt.dt;
   if (!(steps <= 1e8) || std::abs(steps - std::round(steps)) > 1e-9 * std::max(1.0, steps))
-    r_.fail("integrator.t_end", "must be a whole multiple of integrator.dt (" +
-                                    std::to_string(opt.dt) + " s), at most 1e8 steps", n);
+    r_.fail("integrator.t_end",
+            "must be a whole multiple of integrator.dt (" + std::to_string(opt.dt) +
+                " s), at most 1e8 steps",
+            n);
 }
 
 void StudyReader::grid(Study& s, const YAML::Node& n) const {
@@ -299,8 +307,7 @@ Study parse_study(const std::string& yaml_text, const std::string& source_path) 
   const YamlReader r("study", source_path, [](const std::string& m) { throw StudyError(m); });
   const YAML::Node root = r.load(yaml_text);
   try {
-    r.check_keys(root, "",
-                 {"scene", "manoeuvre", "integrator", "grid", "random", "time_series"});
+    r.check_keys(root, "", {"scene", "manoeuvre", "integrator", "grid", "random", "time_series"});
     const StudyReader read(r, std::filesystem::path(source_path).parent_path().string());
     Study s;
     s.source_path = source_path;
@@ -326,8 +333,6 @@ Study parse_study(const std::string& yaml_text, const std::string& source_path) 
   }
 }
 
-Study load_study(const std::string& path) {
-  return parse_study(read_file(path, "study"), path);
-}
+Study load_study(const std::string& path) { return parse_study(read_file(path, "study"), path); }
 
 }  // namespace spacearm

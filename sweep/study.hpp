@@ -52,7 +52,7 @@ struct Study {
   double t_end = 0;
   // Runs: every grid point (last grid parameter fastest) times random.runs draws.
   std::vector<std::pair<int, std::vector<double>>> grid;  // parameter index, its values
-  std::vector<std::pair<int, Distribution>> draws;         // in the study's order
+  std::vector<std::pair<int, Distribution>> draws;        // in the study's order
   long draws_per_point = 1;
   std::uint64_t seed = 0;
   long series_every = 0;  // > 0: per-run time series, every this many integrator steps

@@ -1,6 +1,5 @@
 #include "sweep.hpp"
 
-
 #include <algorithm>
 #include <cstdio>
 
@@ -9,7 +8,6 @@
 #include "text_numbers.hpp"
 
 namespace spacearm {
-
 
 namespace {
 
@@ -67,8 +65,8 @@ struct StudyRunner::Loaded {
 StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(std::move(study)) {
   const Study& s = study_;
   check_outputs(s);
-  loaded_ = std::make_unique<Loaded>(Loaded{CompiledModel::load(s.scene, options), {}, {}, {}, {},
-                                            {}});
+  loaded_ =
+      std::make_unique<Loaded>(Loaded{CompiledModel::load(s.scene, options), {}, {}, {}, {}, {}});
   const int nb = s.scene.num_base(), N = s.scene.num_links();
   if (s.plan) {
     // Planned once, with the plan scene's nominal parameters (the paper's experiment).
@@ -81,8 +79,8 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
     const CompiledModel& pm = own ? *own : loaded_->model;
     const DynamicModel planner = dynamic_model(pm, nominal(ps));
     const Plan plan = plan_straight_line(planner, *s.plan);
-    loaded_->tau = std::make_unique<TorqueSignal<Eigen::Dynamic>>(0.0, s.plan->dt, plan.tau,
-                                                                  s.interpolation);
+    loaded_->tau =
+        std::make_unique<TorqueSignal<Eigen::Dynamic>>(0.0, s.plan->dt, plan.tau, s.interpolation);
     loaded_->base = plan.q.front().head(nb);
     loaded_->angles = planner.joint_angles(plan.q.front());
     loaded_->base_rate = plan.qd.front().head(nb);
@@ -152,12 +150,14 @@ std::string StudyRunner::row(long run, std::string* series) const {
       }
       ++m.samples;
     };
-    integrate_motion(model, q0, qd0, [&](double t) { return replay(t); }, s.t_end,
-                     s.integrator.dt, opt, observe);
+    integrate_motion(
+        model, q0, qd0, [&](double t) { return replay(t); }, s.t_end, s.integrator.dt, opt,
+        observe);
     for (double v : m.pose) append(values, v);
     if (s.target.size()) append(values, (m.pose.head(2) - s.target).norm());
-    if (nb) append(values, m.base_drift), append(values, m.base_rotation),
-        append(values, m.momentum_drift);
+    if (nb)
+      append(values, m.base_drift), append(values, m.base_rotation),
+          append(values, m.momentum_drift);
     append(values, std::sqrt(m.tau_squares / static_cast<double>(m.samples * model.num_links)));
     if (series && s.series_every) {
       std::string head = "t";

@@ -59,11 +59,11 @@ struct SweepOptions {
 };
 
 struct SweepSummary {
-  long shard_runs = 0;     // runs in this shard
-  long already_done = 0;   // of them, found in the folder
-  long ran = 0;            // run now
-  long failed = 0;         // rows of this shard with status 'failed'
-  long study_done = 0;     // rows of the whole study in the folder
+  long shard_runs = 0;    // runs in this shard
+  long already_done = 0;  // of them, found in the folder
+  long ran = 0;           // run now
+  long failed = 0;        // rows of this shard with status 'failed'
+  long study_done = 0;    // rows of the whole study in the folder
   bool interrupted = false;
   std::string results;  // results.csv's path once every run of the study is in the folder
 };

@@ -151,8 +151,8 @@ std::string duration_text(double seconds) {
 }
 
 // Runs `todo` on `threads` workers; each row is appended to fd as it finishes.
-long run_pool(const StudyRunner& runner, const std::vector<long>& todo, int fd,
-              const fs::path& own, const SweepOptions& o) {
+long run_pool(const StudyRunner& runner, const std::vector<long>& todo, int fd, const fs::path& own,
+              const SweepOptions& o) {
   const Study& s = runner.study();
   const fs::path series_dir = fs::path(o.out_dir) / "series";
   if (s.series_every) fs::create_directories(series_dir);
@@ -196,8 +196,9 @@ long run_pool(const StudyRunner& runner, const std::vector<long>& todo, int fd,
       reported = elapsed;
       const double rate = static_cast<double>(f) / elapsed;
       char line[160];
-      std::snprintf(line, sizeof line, "sweep: %ld of %ld runs (%.0f %%), %.3g runs/s, about %s left",
-                    f, total, 100.0 * static_cast<double>(f) / static_cast<double>(total), rate,
+      std::snprintf(line, sizeof line,
+                    "sweep: %ld of %ld runs (%.0f %%), %.3g runs/s, about %s left", f, total,
+                    100.0 * static_cast<double>(f) / static_cast<double>(total), rate,
                     duration_text(static_cast<double>(total - f) / rate).c_str());
       o.progress(line);
     }
@@ -218,8 +219,7 @@ std::string merge_rows(const StudyRunner& runner, const std::vector<std::string>
                          ? std::stol(row.substr(0, comma))
                          : -1;
     if (run < 0 || run >= n || row.back() != '\n')
-      throw StudyError("sweep: not a row of a run of the study: " +
-                       quoted_text(row.substr(0, 40)));
+      throw StudyError("sweep: not a row of a run of the study: " + quoted_text(row.substr(0, 40)));
     if (by_run[run] && *by_run[run] != row)
       throw StudyError("sweep: run " + std::to_string(run) + " has two different rows");
     by_run[run] = &row;
@@ -257,8 +257,10 @@ SweepSummary run_sweep(const StudyRunner& runner, const SweepOptions& o) {
   SweepSummary sum;
   std::vector<long> todo;
   for (long run = o.shard.index - 1; run < n; run += o.shard.count, ++sum.shard_runs)
-    if (rows.count(run)) ++sum.already_done;
-    else todo.push_back(run);
+    if (rows.count(run))
+      ++sum.already_done;
+    else
+      todo.push_back(run);
   rows.clear();
   sum.ran = run_pool(runner, todo, fd, own, o);
   sum.interrupted = sum.ran < static_cast<long>(todo.size());
