@@ -141,7 +141,9 @@ void StudyReader::integrator(Study& s, const YAML::Node& n) const {
   if (n.IsDefined())
     r_.check_keys(n, "integrator", {"method", "dt", "t_end", "interpolation", "rtol", "atol"});
   IntegratorOptions& opt = s.integrator;
-  auto field = [&](const char* key) { return n.IsDefined() ? n[key] : YAML::Node(); };
+  // An absent integrator field reads as an empty mapping: every key undefined.
+  const YAML::Node fields = n.IsDefined() ? n : YAML::Node(YAML::NodeType::Map);
+  auto field = [&](const char* key) { return static_cast<const YAML::Node&>(fields)[key]; };
   if (field("method").IsDefined()) {
     const std::string m = text(field("method"), "integrator.method");
     try {

@@ -1,0 +1,245 @@
+// sweep/sweep.hpp: a study's runs give the same results.csv bytes on one thread, on several and
+// in shards; a killed sweep resumes; a folder of another study, a second writer of a shard and a
+// damaged row are refused; a failing run is a row with its message; a run is the replay of the
+// plan that the linked models compute (no JIT, no sweep).
+#include <gtest/gtest.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "paper_geared.hpp"
+#include "paper_reference.hpp"
+#include "simulation.hpp"
+#include "sweep.hpp"
+#include "trajectory_planning.hpp"
+
+namespace spacearm {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A short manoeuvre of the paper's system (1 s), over 3 ratios x 2 draws of I_m.
+const char* kStudy = R"(scene: SCENE
+manoeuvre:
+  plan: {from: [1.5, 0.0, 0.5235987755982988], to: [1.45, 0.02, 0.55], duration: 1}
+integrator: {method: rk4, dt: 0.01}
+grid:
+  p: GRID
+random:
+  runs: 2
+  seed: SEED
+  draws:
+    Im: {log_uniform: [1.0e-6, 1.0e-3]}
+)";
+
+// s with key replaced by value; s itself where key is not in it.
+std::string replace(std::string s, const std::string& key, const std::string& value) {
+  const size_t at = s.find(key);
+  return at == std::string::npos ? s : s.replace(at, key.size(), value);
+}
+
+fs::path scratch(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() /
+                     ("spacearm-test-sweep-" + name + "-" + std::to_string(::getpid()));
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p;
+}
+
+std::string read(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+Study study(const std::string& grid = "[1, 2, 4]", const std::string& seed = "7",
+            const std::string& text = kStudy) {
+  const std::string scene = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml";
+  return parse_study(replace(replace(replace(text, "SCENE", scene), "GRID", grid), "SEED", seed),
+                     "test-study.yaml");
+}
+
+CompileOptions cache() {
+  CompileOptions o;
+  o.cache_dir = SPACEARM_TEST_CACHE_DIR;
+  return o;
+}
+
+SweepSummary sweep(const StudyRunner& runner, const fs::path& dir, int threads, Shard shard = {}) {
+  SweepOptions o;
+  o.out_dir = dir.string();
+  o.threads = threads;
+  o.shard = shard;
+  return run_sweep(runner, o);
+}
+
+TEST(Sweep, ResultsAreTheSameBytesHoweverTheRunsAreSplit) {
+  const StudyRunner runner(study(), cache());
+  ASSERT_EQ(runner.study().num_runs(), 6);
+  const fs::path one = scratch("one"), three = scratch("three"), shards = scratch("shards");
+  const SweepSummary a = sweep(runner, one, 1);
+  EXPECT_EQ(a.ran, 6);
+  EXPECT_EQ(a.failed, 0);
+  sweep(runner, three, 3);
+  for (long i = 1; i <= 4; ++i) {
+    const SweepSummary s = sweep(runner, shards, 2, {i, 4});
+    EXPECT_EQ(s.results.empty(), i < 4) << "results.csv only once every shard ran";
+  }
+  const std::string results = read(one / "results.csv");
+  EXPECT_EQ(results, read(three / "results.csv"));
+  EXPECT_EQ(results, read(shards / "results.csv"));
+  // Six different runs: the rows differ in their parameters and results.
+  std::istringstream lines(results);
+  std::set<std::string> rows;
+  for (std::string line; std::getline(lines, line);) rows.insert(line.substr(line.find(',')));
+  EXPECT_EQ(rows.size(), 7u);
+  for (const fs::path& p : {one, three, shards}) fs::remove_all(p);
+}
+
+TEST(Sweep, AKilledSweepResumesWhereItStopped) {
+  const StudyRunner runner(study(), cache());
+  const fs::path whole = scratch("whole"), killed = scratch("killed");
+  sweep(runner, whole, 2);
+  // The state a kill leaves: two whole rows and half of a third.
+  const std::string rows = read(whole / "runs-1of1.csv");
+  size_t cut = runner.header().size();
+  for (int r = 0; r < 2; ++r) cut = rows.find('\n', cut) + 1;
+  fs::copy_file(whole / "study.id", killed / "study.id");
+  std::ofstream(killed / "runs-1of1.csv", std::ios::binary) << rows.substr(0, cut + 20);
+  const SweepSummary s = sweep(runner, killed, 2);
+  EXPECT_EQ(s.already_done, 2);
+  EXPECT_EQ(s.ran, 4);
+  EXPECT_EQ(read(killed / "results.csv"), read(whole / "results.csv"));
+  // A sweep of a finished folder only merges.
+  EXPECT_EQ(sweep(runner, killed, 2).ran, 0);
+  for (const fs::path& p : {whole, killed}) fs::remove_all(p);
+}
+
+TEST(Sweep, RefusesAnotherStudysFolderASecondWriterAndDamagedRows) {
+  const fs::path dir = scratch("refuse");
+  const StudyRunner runner(study(), cache());
+  sweep(runner, dir, 1);
+  try {
+    sweep(StudyRunner(study("[1, 2, 4]", "8"), cache()), dir, 1);
+    FAIL() << "another study's folder was used";
+  } catch (const StudyError& e) {
+    EXPECT_NE(std::string(e.what()).find("holds the results of another study"), std::string::npos)
+        << e.what();
+  }
+  {  // another process writing the same shard
+    const int fd = ::open((dir / "runs-1of1.csv").c_str(), O_RDONLY);
+    ASSERT_EQ(::flock(fd, LOCK_EX | LOCK_NB), 0);
+    EXPECT_THROW(sweep(runner, dir, 1), StudyError);
+    ::close(fd);
+  }
+  std::ofstream(dir / "runs-1of2.csv", std::ios::binary) << runner.header() << "99,ok\n";
+  try {
+    sweep(runner, dir, 1);
+    FAIL() << "a row of no run was accepted";
+  } catch (const StudyError& e) {
+    EXPECT_NE(std::string(e.what()).find("runs-1of2.csv' line 2"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+TEST(Sweep, AFailingRunIsARowWithItsMessage) {
+  const StudyRunner runner(study("[-1, 2]"), cache());
+  const std::string failed = runner.row(0), ok = runner.row(2);
+  EXPECT_EQ(failed.rfind("0,failed,-1,", 0), 0u) << failed;
+  EXPECT_NE(failed.find("\"parameters:"), std::string::npos) << failed;
+  EXPECT_EQ(ok.rfind("2,ok,2,", 0), 0u) << ok;
+  EXPECT_EQ(std::count(failed.begin(), failed.end(), ','),
+            std::count(runner.header().begin(), runner.header().end(), ','));
+}
+
+// A run is the open-loop replay of the nominal plan, which the paper's experiment computes with
+// the linked models (examples/paper_experiment.cpp): the plan with the reference model, motor
+// angles qm = p q at the start, torques tau / p on the geared model.
+TEST(Sweep, ARunIsTheLinkedModelsReplayOfThePlan) {
+  const StudyRunner runner(study("[1, 2]"), cache());
+  using Ref = Model<models::paper_reference::Model>;
+  using Geared = Model<models::paper_geared::Model>;
+  StraightLineTask task;
+  task.goal = Eigen::Vector3d(1.45, 0.02, 0.55);
+  task.duration = 1;
+  const auto plan = plan_straight_line(Ref(), task);
+  const TorqueSignal<3> tau(0.0, task.dt, plan.tau, Interpolation::linear);
+  for (long run = 0; run < 4; ++run) {
+    const Eigen::VectorXd params = runner.study().parameters(run);
+    Geared g;
+    g.set_parameter("p", params[0]);
+    g.set_parameter("Im", params[1]);
+    Geared::Vector qm = plan.q.front();
+    qm.tail<3>() *= params[0];
+    const auto traj = simulate<models::paper_geared::Model>(g, qm, Geared::Vector::Zero(), tau,
+                                                            task.duration, task.dt, {});
+    const Eigen::Vector3d end = traj.end_effector.back();
+    std::istringstream row(runner.row(run));
+    std::vector<double> v;
+    for (std::string f; std::getline(row, f, ',');) v.push_back(std::atof(f.c_str()));
+    // run, status, p, Im, ee_x, ee_y, ee_phi, ee_error
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(v[4 + i], end[i], 1e-10) << "run " << run;
+    EXPECT_NEAR(v[7], (end.head<2>() - Eigen::Vector2d(1.45, 0.02)).norm(), 1e-10);
+  }
+}
+
+TEST(Study, DrawsDependOnTheSeedAndTheRunOnly) {
+  const Study a = study(), b = study(), c = study("[1, 2, 4]", "8");
+  ASSERT_EQ(a.parameter_names(), (std::vector<std::string>{"p", "Im"}));
+  for (long run = 0; run < 6; ++run) {
+    EXPECT_EQ(a.parameters(run), b.parameters(run));
+    EXPECT_NE(a.parameters(run)[1], c.parameters(run)[1]);
+    EXPECT_EQ(a.parameters(run)[0], (std::vector<double>{1, 2, 4})[run / 2]);  // grid point
+    EXPECT_GE(a.parameters(run)[1], 1e-6);
+    EXPECT_LT(a.parameters(run)[1], 1e-3);
+  }
+  // Normal draws: the sample mean of 4000 runs within 4 standard errors.
+  const Study n =
+      study("[1]", "3",
+            replace(replace(kStudy, "{log_uniform: [1.0e-6, 1.0e-3]}", "{normal: [2, 0.5]}"),
+                    "runs: 2", "runs: 4000"));
+  double sum = 0;
+  for (long run = 0; run < 4000; ++run) sum += n.parameters(run)[1];
+  EXPECT_NEAR(sum / 4000, 2.0, 4 * 0.5 / std::sqrt(4000.0));
+}
+
+TEST(Study, ErrorsNameTheField) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"[1, two]", "field 'grid.p[1]'"},
+      {"{from: 1, to: 2, num: 0}", "field 'grid.p.num'"},
+      {"{from: 0, to: 2, num: 3, spacing: log}", "log spacing"},
+  };
+  for (const auto& [grid, field] : cases) {
+    try {
+      study(grid);
+      FAIL() << grid;
+    } catch (const StudyError& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  }
+  const std::vector<std::pair<std::string, std::string>> texts = {
+      {replace(kStudy, "p: GRID", "mass: [1]"), "field 'grid.mass': not a run-time parameter"},
+      {replace(kStudy, "Im: {log", "p: {log"), "field 'random.draws.p': is already on the grid"},
+      {replace(kStudy, "dt: 0.01}", "dt: 0.3}"), "field 'integrator.t_end'"},
+      {replace(kStudy, "  plan:", "  torques: t.csv\n  plan:"), "give either plan"},
+      {replace(kStudy, "integrator:", "integrater:"), "field 'integrater': unknown field"},
+      {replace(kStudy, "seed: SEED", "seed: -1"), "field 'random.seed'"},
+  };
+  for (const auto& [text, what] : texts) {
+    ASSERT_NE(text, kStudy) << what;
+    try {
+      study("[1]", "1", text);
+      FAIL() << what;
+    } catch (const StudyError& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("study 'test-study.yaml'"), std::string::npos);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace spacearm
