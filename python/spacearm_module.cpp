@@ -216,6 +216,9 @@ PyModel load(const std::string& scene_text, const py::object& params,
 }
 
 }  // namespace
+
+void bind_study(py::module& module);  // study_binding.cpp
+
 }  // namespace spacearm
 
 PYBIND11_MODULE(_spacearm, module) {
@@ -223,6 +226,7 @@ PYBIND11_MODULE(_spacearm, module) {
   module.doc() = "spacearm: exact dynamics of planar free-floating space manipulators";
   py::register_exception<DynamicsError>(module, "DynamicsError", PyExc_ArithmeticError);
   py::register_exception<CompileError>(module, "CompileError", PyExc_RuntimeError);
+  bind_study(module);
   py::class_<PyModel> model(module, "Model");
   model.def_property_readonly("name", [](const PyModel& m) { return m.model().name(); })
       .def_property_readonly("nq", [](const PyModel& m) { return m.model().nq(); })

@@ -1,0 +1,75 @@
+// spacearm.Study: a study file's runs from Python (sweep/sweep.hpp), so that any engine that
+// maps a function over chunks of run indices (Dask, python/spacearm/dask_sweep.py) computes
+// the rows that `spacearm sweep` writes, byte for byte, and merges them into results.csv.
+#include <pybind11/eigen.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <atomic>
+#include <thread>
+
+#include "sweep.hpp"
+
+namespace py = pybind11;
+
+namespace spacearm {
+namespace {
+
+std::unique_ptr<StudyRunner> open_study(const std::string& path, const std::string& cache_dir) {
+  CompileOptions options;
+  options.cache_dir = cache_dir;
+  Study study = load_study(path);
+  py::gil_scoped_release release;  // a compile can take seconds
+  return std::make_unique<StudyRunner>(std::move(study), options);
+}
+
+// The rows of the runs, on `threads` threads without the GIL, in the order of `runs`.
+std::vector<std::string> rows(const StudyRunner& runner, const py::iterable& run_indices,
+                              int threads) {
+  const long n = runner.study().num_runs();
+  std::vector<long> runs;
+  for (const py::handle& i : run_indices) runs.push_back(py::cast<long>(i));
+  for (long r : runs)
+    if (r < 0 || r >= n)
+      throw py::index_error("run " + std::to_string(r) + ": the study has runs 0 .. " +
+                            std::to_string(n - 1));
+  std::vector<std::string> out(runs.size());
+  py::gil_scoped_release release;
+  std::atomic<size_t> next{0};
+  auto work = [&] {
+    for (size_t k; (k = next++) < runs.size();) out[k] = runner.row(runs[k]);
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < std::max(1, threads); ++t) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+  return out;
+}
+
+}  // namespace
+
+void bind_study(py::module& module) {
+  py::register_exception<StudyError>(module, "StudyError", PyExc_ValueError);
+  py::class_<StudyRunner>(module, "Study",
+                          "A study file (spacearm sweep): its runs, one CSV row each.")
+      .def(py::init(&open_study), py::arg("path"), py::arg("cache_dir") = "",
+           "Read a study file and compile (or take from the cache) its scenes.")
+      .def_property_readonly("num_runs", [](const StudyRunner& r) { return r.study().num_runs(); })
+      .def_property_readonly("header", &StudyRunner::header)
+      .def_property_readonly("parameter_names",
+                             [](const StudyRunner& r) { return r.study().parameter_names(); })
+      .def(
+          "parameters", [](const StudyRunner& r, long run) { return r.study().parameters(run); },
+          py::arg("run"), "The run's parameter values, in parameter_names' order.")
+      .def("rows", &rows, py::arg("runs"), py::arg("threads") = 1,
+           "The CSV rows of the runs (each with its newline), computed without the GIL.")
+      .def("merge", &merge_rows, py::arg("rows"),
+           "results.csv's text from the rows of every run, in any order.")
+      .def("__repr__", [](const StudyRunner& r) {
+        return "<spacearm.Study '" + r.study().source_path +
+               "': " + std::to_string(r.study().num_runs()) + " runs of scene " +
+               r.study().scene.name + ">";
+      });
+}
+
+}  // namespace spacearm
