@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The main job: set up (packages, configure, build), run the paper's experiment (plan a
-# straight line, replay the torques into geared models, Table 2) and draw Figures 3-8.
+# straight line, replay the torques into geared models, Table 2) and draw Figures 3-8; then the
+# paper's study as a sweep over p x I_m (studies/paper_gear_ratio.yaml) and its Figures 9-10.
 # Usage: scripts/run-paper.sh [options of examples/paper_experiment, e.g. --elbow -1]
 # Output folder: out/paper (override with OUT_DIR=...).
 set -euo pipefail
@@ -14,3 +15,8 @@ done
 echo
 build/examples/paper_experiment --out "$out" "$@"
 scripts/plot_paper.sh "$out"
+echo
+echo "== the paper's study as a sweep: 37 gear ratios x 31 motor inertias (studies/paper_gear_ratio.yaml)"
+rm -rf "$out/sweep"
+build/cli/spacearm sweep studies/paper_gear_ratio.yaml -o "$out/sweep"
+scripts/plot_sweep.sh "$out/sweep"
