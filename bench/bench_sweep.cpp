@@ -1,11 +1,13 @@
 // Sweep throughput (issue 15's goals): runs of studies/paper_monte_carlo.yaml (the paper's 10 s
 // manoeuvre, RK4 at 0.01 s, geared model with random p, I_m and link masses) per second on 1
-// and 2 threads, each thread taking the next run as `spacearm sweep`'s pool does. The ratio of
-// the two in one run is the scaling; 10 000 / (runs per second) the Monte Carlo's time.
+// and 2 threads. The ratio of the two in one run is the scaling; 10 000 / (runs per second) the
+// Monte Carlo's time.
 #include <benchmark/benchmark.h>
 
 #include <atomic>
 #include <cstdlib>
+#include <thread>
+#include <vector>
 
 #include "sweep.hpp"
 
@@ -21,17 +23,27 @@ const spacearm::StudyRunner& runner() {
   return r;
 }
 
-std::atomic<long> next_run{0};
-
+// Each iteration: the next 32 runs on `threads` threads, each taking the next run as the pool of
+// `spacearm sweep` does. Items: runs; the rate is in wall time.
 void BM_MonteCarloRuns(benchmark::State& state) {
   const spacearm::StudyRunner& r = runner();
-  const long n = r.study().num_runs();
-  size_t bytes = 0;
-  for (auto _ : state) bytes += r.row(next_run++ % n).size();
-  benchmark::DoNotOptimize(bytes);
-  state.SetItemsProcessed(state.iterations());  // items: runs
+  const int threads = static_cast<int>(state.range(0));
+  const long n = r.study().num_runs(), batch = 32;
+  long first = 0;
+  for (auto _ : state) {
+    std::atomic<long> next{first};
+    auto work = [&] {
+      for (long k; (k = next++) < first + batch;) benchmark::DoNotOptimize(r.row(k % n).size());
+    };
+    std::vector<std::thread> pool;
+    for (int t = 1; t < threads; ++t) pool.emplace_back(work);
+    work();
+    for (auto& t : pool) t.join();
+    first += batch;
+  }
+  state.SetItemsProcessed(state.iterations() * batch);
 }
-BENCHMARK(BM_MonteCarloRuns)->Threads(1)->Threads(2)->UseRealTime()->MinTime(2.0);
+BENCHMARK(BM_MonteCarloRuns)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(2.0);
 
 }  // namespace
 

@@ -335,7 +335,7 @@ CompiledModel::Function CompiledModel::function(Output o) const {
   return functions_.at(info(o).name);
 }
 
-void CompiledModel::check(const char* what, const Eigen::VectorXd& v, int size) const {
+void CompiledModel::check(const char* what, Eigen::Ref<const Eigen::VectorXd> v, int size) const {
   if (v.size() != size)
     throw std::invalid_argument(std::string(what) + ": expected " + std::to_string(size) +
                                 " values, got " + std::to_string(v.size()));
@@ -380,6 +380,59 @@ std::vector<Eigen::MatrixXd> CompiledModel::evaluate(Output o,
   std::vector<std::pair<Size, Size>> shapes;
   for (const auto& r : out.results) shapes.push_back({r.rows, r.cols});
   return call(out.name, shapes, data, params);
+}
+
+namespace {
+
+// Runs f, naming the state of a batch in any error it throws (in the error's own type).
+template <class F>
+void for_state(long s, bool batch, F&& f) {
+  if (!batch) return f();
+  try {
+    f();
+  } catch (const DynamicsError& e) {
+    throw DynamicsError("state " + std::to_string(s) + ": " + e.what());
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument("state " + std::to_string(s) + ": " + e.what());
+  }
+}
+
+}  // namespace
+
+void CompiledModel::evaluate_batch(Output o, long k, const std::vector<const double*>& inputs,
+                                   const Eigen::VectorXd& params,
+                                   const std::vector<double*>& results) const {
+  const OutputInfo& out = info(o);
+  const Function f = function(o);
+  if (inputs.size() != out.inputs.size() || results.size() != out.results.size())
+    throw std::invalid_argument(std::string(out.name) + ": wrong number of inputs or results");
+  check("params", params, static_cast<int>(nominal_.size()));
+  if (const char* error = parameter_error_(params.data()))
+    throw std::invalid_argument(std::string("parameters: ") + error);
+  // One state's results in the generated code's layout (column-major), then row-major.
+  std::vector<Eigen::MatrixXd> state;
+  std::vector<double*> state_out;
+  for (const auto& r : out.results) state.emplace_back(dims_(r.rows), dims_(r.cols));
+  for (auto& r : state) state_out.push_back(r.data());
+  std::vector<const double*> in(inputs.size());
+  for (long s = 0; s < k; ++s)
+    for_state(s, k > 1, [&] {
+      for (size_t i = 0; i < in.size(); ++i) {
+        const int n = dims_(info(out.inputs[i]).size);
+        in[i] = inputs[i] + s * n;
+        check(info(out.inputs[i]).name, Eigen::Map<const Eigen::VectorXd>(in[i], n), n);
+      }
+      f(in.data(), params.data(), state_out.data());
+      if (o == Output::forward_dynamics) check_forward_dynamics(state, name_);
+      for (size_t r = 0; r < state.size(); ++r) {
+        if (!all_finite(state[r]))  // as eval's: no overflow passes as a number
+          throw DynamicsError(std::string(out.results[r].name) +
+                              " is not finite: the state or parameters overflow");
+        const Eigen::Index size = state[r].size();
+        Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+            results[r] + s * size, state[r].rows(), state[r].cols()) = state[r];
+      }
+    });
 }
 
 Eigen::MatrixXd CompiledModel::mass_matrix(const Eigen::VectorXd& q,

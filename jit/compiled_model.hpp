@@ -84,6 +84,14 @@ class CompiledModel {
   // and errors name the argument and value.
   std::vector<Eigen::MatrixXd> evaluate(Output o, const std::vector<Eigen::VectorXd>& inputs,
                                         const Eigen::VectorXd& params) const;
+  // Output o for k states at once, for callers with arrays of states (the Python binding):
+  // inputs[i] points at k consecutive vectors of the registry's i-th input, results[r] at room
+  // for k consecutive results r, each rows x cols in row-major order. The parameters are checked
+  // once; each state's inputs as evaluate() does, forward_dynamics' results by
+  // check_forward_dynamics and every result for overflow (DynamicsError). With k > 1 an error
+  // names its state ("state s: ...").
+  void evaluate_batch(Output o, long k, const std::vector<const double*>& inputs,
+                      const Eigen::VectorXd& params, const std::vector<double*>& results) const;
   // Shorthands of evaluate() for the outputs the simulate command reads.
   Eigen::MatrixXd mass_matrix(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const;
   Eigen::VectorXd bias_forces(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
@@ -119,7 +127,7 @@ class CompiledModel {
   bool free_floating_ = false, passive_forces_ = false;
   static CompiledModel open_verified(const Scene& scene, const Fd& library, StageReport& rep,
                                      std::string& why);
-  void check(const char* what, const Eigen::VectorXd& v, int size) const;
+  void check(const char* what, Eigen::Ref<const Eigen::VectorXd> v, int size) const;
   std::vector<Eigen::MatrixXd> call(const std::string& function,
                                     const std::vector<std::pair<Size, Size>>& shapes,
                                     const std::vector<const double*>& inputs,

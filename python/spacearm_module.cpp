@@ -55,8 +55,6 @@ class PyModel {
  private:
   CompiledModel model_;
   Eigen::VectorXd params_;
-  std::vector<Eigen::MatrixXd> one_state(Output o, const std::vector<Eigen::VectorXd>& in,
-                                         const Eigen::VectorXd& params) const;
 };
 
 // The values of named parameters: `values`, with those of `given` (None or a dict) replaced.
@@ -87,37 +85,15 @@ Eigen::VectorXd named_parameters(const CompiledModel& m, Eigen::VectorXd values,
   return values;
 }
 
-// forward_dynamics passes the runtime's checks (an acceleration is never silently wrong) and
-// returns qdd alone: the pivots serve the checks.
-std::vector<Eigen::MatrixXd> PyModel::one_state(Output o, const std::vector<Eigen::VectorXd>& in,
-                                                const Eigen::VectorXd& params) const {
-  std::vector<Eigen::MatrixXd> r = model_.evaluate(o, in, params);
-  if (o == Output::forward_dynamics) {
-    check_forward_dynamics(r, model_.name());
-    r.resize(1);
-  }
-  for (size_t k = 0; k < r.size(); ++k)  // as eval's: no overflow passes as a number
-    if (!all_finite(r[k]))
-      throw DynamicsError(std::string(info(o).results[k].name) +
-                          " is not finite: the state or parameters overflow");
-  return r;
-}
-
-// Result r of every state as numpy: per state a number (1 x 1), a vector (a column) or a
+// An array for k states of result `spec`: per state a number (1 x 1), a vector (a column) or a
 // matrix, rows x cols; with a batch, the state index first.
-py::array to_numpy(const std::vector<std::vector<Eigen::MatrixXd>>& results, size_t r,
-                   const ResultInfo& spec, const Dimensions& dims, bool batch) {
-  const int rows = dims(spec.rows), cols = dims(spec.cols);
+py::array_t<double> result_array(const ResultInfo& spec, const Dimensions& dims, py::ssize_t k,
+                                 bool batch) {
   std::vector<py::ssize_t> shape;
-  if (batch) shape.push_back(static_cast<py::ssize_t>(results.size()));
-  if (spec.rows != Size::one || spec.cols != Size::one) shape.push_back(rows);
-  if (spec.cols != Size::one) shape.push_back(cols);
-  py::array_t<double> a(shape);
-  double* out = a.mutable_data();
-  for (const auto& state : results)
-    for (int i = 0; i < rows; ++i)
-      for (int j = 0; j < cols; ++j) *out++ = state[r](i, j);
-  return std::move(a);
+  if (batch) shape.push_back(k);
+  if (spec.rows != Size::one || spec.cols != Size::one) shape.push_back(dims(spec.rows));
+  if (spec.cols != Size::one) shape.push_back(dims(spec.cols));
+  return py::array_t<double>(shape);
 }
 
 py::object PyModel::call(Output o, const py::args& args, const py::object& params_given) const {
@@ -157,36 +133,28 @@ py::object PyModel::call(Output o, const py::args& args, const py::object& param
                             std::to_string(arrays[i].shape(arrays[i].ndim() - 1)));
   }
   const Eigen::VectorXd params = named_parameters(model_, params_, params_given);
-  std::vector<std::vector<Eigen::VectorXd>> states(k);
-  for (py::ssize_t s = 0; s < k; ++s)
-    for (const Array& a : arrays) {
-      const py::ssize_t n = a.shape(a.ndim() - 1);
-      states[s].push_back(Eigen::Map<const Eigen::VectorXd>(a.data() + s * (batch ? n : 0), n));
-    }
-  // The model's calls, without the GIL.
-  std::vector<std::vector<Eigen::MatrixXd>> results(k);
+  // The results written in place by one batched evaluation, without the GIL.
+  const Dimensions& dims = model_.dimensions();
+  std::vector<py::array_t<double>> results;
+  std::vector<const double*> in_ptrs;
+  std::vector<double*> out_ptrs;
+  for (const Array& a : arrays) in_ptrs.push_back(a.data());
+  for (const auto& spec : out.results) {
+    results.push_back(result_array(spec, dims, k, batch));
+    out_ptrs.push_back(results.back().mutable_data());
+  }
   {
     py::gil_scoped_release release;
-    for (py::ssize_t s = 0; s < k; ++s) try {
-        results[s] = one_state(o, states[s], params);
-      } catch (const DynamicsError& e) {  // which state of a batch, in the same type
-        throw batch ? DynamicsError("state " + std::to_string(s) + ": " + e.what()) : e;
-      } catch (const std::invalid_argument& e) {
-        throw batch ? std::invalid_argument("state " + std::to_string(s) + ": " + e.what()) : e;
-      }
+    model_.evaluate_batch(o, k, in_ptrs, params, out_ptrs);
   }
-  const size_t num_results = o == Output::forward_dynamics ? 1 : out.results.size();
-  const Dimensions& dims = model_.dimensions();
-  std::vector<py::array> arrays_out;
-  for (size_t r = 0; r < num_results; ++r)
-    arrays_out.push_back(to_numpy(results, r, out.results[r], dims, batch));
-  if (arrays_out.size() == 1) {
-    if (!batch && out.results[0].rows == Size::one && out.results[0].cols == Size::one)
-      return py::float_(results[0][0](0, 0));
-    return arrays_out[0];
+  // forward_dynamics returns qdd alone: the pivots served the checks.
+  if (o == Output::forward_dynamics) results.resize(1);
+  if (results.size() == 1) {
+    if (!batch && results[0].ndim() == 0) return py::float_(*results[0].data());
+    return std::move(results[0]);
   }
   py::dict d;
-  for (size_t r = 0; r < arrays_out.size(); ++r) d[out.results[r].name] = arrays_out[r];
+  for (size_t r = 0; r < results.size(); ++r) d[out.results[r].name] = results[r];
   return std::move(d);
 }
 

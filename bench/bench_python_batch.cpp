@@ -1,0 +1,106 @@
+// Python overhead of a batched call (issue 15's goal: at most 10 % over the C++ call): the mass
+// matrix of the paper's geared model for k states through the numpy binding
+// (model.mass_matrix(Q) in an embedded interpreter) against the same states through the loaded
+// library from C++: the checked batch (CompiledModel::evaluate_batch, what the binding calls)
+// and the unchecked exported function in a loop. Items: states.
+#include <benchmark/benchmark.h>
+#include <pybind11/embed.h>
+#include <pybind11/numpy.h>
+
+#include <cstdlib>
+#include <random>
+
+#include "compiled_model.hpp"
+
+namespace py = pybind11;
+
+namespace {
+
+constexpr const char* kScene = SPACEARM_SOURCE_DIR "/models/paper_geared.yaml";
+constexpr int kNq = 6;
+
+std::string cache_dir() {
+  const char* dir = std::getenv("SPACEARM_CACHE_DIR");
+  return dir ? dir : "";
+}
+
+const spacearm::CompiledModel& model() {
+  static const spacearm::CompiledModel m = [] {
+    spacearm::CompileOptions options;
+    options.cache_dir = cache_dir();
+    return spacearm::CompiledModel::load(spacearm::load_scene(kScene), options);
+  }();
+  return m;
+}
+
+// k random configurations, row after row.
+std::vector<double> states(long k) {
+  std::mt19937_64 gen(1);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<double> q(k * kNq);
+  for (double& v : q) v = u(gen);
+  return q;
+}
+
+Eigen::VectorXd params() {
+  const auto& p = model().nominal_parameters();
+  Eigen::VectorXd v = Eigen::Map<const Eigen::VectorXd>(p.data(), p.size());
+  v[0] = 10;  // p
+  return v;
+}
+
+void BM_Unchecked_CppLoop(benchmark::State& state) {
+  const long k = state.range(0);
+  const std::vector<double> q = states(k);
+  std::vector<double> M(k * kNq * kNq);
+  const auto f = model().function(spacearm::Output::mass_matrix);
+  const Eigen::VectorXd p = params();
+  for (auto _ : state)
+    for (long s = 0; s < k; ++s) {
+      const double* in[] = {q.data() + s * kNq};
+      double* out[] = {M.data() + s * kNq * kNq};
+      f(in, p.data(), out);
+    }
+  benchmark::DoNotOptimize(M.data());
+  state.SetItemsProcessed(state.iterations() * k);
+}
+
+void BM_Checked_CppBatch(benchmark::State& state) {
+  const long k = state.range(0);
+  const std::vector<double> q = states(k);
+  std::vector<double> M(k * kNq * kNq);
+  const Eigen::VectorXd p = params();
+  for (auto _ : state)
+    model().evaluate_batch(spacearm::Output::mass_matrix, k, {q.data()}, p, {M.data()});
+  benchmark::DoNotOptimize(M.data());
+  state.SetItemsProcessed(state.iterations() * k);
+}
+
+void BM_Checked_PythonBatch(benchmark::State& state) {
+  const long k = state.range(0);
+  py::module_ spacearm = py::module_::import("spacearm");
+  py::dict given;
+  given["p"] = 10.0;
+  py::object m = spacearm.attr("load")(kScene, given, cache_dir());
+  const std::vector<double> q = states(k);
+  py::array_t<double> Q({k, static_cast<long>(kNq)});
+  std::copy(q.begin(), q.end(), Q.mutable_data());
+  py::object mass_matrix = m.attr("mass_matrix");
+  for (auto _ : state) benchmark::DoNotOptimize(mass_matrix(Q).ptr());
+  state.SetItemsProcessed(state.iterations() * k);
+}
+
+BENCHMARK(BM_Unchecked_CppLoop)->Arg(1000);
+BENCHMARK(BM_Checked_CppBatch)->Arg(1000);
+BENCHMARK(BM_Checked_PythonBatch)->Arg(1000);
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  py::scoped_interpreter python;
+  py::module_::import("sys").attr("path").attr("insert")(0, SPACEARM_PYTHON_DIR);
+  model();  // compile (or load) before timing
+  benchmark::Initialize(&argc, argv);
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+}
