@@ -73,17 +73,7 @@ int run_inspect(const InspectArgs& a) {
   DeriveOptions options;
   options.all_outputs = true;
   const SymbolicModel model = derive(load_scene(a.scene_path), options);
-  GiNaC::ex e = symbolic_entry(model, a.entry);
-  // Group by velocities and run-time parameters, so that p, p^2 and p_i p_j stand out.
-  GiNaC::lst group_by;
-  for (const auto& v : model.qd) group_by.append(v);
-  for (const auto& p : model.parameters) group_by.append(p);
-  if (a.decimal) e = GiNaC::evalf(e);
-  e = GiNaC::collect(e, group_by, true);
-  if (a.latex)
-    std::cout << GiNaC::latex << e << GiNaC::dflt << "\n";
-  else
-    std::cout << e << "\n";
+  std::cout << entry_text(model, a.entry, a.latex, a.decimal) << "\n";
   return 0;
 }
 

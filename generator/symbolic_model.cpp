@@ -4,6 +4,7 @@
 #include <cmath>
 #include <regex>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 
 namespace spacearm {
@@ -562,6 +563,20 @@ std::vector<double> evaluate(const SymbolicModel& model, const GiNaC::matrix& m,
     for (unsigned j = 0; j < m.cols(); ++j)
       values.push_back(evaluate(model, m(i, j), q, qd, params));
   return values;
+}
+
+std::string entry_text(const SymbolicModel& model, const std::string& entry, bool latex,
+                       bool decimal) {
+  GiNaC::ex e = symbolic_entry(model, entry);
+  GiNaC::lst group_by;
+  for (const auto& v : model.qd) group_by.append(v);
+  for (const auto& p : model.parameters) group_by.append(p);
+  if (decimal) e = GiNaC::evalf(e);
+  e = GiNaC::collect(e, group_by, true);
+  std::ostringstream out;
+  if (latex) out << GiNaC::latex;
+  out << e;
+  return out.str();
 }
 
 }  // namespace spacearm

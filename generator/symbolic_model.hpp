@@ -66,6 +66,12 @@ SymbolicModel derive(const Scene& scene, const DeriveOptions& options = {});
 // (a vector takes one index, a matrix two). Throws on a bad name, index or missing output.
 GiNaC::ex symbolic_entry(const SymbolicModel& model, const std::string& entry);
 
+// An entry as `spacearm inspect` prints it: grouped by velocities and run-time parameters, so
+// that p, p^2 and p_i p_j stand out; as LaTeX, and with decimal numbers instead of fractions,
+// where asked.
+std::string entry_text(const SymbolicModel& model, const std::string& entry, bool latex = false,
+                       bool decimal = false);
+
 // Numeric value of an expression at q, qd and parameter values (nominal if empty),
 // with GiNaC's own arbitrary-precision evaluation.
 double evaluate(const SymbolicModel& model, const GiNaC::ex& e, const std::vector<double>& q,

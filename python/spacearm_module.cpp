@@ -16,6 +16,7 @@
 #include "compiled_model.hpp"
 #include "dynamics_checks.hpp"
 #include "scene.hpp"
+#include "symbolic_model.hpp"
 
 namespace py = pybind11;
 
@@ -27,8 +28,8 @@ using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
 // A loaded model and the parameter values its methods use unless given others.
 class PyModel {
  public:
-  PyModel(CompiledModel model, Eigen::VectorXd params)
-      : model_(std::move(model)), params_(std::move(params)) {}
+  PyModel(CompiledModel model, Eigen::VectorXd params, Scene scene)
+      : model_(std::move(model)), params_(std::move(params)), scene_(std::move(scene)) {}
 
   const CompiledModel& model() const { return model_; }
   const Eigen::VectorXd& params() const { return params_; }
@@ -44,6 +45,18 @@ class PyModel {
     return names;
   }
 
+  // One symbolic entry ("M[3][4]", "T", ...) as `spacearm inspect` prints it; the scene is
+  // derived on the first call (without the GIL) and kept.
+  std::string inspect(const std::string& entry, bool latex, bool decimal) {
+    if (!symbolic_) {
+      py::gil_scoped_release release;
+      DeriveOptions options;
+      options.all_outputs = true;
+      symbolic_ = std::make_shared<const SymbolicModel>(derive(scene_, options));
+    }
+    return entry_text(*symbolic_, entry, latex, decimal);
+  }
+
   std::string repr() const {
     std::string outputs;
     for (const auto& name : this->outputs()) outputs += (outputs.empty() ? "" : ", ") + name;
@@ -55,6 +68,8 @@ class PyModel {
  private:
   CompiledModel model_;
   Eigen::VectorXd params_;
+  Scene scene_;
+  std::shared_ptr<const SymbolicModel> symbolic_;
 };
 
 // The values of named parameters: `values`, with those of `given` (None or a dict) replaced.
@@ -180,7 +195,7 @@ PyModel load(const std::string& scene_text, const py::object& params,
       params);
   // The parameters' ranges, checked now: an error at load, not at the first call.
   dynamic_model(m, values);
-  return PyModel(std::move(m), values);
+  return PyModel(std::move(m), values, scene);
 }
 
 }  // namespace
@@ -206,6 +221,10 @@ PYBIND11_MODULE(_spacearm, module) {
                              [](const PyModel& m) { return m.model().parameter_names(); })
       .def_property_readonly("params", [](const PyModel& m) { return m.params(); })
       .def_property_readonly("outputs", &PyModel::outputs)
+      .def("inspect", &PyModel::inspect, py::arg("entry"), py::arg("latex") = false,
+           py::arg("decimal") = false,
+           "One symbolic entry as text (or LaTeX), e.g. model.inspect(\"M[3][4]\", latex=True): "
+           "the closed form that `spacearm inspect` prints, grouped by velocities and parameters.")
       .def("__repr__", &PyModel::repr);
   module.def("load", &load, py::arg("scene"), py::arg("params") = py::none(),
              py::arg("cache_dir") = "",

@@ -133,3 +133,34 @@ def test_bad_values_are_refused(geared):
         geared.mass_matrix(np.zeros((0, 3)))
     with pytest.raises(spacearm.DynamicsError, match="b is not finite"):
         geared.bias_forces(q[0], np.full(geared.nv, 1e200))
+
+
+def value(text):
+    """A printed entry's value at a fixed state and parameters (GiNaC's syntax, ^ for powers)."""
+    import math
+    names = {"sin": math.sin, "cos": math.cos, "p": 1.7, "Im": 2e-5}
+    for k, name in enumerate(["x0", "y0", "q0", "qm1", "qm2", "qm3"]):
+        names[name], names[name + "d"] = 0.1 * (k + 1), -0.2 * (k + 1)
+    return eval(text.replace("^", "**"), {"__builtins__": {}}, names)
+
+
+def test_inspect_prints_what_the_cli_prints(geared):
+    # GiNaC orders terms by its symbols' creation, which differs between processes: the same
+    # expression may print its terms in another order, so the texts are compared by value.
+    cli = os.environ.get("SPACEARM_CLI")
+    if not cli:
+        pytest.skip("SPACEARM_CLI (the spacearm program) is set by ctest")
+    import subprocess
+    scene = os.path.join(SOURCE, "models", "paper_geared.yaml")
+    for entry, flags in (("M[3][4]", []), ("b[2]", []), ("T", ["--decimal"])):
+        expected = subprocess.run([cli, "inspect", scene, entry] + flags, check=True,
+                                  capture_output=True, text=True).stdout
+        text = geared.inspect(entry, decimal="--decimal" in flags)
+        assert value(text) == pytest.approx(value(expected), rel=1e-12)
+        assert value(text) != 0
+    latex = geared.inspect("M[3][4]", latex=True)
+    assert "\\frac{Im}{p}" in latex and "\\sin(\\frac{qm3}{p})" in latex
+    with pytest.raises(ValueError, match="index 9 out of range 0..5"):
+        geared.inspect("M[9][1]")
+    with pytest.raises(ValueError, match="unknown quantity 'X'"):
+        geared.inspect("X")
