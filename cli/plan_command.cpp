@@ -23,36 +23,20 @@ void check_outputs(const Scene& scene) {
                                 " (add them to its field 'outputs')");
 }
 
-std::string header(const CompiledModel& m, bool geared, bool free_base) {
-  std::string h = "t";
-  for (const char* suffix : {"", "d", "dd"})
-    for (const auto& name : m.coordinate_names()) h += "," + name + suffix;
-  for (int j = 1; j <= m.num_links(); ++j) h += ",tau" + std::to_string(j);
-  if (geared)
-    for (int j = 1; j <= m.num_links(); ++j) h += ",tau_motor" + std::to_string(j);
-  if (free_base) h += ",base_residual";
-  return h + "\n";
-}
-
 void append(std::string& row, double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, row.empty() ? "%.17g" : ",%.17g", v);
   row += buf;
 }
 
-void write_plan(const Plan& plan, const CompiledModel& m, const Eigen::VectorXd& ratios,
-                bool geared, const std::string& path) {
-  const bool free_base = !plan.base_residual.empty();
+void write_plan(const PlanTable& table, const std::string& path) {
   RowWriter out(path);
-  out.row(header(m, geared, free_base));
-  for (size_t k = 0; k < plan.t.size(); ++k) {
+  std::string head;
+  for (const auto& name : table.names) head += (head.empty() ? "" : ",") + name;
+  out.row(head + "\n");
+  for (const auto& values : table.rows) {
     std::string row;
-    append(row, plan.t[k]);
-    for (const auto* v : {&plan.q[k], &plan.qd[k], &plan.qdd[k], &plan.tau[k]})
-      for (double x : *v) append(row, x);
-    if (geared)
-      for (int j = 0; j < m.num_links(); ++j) append(row, plan.tau[k][j] / ratios[j]);  // eq. 14
-    if (free_base) append(row, plan.base_residual[k]);
+    for (double v : values) append(row, v);
     out.row(row + "\n");
   }
   out.close();
@@ -127,12 +111,12 @@ int run_plan(const PlanArgs& a) {
       std::fprintf(stderr, "spacearm: %s\n", msg.c_str());
   };
   const auto model = CompiledModel::load(scene, options);
-  const Eigen::VectorXd ratios = model.gear_ratios(params);
-  const Plan plan = plan_straight_line(dynamic_model(model, params), task);
+  const DynamicModel dynamic = dynamic_model(model, params);
+  const Plan plan = plan_straight_line(dynamic, task);
 
   refuse_input_as_output(a.output_file, {{"the scene", a.scene_path}});
   refuse_input_as_output(a.torque_file, {{"the scene", a.scene_path}}, "--torque-file");
-  write_plan(plan, model, ratios, scene.geared(), a.output_file);
+  write_plan(plan_table(plan, dynamic, scene.geared()), a.output_file);
   if (!a.torque_file.empty()) write_torques(plan, a.torque_file);
   std::fprintf(stderr,
                "spacearm: plan of %zu samples: max path error %.2e, max |qdd - central differences "

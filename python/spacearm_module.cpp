@@ -17,6 +17,7 @@
 #include "dynamics_checks.hpp"
 #include "scene.hpp"
 #include "symbolic_model.hpp"
+#include "trajectory_planning.hpp"
 
 namespace py = pybind11;
 
@@ -44,6 +45,12 @@ class PyModel {
       if (model_.has(o.id)) names.push_back(o.name);
     return names;
   }
+
+  // The zero-momentum straight line (runtime/trajectory_planning.hpp) at the model's
+  // parameters (or `params`): arrays and the table's named columns, as `spacearm plan` writes.
+  py::dict plan(const Eigen::VectorXd& start, const Eigen::VectorXd& goal, double duration,
+                double dt, const std::string& time_law, int elbow, const py::object& q0,
+                const py::object& params) const;
 
   // One symbolic entry ("M[3][4]", "T", ...) as `spacearm inspect` prints it; the scene is
   // derived on the first call (without the GIL) and kept.
@@ -173,6 +180,52 @@ py::object PyModel::call(Output o, const py::args& args, const py::object& param
   return std::move(d);
 }
 
+// Columns first..first+count of a table as a (rows, count) array, or (rows,) for one column.
+py::array_t<double> columns(const PlanTable& table, size_t first, size_t count, bool matrix) {
+  const py::ssize_t rows = static_cast<py::ssize_t>(table.rows.size());
+  py::array_t<double> a = matrix ? py::array_t<double>({rows, static_cast<py::ssize_t>(count)})
+                                 : py::array_t<double>(rows);
+  double* out = a.mutable_data();
+  for (const auto& row : table.rows)
+    for (size_t c = 0; c < count; ++c) *out++ = row[first + c];
+  return a;
+}
+
+py::dict PyModel::plan(const Eigen::VectorXd& start, const Eigen::VectorXd& goal, double duration,
+                       double dt, const std::string& time_law, int elbow, const py::object& q0,
+                       const py::object& params_given) const {
+  StraightLineTask task;
+  task.start = start;
+  task.goal = goal;
+  task.duration = duration;
+  task.dt = dt;
+  task.law = time_law_from_string(time_law);
+  task.elbow = elbow;
+  if (!q0.is_none()) task.q0 = q0.cast<Eigen::VectorXd>();
+  if (task.q0.size() && task.q0.size() != model_.nq())
+    throw py::value_error("q0: expected " + std::to_string(model_.nq()) + " values, got " +
+                          std::to_string(task.q0.size()));
+  const Eigen::VectorXd params = named_parameters(model_, params_, params_given);
+  const DynamicModel m = dynamic_model(model_, params);
+  const PlanTable table = [&] {
+    py::gil_scoped_release release;
+    return plan_table(plan_straight_line(m, task), m, scene_.geared());
+  }();
+  // The table's columns by name, and its groups as arrays: t, q, qd, qdd, tau, ...
+  py::dict out, named;
+  for (size_t c = 0; c < table.names.size(); ++c)
+    named[table.names[c].c_str()] = columns(table, c, 1, false);
+  const size_t nq = static_cast<size_t>(model_.nq()), n = static_cast<size_t>(model_.num_links());
+  out["t"] = columns(table, 0, 1, false);
+  size_t at = 1;
+  for (const char* group : {"q", "qd", "qdd"}) out[group] = columns(table, at, nq, true), at += nq;
+  out["tau"] = columns(table, at, n, true), at += n;
+  if (scene_.geared()) out["tau_motor"] = columns(table, at, n, true), at += n;
+  if (at < table.names.size()) out["base_residual"] = columns(table, at, 1, false);
+  out["columns"] = named;
+  return out;
+}
+
 // The YAML text of a scene (it has line breaks), else the path of a scene file.
 Scene scene_from(const std::string& path_or_text) {
   if (path_or_text.find('\n') != std::string::npos) return parse_scene(path_or_text, "<yaml text>");
@@ -221,6 +274,13 @@ PYBIND11_MODULE(_spacearm, module) {
                              [](const PyModel& m) { return m.model().parameter_names(); })
       .def_property_readonly("params", [](const PyModel& m) { return m.params(); })
       .def_property_readonly("outputs", &PyModel::outputs)
+      .def("plan", &PyModel::plan, py::arg("start"), py::arg("goal"), py::arg("duration"),
+           py::arg("dt") = 0.01, py::arg("time_law") = "quintic", py::arg("elbow") = 1,
+           py::arg("q0") = py::none(), py::arg("params") = py::none(),
+           "The zero-momentum straight line of the end-effector from start to goal (x, y or x, y, "
+           "phi) in `duration` s, as `spacearm plan`: a dict of t, q, qd, qdd, tau (link side), "
+           "tau_motor (geared), base_residual (free base) and 'columns', the CSV's columns by "
+           "name.")
       .def("inspect", &PyModel::inspect, py::arg("entry"), py::arg("latex") = false,
            py::arg("decimal") = false,
            "One symbolic entry as text (or LaTeX), e.g. model.inspect(\"M[3][4]\", latex=True): "

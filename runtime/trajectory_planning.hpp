@@ -393,6 +393,34 @@ inline Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& ta
   return plan;
 }
 
+// The plan as a table, as `spacearm plan` writes it and Python returns it: t, q, qd, qdd (by
+// coordinate name, suffixes d and dd), the link-side torques tau1..N, for a geared model the
+// motor torques tau_motor1..N = tau / p (eq. 14), for a free base base_residual.
+struct PlanTable {
+  std::vector<std::string> names;
+  std::vector<std::vector<double>> rows;
+};
+inline PlanTable plan_table(const Plan& plan, const DynamicModel& m, bool geared) {
+  PlanTable table{{"t"}, {}};
+  for (const char* suffix : {"", "d", "dd"})
+    for (const auto& name : m.coordinate_names) table.names.push_back(name + suffix);
+  for (int j = 1; j <= m.num_links; ++j) table.names.push_back("tau" + std::to_string(j));
+  if (geared)
+    for (int j = 1; j <= m.num_links; ++j) table.names.push_back("tau_motor" + std::to_string(j));
+  const bool free_base = !plan.base_residual.empty();
+  if (free_base) table.names.push_back("base_residual");
+  for (size_t k = 0; k < plan.t.size(); ++k) {
+    std::vector<double> row{plan.t[k]};
+    for (const auto* v : {&plan.q[k], &plan.qd[k], &plan.qdd[k], &plan.tau[k]})
+      row.insert(row.end(), v->data(), v->data() + v->size());
+    if (geared)
+      for (int j = 0; j < m.num_links; ++j) row.push_back(plan.tau[k][j] / m.gear_ratios[j]);
+    if (free_base) row.push_back(plan.base_residual[k]);
+    table.rows.push_back(std::move(row));
+  }
+  return table;
+}
+
 // The same for a linked model, in its fixed-size types.
 template <class G>
 ModelPlan<G> plan_straight_line(const Model<G>& model, const StraightLineTask& task) {

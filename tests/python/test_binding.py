@@ -164,3 +164,27 @@ def test_inspect_prints_what_the_cli_prints(geared):
         geared.inspect("M[9][1]")
     with pytest.raises(ValueError, match="unknown quantity 'X'"):
         geared.inspect("X")
+
+
+def test_plan_is_the_cli_plan(geared, tmp_path):
+    cli = os.environ.get("SPACEARM_CLI")
+    if not cli:
+        pytest.skip("SPACEARM_CLI (the spacearm program) is set by ctest")
+    import subprocess
+    scene = os.path.join(SOURCE, "models", "paper_geared.yaml")
+    out = tmp_path / "plan.csv"
+    subprocess.run([cli, "plan", scene, "--from", "1.5,0,0.5", "--to", "1.4,0.05,0.6",
+                    "--duration", "2", "--dt", "0.02", "--param", "p=3", "-o", str(out),
+                    "--cache-dir", CACHE], check=True, capture_output=True)
+    names = out.read_text().splitlines()[0].split(",")
+    table = np.loadtxt(out, delimiter=",", skiprows=1)
+    plan = geared.plan([1.5, 0, 0.5], [1.4, 0.05, 0.6], 2, dt=0.02, params={"p": 3})
+    assert list(plan["columns"]) == names
+    for c, name in enumerate(names):  # %.17g in the CSV: the same doubles
+        assert np.array_equal(plan["columns"][name], table[:, c]), name
+    assert np.array_equal(plan["q"][:, 3:], table[:, 4:7])
+    assert np.allclose(plan["tau_motor"], plan["tau"] / 3)
+    with pytest.raises(ValueError, match="goal has 3 values and start 2"):
+        geared.plan([1.5, 0], [1.4, 0.05, 0.6], 2)
+    with pytest.raises(ValueError, match="unknown time law 'sine'"):
+        geared.plan([1.5, 0, 0.5], [1.4, 0.05, 0.6], 2, time_law="sine")
