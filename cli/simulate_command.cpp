@@ -17,6 +17,7 @@
 #include "integrators.hpp"
 #include "row_writer.hpp"
 #include "simulation.hpp"
+#include "simulation_table.hpp"
 #include "torque_csv.hpp"
 #include "torque_signal.hpp"
 
@@ -91,73 +92,20 @@ std::unique_ptr<TorqueSignal<Eigen::Dynamic>> torque_signal(const SimulateArgs& 
                                                         outside);
 }
 
-// The columns of a row, from what the scene emits.
-struct Columns {
-  bool geared, pose, energy, potential, momentum;
-};
-
-// Whether joint j (0-based) gets link-side angle and rate columns: only where its slot holds
-// the motor angle (a rigid gear); a flexible or ungeared joint's slot is already q_j, and a
-// repeated column name would make the CSV ambiguous.
-bool link_side_columns(const DynamicModel& model, int j) {
-  return model.coordinate_names.at(model.num_base() + j) != "q" + std::to_string(j + 1);
-}
-
-std::string header(const DynamicModel& model, const Columns& c) {
-  std::string h = "t";
-  for (const auto& n : model.coordinate_names) h += "," + n;
-  for (const auto& n : model.coordinate_names) h += "," + n + "d";
-  const int N = model.num_links;
-  // Geared: link-side angles q = qm / p and rates next to the motor coordinates.
-  if (c.geared) {
-    for (int j = 1; j <= N; ++j)
-      if (link_side_columns(model, j - 1)) h += ",q" + std::to_string(j);
-    for (int j = 1; j <= N; ++j)
-      if (link_side_columns(model, j - 1)) h += ",q" + std::to_string(j) + "d";
-  }
-  // The applied torque, named by its side: tau on the link (gear output), tau/p at the motor.
-  for (int j = 1; j <= N; ++j) h += ",tau" + std::to_string(j);
-  if (c.geared)
-    for (int j = 1; j <= N; ++j) h += ",tau_motor" + std::to_string(j);
-  if (c.pose) h += ",ee_x,ee_y,ee_phi";
-  if (c.energy) h += ",kinetic_energy";
-  if (c.potential) h += ",potential_energy";
-  if (c.momentum) h += ",Px,Py,L";
+// The header, and a sample as a row of its columns.
+std::string header(const SimulationTable& table) {
+  std::string h;
+  for (const auto& n : table.names()) h += (h.empty() ? "" : ",") + n;
   return h + "\n";
 }
 
-void append(std::string& row, double v) {
+std::string row(const std::vector<double>& values) {
+  std::string r;
   char buf[32];
-  std::snprintf(buf, sizeof buf, ",%.17g", v);
-  row += buf;
-}
-
-// One sample as a row of the header's columns.
-std::string row(const DynamicModel& model, const Columns& c, double t, const Eigen::VectorXd& q,
-                const Eigen::VectorXd& qd, const Eigen::VectorXd& tau) {
-  const int N = model.num_links;
-  const Eigen::VectorXd& p = model.gear_ratios;
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.17g", t);
-  std::string r = buf;
-  for (double v : q) append(r, v);
-  for (double v : qd) append(r, v);
-  if (c.geared) {
-    const Eigen::VectorXd angles = model.joint_angles(q), rates = model.joint_angles(qd);
-    for (int j = 0; j < N; ++j)
-      if (link_side_columns(model, j)) append(r, angles[j]);
-    for (int j = 0; j < N; ++j)
-      if (link_side_columns(model, j)) append(r, rates[j]);
+  for (double v : values) {
+    std::snprintf(buf, sizeof buf, r.empty() ? "%.17g" : ",%.17g", v);
+    r += buf;
   }
-  for (int j = 0; j < N; ++j) append(r, tau[j]);
-  if (c.geared)
-    for (int j = 0; j < N; ++j) append(r, tau[j] / p[j]);
-  if (c.pose)
-    for (double v : model.end_effector_pose(q)) append(r, v);
-  if (c.energy) append(r, model.kinetic_energy(q, qd));
-  if (c.potential) append(r, model.potential_energy(q));
-  if (c.momentum)
-    for (double v : model.momentum(q, qd)) append(r, v);
   return r + "\n";
 }
 
@@ -257,14 +205,13 @@ int run_simulate(const SimulateArgs& a) {
   const CompiledModel compiled = load_model(a, scene);
   const DynamicModel model = dynamic_model(compiled, params);
   if (a.consistent_start) consistent_start(model, q0, qd0, (*tau)(0.0));
-  const Columns cols{scene.geared(), bool(model.end_effector_pose), bool(model.kinetic_energy),
-                     bool(model.potential_energy), bool(model.momentum)};
+  const SimulationTable table(model, scene.geared());
 
   // Opened only now: a run refused above leaves an existing output file untouched.
   refuse_input_as_output(a.output_file,
                          {{"the scene", a.scene_path}, {"--torques", a.torque_file}});
   RowWriter out(a.output_file);
-  const std::string head = header(model, cols);
+  const std::string head = header(table);
   warn_if_large(a, dt_out, static_cast<int>(std::count(head.begin(), head.end(), ',')) + 1);
   out.row(head);
 
@@ -275,8 +222,10 @@ int run_simulate(const SimulateArgs& a) {
   };
   Progress progress(a.t_end);
   double t_written = 0;
+  std::vector<double> values;
   auto observe = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
-    out.row(row(model, cols, t, q, qd, (*tau)(t)));
+    table.row(t, q, qd, (*tau)(t), values);
+    out.row(row(values));
     t_written = t;
     StopOnSignals::check();
     progress.at(t);

@@ -17,6 +17,10 @@
 #include "dynamics_checks.hpp"
 #include "scene.hpp"
 #include "symbolic_model.hpp"
+#include "consistent_start.hpp"
+#include "simulation.hpp"
+#include "simulation_table.hpp"
+#include "torque_csv.hpp"
 #include "trajectory_planning.hpp"
 
 namespace py = pybind11;
@@ -25,6 +29,13 @@ namespace spacearm {
 namespace {
 
 using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+// simulate()'s options, named and with the defaults of `spacearm simulate`.
+struct SimulateOptions {
+  std::string integrator = "rk4", interpolation = "linear", extrapolate = "error";
+  double dt = 0.01, dt_out = 0, rtol = 1e-8, atol = 1e-10;
+  bool consistent_start = false;
+};
 
 // A loaded model and the parameter values its methods use unless given others.
 class PyModel {
@@ -51,6 +62,11 @@ class PyModel {
   py::dict plan(const Eigen::VectorXd& start, const Eigen::VectorXd& goal, double duration,
                 double dt, const std::string& time_law, int elbow, const py::object& q0,
                 const py::object& params) const;
+
+  // The motion under sampled joint torques (or none), as `spacearm simulate` computes it.
+  py::dict simulate(double t_end, const py::object& torques, const py::object& q0,
+                    const py::object& qd0, const SimulateOptions& o,
+                    const py::object& params) const;
 
   // One symbolic entry ("M[3][4]", "T", ...) as `spacearm inspect` prints it; the scene is
   // derived on the first call (without the GIL) and kept.
@@ -181,7 +197,7 @@ py::object PyModel::call(Output o, const py::args& args, const py::object& param
 }
 
 // Columns first..first+count of a table as a (rows, count) array, or (rows,) for one column.
-py::array_t<double> columns(const PlanTable& table, size_t first, size_t count, bool matrix) {
+py::array_t<double> table_columns(const PlanTable& table, size_t first, size_t count, bool matrix) {
   const py::ssize_t rows = static_cast<py::ssize_t>(table.rows.size());
   py::array_t<double> a = matrix ? py::array_t<double>({rows, static_cast<py::ssize_t>(count)})
                                  : py::array_t<double>(rows);
@@ -214,15 +230,101 @@ py::dict PyModel::plan(const Eigen::VectorXd& start, const Eigen::VectorXd& goal
   // The table's columns by name, and its groups as arrays: t, q, qd, qdd, tau, ...
   py::dict out, named;
   for (size_t c = 0; c < table.names.size(); ++c)
-    named[table.names[c].c_str()] = columns(table, c, 1, false);
+    named[table.names[c].c_str()] = table_columns(table, c, 1, false);
   const size_t nq = static_cast<size_t>(model_.nq()), n = static_cast<size_t>(model_.num_links());
-  out["t"] = columns(table, 0, 1, false);
+  out["t"] = table_columns(table, 0, 1, false);
   size_t at = 1;
-  for (const char* group : {"q", "qd", "qdd"}) out[group] = columns(table, at, nq, true), at += nq;
-  out["tau"] = columns(table, at, n, true), at += n;
-  if (scene_.geared()) out["tau_motor"] = columns(table, at, n, true), at += n;
-  if (at < table.names.size()) out["base_residual"] = columns(table, at, 1, false);
+  for (const char* group : {"q", "qd", "qdd"})
+    out[group] = table_columns(table, at, nq, true), at += nq;
+  out["tau"] = table_columns(table, at, n, true), at += n;
+  if (scene_.geared()) out["tau_motor"] = table_columns(table, at, n, true), at += n;
+  if (at < table.names.size()) out["base_residual"] = table_columns(table, at, 1, false);
   out["columns"] = named;
+  return out;
+}
+
+// Torque samples (k, 1 + N) with t first, on a uniform grid as a torque file's.
+TorqueTable torque_table(const py::object& torques, int N) {
+  const Array a = Array::ensure(torques);
+  if (!a || a.ndim() != 2 || a.shape(1) != N + 1 || a.shape(0) < 2)
+    throw py::value_error("torques: an array of shape (k, " + std::to_string(N + 1) +
+                          "), k >= 2, with the times t in the first column and tau1.." +
+                          std::to_string(N) + " after it");
+  TorqueTable table;
+  std::vector<double> times;
+  for (py::ssize_t k = 0; k < a.shape(0); ++k) {
+    for (int c = 0; c <= N; ++c)
+      if (!std::isfinite(a.at(k, c)))
+        throw py::value_error("torques[" + std::to_string(k) + ", " + std::to_string(c) +
+                              "] is not finite");
+    times.push_back(a.at(k, 0));
+    table.samples.push_back(Eigen::Map<const Eigen::VectorXd>(a.data(k, 1), N));
+  }
+  detail::set_uniform_grid(
+      table, times, [](size_t k) { return static_cast<long>(k) + 1; },
+      detail::CsvErrors{"torques (row numbers from 1)"});
+  return table;
+}
+
+py::dict PyModel::simulate(double t_end, const py::object& torques, const py::object& q0,
+                           const py::object& qd0, const SimulateOptions& o,
+                           const py::object& params_given) const {
+  const Eigen::VectorXd params = named_parameters(model_, params_, params_given);
+  const DynamicModel m = dynamic_model(model_, params);
+  if (!m.forward_dynamics)
+    throw py::value_error(
+        "simulate: the scene must emit forward_dynamics, or mass_matrix and "
+        "bias_forces (field 'outputs')");
+  if (!(t_end > 0 && std::isfinite(t_end)))
+    throw py::value_error("t_end must be positive and finite");
+  if (o.consistent_start && !scene_.num_flexible())
+    throw py::value_error("consistent_start: the scene has no flexible joint (gears[i].stiffness)");
+  IntegratorOptions opt;
+  opt.method = method_from_string(o.integrator);
+  opt.dt = o.dt;
+  opt.rtol = o.rtol;
+  opt.atol = o.atol;
+  // The torque signal: from the samples (covering [0, t_end] unless extrapolated), or zero.
+  const int N = m.num_links;
+  const TorqueTable table =
+      torques.is_none()
+          ? TorqueTable{0, t_end, {Eigen::VectorXd::Zero(N), Eigen::VectorXd::Zero(N)}}
+          : torque_table(torques, N);
+  const Extrapolation outside = extrapolation_from_string(o.extrapolate);
+  const double tol = 1e-9 * std::max(1.0, t_end);
+  if (outside == Extrapolation::error && (table.t0 > tol || table.t_last() < t_end - tol))
+    throw py::value_error("torques cover t = " + std::to_string(table.t0) + " .. " +
+                          std::to_string(table.t_last()) + " s, the run needs 0 .. " +
+                          std::to_string(t_end) +
+                          " s: give samples that cover it, or extrapolate='hold' or 'zero'");
+  const TorqueSignal<Eigen::Dynamic> tau(table.t0, table.dt, table.samples,
+                                         interpolation_from_string(o.interpolation), outside);
+  const TorqueReplay<Eigen::Dynamic> replay(tau, opt, "dt");
+  Eigen::VectorXd x0 = q0.is_none() ? Eigen::VectorXd::Zero(m.nq) : q0.cast<Eigen::VectorXd>();
+  Eigen::VectorXd v0 = qd0.is_none() ? Eigen::VectorXd::Zero(m.nv) : qd0.cast<Eigen::VectorXd>();
+  if (x0.size() != m.nq || v0.size() != m.nv)
+    throw py::value_error("q0 and qd0: expected " + std::to_string(m.nq) + " values each");
+  // The run without the GIL, one row per sample of the table.
+  const SimulationTable columns(m, scene_.geared());
+  std::vector<std::vector<double>> rows;
+  {
+    py::gil_scoped_release release;
+    if (o.consistent_start) consistent_start(m, x0, v0, tau(0.0));
+    integrate_motion(
+        m, x0, v0, [&](double t) { return replay(t); }, t_end, o.dt_out > 0 ? o.dt_out : o.dt, opt,
+        [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+          rows.emplace_back();
+          columns.row(t, q, qd, tau(t), rows.back());
+        });
+  }
+  PlanTable named{columns.names(), std::move(rows)};
+  py::dict out, by_name;
+  for (size_t c = 0; c < named.names.size(); ++c)
+    by_name[named.names[c].c_str()] = table_columns(named, c, 1, false);
+  out["t"] = table_columns(named, 0, 1, false);
+  out["q"] = table_columns(named, 1, m.nq, true);
+  out["qd"] = table_columns(named, 1 + m.nq, m.nv, true);
+  out["columns"] = by_name;
   return out;
 }
 
@@ -281,6 +383,26 @@ PYBIND11_MODULE(_spacearm, module) {
            "phi) in `duration` s, as `spacearm plan`: a dict of t, q, qd, qdd, tau (link side), "
            "tau_motor (geared), base_residual (free base) and 'columns', the CSV's columns by "
            "name.")
+      .def(
+          "simulate",
+          [](const PyModel& m, double t_end, const py::object& torques, const py::object& q0,
+             const py::object& qd0, const std::string& integrator, double dt, double dt_out,
+             const std::string& interpolation, const std::string& extrapolate, double rtol,
+             double atol, bool consistent_start, const py::object& params) {
+            return m.simulate(
+                t_end, torques, q0, qd0,
+                {integrator, interpolation, extrapolate, dt, dt_out, rtol, atol, consistent_start},
+                params);
+          },
+          py::arg("t_end"), py::arg("torques") = py::none(), py::arg("q0") = py::none(),
+          py::arg("qd0") = py::none(), py::arg("integrator") = "rk4", py::arg("dt") = 0.01,
+          py::arg("dt_out") = 0.0, py::arg("interpolation") = "linear",
+          py::arg("extrapolate") = "error", py::arg("rtol") = 1e-8, py::arg("atol") = 1e-10,
+          py::arg("consistent_start") = false, py::arg("params") = py::none(),
+          "Integrate the dynamics from (q0, qd0) (zero by default) to t_end under joint torques "
+          "sampled on a uniform grid (an array (k, 1 + N): t, tau1..N, link side; None: no "
+          "torque), as `spacearm simulate`: a dict of t, q, qd and 'columns', the CSV's columns "
+          "by name.")
       .def("inspect", &PyModel::inspect, py::arg("entry"), py::arg("latex") = false,
            py::arg("decimal") = false,
            "One symbolic entry as text (or LaTeX), e.g. model.inspect(\"M[3][4]\", latex=True): "

@@ -188,3 +188,42 @@ def test_plan_is_the_cli_plan(geared, tmp_path):
         geared.plan([1.5, 0], [1.4, 0.05, 0.6], 2)
     with pytest.raises(ValueError, match="unknown time law 'sine'"):
         geared.plan([1.5, 0, 0.5], [1.4, 0.05, 0.6], 2, time_law="sine")
+
+
+def test_simulate_is_the_cli_simulate(geared, tmp_path):
+    cli = os.environ.get("SPACEARM_CLI")
+    if not cli:
+        pytest.skip("SPACEARM_CLI (the spacearm program) is set by ctest")
+    import subprocess
+    scene = os.path.join(SOURCE, "models", "paper_geared.yaml")
+    plan = geared.plan([1.5, 0, 0.5], [1.4, 0.05, 0.6], 1, params={"p": 3})
+    torques = np.column_stack([plan["t"], plan["tau"]])
+    path = tmp_path / "tau.csv"
+    np.savetxt(path, torques, delimiter=",", header="t,tau1,tau2,tau3", comments="", fmt="%.17g")
+    q0 = plan["q"][0]
+    out = tmp_path / "sim.csv"
+    subprocess.run([cli, "simulate", scene, "--torques", str(path), "--t-end", "1", "--param",
+                    "p=3", "--q0", ",".join("%.17g" % v for v in q0), "--integrator", "dopri5",
+                    "--dt-out", "0.05", "-o", str(out), "--cache-dir", CACHE],
+                   check=True, capture_output=True)
+    names = out.read_text().splitlines()[0].split(",")
+    table = np.loadtxt(out, delimiter=",", skiprows=1)
+    run = geared.simulate(1, torques=torques, q0=q0, integrator="dopri5", dt_out=0.05,
+                          params={"p": 3})
+    assert list(run["columns"]) == names and len(run["t"]) == 21
+    for c, name in enumerate(names):
+        assert np.array_equal(run["columns"][name], table[:, c]), name
+    # The replay follows the plan's line (the open-loop torques of the same model).
+    assert np.abs(run["columns"]["ee_x"][-1] - 1.4) < 1e-4
+    rest = geared.simulate(0.5)  # no torque, from rest: nothing moves
+    assert np.all(rest["q"] == 0) and len(rest["t"]) == 51
+    with pytest.raises(ValueError, match=r"torques cover t = 0\.0* \.\. 1\.0* s, the run needs 0 \.\. 2"):
+        geared.simulate(2, torques=torques)
+    with pytest.raises(ValueError, match="unknown integrator"):
+        geared.simulate(1, integrator="euler")
+    with pytest.raises(ValueError, match=r"torques: an array of shape \(k, 4\)"):
+        geared.simulate(1, torques=torques[:, :3])
+    bad = torques.copy()
+    bad[5, 0] += 0.003
+    with pytest.raises(ValueError, match="row numbers from 1.* line 6: time step"):
+        geared.simulate(1, torques=bad)
