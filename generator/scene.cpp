@@ -516,9 +516,15 @@ Scene parse_scene(const std::string& yaml_text, const std::string& source_name) 
 Scene load_scene(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw SceneError("scene '" + path + "': cannot open file");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse_scene(text.str(), path);
+  // Scene files are a few kilobytes: read at most 1 MB (a pipe still works; /dev/zero or a
+  // huge file is refused instead of filling the memory).
+  constexpr std::streamsize kMaxSceneBytes = 1 << 20;
+  std::string text(kMaxSceneBytes + 1, '\0');
+  in.read(text.data(), kMaxSceneBytes + 1);
+  text.resize(static_cast<size_t>(in.gcount()));
+  if (static_cast<std::streamsize>(text.size()) > kMaxSceneBytes)
+    throw SceneError("scene '" + path + "': larger than 1 MB; scene files are a few kilobytes");
+  return parse_scene(text, path);
 }
 
 }  // namespace spacearm

@@ -33,6 +33,7 @@ std::vector<std::string> rows(const StudyRunner& runner, const py::iterable& run
     if (r < 0 || r >= n)
       throw py::index_error("run " + std::to_string(r) + ": the study has runs 0 .. " +
                             std::to_string(n - 1));
+  if (threads < 1 || threads > 1024) throw py::value_error("threads: 1 to 1024");
   std::vector<std::string> out(runs.size());
   py::gil_scoped_release release;
   std::atomic<size_t> next{0};
@@ -40,7 +41,10 @@ std::vector<std::string> rows(const StudyRunner& runner, const py::iterable& run
     for (size_t k; (k = next++) < runs.size();) out[k] = runner.row(runs[k]);
   };
   std::vector<std::thread> pool;
-  for (int t = 1; t < std::max(1, threads); ++t) pool.emplace_back(work);
+  try {
+    for (int t = 1; t < threads; ++t) pool.emplace_back(work);
+  } catch (const std::system_error&) {  // fewer threads then: the rows are the same
+  }
   work();
   for (auto& t : pool) t.join();
   return out;
@@ -56,6 +60,9 @@ void bind_study(py::module& module) {
            "Read a study file and compile (or take from the cache) its scenes.")
       .def_property_readonly("num_runs", [](const StudyRunner& r) { return r.study().num_runs(); })
       .def_property_readonly("header", &StudyRunner::header)
+      .def_property_readonly("identity", [](const StudyRunner& r) { return r.study().identity; })
+      .def_property_readonly("time_series",
+                             [](const StudyRunner& r) { return r.study().series_every > 0; })
       .def_property_readonly("parameter_names",
                              [](const StudyRunner& r) { return r.study().parameter_names(); })
       .def(

@@ -1,19 +1,39 @@
 #include "study.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <random>
 #include <set>
 #include <sstream>
 
+#include "cpp_printer.hpp"
 #include "yaml_reader.hpp"
 
 namespace spacearm {
 
 namespace {
 
-std::string read_file(const std::string& path, const std::string& what) {
+constexpr std::uintmax_t kMaxStudyBytes = 1 << 20, kMaxTorqueBytes = 256u << 20;
+
+// A number as text, shortest first ("0.01", "3e-07").
+std::string text_of(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+// A regular file of at most max_bytes (no FIFO that blocks, no device without end).
+std::string read_file(const std::string& path, const std::string& what, std::uintmax_t max_bytes) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec))
+    throw StudyError(what + ": cannot open '" + path + "' (no such file)");
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw StudyError(what + ": '" + path + "' is not a regular file");
+  if (std::filesystem::file_size(path, ec) > max_bytes)
+    throw StudyError(what + ": '" + path + "' is larger than " + std::to_string(max_bytes >> 20) +
+                     " MB");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw StudyError(what + ": cannot open '" + path + "'");
   std::ostringstream s;
@@ -102,8 +122,8 @@ void StudyReader::manoeuvre(Study& s, const YAML::Node& n) const {
   if (n["target"].IsDefined()) s.target = numbers(n["target"], "manoeuvre.target", 2, 2);
   if (n["torques"].IsDefined()) {
     s.torque_path = path(n["torques"], "manoeuvre.torques");
-    s.torques = read_torque_csv(read_file(s.torque_path, "manoeuvre.torques"), s.scene.num_links(),
-                                s.torque_path);
+    s.torques = read_torque_csv(read_file(s.torque_path, "manoeuvre.torques", kMaxTorqueBytes),
+                                s.scene.num_links(), s.torque_path);
     s.q0 =
         n["q0"].IsDefined() ? numbers(n["q0"], "manoeuvre.q0", nq, nq) : Eigen::VectorXd::Zero(nq);
     return;
@@ -168,10 +188,17 @@ void StudyReader::integrator(Study& s, const YAML::Node& n) const {
                                        : s.torques->t_last();
   if (s.plan) s.plan->dt = opt.dt;  // the torque samples fall on the steps
   const double steps = s.t_end / opt.dt;
-  if (!(steps <= 1e8) || std::abs(steps - std::round(steps)) > 1e-9 * std::max(1.0, steps))
+  if (!(steps >= 1 && steps <= 1e8) ||
+      std::abs(steps - std::round(steps)) > 1e-9 * std::max(1.0, steps))
     r_.fail("integrator.t_end",
-            "must be a whole multiple of integrator.dt (" + std::to_string(opt.dt) +
-                " s), at most 1e8 steps",
+            "(" + text_of(s.t_end) + " s) must be a whole multiple of " + "integrator.dt (" +
+                text_of(opt.dt) + " s), 1 to 1e8 steps",
+            n);
+  // The plan is sampled at the integrator's step; a few samples cannot carry the motion.
+  if (s.plan && s.plan->duration / opt.dt < 10)
+    r_.fail("integrator.dt",
+            "(" + text_of(opt.dt) + " s) gives the plan of " + text_of(s.plan->duration) +
+                " s fewer than 10 samples; a smaller integrator.dt",
             n);
 }
 
@@ -211,8 +238,8 @@ void StudyReader::random(Study& s, const YAML::Node& n) const {
   r_.check_keys(n, "random", {"runs", "seed", "draws"});
   s.draws_per_point = count(r_.require(n, "runs", "random"), "random.runs", kMaxRuns);
   const double seed = number(r_.require(n, "seed", "random"), "random.seed");
-  if (!(seed >= 0 && seed < 9.007e15 && seed == std::floor(seed)))
-    r_.fail("random.seed", "expected a whole number from 0 to 2^53", n["seed"]);
+  if (!(seed >= 0 && seed <= 9e15 && seed == std::floor(seed)))
+    r_.fail("random.seed", "expected a whole number from 0 to 9e15", n["seed"]);
   s.seed = static_cast<std::uint64_t>(seed);
   const YAML::Node d = r_.require(n, "draws", "random");
   if (!d.IsMap() || d.size() == 0)
@@ -236,9 +263,10 @@ void StudyReader::random(Study& s, const YAML::Node& n) const {
     const bool ordered = kind == "normal" ? ab[1] > 0 : ab[0] < ab[1];
     if (!ordered || (kind == "log_uniform" && !(ab[0] > 0)))
       r_.fail(field + "." + kind,
-              kind == "normal" ? "expected [mean, standard deviation] with a positive deviation"
-                               : "expected [low, high] with low < high" +
-                                     std::string(kind == "log_uniform" ? " and low > 0" : ""),
+              (kind == "normal" ? "expected [mean, standard deviation] with a positive deviation"
+                                : "expected [low, high] with low < high" +
+                                      std::string(kind == "log_uniform" ? " and low > 0" : "")) +
+                  ", got [" + text_of(ab[0]) + ", " + text_of(ab[1]) + "]",
               kv.second);
     s.draws.emplace_back(index, dist);
   }
@@ -248,8 +276,11 @@ void StudyReader::time_series(Study& s, const YAML::Node& n) const {
   r_.check_keys(n, "time_series", {"dt"});
   const double dt = positive(r_.require(n, "dt", "time_series"), "time_series.dt");
   const double every = dt / s.integrator.dt;
-  if (std::abs(every - std::round(every)) > 1e-9 * every || std::round(every) < 1)
-    r_.fail("time_series.dt", "must be a whole multiple of integrator.dt", n["dt"]);
+  if (std::abs(every - std::round(every)) > 1e-9 * every || std::round(every) < 1 || dt > s.t_end)
+    r_.fail("time_series.dt",
+            "(" + text_of(dt) + " s) must be a whole multiple of " + "integrator.dt (" +
+                text_of(s.integrator.dt) + " s), at most t_end",
+            n["dt"]);
   s.series_every = std::lround(every);
 }
 
@@ -323,11 +354,14 @@ Study parse_study(const std::string& yaml_text, const std::string& source_path) 
     double runs = static_cast<double>(s.draws_per_point);
     for (const auto& g : s.grid) runs *= static_cast<double>(g.second.size());
     if (runs > static_cast<double>(kMaxRuns))
-      r.fail("grid", "the study has " + std::to_string(runs) + " runs, at most " +
+      r.fail("grid", "the grid points times random.runs give " + text_of(runs) + " runs, at most " +
                          std::to_string(kMaxRuns));
-    std::string identity = yaml_text + '\0' + s.scene.content;
+    // What the rows depend on: the files, and the generator that derives the model.
+    std::string identity =
+        std::string(kGeneratorVersion) + '\0' + yaml_text + '\0' + s.scene.content;
     if (s.plan_scene) identity += '\0' + s.plan_scene->content;
-    if (s.torques) identity += '\0' + read_file(s.torque_path, "manoeuvre.torques");
+    if (s.torques)
+      identity += '\0' + read_file(s.torque_path, "manoeuvre.torques", kMaxTorqueBytes);
     s.identity = content_hash(identity);
     return s;
   } catch (const YAML::Exception& e) {
@@ -335,6 +369,8 @@ Study parse_study(const std::string& yaml_text, const std::string& source_path) 
   }
 }
 
-Study load_study(const std::string& path) { return parse_study(read_file(path, "study"), path); }
+Study load_study(const std::string& path) {
+  return parse_study(read_file(path, "study", kMaxStudyBytes), path);
+}
 
 }  // namespace spacearm

@@ -64,8 +64,8 @@ struct Study {
   std::vector<std::string> parameter_names() const;
 };
 
-// Largest number of runs a study may have.
-inline constexpr long kMaxRuns = 100'000'000;
+// Largest number of runs a study may have (merging the rows takes about 1 GB per million).
+inline constexpr long kMaxRuns = 10'000'000;
 
 Study parse_study(const std::string& yaml_text, const std::string& source_path);
 Study load_study(const std::string& path);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 
 #include "consistent_start.hpp"
 #include "simulation.hpp"
@@ -45,6 +46,8 @@ void check_outputs(const Study& s) {
     fail("must emit forward_dynamics (or mass_matrix and bias_forces without springs)");
   if (!sc.wants(Output::end_effector_pose)) fail("must emit end_effector_pose");
   if (sc.free_floating() && !sc.wants(Output::momentum)) fail("must emit momentum (free base)");
+  if (s.integrator.method == Method::rosenbrock4 && !sc.wants(Output::forward_dynamics_derivatives))
+    fail("must emit forward_dynamics_derivatives for integrator.method rosenbrock4");
 }
 
 // The metrics of one run, observed at every integrator step.
@@ -169,6 +172,43 @@ std::string StudyRunner::row(long run, std::string* series) const {
   } catch (const std::exception& e) {
     return r + ",failed" + values + std::string(metrics, ',') + "," + csv_text(e.what()) + "\n";
   }
+}
+
+std::string StudyRunner::row_problem(const std::string& row, long* run) const {
+  const size_t comma = row.find(',');
+  if (comma == 0 || comma > 11 || row.find_first_not_of("0123456789") != comma)
+    return "does not start with a run number";
+  const long r = std::stol(row.substr(0, comma));
+  if (r >= study_.num_runs()) return "run " + std::to_string(r) + " is not a run of the study";
+  if (run) *run = r;
+  // The fields before the message: run, status, parameters, metrics.
+  const long fields = std::count(header_.begin(), header_.end(), ','),
+             params = static_cast<long>(study_.scene.parameters.size());
+  std::vector<std::string> f;
+  size_t at = 0;
+  for (long k = 0; k < fields; ++k) {
+    const size_t next = row.find(',', at);
+    if (next == std::string::npos) return "has fewer fields than the header";
+    f.push_back(row.substr(at, next - at));
+    at = next + 1;
+  }
+  const std::string message = row.substr(at, row.size() - 1 - at);
+  const bool ok = f[1] == "ok";
+  if (!ok && f[1] != "failed") return "status is neither ok nor failed";
+  for (long k = 2; k < fields; ++k) {
+    const bool metric = k >= 2 + params;
+    if (!ok && metric) {
+      if (!f[k].empty()) return "a failed run with a metric";
+      continue;
+    }
+    char* end = nullptr;
+    std::strtod(f[k].c_str(), &end);
+    if (f[k].empty() || *end != '\0') return "field " + std::to_string(k + 1) + " is not a number";
+  }
+  const bool quoted = message.size() >= 2 && message.front() == '"' && message.back() == '"';
+  if (ok ? !message.empty() : !quoted) return "its message field is not what a run writes";
+  if (row.back() != '\n') return "has no line end";
+  return "";
 }
 
 Shard parse_shard(const std::string& text) {

@@ -33,6 +33,10 @@ class StudyRunner {
   // singular mass matrix, a diverging integration) is a row with status 'failed', empty
   // metrics and the message. series: receives the run's time series CSV if the study asks.
   std::string row(long run, std::string* series = nullptr) const;
+  // Why `row` (with its newline) is not a row that row() writes for this study: a run of the
+  // study; the header's fields; status ok with numbers, or failed with empty metrics and a
+  // quoted message. Empty if it is one; *run receives its run.
+  std::string row_problem(const std::string& row, long* run = nullptr) const;
 
  private:
   struct Loaded;

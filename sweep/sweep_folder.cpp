@@ -25,7 +25,18 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// The folder's own files must be plain files: a link planted there would make the sweep write
+// elsewhere, a pipe would block it. Absent is fine.
+void refuse_unless_regular(const fs::path& file) {
+  std::error_code ec;
+  const fs::file_status st = fs::symlink_status(file, ec);
+  if (!ec && fs::exists(st) && !fs::is_regular_file(st))
+    throw StudyError("sweep: '" + file.string() +
+                     "' is not a plain file (a link, a pipe or a folder); remove it");
+}
+
 std::string read_whole(const fs::path& file) {
+  refuse_unless_regular(file);
   std::ifstream in(file, std::ios::binary);
   std::ostringstream text;
   text << in.rdbuf();
@@ -38,8 +49,10 @@ bool failed_row(const std::string& row) {
 
 // Adds the rows of one runs-*.csv file by run; a line cut by a kill (no newline) is left out.
 // Returns the file's length up to its last complete line.
-size_t read_rows(const fs::path& file, const StudyRunner& runner,
-                 std::map<long, std::string>& rows) {
+// first: receives the file's first run (-1 if none).
+size_t read_rows(const fs::path& file, const StudyRunner& runner, std::map<long, std::string>& rows,
+                 long* first = nullptr) {
+  if (first) *first = -1;
   const std::string all = read_whole(file), &header = runner.header();
   auto fail = [&](long line, const std::string& why) {
     throw StudyError("sweep: '" + file.string() + "' line " + std::to_string(line) + ": " + why +
@@ -52,14 +65,15 @@ size_t read_rows(const fs::path& file, const StudyRunner& runner,
     const size_t nl = all.find('\n', at);
     if (nl == std::string::npos) break;
     std::string row = all.substr(at, nl + 1 - at);
-    const size_t comma = row.find(',');
     long run = -1;
-    if (comma > 0 && comma < 12 && row.find_first_not_of("0123456789") == comma)
-      run = std::stol(row.substr(0, comma));
-    if (run < 0 || run >= runner.study().num_runs()) fail(line, "not a row of a run of the study");
+    if (const std::string why = runner.row_problem(row, &run); !why.empty())
+      fail(line, "not a row of this study: " + why);
+    if (first && *first < 0) *first = run;
     const auto [it, added] = rows.emplace(run, row);
     if (!added && it->second != row)
-      fail(line, "run " + std::to_string(run) + " differs from its row in another file");
+      fail(line, "run " + std::to_string(run) +
+                     " has another row already (here or in another "
+                     "runs-*.csv file)");
     at = nl + 1;
   }
   return at;
@@ -88,21 +102,29 @@ void claim_folder(const fs::path& dir, const StudyRunner& runner) {
   const std::string id = "spacearm sweep\nstudy " + s.identity + "\nruns " +
                          std::to_string(s.num_runs()) + "\n" + runner.header();
   const fs::path file = dir / "study.id";
-  if (fs::exists(file)) {
+  refuse_unless_regular(file);
+  // Created whole or not at all: shards started together on a new folder each write a
+  // temporary and link it into place; all but one find it there and compare.
+  const fs::path tmp = dir / ("study.id.tmp-" + std::to_string(::getpid()));
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << id;
+    if (!out.flush()) throw StudyError("sweep: cannot write '" + tmp.string() + "'");
+  }
+  const bool created = ::link(tmp.c_str(), file.c_str()) == 0;
+  fs::remove(tmp);
+  if (!created) {
     if (read_whole(file) != id)
       throw StudyError("sweep: -o '" + dir.string() +
                        "' holds the results of another study (or of this one before an edit; "
                        "see its study.id): give another folder, or remove it to start over");
-    return;
   }
-  std::ofstream out(file, std::ios::binary);
-  out << id;
-  if (!out.flush()) throw StudyError("sweep: cannot write '" + file.string() + "'");
 }
 
 // The shard's own row file: locked against a second sweep, cut after its last whole row.
 int open_shard_file(const fs::path& file, size_t complete) {
-  const int fd = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  refuse_unless_regular(file);
+  const int fd = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK, 0644);
   if (fd < 0)
     throw StudyError("sweep: cannot open '" + file.string() + "': " + std::strerror(errno));
   if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
@@ -155,7 +177,12 @@ long run_pool(const StudyRunner& runner, const std::vector<long>& todo, int fd, 
               const SweepOptions& o) {
   const Study& s = runner.study();
   const fs::path series_dir = fs::path(o.out_dir) / "series";
-  if (s.series_every) fs::create_directories(series_dir);
+  if (s.series_every) {
+    std::error_code ec;
+    if (fs::is_symlink(series_dir, ec))
+      throw StudyError("sweep: '" + series_dir.string() + "' is a link; remove it");
+    fs::create_directories(series_dir);
+  }
   const long total = static_cast<long>(todo.size());
   std::atomic<long> next{0}, finished{0};
   std::atomic<bool> broken{false};
@@ -184,7 +211,14 @@ long run_pool(const StudyRunner& runner, const std::vector<long>& todo, int fd, 
   };
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<std::thread> pool;
-  for (int t = 0; t < std::max(1, o.threads); ++t) pool.emplace_back(work);
+  try {
+    for (int t = 0; t < std::max(1, o.threads); ++t) pool.emplace_back(work);
+  } catch (const std::system_error& e) {  // no thread left on this machine
+    broken = true;
+    for (auto& t : pool) t.join();
+    throw StudyError("sweep: cannot start thread " + std::to_string(pool.size() + 1) + " (" +
+                     e.what() + "): give fewer --threads");
+  }
   // Progress from this thread while the pool works: every 2 s, with the rate and the time left.
   double reported = 0;
   while (finished < total && !stopping()) {
@@ -214,12 +248,10 @@ std::string merge_rows(const StudyRunner& runner, const std::vector<std::string>
   const long n = runner.study().num_runs();
   std::vector<const std::string*> by_run(n, nullptr);
   for (const auto& row : rows) {
-    const size_t comma = row.find(',');
-    const long run = comma > 0 && comma < 12 && row.find_first_not_of("0123456789") == comma
-                         ? std::stol(row.substr(0, comma))
-                         : -1;
-    if (run < 0 || run >= n || row.back() != '\n')
-      throw StudyError("sweep: not a row of a run of the study: " + quoted_text(row.substr(0, 40)));
+    long run = -1;
+    if (const std::string why = runner.row_problem(row, &run); !why.empty())
+      throw StudyError("sweep: not a row of this study (" + why +
+                       "): " + quoted_text(row.substr(0, 40)));
     if (by_run[run] && *by_run[run] != row)
       throw StudyError("sweep: run " + std::to_string(run) + " has two different rows");
     by_run[run] = &row;
@@ -235,7 +267,11 @@ std::string merge_rows(const StudyRunner& runner, const std::vector<std::string>
 SweepSummary run_sweep(const StudyRunner& runner, const SweepOptions& o) {
   const long n = runner.study().num_runs();
   const fs::path dir(o.out_dir);
-  fs::create_directories(dir);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir))
+    throw StudyError("sweep: -o '" + dir.string() + "': not a folder that can be created or used" +
+                     (ec ? " (" + ec.message() + ")" : ""));
   claim_folder(dir, runner);
   const fs::path own = dir / ("runs-" + std::to_string(o.shard.index) + "of" +
                               std::to_string(o.shard.count) + ".csv");
@@ -244,8 +280,15 @@ SweepSummary run_sweep(const StudyRunner& runner, const SweepOptions& o) {
   std::map<long, std::string> rows;
   size_t own_complete = 0;
   for (const auto& f : row_files(dir)) {
-    const size_t complete = read_rows(f, runner, rows);
+    long first = -1;
+    const size_t complete = read_rows(f, runner, rows, &first);
     if (f == own) own_complete = complete;
+    // Rows of another spacearm, another CPU's libm or an edit would mix silently: each file's
+    // first row must be what this sweep computes for its run.
+    if (first >= 0 && runner.row(first) != rows.at(first))
+      throw StudyError("sweep: '" + f.string() + "': run " + std::to_string(first) +
+                       " differs from what this sweep computes (rows of another spacearm "
+                       "version or machine, or edited); remove the file to run its rows again");
   }
   const int fd = open_shard_file(own, own_complete);
   struct Close {

@@ -146,6 +146,40 @@ TEST(Sweep, RefusesAnotherStudysFolderASecondWriterAndDamagedRows) {
   fs::remove_all(dir);
 }
 
+// Files planted in the folder: a link is never written through, a malformed row or a row with
+// changed numbers is not merged into results.csv.
+TEST(Sweep, PlantedLinksAndRowsAreRefused) {
+  const StudyRunner runner(study(), cache());
+  const fs::path dir = scratch("planted"), victim = dir.parent_path() / "spacearm-test-victim";
+  std::ofstream(victim) << "precious\n";
+  fs::create_directories(dir);
+  fs::create_symlink(victim, dir / "runs-1of1.csv");
+  EXPECT_THROW(sweep(runner, dir, 1), StudyError);
+  EXPECT_EQ(read(victim), "precious\n");
+  fs::remove(dir / "runs-1of1.csv");
+  // A row with a changed number, well formed: its recomputation differs.
+  std::string row = runner.row(0);
+  const size_t at = row.find(",ok,") + 4;
+  row[at] = row[at] == '9' ? '8' : '9';
+  std::ofstream(dir / "runs-1of2.csv") << runner.header() << row;
+  try {
+    sweep(runner, dir, 1);
+    FAIL() << "a changed row was merged";
+  } catch (const StudyError& e) {
+    EXPECT_NE(std::string(e.what()).find("differs from what this sweep computes"),
+              std::string::npos)
+        << e.what();
+  }
+  for (const std::string bad : {"0,ok,1\n", "0,done,1,2,3,4,5,6,7,8,9,10,\n"}) {
+    std::ofstream(dir / "runs-1of2.csv") << runner.header() << bad;
+    EXPECT_NE(runner.row_problem(bad), "");
+    EXPECT_THROW(sweep(runner, dir, 1), StudyError) << bad;
+  }
+  EXPECT_EQ(runner.row_problem(runner.row(1)), "");
+  fs::remove_all(dir);
+  fs::remove(victim);
+}
+
 TEST(Sweep, AFailingRunIsARowWithItsMessage) {
   const StudyRunner runner(study("[-1, 2]"), cache());
   const std::string failed = runner.row(0), ok = runner.row(2);
@@ -228,6 +262,8 @@ TEST(Study, ErrorsNameTheField) {
       {replace(kStudy, "  plan:", "  torques: t.csv\n  plan:"), "give either plan"},
       {replace(kStudy, "integrator:", "integrater:"), "field 'integrater': unknown field"},
       {replace(kStudy, "seed: SEED", "seed: -1"), "field 'random.seed'"},
+      {replace(kStudy, "dt: 0.01}", "dt: 0.25}"), "fewer than 10 samples"},
+      {replace(kStudy, "dt: 0.01}", "dt: 0.01, t_end: 1.0e-30}"), "1 to 1e8 steps"},
   };
   for (const auto& [text, what] : texts) {
     ASSERT_NE(text, kStudy) << what;

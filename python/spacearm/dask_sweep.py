@@ -9,7 +9,8 @@ Dask schedules chunks of run indices on its workers; each worker process opens t
 (the compile-and-load cache: on a cluster, give a cache_dir on a shared file system, or let each
 machine compile once) and returns the chunk's CSV rows; the client merges them into
 results.csv, sorted by run. No scheduling of our own: Dask's does it all, on one machine or on a
-cluster (Client("tcp://scheduler:8786")).
+cluster (Client("tcp://scheduler:8786")). Unlike `spacearm sweep` it keeps no rows before the
+end (a killed run starts over) and writes no per-run time series.
 """
 import functools
 import os
@@ -32,6 +33,13 @@ def run_study(client, path, out_dir, chunk=64, cache_dir=""):
     out_dir/results.csv; returns its path. chunk: runs per task (a few ms each)."""
     path = os.path.abspath(path)
     study = _study(path, cache_dir)  # also checks the study here, before any task runs
+    if study.time_series:
+        raise ValueError("run_study writes results.csv only: run `spacearm sweep` for a study "
+                         "with time_series")
+    marker = os.path.join(out_dir, "study.id")
+    if os.path.exists(marker) and study.identity not in open(marker, errors="replace").read():
+        raise ValueError("%s holds the results of another study (see its study.id): give another "
+                         "folder" % out_dir)
     chunks = [range(a, min(a + chunk, study.num_runs)) for a in range(0, study.num_runs, chunk)]
     futures = client.map(study_rows, [path] * len(chunks), [cache_dir] * len(chunks), chunks,
                          pure=False)
