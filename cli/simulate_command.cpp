@@ -18,6 +18,7 @@
 #include "row_writer.hpp"
 #include "simulation.hpp"
 #include "simulation_table.hpp"
+#include "stop_on_signals.hpp"
 #include "torque_csv.hpp"
 #include "torque_signal.hpp"
 
@@ -25,41 +26,15 @@ namespace spacearm {
 
 namespace {
 
-volatile std::sig_atomic_t g_stop = 0;
-void request_stop(int sig) { g_stop = sig; }
-
 // Thrown from the observer or the right-hand side when a stop was requested. Not a
 // runtime_error, so that integrate() passes it on instead of reporting a failed step.
 struct Interrupted {
   int signal;
 };
 
-// SIGINT/SIGTERM handlers for the lifetime of the run.
-class StopOnSignals {
- public:
-  StopOnSignals() {
-    g_stop = 0;
-    struct sigaction sa {};
-    sa.sa_handler = request_stop;
-    sigemptyset(&sa.sa_mask);
-    // A signal the caller ignores (a background job's SIGINT) stays ignored.
-    sigaction(SIGINT, nullptr, &old_int_);
-    sigaction(SIGTERM, nullptr, &old_term_);
-    if (old_int_.sa_handler != SIG_IGN) sigaction(SIGINT, &sa, nullptr);
-    if (old_term_.sa_handler != SIG_IGN) sigaction(SIGTERM, &sa, nullptr);
-  }
-  ~StopOnSignals() {
-    sigaction(SIGINT, &old_int_, nullptr);
-    sigaction(SIGTERM, &old_term_, nullptr);
-  }
-  static void check() {
-    if (g_stop) throw Interrupted{g_stop};
-  }
-
- private:
-  struct sigaction old_int_ {
-  }, old_term_{};
-};
+void check_stop() {
+  if (const int sig = cli::stop_signal()) throw Interrupted{sig};
+}
 
 std::string read_text_file(const std::string& path, const std::string& option) {
   std::ifstream in(path, std::ios::binary);
@@ -217,7 +192,7 @@ int run_simulate(const SimulateArgs& a) {
 
   // The library's integrate_motion; a stop request is seen at every evaluation and sample.
   auto torque = [&](double t) -> Eigen::VectorXd {
-    StopOnSignals::check();
+    check_stop();
     return replay ? (*replay)(t) : (*tau)(t);
   };
   Progress progress(a.t_end);
@@ -227,10 +202,10 @@ int run_simulate(const SimulateArgs& a) {
     table.row(t, q, qd, (*tau)(t), values);
     out.row(row(values));
     t_written = t;
-    StopOnSignals::check();
+    check_stop();
     progress.at(t);
   };
-  const StopOnSignals signals;
+  const cli::StopOnSignals signals;
   try {
     const auto stats = integrate_motion(model, q0, qd0, torque, a.t_end, dt_out, opt, observe);
     out.close();

@@ -5,38 +5,12 @@
 #include <cstdio>
 #include <thread>
 
+#include "stop_on_signals.hpp"
 #include "sweep.hpp"
 
 namespace spacearm {
 
 namespace {
-
-std::atomic<int> g_signal{0};
-static_assert(std::atomic<int>::is_always_lock_free, "set from a signal handler");
-void request_stop(int sig) { g_signal = sig; }
-
-// SIGINT/SIGTERM handlers for the lifetime of the sweep; an ignored signal stays ignored.
-class StopOnSignals {
- public:
-  StopOnSignals() {
-    g_signal = 0;
-    struct sigaction sa {};
-    sa.sa_handler = request_stop;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, nullptr, &old_int_);
-    sigaction(SIGTERM, nullptr, &old_term_);
-    if (old_int_.sa_handler != SIG_IGN) sigaction(SIGINT, &sa, nullptr);
-    if (old_term_.sa_handler != SIG_IGN) sigaction(SIGTERM, &sa, nullptr);
-  }
-  ~StopOnSignals() {
-    sigaction(SIGINT, &old_int_, nullptr);
-    sigaction(SIGTERM, &old_term_, nullptr);
-  }
-
- private:
-  struct sigaction old_int_ {
-  }, old_term_{};
-};
 
 void say(const std::string& line) { std::fprintf(stderr, "spacearm: %s\n", line.c_str()); }
 
@@ -58,11 +32,11 @@ int run_sweep_command(const SweepArgs& a) {
   o.threads = a.threads > 0 ? a.threads
                             : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   o.progress = say;
-  o.stop = &g_signal;
+  o.stop = &cli::stop_signal();
   say("sweep: study '" + a.study_path + "', " + std::to_string(runs) + " runs" +
       (shard.count > 1 ? ", shard " + a.shard : "") + ", " + std::to_string(o.threads) +
       " threads, into '" + a.out_dir + "'");
-  const StopOnSignals signals;
+  const cli::StopOnSignals signals;
   const SweepSummary s = run_sweep(runner, o);
   char line[256];
   std::snprintf(line, sizeof line,
@@ -70,9 +44,10 @@ int run_sweep_command(const SweepArgs& a) {
                 s.already_done, s.failed, s.shard_runs);
   say(line);
   if (s.interrupted) {
-    say(std::string("sweep: interrupted by ") + (g_signal == SIGINT ? "SIGINT" : "SIGTERM") +
-        "; every finished run is in '" + a.out_dir + "': the same command resumes");
-    return 128 + g_signal;
+    say(std::string("sweep: interrupted by ") +
+        (cli::stop_signal() == SIGINT ? "SIGINT" : "SIGTERM") + "; every finished run is in '" +
+        a.out_dir + "': the same command resumes");
+    return 128 + cli::stop_signal();
   }
   if (!s.results.empty())
     say("sweep: wrote " + s.results + " (" + std::to_string(runs) + " runs)");
