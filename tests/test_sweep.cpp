@@ -221,6 +221,45 @@ TEST(Sweep, ARunIsTheLinkedModelsReplayOfThePlan) {
   }
 }
 
+// Flexible joints (studies/paper_stiffness.yaml's set-up, 1 s): the plan of the rigid scene
+// replayed into the flexible one, springs pre-deflected; stiff springs reproduce the rigid gear
+// (both scenes at their nominal I_m = 1e-5).
+TEST(Sweep, StiffFlexibleJointsReplayAsTheRigidGear) {
+  const std::string models = std::string(SPACEARM_SOURCE_DIR) + "/models/";
+  auto text = [&](const std::string& scene, const std::string& integrator,
+                  const std::string& grid) {
+    return "scene: " + models + scene + R"(
+manoeuvre:
+  plan: {from: [1.5, 0.0, 0.5235987755982988], to: [1.45, 0.02, 0.55], duration: 1,
+         scene: )" +
+           models + "paper_geared.yaml}\nintegrator: " + integrator + "\ngrid: " + grid + "\n";
+  };
+  const StudyRunner flexible(
+      parse_study(text("paper_flexible.yaml",
+                       "{method: rosenbrock4, dt: 0.01, rtol: 1.0e-10, atol: 1.0e-12}",
+                       "{p: [2], k: [100, 1.0e6], fv: [0], fc: [0], fs: [0]}"),
+                  "flexible.yaml"),
+      cache());
+  const StudyRunner rigid(
+      parse_study(text("paper_geared.yaml", "{method: rkf78, dt: 0.01, rtol: 1.0e-12}", "{p: [2]}"),
+                  "rigid.yaml"),
+      cache());
+  auto pose = [](const std::string& row, int first) {
+    std::istringstream in(row);
+    std::vector<double> v;
+    for (std::string f; std::getline(in, f, ',');) v.push_back(std::atof(f.c_str()));
+    return Eigen::Vector3d(v[first], v[first + 1], v[first + 2]);
+  };
+  const std::string soft_row = flexible.row(0), stiff_row = flexible.row(1);
+  ASSERT_EQ(stiff_row.rfind("1,ok,", 0), 0u) << stiff_row;
+  ASSERT_EQ(soft_row.rfind("0,ok,", 0), 0u) << soft_row;
+  // Columns: run, status, p, Im, k, d, fv, fc, vs, fs, vst, ee_x / run, status, p, Im, ee_x.
+  const Eigen::Vector3d soft = pose(soft_row, 11), stiff = pose(stiff_row, 11),
+                        gear = pose(rigid.row(0), 4);
+  EXPECT_LT((stiff - gear).norm(), 1e-8) << stiff.transpose() << " vs " << gear.transpose();
+  EXPECT_GT((soft - gear).norm(), 1e-9) << "the soft springs change nothing?";
+}
+
 TEST(Study, DrawsDependOnTheSeedAndTheRunOnly) {
   const Study a = study(), b = study(), c = study("[1, 2, 4]", "8");
   ASSERT_EQ(a.parameter_names(), (std::vector<std::string>{"p", "Im"}));
