@@ -222,7 +222,7 @@ TEST(Sweep, ARunIsTheLinkedModelsReplayOfThePlan) {
 }
 
 // Flexible joints (studies/paper_stiffness.yaml's set-up, 1 s): the plan of the rigid scene
-// replayed into the flexible one, springs pre-deflected; stiff springs reproduce the rigid gear
+// replayed into the flexible one, springs pre-deflected; stiffer springs approach the rigid gear
 // (both scenes at their nominal I_m = 1e-5).
 TEST(Sweep, StiffFlexibleJointsReplayAsTheRigidGear) {
   const std::string models = std::string(SPACEARM_SOURCE_DIR) + "/models/";
@@ -237,7 +237,7 @@ manoeuvre:
   const StudyRunner flexible(
       parse_study(text("paper_flexible.yaml",
                        "{method: rosenbrock4, dt: 0.01, rtol: 1.0e-10, atol: 1.0e-12}",
-                       "{p: [2], k: [100, 1.0e6], fv: [0], fc: [0], fs: [0]}"),
+                       "{p: [2], k: [100, 1.0e4], fv: [0], fc: [0], fs: [0]}"),
                   "flexible.yaml"),
       cache());
   const StudyRunner rigid(
@@ -256,8 +256,11 @@ manoeuvre:
   // Columns: run, status, p, Im, k, d, fv, fc, vs, fs, vst, ee_x / run, status, p, Im, ee_x.
   const Eigen::Vector3d soft = pose(soft_row, 11), stiff = pose(stiff_row, 11),
                         gear = pose(rigid.row(0), 4);
-  EXPECT_LT((stiff - gear).norm(), 1e-8) << stiff.transpose() << " vs " << gear.transpose();
-  EXPECT_GT((soft - gear).norm(), 1e-9) << "the soft springs change nothing?";
+  // The deviation from the rigid gear falls as 1/k (k = 1e4 rather than stiffer: Boost.uBLAS's
+  // LU in rosenbrock4 refuses the worse-conditioned Jacobians of debug builds).
+  const double stiff_gap = (stiff - gear).norm(), soft_gap = (soft - gear).norm();
+  EXPECT_LT(stiff_gap, 1e-8) << stiff.transpose() << " vs " << gear.transpose();
+  EXPECT_GT(soft_gap, 30 * stiff_gap) << "the springs' effect does not fall with k";
 }
 
 TEST(Study, DrawsDependOnTheSeedAndTheRunOnly) {
