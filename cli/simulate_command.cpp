@@ -57,12 +57,11 @@ std::unique_ptr<TorqueSignal<Eigen::Dynamic>> torque_signal(const SimulateArgs& 
   }
   const TorqueTable table =
       read_torque_csv(read_text_file(a.torque_file, "--torques"), N, a.torque_file);
-  const double tol = 1e-9 * std::max(1.0, a.t_end);
-  if (outside == Extrapolation::error && (table.t0 > tol || table.t_last() < a.t_end - tol))
-    throw std::invalid_argument(
-        "--torques '" + a.torque_file + "' covers t = " + std::to_string(table.t0) + " .. " +
-        std::to_string(table.t_last()) + " s, the run needs 0 .. " + std::to_string(a.t_end) +
-        " s: give a file that covers it, or --extrapolate hold or --extrapolate zero");
+  const std::string gap = coverage_gap(table.t0, table.t_last(), a.t_end);
+  if (outside == Extrapolation::error && !gap.empty())
+    throw std::invalid_argument("--torques '" + a.torque_file + "' covers " + gap +
+                                ": give a file that covers it, or --extrapolate hold or "
+                                "--extrapolate zero");
   return std::make_unique<TorqueSignal<Eigen::Dynamic>>(table.t0, table.dt, table.samples, mode,
                                                         outside);
 }

@@ -291,12 +291,10 @@ py::dict PyModel::simulate(double t_end, const py::object& torques, const py::ob
           ? TorqueTable{0, t_end, {Eigen::VectorXd::Zero(N), Eigen::VectorXd::Zero(N)}}
           : torque_table(torques, N);
   const Extrapolation outside = extrapolation_from_string(o.extrapolate);
-  const double tol = 1e-9 * std::max(1.0, t_end);
-  if (outside == Extrapolation::error && (table.t0 > tol || table.t_last() < t_end - tol))
-    throw py::value_error("torques cover t = " + std::to_string(table.t0) + " .. " +
-                          std::to_string(table.t_last()) + " s, the run needs 0 .. " +
-                          std::to_string(t_end) +
-                          " s: give samples that cover it, or extrapolate='hold' or 'zero'");
+  const std::string gap = coverage_gap(table.t0, table.t_last(), t_end);
+  if (outside == Extrapolation::error && !gap.empty())
+    throw py::value_error("torques cover " + gap +
+                          ": give samples that cover it, or extrapolate='hold' or 'zero'");
   const TorqueSignal<Eigen::Dynamic> tau(table.t0, table.dt, table.samples,
                                          interpolation_from_string(o.interpolation), outside);
   const TorqueReplay<Eigen::Dynamic> replay(tau, opt, "dt");

@@ -50,6 +50,15 @@ inline std::vector<std::string> torque_csv_columns(int num_joints) {
   return names;
 }
 
+// Empty if samples from t = first to last cover a run from 0 to t_end (to rounding); else
+// "t = first .. last s, the run needs 0 .. t_end s", for the caller's error message.
+inline std::string coverage_gap(double first, double last, double t_end) {
+  const double tol = 1e-9 * std::max(1.0, t_end);
+  if (first <= tol && last >= t_end - tol) return "";
+  return "t = " + std::to_string(first) + " .. " + std::to_string(last) +
+         " s, the run needs 0 .. " + std::to_string(t_end) + " s";
+}
+
 namespace detail {
 
 // Errors name the file and the line (0: the file as a whole).

@@ -27,12 +27,6 @@ std::string csv_text(std::string s) {
   return out + "\"";
 }
 
-Eigen::VectorXd nominal(const Scene& scene) {
-  Eigen::VectorXd p(static_cast<int>(scene.parameters.size()));
-  for (int i = 0; i < p.size(); ++i) p[i] = scene.parameters[i].nominal.value;
-  return p;
-}
-
 // What the sweep reads from a scene, with an error naming the field if it is missing.
 void check_outputs(const Study& s) {
   const Scene& sc = s.scene;
@@ -80,7 +74,10 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
     std::optional<CompiledModel> own;
     if (s.plan_scene) own.emplace(CompiledModel::load(ps, options));
     const CompiledModel& pm = own ? *own : loaded_->model;
-    const DynamicModel planner = dynamic_model(pm, nominal(ps));
+    const DynamicModel planner =
+        dynamic_model(pm, Eigen::Map<const Eigen::VectorXd>(
+                              pm.nominal_parameters().data(),
+                              static_cast<Eigen::Index>(pm.nominal_parameters().size())));
     const Plan plan = plan_straight_line(planner, *s.plan);
     loaded_->tau =
         std::make_unique<TorqueSignal<Eigen::Dynamic>>(0.0, s.plan->dt, plan.tau, s.interpolation);
@@ -96,12 +93,11 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
     loaded_->base_rate = Eigen::VectorXd::Zero(nb);
     loaded_->rates = Eigen::VectorXd::Zero(N);
   }
-  const double tol = 1e-9 * std::max(1.0, s.t_end);
-  if (loaded_->tau->t_first() > tol || loaded_->tau->t_last() < s.t_end - tol)
+  if (const std::string gap =
+          coverage_gap(loaded_->tau->t_first(), loaded_->tau->t_last(), s.t_end);
+      !gap.empty())
     throw StudyError("study '" + s.source_path + "', field 'integrator.t_end': the torques cover " +
-                     std::to_string(loaded_->tau->t_first()) + " .. " +
-                     std::to_string(loaded_->tau->t_last()) + " s, the runs need 0 .. " +
-                     std::to_string(s.t_end) + " s");
+                     gap);
   // The header: one place names the columns, row() follows it.
   header_ = "run,status";
   for (const auto& n : s.parameter_names()) header_ += "," + n;

@@ -137,15 +137,21 @@ TEST(CompiledModel, ConcurrentBuildsOfOneModelDoNotCorruptTheCache) {
   fs::remove_all(cache);
 }
 
+// A model file's text.
+std::string model_text(const std::string& name) {
+  std::ifstream in(std::string(SPACEARM_SOURCE_DIR) + "/models/" + name);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
 TEST(CompiledModel, ChangedSceneIsRebuilt) {
   const fs::path cache = fresh_cache("rebuild");
   CompileOptions options;
   options.cache_dir = cache.string();
-  std::ifstream in(SPACEARM_SOURCE_DIR "/models/paper_geared.yaml");
-  std::stringstream text;
-  text << in.rdbuf();
-  const Scene original = parse_scene(text.str(), "geared.yaml");
-  std::string changed_text = text.str();
+  const std::string text = model_text("paper_geared.yaml");
+  const Scene original = parse_scene(text, "geared.yaml");
+  std::string changed_text = text;
   changed_text.replace(changed_text.find("p: 1.0"), 6, "p: 2.0");
   const Scene changed = parse_scene(changed_text, "geared.yaml");
   StageReport r1, r2, r3;
@@ -166,12 +172,10 @@ TEST(CompiledModel, ModelsLoadedAtOnceAreTheirOwn) {
   const fs::path cache = fresh_cache("two-at-once");
   CompileOptions options;
   options.cache_dir = cache.string();
-  std::ifstream in(SPACEARM_SOURCE_DIR "/models/paper_reference.yaml");
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string heavier = text.str();
+  const std::string text = model_text("paper_reference.yaml");
+  std::string heavier = text;
   heavier.replace(heavier.find("mass: 64.859"), 12, "mass: 100.0");
-  const CompiledModel a = CompiledModel::load(parse_scene(text.str(), "a.yaml"), options);
+  const CompiledModel a = CompiledModel::load(parse_scene(text, "a.yaml"), options);
   const CompiledModel b = CompiledModel::load(parse_scene(heavier, "b.yaml"), options);
   const Eigen::VectorXd q = Eigen::VectorXd::Zero(6);
   const Eigen::VectorXd params(0);
