@@ -30,16 +30,36 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// First line the compiler prints for --version (its identity in the cache key), run
-// without a shell.
-std::string compiler_identity(const std::string& compiler, const std::string& scratch) {
-  if (run_interruptible({compiler, "--version"}, scratch, nullptr) != 0) return "";
-  std::ifstream in(scratch);
-  std::string line;
-  std::getline(in, line);
-  std::error_code ec;
-  fs::remove(scratch, ec);
+// The whole content of a memory file (a log).
+std::string read_log(const Fd& log) {
+  try {
+    return read_all(log.get(), "compiler log", 1 << 24);
+  } catch (const FolderError& e) {
+    return std::string("(") + e.what() + ")\n";
+  }
+}
+
+// Why a compiler could not be run, as a message: "not found" only when it is not there.
+std::string cannot_run(const std::string& compiler, int error) {
+  if (error == ENOENT) return "C++ compiler '" + compiler + "' not found (set CXX)";
+  return "cannot run the C++ compiler '" + compiler + "': " + std::strerror(error);
+}
+
+// First line the compiler prints for --version (its identity in the cache key), run without
+// a shell in the cache folder; empty if it cannot be run, with `problem` saying why.
+std::string compiler_identity(const std::string& compiler, int work_dir, std::string& problem) {
+  const Fd log = memory_file("spacearm-compiler-version");
+  const RunResult r = run_interruptible({compiler, "--version"}, work_dir, log.get(), nullptr);
+  if (r.interrupted) throw CompileError("interrupted while asking '" + compiler + "' its version");
+  if (r.status < 0) problem = cannot_run(compiler, r.start_error);
+  if (r.status > 0)
+    problem = "the C++ compiler '" + compiler + "' failed to print its version (exit status " +
+              std::to_string(r.status) + "): " + read_log(log).substr(0, 200);
+  if (r.status != 0) return "";
+  std::string line = read_log(log);
+  line = line.substr(0, line.find('\n'));
   while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+  if (line.empty()) problem = "the C++ compiler '" + compiler + "' printed no version";
   return line;
 }
 
@@ -48,13 +68,6 @@ std::string read_file(const fs::path& p) {
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
-}
-
-void write_file(const fs::path& p, const std::string& text) {
-  std::ofstream out(p, std::ios::binary | std::ios::trunc);
-  out << text;
-  out.close();
-  if (!out) throw CompileError("cannot write '" + p.string() + "'");
 }
 
 std::vector<std::string> split_flags(const std::string& flags) {
@@ -103,13 +116,17 @@ std::vector<std::string> required_symbols(const Scene& scene) {
 }
 
 // Generates and compiles the scene into a new work folder; returns it, ready to install.
-std::string build_entry(const Scene& scene, const CacheFolder& cache, const std::string& entry,
-                        const std::string& compiler, const std::string& compiler_id,
-                        const CompileOptions& options, StageReport& rep) {
+// Every file is written and read relative to the folder's descriptor, and the compiler runs
+// inside it with relative names: nothing goes through the cache's path again.
+WorkFolder build_entry(const Scene& scene, const CacheFolder& cache, const std::string& entry,
+                       const std::string& compiler, const std::string& compiler_id,
+                       const CompileOptions& options, StageReport& rep) {
   auto say = [&](const std::string& m) {
     if (options.progress) options.progress(m);
   };
-  const std::string work = cache.make_work_folder(entry);
+  WorkFolder work = cache.make_work_folder(entry);
+  const std::string shown = cache.path() + "/" + work.name;
+  const int dir = work.fd.get();
   try {
     say("deriving " + scene.name);
     auto t0 = std::chrono::steady_clock::now();
@@ -122,7 +139,7 @@ std::string build_entry(const Scene& scene, const CacheFolder& cache, const std:
     eo.command = "spacearm (compile-and-load cache)";
     const EmittedModel emitted = emit_cpp(model, eo);
     // Only the self-contained C interface is compiled (no Eigen: cpp_printer.cpp says why).
-    write_file(fs::path(work) / "libmodel.cpp", emitted.c_interface);
+    write_new_file_at(dir, "libmodel.cpp", emitted.c_interface, shown + "/libmodel.cpp");
     rep.emit_ms = ms_since(t0);
     rep.generated = true;
 
@@ -130,35 +147,47 @@ std::string build_entry(const Scene& scene, const CacheFolder& cache, const std:
     t0 = std::chrono::steady_clock::now();
     std::vector<std::string> argv{compiler};
     for (const auto& f : split_flags(options.flags)) argv.push_back(f);
-    for (const std::string& a : {work + "/libmodel.cpp", std::string("-o"), work + "/libmodel.so"})
-      argv.push_back(a);
+    for (const char* a : {"libmodel.cpp", "-o", "libmodel.so"}) argv.push_back(a);
     for (const auto& l : split_flags(options.libraries)) argv.push_back(l);
-    std::string shown;
-    for (const auto& a : argv) shown += (shown.empty() ? "" : " ") + a;
-    write_file(fs::path(work) / "compile_command.txt", shown + "\n");
-    const int status = run_interruptible(argv, work + "/compile.log", [&] {
-      std::error_code ec;
-      fs::remove_all(work, ec);
-    });
+    std::string command;
+    for (const auto& a : argv) command += (command.empty() ? "" : " ") + a;
+    write_new_file_at(dir, "compile_command.txt", "cd " + shown + " && " + command + "\n",
+                      shown + "/compile_command.txt");
+    // The log in memory: the compiler's messages survive a full disk.
+    const Fd log = memory_file("spacearm-compile-log");
+    const RunResult run = run_interruptible(argv, dir, log.get(), [&] { cache.remove(work); });
     rep.compile_ms = ms_since(t0);
-    if (status == -2) throw CompileError("compiling model '" + scene.name + "' was interrupted");
-    if (status != 0) {
-      const std::string log = read_file(fs::path(work) / "compile.log");
+    if (run.interrupted) throw CompileError("compiling model '" + scene.name + "' was interrupted");
+    if (run.status != 0) {
+      const std::string text =
+          run.status < 0 ? cannot_run(compiler, run.start_error) + "\n" : read_log(log);
+      try {
+        write_new_file_at(dir, "compile.log", text, shown + "/compile.log");
+      } catch (const FolderError&) {  // a full disk: the message below still has the log
+      }
       const std::string kept = cache.keep_failed(work, entry);
-      throw CompileError("compiling model '" + scene.name + "' failed" +
-                         (status < 0 ? " (could not run '" + compiler + "')" : "") + ":\n" + log +
-                         "sources and command: " + kept);
+      throw CompileError(
+          "compiling model '" + scene.name + "' failed" +
+          (text.empty() ? " without a message (exit status " + std::to_string(run.status) + ")"
+                        : "") +
+          ":\n" + text + "sources and command: " + kept);
     }
     rep.compiled = true;
     // The marker, written last, records the library's SHA-256 on its first line.
-    write_file(fs::path(work) / "COMPLETE",
-               "sha256 " + sha256_hex(read_file(fs::path(work) / "libmodel.so")) + "\ngenerator " +
-                   kGeneratorVersion + "\ncompiler " + compiler_id + "\nflags " + options.flags +
-                   "\nlibraries " + options.libraries + "\n");
+    const Fd library =
+        open_private_at(dir, "libmodel.so", false, shown + "/libmodel.so", "compiled library");
+    if (!library.valid()) throw CompileError("the compiler wrote no '" + shown + "/libmodel.so'");
+    write_new_file_at(dir, "COMPLETE",
+                      "sha256 " + sha256_hex(read_all(library.get(), shown + "/libmodel.so")) +
+                          "\ngenerator " + kGeneratorVersion + "\ncompiler " + compiler_id +
+                          "\nflags " + options.flags + "\nlibraries " + options.libraries + "\n",
+                      shown + "/COMPLETE");
     return work;
+  } catch (const FolderError& e) {
+    cache.remove(work);
+    throw CompileError(e.what());
   } catch (...) {
-    std::error_code ec;
-    fs::remove_all(work, ec);
+    cache.remove(work);
     throw;
   }
 }
@@ -175,6 +204,9 @@ std::string cache_directory(const CompileOptions& options) {
       "pass --cache-dir");
 }
 
+// Entries are named SCENE-SOURCE-COMPILER: the hash of what the code is made from (scene,
+// generator, flags, libraries), then of the compiler's identity. Without a compiler (a Dask
+// worker's image, a read-only cache), an entry of the same source built by any compiler loads.
 CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& options,
                                   StageReport* report) {
   StageReport local;
@@ -187,16 +219,16 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
   std::string compiler = options.compiler;
   if (compiler.empty())
     compiler = std::getenv("CXX") && *std::getenv("CXX") ? std::getenv("CXX") : "c++";
-  const std::string compiler_id = compiler_identity(
-      compiler, cache.path() + "/.tmp-" + std::to_string(getpid()) + "-compiler-version");
-  if (compiler_id.empty())
-    throw CompileError("C++ compiler '" + compiler + "' not found (set CXX)");
-
-  const std::string key =
+  const std::string source =
+      scene.name + "-" +
       sha256_hex(scene.content + '\0' + kGeneratorVersion + '\0' + generator_identity() + '\0' +
-                 compiler_id + '\0' + options.flags + '\0' + options.libraries)
-          .substr(0, 32);
-  const std::string entry = scene.name + "-" + key;
+                 options.flags + '\0' + options.libraries)
+          .substr(0, 24) +
+      "-";
+  std::string no_compiler;
+  const std::string compiler_id = compiler_identity(compiler, cache.fd(), no_compiler);
+  if (compiler_id.empty()) return load_built(scene, cache, source, no_compiler, rep);
+  const std::string entry = source + sha256_hex(compiler_id).substr(0, 8);
   rep.cache_entry = cache.path() + "/" + entry;
 
   // A verified entry is loaded; an incomplete or corrupted one is discarded and built
@@ -212,8 +244,7 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
         say("cache entry " + rep.cache_entry + " is " + problem + ": rebuilding");
         cache.discard(entry);
       }
-      const std::string work =
-          build_entry(scene, cache, entry, compiler, compiler_id, options, rep);
+      const WorkFolder work = build_entry(scene, cache, entry, compiler, compiler_id, options, rep);
       cache.install(work, entry);
       continue;
     }
@@ -227,27 +258,52 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
   }
 }
 
-// dlopen of the verified open file (through /proc/self/fd, so the bytes hashed are the
-// bytes mapped), then every symbol the scene needs is looked up before any is called. dlopen
-// hands back a loaded library for any name that library was opened by, and /proc/self/fd/N
-// names another file once N is reused: each load opens the file through a link of a name never
-// used before, and the library's scene hash must be this scene's.
+// A complete, verified entry of `source` built before by any compiler; nothing is written.
+CompiledModel CompiledModel::load_built(const Scene& scene, const CacheFolder& cache,
+                                        const std::string& source, const std::string& no_compiler,
+                                        StageReport& rep) {
+  std::string last;
+  for (const auto& entry : cache.entries_starting_with(source)) {
+    rep.cache_entry = cache.path() + "/" + entry;
+    std::string problem;
+    const Fd library = cache.open_library(entry, problem);
+    if (!library.valid()) {
+      last = "; '" + rep.cache_entry + "' is " + problem;
+      continue;
+    }
+    std::string why;
+    CompiledModel m = open_verified(scene, library, rep, why);
+    if (why.empty()) return m;
+    last = "; '" + rep.cache_entry + "/libmodel.so' cannot be loaded: " + why;
+  }
+  throw CompileError(no_compiler + ", and the cache folder '" + cache.path() +
+                     "' holds no complete build of model '" + scene.name + "' to load instead" +
+                     last);
+}
+
+// dlopen hands back a loaded library for any name that library was opened by, and
+// /proc/self/fd/N names another file once N is reused: each load spells the descriptor's path
+// in a way never used before in this process ("./" and ".//" segments, a counter in binary,
+// which the kernel resolves to the same descriptor). Nothing is written: a read-only cache
+// loads too.
+std::string never_used_path(int fd) {
+  static std::atomic<unsigned long> loads{0};
+  std::string path = "/proc/self/fd/";
+  for (unsigned long k = loads++;; k >>= 1) {
+    path += (k & 1) ? ".//" : "./";
+    if (k <= 1) break;
+  }
+  return path + std::to_string(fd);
+}
+
+// dlopen of the verified open file (through /proc/self/fd, so the bytes hashed are the bytes
+// mapped), then every symbol the scene needs is looked up before any is called, and the
+// library's scene hash must be this scene's.
 CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library, StageReport& rep,
                                            std::string& why) {
   const auto t0 = std::chrono::steady_clock::now();
   CompiledModel m;
-  static std::atomic<unsigned> loads{0};
-  const std::string link =
-      (fs::path(rep.cache_entry).parent_path() /
-       (".tmp-" + std::to_string(getpid()) + "-load-" + std::to_string(loads++)))
-          .string();
-  const std::string path = "/proc/self/fd/" + std::to_string(library.get());
-  if (symlink(path.c_str(), link.c_str()) != 0) {
-    why = "cannot create the link " + link + " to load it: " + std::strerror(errno);
-    return m;
-  }
-  m.handle_ = dlopen(link.c_str(), RTLD_NOW | RTLD_LOCAL);
-  unlink(link.c_str());
+  m.handle_ = dlopen(never_used_path(library.get()).c_str(), RTLD_NOW | RTLD_LOCAL);
   if (!m.handle_) {
     const char* e = dlerror();
     why = e ? e : "dlopen failed";

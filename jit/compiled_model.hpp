@@ -127,6 +127,9 @@ class CompiledModel {
   bool free_floating_ = false, passive_forces_ = false;
   static CompiledModel open_verified(const Scene& scene, const Fd& library, StageReport& rep,
                                      std::string& why);
+  static CompiledModel load_built(const Scene& scene, const CacheFolder& cache,
+                                  const std::string& source, const std::string& no_compiler,
+                                  StageReport& rep);
   void check(const char* what, Eigen::Ref<const Eigen::VectorXd> v, int size) const;
   std::vector<Eigen::MatrixXd> call(const std::string& function,
                                     const std::vector<std::pair<Size, Size>>& shapes,

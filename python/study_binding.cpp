@@ -72,6 +72,12 @@ void bind_study(py::module& module) {
            "The CSV rows of the runs (each with its newline), computed without the GIL.")
       .def("merge", &merge_rows, py::arg("rows"),
            "results.csv's text from the rows of every run, in any order.")
+      .def("claim_folder", &claim_results_folder, py::arg("out_dir"),
+           "Checks out_dir as spacearm sweep does (yours, nothing planted, not another study's) "
+           "and claims it for this study (study.id).")
+      .def("write_results", &write_results, py::arg("out_dir"), py::arg("rows"),
+           "Writes out_dir/results.csv from the rows of every run, into a folder checked and "
+           "claimed as spacearm sweep's (study.id); returns its path.")
       .def("__repr__", [](const StudyRunner& r) {
         return "<spacearm.Study '" + r.study().source_path +
                "': " + std::to_string(r.study().num_runs()) + " runs of scene " +

@@ -1,6 +1,7 @@
 #include "sweep.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 
@@ -152,12 +153,16 @@ std::string StudyRunner::row(long run, std::string* series) const {
     integrate_motion(
         model, q0, qd0, [&](double t) { return replay(t); }, s.t_end, s.integrator.dt, opt,
         observe);
-    for (double v : m.pose) append(values, v);
-    if (s.target.size()) append(values, (m.pose.head(2) - s.target).norm());
+    std::string measured;
+    for (double v : m.pose) append(measured, v);
+    if (s.target.size()) append(measured, (m.pose.head(2) - s.target).norm());
     if (nb)
-      append(values, m.base_drift), append(values, m.base_rotation),
-          append(values, m.momentum_drift);
-    append(values, std::sqrt(m.tau_squares / static_cast<double>(m.samples * model.num_links)));
+      append(measured, m.base_drift), append(measured, m.base_rotation),
+          append(measured, m.momentum_drift);
+    append(measured, std::sqrt(m.tau_squares / static_cast<double>(m.samples * model.num_links)));
+    if (measured.find_first_of("ai") != std::string::npos)  // nan or inf: no metric to trust
+      throw DynamicsError("a metric is not finite (" + measured.substr(1) + ")");
+    values += measured;
     if (series && s.series_every) {
       std::string head = "t";
       for (const auto& n : model.coordinate_names) head += "," + n;
@@ -197,9 +202,12 @@ std::string StudyRunner::row_problem(const std::string& row, long* run) const {
       if (!f[k].empty()) return "a failed run with a metric";
       continue;
     }
+    // As row() prints them (%.17g): decimal and finite; never nan, inf or hexadecimal.
     char* end = nullptr;
-    std::strtod(f[k].c_str(), &end);
-    if (f[k].empty() || *end != '\0') return "field " + std::to_string(k + 1) + " is not a number";
+    const double v = std::strtod(f[k].c_str(), &end);
+    if (f[k].empty() || *end != '\0' || !std::isfinite(v) ||
+        f[k].find_first_not_of("0123456789+-.e") != std::string::npos)
+      return "field " + std::to_string(k + 1) + " is not a finite number";
   }
   const bool quoted = message.size() >= 2 && message.front() == '"' && message.back() == '"';
   if (ok ? !message.empty() : !quoted) return "its message field is not what a run writes";

@@ -72,9 +72,22 @@ struct SweepSummary {
   std::string results;  // results.csv's path once every run of the study is in the folder
 };
 
-// Runs the shard's runs that the folder lacks. Throws StudyError (folder of another study,
-// a damaged row, another sweep writing the shard's file).
+// Runs the shard's runs that the folder lacks. Throws StudyError (a folder another user could
+// redirect or write to, a folder of another study or with rows but no study.id, a row whose
+// digest does not match, another sweep writing the shard's file).
 SweepSummary run_sweep(const StudyRunner& runner, const SweepOptions& options);
+
+// The header of a shard file (runs-IofN.csv): the study's, with a digest column last; each row
+// there ends with its HMAC-SHA-256 under the folder's study.key.
+std::string shard_header(const StudyRunner& runner);
+
+// Checks out_dir as run_sweep does and claims it for the study (study.id).
+void claim_results_folder(const StudyRunner& runner, const std::string& out_dir);
+
+// Writes results.csv of rows computed elsewhere (spacearm.Study, Dask) into out_dir, checked
+// and claimed as run_sweep's folder; returns its path.
+std::string write_results(const StudyRunner& runner, const std::string& out_dir,
+                          const std::vector<std::string>& rows);
 
 // results.csv: the header, then one row per run in run order, from rows in any order (each with
 // its newline). Throws StudyError if a run is missing or given twice with different rows.

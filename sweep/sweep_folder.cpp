@@ -1,7 +1,14 @@
-// The results folder of a sweep (sweep.hpp): study.id, one runs-IofN.csv per shard, series/,
-// results.csv; and the thread pool that fills it.
+// The results folder of a sweep (sweep.hpp): study.id, study.key, one runs-IofN.csv per shard,
+// series/, results.csv; and the thread pool that fills it. The folder is opened once through
+// checked components (private_folder.hpp) and every file is reached relative to it, created
+// with O_EXCL | O_NOFOLLOW or renamed into place: nothing planted there is written through.
+// Each row of a shard file carries an HMAC-SHA-256 of the study's identity and the row, keyed
+// by the folder's study.key (0600): an edited, forged or stale row is refused, never merged.
 #include <fcntl.h>
+#include <openssl/hmac.h>
 #include <sys/file.h>
+#include <sys/random.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -9,53 +16,161 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <map>
 #include <mutex>
-#include <sstream>
 #include <thread>
 
+#include "private_folder.hpp"
 #include "sweep.hpp"
 #include "text_numbers.hpp"
 
 namespace spacearm {
 
-namespace fs = std::filesystem;
-
 namespace {
 
-// The folder's own files must be plain files: a link planted there would make the sweep write
-// elsewhere, a pipe would block it. Absent is fine.
-void refuse_unless_regular(const fs::path& file) {
-  std::error_code ec;
-  const fs::file_status st = fs::symlink_status(file, ec);
-  if (!ec && fs::exists(st) && !fs::is_regular_file(st))
-    throw StudyError("sweep: '" + file.string() +
-                     "' is not a plain file (a link, a pipe or a folder); remove it");
+constexpr size_t kDigestChars = 64;  // HMAC-SHA-256 in hex
+
+// The folder's own checks as the sweep's errors.
+template <class F>
+auto as_study_error(F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const FolderError& e) {
+    throw StudyError(std::string("sweep: ") + e.what());
+  }
 }
 
-std::string read_whole(const fs::path& file) {
-  refuse_unless_regular(file);
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
+std::string hex(const unsigned char* bytes, size_t n) {
+  static const char* digits = "0123456789abcdef";
+  std::string out;
+  for (size_t i = 0; i < n; ++i) {
+    out += digits[bytes[i] >> 4];
+    out += digits[bytes[i] & 15];
+  }
+  return out;
+}
+
+// The results folder, open, with its path for messages.
+struct Folder {
+  Fd fd;
+  std::string path;
+  std::string shown(const std::string& name) const { return path + "/" + name; }
+};
+
+Folder open_folder(const std::string& path) {
+  return as_study_error([&] {
+    return Folder{open_private_folder(path, "sweep folder -o", true, "give another folder (-o)"),
+                  path};
+  });
+}
+
+// The content of one of the folder's files; empty if absent. Refuses a link, a pipe or a file
+// of someone else's.
+std::string read_file_in(const Folder& dir, const std::string& name, bool* exists = nullptr) {
+  return as_study_error([&] {
+    const Fd fd = open_private_at(dir.fd.get(), name, false, dir.shown(name), "sweep file");
+    if (exists) *exists = fd.valid();
+    return fd.valid() ? read_all(fd.get(), dir.shown(name), size_t(1) << 40) : std::string();
+  });
+}
+
+// Creates `name` with `text` whole or not at all, unless it exists: shards started together on
+// a new folder each write a temporary and link it into place; all but one find it there.
+// Returns the content the file has.
+std::string create_once(const Folder& dir, const std::string& name, const std::string& text,
+                        mode_t mode) {
+  return as_study_error([&] {
+    const std::string tmp = unique_name(name + ".tmp-");
+    write_new_file_at(dir.fd.get(), tmp, text, dir.shown(tmp), mode);
+    const bool created = ::linkat(dir.fd.get(), tmp.c_str(), dir.fd.get(), name.c_str(), 0) == 0;
+    const int error = errno;
+    ::unlinkat(dir.fd.get(), tmp.c_str(), 0);
+    if (!created && error != EEXIST)
+      throw StudyError("sweep: cannot create '" + dir.shown(name) + "': " + std::strerror(error));
+    return created ? text : read_file_in(dir, name);
+  });
+}
+
+// The names of the shard files (runs-*.csv), sorted.
+std::vector<std::string> row_files(const Folder& dir) {
+  std::vector<std::string> files;
+  for (const auto& name : list_folder(dir.fd.get()))
+    if (name.rfind("runs-", 0) == 0 && name.size() > 9 && name.substr(name.size() - 4) == ".csv")
+      files.push_back(name);
+  return files;
+}
+
+// The folder belongs to one study: study.id names it, and a different study is refused. A
+// folder with rows but no study.id (deleted, or rows copied in) is refused too.
+void claim_folder(const Folder& dir, const StudyRunner& runner) {
+  const Study& s = runner.study();
+  const std::string id = "spacearm sweep\nstudy " + s.identity + "\nruns " +
+                         std::to_string(s.num_runs()) + "\n" + runner.header();
+  bool exists = false;
+  std::string found = read_file_in(dir, "study.id", &exists);
+  if (!exists) {
+    if (!row_files(dir).empty())
+      throw StudyError("sweep: -o '" + dir.path +
+                       "' holds rows (runs-*.csv) but no study.id, so nothing says which study "
+                       "they belong to: give another folder, or remove them to start over");
+    found = create_once(dir, "study.id", id, 0644);
+  }
+  if (found != id)
+    throw StudyError("sweep: -o '" + dir.path +
+                     "' holds the results of another study (or of this one before an edit; "
+                     "see its study.id): give another folder, or remove it to start over");
+}
+
+// The folder's key for the rows' digests (32 random bytes in hex, readable by you alone).
+std::string folder_key(const Folder& dir) {
+  bool exists = false;
+  std::string key = read_file_in(dir, "study.key", &exists);
+  if (!exists) {
+    if (!row_files(dir).empty())
+      throw StudyError("sweep: -o '" + dir.path +
+                       "' holds rows but no study.key to check them with: remove the "
+                       "runs-*.csv files to run them again");
+    unsigned char bytes[32];
+    if (::getrandom(bytes, sizeof bytes, 0) != static_cast<ssize_t>(sizeof bytes))
+      throw StudyError(std::string("sweep: no random bytes for study.key: ") +
+                       std::strerror(errno));
+    key = create_once(dir, "study.key", hex(bytes, sizeof bytes) + "\n", 0600);
+  }
+  if (key.size() != 65 || key.find_first_not_of("0123456789abcdef") != 64 || key[64] != '\n')
+    throw StudyError("sweep: '" + dir.shown("study.key") +
+                     "' is not a key spacearm wrote: remove the folder to start over");
+  return key.substr(0, 64);
+}
+
+// HMAC-SHA-256 of the study's identity and a row, under the folder's key, in hex.
+std::string row_digest(const std::string& key, const StudyRunner& runner, const std::string& row) {
+  const std::string data = runner.study().identity + '\n' + row;
+  unsigned char md[EVP_MAX_MD_SIZE];
+  unsigned int length = 0;
+  if (!HMAC(EVP_sha256(), key.data(), static_cast<int>(key.size()),
+            reinterpret_cast<const unsigned char*>(data.data()), data.size(), md, &length))
+    throw StudyError("sweep: HMAC-SHA-256 failed (libcrypto)");
+  return hex(md, length);
+}
+
+std::string signed_row(const std::string& key, const StudyRunner& runner, const std::string& row) {
+  return row.substr(0, row.size() - 1) + "," + row_digest(key, runner, row) + "\n";
 }
 
 bool failed_row(const std::string& row) {
   return row.compare(row.find(',') + 1, 7, "failed,") == 0;
 }
 
-// Adds the rows of one runs-*.csv file by run; a line cut by a kill (no newline) is left out.
-// Returns the file's length up to its last complete line.
+// Adds the rows of one runs-*.csv file by run, each checked against its digest; a line cut by a
+// kill (no newline) is left out. Returns the file's length up to its last complete line.
 // first: receives the file's first run (-1 if none).
-size_t read_rows(const fs::path& file, const StudyRunner& runner, std::map<long, std::string>& rows,
+size_t read_rows(const Folder& dir, const std::string& name, const std::string& key,
+                 const StudyRunner& runner, std::map<long, std::string>& rows,
                  long* first = nullptr) {
   if (first) *first = -1;
-  const std::string all = read_whole(file), &header = runner.header();
+  const std::string all = read_file_in(dir, name), header = shard_header(runner);
   auto fail = [&](long line, const std::string& why) {
-    throw StudyError("sweep: '" + file.string() + "' line " + std::to_string(line) + ": " + why +
+    throw StudyError("sweep: '" + dir.shown(name) + "' line " + std::to_string(line) + ": " + why +
                      "; remove the file to run its rows again");
   };
   if (all.size() < header.size()) return 0;  // cut while its header was written
@@ -64,101 +179,67 @@ size_t read_rows(const fs::path& file, const StudyRunner& runner, std::map<long,
   for (long line = 2;; ++line) {
     const size_t nl = all.find('\n', at);
     if (nl == std::string::npos) break;
-    std::string row = all.substr(at, nl + 1 - at);
+    if (nl - at < kDigestChars + 2 || all[nl - kDigestChars - 1] != ',')
+      fail(line, "no digest at the end of the line");
+    const std::string row = all.substr(at, nl - kDigestChars - 1 - at) + "\n";
     long run = -1;
     if (const std::string why = runner.row_problem(row, &run); !why.empty())
       fail(line, "not a row of this study: " + why);
+    if (all.compare(nl - kDigestChars, kDigestChars, row_digest(key, runner, row)) != 0)
+      fail(line,
+           "its digest does not match: the row was edited, or written for another study "
+           "or folder");
     if (first && *first < 0) *first = run;
     const auto [it, added] = rows.emplace(run, row);
     if (!added && it->second != row)
       fail(line, "run " + std::to_string(run) +
-                     " has another row already (here or in another "
-                     "runs-*.csv file)");
+                     " has another row already (here or in another runs-*.csv file)");
     at = nl + 1;
   }
   return at;
 }
 
-std::vector<fs::path> row_files(const fs::path& dir) {
-  std::vector<fs::path> files;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    const std::string name = e.path().filename().string();
-    if (name.rfind("runs-", 0) == 0 && e.path().extension() == ".csv") files.push_back(e.path());
-  }
-  std::sort(files.begin(), files.end());
-  return files;
-}
-
-// The rows of every shard's file in the folder, by run.
-std::map<long, std::string> folder_rows(const fs::path& dir, const StudyRunner& runner) {
-  std::map<long, std::string> rows;
-  for (const auto& f : row_files(dir)) read_rows(f, runner, rows);
-  return rows;
-}
-
-// The folder belongs to one study: study.id names it, and a different study is refused.
-void claim_folder(const fs::path& dir, const StudyRunner& runner) {
-  const Study& s = runner.study();
-  const std::string id = "spacearm sweep\nstudy " + s.identity + "\nruns " +
-                         std::to_string(s.num_runs()) + "\n" + runner.header();
-  const fs::path file = dir / "study.id";
-  refuse_unless_regular(file);
-  // Created whole or not at all: shards started together on a new folder each write a
-  // temporary and link it into place; all but one find it there and compare.
-  const fs::path tmp = dir / ("study.id.tmp-" + std::to_string(::getpid()));
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << id;
-    if (!out.flush()) throw StudyError("sweep: cannot write '" + tmp.string() + "'");
-  }
-  const bool created = ::link(tmp.c_str(), file.c_str()) == 0;
-  fs::remove(tmp);
-  if (!created) {
-    if (read_whole(file) != id)
-      throw StudyError("sweep: -o '" + dir.string() +
-                       "' holds the results of another study (or of this one before an edit; "
-                       "see its study.id): give another folder, or remove it to start over");
-  }
-}
-
 // The shard's own row file: locked against a second sweep, cut after its last whole row.
-int open_shard_file(const fs::path& file, size_t complete) {
-  refuse_unless_regular(file);
-  const int fd = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK, 0644);
-  if (fd < 0)
-    throw StudyError("sweep: cannot open '" + file.string() + "': " + std::strerror(errno));
-  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
-    ::close(fd);
-    throw StudyError("sweep: another sweep is writing '" + file.string() +
+Fd open_shard_file(const Folder& dir, const std::string& name, size_t complete) {
+  const std::string shown = dir.shown(name);
+  Fd fd(::openat(dir.fd.get(), name.c_str(),
+                 O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK | O_NOCTTY, 0644));
+  if (!fd.valid())
+    throw StudyError("sweep: cannot open '" + shown + "': " + std::strerror(errno) +
+                     (errno == ELOOP ? " (a link: remove it)" : ""));
+  struct stat st;
+  if (::fstat(fd.get(), &st) != 0 || !S_ISREG(st.st_mode))
+    throw StudyError("sweep: '" + shown + "' is not a plain file (a pipe or a device); remove it");
+  as_study_error([&] { check_private(st, shown, "sweep file", "remove it"); });
+  if (::flock(fd.get(), LOCK_EX | LOCK_NB) != 0)
+    throw StudyError("sweep: another sweep is writing '" + shown +
                      "' (the same shard twice at once?)");
-  }
-  if (::ftruncate(fd, static_cast<off_t>(complete)) != 0 || ::lseek(fd, 0, SEEK_END) < 0) {
-    ::close(fd);
-    throw StudyError("sweep: cannot prepare '" + file.string() + "': " + std::strerror(errno));
-  }
+  if (::ftruncate(fd.get(), static_cast<off_t>(complete)) != 0 ||
+      ::lseek(fd.get(), 0, SEEK_END) < 0)
+    throw StudyError("sweep: cannot prepare '" + shown + "': " + std::strerror(errno));
   return fd;
 }
 
 // Whole rows with one write each (no stdio buffer): a kill loses at most the row being written.
-void write_all(int fd, const std::string& text, const fs::path& file) {
+void write_all(int fd, const std::string& text, const std::string& shown) {
   for (size_t at = 0; at < text.size();) {
     const ssize_t n = ::write(fd, text.data() + at, text.size() - at);
     if (n < 0 && errno == EINTR) continue;
-    if (n <= 0)
-      throw StudyError("sweep: cannot write '" + file.string() + "': " + std::strerror(errno));
+    if (n <= 0) throw StudyError("sweep: cannot write '" + shown + "': " + std::strerror(errno));
     at += static_cast<size_t>(n);
   }
 }
 
-// A file written whole or not at all: a temporary beside it, renamed over it.
-void write_whole(const fs::path& file, const std::string& text) {
-  const fs::path tmp = file.string() + ".tmp-" + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    out << text;
-    if (!out.flush()) throw StudyError("sweep: cannot write '" + tmp.string() + "'");
-  }
-  fs::rename(tmp, file);
+// The series folder, created private if missing.
+Folder open_series(const Folder& dir) {
+  return as_study_error([&] {
+    if (::mkdirat(dir.fd.get(), "series", 0755) != 0 && errno != EEXIST)
+      throw StudyError("sweep: cannot create '" + dir.shown("series") +
+                       "': " + std::strerror(errno));
+    Fd fd = open_private_at(dir.fd.get(), "series", true, dir.shown("series"), "sweep folder");
+    if (!fd.valid()) throw StudyError("sweep: '" + dir.shown("series") + "' vanished");
+    return Folder{std::move(fd), dir.shown("series")};
+  });
 }
 
 std::string duration_text(double seconds) {
@@ -173,16 +254,10 @@ std::string duration_text(double seconds) {
 }
 
 // Runs `todo` on `threads` workers; each row is appended to fd as it finishes.
-long run_pool(const StudyRunner& runner, const std::vector<long>& todo, int fd, const fs::path& own,
-              const SweepOptions& o) {
+long run_pool(const StudyRunner& runner, const std::vector<long>& todo, const Folder& dir, int fd,
+              const std::string& own, const std::string& key, const SweepOptions& o) {
   const Study& s = runner.study();
-  const fs::path series_dir = fs::path(o.out_dir) / "series";
-  if (s.series_every) {
-    std::error_code ec;
-    if (fs::is_symlink(series_dir, ec))
-      throw StudyError("sweep: '" + series_dir.string() + "' is a link; remove it");
-    fs::create_directories(series_dir);
-  }
+  const Folder series_dir = s.series_every ? open_series(dir) : Folder{Fd(), ""};
   const long total = static_cast<long>(todo.size());
   std::atomic<long> next{0}, finished{0};
   std::atomic<bool> broken{false};
@@ -197,10 +272,12 @@ long run_pool(const StudyRunner& runner, const std::vector<long>& todo, int fd, 
         if (!series.empty()) {  // before the row: a recorded run has its series
           char name[40];
           std::snprintf(name, sizeof name, "run-%08ld.csv", todo[k]);
-          write_whole(series_dir / name, series);
+          as_study_error(
+              [&] { replace_file_at(series_dir.fd.get(), name, series, series_dir.shown(name)); });
         }
+        const std::string line = signed_row(key, runner, row);
         const std::lock_guard<std::mutex> lock(write_mutex);
-        write_all(fd, row, own);
+        write_all(fd, line, own);
         ++finished;
       }
     } catch (...) {
@@ -264,38 +341,35 @@ std::string merge_rows(const StudyRunner& runner, const std::vector<std::string>
   return out;
 }
 
+std::string shard_header(const StudyRunner& runner) {
+  const std::string& h = runner.header();
+  return h.substr(0, h.size() - 1) + ",digest\n";
+}
+
 SweepSummary run_sweep(const StudyRunner& runner, const SweepOptions& o) {
   const long n = runner.study().num_runs();
-  const fs::path dir(o.out_dir);
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec || !fs::is_directory(dir))
-    throw StudyError("sweep: -o '" + dir.string() + "': not a folder that can be created or used" +
-                     (ec ? " (" + ec.message() + ")" : ""));
+  const Folder dir = open_folder(o.out_dir);
   claim_folder(dir, runner);
-  const fs::path own = dir / ("runs-" + std::to_string(o.shard.index) + "of" +
-                              std::to_string(o.shard.count) + ".csv");
+  const std::string key = folder_key(dir);
+  const std::string own =
+      "runs-" + std::to_string(o.shard.index) + "of" + std::to_string(o.shard.count) + ".csv";
   // What the folder holds already, from every shard's file; the shard's own file is cut after
   // its last whole row (a killed sweep may have left half of one).
   std::map<long, std::string> rows;
   size_t own_complete = 0;
   for (const auto& f : row_files(dir)) {
     long first = -1;
-    const size_t complete = read_rows(f, runner, rows, &first);
+    const size_t complete = read_rows(dir, f, key, runner, rows, &first);
     if (f == own) own_complete = complete;
-    // Rows of another spacearm, another CPU's libm or an edit would mix silently: each file's
-    // first row must be what this sweep computes for its run.
+    // Rows of another spacearm, another CPU's libm would mix silently: each file's first row
+    // must be what this sweep computes for its run.
     if (first >= 0 && runner.row(first) != rows.at(first))
-      throw StudyError("sweep: '" + f.string() + "': run " + std::to_string(first) +
+      throw StudyError("sweep: '" + dir.shown(f) + "': run " + std::to_string(first) +
                        " differs from what this sweep computes (rows of another spacearm "
                        "version or machine, or edited); remove the file to run its rows again");
   }
-  const int fd = open_shard_file(own, own_complete);
-  struct Close {
-    int fd;
-    ~Close() { ::close(fd); }
-  } close_at_end{fd};
-  if (own_complete == 0) write_all(fd, runner.header(), own);
+  const Fd fd = open_shard_file(dir, own, own_complete);
+  if (own_complete == 0) write_all(fd.get(), shard_header(runner), dir.shown(own));
 
   SweepSummary sum;
   std::vector<long> todo;
@@ -305,11 +379,11 @@ SweepSummary run_sweep(const StudyRunner& runner, const SweepOptions& o) {
     else
       todo.push_back(run);
   rows.clear();
-  sum.ran = run_pool(runner, todo, fd, own, o);
+  sum.ran = run_pool(runner, todo, dir, fd.get(), dir.shown(own), key, o);
   sum.interrupted = sum.ran < static_cast<long>(todo.size());
 
   // results.csv once every run of the study is in the folder.
-  rows = folder_rows(dir, runner);
+  for (const auto& f : row_files(dir)) read_rows(dir, f, key, runner, rows);
   sum.study_done = static_cast<long>(rows.size());
   for (const auto& [run, row] : rows)
     if (run % o.shard.count == o.shard.index - 1 && failed_row(row)) ++sum.failed;
@@ -317,10 +391,26 @@ SweepSummary run_sweep(const StudyRunner& runner, const SweepOptions& o) {
     std::vector<std::string> list;
     list.reserve(rows.size());
     for (auto& [run, row] : rows) list.push_back(std::move(row));
-    sum.results = (dir / "results.csv").string();
-    write_whole(sum.results, merge_rows(runner, list));
+    sum.results = dir.shown("results.csv");
+    as_study_error([&] {
+      replace_file_at(dir.fd.get(), "results.csv", merge_rows(runner, list), sum.results);
+    });
   }
   return sum;
+}
+
+void claim_results_folder(const StudyRunner& runner, const std::string& out_dir) {
+  claim_folder(open_folder(out_dir), runner);
+}
+
+std::string write_results(const StudyRunner& runner, const std::string& out_dir,
+                          const std::vector<std::string>& rows) {
+  const std::string text = merge_rows(runner, rows);  // checks every row before any write
+  const Folder dir = open_folder(out_dir);
+  claim_folder(dir, runner);
+  as_study_error(
+      [&] { replace_file_at(dir.fd.get(), "results.csv", text, dir.shown("results.csv")); });
+  return dir.shown("results.csv");
 }
 
 }  // namespace spacearm

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <spawn.h>
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -174,6 +176,120 @@ TEST(ModelCache, FolderIsPrivateAndUnsafeFoldersOrEntriesAreRefusedByName) {
   fs::remove_all(dir);
 }
 
+// Issue 28, item 1: a cache path through a link that another user owns (in a sticky folder as
+// /tmp, where they may replace their link at any time) is refused, however it is given; a link
+// of yours, or root's, is followed and its target checked.
+TEST(ModelCache, CacheBehindAnotherUsersLinkIsRefused) {
+  if (geteuid() != 0) GTEST_SKIP() << "needs root to give a link to another user";
+  const fs::path dir = scratch("their-link");
+  const fs::path cc = fake_compiler(dir, "copy", "cp '" + real_library().string() + "' \"$out\"");
+  const fs::path shared = dir / "shared", mine = dir / "mine";
+  fs::create_directories(shared);
+  fs::create_directories(mine);
+  fs::permissions(shared, fs::perms::all | fs::perms::sticky_bit, fs::perm_options::replace);
+  fs::permissions(mine, fs::perms::owner_all, fs::perm_options::replace);
+  const fs::path theirs = shared / "x";
+  fs::create_directory_symlink(mine, theirs);
+  ASSERT_EQ(::lchown(theirs.c_str(), 65534, 65534), 0);
+  int status = 0;
+  std::string out = test::run_command(eval_command(theirs, cc) + " 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(out.find("the link '" + theirs.string() + "' on the way belongs to user 65534"),
+            std::string::npos)
+      << out;
+  out = test::run_command("XDG_CACHE_HOME='" + theirs.string() + "' CXX='" + cc.string() + "' " +
+                              SPACEARM_CLI + " eval " + kScene + " --q 0,0,0,0,0,0 2>&1",
+                          &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(out.find("belongs to user 65534"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(mine / "spacearm")) << "written through their link";
+  // The same link, yours: followed, and the folder behind it used.
+  ASSERT_EQ(::lchown(theirs.c_str(), 0, 0), 0);
+  out = test::run_command(eval_command(theirs, cc) + " 2>&1", &status);
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_FALSE(entry_of(mine).empty());
+  fs::remove_all(dir);
+}
+
+// Issue 28, item 1: after the folder is opened, nothing goes through its path again. A compiler
+// that swaps the cache folder for a link to another folder while it runs (as a link's owner
+// could) changes nothing: the entry is installed and loaded in the folder that was checked.
+TEST(ModelCache, EveryStepAfterOpeningWorksInTheFolderThatWasChecked) {
+  const fs::path dir = scratch("swap");
+  const fs::path cache = dir / "cache", moved = dir / "moved", other = dir / "other";
+  fs::create_directories(other);
+  const fs::path cc =
+      fake_compiler(dir, "swapper",
+                    "echo \"$PWD $*\" > '" + (dir / "args").string() + "'; mv '" + cache.string() +
+                        "' '" + moved.string() + "' && ln -s '" + other.string() + "' '" +
+                        cache.string() + "' && cp '" + real_library().string() + "' \"$out\"");
+  int status = 0;
+  const std::string out = test::run_command(eval_command(cache, cc) + " 2>&1", &status);
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_NE(out.find("\"mass_matrix\":"), std::string::npos) << out;
+  EXPECT_FALSE(entry_of(moved).empty()) << "not installed in the folder that was checked";
+  EXPECT_TRUE(fs::is_empty(other)) << "something was written through the swapped-in link";
+  // The compiler ran inside the work folder, with relative names only.
+  const std::string args = slurp(dir / "args");
+  EXPECT_NE(args.find(" libmodel.cpp -o libmodel.so"), std::string::npos) << args;
+  EXPECT_EQ(args.rfind(cache.string() + "/.tmp-", 0), 0u) << args;
+  fs::remove_all(dir);
+}
+
+// Issue 28, item 6: a complete entry loads without a compiler (a Dask worker's image), also
+// from a cache folder that cannot be written; without an entry the message says both things.
+TEST(ModelCache, ACompleteEntryLoadsWithoutACompilerFromAReadOnlyCache) {
+  const fs::path dir = scratch("no-compiler");
+  const fs::path cc = fake_compiler(dir, "copy", "cp '" + real_library().string() + "' \"$out\"");
+  const fs::path cache = dir / "cache";
+  int status = 0;
+  const std::string built = test::run_command(eval_command(cache, cc) + " 2>/dev/null", &status);
+  ASSERT_EQ(status, 0);
+  fs::permissions(cache, fs::perms::owner_read | fs::perms::owner_exec, fs::perm_options::replace);
+  std::string out =
+      test::run_command(eval_command(cache, dir / "no-such-compiler") + " 2>&1", &status);
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_EQ(out, built);
+  fs::permissions(cache, fs::perms::owner_all, fs::perm_options::replace);
+  fs::remove_all(cache);
+  out = test::run_command(eval_command(cache, dir / "no-such-compiler") + " 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(out.find("not found (set CXX), and the cache folder"), std::string::npos) << out;
+  EXPECT_NE(out.find("holds no complete build of model 'paper_reference'"), std::string::npos)
+      << out;
+  fs::remove_all(dir);
+}
+
+// Issue 28, item 7: a pipe in place of an entry's file is an error naming it, not a hang; a
+// compiler that cannot be started for another reason than its absence is not "not found".
+TEST(ModelCache, APipeInAnEntryIsAnErrorAndCausesAreNamed) {
+  const fs::path dir = scratch("fifo");
+  const fs::path cc = fake_compiler(dir, "copy", "cp '" + real_library().string() + "' \"$out\"");
+  const fs::path cache = dir / "cache";
+  int status = 0;
+  test::run_command(eval_command(cache, cc) + " > /dev/null 2>&1", &status);
+  ASSERT_EQ(status, 0);
+  const fs::path entry = entry_of(cache);
+  fs::remove(entry / "COMPLETE");
+  ASSERT_EQ(::mkfifo((entry / "COMPLETE").c_str(), 0600), 0);
+  std::string out =
+      test::run_command("timeout 20 env " + eval_command(cache, cc) + " 2>&1", &status);
+  EXPECT_NE(WEXITSTATUS(status), 124) << "hung on a pipe";
+  EXPECT_NE(status, 0);
+  EXPECT_NE(out.find("COMPLETE' is not a regular file"), std::string::npos) << out;
+  // Not executable: it exists, so the message must not say it was not found.
+  const fs::path not_executable = dir / "cc-without-x";
+  std::ofstream(not_executable) << "#!/bin/sh\n";
+  fs::remove_all(cache);
+  out = test::run_command(eval_command(cache, not_executable) + " 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(
+      out.find("cannot run the C++ compiler '" + not_executable.string() + "': Permission denied"),
+      std::string::npos)
+      << out;
+  fs::remove_all(dir);
+}
+
 TEST(ModelCache, EntryPlantedByAnotherUserIsRefused) {
   if (geteuid() != 0) GTEST_SKIP() << "needs root to give a file to another user";
   const fs::path dir = scratch("planted");
@@ -225,8 +341,14 @@ TEST(ModelCache, InterruptDuringCompileStopsTheCompilerAndRemovesItsWorkFolder) 
   const fs::path cc =
       fake_compiler(dir, "slow", "echo $$ > '" + pid_file.string() + "'; exec sleep 60");
   const fs::path cache = dir / "cache";
-  // A work folder left by a process that no longer runs is cleaned by the next run.
+  // A work folder that no process holds locked, untouched for a minute, is cleaned by the next
+  // run; one that another process (another container's) holds locked is not.
   fs::create_directories(cache / ".tmp-999999999-paper_reference-stale");
+  fs::create_directories(cache / ".tmp-1-paper_reference-in-use");
+  for (const char* name : {".tmp-999999999-paper_reference-stale", ".tmp-1-paper_reference-in-use"})
+    fs::last_write_time(cache / name, fs::file_time_type::clock::now() - std::chrono::hours(1));
+  const int in_use = ::open((cache / ".tmp-1-paper_reference-in-use").c_str(), O_RDONLY);
+  ASSERT_EQ(::flock(in_use, LOCK_EX), 0);
   fs::permissions(cache, fs::perms::owner_all, fs::perm_options::replace);
   // exec: the shell becomes spacearm, so the signal goes to it.
   const pid_t pid =
@@ -238,6 +360,9 @@ TEST(ModelCache, InterruptDuringCompileStopsTheCompilerAndRemovesItsWorkFolder) 
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   const pid_t compiler = std::stoi(slurp(pid_file));
   EXPECT_FALSE(fs::exists(cache / ".tmp-999999999-paper_reference-stale"));
+  EXPECT_TRUE(fs::exists(cache / ".tmp-1-paper_reference-in-use")) << "a locked build was removed";
+  ::close(in_use);
+  fs::remove_all(cache / ".tmp-1-paper_reference-in-use");
   ASSERT_EQ(::kill(pid, SIGINT), 0);
   int status = 0;
   const auto t0 = std::chrono::steady_clock::now();
@@ -254,11 +379,14 @@ TEST(ModelCache, InterruptDuringCompileStopsTheCompilerAndRemovesItsWorkFolder) 
     EXPECT_EQ(e.path().filename().string().rfind(".tmp-", 0), std::string::npos)
         << "left behind: " << e.path();
 
-  // SIGKILL cannot be caught: the compiler dies with spacearm (PR_SET_PDEATHSIG), and the
-  // work folder it leaves is removed by the next run.
+  // SIGKILL cannot be caught: the compiler dies with spacearm, and so does what the compiler
+  // driver started (here a grandchild, as cc1plus or as is to g++), and the work folder it
+  // leaves is removed by a later run once it is a minute old.
   fs::remove(pid_file);
+  const fs::path driver = fake_compiler(
+      dir, "driver", "sh -c 'echo $$ > \"" + pid_file.string() + "\"; exec sleep 60' & wait");
   const pid_t killed =
-      spawn_shell("CXX='" + cc.string() + "' exec " + SPACEARM_CLI + " eval --cache-dir '" +
+      spawn_shell("CXX='" + driver.string() + "' exec " + SPACEARM_CLI + " eval --cache-dir '" +
                   cache.string() + "' " + kScene + " --q 0,0,0,0,0,0 > /dev/null 2>&1");
   for (int i = 0; i < 1500 && !fs::exists(pid_file); ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -270,6 +398,8 @@ TEST(ModelCache, InterruptDuringCompileStopsTheCompilerAndRemovesItsWorkFolder) 
   for (int i = 0; i < 100 && alive(orphan); ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   EXPECT_FALSE(alive(orphan)) << "the compiler " << orphan << " outlived a killed spacearm";
+  for (const auto& e : fs::directory_iterator(cache))
+    fs::last_write_time(e.path(), fs::file_time_type::clock::now() - std::chrono::hours(1));
   const fs::path fast = fake_compiler(dir, "copy", "cp '" + real_library().string() + "' \"$out\"");
   test::run_command(eval_command(cache, fast) + " > /dev/null 2>&1", &status);
   EXPECT_EQ(status, 0);

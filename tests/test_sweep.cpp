@@ -106,9 +106,10 @@ TEST(Sweep, AKilledSweepResumesWhereItStopped) {
   sweep(runner, whole, 2);
   // The state a kill leaves: two whole rows and half of a third.
   const std::string rows = read(whole / "runs-1of1.csv");
-  size_t cut = runner.header().size();
+  size_t cut = shard_header(runner).size();
   for (int r = 0; r < 2; ++r) cut = rows.find('\n', cut) + 1;
   fs::copy_file(whole / "study.id", killed / "study.id");
+  fs::copy_file(whole / "study.key", killed / "study.key");
   std::ofstream(killed / "runs-1of1.csv", std::ios::binary) << rows.substr(0, cut + 20);
   const SweepSummary s = sweep(runner, killed, 2);
   EXPECT_EQ(s.already_done, 2);
@@ -136,7 +137,7 @@ TEST(Sweep, RefusesAnotherStudysFolderASecondWriterAndDamagedRows) {
     EXPECT_THROW(sweep(runner, dir, 1), StudyError);
     ::close(fd);
   }
-  std::ofstream(dir / "runs-1of2.csv", std::ios::binary) << runner.header() << "99,ok\n";
+  std::ofstream(dir / "runs-1of2.csv", std::ios::binary) << shard_header(runner) << "99,ok\n";
   try {
     sweep(runner, dir, 1);
     FAIL() << "a row of no run was accepted";
@@ -146,38 +147,101 @@ TEST(Sweep, RefusesAnotherStudysFolderASecondWriterAndDamagedRows) {
   fs::remove_all(dir);
 }
 
-// Files planted in the folder: a link is never written through, a malformed row or a row with
-// changed numbers is not merged into results.csv.
-TEST(Sweep, PlantedLinksAndRowsAreRefused) {
+// Files planted in the folder (issue 28, item 2): a link is never written through, whatever its
+// name; a folder others may write to is refused.
+TEST(Sweep, PlantedLinksAreNeverWrittenThrough) {
   const StudyRunner runner(study(), cache());
   const fs::path dir = scratch("planted"), victim = dir.parent_path() / "spacearm-test-victim";
   std::ofstream(victim) << "precious\n";
+  for (const char* name : {"runs-1of1.csv", "study.id", "study.key"}) {
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    if (std::string(name) == "study.key") sweep(runner, dir, 1), fs::remove(dir / name);
+    fs::create_symlink(victim, dir / name);
+    EXPECT_THROW(sweep(runner, dir, 1), StudyError) << name;
+    EXPECT_EQ(read(victim), "precious\n") << name;
+  }
+  // results.csv as a link: replaced by the new file, never written through; so are links at the
+  // names temporaries had (NAME.tmp-PID, this process's id: the sweep runs in it).
+  fs::remove_all(dir);
   fs::create_directories(dir);
-  fs::create_symlink(victim, dir / "runs-1of1.csv");
-  EXPECT_THROW(sweep(runner, dir, 1), StudyError);
+  fs::create_symlink(victim, dir / "results.csv");
+  for (const char* name : {"results.csv", "study.id", "study.key"})
+    fs::create_symlink(victim, dir / (std::string(name) + ".tmp-" + std::to_string(::getpid())));
+  sweep(runner, dir, 1);
   EXPECT_EQ(read(victim), "precious\n");
-  fs::remove(dir / "runs-1of1.csv");
-  // A row with a changed number, well formed: its recomputation differs.
-  std::string row = runner.row(0);
-  const size_t at = row.find(",ok,") + 4;
-  row[at] = row[at] == '9' ? '8' : '9';
-  std::ofstream(dir / "runs-1of2.csv") << runner.header() << row;
+  EXPECT_FALSE(fs::is_symlink(dir / "results.csv"));
+  EXPECT_EQ(read(dir / "results.csv").rfind(runner.header(), 0), 0u);
+  // A folder others may write to (they could plant any of these between two checks).
+  fs::permissions(dir, fs::perms::others_write, fs::perm_options::add);
   try {
     sweep(runner, dir, 1);
-    FAIL() << "a changed row was merged";
+    FAIL() << "a folder writable by others was used";
   } catch (const StudyError& e) {
-    EXPECT_NE(std::string(e.what()).find("differs from what this sweep computes"),
+    EXPECT_NE(std::string(e.what()).find("is writable by others"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+  fs::remove(victim);
+}
+
+// Rows that a sweep did not write for this study in this folder (issue 28, item 3): edited
+// numbers, nan metrics, rows of another study (even under the same key), rows left after
+// study.id was deleted. None reaches results.csv. The edits are in a file's second row: the
+// first row of each file is also recomputed, which alone caught only edits there.
+TEST(Sweep, EditedForgedAndStaleRowsAreRefused) {
+  const StudyRunner runner(study(), cache());
+  const fs::path dir = scratch("rows"), other = scratch("other-study");
+  sweep(runner, dir, 1, {1, 2});
+  sweep(runner, dir, 1, {2, 2});
+  const std::string header = shard_header(runner), own = read(dir / "runs-2of2.csv");
+  ASSERT_EQ(own.rfind(header, 0), 0u);
+  const size_t second = own.find('\n', header.size()) + 1;  // where the file's second row starts
+  const std::string first_rows = own.substr(0, second);
+  const std::string line = own.substr(second, own.find('\n', second) + 1 - second);
+  auto refused = [&](const std::string& planted, const std::string& why) {
+    std::ofstream(dir / "runs-2of2.csv", std::ios::binary) << first_rows << planted;
+    fs::remove(dir / "results.csv");
+    try {
+      sweep(runner, dir, 1, {2, 2});
+      ADD_FAILURE() << "merged: " << planted;
+    } catch (const StudyError& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+    }
+    EXPECT_FALSE(fs::exists(dir / "results.csv"));
+  };
+  // One digit of a number changed: the digest no longer matches.
+  std::string edited = line;
+  const size_t at = edited.find(",ok,") + 4;
+  edited[at] = edited[at] == '9' ? '8' : '9';
+  refused(edited, "its digest does not match");
+  // The last metric (torque_rms, before the empty message and the digest) replaced by nan.
+  std::string with_nan = line;
+  const size_t end = with_nan.size() - 67, start = with_nan.rfind(',', end - 1) + 1;
+  ASSERT_EQ(with_nan.compare(end, 2, ",,"), 0) << with_nan;
+  with_nan.replace(start, end - start, "nan");
+  refused(with_nan, "is not a finite number");
+  refused("3,ok,1\n", "no digest at the end of the line");
+  // The same run of another study, signed with this folder's own key: the study is part of the
+  // digest.
+  fs::copy_file(dir / "study.key", other / "study.key");
+  const StudyRunner another(study("[1, 2, 4]", "8"), cache());
+  sweep(another, other, 1, {2, 2});
+  const std::string theirs = read(other / "runs-2of2.csv");
+  refused(theirs.substr(second, theirs.find('\n', second) + 1 - second),
+          "its digest does not match");
+  std::ofstream(dir / "runs-2of2.csv", std::ios::binary) << own;
+  // study.id deleted: the rows say nothing of their study any more.
+  fs::remove(dir / "study.id");
+  try {
+    sweep(another, dir, 1);
+    FAIL() << "rows without study.id were used";
+  } catch (const StudyError& e) {
+    EXPECT_NE(std::string(e.what()).find("holds rows (runs-*.csv) but no study.id"),
               std::string::npos)
         << e.what();
   }
-  for (const std::string bad : {"0,ok,1\n", "0,done,1,2,3,4,5,6,7,8,9,10,\n"}) {
-    std::ofstream(dir / "runs-1of2.csv") << runner.header() << bad;
-    EXPECT_NE(runner.row_problem(bad), "");
-    EXPECT_THROW(sweep(runner, dir, 1), StudyError) << bad;
-  }
   EXPECT_EQ(runner.row_problem(runner.row(1)), "");
-  fs::remove_all(dir);
-  fs::remove(victim);
+  for (const fs::path& p : {dir, other}) fs::remove_all(p);
 }
 
 TEST(Sweep, AFailingRunIsARowWithItsMessage) {

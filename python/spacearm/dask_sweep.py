@@ -36,18 +36,10 @@ def run_study(client, path, out_dir, chunk=64, cache_dir=""):
     if study.time_series:
         raise ValueError("run_study writes results.csv only: run `spacearm sweep` for a study "
                          "with time_series")
-    marker = os.path.join(out_dir, "study.id")
-    if os.path.exists(marker) and study.identity not in open(marker, errors="replace").read():
-        raise ValueError("%s holds the results of another study (see its study.id): give another "
-                         "folder" % out_dir)
+    # The folder is checked (yours, nothing planted, not another study's) before any task runs.
+    study.claim_folder(out_dir)
     chunks = [range(a, min(a + chunk, study.num_runs)) for a in range(0, study.num_runs, chunk)]
     futures = client.map(study_rows, [path] * len(chunks), [cache_dir] * len(chunks), chunks,
                          pure=False)
     rows = [row for part in client.gather(futures) for row in part]
-    os.makedirs(out_dir, exist_ok=True)
-    target = os.path.join(out_dir, "results.csv")
-    tmp = target + ".tmp-%d" % os.getpid()
-    with open(tmp, "w", newline="") as f:
-        f.write(study.merge(rows))
-    os.replace(tmp, target)
-    return target
+    return study.write_results(out_dir, rows)
