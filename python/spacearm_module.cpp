@@ -7,10 +7,12 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cmath>
 #include <fstream>
 #include <map>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "compiled_model.hpp"
@@ -30,10 +32,39 @@ namespace {
 
 using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
 
+// numpy's conversion of `value` (named `what` in errors) to an array, then to contiguous
+// float64. Not Array::ensure: it returns null and drops numpy's MemoryError, whose null array
+// was then dereferenced. A MemoryError stays one; any other failure is a TypeError.
+template <class A>
+A converted(const py::handle& value, const std::string& what) {
+  try {
+    return A(py::reinterpret_borrow<py::object>(value));
+  } catch (py::error_already_set& e) {
+    if (e.matches(PyExc_MemoryError)) throw;
+    throw py::type_error(what + ": not an array of numbers (" + std::string(py::str(e.value())) +
+                         ")");
+  }
+}
+
+// A vector argument (q0, qd0): a 1-D array of numbers, named in the error otherwise (pybind11's
+// own message, "Unable to cast Python instance...", names nothing).
+Eigen::VectorXd vector_argument(const py::handle& value, const std::string& what) {
+  const py::array raw = converted<py::array>(value, what);
+  const char kind = raw.dtype().kind();
+  if (kind != 'i' && kind != 'u' && kind != 'f')
+    throw py::type_error(what + ": a 1-D array of numbers, not " +
+                         std::string(py::str(py::type::of(value).attr("__name__"))));
+  const Array a = converted<Array>(raw, what);
+  if (a.ndim() != 1)
+    throw py::value_error(what + ": a 1-D array, not " + std::to_string(a.ndim()) + " dimensions");
+  return Eigen::Map<const Eigen::VectorXd>(a.data(), a.shape(0));
+}
+
 // simulate()'s options, named and with the defaults of `spacearm simulate`.
 struct SimulateOptions {
   std::string integrator = "rk4", interpolation = "linear", extrapolate = "error";
-  double dt = 0.01, dt_out = 0, rtol = 1e-8, atol = 1e-10;
+  double dt = 0.01, dt_out = 0;
+  py::object rtol = py::none(), atol = py::none();  // None: IntegratorOptions' defaults
   bool consistent_start = false;
 };
 
@@ -118,7 +149,13 @@ Eigen::VectorXd named_parameters(const CompiledModel& m, Eigen::VectorXd values,
     if (!py::isinstance<py::float_>(value) && !py::isinstance<py::int_>(value))
       throw py::type_error("params['" + name + "']: a number, not " +
                            std::string(py::str(py::type::of(value).attr("__name__"))));
-    values[it - names.begin()] = value.cast<double>();
+    const double v = PyFloat_AsDouble(value.ptr());  // an int beyond double raises
+    if (PyErr_Occurred()) {
+      PyErr_Clear();
+      throw py::value_error("params['" + name + "']: " + std::string(py::str(value)).substr(0, 40) +
+                            " is out of the range of double precision");
+    }
+    values[it - names.begin()] = v;
   }
   return values;
 }
@@ -146,11 +183,12 @@ py::object PyModel::call(Output o, const py::args& args, const py::object& param
   // Inputs: all one state (1-D) or all batches (2-D) of one length k.
   std::vector<Array> arrays;
   for (size_t i = 0; i < args.size(); ++i) {
-    const py::array raw = py::array::ensure(args[i]);
-    const char kind = raw ? raw.dtype().kind() : 'O';
+    const std::string name = info(out.inputs[i]).name;
+    const py::array raw = converted<py::array>(args[i], name);
+    const char kind = raw.dtype().kind();
     if (kind != 'i' && kind != 'u' && kind != 'f')
-      throw py::type_error(std::string(info(out.inputs[i]).name) + ": not an array of numbers");
-    arrays.push_back(Array::ensure(raw));
+      throw py::type_error(name + ": not an array of numbers");
+    arrays.push_back(converted<Array>(raw, name));
   }
   const bool batch = !arrays.empty() && arrays[0].ndim() == 2;
   const py::ssize_t k = batch ? arrays[0].shape(0) : 1;
@@ -217,7 +255,7 @@ py::dict PyModel::plan(const Eigen::VectorXd& start, const Eigen::VectorXd& goal
   task.dt = dt;
   task.law = time_law_from_string(time_law);
   task.elbow = elbow;
-  if (!q0.is_none()) task.q0 = q0.cast<Eigen::VectorXd>();
+  if (!q0.is_none()) task.q0 = vector_argument(q0, "q0");
   if (task.q0.size() && task.q0.size() != model_.nq())
     throw py::value_error("q0: expected " + std::to_string(model_.nq()) + " values, got " +
                           std::to_string(task.q0.size()));
@@ -245,8 +283,8 @@ py::dict PyModel::plan(const Eigen::VectorXd& start, const Eigen::VectorXd& goal
 
 // Torque samples (k, 1 + N) with t first, on a uniform grid as a torque file's.
 TorqueTable torque_table(const py::object& torques, int N) {
-  const Array a = Array::ensure(torques);
-  if (!a || a.ndim() != 2 || a.shape(1) != N + 1 || a.shape(0) < 2)
+  const Array a = converted<Array>(torques, "torques");
+  if (a.ndim() != 2 || a.shape(1) != N + 1 || a.shape(0) < 2)
     throw py::value_error("torques: an array of shape (k, " + std::to_string(N + 1) +
                           "), k >= 2, with the times t in the first column and tau1.." +
                           std::to_string(N) + " after it");
@@ -282,8 +320,24 @@ py::dict PyModel::simulate(double t_end, const py::object& torques, const py::ob
   IntegratorOptions opt;
   opt.method = method_from_string(o.integrator);
   opt.dt = o.dt;
-  opt.rtol = o.rtol;
-  opt.atol = o.atol;
+  // As the CLI's: options that would do nothing are errors, not silently ignored.
+  for (const auto& [name, given, value] :
+       {std::tuple{"rtol", &o.rtol, &opt.rtol}, std::tuple{"atol", &o.atol, &opt.atol}})
+    if (!given->is_none()) {
+      if (!adaptive(opt.method))
+        throw py::value_error(std::string(name) +
+                              ": applies only to the adaptive integrators (dopri5, rkf78, "
+                              "rosenbrock4), not to " +
+                              o.integrator);
+      *value = PyFloat_AsDouble(given->ptr());
+      if (PyErr_Occurred()) {
+        PyErr_Clear();
+        throw py::type_error(std::string(name) + ": a number");
+      }
+    }
+  if (!(o.dt_out >= 0 && std::isfinite(o.dt_out)))
+    throw py::value_error("dt_out: " + std::to_string(o.dt_out) +
+                          " must be 0 (every step) or a positive multiple of dt");
   // The torque signal: from the samples (covering [0, t_end] unless extrapolated), or zero.
   const int N = m.num_links;
   const TorqueTable table =
@@ -298,8 +352,8 @@ py::dict PyModel::simulate(double t_end, const py::object& torques, const py::ob
   const TorqueSignal<Eigen::Dynamic> tau(table.t0, table.dt, table.samples,
                                          interpolation_from_string(o.interpolation), outside);
   const TorqueReplay<Eigen::Dynamic> replay(tau, opt, "dt");
-  Eigen::VectorXd x0 = q0.is_none() ? Eigen::VectorXd::Zero(m.nq) : q0.cast<Eigen::VectorXd>();
-  Eigen::VectorXd v0 = qd0.is_none() ? Eigen::VectorXd::Zero(m.nv) : qd0.cast<Eigen::VectorXd>();
+  Eigen::VectorXd x0 = q0.is_none() ? Eigen::VectorXd::Zero(m.nq) : vector_argument(q0, "q0");
+  Eigen::VectorXd v0 = qd0.is_none() ? Eigen::VectorXd::Zero(m.nv) : vector_argument(qd0, "qd0");
   if (x0.size() != m.nq || v0.size() != m.nv)
     throw py::value_error("q0 and qd0: expected " + std::to_string(m.nq) + " values each");
   // The run without the GIL, one row per sample of the table.
@@ -385,8 +439,9 @@ PYBIND11_MODULE(_spacearm, module) {
           "simulate",
           [](const PyModel& m, double t_end, const py::object& torques, const py::object& q0,
              const py::object& qd0, const std::string& integrator, double dt, double dt_out,
-             const std::string& interpolation, const std::string& extrapolate, double rtol,
-             double atol, bool consistent_start, const py::object& params) {
+             const std::string& interpolation, const std::string& extrapolate,
+             const py::object& rtol, const py::object& atol, bool consistent_start,
+             const py::object& params) {
             return m.simulate(
                 t_end, torques, q0, qd0,
                 {integrator, interpolation, extrapolate, dt, dt_out, rtol, atol, consistent_start},
@@ -395,8 +450,9 @@ PYBIND11_MODULE(_spacearm, module) {
           py::arg("t_end"), py::arg("torques") = py::none(), py::arg("q0") = py::none(),
           py::arg("qd0") = py::none(), py::arg("integrator") = "rk4", py::arg("dt") = 0.01,
           py::arg("dt_out") = 0.0, py::arg("interpolation") = "linear",
-          py::arg("extrapolate") = "error", py::arg("rtol") = 1e-8, py::arg("atol") = 1e-10,
-          py::arg("consistent_start") = false, py::arg("params") = py::none(),
+          py::arg("extrapolate") = "error", py::arg("rtol") = py::none(),
+          py::arg("atol") = py::none(), py::arg("consistent_start") = false,
+          py::arg("params") = py::none(),
           "Integrate the dynamics from (q0, qd0) (zero by default) to t_end under joint torques "
           "sampled on a uniform grid (an array (k, 1 + N): t, tau1..N, link side; None: no "
           "torque), as `spacearm simulate`: a dict of t, q, qd and 'columns', the CSV's columns "

@@ -28,7 +28,14 @@ std::vector<std::string> rows(const StudyRunner& runner, const py::iterable& run
                               int threads) {
   const long n = runner.study().num_runs();
   std::vector<long> runs;
-  for (const py::handle& i : run_indices) runs.push_back(py::cast<long>(i));
+  for (const py::handle& i : run_indices) {
+    if (!PyIndex_Check(i.ptr()) || PyBool_Check(i.ptr()))  // ints and numpy's integers
+      throw py::type_error("runs: run indices are integers, not " +
+                           std::string(py::str(py::type::of(i).attr("__name__"))));
+    const long r = PyLong_AsLong(py::reinterpret_steal<py::object>(PyNumber_Index(i.ptr())).ptr());
+    if (PyErr_Occurred()) throw py::error_already_set();
+    runs.push_back(r);
+  }
   for (long r : runs)
     if (r < 0 || r >= n)
       throw py::index_error("run " + std::to_string(r) + ": the study has runs 0 .. " +

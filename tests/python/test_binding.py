@@ -227,3 +227,31 @@ def test_simulate_is_the_cli_simulate(geared, tmp_path):
     bad[5, 0] += 0.003
     with pytest.raises(ValueError, match="row numbers from 1.* line 6: time step"):
         geared.simulate(1, torques=bad)
+
+
+def test_hostile_arguments_get_named_errors_not_crashes(geared):
+    """Issue 28, items 4 and 7: a batch whose float64 copy cannot be allocated (512 TiB, more than
+    any address space) raises MemoryError (it used to segfault); pybind11's "Unable to cast"
+    never reaches the user; options that would do nothing are refused."""
+    for dtype in (np.float32, np.int64):
+        huge = np.broadcast_to(dtype(0), (1 << 46, geared.nq))
+        with pytest.raises(MemoryError):
+            geared.mass_matrix(huge)
+    with pytest.raises(MemoryError):
+        geared.simulate(1, torques=np.broadcast_to(np.float32(0), (1 << 46, geared.num_links + 1)))
+    with pytest.raises(TypeError, match="q0: a 1-D array of numbers, not str"):
+        geared.simulate(1, q0="abc")
+    with pytest.raises(TypeError, match="qd0: a 1-D array of numbers"):
+        geared.simulate(1, qd0=[1, "a", 2, 3, 4, 5])
+    with pytest.raises(TypeError, match="q0:"):
+        geared.plan([1.5, 0, 0.5], [1.4, 0.05, 0.6], 1, q0="x")
+    with pytest.raises(ValueError, match=r"params\['p'\]: 1000.* out of the range of double"):
+        geared.mass_matrix(np.zeros(geared.nq), params={"p": 10**400})
+    for dt_out in (float("nan"), -0.01, float("inf")):
+        with pytest.raises(ValueError, match="dt_out"):
+            geared.simulate(1, dt_out=dt_out)
+    with pytest.raises(ValueError, match="rtol: applies only to the adaptive integrators"):
+        geared.simulate(1, rtol=1e-6)
+    with pytest.raises(ValueError, match="atol: applies only"):
+        geared.simulate(1, integrator="rk4", atol=1e-6)
+    assert len(geared.simulate(0.1, integrator="dopri5", rtol=1e-6, atol=1e-9)["t"]) == 11

@@ -4,6 +4,7 @@ results.csv bytes (about 10 s, most of it Dask's start)."""
 import os
 import subprocess
 
+import numpy as np
 import pytest
 
 import spacearm
@@ -67,6 +68,9 @@ def test_study_errors_are_python_exceptions(study_path, tmp_path):
     study = spacearm.Study(study_path, CACHE)
     with pytest.raises(IndexError, match="runs 0 .. 8"):
         study.rows([9])
+    with pytest.raises(TypeError, match="runs: run indices are integers, not float"):
+        study.rows([1.5])
+    assert study.rows([np.int64(1)]) == study.rows([1])
     with pytest.raises(spacearm.StudyError, match="run 3 has no row"):
         study.merge(study.rows([0, 1, 2]))
     assert list(study.parameters(4)[:1]) == [2.0]
