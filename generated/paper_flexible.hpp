@@ -52,8 +52,8 @@ inline const char* parameter_error([[maybe_unused]] const Eigen::Matrix<double, 
   if (!(params(3) >= 0)) return "gears[0].damping must not be negative";
   if (!(params(4) >= 0)) return "friction[0].viscous must not be negative";
   if (!(params(5) >= 0)) return "friction[0].coulomb must not be negative";
-  if (!(params(6) > 0)) return "friction[0].velocity_scale must be positive";
-  if (!(params(8) > 0)) return "friction[0].stribeck_velocity must be positive";
+  if (!(params(6) - T(1e-09) >= 0)) return "friction[0].velocity_scale must be at least 1e-9 rad/s";
+  if (!(params(8) - T(1e-09) >= 0)) return "friction[0].stribeck_velocity must be at least 1e-9 rad/s";
   if (!(params(7) - params(5) >= 0)) return "friction[0].stribeck_static must not be below coulomb";
   if (!(params(0) > 0)) return "gears[1].ratio must be positive";
   if (!(params(1) > 0)) return "gears[1].motor_inertia must be positive (a flexible joint)";
@@ -62,8 +62,8 @@ inline const char* parameter_error([[maybe_unused]] const Eigen::Matrix<double, 
   if (!(params(3) >= 0)) return "gears[1].damping must not be negative";
   if (!(params(4) >= 0)) return "friction[1].viscous must not be negative";
   if (!(params(5) >= 0)) return "friction[1].coulomb must not be negative";
-  if (!(params(6) > 0)) return "friction[1].velocity_scale must be positive";
-  if (!(params(8) > 0)) return "friction[1].stribeck_velocity must be positive";
+  if (!(params(6) - T(1e-09) >= 0)) return "friction[1].velocity_scale must be at least 1e-9 rad/s";
+  if (!(params(8) - T(1e-09) >= 0)) return "friction[1].stribeck_velocity must be at least 1e-9 rad/s";
   if (!(params(7) - params(5) >= 0)) return "friction[1].stribeck_static must not be below coulomb";
   if (!(params(0) > 0)) return "gears[2].ratio must be positive";
   if (!(params(1) > 0)) return "gears[2].motor_inertia must be positive (a flexible joint)";
@@ -72,8 +72,8 @@ inline const char* parameter_error([[maybe_unused]] const Eigen::Matrix<double, 
   if (!(params(3) >= 0)) return "gears[2].damping must not be negative";
   if (!(params(4) >= 0)) return "friction[2].viscous must not be negative";
   if (!(params(5) >= 0)) return "friction[2].coulomb must not be negative";
-  if (!(params(6) > 0)) return "friction[2].velocity_scale must be positive";
-  if (!(params(8) > 0)) return "friction[2].stribeck_velocity must be positive";
+  if (!(params(6) - T(1e-09) >= 0)) return "friction[2].velocity_scale must be at least 1e-9 rad/s";
+  if (!(params(8) - T(1e-09) >= 0)) return "friction[2].stribeck_velocity must be at least 1e-9 rad/s";
   if (!(params(7) - params(5) >= 0)) return "friction[2].stribeck_static must not be below coulomb";
   return nullptr;
 }

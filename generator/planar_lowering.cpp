@@ -419,6 +419,39 @@ struct CheckPoint {
   }
 };
 
+// The smallest and largest non-zero magnitudes among the scene's masses, inertias, lengths,
+// gear ratios, motor inertias and stiffnesses (nominal values), by field; empty when they span
+// less than six decades. Double precision cannot hold a model whose numbers span too far.
+std::string value_span(const Scene& scene) {
+  std::vector<std::pair<std::string, double>> values;
+  auto add = [&](const std::string& field, const Quantity& q) {
+    if (q.value != 0) values.push_back({field, std::abs(q.value)});
+  };
+  if (scene.free_floating())
+    add("base.mass", scene.base.mass), add("base.inertia", scene.base.inertia);
+  for (int i = 0; i < scene.num_links(); ++i) {
+    const std::string l = "links[" + std::to_string(i) + "]",
+                      g = "gears[" + std::to_string(i) + "]";
+    add(l + ".mass", scene.links[i].mass);
+    add(l + ".inertia", scene.links[i].inertia);
+    add(l + ".length", scene.links[i].length);
+    if (!scene.has_gear(i)) continue;
+    add(g + ".ratio", scene.gears[i]->ratio);
+    add(g + ".motor_inertia", scene.gears[i]->motor_inertia);
+    if (scene.gears[i]->stiffness) add(g + ".stiffness", *scene.gears[i]->stiffness);
+  }
+  if (values.empty()) return "";
+  const auto [lo, hi] =
+      std::minmax_element(values.begin(), values.end(),
+                          [](const auto& a, const auto& b) { return a.second < b.second; });
+  if (hi->second / lo->second < 1e6) return "";
+  char text[200];
+  std::snprintf(text, sizeof text, "%.0f decades, from %s = %g to %s = %g",
+                std::floor(std::log10(hi->second / lo->second)), lo->first.c_str(), lo->second,
+                hi->first.c_str(), hi->second);
+  return text;
+}
+
 // The generator checks itself before it emits: the optimized straight-line program must
 // reproduce, at the check point, the values computed from the derivation alone (want: per
 // result, its entries row by row), else it names the entry that fails.
@@ -433,20 +466,31 @@ void self_check(const SymbolicModel& model, const FunctionSpec& f,
     double scale = 1e-300;
     for (double w : want[k]) {
       // Not a generator bug but a scene whose numbers make the model degenerate in double.
-      if (!std::isfinite(w))
+      if (!std::isfinite(w)) {
+        const std::string span = value_span(model.scene);
         throw std::runtime_error(
             "scene '" + model.scene.name + "': " + f.name +
-            " is not finite at the generator's "
-            "check point (nominal parameters): the masses, inertias or lengths make the "
-            "model numerically degenerate");
+            " is not finite at the generator's check point (nominal parameters): the masses, "
+            "inertias or lengths make the model numerically degenerate" +
+            (span.empty() ? "" : " (its values span " + span + ")"));
+      }
       scale = std::max(scale, std::abs(w));
     }
-    for (size_t i = 0; i < want[k].size(); ++i)
-      if (!(std::abs(got[i] - want[k][i]) <= 1e-9 * scale))
-        throw std::logic_error("generator self-check failed in " + f.name + ", " +
-                               f.results[k].name + " entry " + std::to_string(i) + ": " +
-                               std::to_string(got[i]) + " emitted vs " +
-                               std::to_string(want[k][i]) + " derived");
+    for (size_t i = 0; i < want[k].size(); ++i) {
+      if (std::abs(got[i] - want[k][i]) <= 1e-9 * scale) continue;
+      char values[120];
+      std::snprintf(values, sizeof values, "%.17g emitted vs %.17g derived", got[i], want[k][i]);
+      const std::string where =
+          f.name + ", " + f.results[k].name + " entry " + std::to_string(i) + ": " + values;
+      // Numbers too far apart for double are the scene's, named by field; else a generator bug.
+      if (const std::string span = value_span(model.scene); !span.empty())
+        throw std::runtime_error(
+            "scene '" + model.scene.name +
+            "': double precision cannot hold this model at its nominal values (" + where +
+            "): its values span " + span +
+            "; choose units or nominal values that bring them closer");
+      throw std::logic_error("generator self-check failed in " + where);
+    }
   }
 }
 
@@ -797,9 +841,13 @@ class ParameterChecks {
     const std::string ff = "friction[" + std::to_string(i) + "]";
     check(f.viscous, false, ff + ".viscous must not be negative");
     check(f.coulomb, false, ff + ".coulomb must not be negative");
-    if (f.has_coulomb) check(f.velocity_scale, true, ff + ".velocity_scale must be positive");
+    auto at_least = [&](const Quantity& q, const std::string& what) {
+      check(q.is_parameter(), p_.add({value(q), p_.constant(-kMinFrictionVelocity)}), false, what);
+    };
+    if (f.has_coulomb)
+      at_least(f.velocity_scale, ff + ".velocity_scale must be at least 1e-9 rad/s");
     if (!f.has_stribeck) return;
-    check(f.stribeck_velocity, true, ff + ".stribeck_velocity must be positive");
+    at_least(f.stribeck_velocity, ff + ".stribeck_velocity must be at least 1e-9 rad/s");
     check(f.stribeck_static.is_parameter() || f.coulomb.is_parameter(),
           p_.add({value(f.stribeck_static), -value(f.coulomb)}), false,
           ff + ".stribeck_static must not be below coulomb");

@@ -425,6 +425,14 @@ class SceneReader {
     f.stribeck_static =
         n["stribeck_static"].IsDefined() ? optional("stribeck_static", false) : f.coulomb;
     f.stribeck_velocity = optional("stribeck_velocity", true);
+    for (const auto& [key, q] : {std::pair{"velocity_scale", &f.velocity_scale},
+                                 std::pair{"stribeck_velocity", &f.stribeck_velocity}})
+      if (n[key].IsDefined() && q->value < kMinFrictionVelocity)
+        r.fail(field + "." + key,
+               "must be at least 1e-9 rad/s (tanh(w/vs) becomes a step that no integrator "
+               "follows), got " +
+                   shown(*q),
+               n[key]);
     auto present = [](const Quantity& q) { return q.is_parameter() || q.value != 0; };
     f.has_coulomb = present(f.coulomb) || present(f.stribeck_static);
     f.has_stribeck = n["stribeck_static"].IsDefined() &&
@@ -456,6 +464,13 @@ class SceneReader {
     for (Formulation k : {Formulation::closed, Formulation::recursive, Formulation::automatic})
       if (v == to_string(k)) {
         s.formulation = k;
+        if (k == Formulation::closed && s.num_links() > kMaxClosedFormLinks)
+          r.fail("formulation",
+                 "'closed' is derived up to " + std::to_string(kMaxClosedFormLinks) +
+                     " links (its cost doubles about every two links: 16 s at 12, over 2 "
+                     "minutes and 1 GB at 20), got " +
+                     std::to_string(s.num_links()) + " links; use 'auto' or 'recursive'",
+                 f);
         return;
       }
     r.fail("formulation",

@@ -89,6 +89,13 @@ const char* to_string(Formulation f);
 // Largest N at which `automatic` derives the closed form as well (it takes about a second there
 // and grows much faster than N; the recursive form is the cheaper beyond it).
 constexpr int kClosedFormLinks = 8;
+// Largest N a scene may ask the closed form for (formulation: closed). Its derivation doubles
+// about every two links (measured: 16 s and 92 MB at 12 links, over 2 min and 1 GB at 20).
+constexpr int kMaxClosedFormLinks = 12;
+
+// Smallest friction velocity (velocity_scale, stribeck_velocity) [rad/s]: below it tanh(w/vs)
+// is a step that no integrator follows and the symbolic check point overflows.
+constexpr double kMinFrictionVelocity = 1e-9;
 
 struct Scene {
   std::string name;         // C++ namespace of the emitted model

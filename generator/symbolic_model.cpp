@@ -441,8 +441,10 @@ SymbolicModel derive(const Scene& scene, const DeriveOptions& options) {
         " links: the closed form's entries are printed up to " + std::to_string(kClosedFormLinks) +
         " links; beyond, the closed form takes minutes and gigabytes to expand and the generated "
         "functions come from the recursive algorithms, which have no entries to print. Evaluate "
-        "the quantity with 'spacearm eval', or add 'formulation: closed' to the scene to expand "
-        "it anyway");
+        "the quantity with 'spacearm eval'" +
+        (scene.num_links() <= kMaxClosedFormLinks
+             ? std::string(", or add 'formulation: closed' to the scene to expand it anyway")
+             : std::string()));
   SymbolicModel model;
   model.scene = scene;
   Derivation(model.scene, options, model).run();

@@ -229,11 +229,11 @@ class Integration {
   // controller chose is kept across them (a step shortened to land does not shrink the next).
   template <class Stepper>
   void controlled_steps(Stepper& stepper) {
-    double dt = std::min(dt_out_, 0.01), t = t0_;
+    double dt = first_step(), t = t0_;
     for (long k = 1; k <= outputs_; ++k) {
       const double t_out = t0_ + k * dt_out_;
       int rejected = 0;
-      while (t < t_out - 1e-12 * std::max(1.0, std::abs(t_out))) {
+      while (!below_minimum_step(t_out - t, t, t0_, t1_)) {
         const double stop = next_stop(t, t_out), natural = dt;
         // A step that ends on the stop counts as clamped too: the right-hand side may change
         // there (a held torque), so an FSAL method must evaluate its first stage anew.
@@ -256,6 +256,7 @@ class Integration {
           accept(t, x_);
           rejected = 0;
           dt = clamped ? std::max(natural, dt) : dt;
+          check_pace(dt, t);
         } else if (++rejected > 500 || below_minimum_step(dt, t, t0_, t1_)) {
           throw step_too_small(dt);
         }
@@ -269,7 +270,7 @@ class Integration {
   // continuous extension.
   template <class Stepper>
   void dense_output_steps(Stepper& stepper) {
-    stepper.initialize(x_, t0_, std::min(dt_out_, 0.01));
+    stepper.initialize(x_, t0_, first_step());
     State out = x_;
     for (long k = 1; k <= outputs_; ++k) {
       const double t_out = t0_ + k * dt_out_;
@@ -283,6 +284,7 @@ class Integration {
         accept(stepper.current_time(), stepper.current_state());
         if (below_minimum_step(stepper.current_time_step(), t_ok, t0_, t1_))
           throw step_too_small(stepper.current_time_step());
+        check_pace(stepper.current_time_step(), t_ok);
       }
       stepper.calc_state(t_out, out);
       observe_(out, t_out);
@@ -291,6 +293,33 @@ class Integration {
   }
 
  private:
+  // The first try: at most a sixteenth of the span, so that one step cannot cover a short span
+  // whose error estimate sees nothing (a quintic time law has zero rates at both ends).
+  double first_step() const { return std::min({dt_out_, 0.01, (t1_ - t0_) / 16}); }
+
+  // A step size far above the minimum that would still take more than 1e9 steps to reach t1
+  // (10 000 such steps in a row): the system is stiff for this method (steep friction, a
+  // stiff spring), and the run would take hours without a word.
+  void check_pace(double h, double t) {
+    if (!((t1_ - t) / std::abs(h) > 1e9)) {
+      slow_steps_ = 0;
+      return;
+    }
+    if (++slow_steps_ < 10000) return;
+    throw integration_error(
+        opt_.method,
+        "no practical progress: 10000 steps in a row of about " + format(h) +
+            " s, at which reaching t = " + format(t1_) + " would take " + format((t1_ - t) / h) +
+            " more; the system is stiff here (steep friction: a small velocity_scale; a stiff "
+            "spring)" +
+            (opt_.method == Method::rosenbrock4
+                 ? std::string()
+                 : std::string(": use the integrator rosenbrock4 (the scene must emit "
+                               "forward_dynamics_derivatives)")),
+        t_ok, x_ok);
+  }
+
+  long slow_steps_ = 0;
   const IntegratorOptions& opt_;
   Rhs& rhs_;
   State& x_;

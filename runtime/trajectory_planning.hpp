@@ -389,6 +389,14 @@ inline Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& ta
     if (m.momentum && nb > 0)
       plan.max_momentum = std::max(plan.max_momentum, m.momentum(qk, r.qd).cwiseAbs().maxCoeff());
   }
+  // A plan off its line is an error, never a table (a step over a whole short span once gave
+  // one 0.6 m off with exit 0); good plans are within 1e-13 of it.
+  const double scale =
+      std::max({1.0, task.start.cwiseAbs().maxCoeff(), task.goal.cwiseAbs().maxCoeff()});
+  if (!(plan.max_path_error <= 1e-8 * scale))
+    throw std::runtime_error("planner, model " + m.name + ": the plan misses the line by " +
+                             detail::format(plan.max_path_error) +
+                             " (integration failed to follow it; a bug: please report it)");
   detail::check_by_central_differences(m, plan);
   return plan;
 }

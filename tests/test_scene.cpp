@@ -1,6 +1,8 @@
 // Scene files: the paper's scenes parse; bad input gets an error naming field and value.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cctype>
 #include <filesystem>
 #include <fstream>
@@ -228,6 +230,19 @@ TEST(Scene, FormulationAndTheClosedFormsReach) {
   EXPECT_TRUE(asked.wants(Output::forward_dynamics_derivatives));
   EXPECT_TRUE(
       parse_scene(long_chain + "formulation: closed\n", "t.yaml").wants(Output::coriolis_matrix));
+  // Issue 28, item 5: beyond kMaxClosedFormLinks the closed form is refused up front (30 links
+  // derived for minutes and gigabytes without a word).
+  while (std::count(long_chain.begin(), long_chain.end(), '\n') - 3 < kMaxClosedFormLinks)
+    long_chain += "  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.25, 0]}\n";
+  EXPECT_EQ(parse_scene(long_chain + "formulation: closed\n", "t.yaml").num_links(),
+            kMaxClosedFormLinks);
+  long_chain += "  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.25, 0]}\n";
+  const std::string too_long = error_of(long_chain + "formulation: closed\n");
+  EXPECT_NE(too_long.find("field 'formulation': 'closed' is derived up to 12 links"),
+            std::string::npos)
+      << too_long;
+  EXPECT_NE(too_long.find("got 13 links; use 'auto' or 'recursive'"), std::string::npos)
+      << too_long;
 }
 
 // Every file the fuzzer starts from or has recorded a crash for (fuzz/), and the shipped and
@@ -316,6 +331,10 @@ TEST(Scene, InvalidFlexibleJointsAndFrictionAreNamedErrors) {
        "Coulomb level Fc (0.100000)"},
       {fr + "coulomb: 0.1, velocity_scale: 0.1, stribeck_static: 0.2}\n",
        "field 'friction.stribeck_velocity': a Stribeck hump"},
+      {fr + "coulomb: 0.1, velocity_scale: 1e-30}\n",
+       "field 'friction.velocity_scale': must be at least 1e-9 rad/s (tanh(w/vs) becomes a step"},
+      {fr + "coulomb: 0.1, velocity_scale: 0.1, stribeck_static: 0.2, stribeck_velocity: 1e-12}\n",
+       "field 'friction.stribeck_velocity': must be at least 1e-9 rad/s"},
       {fr + "viscous: -1}\n", "field 'friction.viscous': must not be negative, got -1"},
       {fr + "sticky: 1}\n", "field 'friction.sticky': unknown field"},
       {std::string(kValid) + "friction: [null, null]\n", "field 'friction': every entry is null"},

@@ -210,6 +210,20 @@ TEST(TrajectoryPlanning, TorquesScaleWithTheInverseSquareOfTheDuration) {
   }
 }
 
+// Issue 28, item 7: spans of one output step, or of 1e-10 s, follow the line too (a first step
+// over the whole span, or a loop bound of 1e-12 s absolute, gave plans 0.4-0.6 m off it).
+TEST(TrajectoryPlanning, VeryShortPlansFollowTheLine) {
+  const Ref ref;
+  for (const auto& [duration, dt] : {std::pair{0.01, 0.01}, {1e-10, 1e-10}, {1e-10, 1e-12}}) {
+    StraightLineTask task;
+    task.duration = duration;
+    task.dt = dt;
+    const auto plan = plan_straight_line(ref, task);
+    EXPECT_LT(plan.max_path_error, 1e-9) << duration << " s in steps of " << dt;
+    EXPECT_NEAR(ref.end_effector_pose(plan.q.back())[0], 1.1, 1e-9) << duration;
+  }
+}
+
 // A geared fixed-base arm: the planned torques are p times the emitted inverse dynamics'
 // joint rows (eq. 14), the start is on the asked elbow branch.
 TEST(TrajectoryPlanning, GearedFixedBaseArmTorquesAreInverseDynamics) {
