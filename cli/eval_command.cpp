@@ -134,6 +134,18 @@ int run_eval(const EvalArgs& a) {
   };
   EvalInputs in;
   in.values[Input::q] = cli::parse_vector(a.q_text, "--q", nq);
+  // Angles as the planner bounds them: beyond 1e6 rad sin and cos keep few digits (none at
+  // 1e16 in double, none at 1e100 in --symbolic's 40 digits, which then printed the stretched
+  // arm).
+  const std::vector<std::string> names = scene.coordinate_names();
+  for (int i = scene.free_floating() ? 2 : 0; i < nq; ++i)
+    if (!(std::abs(in.values[Input::q][i]) <= 1e6)) {
+      char value[32];
+      std::snprintf(value, sizeof value, "%g", in.values[Input::q][i]);
+      throw std::invalid_argument("--q[" + std::to_string(i) + "] (" + names[i] + ") = " + value +
+                                  " rad: angles must lie within +-1e6 rad (beyond, sin and cos "
+                                  "of them keep no digits)");
+    }
   in.values[Input::qd] = vector(a.qd_text, "--qd", nv);
   in.values[Input::qdd] = vector(a.qdd_text, "--qdd", nv);
   in.values[Input::generalized_forces] = vector(a.forces_text, "--forces", nv);

@@ -280,7 +280,10 @@ int main(int argc, char** argv) {
           plan_args.cache_dir.empty() && sweep_args.cache_dir.empty())
         throw CLI::ValidationError("--cache-dir", "empty path");
   } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) return app.exit(e);
+    if (e.get_exit_code() == 0) {  // --help: printed, and it must have arrived
+      app.exit(e);
+      return stdout_status();
+    }
     std::cerr << "spacearm: error: " << e.what() << " (see --help)\n";
     return 1;
   }

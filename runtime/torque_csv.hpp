@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -91,14 +92,30 @@ inline std::map<std::string, size_t> csv_columns(const std::vector<std::string>&
                                                  const CsvErrors& fail) {
   std::string list;
   for (const auto& n : expected) list += (list.empty() ? "" : ",") + n;
+  // Text of the file is shown only where it looks like a name or a number: a study may name any
+  // file (/etc/shadow, /proc/self/environ), whose contents must not reach a message.
+  auto shown = [](const std::string& text) {
+    char* end = nullptr;
+    std::strtod(text.c_str(), &end);
+    const bool number = !text.empty() && *end == '\0' && text.size() <= 32;
+    const bool name = !text.empty() && text.size() <= 32 &&
+                      text.find_first_not_of(
+                          "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                          "0123456789_") == std::string::npos;
+    return number || name;
+  };
   if (!header[0].empty() && (std::isdigit(static_cast<unsigned char>(header[0][0])) ||
                              header[0][0] == '-' || header[0][0] == '+' || header[0][0] == '.'))
-    throw fail(line, "starts with data (" + quoted_text(header[0]) +
-                         "), not a header; add the header line " + list);
+    throw fail(line, "starts with data" +
+                         (shown(header[0]) ? " (" + quoted_text(header[0]) + ")" : std::string()) +
+                         ", not a header; add the header line " + list);
   std::map<std::string, size_t> column;
   for (size_t c = 0; c < header.size(); ++c) {
     if (std::find(expected.begin(), expected.end(), header[c]) == expected.end())
-      throw fail(line, "unknown column " + quoted_text(header[c]) + " (expected " + list + ")");
+      throw fail(line, "unknown column " +
+                           (shown(header[c]) ? quoted_text(header[c])
+                                             : std::to_string(c + 1) + " (not a column name)") +
+                           " (expected " + list + ")");
     if (!column.insert({header[c], c}).second)
       throw fail(line, "column " + quoted_text(header[c]) + " appears twice");
   }

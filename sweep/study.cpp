@@ -86,8 +86,22 @@ class StudyReader {
     const std::filesystem::path p(text(n, field));
     return (p.is_absolute() ? p : std::filesystem::path(dir_) / p).string();
   }
-  Scene scene(const YAML::Node& n, const std::string& field) const {
+  // Files a study names must be what they are for (.yaml or .yml scenes, .csv torques): a study
+  // from anyone must not make spacearm read /etc/shadow and quote it back.
+  std::string named_file(const YAML::Node& n, const std::string& field,
+                         std::initializer_list<const char*> extensions) const {
     const std::string p = path(n, field);
+    const std::string ext = std::filesystem::path(p).extension().string();
+    std::string list;
+    for (const char* e : extensions) {
+      if (ext == e) return p;
+      list += (list.empty() ? "" : " or ") + std::string(e);
+    }
+    r_.fail(field, "'" + p + "' is not a " + list + " file", n);
+    return p;
+  }
+  Scene scene(const YAML::Node& n, const std::string& field) const {
+    const std::string p = named_file(n, field, {".yaml", ".yml"});
     if (!std::filesystem::is_regular_file(p)) r_.fail(field, "no scene file '" + p + "'", n);
     return load_scene(p);
   }
@@ -121,7 +135,7 @@ void StudyReader::manoeuvre(Study& s, const YAML::Node& n) const {
   const int nq = s.scene.num_base() + s.scene.num_links();  // base pose, link-side angles
   if (n["target"].IsDefined()) s.target = numbers(n["target"], "manoeuvre.target", 2, 2);
   if (n["torques"].IsDefined()) {
-    s.torque_path = path(n["torques"], "manoeuvre.torques");
+    s.torque_path = named_file(n["torques"], "manoeuvre.torques", {".csv"});
     s.torques = read_torque_csv(read_file(s.torque_path, "manoeuvre.torques", kMaxTorqueBytes),
                                 s.scene.num_links(), s.torque_path);
     s.q0 =

@@ -392,8 +392,10 @@ TEST_F(EvalCli, BadInputsGetClearErrors) {
            {ref + " --q 1,2,3,4,5,0x10", "--q[5]: '0x10' is not a number"},
            {ref + " --q 1,2,3,4,5,1e-400",
             "--q[5]: '1e-400' is out of the range of double precision"},
-           {ref + " --q 0,0,0,0,0,1e300 --qd 0,0,0,1e200,0,0",
-            "): the state or parameters overflow"},
+           {ref + " --q 0,0,0,0,0,0 --qd 0,0,0,1e200,0,0", "): the state or parameters overflow"},
+           {ref + " --q 0,0,0,0,0,1e100 --symbolic",
+            "--q[5] (q3) = 1e+100 rad: angles must lie within +-1e6 rad"},
+           {ref + " --q 0,0,-2e6,0,0,0", "--q[2] (q0) = -2e+06 rad: angles must lie within"},
            {geared + " --q 0,0,0,0,0,0 --param p=2 --param p=3",
             "--param: 'p' given more than once"},
            {ref, "spacearm: error: --q is required"},
@@ -423,6 +425,12 @@ TEST_F(EvalCli, LostOutputAndAnEmptyCacheFolderAreErrors) {
   std::string out = run(cli + ref + " --q 0,0,0,0,0,0 2>&1 > /dev/full", &status);
   EXPECT_EQ(WEXITSTATUS(status), 1);
   EXPECT_NE(out.find("writing standard output failed"), std::string::npos) << out;
+  // Help lost to a full disk is a failure too (issue 28, item 7).
+  for (const char* help : {" --help", " simulate --help", " sweep --help"}) {
+    out = run(std::string(SPACEARM_CLI) + help + " 2>&1 > /dev/full", &status);
+    EXPECT_EQ(WEXITSTATUS(status), 1) << help;
+    EXPECT_NE(out.find("writing standard output failed"), std::string::npos) << help << out;
+  }
   out = run(std::string(SPACEARM_CLI) + " eval " + ref + " --q 0,0,0,0,0,0 --cache-dir '' 2>&1",
             &status);
   EXPECT_EQ(WEXITSTATUS(status), 1);

@@ -347,6 +347,38 @@ TEST(Study, DrawsDependOnTheSeedAndTheRunOnly) {
   EXPECT_NEAR(sum / 4000, 2.0, 4 * 0.5 / std::sqrt(4000.0));
 }
 
+// Issue 28, item 7: a study may name any file; the error names the file and never quotes its
+// contents (a secret planted as a torque file's header, or a scene's first key).
+TEST(Study, ErrorsNameFilesButNeverQuoteTheirContents) {
+  const fs::path dir = scratch("secrets");
+  const std::string secret = "DB_PASSWORD=hunter2:x";
+  std::ofstream(dir / "tau.csv") << secret << ",tau1\n0,1\n";
+  std::ofstream(dir / "scene.yaml") << "root:x:0:0::/root:/bin/bash: 1\n";
+  std::ofstream(dir / "shadow") << secret << "\n";
+  const std::string start = "manoeuvre:\n  q0: [0, 0, 0, 0, 0, 0]\n  torques: ";
+  const std::vector<std::pair<std::string, std::string>> texts = {
+      {"scene: " + std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml\n" + start +
+           (dir / "tau.csv").string() + "\nintegrator: {method: rk4, dt: 0.01}\n",
+       "unknown column 1 (not a column name)"},
+      {"scene: " + std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml\n" + start +
+           (dir / "shadow").string() + "\nintegrator: {method: rk4, dt: 0.01}\n",
+       "field 'manoeuvre.torques': '" + (dir / "shadow").string() + "' is not a .csv file"},
+      {"scene: /etc/shadow\n", "field 'scene': '/etc/shadow' is not a .yaml or .yml file"},
+      {"scene: " + (dir / "scene.yaml").string() + "\n", "<not a field name>"},
+  };
+  for (const auto& [text, what] : texts) {
+    try {
+      parse_study(text, "study.yaml");
+      ADD_FAILURE() << what;
+    } catch (const std::exception& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+      EXPECT_EQ(std::string(e.what()).find("hunter2"), std::string::npos) << e.what();
+      EXPECT_EQ(std::string(e.what()).find("/bin/bash"), std::string::npos) << e.what();
+    }
+  }
+  fs::remove_all(dir);
+}
+
 TEST(Study, ErrorsNameTheField) {
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"[1, two]", "field 'grid.p[1]'"},

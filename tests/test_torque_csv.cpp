@@ -35,7 +35,7 @@ TEST(TorqueCsv, EveryMistakeIsAnErrorNamingLineAndColumn) {
            {"t,tau1,tau3\n0,0,0\n1,0,0\n", "line 1: unknown column 'tau3' (expected t,tau1,tau2)"},
            {"t,tau1\n0,0\n1,0\n", "line 1: missing column 'tau2'"},
            {"t,t,tau1,tau2\n0,0,0,0\n1,1,0,0\n", "line 1: column 't' appears twice"},
-           {"t,tau1,tau2,\n0,0,0,\n1,0,0,\n", "line 1: unknown column ''"},
+           {"t,tau1,tau2,\n0,0,0,\n1,0,0,\n", "line 1: unknown column 4 (not a column name)"},
            {"0,1,2\n1,1,2\n", "line 1: starts with data ('0'), not a header"},
            {"t,tau1,tau2\n0,0,0\n", "needs at least two rows of samples, got 1"},
            {"t,tau1,tau2\n0,0,0\n1,0\n", "line 3: expected 3 fields, got 2"},
