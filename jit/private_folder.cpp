@@ -135,9 +135,9 @@ Fd open_private_folder(const std::string& given, const std::string& role, bool c
     }
     Fd next(::openat(here.get(), part.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC));
     if (!next.valid())
-      refuse("'" + shown + "' " +
-             (errno == ENOTDIR ? std::string("is not a folder")
-              : errno == ELOOP ? std::string("was replaced by a link while it was checked")
+      refuse("'" + shown + "'" +
+             (errno == ENOTDIR ? std::string(" is not a folder")
+              : errno == ELOOP ? std::string(" was replaced by a link while it was checked")
                                : ": " + errno_text()));
     if (::fstat(next.get(), &st) != 0) refuse("cannot stat '" + shown + "': " + errno_text());
     if (todo.empty())

@@ -287,6 +287,30 @@ TEST(ModelCache, APipeInAnEntryIsAnErrorAndCausesAreNamed) {
       out.find("cannot run the C++ compiler '" + not_executable.string() + "': Permission denied"),
       std::string::npos)
       << out;
+  // Too few descriptors, a full disk: named as such, never as a missing compiler. (Not under
+  // AddressSanitizer, whose run-time needs descriptors of its own at start.)
+#ifndef __SANITIZE_ADDRESS__
+  for (int limit : {4, 6, 8}) {
+    out = test::run_command("bash -c \"ulimit -n " + std::to_string(limit) + "; exec env " +
+                                eval_command(cache, cc) + "\" 2>&1",
+                            &status);
+    EXPECT_NE(status, 0) << limit;
+    // At 8 the fake compiler (a shell script) itself fails, and says so.
+    if (limit < 8)
+      EXPECT_NE(out.find("Too many open files"), std::string::npos) << limit << ": " << out;
+    EXPECT_EQ(out.find("not found"), std::string::npos) << limit << ": " << out;
+  }
+#endif
+  const fs::path full = dir / "full";
+  fs::create_directories(full);
+  test::run_command("mount -t tmpfs -o size=256k tmpfs '" + full.string() + "' 2>&1", &status);
+  if (status == 0) {  // where mounting is allowed (root in most containers)
+    test::run_command("dd if=/dev/zero of='" + (full / "fill").string() + "' bs=4k 2>&1", &status);
+    out = test::run_command(eval_command(full / "cache", cc) + " 2>&1", &status);
+    EXPECT_NE(status, 0);
+    EXPECT_NE(out.find("No space left on device"), std::string::npos) << out;
+    test::run_command("umount '" + full.string() + "'", &status);
+  }
   fs::remove_all(dir);
 }
 
