@@ -13,6 +13,7 @@
 #include "paper_geared.hpp"
 #include "paper_reference.hpp"
 #include "simulation.hpp"
+#include "study_fuzz_target.hpp"
 #include "sweep.hpp"
 #include "trajectory_planning.hpp"
 
@@ -376,6 +377,30 @@ TEST(Study, ErrorsNameFilesButNeverQuoteTheirContents) {
       EXPECT_EQ(std::string(e.what()).find("/bin/bash"), std::string::npos) << e.what();
     }
   }
+  fs::remove_all(dir);
+}
+
+// Every seed of the study fuzzer and every input it recorded a crash for (fuzz/): accepted as a
+// study that keeps the rules or rejected naming the study, the field or the file
+// (study_fuzz_target.hpp). The seeds are valid studies: each must be accepted.
+TEST(Study, FuzzSeedsAndRegressionsReplay) {
+  const fs::path dir = scratch("fuzz-replay");
+  const std::string scene = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml";
+  int seeds = 0;
+  for (const char* folder : {"fuzz/study_seeds", "fuzz/study_regressions"})
+    for (const auto& entry : fs::directory_iterator(fs::path(SPACEARM_SOURCE_DIR) / folder)) {
+      const std::string input = read(entry.path());
+      SCOPED_TRACE(entry.path().string());
+      EXPECT_NO_THROW(fuzz::check_study_input(input, scene, dir.string()));
+      if (std::string(folder) == "fuzz/study_seeds") {
+        ++seeds;
+        std::string text = input.substr(0, input.find("\n#torques\n"));
+        text = fuzz::replaced_all(fuzz::replaced_all(text, "SCENE", scene), "TORQUES",
+                                  (dir / "torques.csv").string());
+        EXPECT_NO_THROW(parse_study(text, (dir / "seed.yaml").string())) << "a seed is refused";
+      }
+    }
+  EXPECT_GE(seeds, 4);
   fs::remove_all(dir);
 }
 
