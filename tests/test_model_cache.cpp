@@ -251,6 +251,18 @@ TEST(ModelCache, ACompleteEntryLoadsWithoutACompilerFromAReadOnlyCache) {
   EXPECT_EQ(status, 0) << out;
   EXPECT_EQ(out, built);
   fs::permissions(cache, fs::perms::owner_all, fs::perm_options::replace);
+  // Root ignores mode bits: where mounting is allowed, a read-only bind mount makes it real.
+  test::run_command("mount --bind '" + cache.string() + "' '" + cache.string() +
+                        "' && mount -o remount,bind,ro '" + cache.string() + "' 2>&1",
+                    &status);
+  if (status == 0) {
+    out = test::run_command(eval_command(cache, dir / "no-such-compiler") + " 2>&1", &status);
+    EXPECT_EQ(status, 0) << out;
+    EXPECT_EQ(out, built);
+    out = test::run_command(eval_command(cache, cc) + " 2>&1", &status);  // with a compiler too
+    EXPECT_EQ(status, 0) << out;
+    test::run_command("umount '" + cache.string() + "'", &status);
+  }
   fs::remove_all(cache);
   out = test::run_command(eval_command(cache, dir / "no-such-compiler") + " 2>&1", &status);
   EXPECT_NE(status, 0);
