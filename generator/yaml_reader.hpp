@@ -79,7 +79,7 @@ class YamlReader {
       const std::string key = key_text(kv.first, field);
       // A key is shown only if it looks like a field name: any text of a file that is not a
       // scene (a study may name /etc/shadow) stays out of the message.
-      const bool shown = (is_identifier(key) && key.size() <= 32) || is_decimal(key);
+      const bool shown = (is_identifier(key) && key.size() <= 24) || is_decimal(key);
       const std::string path =
           (field.empty() ? "" : field + ".") + (shown ? key : "<not a field name>");
       if (!allowed.count(key)) {

@@ -266,7 +266,13 @@ CompiledModel CompiledModel::load_built(const Scene& scene, const CacheFolder& c
   for (const auto& entry : cache.entries_starting_with(source)) {
     rep.cache_entry = cache.path() + "/" + entry;
     std::string problem;
-    const Fd library = cache.open_library(entry, problem);
+    Fd library;
+    try {  // an unusable entry (a link, a pipe) does not hide a good one
+      library = cache.open_library(entry, problem);
+    } catch (const CompileError& e) {
+      last = std::string("; ") + e.what();
+      continue;
+    }
     if (!library.valid()) {
       last = "; '" + rep.cache_entry + "' is " + problem;
       continue;

@@ -36,6 +36,8 @@ namespace {
 
 std::string errno_text() { return std::strerror(errno); }
 
+constexpr const char* kCacheTag = "CACHEDIR.TAG";
+
 // The cache's own checks throw CompileError, as every other failure of a load does.
 template <class F>
 auto as_compile_error(F&& f) -> decltype(f()) {
@@ -52,8 +54,19 @@ CacheFolder::CacheFolder(const std::string& given) : path_(given) {
   while (path_.size() > 1 && path_.back() == '/') path_.pop_back();
   fd_ = as_compile_error([&] {
     return open_private_folder(path_, "cache folder", true,
-                               "choose another cache folder (--cache-dir)");
+                               "remove it or choose another cache folder (--cache-dir)");
   });
+  // A new, empty folder becomes a cache (the tag marks it for backup tools and for
+  // remove_stale_work); best effort, as a read-only cache writes nothing.
+  if (list_folder(fd_.get()).empty()) {
+    try {
+      write_new_file_at(fd_.get(), kCacheTag,
+                        "Signature: 8a477f597d28d172789f06886806bc55\n"
+                        "# spacearm's compile-and-load cache: see https://bford.info/cachedir/\n",
+                        path_ + "/" + kCacheTag);
+    } catch (const FolderError&) {
+    }
+  }
 }
 
 Fd CacheFolder::open_library(const std::string& entry, std::string& problem) const {
@@ -139,7 +152,10 @@ void CacheFolder::remove(const WorkFolder& work) const { remove_tree_at(fd_.get(
 
 // A work folder is stale when no process holds its lock. A folder just made and not yet
 // locked (the moment between mkdirat and flock) is young: only those untouched for a minute go.
+// Only in a folder spacearm made its cache (CACHEDIR.TAG): --cache-dir ~ must not remove a
+// .tmp-thesis of yours.
 void CacheFolder::remove_stale_work() const {
+  if (::faccessat(fd_.get(), kCacheTag, F_OK, AT_SYMLINK_NOFOLLOW) != 0) return;
   const time_t now = std::time(nullptr);
   for (const auto& name : list_folder(fd_.get())) {
     if (name.rfind(".tmp-", 0) != 0 && name.rfind(".trash-", 0) != 0) continue;
@@ -187,6 +203,7 @@ void kill_own_group(int) { ::kill(0, SIGKILL); }
   const pid_t compiler = ::fork();
   if (compiler == 0) {
     for (int sig : {SIGTERM, SIGINT, SIGHUP}) ::signal(sig, SIG_DFL);
+    ::umask(077);  // what it writes is private whatever the caller's umask (002 is common)
     int error = 0;
     if (::fchdir(work_dir) != 0 || ::dup2(log, 1) < 0 || ::dup2(log, 2) < 0) {
       error = errno;

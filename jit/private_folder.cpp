@@ -77,10 +77,11 @@ Fd open_root() {
 
 void check_private(const struct stat& st, const std::string& shown, const std::string& role,
                    const std::string& remedy) {
-  if (st.st_uid != geteuid())
+  // Root's files are trusted as the system's own (a read-only cache in an image).
+  if (!trusted_owner(st.st_uid))
     throw FolderError(role + " '" + shown + "' is owned by user " + std::to_string(st.st_uid) +
                       ", not by you (user " + std::to_string(geteuid()) +
-                      "): refusing to use it; remove it or " + remedy);
+                      ") or root: refusing to use it; " + remedy);
   if (st.st_mode & (S_IWGRP | S_IWOTH))
     throw FolderError(role + " '" + shown + "' is writable by others (mode " +
                       mode_text(st.st_mode) + "): refusing to use it; chmod go-w it, or remove it");
@@ -276,6 +277,9 @@ void remove_tree_at(int dir, const std::string& name) {
     const int sub = ::openat(dir, name.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
     if (sub < 0) return;
     const Fd held(sub);
+    struct stat above, inside;  // never into another file system mounted there
+    if (::fstat(dir, &above) != 0 || ::fstat(sub, &inside) != 0 || above.st_dev != inside.st_dev)
+      return;
     const std::vector<std::string> names = list_folder(sub);
     for (const auto& n : names) remove_tree_at(sub, n);
     ::unlinkat(dir, name.c_str(), AT_REMOVEDIR);

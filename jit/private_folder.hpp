@@ -42,14 +42,15 @@ class FolderError : public std::runtime_error {
 
 // Opens `path` as a private folder. Every folder on the way must belong to root or to you and be
 // writable by no one else unless sticky (like /tmp); every link on the way must belong to root
-// or to you (its target is then checked the same way); the folder itself must be yours and
-// writable by no one else. Missing folders are created (mode 0700) when `create`. `role` names
-// the folder in messages ("cache folder", "sweep folder -o"); `remedy` says what to do.
+// or to you (its target is then checked the same way); the folder itself must be yours (or
+// root's) and writable by no one else. Missing folders are created (mode 0700) when `create`.
+// `role` names the folder in messages ("cache folder", "sweep folder -o"); `remedy` says what to
+// do.
 Fd open_private_folder(const std::string& path, const std::string& role, bool create,
                        const std::string& remedy);
 
-// Refuses what another user could have written: not yours, or writable by group or others.
-// `shown` and `role` name it in the message.
+// Refuses what another user could have written: neither yours nor root's, or writable by group
+// or others. `shown` and `role` name it in the message, `remedy` says what to do.
 void check_private(const struct stat& st, const std::string& shown, const std::string& role,
                    const std::string& remedy);
 

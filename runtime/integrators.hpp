@@ -297,11 +297,11 @@ class Integration {
   // whose error estimate sees nothing (a quintic time law has zero rates at both ends).
   double first_step() const { return std::min({dt_out_, 0.01, (t1_ - t0_) / 16}); }
 
-  // A step size far above the minimum that would still take more than 1e9 steps to reach t1
+  // A step size far above the minimum that would still take more than 1e8 steps to reach t1
   // (10 000 such steps in a row): the system is stiff for this method (steep friction, a
   // stiff spring), and the run would take hours without a word.
   void check_pace(double h, double t) {
-    if (!((t1_ - t) / std::abs(h) > 1e9)) {
+    if (!((t1_ - t) / std::abs(h) > 1e8)) {
       slow_steps_ = 0;
       return;
     }

@@ -97,8 +97,8 @@ inline std::map<std::string, size_t> csv_columns(const std::vector<std::string>&
   auto shown = [](const std::string& text) {
     char* end = nullptr;
     std::strtod(text.c_str(), &end);
-    const bool number = !text.empty() && *end == '\0' && text.size() <= 32;
-    const bool name = !text.empty() && text.size() <= 32 &&
+    const bool number = !text.empty() && *end == '\0' && text.size() <= 24;
+    const bool name = !text.empty() && text.size() <= 16 &&
                       text.find_first_not_of(
                           "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
                           "0123456789_") == std::string::npos;

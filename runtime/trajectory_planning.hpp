@@ -397,6 +397,12 @@ inline Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& ta
     throw std::runtime_error("planner, model " + m.name + ": the plan misses the line by " +
                              detail::format(plan.max_path_error) +
                              " (integration failed to follow it; a bug: please report it)");
+  // Rates and torques grow as 1/duration and 1/duration^2: a duration of 1e-300 s overflows.
+  for (size_t k = 0; k < plan.t.size(); ++k)
+    if (!plan.qd[k].allFinite() || !plan.qdd[k].allFinite() || !plan.tau[k].allFinite())
+      throw std::runtime_error("planner, model " + m.name + ": the rates or torques at t = " +
+                               detail::format(plan.t[k]) + " s overflow double precision (a " +
+                               detail::format(task.duration) + " s manoeuvre is too fast)");
   detail::check_by_central_differences(m, plan);
   return plan;
 }

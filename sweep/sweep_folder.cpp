@@ -59,8 +59,9 @@ struct Folder {
 
 Folder open_folder(const std::string& path) {
   return as_study_error([&] {
-    return Folder{open_private_folder(path, "sweep folder -o", true, "give another folder (-o)"),
-                  path};
+    return Folder{
+        open_private_folder(path, "sweep folder -o", true, "remove it or give another folder (-o)"),
+        path};
   });
 }
 

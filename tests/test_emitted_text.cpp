@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <dlfcn.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -287,6 +288,27 @@ TEST(EmittedText, ScenesDoublesCannotHoldNameTheFields) {
   const std::string b = error_of(masses);
   EXPECT_NE(b.find("base.mass = 1e-12"), std::string::npos) << b;
   EXPECT_EQ(b.find("generator self-check failed"), std::string::npos) << b;
+}
+
+// Found by an attacker's review: `generate -o DIR` wrote DIR/.NAME.hpp.tmp following a link
+// planted there (a shared folder), overwriting the link's target. Temporaries now have random
+// names and are created with O_EXCL | O_NOFOLLOW.
+TEST(EmittedText, GeneratedFilesNeverWriteThroughALinkPlantedInTheFolder) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("spacearm-planted-" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path victim = dir / "victim.txt";
+  std::ofstream(victim) << "precious\n";
+  const EmittedModel e = emit_cpp(
+      derive(load_scene(std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/fixed_n1.yaml")), {});
+  for (const std::string& name : {e.header_name, e.source_name})
+    fs::create_symlink(victim, dir / ("." + name + ".tmp"));
+  write_files(e, dir.string());
+  EXPECT_EQ(test::read_text_file(victim.string()), "precious\n");
+  EXPECT_EQ(test::read_text_file((dir / e.header_name).string()), e.header);
+  EXPECT_EQ(test::read_text_file((dir / e.source_name).string()), e.source);
+  fs::remove_all(dir);
 }
 
 TEST(EmittedText, SplitBodiesComputeWhatWholeBodiesCompute) {

@@ -356,6 +356,7 @@ TEST(Study, ErrorsNameFilesButNeverQuoteTheirContents) {
   std::ofstream(dir / "tau.csv") << secret << ",tau1\n0,1\n";
   std::ofstream(dir / "scene.yaml") << "root:x:0:0::/root:/bin/bash: 1\n";
   std::ofstream(dir / "shadow") << secret << "\n";
+  std::ofstream(dir / "machine-id.csv") << "3d1219c7c4c5404aaa1f6d2a48adfda4\n";  // reviewer's
   const std::string start = "manoeuvre:\n  q0: [0, 0, 0, 0, 0, 0]\n  torques: ";
   const std::vector<std::pair<std::string, std::string>> texts = {
       {"scene: " + std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml\n" + start +
@@ -365,6 +366,9 @@ TEST(Study, ErrorsNameFilesButNeverQuoteTheirContents) {
            (dir / "shadow").string() + "\nintegrator: {method: rk4, dt: 0.01}\n",
        "field 'manoeuvre.torques': '" + (dir / "shadow").string() + "' is not a .csv file"},
       {"scene: /etc/shadow\n", "field 'scene': '/etc/shadow' is not a .yaml or .yml file"},
+      {"scene: " + std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml\n" + start +
+           (dir / "machine-id.csv").string() + "\nintegrator: {method: rk4, dt: 0.01}\n",
+       "line 1: starts with data, not a header"},
       {"scene: " + (dir / "scene.yaml").string() + "\n", "<not a field name>"},
   };
   for (const auto& [text, what] : texts) {
@@ -375,6 +379,7 @@ TEST(Study, ErrorsNameFilesButNeverQuoteTheirContents) {
       EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
       EXPECT_EQ(std::string(e.what()).find("hunter2"), std::string::npos) << e.what();
       EXPECT_EQ(std::string(e.what()).find("/bin/bash"), std::string::npos) << e.what();
+      EXPECT_EQ(std::string(e.what()).find("3d1219c7"), std::string::npos) << e.what();
     }
   }
   fs::remove_all(dir);

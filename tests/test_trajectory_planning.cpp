@@ -222,6 +222,17 @@ TEST(TrajectoryPlanning, VeryShortPlansFollowTheLine) {
     EXPECT_LT(plan.max_path_error, 1e-9) << duration << " s in steps of " << dt;
     EXPECT_NEAR(ref.end_effector_pose(plan.q.back())[0], 1.1, 1e-9) << duration;
   }
+  // Found by an attacker's review: 1e-300 s gave rows of nan with exit 0.
+  StraightLineTask task;
+  task.duration = 1e-300;
+  task.dt = 1e-301;
+  try {
+    plan_straight_line(ref, task);
+    ADD_FAILURE() << "a plan of 1e-300 s";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("overflow double precision"), std::string::npos)
+        << e.what();
+  }
 }
 
 // A geared fixed-base arm: the planned torques are p times the emitted inverse dynamics'
