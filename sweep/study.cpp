@@ -1,6 +1,12 @@
 #include "study.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -24,22 +30,32 @@ std::string text_of(double v) {
   return buf;
 }
 
-// A regular file of at most max_bytes (no FIFO that blocks, no device without end).
+// A regular file of at most max_bytes (no FIFO that blocks, no device without end), checked
+// on the open descriptor: a file swapped for a pipe after a check by name cannot block.
 std::string read_file(const std::string& path, const std::string& what, std::uintmax_t max_bytes) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec))
-    throw StudyError(what + ": cannot open '" + path + "' (no such file)");
-  if (!std::filesystem::is_regular_file(path, ec))
-    throw StudyError(what + ": '" + path + "' is not a regular file");
-  if (std::filesystem::file_size(path, ec) > max_bytes)
-    throw StudyError(what + ": '" + path + "' is larger than " + std::to_string(max_bytes >> 20) +
-                     " MB");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw StudyError(what + ": cannot open '" + path + "'");
-  std::ostringstream s;
-  s << in.rdbuf();
-  if (in.bad()) throw StudyError(what + ": cannot read '" + path + "'");
-  return s.str();
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+  if (fd < 0)
+    throw StudyError(what + ": cannot open '" + path + "' (" + std::strerror(errno) + ")");
+  struct stat st;
+  const bool regular = ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode);
+  if (!regular || static_cast<std::uintmax_t>(st.st_size) > max_bytes) {
+    ::close(fd);
+    throw StudyError(what + ": '" + path + "' " +
+                     (regular ? "is larger than " + std::to_string(max_bytes >> 20) + " MB"
+                              : std::string("is not a regular file")));
+  }
+  std::string text;
+  char buf[1 << 16];
+  for (ssize_t n; (n = ::read(fd, buf, sizeof buf)) != 0;) {
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 || text.size() + static_cast<size_t>(n) > max_bytes) {
+      ::close(fd);
+      throw StudyError(what + ": cannot read '" + path + "'" + (n < 0 ? "" : " (it grew)"));
+    }
+    text.append(buf, static_cast<size_t>(n));
+  }
+  ::close(fd);
+  return text;
 }
 
 // Reads a study's fields; every error names the field (YamlReader::fail).
