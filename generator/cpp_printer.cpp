@@ -1,7 +1,6 @@
 #include "cpp_printer.hpp"
 
 #include <fcntl.h>
-#include <sys/random.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -15,6 +14,7 @@
 #include <stdexcept>
 
 #include "emitted_text.hpp"
+#include "private_folder.hpp"
 
 namespace spacearm {
 
@@ -752,41 +752,24 @@ EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
 // in the folder opened once (a link planted at the temporary's name is never written
 // through), then renamed into place relative to the folder.
 void write_files(const EmittedModel& emitted, const std::string& dir) {
-  namespace fs = std::filesystem;
-  fs::create_directories(dir);
-  const int folder = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (folder < 0) throw std::runtime_error("cannot open '" + dir + "': " + std::strerror(errno));
+  std::filesystem::create_directories(dir);
+  const Fd folder(::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+  if (!folder.valid()) throw FolderError("cannot open '" + dir + "': " + std::strerror(errno));
   std::vector<std::pair<std::string, std::string>> staged;  // temporary, final name
-  auto fail = [&](const std::string& what) {
-    const std::string why = std::strerror(errno);
-    for (const auto& [tmp, name] : staged) ::unlinkat(folder, tmp.c_str(), 0);
-    ::close(folder);
-    throw std::runtime_error(what + ": " + why);
-  };
-  for (const auto& [name, text] : {std::make_pair(emitted.header_name, &emitted.header),
-                                   std::make_pair(emitted.source_name, &emitted.source)}) {
-    unsigned char bytes[8] = {};
-    if (::getrandom(bytes, sizeof bytes, 0) != static_cast<ssize_t>(sizeof bytes))
-      fail("no random bytes for a temporary name");
-    std::string tmp = "." + name + ".tmp-";
-    for (unsigned char b : bytes) tmp += "0123456789abcdef"[b & 15];
-    const int fd =
-        ::openat(folder, tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
-    if (fd < 0) fail("cannot create '" + dir + "/" + tmp + "'");
-    staged.push_back({tmp, name});
-    size_t at = 0;
-    while (at < text->size()) {
-      const ssize_t n = ::write(fd, text->data() + at, text->size() - at);
-      if (n < 0 && errno == EINTR) continue;
-      if (n <= 0) break;
-      at += static_cast<size_t>(n);
+  try {
+    for (const auto& [name, text] : {std::make_pair(emitted.header_name, &emitted.header),
+                                     std::make_pair(emitted.source_name, &emitted.source)}) {
+      const std::string tmp = unique_name("." + name + ".tmp-");
+      write_new_file_at(folder.get(), tmp, *text, dir + "/" + tmp, 0644);
+      staged.push_back({tmp, name});
     }
-    if (::close(fd) != 0 || at < text->size()) fail("cannot write '" + dir + "/" + tmp + "'");
+    for (const auto& [tmp, name] : staged)
+      if (::renameat(folder.get(), tmp.c_str(), folder.get(), name.c_str()) != 0)
+        throw FolderError("cannot write '" + dir + "/" + name + "': " + std::strerror(errno));
+  } catch (const FolderError&) {
+    for (const auto& [tmp, name] : staged) ::unlinkat(folder.get(), tmp.c_str(), 0);
+    throw;
   }
-  for (const auto& [tmp, name] : staged)
-    if (::renameat(folder, tmp.c_str(), folder, name.c_str()) != 0)
-      fail("cannot write '" + dir + "/" + name + "'");
-  ::close(folder);
 }
 
 std::vector<std::string> stale_files(const EmittedModel& emitted, const std::string& dir) {

@@ -23,13 +23,7 @@ std::string sha256_hex(const std::string& bytes) {
   unsigned int length = 0;
   if (EVP_Digest(bytes.data(), bytes.size(), md, &length, EVP_sha256(), nullptr) != 1)
     throw CompileError("SHA-256 failed (libcrypto)");
-  static const char* hex = "0123456789abcdef";
-  std::string out;
-  for (unsigned int i = 0; i < length; ++i) {
-    out += hex[md[i] >> 4];
-    out += hex[md[i] & 15];
-  }
-  return out;
+  return hex_text(md, length);
 }
 
 namespace {
@@ -41,11 +35,7 @@ constexpr const char* kCacheTag = "CACHEDIR.TAG";
 // The cache's own checks throw CompileError, as every other failure of a load does.
 template <class F>
 auto as_compile_error(F&& f) -> decltype(f()) {
-  try {
-    return f();
-  } catch (const FolderError& e) {
-    throw CompileError(e.what());
-  }
+  return folder_errors_as<CompileError>("", std::forward<F>(f));
 }
 
 }  // namespace

@@ -226,17 +226,25 @@ void replace_file_at(int dir, const std::string& name, const std::string& text,
   }
 }
 
-std::string unique_name(const std::string& prefix) {
-  unsigned char bytes[8] = {};
-  if (::getrandom(bytes, sizeof bytes, 0) != static_cast<ssize_t>(sizeof bytes))
-    throw FolderError("no random bytes for a temporary name: " + errno_text());
-  static const char* hex = "0123456789abcdef";
-  std::string name = prefix + std::to_string(::getpid()) + "-";
-  for (unsigned char b : bytes) {
-    name += hex[b >> 4];
-    name += hex[b & 15];
+std::string hex_text(const unsigned char* bytes, size_t n) {
+  static const char* digits = "0123456789abcdef";
+  std::string out;
+  for (size_t i = 0; i < n; ++i) {
+    out += digits[bytes[i] >> 4];
+    out += digits[bytes[i] & 15];
   }
-  return name;
+  return out;
+}
+
+std::string random_hex(size_t n, const std::string& what) {
+  std::vector<unsigned char> bytes(n);
+  if (::getrandom(bytes.data(), n, 0) != static_cast<ssize_t>(n))
+    throw FolderError("no random bytes for " + what + ": " + errno_text());
+  return hex_text(bytes.data(), n);
+}
+
+std::string unique_name(const std::string& prefix) {
+  return prefix + std::to_string(::getpid()) + "-" + random_hex(8, "a temporary name");
 }
 
 std::string make_temp_folder_at(int dir, const std::string& prefix, const std::string& shown) {

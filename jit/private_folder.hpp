@@ -81,6 +81,23 @@ std::string make_temp_folder_at(int dir, const std::string& prefix, const std::s
 // A name no other process is using: `prefix` + random characters.
 std::string unique_name(const std::string& prefix);
 
+// Lowercase hex of `n` bytes.
+std::string hex_text(const unsigned char* bytes, size_t n);
+
+// `n` random bytes (getrandom) in hex; `what` names their use in the error.
+std::string random_hex(size_t n, const std::string& what);
+
+// Runs f; a FolderError it throws becomes an Error whose message is `prefix` + the folder's
+// (the cache's CompileError, the sweep's StudyError).
+template <class Error, class F>
+auto folder_errors_as(const std::string& prefix, F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const FolderError& e) {
+    throw Error(prefix + e.what());
+  }
+}
+
 // The names in the open folder `dir` (not "." and ".."), sorted; empty if it cannot be listed.
 std::vector<std::string> list_folder(int dir);
 

@@ -2,7 +2,6 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
-#include <unistd.h>
 
 #include <cerrno>
 #include <cmath>
@@ -15,6 +14,7 @@
 #include <sstream>
 
 #include "cpp_printer.hpp"
+#include "private_folder.hpp"
 #include "yaml_reader.hpp"
 
 namespace spacearm {
@@ -33,29 +33,18 @@ std::string text_of(double v) {
 // A regular file of at most max_bytes (no FIFO that blocks, no device without end), checked
 // on the open descriptor: a file swapped for a pipe after a check by name cannot block.
 std::string read_file(const std::string& path, const std::string& what, std::uintmax_t max_bytes) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
-  if (fd < 0)
+  const Fd fd(::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC));
+  if (!fd.valid())
     throw StudyError(what + ": cannot open '" + path + "' (" + std::strerror(errno) + ")");
   struct stat st;
-  const bool regular = ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode);
-  if (!regular || static_cast<std::uintmax_t>(st.st_size) > max_bytes) {
-    ::close(fd);
-    throw StudyError(what + ": '" + path + "' " +
-                     (regular ? "is larger than " + std::to_string(max_bytes >> 20) + " MB"
-                              : std::string("is not a regular file")));
-  }
-  std::string text;
-  char buf[1 << 16];
-  for (ssize_t n; (n = ::read(fd, buf, sizeof buf)) != 0;) {
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0 || text.size() + static_cast<size_t>(n) > max_bytes) {
-      ::close(fd);
-      throw StudyError(what + ": cannot read '" + path + "'" + (n < 0 ? "" : " (it grew)"));
-    }
-    text.append(buf, static_cast<size_t>(n));
-  }
-  ::close(fd);
-  return text;
+  if (::fstat(fd.get(), &st) != 0 || !S_ISREG(st.st_mode))
+    throw StudyError(what + ": '" + path + "' is not a regular file");
+  if (static_cast<std::uintmax_t>(st.st_size) > max_bytes)
+    throw StudyError(what + ": '" + path + "' is larger than " + std::to_string(max_bytes >> 20) +
+                     " MB");
+  // read_all stops at the limit too: a file that grows after the check is refused, not read.
+  return folder_errors_as<StudyError>(what + ": ",
+                                      [&] { return read_all(fd.get(), path, max_bytes); });
 }
 
 // Reads a study's fields; every error names the field (YamlReader::fail).

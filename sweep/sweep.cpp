@@ -153,15 +153,15 @@ std::string StudyRunner::row(long run, std::string* series) const {
     integrate_motion(
         model, q0, qd0, [&](double t) { return replay(t); }, s.t_end, s.integrator.dt, opt,
         observe);
+    std::vector<double> measures(m.pose.data(), m.pose.data() + 3);
+    if (s.target.size()) measures.push_back((m.pose.head(2) - s.target).norm());
+    if (nb) measures.insert(measures.end(), {m.base_drift, m.base_rotation, m.momentum_drift});
+    measures.push_back(std::sqrt(m.tau_squares / static_cast<double>(m.samples * model.num_links)));
     std::string measured;
-    for (double v : m.pose) append(measured, v);
-    if (s.target.size()) append(measured, (m.pose.head(2) - s.target).norm());
-    if (nb)
-      append(measured, m.base_drift), append(measured, m.base_rotation),
-          append(measured, m.momentum_drift);
-    append(measured, std::sqrt(m.tau_squares / static_cast<double>(m.samples * model.num_links)));
-    if (measured.find_first_of("ai") != std::string::npos)  // nan or inf: no metric to trust
-      throw DynamicsError("a metric is not finite (" + measured.substr(1) + ")");
+    for (double v : measures) append(measured, v);
+    for (double v : measures)  // nan or inf: no metric to trust
+      if (!std::isfinite(v))
+        throw DynamicsError("a metric is not finite (" + measured.substr(1) + ")");
     values += measured;
     if (series && s.series_every) {
       std::string head = "t";

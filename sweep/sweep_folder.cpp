@@ -7,7 +7,6 @@
 #include <fcntl.h>
 #include <openssl/hmac.h>
 #include <sys/file.h>
-#include <sys/random.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -33,21 +32,7 @@ constexpr size_t kDigestChars = 64;  // HMAC-SHA-256 in hex
 // The folder's own checks as the sweep's errors.
 template <class F>
 auto as_study_error(F&& f) -> decltype(f()) {
-  try {
-    return f();
-  } catch (const FolderError& e) {
-    throw StudyError(std::string("sweep: ") + e.what());
-  }
-}
-
-std::string hex(const unsigned char* bytes, size_t n) {
-  static const char* digits = "0123456789abcdef";
-  std::string out;
-  for (size_t i = 0; i < n; ++i) {
-    out += digits[bytes[i] >> 4];
-    out += digits[bytes[i] & 15];
-  }
-  return out;
+  return folder_errors_as<StudyError>("sweep: ", std::forward<F>(f));
 }
 
 // The results folder, open, with its path for messages.
@@ -131,11 +116,8 @@ std::string folder_key(const Folder& dir) {
       throw StudyError("sweep: -o '" + dir.path +
                        "' holds rows but no study.key to check them with: remove the "
                        "runs-*.csv files to run them again");
-    unsigned char bytes[32];
-    if (::getrandom(bytes, sizeof bytes, 0) != static_cast<ssize_t>(sizeof bytes))
-      throw StudyError(std::string("sweep: no random bytes for study.key: ") +
-                       std::strerror(errno));
-    key = create_once(dir, "study.key", hex(bytes, sizeof bytes) + "\n", 0600);
+    const std::string fresh = as_study_error([] { return random_hex(32, "study.key"); });
+    key = create_once(dir, "study.key", fresh + "\n", 0600);
   }
   if (key.size() != 65 || key.find_first_not_of("0123456789abcdef") != 64 || key[64] != '\n')
     throw StudyError("sweep: '" + dir.shown("study.key") +
@@ -151,7 +133,7 @@ std::string row_digest(const std::string& key, const StudyRunner& runner, const 
   if (!HMAC(EVP_sha256(), key.data(), static_cast<int>(key.size()),
             reinterpret_cast<const unsigned char*>(data.data()), data.size(), md, &length))
     throw StudyError("sweep: HMAC-SHA-256 failed (libcrypto)");
-  return hex(md, length);
+  return hex_text(md, length);
 }
 
 std::string signed_row(const std::string& key, const StudyRunner& runner, const std::string& row) {
