@@ -17,6 +17,7 @@
 #include <sstream>
 
 #include "compiled_model.hpp"
+#include "cpp_printer.hpp"
 #include "cli_input.hpp"
 #include "generate_command.hpp"
 #include "integrators.hpp"
@@ -40,9 +41,10 @@ int stdout_status() {
 
 // Options that would have no effect are errors, not silently ignored.
 void check_simulate_options(const CLI::App& command, const spacearm::SimulateArgs& sim) {
-  bool adaptive = false;  // an unknown integrator is named by run_simulate
+  bool adaptive = false;  // auto may choose rk4; an unknown integrator is named by run_simulate
   try {
-    adaptive = spacearm::adaptive(spacearm::method_from_string(sim.integrator));
+    if (sim.integrator != "auto")
+      adaptive = spacearm::adaptive(spacearm::method_from_string(sim.integrator));
   } catch (const std::invalid_argument&) {
   }
   for (const char* option : {"--rtol", "--atol"})
@@ -54,6 +56,8 @@ void check_simulate_options(const CLI::App& command, const spacearm::SimulateArg
   for (const char* option : {"--interpolation", "--extrapolate"})
     if (command.count(option) && sim.zero_torque)
       throw CLI::ValidationError(option, "has no effect with --zero (no torque file)");
+  if (sim.plan_file.empty() && sim.t_end == 0)
+    throw CLI::ValidationError("--t-end", "is required (without --plan)");
 }
 
 // A CLI11 check: the option's text is one finite positive (or, allow_zero, non-negative)
@@ -141,8 +145,10 @@ CLI::App* add_eval(CLI::App& app, spacearm::EvalArgs& a) {
       ->excludes(forces);
   command->add_option("--qdd-joints", a.qdd_joints_text,
                       "Joint accelerations for free_base_inverse_dynamics (default: zeros)");
-  command->add_option("--param", a.param_assignments,
-                      "Run-time parameter name=value (repeatable, once per name)");
+  command
+      ->add_option("--param", a.param_assignments,
+                   "Run-time parameter name=value (repeatable, once per name)")
+      ->default_str("");
   command->add_flag("--json", a.compact_json, "Compact JSON on one line (default: indented JSON)");
   command->add_flag("--symbolic", a.symbolic,
                     "Evaluate GiNaC's expressions instead of the compiled code");
@@ -162,27 +168,59 @@ CLI::App* add_simulate(CLI::App& app, spacearm::SimulateArgs& a) {
                           "t,tau1,...,tauN (any order). tau_i is "
                           "the torque on link i's side of joint i (the gear's output); a geared "
                           "joint's motor gets tau_i/p_i (eq. 14)");
-  command->add_flag("--zero", a.zero_torque, "No torques (free motion)")->excludes(torques_opt);
-  command->add_option("--t-end", a.t_end, "End time [s]")->required()->check(positive_number());
-  command->add_option("--integrator", a.integrator,
-                      "rk4, dopri5, rkf78, implicit_midpoint or rosenbrock4 (stiff scenes; needs "
-                      "the output forward_dynamics_derivatives)");
+  auto* plan_opt =
+      command
+          ->add_option("--plan", a.plan_file,
+                       "Replay a plan from spacearm plan (made on this scene or its rigid twin: "
+                       "the same base and joints): its start mapped to this scene's coordinates "
+                       "(motors at p q, springs pre-deflected for the first torque), its link-side "
+                       "torques (a motor gets tau_i/p_i); --t-end defaults to its end")
+          ->excludes(torques_opt);
+  command->add_flag("--zero", a.zero_torque, "No torques (free motion)")
+      ->excludes(torques_opt)
+      ->excludes(plan_opt);
+  command
+      ->add_option("--feedforward", a.feedforward,
+                   "With --plan: none, or friction (add the scene's friction p f(p q') along the "
+                   "planned rates to the torques; needs the output friction_forces)")
+      ->check(CLI::IsMember({"none", "friction"}))
+      ->needs(plan_opt)
+      ->capture_default_str();
+  command->add_option("--t-end", a.t_end, "End time [s] (required unless --plan)")
+      ->check(positive_number())
+      ->default_str("");
+  command
+      ->add_option("--integrator", a.integrator,
+                   "auto: rk4 at a step that resolves the stiffest linearised mode at the start, "
+                   "or rosenbrock4 where that step is over 10 times below --dt (says which and "
+                   "why); or rk4, dopri5, rkf78, implicit_midpoint, rosenbrock4 (stiff scenes; "
+                   "needs the output forward_dynamics_derivatives)")
+      ->capture_default_str();
   command->add_option("--dt", a.dt, "Step of the fixed-step methods [s]")->check(positive_number());
   command->add_option("--dt-out", a.dt_out, "Output interval [s] (default: --dt)")
-      ->check(positive_number());
+      ->check(positive_number())
+      ->default_str("");
   command->add_option("--rtol", a.rtol, "Relative tolerance of the adaptive methods")
       ->check(positive_number());
   command->add_option("--atol", a.atol, "Absolute tolerance of the adaptive methods (>= 0)")
       ->check(positive_number(true));
-  command->add_option("--q0", a.q0_text,
-                      "Initial coordinates (default: zeros; motor angles qm = p q if geared)");
-  command->add_option("--qd0", a.qd0_text, "Initial velocities (default: zeros)");
-  command->add_flag("--consistent-start", a.consistent_start,
-                    "Flexible joints: motor angles qm = p (q + e) and rates p qd instead of "
-                    "their --q0/--qd0 values, the springs pre-deflected by e to carry the torque "
-                    "at t = 0 (motor and link start with the same acceleration)");
-  command->add_option("--param", a.param_assignments,
-                      "Run-time parameter name=value (repeatable, once per name)");
+  command
+      ->add_option("--q0", a.q0_text,
+                   "Initial coordinates (default: zeros; motor angles qm = p q if geared)")
+      ->excludes(plan_opt);
+  command->add_option("--qd0", a.qd0_text, "Initial velocities (default: zeros)")
+      ->excludes(plan_opt);
+  auto* consistent = command->add_flag(
+      "--consistent-start", a.consistent_start,
+      "Flexible joints: motor angles qm = p (q + e) and rates p qd instead of "
+      "their --q0/--qd0 values, the springs pre-deflected by e to carry the torque "
+      "at t = 0 (motor and link start with the same acceleration); --plan always "
+      "starts so");
+  consistent->excludes(plan_opt);
+  command
+      ->add_option("--param", a.param_assignments,
+                   "Run-time parameter name=value (repeatable, once per name)")
+      ->default_str("");
   command->add_option(
       "--interpolation", a.interpolation,
       "Torque between samples: linear, or hold (zero-order hold: each step sees one sample)");
@@ -212,7 +250,8 @@ CLI::App* add_plan(CLI::App& app, spacearm::PlanArgs& a) {
   command->add_option("--to", a.to_text, "End-effector goal, as --from")->required();
   command->add_option("--duration", a.duration, "Duration T [s]")
       ->required()
-      ->check(positive_number());
+      ->check(positive_number())
+      ->default_str("");
   command->add_option("--dt", a.dt, "Output grid [s]")->check(positive_number());
   command->add_option("--time-law", a.time_law, "quintic (default) or cubic")
       ->check(CLI::IsMember({"quintic", "cubic"}));
@@ -223,8 +262,10 @@ CLI::App* add_plan(CLI::App& app, spacearm::PlanArgs& a) {
           "--q0", a.q0_text,
           "Start configuration guess instead of --elbow (all coordinates; its base ones are kept)")
       ->excludes(elbow_opt);
-  command->add_option("--param", a.param_assignments,
-                      "Run-time parameter name=value (repeatable, once per name)");
+  command
+      ->add_option("--param", a.param_assignments,
+                   "Run-time parameter name=value (repeatable, once per name)")
+      ->default_str("");
   command->add_option("-o,--output", a.output_file,
                       "CSV output; - or none: standard output. Torques tau_i are link-side (and "
                       "tau_motor_i = tau_i/p_i "
@@ -246,7 +287,8 @@ CLI::App* add_sweep(CLI::App& app, spacearm::SweepArgs& a) {
       ->required();
   command->add_option("--shard", a.shard, "Run part i of n of the runs, e.g. 3/8 (default 1/1)");
   command->add_option("--threads", a.threads, "Worker threads (default: one per hardware thread)")
-      ->check(CLI::Range(1, 1024));
+      ->check(CLI::Range(1, 1024))
+      ->default_str("");
   command->add_option("--cache-dir", a.cache_dir, "Cache folder for compiled models");
   command->add_flag("--verbose", a.verbose, "Report the stages on stderr");
   return command;
@@ -257,6 +299,8 @@ CLI::App* add_sweep(CLI::App& app, spacearm::SweepArgs& a) {
 int main(int argc, char** argv) {
   CLI::App app{"spacearm: symbolic dynamics of free-floating space manipulators, emitted as C++"};
   app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("spacearm ") + spacearm::kGeneratorVersion);
+  app.option_defaults()->always_capture_default();  // every --help shows the defaults
 
   spacearm::GenerateArgs generate_args;
   spacearm::InspectArgs inspect_args;
@@ -290,8 +334,8 @@ int main(int argc, char** argv) {
 
   if (*simulate)
     return guarded([&] {
-      if (!sim.zero_torque && sim.torque_file.empty())
-        throw std::invalid_argument("simulate: give --torques FILE or --zero");
+      if (!sim.zero_torque && sim.torque_file.empty() && sim.plan_file.empty())
+        throw std::invalid_argument("simulate: give --torques FILE, --plan FILE or --zero");
       return spacearm::run_simulate(sim);
     });
   if (*plan) return guarded([&] { return spacearm::run_plan(plan_args); });

@@ -8,13 +8,17 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "cli_input.hpp"
 #include "compiled_model.hpp"
 #include "dynamic_model.hpp"
 #include "consistent_start.hpp"
+#include "integrator_choice.hpp"
 #include "integrators.hpp"
+#include "plan_replay.hpp"
+#include "private_folder.hpp"
 #include "row_writer.hpp"
 #include "simulation.hpp"
 #include "simulation_table.hpp"
@@ -36,34 +40,63 @@ void check_stop() {
   if (const int sig = cli::stop_signal()) throw Interrupted{sig};
 }
 
+// A torque or plan file: a regular file of at most 1 GB (read_regular_file).
 std::string read_text_file(const std::string& path, const std::string& option) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::invalid_argument(option + ": cannot open '" + path + "'");
-  std::ostringstream s;
-  s << in.rdbuf();
-  if (in.bad()) throw std::invalid_argument(option + ": cannot read '" + path + "'");
-  return s.str();
+  try {
+    return read_regular_file(path, option, size_t(1) << 30);
+  } catch (const FolderError& e) {
+    throw std::invalid_argument(e.what());
+  }
 }
 
-// The torque signal of the run: from the CSV (which must cover [0, t_end] unless asked to
-// extrapolate), or zero.
-std::unique_ptr<TorqueSignal<Eigen::Dynamic>> torque_signal(const SimulateArgs& a, int N) {
+// The torque signal of the run: from the samples of a torque or plan file (which must cover
+// [0, t_end] unless asked to extrapolate), or zero.
+std::unique_ptr<TorqueSignal<Eigen::Dynamic>> torque_signal(const SimulateArgs& a, int N,
+                                                            const TorqueTable* table) {
   const Interpolation mode = interpolation_from_string(a.interpolation);
   const Extrapolation outside = extrapolation_from_string(a.extrapolate);
-  if (a.zero_torque) {
+  if (!table) {
     const std::vector<Eigen::VectorXd> zero{Eigen::VectorXd::Zero(N), Eigen::VectorXd::Zero(N)};
     return std::make_unique<TorqueSignal<Eigen::Dynamic>>(0.0, a.t_end, zero,
                                                           Interpolation::linear);
   }
-  const TorqueTable table =
-      read_torque_csv(read_text_file(a.torque_file, "--torques"), N, a.torque_file);
-  const std::string gap = coverage_gap(table.t0, table.t_last(), a.t_end);
+  const bool plan = !a.plan_file.empty();
+  const std::string gap = coverage_gap(table->t0, table->t_last(), a.t_end);
   if (outside == Extrapolation::error && !gap.empty())
-    throw std::invalid_argument("--torques '" + a.torque_file + "' covers " + gap +
+    throw std::invalid_argument(std::string(plan ? "--plan '" : "--torques '") +
+                                (plan ? a.plan_file : a.torque_file) + "' covers " + gap +
                                 ": give a file that covers it, or --extrapolate hold or "
                                 "--extrapolate zero");
-  return std::make_unique<TorqueSignal<Eigen::Dynamic>>(table.t0, table.dt, table.samples, mode,
+  return std::make_unique<TorqueSignal<Eigen::Dynamic>>(table->t0, table->dt, table->samples, mode,
                                                         outside);
+}
+
+// A plan's replay into this model: friction fed forward if asked, a warning where friction
+// outweighs the planned torque, and the start mapped to the model's coordinates.
+void prepare_replay(const SimulateArgs& a, const DynamicModel& model, PlanSamples& plan,
+                    Eigen::VectorXd& q0, Eigen::VectorXd& qd0) {
+  const bool feed = a.feedforward == "friction";
+  if (feed || model.friction_forces) {
+    const std::vector<Eigen::VectorXd> tau_f = friction_along(model, plan);
+    if (feed) {
+      for (size_t k = 0; k < tau_f.size(); ++k) plan.torques.samples[k] += tau_f[k];
+    } else if (const std::vector<int> stalled = joints_stalled_by_friction(plan, tau_f);
+               !stalled.empty()) {
+      std::string joints;
+      for (int j : stalled) joints += (joints.empty() ? "" : ", ") + std::to_string(j);
+      std::fprintf(stderr,
+                   "spacearm: warning: along the plan, friction (p f(p q')) reaches the planned "
+                   "torque's peak at joint %s: those joints stall or lag; add --feedforward "
+                   "friction\n",
+                   joints.c_str());
+    }
+  }
+  const Eigen::VectorXd e = replay_start(model, plan, plan.torques.samples.front(), q0, qd0);
+  if (e.size() && e.cwiseAbs().maxCoeff() > 1e-9)
+    std::fprintf(stderr,
+                 "spacearm: plan start: springs pre-deflected by up to %.3g rad (link side) "
+                 "to carry its first torque\n",
+                 e.cwiseAbs().maxCoeff());
 }
 
 // The header, and a sample as a row of its columns.
@@ -99,13 +132,39 @@ void report_stop(const RowWriter& out, double t_reached, const std::string& why)
                out.where().c_str(), t_reached);
 }
 
-IntegratorOptions integrator_options(const SimulateArgs& a) {
+// The integrator asked for; auto (the default) decides from the model's stiffest mode at the
+// start (integrator_choice.hpp) and says which and why.
+IntegratorOptions integrator_options(const SimulateArgs& a, const StiffestMode* mode,
+                                     bool has_state_jacobian, double dt_out) {
   IntegratorOptions opt;
-  opt.method = method_from_string(a.integrator);
   opt.dt = a.dt;
   opt.rtol = a.rtol;
   opt.atol = a.atol;
+  if (a.integrator != "auto") {
+    opt.method = method_from_string(a.integrator);
+    return opt;
+  }
+  const IntegratorChoice choice = choose_integrator(*mode, a.dt, dt_out, has_state_jacobian);
+  opt.method = choice.method;
+  if (choice.dt > 0) opt.dt = choice.dt;
+  std::fprintf(stderr, "spacearm: integrator: %s\n", choice.why.c_str());
   return opt;
+}
+
+// An integration that failed where the start's stiffest mode explains it: the mode and the
+// remedy instead of the state's numbers.
+std::string failure_advice(const IntegrationError& e, const IntegratorOptions& opt,
+                           const StiffestMode& mode) {
+  std::string what = e.what();
+  if (opt.method != Method::rk4 || !unstable_for_rk4(mode, opt.dt)) return what;
+  what = what.substr(0, what.find("; last accepted state"));
+  char buf[600];
+  std::snprintf(buf, sizeof buf,
+                " (last accepted t = %.6g s): rk4 at dt = %g s is unstable for the stiffest mode "
+                "at the start, %s (|lambda| dt = %.3g, stable below about 2.8); run with "
+                "--integrator auto or rosenbrock4, or --dt %.2g",
+                e.t(), opt.dt, describe(mode).c_str(), mode.rate * opt.dt, 1 / mode.rate);
+  return what + buf;
 }
 
 // The scene's model, compiled or from the cache, with the stages reported under --verbose.
@@ -150,8 +209,9 @@ class Progress {
 
 }  // namespace
 
-int run_simulate(const SimulateArgs& a) {
+int run_simulate(const SimulateArgs& args) {
   // Everything the run needs is checked before the output file is opened.
+  SimulateArgs a = args;
   const Scene scene = load_scene(a.scene_path);
   const bool passive = (scene.features() & (needs::springs | needs::friction)) != 0;
   if (!scene.wants(Output::forward_dynamics) &&
@@ -170,20 +230,38 @@ int run_simulate(const SimulateArgs& a) {
   Eigen::VectorXd qd0 =
       a.qd0_text.empty() ? Eigen::VectorXd::Zero(nv) : cli::parse_vector(a.qd0_text, "--qd0", nv);
   const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, scene);
-  IntegratorOptions opt = integrator_options(a);
+  // The samples: a plan's (its end is the default --t-end), a torque file's, or none.
+  std::optional<PlanSamples> plan;
+  std::optional<TorqueTable> torque_file;
+  if (!a.plan_file.empty()) {
+    plan =
+        read_plan_csv(read_text_file(a.plan_file, "--plan"), N, scene.free_floating(), a.plan_file);
+    if (a.t_end == 0) a.t_end = plan->torques.t_last();
+  } else if (!a.zero_torque) {
+    torque_file = read_torque_csv(read_text_file(a.torque_file, "--torques"), N, a.torque_file);
+  }
+  if (!(a.t_end > 0)) throw std::invalid_argument("simulate: give --t-end (the end time, s)");
   const double dt_out = a.dt_out > 0 ? a.dt_out : a.dt;
-  const auto tau = torque_signal(a, N);
+  const CompiledModel compiled = load_model(a, scene);
+  const DynamicModel model = dynamic_model(compiled, params);
+  if (plan) prepare_replay(a, model, *plan, q0, qd0);
+  const auto tau = torque_signal(a, N,
+                                 plan          ? &plan->torques
+                                 : torque_file ? &*torque_file
+                                               : nullptr);
+  if (a.consistent_start) consistent_start(model, q0, qd0, (*tau)(0.0));
+  // The integrator, from the stiffest mode at the start.
+  const StiffestMode mode = stiffest_mode(model, q0, qd0, model.generalized_forces((*tau)(0.0)));
+  IntegratorOptions opt = integrator_options(a, &mode, model.has_state_jacobian(), dt_out);
   // From a file: steps land on the samples, and a held torque is a true zero-order hold.
   std::unique_ptr<TorqueReplay<Eigen::Dynamic>> replay;
   if (!a.zero_torque) replay = std::make_unique<TorqueReplay<Eigen::Dynamic>>(*tau, opt, "--dt");
-  const CompiledModel compiled = load_model(a, scene);
-  const DynamicModel model = dynamic_model(compiled, params);
-  if (a.consistent_start) consistent_start(model, q0, qd0, (*tau)(0.0));
   const SimulationTable table(model, scene.geared());
 
   // Opened only now: a run refused above leaves an existing output file untouched.
-  refuse_input_as_output(a.output_file,
-                         {{"the scene", a.scene_path}, {"--torques", a.torque_file}});
+  refuse_input_as_output(
+      a.output_file,
+      {{"the scene", a.scene_path}, {"--torques", a.torque_file}, {"--plan", a.plan_file}});
   RowWriter out(a.output_file);
   const std::string head = header(table);
   warn_if_large(a, dt_out, static_cast<int>(std::count(head.begin(), head.end(), ',')) + 1);
@@ -221,7 +299,7 @@ int run_simulate(const SimulateArgs& a) {
   } catch (const IntegrationError& e) {
     out.close();  // what was computed so far stays in the CSV
     report_stop(out, t_written, "the integration stopped");
-    throw;
+    throw IntegrationError(failure_advice(e, opt, mode), e.t(), e.state());
   }
 }
 

@@ -15,9 +15,13 @@ struct SimulateArgs {
   // Flexible joints: set the motor coordinates to qm = p (q + e), the springs pre-deflected
   // for the torque at t = 0 (runtime/consistent_start.hpp), instead of taking them from --q0.
   bool consistent_start = false;
-  std::string integrator = "rk4", interpolation = "linear", extrapolate = "error";
+  std::string integrator = "auto", interpolation = "linear", extrapolate = "error";
   double t_end = 0, dt = 0.01, dt_out = 0, rtol = 1e-8, atol = 1e-10;
   std::string q0_text, qd0_text;
+  // A plan from `spacearm plan` replayed into the scene (plan_replay.hpp): its start and its
+  // torques instead of --q0, --qd0 and --torques; feedforward "friction" adds the scene's friction
+  // along the planned rates to the torques.
+  std::string plan_file, feedforward = "none";
   std::vector<std::string> param_assignments;
 };
 

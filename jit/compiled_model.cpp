@@ -609,6 +609,10 @@ DynamicModel dynamic_model(const CompiledModel& m, const Eigen::VectorXd& params
     d.potential_energy = [&m, params](const V& q) {
       return m.evaluate(Output::potential_energy, {q}, params)[0](0, 0);
     };
+  if (m.has(Output::friction_forces))
+    d.friction_forces = [&m, params](const V& qd) {
+      return V(m.evaluate(Output::friction_forces, {qd}, params)[0]);
+    };
   if (m.has(Output::momentum))
     d.momentum = [&m, params](const V& q, const V& qd) { return m.momentum(q, qd, params); };
   return d;

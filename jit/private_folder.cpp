@@ -194,6 +194,24 @@ std::string read_all(int fd, const std::string& shown, size_t limit) {
   }
 }
 
+std::string read_regular_file(const std::string& path, const std::string& what, size_t limit) {
+  const Fd fd(::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC));
+  if (!fd.valid())
+    throw FolderError(what + ": cannot open '" + path + "' (" + std::strerror(errno) + ")");
+  struct stat st;
+  if (::fstat(fd.get(), &st) != 0 || !S_ISREG(st.st_mode))
+    throw FolderError(what + ": '" + path + "' is not a regular file");
+  if (static_cast<std::uintmax_t>(st.st_size) > limit)
+    throw FolderError(what + ": '" + path + "' is larger than " + std::to_string(limit >> 20) +
+                      " MB");
+  // read_all stops at the limit too: a file that grows after the check is refused, not read.
+  try {
+    return read_all(fd.get(), path, limit);
+  } catch (const FolderError& e) {
+    throw FolderError(what + ": " + e.what());
+  }
+}
+
 void write_new_file_at(int dir, const std::string& name, const std::string& text,
                        const std::string& shown, mode_t mode) {
   Fd fd(::openat(dir, name.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, mode));

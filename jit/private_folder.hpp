@@ -65,6 +65,10 @@ Fd open_private_at(int dir, const std::string& name, bool folder, const std::str
 // naming `shown`).
 std::string read_all(int fd, const std::string& shown, size_t limit = size_t(1) << 30);
 
+// A regular file of at most `limit` bytes, checked on the open descriptor (O_NONBLOCK): a FIFO
+// or a device put in its place cannot block or fill memory. Errors name `what` and the path.
+std::string read_regular_file(const std::string& path, const std::string& what, size_t limit);
+
 // Creates `name` in `dir` (O_CREAT | O_EXCL | O_NOFOLLOW, so nothing planted there is written
 // through) with `text` and `mode`. Throws FolderError naming `shown`.
 void write_new_file_at(int dir, const std::string& name, const std::string& text,

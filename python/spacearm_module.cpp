@@ -274,6 +274,7 @@ py::dict PyModel::plan(const Eigen::VectorXd& start, const Eigen::VectorXd& goal
   size_t at = 1;
   for (const char* group : {"q", "qd", "qdd"})
     out[group] = table_columns(table, at, nq, true), at += nq;
+  while (table.names[at] != "tau1") ++at;  // past a motor slot's link-side q_j, q_jd
   out["tau"] = table_columns(table, at, n, true), at += n;
   if (scene_.geared()) out["tau_motor"] = table_columns(table, at, n, true), at += n;
   if (at < table.names.size()) out["base_residual"] = table_columns(table, at, 1, false);

@@ -50,6 +50,7 @@ struct DynamicModel {
   std::function<double(const Vector& q, const Velocity& qd)> kinetic_energy;
   std::function<Vector3(const Vector& q, const Velocity& qd)> momentum;  // [Px, Py, L]
   std::function<double(const Vector& q)> potential_energy;               // V of the joint springs
+  std::function<Velocity(const Velocity& qd)> friction_forces;  // f(w) on each velocity (nv)
 
   int num_base() const { return free_floating ? 3 : 0; }
   bool has_state_jacobian() const { return static_cast<bool>(forward_dynamics_derivatives); }
@@ -153,6 +154,10 @@ DynamicModel dynamic_model(const Model<G>& m) {
     };
   if constexpr (M::kHasPotentialEnergy)
     d.potential_energy = [&m](const Eigen::VectorXd& q) { return m.potential_energy(q); };
+  if constexpr (M::kHasFrictionForces)
+    d.friction_forces = [&m](const Eigen::VectorXd& qd) {
+      return Eigen::VectorXd(m.friction_forces(qd));
+    };
   if constexpr (G::kHas_momentum)
     d.momentum = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
       return Eigen::Vector3d(m.momentum(q, qd));

@@ -33,6 +33,11 @@ struct has_friction : std::false_type {};
 template <class G>
 struct has_friction<G, std::void_t<decltype(G::kHas_friction_forces)>> : std::true_type {};
 template <class G, class = void>
+struct emits_friction : std::false_type {};
+template <class G>
+struct emits_friction<G, std::void_t<decltype(G::kHas_friction_forces)>>
+    : std::bool_constant<G::kHas_friction_forces> {};
+template <class G, class = void>
 struct has_potential_energy : std::false_type {};
 template <class G>
 struct has_potential_energy<G, std::void_t<decltype(G::kHas_potential_energy)>>
@@ -156,6 +161,14 @@ class Model {
     return Generated::potential_energy(q, params_);
   }
   static constexpr bool kHasPotentialEnergy = detail::has_potential_energy<Generated>::value;
+  // The joint friction f(w) on each velocity (motor side), where the scene emits friction_forces.
+  template <class G2 = Generated, std::enable_if_t<detail::emits_friction<G2>::value, int> = 0>
+  Velocity friction_forces(const Velocity& qd) const {
+    Velocity ff;
+    Generated::friction_forces(qd, params_, ff);
+    return ff;
+  }
+  static constexpr bool kHasFrictionForces = detail::emits_friction<Generated>::value;
   Vector3 momentum(const Vector& q, const Velocity& qd) const {
     Vector3 h;
     Generated::momentum(q, qd, params_, h);

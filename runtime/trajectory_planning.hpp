@@ -408,7 +408,8 @@ inline Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& ta
 }
 
 // The plan as a table, as `spacearm plan` writes it and Python returns it: t, q, qd, qdd (by
-// coordinate name, suffixes d and dd), the link-side torques tau1..N, for a geared model the
+// coordinate name, suffixes d and dd), a motor slot's link-side angle q_j and rate q_jd, the
+// link-side torques tau1..N, for a geared model the
 // motor torques tau_motor1..N = tau / p (eq. 14), for a free base base_residual.
 struct PlanTable {
   std::vector<std::string> names;
@@ -418,6 +419,14 @@ inline PlanTable plan_table(const Plan& plan, const DynamicModel& m, bool geared
   PlanTable table{{"t"}, {}};
   for (const char* suffix : {"", "d", "dd"})
     for (const auto& name : m.coordinate_names) table.names.push_back(name + suffix);
+  // A motor slot's joint also gets its link-side angle and rate (q_j = qm_j / p_j), so that
+  // simulate --plan can replay the plan into a scene with other gears (plan_replay.hpp).
+  std::vector<int> motor_slots;
+  for (int j = 0; j < m.num_links; ++j)
+    if (m.coordinate_names.at(m.num_base() + j) != "q" + std::to_string(j + 1))
+      motor_slots.push_back(j);
+  for (const char* suffix : {"", "d"})
+    for (int j : motor_slots) table.names.push_back("q" + std::to_string(j + 1) + suffix);
   for (int j = 1; j <= m.num_links; ++j) table.names.push_back("tau" + std::to_string(j));
   if (geared)
     for (int j = 1; j <= m.num_links; ++j) table.names.push_back("tau_motor" + std::to_string(j));
@@ -425,8 +434,12 @@ inline PlanTable plan_table(const Plan& plan, const DynamicModel& m, bool geared
   if (free_base) table.names.push_back("base_residual");
   for (size_t k = 0; k < plan.t.size(); ++k) {
     std::vector<double> row{plan.t[k]};
-    for (const auto* v : {&plan.q[k], &plan.qd[k], &plan.qdd[k], &plan.tau[k]})
+    for (const auto* v : {&plan.q[k], &plan.qd[k], &plan.qdd[k]})
       row.insert(row.end(), v->data(), v->data() + v->size());
+    const Eigen::VectorXd angles = m.joint_angles(plan.q[k]), rates = m.joint_angles(plan.qd[k]);
+    for (int j : motor_slots) row.push_back(angles[j]);
+    for (int j : motor_slots) row.push_back(rates[j]);
+    row.insert(row.end(), plan.tau[k].data(), plan.tau[k].data() + plan.tau[k].size());
     if (geared)
       for (int j = 0; j < m.num_links; ++j) row.push_back(plan.tau[k][j] / m.gear_ratios[j]);
     if (free_base) row.push_back(plan.base_residual[k]);

@@ -30,21 +30,10 @@ std::string text_of(double v) {
   return buf;
 }
 
-// A regular file of at most max_bytes (no FIFO that blocks, no device without end), checked
-// on the open descriptor: a file swapped for a pipe after a check by name cannot block.
+// A regular file of at most max_bytes, read on its checked descriptor (read_regular_file).
 std::string read_file(const std::string& path, const std::string& what, std::uintmax_t max_bytes) {
-  const Fd fd(::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC));
-  if (!fd.valid())
-    throw StudyError(what + ": cannot open '" + path + "' (" + std::strerror(errno) + ")");
-  struct stat st;
-  if (::fstat(fd.get(), &st) != 0 || !S_ISREG(st.st_mode))
-    throw StudyError(what + ": '" + path + "' is not a regular file");
-  if (static_cast<std::uintmax_t>(st.st_size) > max_bytes)
-    throw StudyError(what + ": '" + path + "' is larger than " + std::to_string(max_bytes >> 20) +
-                     " MB");
-  // read_all stops at the limit too: a file that grows after the check is refused, not read.
-  return folder_errors_as<StudyError>(what + ": ",
-                                      [&] { return read_all(fd.get(), path, max_bytes); });
+  return folder_errors_as<StudyError>(
+      "", [&] { return read_regular_file(path, what, static_cast<size_t>(max_bytes)); });
 }
 
 // Reads a study's fields; every error names the field (YamlReader::fail).

@@ -583,7 +583,8 @@ TEST_F(SimulateCli, BadInputsGetClearErrors) {
            {"--zero --t-end 1 --integrator rosenbrock4",
             "rosenbrock4 needs the Jacobian of the right-hand side (for a model: the scene's "
             "output forward_dynamics_derivatives)"},
-           {"--t-end 1", "give --torques FILE or --zero"},
+           {"--t-end 1", "give --torques FILE, --plan FILE or --zero"},
+           {"--zero --t-end 1 --rtol 1e-3 --integrator auto", "not to auto"},
        }) {
     int status = 0;
     const std::string out = run(sim + c.args + " 2>&1", &status);

@@ -1,0 +1,156 @@
+// A plan replayed into any scene with the same base and joints: the rigid scene plans (the
+// planner refuses springs and friction), its geared, flexible or friction twin flies it.
+// The plan file is the CSV `spacearm plan` writes; read as untrusted text, its columns found by
+// name (t, tau1..N, the link-side angles q1..N and rates q1d..qNd, and for a free base
+// x0,y0,q0 and their rates), every other column ignored. The start is mapped to the scene's
+// coordinates (motor angles p q, a flexible joint's spring pre-deflected by consistent_start);
+// the torques stay link side and reach a motor as tau/p (eq. 14); friction can be fed forward
+// from the scene's own friction law along the planned rates.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "consistent_start.hpp"
+#include "dynamic_model.hpp"
+#include "torque_csv.hpp"
+
+namespace spacearm {
+
+struct PlanSamples {
+  TorqueTable torques;  // tau1..N, link side, on the plan's grid
+  // Per sample: the base pose and its rates (empty for a fixed base), link-side angles, rates.
+  std::vector<Eigen::VectorXd> base, base_rate, angles, rates;
+};
+
+namespace detail {
+// The plan columns a scene with `num_joints` joints and this base needs, in reading order.
+inline std::vector<std::string> plan_columns(int num_joints, bool free_floating) {
+  std::vector<std::string> names = torque_csv_columns(num_joints);
+  if (free_floating)
+    for (const char* n : {"x0", "y0", "q0", "x0d", "y0d", "q0d"}) names.push_back(n);
+  for (const char* suffix : {"", "d"})
+    for (int j = 1; j <= num_joints; ++j) names.push_back("q" + std::to_string(j) + suffix);
+  return names;
+}
+}  // namespace detail
+
+// Reads a plan for a scene with num_joints joints; errors name the file, line and column, and
+// say when the plan was made for another base or number of joints.
+inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool free_floating,
+                                 const std::string& source) {
+  const std::string where = "plan file '" + source + "'";
+  const detail::CsvErrors fail{where};
+  const auto lines = detail::csv_lines(text);
+  if (lines.empty()) throw fail(0, "empty; write one with spacearm plan");
+  const auto header = detail::split_csv_line(lines[0].second);
+  std::map<std::string, size_t> column;
+  for (size_t c = 0; c < header.size(); ++c)
+    if (!column.insert({header[c], c}).second && !header[c].empty())
+      throw fail(lines[0].first, "column " + quoted_text(header[c]) + " appears twice");
+  // The plan's base and joints must be the scene's.
+  const std::string more = "tau" + std::to_string(num_joints + 1);
+  if (column.count(more))
+    throw fail(lines[0].first, "has a column '" + more + "': it was planned for more than " +
+                                   std::to_string(num_joints) + " joints");
+  if (column.count("x0") != static_cast<size_t>(free_floating))
+    throw fail(lines[0].first, free_floating ? "has no column 'x0': it was planned on a fixed base "
+                                               "and the scene's base is free_floating"
+                                             : "has a column 'x0': it was planned on a "
+                                               "free-floating base and the scene's base is fixed");
+  const std::vector<std::string> needed = detail::plan_columns(num_joints, free_floating);
+  for (const auto& n : needed)
+    if (!column.count(n))
+      throw fail(lines[0].first, "missing column '" + n + "' (a plan from spacearm plan has it" +
+                                     (n[0] == 'q' ? "; replan with this version" : "") + ")");
+  // Rows: the needed columns must be finite numbers; the others are not read.
+  PlanSamples plan;
+  std::vector<double> times;
+  const int nb = free_floating ? 3 : 0;
+  for (size_t r = 1; r < lines.size(); ++r) {
+    const long number = lines[r].first;
+    const auto fields = detail::split_csv_line(lines[r].second);
+    if (fields.size() != header.size())
+      throw fail(number, "expected " + std::to_string(header.size()) + " fields, got " +
+                             std::to_string(fields.size()));
+    std::vector<double> v;
+    for (const auto& n : needed)
+      v.push_back(parse_number(fields[column.at(n)],
+                               where + " line " + std::to_string(number) + ", column '" + n + "'"));
+    times.push_back(v[0]);
+    const double* at = v.data() + 1;
+    auto take = [&](int n) {
+      const Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(at, n);
+      at += n;
+      return x;
+    };
+    plan.torques.samples.push_back(take(num_joints));
+    plan.base.push_back(take(nb));
+    plan.base_rate.push_back(take(nb));
+    plan.angles.push_back(take(num_joints));
+    plan.rates.push_back(take(num_joints));
+  }
+  if (times.size() < 2)
+    throw fail(0, "needs at least two rows of samples, got " + std::to_string(times.size()));
+  detail::set_uniform_grid(
+      plan.torques, times, [&](size_t k) { return lines[k + 1].first; }, fail);
+  return plan;
+}
+
+// The plan's start in the model's coordinates: the base and link-side angles and rates of its
+// first sample, a geared joint's motor at p q, a flexible joint's spring pre-deflected to carry
+// tau0 (consistent_start; tau0 is the plan's first torque plus any feed-forward). Returns the
+// pre-deflections (0 where a joint is not flexible).
+inline Eigen::VectorXd replay_start(const DynamicModel& model, const PlanSamples& plan,
+                                    const Eigen::VectorXd& tau0, Eigen::VectorXd& q0,
+                                    Eigen::VectorXd& qd0) {
+  q0 = model.from_joint_angles(plan.base.front(), plan.angles.front());
+  qd0 = model.from_joint_angles(plan.base_rate.front(), plan.rates.front());
+  return consistent_start(model, q0, qd0, tau0);
+}
+
+// The link-side torque that the model's friction takes at each planned sample: p_j f_j(w) on
+// joint j, w its motor rate p q_j' (the scene's own friction law, its output friction_forces).
+// Springs and dampers are relaxed along a rigid plan, so friction is all that the planned
+// torques lack.
+inline std::vector<Eigen::VectorXd> friction_along(const DynamicModel& model,
+                                                   const PlanSamples& plan) {
+  if (!model.friction_forces)
+    throw std::invalid_argument("model " + model.name +
+                                " does not emit friction_forces (add it to the scene's field "
+                                "'outputs')");
+  std::vector<Eigen::VectorXd> tau_f;
+  for (size_t k = 0; k < plan.rates.size(); ++k) {
+    const Eigen::VectorXd f =
+        model.friction_forces(model.from_joint_angles(plan.base_rate[k], plan.rates[k]));
+    Eigen::VectorXd t(model.num_links);
+    for (int j = 0; j < model.num_links; ++j)
+      t[j] = model.gear_ratios[j] * f[model.actuated_coordinates.at(j)];
+    tau_f.push_back(t);
+  }
+  return tau_f;
+}
+
+// The joints (1-based) where friction along the plan reaches the planned torque's peak: the
+// motor stalls or crawls there unless the friction is fed forward.
+inline std::vector<int> joints_stalled_by_friction(const PlanSamples& plan,
+                                                   const std::vector<Eigen::VectorXd>& tau_f) {
+  std::vector<int> joints;
+  const long N = plan.torques.samples.front().size();
+  for (long j = 0; j < N; ++j) {
+    double tau_peak = 0, friction_peak = 0;
+    for (size_t k = 0; k < tau_f.size(); ++k) {
+      tau_peak = std::max(tau_peak, std::abs(plan.torques.samples[k][j]));
+      friction_peak = std::max(friction_peak, std::abs(tau_f[k][j]));
+    }
+    if (friction_peak > 0 && friction_peak >= tau_peak) joints.push_back(static_cast<int>(j + 1));
+  }
+  return joints;
+}
+
+}  // namespace spacearm
