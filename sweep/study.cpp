@@ -123,7 +123,17 @@ class StudyReader {
 };
 
 void StudyReader::manoeuvre(Study& s, const YAML::Node& n) const {
-  r_.check_keys(n, "manoeuvre", {"plan", "torques", "q0", "target"});
+  r_.check_keys(n, "manoeuvre", {"plan", "torques", "q0", "target", "command_ratio"});
+  if (n["command_ratio"].IsDefined()) {
+    const std::string c = text(n["command_ratio"], "manoeuvre.command_ratio");
+    if (c != "run" && c != "nominal")
+      r_.fail("manoeuvre.command_ratio",
+              "expected run (each run's motor gets tau / its own p) or nominal (tau / the "
+              "scene's nominal p), got '" +
+                  c + "'",
+              n["command_ratio"]);
+    s.command_ratio = c == "run" ? Study::CommandRatio::run : Study::CommandRatio::nominal;
+  }
   if (n["plan"].IsDefined() == n["torques"].IsDefined())
     r_.fail("manoeuvre", "give either plan (a straight line) or torques (a CSV file)", n);
   const int nq = s.scene.num_base() + s.scene.num_links();  // base pose, link-side angles

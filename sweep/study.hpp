@@ -47,6 +47,10 @@ struct Study {
   // Torque manoeuvre: the start, as the base pose and link-side joint angles (num_base + N).
   Eigen::VectorXd q0;
   Eigen::VectorXd target;  // end-effector goal (x, y) for ee_error: the plan's, or given
+  // Which gear ratio divides the link-side torques into motor commands: each run's own p
+  // ("run": a different, known gearbox; the default) or the scene's nominal p ("nominal": the
+  // real p is not the p the controller believes, so the link gets tau p_run / p_nominal).
+  enum class CommandRatio { run, nominal } command_ratio = CommandRatio::run;
   IntegratorOptions integrator;
   Interpolation interpolation = Interpolation::linear;
   double t_end = 0;

@@ -58,13 +58,17 @@ struct StudyRunner::Loaded {
   CompiledModel model;
   std::unique_ptr<TorqueSignal<Eigen::Dynamic>> tau;
   Eigen::VectorXd base, angles, base_rate, rates;  // the start, link side
+  Eigen::VectorXd nominal_ratios;                  // p at the scene's nominal parameters
 };
 
 StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(std::move(study)) {
   const Study& s = study_;
   check_outputs(s);
-  loaded_ =
-      std::make_unique<Loaded>(Loaded{CompiledModel::load(s.scene, options), {}, {}, {}, {}, {}});
+  loaded_ = std::make_unique<Loaded>(
+      Loaded{CompiledModel::load(s.scene, options), {}, {}, {}, {}, {}, {}});
+  const std::vector<double>& nominal = loaded_->model.nominal_parameters();
+  loaded_->nominal_ratios = loaded_->model.gear_ratios(
+      Eigen::Map<const Eigen::VectorXd>(nominal.data(), static_cast<Eigen::Index>(nominal.size())));
   const int nb = s.scene.num_base(), N = s.scene.num_links();
   if (s.plan) {
     // Planned once, with the plan scene's nominal parameters (the paper's experiment).
@@ -105,7 +109,7 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
   header_ += ",ee_x,ee_y,ee_phi";
   if (s.target.size()) header_ += ",ee_error";
   if (s.scene.free_floating()) header_ += ",base_drift,base_rotation,momentum_drift";
-  header_ += ",torque_rms,message\n";
+  header_ += ",torque_rms,command_ratio,message\n";
 }
 
 StudyRunner::~StudyRunner() = default;
@@ -116,14 +120,21 @@ std::string StudyRunner::row(long run, std::string* series) const {
   std::string r = std::to_string(run);
   std::string values;
   for (double v : params) append(values, v);
-  const long metrics = std::count(header_.begin(), header_.end(), ',') - 2 - params.size();
+  const long metrics = std::count(header_.begin(), header_.end(), ',') - 3 - params.size();
+  const std::string ratio = command_ratio_text();
   try {
     const DynamicModel model = dynamic_model(loaded_->model, params);
     Eigen::VectorXd q0 = model.from_joint_angles(loaded_->base, loaded_->angles);
     Eigen::VectorXd qd0 = model.from_joint_angles(loaded_->base_rate, loaded_->rates);
     IntegratorOptions opt = s.integrator;
-    const TorqueSignal<Eigen::Dynamic>& tau = *loaded_->tau;
-    const TorqueReplay<Eigen::Dynamic> replay(tau, opt, "integrator.dt");
+    const TorqueReplay<Eigen::Dynamic> replay(*loaded_->tau, opt, "integrator.dt");
+    // The link-side torque the run's joints get: tau, or tau p_run / p_nominal when the motors
+    // are commanded with the nominal ratio (model.generalized_forces divides by p_run).
+    const Eigen::VectorXd scale =
+        s.command_ratio == Study::CommandRatio::run
+            ? Eigen::VectorXd(Eigen::VectorXd::Ones(model.num_links))
+            : Eigen::VectorXd(model.gear_ratios.cwiseQuotient(loaded_->nominal_ratios));
+    auto tau = [&](double t) -> Eigen::VectorXd { return scale.cwiseProduct((*loaded_->tau)(t)); };
     if (s.scene.num_flexible()) consistent_start(model, q0, qd0, tau(0.0));
     // Metrics at every step; the time series every series_every steps.
     Metrics m;
@@ -151,8 +162,8 @@ std::string StudyRunner::row(long run, std::string* series) const {
       ++m.samples;
     };
     integrate_motion(
-        model, q0, qd0, [&](double t) { return replay(t); }, s.t_end, s.integrator.dt, opt,
-        observe);
+        model, q0, qd0, [&](double t) -> Eigen::VectorXd { return scale.cwiseProduct(replay(t)); },
+        s.t_end, s.integrator.dt, opt, observe);
     std::vector<double> measures(m.pose.data(), m.pose.data() + 3);
     if (s.target.size()) measures.push_back((m.pose.head(2) - s.target).norm());
     if (nb) measures.insert(measures.end(), {m.base_drift, m.base_rotation, m.momentum_drift});
@@ -169,9 +180,10 @@ std::string StudyRunner::row(long run, std::string* series) const {
       for (const auto& n : model.coordinate_names) head += "," + n + "d";
       *series = head + ",ee_x,ee_y,ee_phi\n" + csv;
     }
-    return r + ",ok" + values + ",\n";
+    return r + ",ok" + values + "," + ratio + ",\n";
   } catch (const std::exception& e) {
-    return r + ",failed" + values + std::string(metrics, ',') + "," + csv_text(e.what()) + "\n";
+    return r + ",failed" + values + std::string(metrics, ',') + "," + ratio + "," +
+           csv_text(e.what()) + "\n";
   }
 }
 
@@ -196,7 +208,8 @@ std::string StudyRunner::row_problem(const std::string& row, long* run) const {
   const std::string message = row.substr(at, row.size() - 1 - at);
   const bool ok = f[1] == "ok";
   if (!ok && f[1] != "failed") return "status is neither ok nor failed";
-  for (long k = 2; k < fields; ++k) {
+  if (f[fields - 1] != command_ratio_text()) return "its command_ratio is not the study's";
+  for (long k = 2; k < fields - 1; ++k) {
     const bool metric = k >= 2 + params;
     if (!ok && metric) {
       if (!f[k].empty()) return "a failed run with a metric";

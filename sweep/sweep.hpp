@@ -27,8 +27,13 @@ class StudyRunner {
   ~StudyRunner();
 
   const Study& study() const { return study_; }
-  // The CSV header of the rows: run, status, every parameter, the metrics, message.
+  // The CSV header of the rows: run, status, every parameter, the metrics, command_ratio,
+  // message.
   const std::string& header() const { return header_; }
+  // The study's command_ratio as its rows write it: "run" or "nominal".
+  std::string command_ratio_text() const {
+    return study_.command_ratio == Study::CommandRatio::run ? "run" : "nominal";
+  }
   // The row of one run, with its newline. A run that fails (a parameter out of range, a
   // singular mass matrix, a diverging integration) is a row with status 'failed', empty
   // metrics and the message. series: receives the run's time series CSV if the study asks.

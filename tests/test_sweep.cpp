@@ -215,10 +215,11 @@ TEST(Sweep, EditedForgedAndStaleRowsAreRefused) {
   const size_t at = edited.find(",ok,") + 4;
   edited[at] = edited[at] == '9' ? '8' : '9';
   refused(edited, "its digest does not match");
-  // The last metric (torque_rms, before the empty message and the digest) replaced by nan.
+  // The last metric (torque_rms, before command_ratio, the empty message and the digest)
+  // replaced by nan.
   std::string with_nan = line;
-  const size_t end = with_nan.size() - 67, start = with_nan.rfind(',', end - 1) + 1;
-  ASSERT_EQ(with_nan.compare(end, 2, ",,"), 0) << with_nan;
+  const size_t end = with_nan.size() - 71, start = with_nan.rfind(',', end - 1) + 1;
+  ASSERT_EQ(with_nan.compare(end, 6, ",run,,"), 0) << with_nan;
   with_nan.replace(start, end - start, "nan");
   refused(with_nan, "is not a finite number");
   refused("3,ok,1\n", "no digest at the end of the line");
@@ -283,6 +284,52 @@ TEST(Sweep, ARunIsTheLinkedModelsReplayOfThePlan) {
     // run, status, p, Im, ee_x, ee_y, ee_phi, ee_error
     for (int i = 0; i < 3; ++i) EXPECT_NEAR(v[4 + i], end[i], 1e-10) << "run " << run;
     EXPECT_NEAR(v[7], (end.head<2>() - Eigen::Vector2d(1.45, 0.02)).norm(), 1e-10);
+  }
+}
+
+// command_ratio (issue 29): "run" divides the link-side torque by each run's own p (a known,
+// different gearbox), "nominal" by the scene's nominal p = 1 (the real p is not the one the
+// controller believes), so the run at p = 2 gets twice the link-side torque. Both are the linked
+// model's replay of the plan with those torques; the rows say which.
+TEST(Sweep, CommandRatioSaysWhichGearRatioDividesTheTorques) {
+  std::string text = kStudy;
+  text.replace(text.find("  plan:"), 0, "  command_ratio: nominal\n");
+  const StudyRunner nominal(study("[1, 2]", "7", text), cache()), run(study("[1, 2]"), cache());
+  EXPECT_NE(nominal.header().find(",torque_rms,command_ratio,message"), std::string::npos);
+  using Ref = Model<models::paper_reference::Model>;
+  using Geared = Model<models::paper_geared::Model>;
+  StraightLineTask task;
+  task.goal = Eigen::Vector3d(1.45, 0.02, 0.55);
+  task.duration = 1;
+  const auto plan = plan_straight_line(Ref(), task);
+  for (long r : {0, 2}) {  // p = 1 and p = 2, the first draw of I_m
+    const Eigen::VectorXd params = nominal.study().parameters(r);
+    Geared g;
+    g.set_parameter("p", params[0]);
+    g.set_parameter("Im", params[1]);
+    Geared::Vector qm = plan.q.front();
+    qm.tail<3>() *= params[0];
+    for (const StudyRunner* runner : {&nominal, &run}) {
+      const bool by_nominal = runner == &nominal;
+      std::vector<Eigen::Vector3d> link_tau = plan.tau;
+      for (auto& t : link_tau) t *= by_nominal ? params[0] : 1.0;  // tau p_run / p_nominal
+      const TorqueSignal<3> tau(0.0, task.dt, link_tau, Interpolation::linear);
+      const auto traj = simulate<models::paper_geared::Model>(g, qm, Geared::Vector::Zero(), tau,
+                                                              task.duration, task.dt, {});
+      const std::string row = runner->row(r);
+      std::istringstream in(row);
+      std::vector<double> v;
+      for (std::string f; std::getline(in, f, ',');) v.push_back(std::atof(f.c_str()));
+      for (int i = 0; i < 3; ++i) EXPECT_NEAR(v[4 + i], traj.end_effector.back()[i], 1e-10) << row;
+      EXPECT_NE(row.find(by_nominal ? ",nominal,\n" : ",run,\n"), std::string::npos) << row;
+    }
+  }
+  text.replace(text.find("nominal"), 7, "believed");
+  try {
+    study("[1, 2]", "7", text);
+    ADD_FAILURE() << "command_ratio: believed was accepted";
+  } catch (const StudyError& e) {
+    EXPECT_NE(std::string(e.what()).find("manoeuvre.command_ratio"), std::string::npos) << e.what();
   }
 }
 
