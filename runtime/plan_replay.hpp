@@ -19,6 +19,7 @@
 #include "consistent_start.hpp"
 #include "dynamic_model.hpp"
 #include "torque_csv.hpp"
+#include "trajectory_planning.hpp"
 
 namespace spacearm {
 
@@ -39,6 +40,22 @@ inline std::vector<std::string> plan_columns(int num_joints, bool free_floating)
   return names;
 }
 }  // namespace detail
+
+// A plan computed in memory (plan_straight_line on `planner`), as the samples a replay reads.
+inline PlanSamples plan_samples(const Plan& plan, const DynamicModel& planner) {
+  PlanSamples s;
+  const int nb = planner.num_base();
+  s.torques.t0 = plan.t.front();
+  s.torques.dt = plan.t.size() > 1 ? plan.t[1] - plan.t[0] : 0;
+  s.torques.samples = plan.tau;
+  for (size_t k = 0; k < plan.t.size(); ++k) {
+    s.base.push_back(plan.q[k].head(nb));
+    s.base_rate.push_back(plan.qd[k].head(nb));
+    s.angles.push_back(planner.joint_angles(plan.q[k]));
+    s.rates.push_back(planner.joint_angles(plan.qd[k]));
+  }
+  return s;
+}
 
 // Reads a plan for a scene with num_joints joints; errors name the file, line and column, and
 // say when the plan was made for another base or number of joints.
