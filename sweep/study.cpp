@@ -123,7 +123,22 @@ class StudyReader {
 };
 
 void StudyReader::manoeuvre(Study& s, const YAML::Node& n) const {
-  r_.check_keys(n, "manoeuvre", {"plan", "torques", "q0", "target", "command_ratio"});
+  r_.check_keys(n, "manoeuvre",
+                {"plan", "torques", "q0", "target", "command_ratio", "feedforward"});
+  if (n["feedforward"].IsDefined()) {
+    const std::string f = text(n["feedforward"], "manoeuvre.feedforward");
+    if (f != "none" && f != "friction")
+      r_.fail("manoeuvre.feedforward", "expected none or friction, got '" + f + "'",
+              n["feedforward"]);
+    if (f == "friction" && !n["plan"].IsDefined())
+      r_.fail("manoeuvre.feedforward", "friction is fed forward along a plan's rates; give plan",
+              n["feedforward"]);
+    if (f == "friction" && !s.scene.wants(Output::friction_forces))
+      r_.fail("manoeuvre.feedforward",
+              "the scene does not emit friction_forces (add it to its field 'outputs')",
+              n["feedforward"]);
+    s.feedforward_friction = f == "friction";
+  }
   if (n["command_ratio"].IsDefined()) {
     const std::string c = text(n["command_ratio"], "manoeuvre.command_ratio");
     if (c != "run" && c != "nominal")

@@ -51,6 +51,9 @@ struct Study {
   // ("run": a different, known gearbox; the default) or the scene's nominal p ("nominal": the
   // real p is not the p the controller believes, so the link gets tau p_run / p_nominal).
   enum class CommandRatio { run, nominal } command_ratio = CommandRatio::run;
+  // A plan's torques plus the friction that the run scene's nominal parameters predict along
+  // the planned rates (plan_replay.hpp's friction_along; the scene must emit friction_forces).
+  bool feedforward_friction = false;
   IntegratorOptions integrator;
   Interpolation interpolation = Interpolation::linear;
   double t_end = 0;

@@ -1,11 +1,13 @@
 #include "sweep.hpp"
 
 #include <algorithm>
+#include <optional>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 
 #include "consistent_start.hpp"
+#include "plan_replay.hpp"
 #include "simulation.hpp"
 #include "text_numbers.hpp"
 
@@ -83,7 +85,17 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
         dynamic_model(pm, Eigen::Map<const Eigen::VectorXd>(
                               pm.nominal_parameters().data(),
                               static_cast<Eigen::Index>(pm.nominal_parameters().size())));
-    const Plan plan = plan_straight_line(planner, *s.plan);
+    Plan plan = plan_straight_line(planner, *s.plan);
+    if (s.feedforward_friction) {
+      // The friction that the run scene's nominal parameters predict along the plan: what a
+      // controller knows; each run's own friction may differ.
+      const DynamicModel believed = dynamic_model(
+          loaded_->model, Eigen::Map<const Eigen::VectorXd>(
+                              nominal.data(), static_cast<Eigen::Index>(nominal.size())));
+      const std::vector<Eigen::VectorXd> tau_f =
+          friction_along(believed, plan_samples(plan, planner));
+      for (size_t k = 0; k < tau_f.size(); ++k) plan.tau[k] += tau_f[k];
+    }
     loaded_->tau =
         std::make_unique<TorqueSignal<Eigen::Dynamic>>(0.0, s.plan->dt, plan.tau, s.interpolation);
     loaded_->base = plan.q.front().head(nb);
@@ -127,14 +139,15 @@ std::string StudyRunner::row(long run, std::string* series) const {
     Eigen::VectorXd q0 = model.from_joint_angles(loaded_->base, loaded_->angles);
     Eigen::VectorXd qd0 = model.from_joint_angles(loaded_->base_rate, loaded_->rates);
     IntegratorOptions opt = s.integrator;
-    const TorqueReplay<Eigen::Dynamic> replay(*loaded_->tau, opt, "integrator.dt");
+    const TorqueSignal<Eigen::Dynamic>& signal = *loaded_->tau;
+    const TorqueReplay<Eigen::Dynamic> replay(signal, opt, "integrator.dt");
     // The link-side torque the run's joints get: tau, or tau p_run / p_nominal when the motors
     // are commanded with the nominal ratio (model.generalized_forces divides by p_run).
     const Eigen::VectorXd scale =
         s.command_ratio == Study::CommandRatio::run
             ? Eigen::VectorXd(Eigen::VectorXd::Ones(model.num_links))
             : Eigen::VectorXd(model.gear_ratios.cwiseQuotient(loaded_->nominal_ratios));
-    auto tau = [&](double t) -> Eigen::VectorXd { return scale.cwiseProduct((*loaded_->tau)(t)); };
+    auto tau = [&](double t) -> Eigen::VectorXd { return scale.cwiseProduct(signal(t)); };
     if (s.scene.num_flexible()) consistent_start(model, q0, qd0, tau(0.0));
     // Metrics at every step; the time series every series_every steps.
     Metrics m;

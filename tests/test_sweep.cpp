@@ -333,6 +333,45 @@ TEST(Sweep, CommandRatioSaysWhichGearRatioDividesTheTorques) {
   }
 }
 
+// feedforward: friction (issue 29) adds the friction of the scene's nominal parameters along
+// the plan. At the nominal friction the flexible twin then ends near the goal and far closer
+// than without it; a run whose friction is not the nominal one keeps an error. The plan is made
+// on the rigid scene at the runs' p = 10 (a copy of paper_geared.yaml with that nominal p).
+TEST(Sweep, FrictionFedForwardIsTheNominalFriction) {
+  const std::string models = std::string(SPACEARM_SOURCE_DIR) + "/models/";
+  const fs::path rigid = scratch("feedforward") / "geared_p10.yaml";
+  std::ofstream(rigid) << replace(read(models + "paper_geared.yaml"), "p: 1.0 ", "p: 10.0");
+  auto text = [&](const std::string& feed) {
+    return "scene: " + models + "paper_flexible.yaml\nmanoeuvre:\n  feedforward: " + feed +
+           "\n  plan: {from: [0.9, 0.3, 0.0], to: [0.7, 0.6, 0.5], duration: 5, scene: " +
+           rigid.string() + "}\nintegrator: {method: rosenbrock4, dt: 0.01}\n" +
+           "grid: {p: [10], fc: [1.0e-3, 1.5e-3]}\n";  // the nominal fc, and 1.5 times it
+  };
+  const StudyRunner fed(parse_study(text("friction"), "fed.yaml"), cache()),
+      bare(parse_study(text("none"), "bare.yaml"), cache());
+  auto ee_error = [](const std::string& row) {  // run, status, 9 parameters, ee_x, y, phi, error
+    std::istringstream in(row);
+    std::vector<double> v;
+    for (std::string f; std::getline(in, f, ',');) v.push_back(std::atof(f.c_str()));
+    return v.at(14);
+  };
+  const double at_nominal = ee_error(fed.row(0)), off = ee_error(fed.row(1)),
+               unfed = ee_error(bare.row(0));
+  std::printf(
+      "ee_error: fed at the nominal friction %.2e, fed at 1.5 times it %.2e, not fed "
+      "%.2e\n",
+      at_nominal, off, unfed);
+  EXPECT_LT(at_nominal, 1e-3);
+  EXPECT_LT(at_nominal, unfed / 10);
+  EXPECT_GT(off, 3 * at_nominal);
+  try {
+    parse_study(replace(text("friction"), "paper_flexible", "paper_geared"), "rigid.yaml");
+    ADD_FAILURE() << "feedforward without friction_forces was accepted";
+  } catch (const StudyError& e) {
+    EXPECT_NE(std::string(e.what()).find("manoeuvre.feedforward"), std::string::npos) << e.what();
+  }
+}
+
 // Flexible joints (studies/paper_stiffness.yaml's set-up, 1 s): the plan of the rigid scene
 // replayed into the flexible one, springs pre-deflected; stiffer springs approach the rigid gear
 // (both scenes at their nominal I_m = 1e-5).
