@@ -10,6 +10,7 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <tuple>
@@ -20,6 +21,9 @@
 #include "scene.hpp"
 #include "symbolic_model.hpp"
 #include "consistent_start.hpp"
+#include "private_folder.hpp"
+#include "integrator_choice.hpp"
+#include "plan_replay.hpp"
 #include "simulation.hpp"
 #include "simulation_table.hpp"
 #include "torque_csv.hpp"
@@ -62,10 +66,12 @@ Eigen::VectorXd vector_argument(const py::handle& value, const std::string& what
 
 // simulate()'s options, named and with the defaults of `spacearm simulate`.
 struct SimulateOptions {
-  std::string integrator = "rk4", interpolation = "linear", extrapolate = "error";
+  std::string integrator = "auto", interpolation = "linear", extrapolate = "error";
   double dt = 0.01, dt_out = 0;
   py::object rtol = py::none(), atol = py::none();  // None: IntegratorOptions' defaults
   bool consistent_start = false;
+  py::object plan = py::none();  // a plan file's path, or the dict model.plan() returns
+  std::string feedforward = "none";
 };
 
 // A loaded model and the parameter values its methods use unless given others.
@@ -78,7 +84,9 @@ class PyModel {
   const Eigen::VectorXd& params() const { return params_; }
 
   // Output o at the inputs (arrays, in the registry's order), one state or a batch.
-  py::object call(Output o, const py::args& args, const py::object& params) const;
+  // all_results: every result array (forward_dynamics: also its LDL^T pivots), as a dict.
+  py::object call(Output o, const py::args& args, const py::object& params,
+                  bool all_results = false) const;
 
   // The names of the outputs the scene emits, in the registry's order.
   std::vector<std::string> outputs() const {
@@ -171,7 +179,8 @@ py::array_t<double> result_array(const ResultInfo& spec, const Dimensions& dims,
   return py::array_t<double>(shape);
 }
 
-py::object PyModel::call(Output o, const py::args& args, const py::object& params_given) const {
+py::object PyModel::call(Output o, const py::args& args, const py::object& params_given,
+                         bool all_results) const {
   const OutputInfo& out = info(o);
   if (args.size() != out.inputs.size()) {
     std::string names;
@@ -223,8 +232,8 @@ py::object PyModel::call(Output o, const py::args& args, const py::object& param
     py::gil_scoped_release release;
     model_.evaluate_batch(o, k, in_ptrs, params, out_ptrs);
   }
-  // forward_dynamics returns qdd alone: the pivots served the checks.
-  if (o == Output::forward_dynamics) results.resize(1);
+  // forward_dynamics returns qdd alone unless asked for its pivots (they served the checks).
+  if (o == Output::forward_dynamics && !all_results) results.resize(1);
   if (results.size() == 1) {
     if (!batch && results[0].ndim() == 0) return py::float_(*results[0].data());
     return std::move(results[0]);
@@ -305,6 +314,41 @@ TorqueTable torque_table(const py::object& torques, int N) {
   return table;
 }
 
+// A plan as `spacearm plan` writes it: a file's text, or the CSV of model.plan()'s columns.
+std::string plan_text(const py::object& plan) {
+  if (py::isinstance<py::str>(plan)) {
+    const std::string path = plan.cast<std::string>();
+    try {
+      return read_regular_file(path, "plan", size_t(1) << 30);
+    } catch (const FolderError& e) {
+      throw py::value_error(e.what());
+    }
+  }
+  if (!py::isinstance<py::dict>(plan) || !plan.cast<py::dict>().contains("columns"))
+    throw py::type_error("plan: a plan file's path, or the dict that model.plan() returns");
+  const py::dict columns = plan.cast<py::dict>()["columns"].cast<py::dict>();
+  std::vector<std::string> names;
+  std::vector<py::array_t<double, py::array::c_style | py::array::forcecast>> arrays;
+  for (const auto& [name, values] : columns) {
+    names.push_back(name.cast<std::string>());
+    arrays.push_back(values.cast<py::array_t<double, py::array::c_style | py::array::forcecast>>());
+    if (arrays.back().ndim() != 1 || arrays.back().shape(0) != arrays.front().shape(0))
+      throw py::value_error("plan: column '" + names.back() + "' is not one value per sample");
+  }
+  std::string text;
+  for (const auto& n : names) text += (text.empty() ? "" : ",") + n;
+  text += "\n";
+  char buf[32];
+  for (py::ssize_t r = 0; !arrays.empty() && r < arrays.front().shape(0); ++r) {
+    for (size_t c = 0; c < arrays.size(); ++c) {
+      std::snprintf(buf, sizeof buf, c ? ",%.17g" : "%.17g", arrays[c].at(r));
+      text += buf;
+    }
+    text += "\n";
+  }
+  return text;
+}
+
 py::dict PyModel::simulate(double t_end, const py::object& torques, const py::object& q0,
                            const py::object& qd0, const SimulateOptions& o,
                            const py::object& params_given) const {
@@ -319,13 +363,14 @@ py::dict PyModel::simulate(double t_end, const py::object& torques, const py::ob
   if (o.consistent_start && !scene_.num_flexible())
     throw py::value_error("consistent_start: the scene has no flexible joint (gears[i].stiffness)");
   IntegratorOptions opt;
-  opt.method = method_from_string(o.integrator);
+  const bool automatic = o.integrator == "auto";
+  if (!automatic) opt.method = method_from_string(o.integrator);
   opt.dt = o.dt;
   // As the CLI's: options that would do nothing are errors, not silently ignored.
   for (const auto& [name, given, value] :
        {std::tuple{"rtol", &o.rtol, &opt.rtol}, std::tuple{"atol", &o.atol, &opt.atol}})
     if (!given->is_none()) {
-      if (!adaptive(opt.method))
+      if (automatic || !adaptive(opt.method))
         throw py::value_error(std::string(name) +
                               ": applies only to the adaptive integrators (dopri5, rkf78, "
                               "rosenbrock4), not to " +
@@ -339,10 +384,29 @@ py::dict PyModel::simulate(double t_end, const py::object& torques, const py::ob
   if (!(o.dt_out >= 0 && std::isfinite(o.dt_out)))
     throw py::value_error("dt_out: " + std::to_string(o.dt_out) +
                           " must be 0 (every step) or a positive multiple of dt");
-  // The torque signal: from the samples (covering [0, t_end] unless extrapolated), or zero.
+  // The torque signal: from the samples or a plan (covering [0, t_end] unless extrapolated),
+  // or zero.
   const int N = m.num_links;
+  std::optional<PlanSamples> plan;
+  if (!o.plan.is_none()) {
+    if (!torques.is_none() || !q0.is_none() || !qd0.is_none() || o.consistent_start)
+      throw py::value_error(
+          "plan: replaces torques, q0, qd0 and consistent_start (its start is mapped to this "
+          "model's coordinates)");
+    plan = read_plan_csv(plan_text(o.plan), N, m.free_floating,
+                         py::isinstance<py::str>(o.plan) ? o.plan.cast<std::string>() : "plan");
+    if (o.feedforward == "friction") {
+      const std::vector<Eigen::VectorXd> tau_f = friction_along(m, *plan);
+      for (size_t k = 0; k < tau_f.size(); ++k) plan->torques.samples[k] += tau_f[k];
+    } else if (o.feedforward != "none") {
+      throw py::value_error("feedforward: 'none' or 'friction', got '" + o.feedforward + "'");
+    }
+  } else if (o.feedforward != "none") {
+    throw py::value_error("feedforward: needs a plan");
+  }
   const TorqueTable table =
-      torques.is_none()
+      plan ? plan->torques
+      : torques.is_none()
           ? TorqueTable{0, t_end, {Eigen::VectorXd::Zero(N), Eigen::VectorXd::Zero(N)}}
           : torque_table(torques, N);
   const Extrapolation outside = extrapolation_from_string(o.extrapolate);
@@ -352,17 +416,28 @@ py::dict PyModel::simulate(double t_end, const py::object& torques, const py::ob
                           ": give samples that cover it, or extrapolate='hold' or 'zero'");
   const TorqueSignal<Eigen::Dynamic> tau(table.t0, table.dt, table.samples,
                                          interpolation_from_string(o.interpolation), outside);
-  const TorqueReplay<Eigen::Dynamic> replay(tau, opt, "dt");
   Eigen::VectorXd x0 = q0.is_none() ? Eigen::VectorXd::Zero(m.nq) : vector_argument(q0, "q0");
   Eigen::VectorXd v0 = qd0.is_none() ? Eigen::VectorXd::Zero(m.nv) : vector_argument(qd0, "qd0");
   if (x0.size() != m.nq || v0.size() != m.nv)
     throw py::value_error("q0 and qd0: expected " + std::to_string(m.nq) + " values each");
+  if (plan) replay_start(m, *plan, plan->torques.samples.front(), x0, v0);
+  if (o.consistent_start) consistent_start(m, x0, v0, tau(0.0));
+  // auto: rk4 at a step that resolves the stiffest mode at the start, or rosenbrock4.
+  std::string why = "as asked";
+  if (automatic) {
+    const IntegratorChoice c =
+        choose_integrator(stiffest_mode(m, x0, v0, m.generalized_forces(tau(0.0))), o.dt,
+                          o.dt_out > 0 ? o.dt_out : o.dt, m.has_state_jacobian());
+    opt.method = c.method;
+    if (c.dt > 0) opt.dt = c.dt;
+    why = c.why;
+  }
+  const TorqueReplay<Eigen::Dynamic> replay(tau, opt, "dt");
   // The run without the GIL, one row per sample of the table.
   const SimulationTable columns(m, scene_.geared());
   std::vector<std::vector<double>> rows;
   {
     py::gil_scoped_release release;
-    if (o.consistent_start) consistent_start(m, x0, v0, tau(0.0));
     integrate_motion(
         m, x0, v0, [&](double t) { return replay(t); }, t_end, o.dt_out > 0 ? o.dt_out : o.dt, opt,
         [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
@@ -378,6 +453,7 @@ py::dict PyModel::simulate(double t_end, const py::object& torques, const py::ob
   out["q"] = table_columns(named, 1, m.nq, true);
   out["qd"] = table_columns(named, 1 + m.nq, m.nv, true);
   out["columns"] = by_name;
+  out["integrator"] = why;
   return out;
 }
 
@@ -427,7 +503,14 @@ PYBIND11_MODULE(_spacearm, module) {
                              [](const PyModel& m) { return m.model().coordinate_names(); })
       .def_property_readonly("parameter_names",
                              [](const PyModel& m) { return m.model().parameter_names(); })
-      .def_property_readonly("params", [](const PyModel& m) { return m.params(); })
+      .def_property_readonly("params",
+                             [](const PyModel& m) {
+                               py::dict d;  // name -> value, in the scene's order
+                               const auto& names = m.model().parameter_names();
+                               for (size_t i = 0; i < names.size(); ++i)
+                                 d[names[i].c_str()] = m.params()[static_cast<Eigen::Index>(i)];
+                               return d;
+                             })
       .def_property_readonly("outputs", &PyModel::outputs)
       .def("plan", &PyModel::plan, py::arg("start"), py::arg("goal"), py::arg("duration"),
            py::arg("dt") = 0.01, py::arg("time_law") = "quintic", py::arg("elbow") = 1,
@@ -438,26 +521,44 @@ PYBIND11_MODULE(_spacearm, module) {
            "name.")
       .def(
           "simulate",
-          [](const PyModel& m, double t_end, const py::object& torques, const py::object& q0,
-             const py::object& qd0, const std::string& integrator, double dt, double dt_out,
-             const std::string& interpolation, const std::string& extrapolate,
+          [](const PyModel& m, const py::object& t_end, const py::object& torques,
+             const py::object& q0, const py::object& qd0, const std::string& integrator, double dt,
+             double dt_out, const std::string& interpolation, const std::string& extrapolate,
              const py::object& rtol, const py::object& atol, bool consistent_start,
-             const py::object& params) {
-            return m.simulate(
-                t_end, torques, q0, qd0,
-                {integrator, interpolation, extrapolate, dt, dt_out, rtol, atol, consistent_start},
-                params);
+             const py::object& plan, const std::string& feedforward, const py::object& params) {
+            const SimulateOptions o{integrator, interpolation, extrapolate,      dt,   dt_out,
+                                    rtol,       atol,          consistent_start, plan, feedforward};
+            // Without t_end, a plan's end.
+            double end = 0;
+            if (!t_end.is_none()) {
+              end = PyFloat_AsDouble(t_end.ptr());
+              if (PyErr_Occurred()) {
+                PyErr_Clear();
+                throw py::type_error("t_end: a number");
+              }
+            } else if (plan.is_none()) {
+              throw py::value_error("t_end: give it (only a plan has an end of its own)");
+            } else {
+              end = read_plan_csv(plan_text(plan), m.model().num_links(), m.model().free_floating(),
+                                  "plan")
+                        .torques.t_last();
+            }
+            return m.simulate(end, torques, q0, qd0, o, params);
           },
-          py::arg("t_end"), py::arg("torques") = py::none(), py::arg("q0") = py::none(),
-          py::arg("qd0") = py::none(), py::arg("integrator") = "rk4", py::arg("dt") = 0.01,
-          py::arg("dt_out") = 0.0, py::arg("interpolation") = "linear",
+          py::arg("t_end") = py::none(), py::arg("torques") = py::none(),
+          py::arg("q0") = py::none(), py::arg("qd0") = py::none(), py::arg("integrator") = "auto",
+          py::arg("dt") = 0.01, py::arg("dt_out") = 0.0, py::arg("interpolation") = "linear",
           py::arg("extrapolate") = "error", py::arg("rtol") = py::none(),
           py::arg("atol") = py::none(), py::arg("consistent_start") = false,
+          py::arg("plan") = py::none(), py::arg("feedforward") = "none",
           py::arg("params") = py::none(),
           "Integrate the dynamics from (q0, qd0) (zero by default) to t_end under joint torques "
           "sampled on a uniform grid (an array (k, 1 + N): t, tau1..N, link side; None: no "
-          "torque), as `spacearm simulate`: a dict of t, q, qd and 'columns', the CSV's columns "
-          "by name.")
+          "torque), as `spacearm simulate`: a dict of t, q, qd, 'columns' (the CSV's columns "
+          "by name) and 'integrator' (what auto chose, and why). plan= (a plan file or the dict "
+          "of model.plan(), made on this model or its rigid twin) replays it: its start mapped "
+          "to this model's coordinates, its torques, t_end its end by default; "
+          "feedforward='friction' adds this model's friction along the planned rates.")
       .def("inspect", &PyModel::inspect, py::arg("entry"), py::arg("latex") = false,
            py::arg("decimal") = false,
            "One symbolic entry as text (or LaTeX), e.g. model.inspect(\"M[3][4]\", latex=True): "
@@ -472,6 +573,19 @@ PYBIND11_MODULE(_spacearm, module) {
     std::string inputs;
     for (Input i : o.inputs) inputs += std::string(info(i).name) + ", ";
     const Output id = o.id;
+    if (id == Output::forward_dynamics) {
+      model.def(
+          o.name,
+          [id](const PyModel& m, const py::args& args, const py::object& params, bool pivots) {
+            return m.call(id, args, params, pivots);
+          },
+          py::arg("params") = py::none(), py::arg("pivots") = false,
+          (std::string(o.name) + "(" + inputs + "params=None, pivots=False): " + o.doc +
+           " Returns qdd; with pivots=True a dict of qdd and the LDL^T pivots (pivots, "
+           "scaled_pivots). Each input (n,) for one state or (k, n) for k states.")
+              .c_str());
+      continue;
+    }
     model.def(
         o.name,
         [id](const PyModel& m, const py::args& args, const py::object& params) {

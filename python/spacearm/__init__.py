@@ -8,9 +8,46 @@ load() compiles the scene into a shared library through spacearm's compile-and-l
 takes it from there) and returns a Model: every output the scene emits is a method taking numpy
 arrays, one state of shape (n,) or k states of shape (k, n).
 
-Study reads a study file (`spacearm sweep`) and computes its runs' CSV rows;
+Study reads a study file (`spacearm sweep`) and computes its runs' CSV rows (Study.rows) or
+named numpy columns (Study.table);
 spacearm.dask_sweep runs a study on Dask.
 """
+try:
+    import numpy as _np
+except ImportError as e:  # the first python3 on PATH may not be Debian's
+    raise ImportError(
+        "spacearm needs numpy: run Debian's /usr/bin/python3 (apt-get install python3-numpy), or "
+        "create the virtual environment with '/usr/bin/python3 -m venv --system-site-packages'"
+    ) from e
+
 from ._spacearm import CompileError, DynamicsError, Model, Study, StudyError, load
 
 __all__ = ["load", "Model", "Study", "DynamicsError", "CompileError", "StudyError"]
+
+
+def _table(self, runs=None, threads=1):
+    """The runs' rows (all runs by default) as named columns: 'run' (int), 'status',
+    'command_ratio' and 'message' (lists of str), every parameter and metric as a float64
+    array (nan where a run failed)."""
+    import csv
+    import io
+
+    runs = range(self.num_runs) if runs is None else runs
+    lines = self.rows(runs, threads=threads)
+    reader = csv.reader(io.StringIO(self.header + "".join(lines)))
+    names = next(reader)
+    rows = list(reader)
+    text = {"status", "command_ratio", "message"}
+    out = {}
+    for c, name in enumerate(names):
+        cells = [r[c] for r in rows]
+        if name == "run":
+            out[name] = _np.array([int(v) for v in cells], dtype=_np.int64)
+        elif name in text:
+            out[name] = cells
+        else:
+            out[name] = _np.array([float(v) if v else _np.nan for v in cells])
+    return out
+
+
+Study.table = _table

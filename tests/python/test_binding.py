@@ -57,7 +57,8 @@ def test_parameters_by_name(geared):
     assert geared.parameter_names == ["p", "Im"]
     p10 = spacearm.load(os.path.join(SOURCE, "models", "paper_geared.yaml"), params={"p": 10},
                         cache_dir=CACHE)
-    assert list(p10.params) == [10, geared.params[1]]
+    assert p10.params == {"p": 10, "Im": geared.params["Im"]}  # by name, in the scene's order
+    assert list(p10.params) == ["p", "Im"]
     assert np.array_equal(p10.mass_matrix(q[0]), geared.mass_matrix(q[0], params={"p": 10}))
     assert not np.allclose(p10.mass_matrix(q[0]), geared.mass_matrix(q[0]))
 
@@ -255,3 +256,44 @@ def test_hostile_arguments_get_named_errors_not_crashes(geared):
     with pytest.raises(ValueError, match="atol: applies only"):
         geared.simulate(1, integrator="rk4", atol=1e-6)
     assert len(geared.simulate(0.1, integrator="dopri5", rtol=1e-6, atol=1e-9)["t"]) == 11
+
+
+def test_forward_dynamics_pivots_on_request(geared):
+    """forward_dynamics(..., pivots=True): qdd and the LDL^T pivots, all positive (M is SPD),
+    their product the determinant of M."""
+    q, qd = states(geared, 3)
+    Q = np.zeros_like(qd)
+    plain = geared.forward_dynamics(q, qd, Q)
+    full = geared.forward_dynamics(q, qd, Q, pivots=True)
+    assert set(full) == {"qdd", "pivots", "scaled_pivots"}
+    assert np.array_equal(full["qdd"], plain)
+    assert np.all(full["pivots"] > 0)
+    for i in range(3):
+        M = geared.mass_matrix(q[i])
+        assert np.isclose(np.prod(full["pivots"][i]), np.linalg.det(M), rtol=1e-10)
+
+
+def test_plan_replays_into_the_flexible_twin(tmp_path):
+    """simulate(plan=...) (issue 29): the geared model's plan, as a dict or as the CLI's file,
+    flown by the flexible model with friction fed forward reaches the goal; 'auto' chooses
+    rosenbrock4 for its stiff springs and says why."""
+    geared = spacearm.load(os.path.join(SOURCE, "models", "paper_geared.yaml"), params={"p": 10},
+                           cache_dir=CACHE)
+    flexible = spacearm.load(os.path.join(SOURCE, "models", "paper_flexible.yaml"),
+                             cache_dir=CACHE)
+    plan = geared.plan([0.9, 0.3, 0.0], [0.7, 0.6, 0.5], 5)
+    run = flexible.simulate(plan=plan, feedforward="friction", dt_out=0.5)
+    assert run["t"][-1] == 5 and "rosenbrock4" in run["integrator"]
+    end = np.array([run["columns"][c][-1] for c in ("ee_x", "ee_y", "ee_phi")])
+    assert np.linalg.norm(end - [0.7, 0.6, 0.5]) < 1e-3, end
+    path = tmp_path / "plan.csv"
+    names = list(plan["columns"])
+    np.savetxt(path, np.column_stack([plan["columns"][n] for n in names]), delimiter=",",
+               header=",".join(names), comments="", fmt="%.17g")
+    again = flexible.simulate(plan=str(path), feedforward="friction", dt_out=0.5)
+    assert np.array_equal(again["q"], run["q"])
+    with pytest.raises(ValueError, match="plan: replaces torques"):
+        flexible.simulate(plan=plan, q0=np.zeros(9))
+    with pytest.raises(ValueError, match="feedforward: needs a plan"):
+        flexible.simulate(1, feedforward="friction")
+

@@ -75,3 +75,18 @@ def test_study_errors_are_python_exceptions(study_path, tmp_path):
         study.merge(study.rows([0, 1, 2]))
     assert list(study.parameters(4)[:1]) == [2.0]
     assert "9 runs of scene paper_geared" in repr(study)
+
+
+def test_study_table_is_named_numpy_columns(study_path):
+    """Study.table (issue 29): the rows as named columns, numbers as float64 arrays."""
+    study = spacearm.Study(study_path, cache_dir=CACHE)
+    table = study.table(threads=2)
+    header = study.header.strip().split(",")
+    assert list(table) == header and len(table["run"]) == study.num_runs == 9
+    assert table["run"].dtype == np.int64 and list(table["run"]) == list(range(9))
+    assert table["status"] == ["ok"] * 9 and table["command_ratio"] == ["run"] * 9
+    assert np.array_equal(table["p"], np.repeat([1.0, 2.0, 3.0], 3))
+    row = study.rows([4])[0].split(",")  # the same numbers as the CSV row
+    for c, name in enumerate(header[2:-2], start=2):
+        assert table[name][4] == float(row[c]), name
+
