@@ -6,7 +6,8 @@
 # Output folder: out/paper (override with OUT_DIR=...).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/setup.sh build  # shows the build's progress
+# Only what it runs (the generator and the experiment; the tests are test.sh's), with progress.
+SPACEARM_TARGETS="spacearm paper_experiment" scripts/setup.sh build
 out="${OUT_DIR:-out/paper}"
 echo "== operation counts of the paper's generated models"
 for scene in models/paper_reference.yaml models/paper_geared.yaml; do

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what spacearm needs (Debian packages, only those missing), configures and builds.
 # Usage: scripts/setup.sh [BUILD_DIR [CMAKE_ARGS...]]   (default: build, Release)
+# SPACEARM_TARGETS="a b": build only those targets (the main job builds what it runs).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir=${1:-build}
@@ -13,4 +14,6 @@ packages=(g++ cmake ninja-build pkg-config libginac-dev libeigen3-dev libyaml-cp
 scripts/install-packages.sh "${packages[@]}"
 
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
-cmake --build "$build_dir" -j "${JOBS:-2}"
+targets=()
+for t in ${SPACEARM_TARGETS:-}; do targets+=(--target "$t"); done
+cmake --build "$build_dir" -j "${JOBS:-2}" "${targets[@]}"
