@@ -20,4 +20,4 @@ echo
 echo "== the paper's study as a sweep: 37 gear ratios x 31 motor inertias (studies/paper_gear_ratio.yaml)"
 rm -rf "$out/sweep"
 build/cli/spacearm sweep studies/paper_gear_ratio.yaml -o "$out/sweep"
-scripts/plot_sweep.sh "$out/sweep"
+scripts/plot_sweep.sh "$out/sweep" studies/paper_gear_ratio.yaml
