@@ -834,6 +834,11 @@ class ParameterChecks {
             gf + ".motor_inertia must be smaller than the inertia of link " +
                 std::to_string(i + 1) + " it compensates");
     if (g.stiffness) check(*g.stiffness, true, gf + ".stiffness must be positive");
+    if (g.coupling) {
+      check(*g.coupling, false, gf + ".rotor_coupling must be in [0, 1] (not negative)");
+      check(g.coupling->is_parameter(), p_.add({p_.constant(1), -value(*g.coupling)}), false,
+            gf + ".rotor_coupling must be in [0, 1] (not above 1)");
+    }
     if (g.damping) check(*g.damping, false, gf + ".damping must not be negative");
   }
 

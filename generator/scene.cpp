@@ -64,12 +64,20 @@ Gear read_gear(const Reader& r, const YAML::Node& n, const std::string& field) {
   if (n["rotor_coupling"].IsDefined()) {
     const auto& c = n["rotor_coupling"];
     const std::string v = c.IsScalar() ? c.Scalar() : "";
-    if (v != "exact" && v != "armature")
+    if (v == "exact" || v == "armature") {
+      g.armature = v == "armature";
+    } else if (c.IsScalar()) {
+      // A coupling factor c: a run-time parameter, or a number (in [0, 1]: read_gears).
+      if (!is_decimal(v) && !is_identifier(v))
+        r.fail(field + ".rotor_coupling",
+               "expected 'exact', 'armature' or a coupling factor in [0, 1] (a number or a "
+               "parameter: 1 exact, 0 armature)",
+               c);
+      g.coupling = r.quantity(c, field + ".rotor_coupling");
+    } else {
       r.fail(field + ".rotor_coupling",
-             "expected 'exact' or 'armature', got '" +
-                 (c.IsScalar() ? v : std::string("a non-scalar")) + "'",
-             c);
-    g.armature = v == "armature";
+             "expected 'exact', 'armature' or a coupling factor in [0, 1], got a non-scalar", c);
+    }
   }
   return g;
 }
@@ -167,6 +175,7 @@ class SceneReader {
     read_gears();
     read_friction();
     read_formulation();  // before the outputs: it decides which are affordable
+    coupling_formulation();
     read_outputs();
     for (const auto& p : s.parameters)
       if (!used_parameters.count(p.name))
@@ -369,6 +378,21 @@ class SceneReader {
                    " must be smaller than the inertia of link " + std::to_string(i + 1) + " (" +
                    std::to_string(s.links[i].inertia.value) + ") that it compensates",
                node);
+      if (gear.coupling) {
+        if (gear.coupling->is_parameter() && !parameter_index.count(gear.coupling->parameter))
+          r.fail(field + ".rotor_coupling",
+                 std::string("expected 'exact', 'armature' or a coupling factor (a number in "
+                             "[0, 1], or a parameter declared under 'parameters'), got '") +
+                     gear.coupling->parameter + "'",
+                 node["rotor_coupling"]);
+        gear.coupling =
+            checked(*gear.coupling, field + ".rotor_coupling", node["rotor_coupling"], false);
+        if (!(gear.coupling->value <= 1))
+          r.fail(
+              field + ".rotor_coupling",
+              "a coupling factor is in [0, 1] (1 exact, 0 armature), got " + shown(*gear.coupling),
+              node["rotor_coupling"]);
+      }
       flexibility(gear, node, field);
       s.gears.push_back(gear);
     }
@@ -455,6 +479,24 @@ class SceneReader {
              "stribeck_velocity [rad/s]",
              n);
     return f;
+  }
+
+  // A rotor coupling factor exists in the closed form only (the recursive algorithms carry a
+  // rotor on the previous body whole or not at all): auto becomes closed, recursive is refused.
+  void coupling_formulation() {
+    for (size_t i = 0; i < s.gears.size(); ++i) {
+      if (!s.gears[i] || !s.gears[i]->coupling) continue;
+      const std::string field =
+          "gears" + std::string(root["gears"].IsSequence() ? "[" + std::to_string(i) + "]" : "") +
+          ".rotor_coupling";
+      if (s.formulation == Formulation::recursive || s.num_links() > kMaxClosedFormLinks)
+        r.fail(field,
+               "a coupling factor needs the closed form ('formulation: closed', up to " +
+                   std::to_string(kMaxClosedFormLinks) + " links); use exact or armature",
+               root["gears"]);
+      s.formulation = Formulation::closed;
+      return;
+    }
   }
 
   void read_formulation() {

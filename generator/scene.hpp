@@ -63,6 +63,10 @@ struct Gear {
   // joint's diagonal as MuJoCo, Drake and Pinocchio model it, without the coupling to the
   // previous body's rotation.
   bool armature = false;
+  // rotor_coupling: PARAMETER (or a number in [0, 1]): the motor turns with c times the
+  // previous body, 1/2 I_m (c Omega_prev + qd_m)^2: c = 1 is exact, c = 0 armature, so one
+  // scene compares both at run time. Closed form only.
+  std::optional<Quantity> coupling;
   // A flexible joint (Spong's model): a torsional spring of stiffness k [N m/rad] and an
   // optional damper d [N m s/rad] between the gear's output qm/p and the link angle q, both on
   // the link side. The joint then has two coordinates, q and qm (Scene::coordinate_names).

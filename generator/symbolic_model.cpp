@@ -245,7 +245,8 @@ class Derivation {
         // Motor i turns with the previous body plus its own rate (eq. 11), 1/2 I_m w^2 (eq. 10);
         // the armature approximation keeps only the motor's own rate.
         const ex& qd_m = model_.qd[scene_.motor_coordinate(i - 1)];
-        const ex omega_m = gear->armature ? qd_m : Omega[i - 1] + qd_m;
+        const ex carried = gear->coupling ? b_.value(*gear->coupling) * Omega[i - 1] : Omega[i - 1];
+        const ex omega_m = gear->armature ? qd_m : carried + qd_m;
         T += Im_[i] * omega_m * omega_m / 2;
       }
     }

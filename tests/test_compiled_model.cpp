@@ -366,6 +366,42 @@ TEST_F(EvalCli, JointTorquesDriveTheMotorCoordinates) {
       << count;
 }
 
+// rotor_coupling: c (issue 29): one scene answers "exact or armature?" at run time: c = 1 gives
+// paper_geared.yaml's numbers, c = 0 paper_geared_armature.yaml's (compiled, to rounding), and
+// c = 1.5 is refused by name. Compiles three models (about 5 s).
+TEST_F(EvalCli, RotorCouplingFactorComparesExactAndArmature) {
+  const std::string models = std::string(SPACEARM_SOURCE_DIR) + "/models/";
+  std::string text = test::read_text_file(models + "paper_geared.yaml");
+  text.replace(text.find("name: paper_geared"), 18, "name: paper_geared_coupling");
+  text.replace(text.find("  compensate_link_inertia: true"), 31,
+               "  compensate_link_inertia: true\n  rotor_coupling: c");
+  text.replace(text.find("parameters:"), 11, "parameters:\n  c: 1.0");
+  fs::create_directories(cache);
+  const fs::path scene = cache / "coupling.yaml";
+  std::ofstream(scene) << text;
+  const std::string state =
+      " --param p=10 --param Im=1e-3 --q 0,0,0.1,2,3,4 --qd 0.1,0.2,0.3,1,2,3 --json";
+  auto eval = [&](const std::string& args) {
+    int status = 0;
+    const std::string out = run(cli + args + state + " 2>/dev/null", &status);
+    EXPECT_EQ(status, 0) << args;
+    return nlohmann::json::parse(out);
+  };
+  for (const auto& [c, twin] :
+       {std::pair{"1", "paper_geared.yaml"}, std::pair{"0", "paper_geared_armature.yaml"}}) {
+    const auto factor = eval(scene.string() + " --param c=" + c), fixed = eval(models + twin);
+    for (const char* out : {"mass_matrix", "bias_forces", "kinetic_energy", "momentum"})
+      expect_json_near(factor[out], fixed[out]);
+  }
+  const auto exact = eval(models + "paper_geared.yaml"),
+             armature = eval(models + "paper_geared_armature.yaml");
+  EXPECT_NE(exact["mass_matrix"][2][3], armature["mass_matrix"][2][3]);  // they do differ
+  int status = 0;
+  const std::string bad = run(cli + scene.string() + " --param c=1.5" + state + " 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(bad.find("rotor_coupling must be in [0, 1]"), std::string::npos) << bad;
+}
+
 TEST_F(EvalCli, VerboseReportShowsTheCacheHit) {
   const std::string args = std::string(SPACEARM_SOURCE_DIR) +
                            "/models/paper_reference.yaml --q 0,0,0,0.1,0.2,0.3 --verbose 2>&1";

@@ -154,7 +154,9 @@ TEST(Scene, GearAndParameterErrors) {
   const std::string coupling =
       std::string(kValid) + "gears: {ratio: 10, motor_inertia: 0, rotor_coupling: approx}\n";
   EXPECT_NE(error_of(coupling).find(
-                "field 'gears.rotor_coupling': expected 'exact' or 'armature', got 'approx'"),
+                "field 'gears.rotor_coupling': expected 'exact', 'armature' or a coupling factor "
+                "(a number "
+                "in [0, 1], or a parameter declared under 'parameters'), got 'approx'"),
             std::string::npos)
       << error_of(coupling);
   EXPECT_TRUE(parse_scene(replaced(coupling, "approx", "armature"), "t.yaml").gears[1]->armature);

@@ -185,6 +185,69 @@ TEST(SymbolicIdentities, ArmatureDropsOnlyTheRotorCoupling) {
   EXPECT_FALSE(same(3, 3));  // I_m / p^2 of the second rotor riding on link 1
 }
 
+// rotor_coupling: c (issue 29): one scene with a coupling factor is the exact model at c = 1
+// and the armature model at c = 0, exactly (T and M, symbolically); the factor makes the
+// formulation closed, and its run-time range [0, 1] is checked by the generated code.
+TEST(SymbolicIdentities, CouplingFactorSpansExactAndArmature) {
+  ChainSpec spec;
+  spec.links = 3;
+  spec.geared = spec.gear_parameters = true;
+  spec.outputs = "[mass_matrix, kinetic_energy]";
+  const std::string exact = test::random_scene_yaml(spec);
+  auto with = [&](const std::string& coupling) {
+    std::string t = exact;
+    const std::string key = "compensate_link_inertia: true}";
+    t.replace(t.find(key), key.size(),
+              "compensate_link_inertia: true, rotor_coupling: " + coupling + "}");
+    return t;
+  };
+  std::string factor = with("c");
+  factor.replace(factor.find("parameters: {"), 13, "parameters: {c: 0.5, ");
+  const SymbolicModel e = derive(parse_scene(exact, "exact.yaml"));
+  const SymbolicModel a = derive(parse_scene(with("armature"), "armature.yaml"));
+  const SymbolicModel f = derive(parse_scene(factor, "factor.yaml"));
+  ASSERT_TRUE(f.scene.gears[0]->coupling.has_value());
+  EXPECT_EQ(f.scene.formulation, Formulation::closed);
+  // Compare through the names: f's parameters are e's plus c.
+  auto in = [&](const SymbolicModel& m, double c) {
+    GiNaC::exmap to_e;
+    for (int i = 0; i < e.n(); ++i) to_e[f.q[i]] = m.q[i], to_e[f.qd[i]] = m.qd[i];
+    for (size_t i = 0; i < f.parameters.size(); ++i) {
+      const std::string name = GiNaC::ex_to<GiNaC::symbol>(f.parameters[i]).get_name();
+      if (name == "c") {
+        to_e[f.parameters[i]] = GiNaC::numeric(static_cast<long>(c));
+        continue;
+      }
+      for (size_t k = 0; k < m.parameters.size(); ++k)
+        if (GiNaC::ex_to<GiNaC::symbol>(m.parameters[k]).get_name() == name)
+          to_e[f.parameters[i]] = m.parameters[k];
+    }
+    return to_e;
+  };
+  for (const auto& [model, c] : {std::pair{&e, 1.0}, std::pair{&a, 0.0}}) {
+    const GiNaC::exmap to = in(*model, c);
+    EXPECT_TRUE((f.kinetic_energy.subs(to) - model->kinetic_energy).expand().is_zero()) << c;
+    for (int i = 0; i < e.n(); ++i)
+      for (int j = 0; j < e.n(); ++j)
+        EXPECT_TRUE((f.expression(Output::mass_matrix)(i, j).subs(to) -
+                     model->expression(Output::mass_matrix)(i, j))
+                        .expand()
+                        .is_zero())
+            << "c = " << c << ", M[" << i << "][" << j << "]";
+  }
+  // Out of [0, 1] in the scene, or with the recursive formulation: named errors.
+  for (const auto& [text, want] :
+       {std::pair{with("1.5"), "rotor_coupling"}, std::pair{with("sideways"), "rotor_coupling"},
+        std::pair{factor + "formulation: recursive\n", "needs the closed form"}}) {
+    try {
+      parse_scene(text, "bad.yaml");
+      ADD_FAILURE() << "accepted: " << want;
+    } catch (const std::exception& err) {
+      EXPECT_NE(std::string(err.what()).find(want), std::string::npos) << err.what();
+    }
+  }
+}
+
 TEST(SymbolicEntries, GearRatiosAppearAsTheyShould) {
   const SymbolicModel m = derive(parse_scene(test::random_scene_yaml([] {
                                                ChainSpec s;
