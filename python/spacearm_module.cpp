@@ -23,6 +23,7 @@
 #include "consistent_start.hpp"
 #include "private_folder.hpp"
 #include "integrator_choice.hpp"
+#include "joint_control.hpp"
 #include "plan_replay.hpp"
 #include "simulation.hpp"
 #include "simulation_table.hpp"
@@ -106,6 +107,11 @@ class PyModel {
   py::dict simulate(double t_end, const py::object& torques, const py::object& q0,
                     const py::object& qd0, const SimulateOptions& o,
                     const py::object& params) const;
+
+  // A plan tracked in closed loop by a sampled joint controller (runtime/joint_control.hpp).
+  py::dict closed_loop(const py::object& plan, const std::string& controller, double omega,
+                       double period, const PyModel* control_model, const std::string& feedforward,
+                       double dt_out, const py::object& params) const;
 
   // One symbolic entry ("M[3][4]", "T", ...) as `spacearm inspect` prints it; the scene is
   // derived on the first call (without the GIL) and kept.
@@ -457,6 +463,94 @@ py::dict PyModel::simulate(double t_end, const py::object& torques, const py::ob
   return out;
 }
 
+py::dict PyModel::closed_loop(const py::object& plan_given, const std::string& controller,
+                              double omega, double period, const PyModel* control_model,
+                              const std::string& feedforward, double dt_out,
+                              const py::object& params_given) const {
+  const Eigen::VectorXd params = named_parameters(model_, params_, params_given);
+  const DynamicModel plant = dynamic_model(model_, params);
+  const int N = plant.num_links, nb = plant.num_base();
+  if (controller != "pd" && controller != "computed_torque")
+    throw py::value_error("controller: 'pd' or 'computed_torque', got '" + controller + "'");
+  if (feedforward != "none" && feedforward != "plan" && feedforward != "friction")
+    throw py::value_error("feedforward: 'none', 'plan' or 'friction' (plan + friction), got '" +
+                          feedforward + "'");
+  if (!(omega > 0 && std::isfinite(omega)) || !(period > 0 && std::isfinite(period)))
+    throw py::value_error("omega and period must be positive and finite");
+  const long every = std::lround(dt_out / period);
+  if (every < 1 || std::abs(every * period - dt_out) > 1e-9 * dt_out)
+    throw py::value_error("dt_out must be a positive multiple of period");
+  PlanSamples plan = read_plan_csv(plan_text(plan_given), N, plant.free_floating, "plan");
+  const SampledJointTrajectory target = joint_target(plan);
+  // PD: the plan's torques (and friction) fed forward, feedback from the motor encoders.
+  std::vector<Eigen::VectorXd> ff = plan.torques.samples;
+  if (feedforward == "none")
+    for (auto& t : ff) t.setZero();
+  if (feedforward == "friction") {
+    const std::vector<Eigen::VectorXd> tau_f = friction_along(plant, plan);
+    for (size_t k = 0; k < ff.size(); ++k) ff[k] += tau_f[k];
+  }
+  const TorqueSignal<Eigen::Dynamic> tau_ff(plan.torques.t0, plan.torques.dt, ff,
+                                            Interpolation::linear, Extrapolation::hold);
+  const JointGains gains = JointGains::critically_damped(N, omega);
+  const PdController pd(gains);
+  std::optional<DynamicModel> control;
+  std::optional<ComputedTorqueController> ct;
+  if (controller == "computed_torque") {
+    const PyModel& c = control_model ? *control_model : *this;
+    control = dynamic_model(c.model_, c.params_);
+    ct.emplace(*control, gains);
+  }
+  auto decide = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+    const JointTarget x = target(t);
+    if (ct)
+      return ct->torque(x, q.head(nb), qd.head(nb), plant.joint_angles(q), plant.joint_angles(qd));
+    return Eigen::VectorXd(tau_ff(t) + pd.torque(x, plant.motor_side(q), plant.motor_side(qd)));
+  };
+  Eigen::VectorXd x0, v0;
+  replay_start(plant, plan, ff.front(), x0, v0);
+  IntegratorOptions opt;
+  const IntegratorChoice choice =
+      choose_integrator(stiffest_mode(plant, x0, v0, plant.generalized_forces(ff.front())), period,
+                        period, plant.has_state_jacobian());
+  opt.method = choice.method;
+  if (choice.dt > 0) opt.dt = choice.dt;
+  const SimulationTable columns(plant, scene_.geared());
+  std::vector<std::vector<double>> rows;
+  long sample = 0;
+  {
+    py::gil_scoped_release release;
+    try {
+      integrate_closed_loop(plant, x0, v0, decide, period, plan.torques.t_last(), opt,
+                            [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                                const Eigen::VectorXd& tau) {
+                              if (sample++ % every) return;
+                              rows.emplace_back();
+                              columns.row(t, q, qd, tau, rows.back());
+                            });
+    } catch (const IntegrationError& e) {  // a loop gone unstable: say so, not the state
+      const std::string why = e.what();
+      char at[64];
+      std::snprintf(at, sizeof at, "%.6g", e.t());
+      throw std::runtime_error(
+          "closed_loop: diverged after t = " + std::string(at) + " s (" +
+          why.substr(0, why.find("; last accepted state")) +
+          "): lower omega or the period (a sampled PD loop needs kd period / (p^2 I_m) "
+          "below about 2, kd = 2 omega)");
+    }
+  }
+  PlanTable named{columns.names(), std::move(rows)};
+  py::dict out, by_name;
+  for (size_t c = 0; c < named.names.size(); ++c)
+    by_name[named.names[c].c_str()] = table_columns(named, c, 1, false);
+  out["t"] = table_columns(named, 0, 1, false);
+  out["q"] = table_columns(named, 1, plant.nq, true);
+  out["qd"] = table_columns(named, 1 + plant.nq, plant.nv, true);
+  out["columns"] = by_name;
+  out["integrator"] = choice.why;
+  return out;
+}
+
 // The YAML text of a scene (it has line breaks), else the path of a scene file.
 Scene scene_from(const std::string& path_or_text) {
   if (path_or_text.find('\n') != std::string::npos) return parse_scene(path_or_text, "<yaml text>");
@@ -559,6 +653,19 @@ PYBIND11_MODULE(_spacearm, module) {
           "of model.plan(), made on this model or its rigid twin) replays it: its start mapped "
           "to this model's coordinates, its torques, t_end its end by default; "
           "feedforward='friction' adds this model's friction along the planned rates.")
+      .def("closed_loop", &PyModel::closed_loop, py::arg("plan"), py::arg("controller") = "pd",
+           py::arg("omega") = 20.0, py::arg("period") = 1e-3,
+           py::arg("control_model") = static_cast<const PyModel*>(nullptr),
+           py::arg("feedforward") = "plan", py::arg("dt_out") = 0.01,
+           py::arg("params") = py::none(),
+           "Track a plan (model.plan()'s dict or a plan file, made on this model or its rigid "
+           "twin) in closed loop, sampled every `period` s with zero-order hold "
+           "(runtime/joint_control.hpp). controller='pd': the plan's torques fed forward "
+           "(feedforward='plan', 'friction' adds this model's friction, 'none') plus kp e + kd "
+           "e' on the motor encoders' angles (qm / p), kp = omega^2, kd = 2 omega; "
+           "'computed_torque': the inverse dynamics of control_model (this model by default) "
+           "with the base free, for qdd_d + kd e' + kp e. Returns the dict simulate returns, "
+           "every dt_out s (tau: the controller's torque).")
       .def("inspect", &PyModel::inspect, py::arg("entry"), py::arg("latex") = false,
            py::arg("decimal") = false,
            "One symbolic entry as text (or LaTeX), e.g. model.inspect(\"M[3][4]\", latex=True): "

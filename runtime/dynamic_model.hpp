@@ -75,6 +75,15 @@ struct DynamicModel {
     return a;
   }
 
+  // The joint angles (or rates, from qd) that the motor encoders read: qm / p of the coordinate
+  // each joint's torque drives (q itself without a gear). Feedback from them is collocated with
+  // the torque: it stays stable with flexible joints, where link-side feedback may not.
+  JointVector motor_side(const Eigen::VectorXd& x) const {
+    JointVector a(num_links);
+    for (int i = 0; i < num_links; ++i) a[i] = x[actuated_coordinates.at(i)] / gear_ratios[i];
+    return a;
+  }
+
   // The configuration (or velocity, from rates) with the base pose `base` and link-side joint
   // angles: joint_angles' inverse. A flexible joint's motor angle is p q, its spring relaxed
   // (consistent_start.hpp pre-deflects it).

@@ -18,6 +18,7 @@
 
 #include "consistent_start.hpp"
 #include "dynamic_model.hpp"
+#include "joint_control.hpp"
 #include "torque_csv.hpp"
 #include "trajectory_planning.hpp"
 
@@ -129,6 +130,20 @@ inline Eigen::VectorXd replay_start(const DynamicModel& model, const PlanSamples
   q0 = model.from_joint_angles(plan.base.front(), plan.angles.front());
   qd0 = model.from_joint_angles(plan.base_rate.front(), plan.rates.front());
   return consistent_start(model, q0, qd0, tau0);
+}
+
+// The plan's link-side joint motion as a target for a joint controller (joint_control.hpp):
+// angles and rates from the plan, accelerations by central differences of the rates (second
+// order; one-sided at the ends).
+inline SampledJointTrajectory joint_target(const PlanSamples& plan) {
+  const size_t n = plan.rates.size();
+  const double h = plan.torques.dt;
+  std::vector<Eigen::VectorXd> qdd(n);
+  for (size_t k = 0; k < n; ++k) {
+    const size_t a = k == 0 ? 0 : k - 1, b = k + 1 == n ? n - 1 : k + 1;
+    qdd[k] = (plan.rates[b] - plan.rates[a]) / (h * static_cast<double>(b - a));
+  }
+  return SampledJointTrajectory(plan.torques.t0, h, plan.angles, plan.rates, qdd);
 }
 
 // The link-side torque that the model's friction takes at each planned sample: p_j f_j(w) on

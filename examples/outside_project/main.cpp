@@ -49,21 +49,11 @@ Eigen::Vector3d replay(const DynamicModel& plant, PlanSamples plan, bool feed_fr
   return pose;
 }
 
-// The joint angles (or rates) that the motor encoders read: qm / p. Feedback from them is
-// collocated with the motor torque, so it stays stable with flexible joints; feedback from
-// the link side of the springs is not.
-Eigen::VectorXd motor_side(const DynamicModel& m, const Eigen::VectorXd& x) {
-  Eigen::VectorXd a(m.num_links);
-  for (int j = 0; j < m.num_links; ++j) a[j] = x[m.actuated_coordinates[j]] / m.gear_ratios[j];
-  return a;
-}
-
-// A PD loop on the motor-side joint errors around the plan's torques and friction, at 1 kHz.
-Eigen::Vector3d closed_loop(const DynamicModel& plant, const PlanSamples& plan, const Plan& planned,
-                            const DynamicModel& planner) {
-  std::vector<Eigen::VectorXd> qdd;
-  for (const auto& a : planned.qdd) qdd.push_back(planner.joint_angles(a));
-  const SampledJointTrajectory target(0.0, plan.torques.dt, plan.angles, plan.rates, qdd);
+// A PD loop on the motor-side joint errors (the encoders' qm / p: feedback collocated with the
+// motor torque stays stable with flexible joints; from the link side of the springs it did
+// not) around the plan's torques and friction, at 1 kHz.
+Eigen::Vector3d closed_loop(const DynamicModel& plant, const PlanSamples& plan) {
+  const SampledJointTrajectory target = joint_target(plan);
   std::vector<Eigen::VectorXd> feedforward = plan.torques.samples;
   const std::vector<Eigen::VectorXd> tau_f = friction_along(plant, plan);
   for (size_t k = 0; k < feedforward.size(); ++k) feedforward[k] += tau_f[k];
@@ -73,14 +63,13 @@ Eigen::Vector3d closed_loop(const DynamicModel& plant, const PlanSamples& plan, 
   // p^2 I_m = 0.1 kg m^2, a joint bandwidth of about 60 rad/s, well below the springs' modes.
   const PdController pd(JointGains::critically_damped(plant.num_links, 20.0));
   auto control = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
-    const Eigen::VectorXd tau_pd =
-        pd.torque(target(t), motor_side(plant, q), motor_side(plant, qd));
+    const Eigen::VectorXd tau_pd = pd.torque(target(t), plant.motor_side(q), plant.motor_side(qd));
     return Eigen::VectorXd(tau_ff(t) + tau_pd);
   };
   Eigen::VectorXd q0, qd0;
   replay_start(plant, plan, feedforward.front(), q0, qd0);
   IntegratorOptions opt;
-  opt.method = Method::rosenbrock4;  // the flexible twin is stiff (about 7000 1/s)
+  opt.method = Method::rosenbrock4;  // the twin is stiff: its fastest mode is about 820 1/s
   Eigen::Vector3d pose;
   integrate_closed_loop(plant, q0, qd0, control, 1e-3, plan.torques.t_last(), opt,
                         [&](double, const Eigen::VectorXd& q, const Eigen::VectorXd&,
@@ -114,7 +103,7 @@ int main() {
   const DynamicModel plant = dynamic_model(flexible_arm);
   const double bare = (replay(plant, samples, false) - task.goal).norm(),
                fed = (replay(plant, samples, true) - task.goal).norm(),
-               loop = (closed_loop(plant, samples, plan, rigid) - task.goal).norm();
+               loop = (closed_loop(plant, samples) - task.goal).norm();
   std::printf(
       "end-effector error: open loop %.3g m, with friction fed forward %.3g m, "
       "closed loop %.3g m\n",
