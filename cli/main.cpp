@@ -240,7 +240,8 @@ CLI::App* add_simulate(CLI::App& app, spacearm::SimulateArgs& a) {
 CLI::App* add_plan(CLI::App& app, spacearm::PlanArgs& a) {
   auto* command = app.add_subcommand("plan",
                                      "Plan a straight end-effector line (zero momentum for a free "
-                                     "base) and write t, q, qd, qdd, torques as CSV");
+                                     "base; a redundant arm takes the minimum-norm joint rates) "
+                                     "and write t, q, qd, qdd, torques as CSV");
   command->add_option("scene", a.scene_path, "Scene file (YAML)")->required();
   command
       ->add_option(

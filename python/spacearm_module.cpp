@@ -534,9 +534,11 @@ py::dict PyModel::closed_loop(const py::object& plan_given, const std::string& c
       std::snprintf(at, sizeof at, "%.6g", e.t());
       throw std::runtime_error(
           "closed_loop: diverged after t = " + std::string(at) + " s (" +
-          why.substr(0, why.find("; last accepted state")) +
-          "): lower omega or the period (a sampled PD loop needs kd period / (p^2 I_m) "
-          "below about 2, kd = 2 omega)");
+          why.substr(0, why.find("; last accepted state")) + "): " +
+          (ct ? "lower omega (computed torque on a model without the plant's springs excites "
+                "them at high gains)"
+              : "lower omega or the period (a sampled PD loop needs kd period / (p^2 I_m) "
+                "below about 2, kd = 2 omega)"));
     }
   }
   PlanTable named{columns.names(), std::move(rows)};

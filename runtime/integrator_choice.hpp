@@ -116,8 +116,9 @@ inline IntegratorChoice choose_integrator(const StiffestMode& mode, double dt, d
                   "|lambda| dt <= 1%s",
                   c.dt, dt, describe(mode).c_str(),
                   has_state_jacobian ? ""
-                                     : "; rosenbrock4 could take larger steps (add the "
-                                       "output forward_dynamics_derivatives to the scene)");
+                                     : "; rosenbrock4 could take larger steps (add "
+                                       "forward_dynamics_derivatives to the scene's outputs, "
+                                       "keeping the others listed)");
   } else {
     c.method = Method::rosenbrock4;
     std::snprintf(buf, sizeof buf,

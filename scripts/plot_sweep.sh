@@ -10,7 +10,9 @@
 # Failed runs are left out and counted. Usage: scripts/plot_sweep.sh RESULTS_DIR [STUDY_FILE]
 # (needs gnuplot)
 set -euo pipefail
-dir=${1:?usage: scripts/plot_sweep.sh RESULTS_DIR [STUDY_FILE]}
+usage="usage: scripts/plot_sweep.sh RESULTS_DIR [STUDY_FILE]: figures of a sweep's results.csv, written into RESULTS_DIR (hist_*.png, scatter_*.png; fig9/fig10 for a p x Im grid)"
+[[ ${1:-} == -h || ${1:-} == --help ]] && { echo "$usage"; exit 0; }
+dir=${1:?$usage}
 study=${2:-}
 name=$(basename "${study:-$dir}")
 [[ -f $dir/results.csv ]] || { echo "plot_sweep: no $dir/results.csv" >&2; exit 1; }
