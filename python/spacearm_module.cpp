@@ -320,6 +320,22 @@ TorqueTable torque_table(const py::object& torques, int N) {
   return table;
 }
 
+// What simulate and closed_loop return: t, q, qd, the table's columns by name, and what the
+// integrator was and why.
+py::dict run_result(const SimulationTable& columns, std::vector<std::vector<double>> rows,
+                    const DynamicModel& m, const std::string& why) {
+  PlanTable named{columns.names(), std::move(rows)};
+  py::dict out, by_name;
+  for (size_t c = 0; c < named.names.size(); ++c)
+    by_name[named.names[c].c_str()] = table_columns(named, c, 1, false);
+  out["t"] = table_columns(named, 0, 1, false);
+  out["q"] = table_columns(named, 1, m.nq, true);
+  out["qd"] = table_columns(named, 1 + m.nq, m.nv, true);
+  out["columns"] = by_name;
+  out["integrator"] = why;
+  return out;
+}
+
 // A plan as `spacearm plan` writes it: a file's text, or the CSV of model.plan()'s columns.
 std::string plan_text(const py::object& plan) {
   if (py::isinstance<py::str>(plan)) {
@@ -451,16 +467,7 @@ py::dict PyModel::simulate(double t_end, const py::object& torques, const py::ob
           columns.row(t, q, qd, tau(t), rows.back());
         });
   }
-  PlanTable named{columns.names(), std::move(rows)};
-  py::dict out, by_name;
-  for (size_t c = 0; c < named.names.size(); ++c)
-    by_name[named.names[c].c_str()] = table_columns(named, c, 1, false);
-  out["t"] = table_columns(named, 0, 1, false);
-  out["q"] = table_columns(named, 1, m.nq, true);
-  out["qd"] = table_columns(named, 1 + m.nq, m.nv, true);
-  out["columns"] = by_name;
-  out["integrator"] = why;
-  return out;
+  return run_result(columns, std::move(rows), m, why);
 }
 
 py::dict PyModel::closed_loop(const py::object& plan_given, const std::string& controller,
@@ -541,16 +548,7 @@ py::dict PyModel::closed_loop(const py::object& plan_given, const std::string& c
                 "below about 2, kd = 2 omega)"));
     }
   }
-  PlanTable named{columns.names(), std::move(rows)};
-  py::dict out, by_name;
-  for (size_t c = 0; c < named.names.size(); ++c)
-    by_name[named.names[c].c_str()] = table_columns(named, c, 1, false);
-  out["t"] = table_columns(named, 0, 1, false);
-  out["q"] = table_columns(named, 1, plant.nq, true);
-  out["qd"] = table_columns(named, 1 + plant.nq, plant.nv, true);
-  out["columns"] = by_name;
-  out["integrator"] = choice.why;
-  return out;
+  return run_result(columns, std::move(rows), plant, choice.why);
 }
 
 // The YAML text of a scene (it has line breaks), else the path of a scene file.
