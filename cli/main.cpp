@@ -56,8 +56,6 @@ void check_simulate_options(const CLI::App& command, const spacearm::SimulateArg
   for (const char* option : {"--interpolation", "--extrapolate"})
     if (command.count(option) && sim.zero_torque)
       throw CLI::ValidationError(option, "has no effect with --zero (no torque file)");
-  if (sim.plan_file.empty() && sim.t_end == 0)
-    throw CLI::ValidationError("--t-end", "is required (without --plan)");
 }
 
 // A CLI11 check: the option's text is one finite positive (or, allow_zero, non-negative)

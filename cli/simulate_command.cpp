@@ -75,13 +75,12 @@ std::unique_ptr<TorqueSignal<Eigen::Dynamic>> torque_signal(const SimulateArgs& 
 // outweighs the planned torque, and the start mapped to the model's coordinates.
 void prepare_replay(const SimulateArgs& a, const DynamicModel& model, PlanSamples& plan,
                     Eigen::VectorXd& q0, Eigen::VectorXd& qd0) {
-  const bool feed = a.feedforward == "friction";
-  if (feed || model.friction_forces) {
-    const std::vector<Eigen::VectorXd> tau_f = friction_along(model, plan);
-    if (feed) {
-      for (size_t k = 0; k < tau_f.size(); ++k) plan.torques.samples[k] += tau_f[k];
-    } else if (const std::vector<int> stalled = joints_stalled_by_friction(plan, tau_f);
-               !stalled.empty()) {
+  if (a.feedforward == "friction") {
+    feed_friction_forward(model, plan);
+  } else if (model.friction_forces) {
+    if (const std::vector<int> stalled =
+            joints_stalled_by_friction(plan, friction_along(model, plan));
+        !stalled.empty()) {
       std::string joints;
       for (int j : stalled) joints += (joints.empty() ? "" : ", ") + std::to_string(j);
       std::fprintf(stderr,
@@ -134,7 +133,7 @@ void report_stop(const RowWriter& out, double t_reached, const std::string& why)
 
 // The integrator asked for; auto (the default) decides from the model's stiffest mode at the
 // start (integrator_choice.hpp) and says which and why.
-IntegratorOptions integrator_options(const SimulateArgs& a, const StiffestMode* mode,
+IntegratorOptions integrator_options(const SimulateArgs& a, const StiffestMode& mode,
                                      bool has_state_jacobian, double dt_out) {
   IntegratorOptions opt;
   opt.dt = a.dt;
@@ -144,9 +143,8 @@ IntegratorOptions integrator_options(const SimulateArgs& a, const StiffestMode* 
     opt.method = method_from_string(a.integrator);
     return opt;
   }
-  const IntegratorChoice choice = choose_integrator(*mode, a.dt, dt_out, has_state_jacobian);
-  opt.method = choice.method;
-  if (choice.dt > 0) opt.dt = choice.dt;
+  const IntegratorChoice choice = choose_integrator(mode, a.dt, dt_out, has_state_jacobian);
+  choice.apply(opt);
   std::fprintf(stderr, "spacearm: integrator: %s\n", choice.why.c_str());
   return opt;
 }
@@ -240,7 +238,8 @@ int run_simulate(const SimulateArgs& args) {
   } else if (!a.zero_torque) {
     torque_file = read_torque_csv(read_text_file(a.torque_file, "--torques"), N, a.torque_file);
   }
-  if (!(a.t_end > 0)) throw std::invalid_argument("simulate: give --t-end (the end time, s)");
+  if (!(a.t_end > 0))
+    throw std::invalid_argument("--t-end: required without --plan (the end time, s)");
   const double dt_out = a.dt_out > 0 ? a.dt_out : a.dt;
   const CompiledModel compiled = load_model(a, scene);
   const DynamicModel model = dynamic_model(compiled, params);
@@ -252,7 +251,7 @@ int run_simulate(const SimulateArgs& args) {
   if (a.consistent_start) consistent_start(model, q0, qd0, (*tau)(0.0));
   // The integrator, from the stiffest mode at the start.
   const StiffestMode mode = stiffest_mode(model, q0, qd0, model.generalized_forces((*tau)(0.0)));
-  IntegratorOptions opt = integrator_options(a, &mode, model.has_state_jacobian(), dt_out);
+  IntegratorOptions opt = integrator_options(a, mode, model.has_state_jacobian(), dt_out);
   // From a file: steps land on the samples, and a held torque is a true zero-order hold.
   std::unique_ptr<TorqueReplay<Eigen::Dynamic>> replay;
   if (!a.zero_torque) replay = std::make_unique<TorqueReplay<Eigen::Dynamic>>(*tau, opt, "--dt");

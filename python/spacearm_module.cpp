@@ -104,7 +104,8 @@ class PyModel {
                 const py::object& params) const;
 
   // The motion under sampled joint torques (or none), as `spacearm simulate` computes it.
-  py::dict simulate(double t_end, const py::object& torques, const py::object& q0,
+  // t_end: nullopt for a plan's end.
+  py::dict simulate(std::optional<double> t_end, const py::object& torques, const py::object& q0,
                     const py::object& qd0, const SimulateOptions& o,
                     const py::object& params) const;
 
@@ -371,8 +372,8 @@ std::string plan_text(const py::object& plan) {
   return text;
 }
 
-py::dict PyModel::simulate(double t_end, const py::object& torques, const py::object& q0,
-                           const py::object& qd0, const SimulateOptions& o,
+py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& torques,
+                           const py::object& q0, const py::object& qd0, const SimulateOptions& o,
                            const py::object& params_given) const {
   const Eigen::VectorXd params = named_parameters(model_, params_, params_given);
   const DynamicModel m = dynamic_model(model_, params);
@@ -380,8 +381,6 @@ py::dict PyModel::simulate(double t_end, const py::object& torques, const py::ob
     throw py::value_error(
         "simulate: the scene must emit forward_dynamics, or mass_matrix and "
         "bias_forces (field 'outputs')");
-  if (!(t_end > 0 && std::isfinite(t_end)))
-    throw py::value_error("t_end must be positive and finite");
   if (o.consistent_start && !scene_.num_flexible())
     throw py::value_error("consistent_start: the scene has no flexible joint (gears[i].stiffness)");
   IntegratorOptions opt;
@@ -418,14 +417,18 @@ py::dict PyModel::simulate(double t_end, const py::object& torques, const py::ob
     plan = read_plan_csv(plan_text(o.plan), N, m.free_floating,
                          py::isinstance<py::str>(o.plan) ? o.plan.cast<std::string>() : "plan");
     if (o.feedforward == "friction") {
-      const std::vector<Eigen::VectorXd> tau_f = friction_along(m, *plan);
-      for (size_t k = 0; k < tau_f.size(); ++k) plan->torques.samples[k] += tau_f[k];
+      feed_friction_forward(m, *plan);
     } else if (o.feedforward != "none") {
       throw py::value_error("feedforward: 'none' or 'friction', got '" + o.feedforward + "'");
     }
   } else if (o.feedforward != "none") {
     throw py::value_error("feedforward: needs a plan");
   }
+  if (!t_end_given && !plan)
+    throw py::value_error("t_end: give it (only a plan has an end of its own)");
+  const double t_end = t_end_given ? *t_end_given : plan->torques.t_last();
+  if (!(t_end > 0 && std::isfinite(t_end)))
+    throw py::value_error("t_end must be positive and finite");
   const TorqueTable table =
       plan ? plan->torques
       : torques.is_none()
@@ -450,8 +453,7 @@ py::dict PyModel::simulate(double t_end, const py::object& torques, const py::ob
     const IntegratorChoice c =
         choose_integrator(stiffest_mode(m, x0, v0, m.generalized_forces(tau(0.0))), o.dt,
                           o.dt_out > 0 ? o.dt_out : o.dt, m.has_state_jacobian());
-    opt.method = c.method;
-    if (c.dt > 0) opt.dt = c.dt;
+    c.apply(opt);
     why = c.why;
   }
   const TorqueReplay<Eigen::Dynamic> replay(tau, opt, "dt");
@@ -490,13 +492,10 @@ py::dict PyModel::closed_loop(const py::object& plan_given, const std::string& c
   PlanSamples plan = read_plan_csv(plan_text(plan_given), N, plant.free_floating, "plan");
   const SampledJointTrajectory target = joint_target(plan);
   // PD: the plan's torques (and friction) fed forward, feedback from the motor encoders.
+  if (feedforward == "friction") feed_friction_forward(plant, plan);
   std::vector<Eigen::VectorXd> ff = plan.torques.samples;
   if (feedforward == "none")
     for (auto& t : ff) t.setZero();
-  if (feedforward == "friction") {
-    const std::vector<Eigen::VectorXd> tau_f = friction_along(plant, plan);
-    for (size_t k = 0; k < ff.size(); ++k) ff[k] += tau_f[k];
-  }
   const TorqueSignal<Eigen::Dynamic> tau_ff(plan.torques.t0, plan.torques.dt, ff,
                                             Interpolation::linear, Extrapolation::hold);
   const JointGains gains = JointGains::critically_damped(N, omega);
@@ -520,8 +519,7 @@ py::dict PyModel::closed_loop(const py::object& plan_given, const std::string& c
   const IntegratorChoice choice =
       choose_integrator(stiffest_mode(plant, x0, v0, plant.generalized_forces(ff.front())), period,
                         period, plant.has_state_jacobian());
-  opt.method = choice.method;
-  if (choice.dt > 0) opt.dt = choice.dt;
+  choice.apply(opt);
   const SimulationTable columns(plant, scene_.geared());
   std::vector<std::vector<double>> rows;
   long sample = 0;
@@ -623,19 +621,13 @@ PYBIND11_MODULE(_spacearm, module) {
             const SimulateOptions o{integrator, interpolation, extrapolate,      dt,   dt_out,
                                     rtol,       atol,          consistent_start, plan, feedforward};
             // Without t_end, a plan's end.
-            double end = 0;
+            std::optional<double> end;
             if (!t_end.is_none()) {
               end = PyFloat_AsDouble(t_end.ptr());
               if (PyErr_Occurred()) {
                 PyErr_Clear();
                 throw py::type_error("t_end: a number");
               }
-            } else if (plan.is_none()) {
-              throw py::value_error("t_end: give it (only a plan has an end of its own)");
-            } else {
-              end = read_plan_csv(plan_text(plan), m.model().num_links(), m.model().free_floating(),
-                                  "plan")
-                        .torques.t_last();
             }
             return m.simulate(end, torques, q0, qd0, o, params);
           },

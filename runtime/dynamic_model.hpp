@@ -75,6 +75,12 @@ struct DynamicModel {
     return a;
   }
 
+  // Whether joint j's slot holds a motor angle (a rigid gear: qm_j, not q_j), so that tables add
+  // its link-side angle q_j = qm_j / p_j as a column of its own.
+  bool slot_holds_motor(int j) const {
+    return coordinate_names.at(num_base() + j) != "q" + std::to_string(j + 1);
+  }
+
   // The joint angles (or rates, from qd) that the motor encoders read: qm / p of the coordinate
   // each joint's torque drives (q itself without a gear). Feedback from them is collocated with
   // the torque: it stays stable with flexible joints, where link-side feedback may not.

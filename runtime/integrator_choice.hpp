@@ -82,6 +82,11 @@ struct IntegratorChoice {
   Method method = Method::rk4;
   double dt = 0;  // the fixed step (rk4); 0 for rosenbrock4
   std::string why;
+  // The options with this method (and step, for rk4); tolerances and the rest kept.
+  void apply(IntegratorOptions& options) const {
+    options.method = method;
+    if (dt > 0) options.dt = dt;
+  }
 };
 
 // The mode as words: "3162 rad/s (an oscillation, mostly qm2)".

@@ -168,6 +168,12 @@ inline std::vector<Eigen::VectorXd> friction_along(const DynamicModel& model,
   return tau_f;
 }
 
+// Feeds the model's friction along the plan forward: adds friction_along to its torques.
+inline void feed_friction_forward(const DynamicModel& model, PlanSamples& plan) {
+  const std::vector<Eigen::VectorXd> tau_f = friction_along(model, plan);
+  for (size_t k = 0; k < tau_f.size(); ++k) plan.torques.samples[k] += tau_f[k];
+}
+
 // The joints (1-based) where friction along the plan reaches the planned torque's peak: the
 // motor stalls or crawls there unless the friction is fed forward.
 inline std::vector<int> joints_stalled_by_friction(const PlanSamples& plan,

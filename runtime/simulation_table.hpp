@@ -70,9 +70,7 @@ class SimulationTable {
   // Whether joint j gets link-side columns: only where its slot holds the motor angle (a rigid
   // gear); a flexible or ungeared joint's slot is already q_j, and a repeated column name would
   // make the table ambiguous.
-  bool link_side(int j) const {
-    return m_.coordinate_names.at(m_.num_base() + j) != "q" + std::to_string(j + 1);
-  }
+  bool link_side(int j) const { return m_.slot_holds_motor(j); }
 
   const DynamicModel& m_;
   bool geared_;

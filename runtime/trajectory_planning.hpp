@@ -423,8 +423,7 @@ inline PlanTable plan_table(const Plan& plan, const DynamicModel& m, bool geared
   // simulate --plan can replay the plan into a scene with other gears (plan_replay.hpp).
   std::vector<int> motor_slots;
   for (int j = 0; j < m.num_links; ++j)
-    if (m.coordinate_names.at(m.num_base() + j) != "q" + std::to_string(j + 1))
-      motor_slots.push_back(j);
+    if (m.slot_holds_motor(j)) motor_slots.push_back(j);
   for (const char* suffix : {"", "d"})
     for (int j : motor_slots) table.names.push_back("q" + std::to_string(j + 1) + suffix);
   for (int j = 1; j <= m.num_links; ++j) table.names.push_back("tau" + std::to_string(j));

@@ -68,9 +68,12 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
   check_outputs(s);
   loaded_ = std::make_unique<Loaded>(
       Loaded{CompiledModel::load(s.scene, options), {}, {}, {}, {}, {}, {}});
+  // The run scene at its nominal parameters: what a controller believes (its p, its friction).
   const std::vector<double>& nominal = loaded_->model.nominal_parameters();
-  loaded_->nominal_ratios = loaded_->model.gear_ratios(
+  const DynamicModel believed = dynamic_model(
+      loaded_->model,
       Eigen::Map<const Eigen::VectorXd>(nominal.data(), static_cast<Eigen::Index>(nominal.size())));
+  loaded_->nominal_ratios = believed.gear_ratios;
   const int nb = s.scene.num_base(), N = s.scene.num_links();
   if (s.plan) {
     // Planned once, with the plan scene's nominal parameters (the paper's experiment).
@@ -85,23 +88,16 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
         dynamic_model(pm, Eigen::Map<const Eigen::VectorXd>(
                               pm.nominal_parameters().data(),
                               static_cast<Eigen::Index>(pm.nominal_parameters().size())));
-    Plan plan = plan_straight_line(planner, *s.plan);
-    if (s.feedforward_friction) {
-      // The friction that the run scene's nominal parameters predict along the plan: what a
-      // controller knows; each run's own friction may differ.
-      const DynamicModel believed = dynamic_model(
-          loaded_->model, Eigen::Map<const Eigen::VectorXd>(
-                              nominal.data(), static_cast<Eigen::Index>(nominal.size())));
-      const std::vector<Eigen::VectorXd> tau_f =
-          friction_along(believed, plan_samples(plan, planner));
-      for (size_t k = 0; k < tau_f.size(); ++k) plan.tau[k] += tau_f[k];
-    }
-    loaded_->tau =
-        std::make_unique<TorqueSignal<Eigen::Dynamic>>(0.0, s.plan->dt, plan.tau, s.interpolation);
-    loaded_->base = plan.q.front().head(nb);
-    loaded_->angles = planner.joint_angles(plan.q.front());
-    loaded_->base_rate = plan.qd.front().head(nb);
-    loaded_->rates = planner.joint_angles(plan.qd.front());
+    const Plan plan = plan_straight_line(planner, *s.plan);
+    // Friction fed forward is the believed one; each run's own friction may differ.
+    PlanSamples samples = plan_samples(plan, planner);
+    if (s.feedforward_friction) feed_friction_forward(believed, samples);
+    loaded_->tau = std::make_unique<TorqueSignal<Eigen::Dynamic>>(
+        0.0, s.plan->dt, samples.torques.samples, s.interpolation);
+    loaded_->base = samples.base.front();
+    loaded_->angles = samples.angles.front();
+    loaded_->base_rate = samples.base_rate.front();
+    loaded_->rates = samples.rates.front();
   } else {
     loaded_->tau = std::make_unique<TorqueSignal<Eigen::Dynamic>>(
         s.torques->t0, s.torques->dt, s.torques->samples, s.interpolation);

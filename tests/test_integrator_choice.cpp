@@ -85,8 +85,7 @@ TEST(IntegratorChoice, WhatAutoChoosesIntegratesTheStiffModelStably) {
     const StiffestMode mode = stiffest_mode(d, q, qd, d.generalized_forces(tau(0)));
     const IntegratorChoice c = choose_integrator(mode, 0.01, 0.01, !small_steps);
     IntegratorOptions opt;
-    opt.method = c.method;
-    if (c.dt > 0) opt.dt = c.dt;
+    c.apply(opt);
     double energy = 0;
     EXPECT_NO_THROW(
         integrate_motion(d, q, qd, tau, 0.2, 0.01, opt,

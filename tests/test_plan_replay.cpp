@@ -51,10 +51,7 @@ struct Replay : ::testing::Test {
   static Eigen::Vector3d fly(const Flex& flex, bool feedforward) {
     const DynamicModel d = dynamic_model(flex);
     PlanSamples plan = read_plan_csv(text, 3, true, "plan.csv");
-    if (feedforward) {
-      const auto tau_f = friction_along(d, plan);
-      for (size_t k = 0; k < tau_f.size(); ++k) plan.torques.samples[k] += tau_f[k];
-    }
+    if (feedforward) feed_friction_forward(d, plan);
     Eigen::VectorXd q0, qd0;
     replay_start(d, plan, plan.torques.samples.front(), q0, qd0);
     const TorqueSignal<Eigen::Dynamic> tau(plan.torques.t0, plan.torques.dt, plan.torques.samples,

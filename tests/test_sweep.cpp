@@ -78,6 +78,37 @@ SweepSummary sweep(const StudyRunner& runner, const fs::path& dir, int threads, 
   return run_sweep(runner, o);
 }
 
+// A row's fields as numbers (text fields, like the status, read as 0).
+std::vector<double> row_numbers(const std::string& row) {
+  std::istringstream in(row);
+  std::vector<double> v;
+  for (std::string f; std::getline(in, f, ',');) v.push_back(std::atof(f.c_str()));
+  return v;
+}
+
+// kStudy's plan, made with the linked reference model, replayed into the linked geared model at
+// ratio p and motor inertia Im from motor angles qm = p q, its link-side torques times `scale`:
+// the end-effector pose at the end.
+Eigen::Vector3d linked_replay_end(double p, double Im, double scale = 1.0) {
+  using Ref = Model<models::paper_reference::Model>;
+  using Geared = Model<models::paper_geared::Model>;
+  StraightLineTask task;
+  task.goal = Eigen::Vector3d(1.45, 0.02, 0.55);
+  task.duration = 1;
+  const auto plan = plan_straight_line(Ref(), task);
+  std::vector<Eigen::Vector3d> link_tau = plan.tau;
+  for (auto& t : link_tau) t *= scale;
+  const TorqueSignal<3> tau(0.0, task.dt, link_tau, Interpolation::linear);
+  Geared g;
+  g.set_parameter("p", p);
+  g.set_parameter("Im", Im);
+  Geared::Vector qm = plan.q.front();
+  qm.tail<3>() *= p;
+  return simulate<models::paper_geared::Model>(g, qm, Geared::Vector::Zero(), tau, task.duration,
+                                               task.dt, {})
+      .end_effector.back();
+}
+
 TEST(Sweep, ResultsAreTheSameBytesHoweverTheRunsAreSplit) {
   const StudyRunner runner(study(), cache());
   ASSERT_EQ(runner.study().num_runs(), 6);
@@ -261,26 +292,10 @@ TEST(Sweep, AFailingRunIsARowWithItsMessage) {
 // angles qm = p q at the start, torques tau / p on the geared model.
 TEST(Sweep, ARunIsTheLinkedModelsReplayOfThePlan) {
   const StudyRunner runner(study("[1, 2]"), cache());
-  using Ref = Model<models::paper_reference::Model>;
-  using Geared = Model<models::paper_geared::Model>;
-  StraightLineTask task;
-  task.goal = Eigen::Vector3d(1.45, 0.02, 0.55);
-  task.duration = 1;
-  const auto plan = plan_straight_line(Ref(), task);
-  const TorqueSignal<3> tau(0.0, task.dt, plan.tau, Interpolation::linear);
   for (long run = 0; run < 4; ++run) {
     const Eigen::VectorXd params = runner.study().parameters(run);
-    Geared g;
-    g.set_parameter("p", params[0]);
-    g.set_parameter("Im", params[1]);
-    Geared::Vector qm = plan.q.front();
-    qm.tail<3>() *= params[0];
-    const auto traj = simulate<models::paper_geared::Model>(g, qm, Geared::Vector::Zero(), tau,
-                                                            task.duration, task.dt, {});
-    const Eigen::Vector3d end = traj.end_effector.back();
-    std::istringstream row(runner.row(run));
-    std::vector<double> v;
-    for (std::string f; std::getline(row, f, ',');) v.push_back(std::atof(f.c_str()));
+    const Eigen::Vector3d end = linked_replay_end(params[0], params[1]);
+    const std::vector<double> v = row_numbers(runner.row(run));
     // run, status, p, Im, ee_x, ee_y, ee_phi, ee_error
     for (int i = 0; i < 3; ++i) EXPECT_NEAR(v[4 + i], end[i], 1e-10) << "run " << run;
     EXPECT_NEAR(v[7], (end.head<2>() - Eigen::Vector2d(1.45, 0.02)).norm(), 1e-10);
@@ -296,31 +311,16 @@ TEST(Sweep, CommandRatioSaysWhichGearRatioDividesTheTorques) {
   text.replace(text.find("  plan:"), 0, "  command_ratio: nominal\n");
   const StudyRunner nominal(study("[1, 2]", "7", text), cache()), run(study("[1, 2]"), cache());
   EXPECT_NE(nominal.header().find(",torque_rms,command_ratio,message"), std::string::npos);
-  using Ref = Model<models::paper_reference::Model>;
-  using Geared = Model<models::paper_geared::Model>;
-  StraightLineTask task;
-  task.goal = Eigen::Vector3d(1.45, 0.02, 0.55);
-  task.duration = 1;
-  const auto plan = plan_straight_line(Ref(), task);
   for (long r : {0, 2}) {  // p = 1 and p = 2, the first draw of I_m
     const Eigen::VectorXd params = nominal.study().parameters(r);
-    Geared g;
-    g.set_parameter("p", params[0]);
-    g.set_parameter("Im", params[1]);
-    Geared::Vector qm = plan.q.front();
-    qm.tail<3>() *= params[0];
     for (const StudyRunner* runner : {&nominal, &run}) {
       const bool by_nominal = runner == &nominal;
-      std::vector<Eigen::Vector3d> link_tau = plan.tau;
-      for (auto& t : link_tau) t *= by_nominal ? params[0] : 1.0;  // tau p_run / p_nominal
-      const TorqueSignal<3> tau(0.0, task.dt, link_tau, Interpolation::linear);
-      const auto traj = simulate<models::paper_geared::Model>(g, qm, Geared::Vector::Zero(), tau,
-                                                              task.duration, task.dt, {});
+      // tau p_run / p_nominal on the links when commanded with the nominal ratio.
+      const Eigen::Vector3d end =
+          linked_replay_end(params[0], params[1], by_nominal ? params[0] : 1.0);
       const std::string row = runner->row(r);
-      std::istringstream in(row);
-      std::vector<double> v;
-      for (std::string f; std::getline(in, f, ',');) v.push_back(std::atof(f.c_str()));
-      for (int i = 0; i < 3; ++i) EXPECT_NEAR(v[4 + i], traj.end_effector.back()[i], 1e-10) << row;
+      const std::vector<double> v = row_numbers(row);
+      for (int i = 0; i < 3; ++i) EXPECT_NEAR(v[4 + i], end[i], 1e-10) << row;
       EXPECT_NE(row.find(by_nominal ? ",nominal,\n" : ",run,\n"), std::string::npos) << row;
     }
   }
@@ -350,10 +350,7 @@ TEST(Sweep, FrictionFedForwardIsTheNominalFriction) {
   const StudyRunner fed(parse_study(text("friction"), "fed.yaml"), cache()),
       bare(parse_study(text("none"), "bare.yaml"), cache());
   auto ee_error = [](const std::string& row) {  // run, status, 9 parameters, ee_x, y, phi, error
-    std::istringstream in(row);
-    std::vector<double> v;
-    for (std::string f; std::getline(in, f, ',');) v.push_back(std::atof(f.c_str()));
-    return v.at(14);
+    return row_numbers(row).at(14);
   };
   const double at_nominal = ee_error(fed.row(0)), off = ee_error(fed.row(1)),
                unfed = ee_error(bare.row(0));
@@ -396,9 +393,7 @@ manoeuvre:
                   "rigid.yaml"),
       cache());
   auto pose = [](const std::string& row, int first) {
-    std::istringstream in(row);
-    std::vector<double> v;
-    for (std::string f; std::getline(in, f, ',');) v.push_back(std::atof(f.c_str()));
+    const std::vector<double> v = row_numbers(row);
     return Eigen::Vector3d(v[first], v[first + 1], v[first + 2]);
   };
   const std::string soft_row = flexible.row(0), stiff_row = flexible.row(1);

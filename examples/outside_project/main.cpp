@@ -24,10 +24,7 @@ using FlexibleArm = Model<models::my_arm_flexible::Model>;
 
 // The flexible twin flies the plan open loop; returns the end-effector pose at the end.
 Eigen::Vector3d replay(const DynamicModel& plant, PlanSamples plan, bool feed_friction) {
-  if (feed_friction) {
-    const std::vector<Eigen::VectorXd> tau_f = friction_along(plant, plan);
-    for (size_t k = 0; k < tau_f.size(); ++k) plan.torques.samples[k] += tau_f[k];
-  }
+  if (feed_friction) feed_friction_forward(plant, plan);
   Eigen::VectorXd q0, qd0;
   replay_start(plant, plan, plan.torques.samples.front(), q0, qd0);  // springs pre-deflected
   const TorqueSignal<Eigen::Dynamic> tau(plan.torques.t0, plan.torques.dt, plan.torques.samples,
@@ -35,8 +32,7 @@ Eigen::Vector3d replay(const DynamicModel& plant, PlanSamples plan, bool feed_fr
   IntegratorOptions opt;  // rk4 at a step that resolves the stiffest mode, or rosenbrock4
   const StiffestMode mode = stiffest_mode(plant, q0, qd0, plant.generalized_forces(tau(0)));
   const IntegratorChoice choice = choose_integrator(mode, 0.01, 0.01, plant.has_state_jacobian());
-  opt.method = choice.method;
-  if (choice.dt > 0) opt.dt = choice.dt;
+  choice.apply(opt);
   const TorqueReplay<Eigen::Dynamic> samples(tau, opt, "dt");
   const double t_end = plan.torques.t_last();
   Eigen::Vector3d pose;
@@ -52,11 +48,10 @@ Eigen::Vector3d replay(const DynamicModel& plant, PlanSamples plan, bool feed_fr
 // A PD loop on the motor-side joint errors (the encoders' qm / p: feedback collocated with the
 // motor torque stays stable with flexible joints; from the link side of the springs it did
 // not) around the plan's torques and friction, at 1 kHz.
-Eigen::Vector3d closed_loop(const DynamicModel& plant, const PlanSamples& plan) {
+Eigen::Vector3d closed_loop(const DynamicModel& plant, PlanSamples plan) {
   const SampledJointTrajectory target = joint_target(plan);
-  std::vector<Eigen::VectorXd> feedforward = plan.torques.samples;
-  const std::vector<Eigen::VectorXd> tau_f = friction_along(plant, plan);
-  for (size_t k = 0; k < feedforward.size(); ++k) feedforward[k] += tau_f[k];
+  feed_friction_forward(plant, plan);
+  const std::vector<Eigen::VectorXd>& feedforward = plan.torques.samples;
   const TorqueSignal<Eigen::Dynamic> tau_ff(0.0, plan.torques.dt, feedforward,
                                             Interpolation::linear, Extrapolation::hold);
   // kp = 400 N m/rad, kd = 40 N m s/rad (link side): against the reflected rotor inertia
