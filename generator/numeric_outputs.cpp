@@ -5,7 +5,7 @@
 #include <stdexcept>
 
 #include "dynamics_checks.hpp"
-#include "recursive_dynamics.hpp"
+#include "planar_chain.hpp"
 
 namespace spacearm {
 

@@ -11,7 +11,7 @@
 #include "emitted_text.hpp"
 #include "numeric_outputs.hpp"
 #include "program_algebra.hpp"
-#include "recursive_dynamics.hpp"
+#include "planar_chain.hpp"
 
 namespace spacearm {
 
@@ -763,7 +763,7 @@ FunctionSpec lower_composed(const SymbolicModel& model, const FunctionSpec& f, O
   return composed;
 }
 
-// A function whose results come from the recursive algorithms (recursive_dynamics.hpp), recorded
+// A function whose results come from the recursive algorithms (planar_chain.hpp), recorded
 // in one program and checked against the same algorithms run in double.
 FunctionSpec lower_recursive(const SymbolicModel& model, FunctionSpec f,
                              const std::vector<Output>& parts) {

@@ -1,4 +1,4 @@
-#include "recursive_dynamics.hpp"
+#include "planar_chain.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,130 +7,6 @@
 namespace spacearm {
 
 namespace {
-
-// A value recorded in a program, folding what needs no code (zeros, constants, x - x), so the
-// algorithms below can be written for plain numbers and run on either.
-class Sym {
- public:
-  Sym() = default;  // zero
-  Sym(Program* p, SRef r) : p_(p), r_(r) {}
-  static Sym number(Program* p, double v) { return v == 0 ? Sym() : Sym(p, p->constant(v)); }
-  SRef ref() const { return r_; }
-  bool is_zero() const { return r_.id < 0; }
-  // Whether the value is a constant, and which.
-  bool constant(double& v) const {
-    if (is_zero()) return (v = 0, true);
-    const Program::Node& n = p_->node(r_.id);
-    if (n.kind != Program::Kind::constant) return false;
-    v = r_.neg ? -n.value : n.value;
-    return true;
-  }
-
-  friend Sym operator-(const Sym& a) { return a.is_zero() ? a : Sym(a.p_, -a.r_); }
-  friend Sym operator+(const Sym& a, const Sym& b) {
-    if (a.is_zero()) return b;
-    if (b.is_zero()) return a;
-    if (a.r_.id == b.r_.id && a.r_.neg != b.r_.neg) return Sym();  // x - x
-    double x, y;
-    if (a.constant(x) && b.constant(y)) return number(a.p_, x + y);
-    return Sym(a.p_, a.p_->add({a.r_, b.r_}));
-  }
-  friend Sym operator-(const Sym& a, const Sym& b) { return a + (-b); }
-  friend Sym operator*(const Sym& a, double k) { return a.is_zero() ? a : a * number(a.p_, k); }
-  friend Sym operator*(const Sym& a, const Sym& b) {
-    if (a.is_zero() || b.is_zero()) return Sym();
-    double x, y;
-    if (a.constant(x) && b.constant(y)) return number(a.p_, x * y);
-    return Sym(a.p_, a.p_->mul({a.r_, b.r_}));
-  }
-  friend Sym operator/(const Sym& a, const Sym& b) {
-    double y;
-    if (b.constant(y)) {
-      if (y == 0) throw std::logic_error("recursive dynamics: division by zero");
-      return a * number(b.p_, 1 / y);
-    }
-    if (a.is_zero()) return a;
-    return Sym(b.p_, b.p_->div(a.r_, b.r_));
-  }
-  Sym& operator+=(const Sym& b) { return *this = *this + b; }
-  Sym& operator-=(const Sym& b) { return *this = *this - b; }
-  friend Sym sin(const Sym& a) { return a.is_zero() ? a : Sym(a.p_, a.p_->sin(a.r_)); }
-  friend Sym cos(const Sym& a) {
-    if (a.is_zero()) throw std::logic_error("recursive dynamics: cos of a folded zero");
-    return Sym(a.p_, a.p_->cos(a.r_));
-  }
-  friend Sym reciprocal(const Sym& a) {
-    if (a.is_zero()) throw std::logic_error("recursive dynamics: division by zero");
-    return number(a.p_, 1.0) / a;
-  }
-  friend Sym tanh(const Sym& a) { return a.is_zero() ? a : Sym(a.p_, a.p_->tanh(a.r_)); }
-  friend Sym exp(const Sym& a) { return Sym(a.p_, a.p_->exp(a.r_)); }
-
- private:
-  Program* p_ = nullptr;
-  SRef r_;
-};
-
-inline double reciprocal(double x) { return 1 / x; }
-
-// Forward-mode differentiation: a value and its derivative along one direction, seeded in the
-// inputs. The chain's algorithms run on it unchanged; on Sym, the tangents that are zero fold
-// away, so a direction costs only the work that depends on it.
-template <class T>
-struct Dual {
-  T v, d;
-  friend Dual operator-(const Dual& a) { return {-a.v, -a.d}; }
-  friend Dual operator+(const Dual& a, const Dual& b) { return {a.v + b.v, a.d + b.d}; }
-  friend Dual operator-(const Dual& a, const Dual& b) { return {a.v - b.v, a.d - b.d}; }
-  friend Dual operator*(const Dual& a, double k) { return {a.v * k, a.d * k}; }
-  friend Dual operator*(const Dual& a, const Dual& b) { return {a.v * b.v, a.d * b.v + a.v * b.d}; }
-  // One reciprocal per divisor, shared by every direction that divides by it.
-  friend Dual operator/(const Dual& a, const Dual& b) {
-    const T r = reciprocal(b.v), q = a.v * r;
-    return {q, (a.d - q * b.d) * r};
-  }
-  Dual& operator+=(const Dual& b) { return *this = *this + b; }
-  Dual& operator-=(const Dual& b) { return *this = *this - b; }
-  friend Dual sin(const Dual& a) {
-    using std::cos;
-    using std::sin;
-    return {sin(a.v), cos(a.v) * a.d};
-  }
-  friend Dual cos(const Dual& a) {
-    using std::cos;
-    using std::sin;
-    return {cos(a.v), -(sin(a.v) * a.d)};
-  }
-  friend Dual tanh(const Dual& a) {
-    using std::tanh;
-    const T t = tanh(a.v);
-    return {t, a.d - t * t * a.d};
-  }
-  friend Dual exp(const Dual& a) {
-    using std::exp;
-    const T e = exp(a.v);
-    return {e, e * a.d};
-  }
-};
-
-// Where the algorithms get their numbers: input arrays by name and literals.
-template <class T>
-struct Values {
-  std::function<T(const std::string&, int)> input;
-  std::function<T(double)> number;
-};
-
-// The inputs as duals, each with the tangent seed(array, i) (T{} where it has none).
-template <class T>
-Values<Dual<T>> seeded(const Values<T>& values,
-                       const std::function<T(const std::string&, int)>& seed) {
-  return {[values, seed](const std::string& a, int i) {
-            return Dual<T>{values.input(a, i), seed(a, i)};
-          },
-          [values](double v) {
-            return Dual<T>{values.number(v), T{}};
-          }};
-}
 
 // Planar spatial algebra (Featherstone ch. 2.16): motions (omega, vx, vy), forces (n, fx, fy).
 template <class T>
@@ -216,11 +92,13 @@ struct Transform {
   }
 };
 
-// The scene's chain with its numbers as T: bodies, joints, and the transforms at q.
+// The scene's chain with its numbers as T: bodies, joints, and the transforms at q. A chain as
+// recursive_algorithms.hpp describes it; in the plane nq = nv (the angles are their own
+// coordinates), so n_ sizes both.
 template <class T>
-class Chain {
+class PlanarChain {
  public:
-  Chain(const Scene& scene, Values<T> values)
+  PlanarChain(const Scene& scene, Values<T> values)
       : scene_(scene),
         val_(std::move(values)),
         n_(scene.num_coordinates()),
@@ -251,7 +129,13 @@ class Chain {
   // origin, as symbolic_model.cpp defines it. Free base only.
   std::vector<T> momentum() const;
   T input(const std::string& array, int i) const { return val_.input(array, i); }
-  int n() const { return n_; }
+  int nq() const { return n_; }
+  int nv() const { return n_; }
+  static Dimensions dimensions(const Scene& scene) { return scene.dimensions(); }
+  // qdot = v: every planar coordinate is its own velocity's integral.
+  static T configuration_rate(const Scene&, const Values<T>& values, int i) {
+    return values.input(info(Input::qd).name, i);
+  }
 
  private:
   enum class Rotor { none, exact, armature };
@@ -300,7 +184,7 @@ class Chain {
 };
 
 template <class T>
-void Chain<T>::joints() {
+void PlanarChain<T>::joints() {
   joint_.resize(N_ + 1);
   for (int i = 1; i <= N_; ++i) {
     Joint& J = joint_[i];
@@ -319,7 +203,7 @@ void Chain<T>::joints() {
 }
 
 template <class T>
-void Chain<T>::bodies() {
+void PlanarChain<T>::bodies() {
   body_.resize(N_ + 1);
   if (free_) body_[0] = {value(scene_.base.mass), T{}, T{}, value(scene_.base.inertia)};
   for (int i = 1; i <= N_; ++i) {
@@ -335,7 +219,7 @@ void Chain<T>::bodies() {
 // base's frame sits on its CoM with the world's axes, so link 1 turns by q0 + g q_c and its
 // mount is turned by q0.
 template <class T>
-void Chain<T>::transforms() {
+void PlanarChain<T>::transforms() {
   using std::cos;
   using std::sin;
   X_.resize(N_ + 1);
@@ -363,7 +247,7 @@ void Chain<T>::transforms() {
 // v_0 = (q0d, x0d, y0d) for a free base (its frame keeps the world's axes); v_i = X_i v_{i-1}
 // + S u_i.
 template <class T>
-std::vector<Motion<T>> Chain<T>::velocities() const {
+std::vector<Motion<T>> PlanarChain<T>::velocities() const {
   std::vector<Motion<T>> v(N_ + 1, Motion<T>{T{}, T{}, T{}});
   if (free_) v[0] = {qd_[2], qd_[0], qd_[1]};
   for (int i = 1; i <= N_; ++i) {
@@ -374,7 +258,7 @@ std::vector<Motion<T>> Chain<T>::velocities() const {
 }
 
 template <class T>
-std::vector<T> Chain<T>::inverse_dynamics(const std::vector<T>& qdd) const {
+std::vector<T> PlanarChain<T>::inverse_dynamics(const std::vector<T>& qdd) const {
   const std::vector<Motion<T>> v = velocities();
   std::vector<Motion<T>> a(N_ + 1, Motion<T>{T{}, T{}, T{}});
   std::vector<Force<T>> f(N_ + 1, Force<T>{T{}, T{}, T{}});
@@ -410,7 +294,7 @@ std::vector<T> Chain<T>::inverse_dynamics(const std::vector<T>& qdd) const {
 
 // Composite inertias (rotors of the exact model on the body that carries them), tip first.
 template <class T>
-std::vector<RigidInertia<T>> Chain<T>::composite_inertias() const {
+std::vector<RigidInertia<T>> PlanarChain<T>::composite_inertias() const {
   std::vector<RigidInertia<T>> Ic = body_;
   for (int i = 1; i <= N_; ++i)
     if (joint_[i].rotor == Rotor::exact && has_moving_parent(i)) Ic[i - 1].Io += joint_[i].Im;
@@ -420,7 +304,7 @@ std::vector<RigidInertia<T>> Chain<T>::composite_inertias() const {
 }
 
 template <class T>
-std::vector<T> Chain<T>::mass_matrix() const {
+std::vector<T> PlanarChain<T>::mass_matrix() const {
   const std::vector<RigidInertia<T>> Ic = composite_inertias();
   std::vector<T> M(n_ * n_, T{});
   auto add = [&](int r, int c, const T& x) { M[std::min(r, c) * n_ + std::max(r, c)] += x; };
@@ -456,7 +340,7 @@ std::vector<T> Chain<T>::mass_matrix() const {
 
 // M_ii alone: from the composite inertias, without the off-diagonal entries.
 template <class T>
-std::vector<T> Chain<T>::mass_matrix_diagonal() const {
+std::vector<T> PlanarChain<T>::mass_matrix_diagonal() const {
   const std::vector<RigidInertia<T>> Ic = composite_inertias();
   std::vector<T> d(n_, T{});
   if (free_) d[0] = d[1] = Ic[0].m, d[2] = Ic[0].Io;
@@ -469,7 +353,7 @@ std::vector<T> Chain<T>::mass_matrix_diagonal() const {
 }
 
 template <class T>
-std::vector<T> Chain<T>::passive_forces() const {
+std::vector<T> PlanarChain<T>::passive_forces() const {
   using std::exp;
   using std::tanh;
   std::vector<T> F(n_, T{});
@@ -504,8 +388,8 @@ std::vector<T> Chain<T>::passive_forces() const {
 // I^A_0 a_0 = f - p^A_0 by LDL^T in the order (x0, y0, q0), then qdd of the base from its spatial
 // acceleration: rdd = a + w J rd.
 template <class T>
-void Chain<T>::solve_base(const Inertia<T>& IA, const Force<T>& rhs, std::vector<T>& qdd,
-                          std::vector<T>& pivots, Motion<T>& a0) const {
+void PlanarChain<T>::solve_base(const Inertia<T>& IA, const Force<T>& rhs, std::vector<T>& qdd,
+                                std::vector<T>& pivots, Motion<T>& a0) const {
   const T A00 = IA.d, A10 = IA.e, A11 = IA.f, A20 = IA.b, A21 = IA.c, A22 = IA.a;
   const T D0 = A00, inv0 = val_.number(1.0) / D0, L10 = A10 * inv0, L20 = A20 * inv0;
   const T D1 = A11 - L10 * A10, inv1 = val_.number(1.0) / D1;
@@ -521,7 +405,7 @@ void Chain<T>::solve_base(const Inertia<T>& IA, const Force<T>& rhs, std::vector
 }
 
 template <class T>
-std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) const {
+std::vector<std::vector<T>> PlanarChain<T>::forward_dynamics(const std::vector<T>& Q) const {
   const std::vector<Motion<T>> v = velocities();
   const std::vector<T> passive = passive_forces();
   std::vector<T> Qe(n_), qdd(n_, T{}), pivots(n_, T{}), u(N_ + 1);
@@ -586,7 +470,7 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
 }
 
 template <class T>
-T Chain<T>::kinetic_energy() const {
+T PlanarChain<T>::kinetic_energy() const {
   const std::vector<Motion<T>> v = velocities();
   T twice{};
   for (int i = free_ ? 0 : 1; i <= N_; ++i) twice += dot(body_[i].spatial() * v[i], v[i]);
@@ -599,7 +483,7 @@ T Chain<T>::kinetic_energy() const {
 }
 
 template <class T>
-std::vector<T> Chain<T>::generalized_momentum() const {
+std::vector<T> PlanarChain<T>::generalized_momentum() const {
   const std::vector<Motion<T>> v = velocities();
   std::vector<Force<T>> h(N_ + 1);
   for (int i = free_ ? 0 : 1; i <= N_; ++i) h[i] = body_[i].spatial() * v[i];
@@ -621,161 +505,22 @@ std::vector<T> Chain<T>::generalized_momentum() const {
 }
 
 template <class T>
-std::vector<T> Chain<T>::momentum() const {
+std::vector<T> PlanarChain<T>::momentum() const {
   if (!free_) throw std::logic_error("recursive dynamics: momentum of a fixed base");
   const std::vector<T> p = generalized_momentum();
   // L about the world origin: L_CoM + r0 x P.
   return {p[0], p[1], p[2] + q_[0] * p[1] - q_[1] * p[0]};
 }
 
-// The chain's inputs as duals with the tangent `direction` on q and none elsewhere.
-template <class T>
-Values<Dual<T>> along_q(const Values<T>& values,
-                        const std::function<T(const std::string&, int)>& direction) {
-  return seeded<T>(values, [direction](const std::string& a, int i) {
-    return a == info(Input::q).name ? direction(a, i) : T{};
-  });
-}
-
-// The tangents of a dual vector.
-template <class T>
-std::vector<T> tangents(const std::vector<Dual<T>>& x) {
-  std::vector<T> d;
-  for (const Dual<T>& y : x) d.push_back(y.d);
-  return d;
-}
-
-// dy/dx, row-major, of y = f(chain) with x the input array `x` (one forward pass per entry: each
-// costs what the entry's dependents cost, so O(N) for the recursive algorithms).
-template <class T>
-std::vector<T> jacobian(const Scene& scene, const Values<T>& values, const char* x,
-                        const std::function<std::vector<Dual<T>>(const Chain<Dual<T>>&)>& f) {
-  const int n = scene.num_coordinates();
-  std::vector<T> J;
-  for (int k = 0; k < n; ++k) {
-    const Values<Dual<T>> unit = seeded<T>(values, [&values, x, k](const std::string& a, int i) {
-      return a == x && i == k ? values.number(1.0) : T{};
-    });
-    const std::vector<T> column = tangents(f(Chain<Dual<T>>(scene, unit)));
-    if (J.empty()) J.resize(column.size() * n);
-    for (size_t r = 0; r < column.size(); ++r) J[r * n + k] = column[r];
-  }
-  return J;
-}
-
-template <class T>
-std::vector<T> inputs(const Chain<T>& chain, Input x) {
-  std::vector<T> v;
-  for (int i = 0; i < chain.n(); ++i) v.push_back(chain.input(info(x).name, i));
-  return v;
-}
-
-// The outputs made by differentiating the algorithms forward: Mdot = dM/dq qd; with P = d(M
-// qd)/dq (qd held), C of eq. 7 = Mdot - P^T / 2 and the Christoffel form (Mdot + P - P^T) / 2;
-// the state Jacobian of forward dynamics at constant Q, column by column.
-template <class T>
-std::vector<std::vector<T>> differentiated(const Scene& scene, const Values<T>& values, Output o) {
-  const int n = scene.num_coordinates();
-  const char* q = info(Input::q).name;
-  if (o == Output::forward_dynamics_derivatives) {
-    auto qdd = [](const Chain<Dual<T>>& c) {
-      return c.forward_dynamics(inputs(c, Input::generalized_forces))[0];
-    };
-    const Chain<T> chain(scene, values);
-    return {jacobian<T>(scene, values, q, qdd),
-            jacobian<T>(scene, values, info(Input::qd).name, qdd),
-            chain.forward_dynamics(inputs(chain, Input::generalized_forces))[0]};
-  }
-  const std::vector<T> Mdot =
-      tangents(Chain<Dual<T>>(scene, along_q<T>(values,
-                                                [&values](const std::string&, int i) {
-                                                  return values.input(info(Input::qd).name, i);
-                                                }))
-                   .mass_matrix());
-  if (o == Output::mass_matrix_derivative) return {Mdot};
-  const std::vector<T> P = jacobian<T>(
-      scene, values, q, [](const Chain<Dual<T>>& c) { return c.generalized_momentum(); });
-  std::vector<T> C(n * n);
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j)
-      C[i * n + j] = o == Output::coriolis_matrix
-                         ? Mdot[i * n + j] - P[j * n + i] * 0.5
-                         : (Mdot[i * n + j] + P[i * n + j] - P[j * n + i]) * 0.5;
-  return {C};
-}
-
-template <class T>
-std::vector<std::vector<T>> compute(const Scene& scene, const Values<T>& values, Output o) {
-  if (o == Output::mass_matrix_derivative || o == Output::coriolis_matrix ||
-      o == Output::christoffel_coriolis_matrix || o == Output::forward_dynamics_derivatives)
-    return differentiated(scene, values, o);
-  const Chain<T> chain(scene, values);
-  switch (o) {
-    case Output::mass_matrix:
-      return {chain.mass_matrix()};
-    case Output::bias_forces:
-      return {chain.inverse_dynamics(std::vector<T>(chain.n(), T{}))};
-    case Output::inverse_dynamics: {
-      std::vector<T> Q = chain.inverse_dynamics(inputs(chain, Input::qdd));
-      const std::vector<T> passive = chain.passive_forces();
-      for (int i = 0; i < chain.n(); ++i) Q[i] += passive[i];
-      return {Q};
-    }
-    case Output::forward_dynamics:
-      return chain.forward_dynamics(inputs(chain, Input::generalized_forces));
-    case Output::kinetic_energy:
-      return {{chain.kinetic_energy()}};
-    case Output::momentum:
-      return {chain.momentum()};
-    default:
-      throw std::logic_error("recursive dynamics: no recursive form of " + to_string(o));
-  }
-}
-
 }  // namespace
 
-const char* recursive_algorithm(Output o) {
-  switch (o) {
-    case Output::mass_matrix:
-      return "CRBA";
-    case Output::bias_forces:
-    case Output::inverse_dynamics:
-      return "RNEA";
-    case Output::forward_dynamics:
-      return "ABA";
-    case Output::kinetic_energy:
-      return "body velocities";
-    case Output::momentum:
-      return "body momenta";
-    case Output::mass_matrix_derivative:
-      return "CRBA, forward-mode";
-    case Output::coriolis_matrix:
-    case Output::christoffel_coriolis_matrix:
-      return "CRBA and momenta, forward-mode";
-    case Output::forward_dynamics_derivatives:
-      return "ABA, forward-mode";
-    default:
-      return nullptr;
-  }
-}
-
-bool has_recursive_form(Output o) { return recursive_algorithm(o) != nullptr; }
-
 std::vector<std::vector<SRef>> record_recursive(const Scene& scene, Output o, Program& p) {
-  Values<Sym> values{[&p](const std::string& a, int i) { return Sym(&p, p.input(a, i)); },
-                     [&p](double v) { return Sym::number(&p, v); }};
-  std::vector<std::vector<SRef>> refs;
-  for (const auto& result : compute(scene, values, o)) {
-    auto& r = refs.emplace_back();
-    for (const Sym& x : result) r.push_back(x.ref());
-  }
-  return refs;
+  return record_chain<PlanarChain>(scene, o, p);
 }
 
 std::vector<std::vector<double>> evaluate_recursive(
     const Scene& scene, Output o, const std::function<double(const std::string&, int)>& input) {
-  Values<double> values{input, [](double v) { return v; }};
-  return compute(scene, values, o);
+  return evaluate_chain<PlanarChain>(scene, o, input);
 }
 
 }  // namespace spacearm

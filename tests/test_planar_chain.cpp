@@ -1,4 +1,4 @@
-// The recursive forms (generator/recursive_dynamics.hpp) against the closed forms, evaluated by
+// The recursive forms (generator/planar_chain.hpp) against the closed forms, evaluated by
 // GiNaC and Eigen (numeric_outputs.hpp), on every model kind for N = 1..6, and against the
 // numeric Lagrangian oracle (no generator code) on long chains up to N = 30. Both the algorithms
 // run in double and their recorded, CSE'd programs are checked.
@@ -9,7 +9,7 @@
 
 #include "numeric_outputs.hpp"
 #include "planar_lowering.hpp"
-#include "recursive_dynamics.hpp"
+#include "planar_chain.hpp"
 #include "support.hpp"
 #include "symbolic_model.hpp"
 
@@ -256,8 +256,9 @@ TEST(RecursiveDynamics, FormulationIsChosenPerFunctionAndCanBeForced) {
   spec.outputs =
       "[mass_matrix, bias_forces, inverse_dynamics, forward_dynamics, end_effector_pose]";
   const std::string paper_size = test::random_scene_yaml(spec);
-  for (const auto& [name, formulation] : formulations(paper_size + "formulation: closed\n"))
+  for (const auto& [name, formulation] : formulations(paper_size + "formulation: closed\n")) {
     if (name != "gear_ratios") EXPECT_EQ(formulation, "closed form") << name;
+  }
   auto forced = formulations(paper_size + "formulation: recursive\n");
   EXPECT_EQ(forced["mass_matrix"], "recursive (CRBA)");
   EXPECT_EQ(forced["bias_forces"], "recursive (RNEA)");

@@ -11,27 +11,24 @@
 // Omega_{i-1} + qd_m (the exact coupling of eqs. 10 and 11); with rotor_coupling: armature it
 // only adds I_m qdd_m on its coordinate. A rigid gear's coordinate moves two bodies, the link at
 // qd_m / p and the rotor at qd_m, which ABA takes as one joint (both in the joint's D and U).
-// This is the derivation stage, like symbolic_model.hpp: it knows bodies, gears and angles.
+// This is the derivation stage, like symbolic_model.hpp: it knows bodies, gears and angles. The
+// scalars are recorded_scalar.hpp's and the derivatives recursive_algorithms.hpp's, shared
+// with any other chain.
 #pragma once
 
 #include <functional>
 #include <string>
 #include <vector>
 
+#include "recursive_algorithms.hpp"
 #include "scene.hpp"
 #include "straight_line.hpp"
 
 namespace spacearm {
 
-// Whether output o has a recursive form: every output derived from the kinetic energy (M, b, T,
-// the momentum, C, Mdot, Cc) and the dynamics (inverse, forward, forward's state Jacobian).
-bool has_recursive_form(Output o);
-// The algorithm that gives it, e.g. "CRBA", "RNEA", "ABA" or "ABA, forward-mode" (a derivative
-// by forward-mode differentiation of the recorded algorithm); nullptr if it has none.
-const char* recursive_algorithm(Output o);
-
-// The results of output o (the registry's, each row by row; a symmetric one in full), recorded
-// in p from its inputs p.input(name, i) under the registry's names and p.input("params", i).
+// The results of output o of the scene's planar chain (the registry's, each row by row; a
+// symmetric one in full), recorded in p from its inputs p.input(name, i) under the registry's
+// names and p.input("params", i).
 std::vector<std::vector<SRef>> record_recursive(const Scene& scene, Output o, Program& p);
 
 // The same algorithms run in double on the given inputs ("q", "qd", "qdd", "Q", "params"): the

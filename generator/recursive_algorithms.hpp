@@ -1,0 +1,181 @@
+// The recursive outputs of any chain: which outputs the algorithms give, and the derivatives made
+// by running them on dual numbers (Mdot, C of eq. 7, the Christoffel form, the state Jacobian),
+// written once over a chain type. A chain (planar_chain.cpp; a spatial one alike) is a class
+// template Chain<T> over the scalars of recorded_scalar.hpp with
+//   Chain(const Description&, Values<T>)           its numbers from the inputs and literals
+//   static Dimensions dimensions(const Description&)       nq, nv, num_links
+//   static T configuration_rate(const Description&, const Values<T>&, int i)
+//                                                  entry i of qdot = f(q, v) (v itself where nq =
+//                                                  nv)
+//   nq(), nv(), input(array, i)
+//   mass_matrix()                  row-major nv x nv      (CRBA)
+//   inverse_dynamics(qdd)          M qdd + b, nv          (RNEA; no passive forces)
+//   forward_dynamics(Q)            {qdd, pivots, pivots / M_ii}   (ABA; passive forces included)
+//   passive_forces()               springs, dampers, friction, nv
+//   kinetic_energy(), generalized_momentum() (M v), momentum()    (the base's momenta)
+#pragma once
+
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "outputs.hpp"
+#include "recorded_scalar.hpp"
+
+namespace spacearm {
+
+// The algorithm that gives output o, e.g. "CRBA", "RNEA", "ABA" or "ABA, forward-mode" (a
+// derivative by forward-mode differentiation of the recorded algorithm); nullptr if it has none.
+inline const char* recursive_algorithm(Output o) {
+  switch (o) {
+    case Output::mass_matrix:
+      return "CRBA";
+    case Output::bias_forces:
+    case Output::inverse_dynamics:
+      return "RNEA";
+    case Output::forward_dynamics:
+      return "ABA";
+    case Output::kinetic_energy:
+      return "body velocities";
+    case Output::momentum:
+      return "body momenta";
+    case Output::mass_matrix_derivative:
+      return "CRBA, forward-mode";
+    case Output::coriolis_matrix:
+    case Output::christoffel_coriolis_matrix:
+      return "CRBA and momenta, forward-mode";
+    case Output::forward_dynamics_derivatives:
+      return "ABA, forward-mode";
+    default:
+      return nullptr;
+  }
+}
+
+// Whether output o has a recursive form: every output derived from the kinetic energy (M, b, T,
+// the momentum, C, Mdot, Cc) and the dynamics (inverse, forward, forward's state Jacobian).
+inline bool has_recursive_form(Output o) { return recursive_algorithm(o) != nullptr; }
+
+namespace chain_algorithms {
+
+// dy/dx, row-major, of y = f(chain) with x the input array `x` (q: nq columns; qd: nv), one
+// forward pass per entry: each costs what the entry's dependents cost, so O(N) here.
+// f: const Chain<Dual<T>>& -> std::vector<Dual<T>>.
+template <template <class> class Chain, class T, class Description, class F>
+std::vector<T> jacobian(const Description& d, const Values<T>& values, Input x, const F& f) {
+  const Dimensions dims = Chain<T>::dimensions(d);
+  const int n = dims(info(x).size);
+  const char* name = info(x).name;
+  std::vector<T> J;
+  for (int k = 0; k < n; ++k) {
+    const Values<Dual<T>> unit = seeded<T>(values, [&values, name, k](const std::string& a, int i) {
+      return a == name && i == k ? values.number(1.0) : T{};
+    });
+    const std::vector<T> column = tangents(f(Chain<Dual<T>>(d, unit)));
+    if (J.empty()) J.resize(column.size() * n);
+    for (size_t r = 0; r < column.size(); ++r) J[r * n + k] = column[r];
+  }
+  return J;
+}
+
+// The chain's input array x (sized by the registry: q has nq entries, the others nv).
+template <template <class> class Chain, class T>
+std::vector<T> inputs(const Chain<T>& chain, Input x) {
+  const int n = info(x).size == Size::nq ? chain.nq() : chain.nv();
+  std::vector<T> v;
+  for (int i = 0; i < n; ++i) v.push_back(chain.input(info(x).name, i));
+  return v;
+}
+
+// The chain along the configuration rate: q's tangent is qdot = f(q, v), the others none.
+template <template <class> class Chain, class T, class Description>
+Chain<Dual<T>> along_configuration_rate(const Description& d, const Values<T>& values) {
+  return Chain<Dual<T>>(
+      d, seeded<T>(values, [&d, &values](const std::string& a, int i) {
+        return a == info(Input::q).name ? Chain<T>::configuration_rate(d, values, i) : T{};
+      }));
+}
+
+// The outputs made by differentiating the algorithms forward: Mdot = dM/dq qdot; with P =
+// d(M v)/dq (v held), C of eq. 7 = Mdot - P^T / 2 and the Christoffel form (Mdot + P - P^T) / 2
+// (both as written for nq = nv); the state Jacobian of forward dynamics at constant Q.
+template <template <class> class Chain, class T, class Description>
+std::vector<std::vector<T>> differentiated(const Description& d, const Values<T>& values,
+                                           Output o) {
+  const int n = Chain<T>::dimensions(d).nv;
+  if (o == Output::forward_dynamics_derivatives) {
+    auto qdd = [](const Chain<Dual<T>>& c) {
+      return c.forward_dynamics(inputs(c, Input::generalized_forces))[0];
+    };
+    const Chain<T> chain(d, values);
+    return {jacobian<Chain>(d, values, Input::q, qdd), jacobian<Chain>(d, values, Input::qd, qdd),
+            chain.forward_dynamics(inputs(chain, Input::generalized_forces))[0]};
+  }
+  const std::vector<T> Mdot = tangents(along_configuration_rate<Chain>(d, values).mass_matrix());
+  if (o == Output::mass_matrix_derivative) return {Mdot};
+  const std::vector<T> P = jacobian<Chain>(
+      d, values, Input::q, [](const Chain<Dual<T>>& c) { return c.generalized_momentum(); });
+  std::vector<T> C(n * n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      C[i * n + j] = o == Output::coriolis_matrix
+                         ? Mdot[i * n + j] - P[j * n + i] * 0.5
+                         : (Mdot[i * n + j] + P[i * n + j] - P[j * n + i]) * 0.5;
+  return {C};
+}
+
+// The results of output o (the registry's, each row by row; a symmetric one in full).
+template <template <class> class Chain, class T, class Description>
+std::vector<std::vector<T>> compute(const Description& d, const Values<T>& values, Output o) {
+  if (o == Output::mass_matrix_derivative || o == Output::coriolis_matrix ||
+      o == Output::christoffel_coriolis_matrix || o == Output::forward_dynamics_derivatives)
+    return differentiated<Chain>(d, values, o);
+  const Chain<T> chain(d, values);
+  switch (o) {
+    case Output::mass_matrix:
+      return {chain.mass_matrix()};
+    case Output::bias_forces:
+      return {chain.inverse_dynamics(std::vector<T>(chain.nv(), T{}))};
+    case Output::inverse_dynamics: {
+      std::vector<T> Q = chain.inverse_dynamics(inputs(chain, Input::qdd));
+      const std::vector<T> passive = chain.passive_forces();
+      for (int i = 0; i < chain.nv(); ++i) Q[i] += passive[i];
+      return {Q};
+    }
+    case Output::forward_dynamics:
+      return chain.forward_dynamics(inputs(chain, Input::generalized_forces));
+    case Output::kinetic_energy:
+      return {{chain.kinetic_energy()}};
+    case Output::momentum:
+      return {chain.momentum()};
+    default:
+      throw std::logic_error("recursive dynamics: no recursive form of " + to_string(o));
+  }
+}
+
+}  // namespace chain_algorithms
+
+// Output o of the chain described by d, recorded in p from its inputs p.input(name, i) under the
+// registry's names and p.input("params", i).
+template <template <class> class Chain, class Description>
+std::vector<std::vector<SRef>> record_chain(const Description& d, Output o, Program& p) {
+  Values<Sym> values{[&p](const std::string& a, int i) { return Sym(&p, p.input(a, i)); },
+                     [&p](double v) { return Sym::number(&p, v); }};
+  std::vector<std::vector<SRef>> refs;
+  for (const auto& result : chain_algorithms::compute<Chain>(d, values, o)) {
+    auto& r = refs.emplace_back();
+    for (const Sym& x : result) r.push_back(x.ref());
+  }
+  return refs;
+}
+
+// The same algorithms run in double on the given inputs ("q", "qd", "qdd", "Q", "params"): the
+// reference a recorded program is checked against, independent of the program's CSE.
+template <template <class> class Chain, class Description>
+std::vector<std::vector<double>> evaluate_chain(
+    const Description& d, Output o, const std::function<double(const std::string&, int)>& input) {
+  Values<double> values{input, [](double v) { return v; }};
+  return chain_algorithms::compute<Chain>(d, values, o);
+}
+
+}  // namespace spacearm
