@@ -25,7 +25,7 @@
 #include <vector>
 
 #include "compiled_model.hpp"
-#include "planar_lowering.hpp"
+#include "planar_model.hpp"
 #include "recording_reporter.hpp"
 #include "scene.hpp"
 #include "symbolic_model.hpp"

@@ -1,6 +1,6 @@
 #include "cpp_emitter.hpp"
 
-#include "planar_lowering.hpp"
+#include "planar_model.hpp"
 
 namespace spacearm {
 

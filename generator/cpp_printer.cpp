@@ -479,7 +479,7 @@ inline void sincos_batch(const double (&angle)[K], double (&s)[K], double (&c)[K
 std::string formulation_lines(const LoweredModel& model) {
   std::map<std::string, std::string> by_formulation;
   for (const auto& f : model.functions) {
-    if (f.name == "gear_ratios") continue;  // a constant, derived by neither
+    if (f.model_constant) continue;  // derived by neither formulation
     std::string& names = by_formulation[f.formulation];
     names += (names.empty() ? "" : ", ") + f.name;
   }
@@ -670,6 +670,12 @@ std::string c_interface(const LoweredModel& model, int per_part) {
     << "int spacearm_nv() { return " << facts.dims.nv << "; }\n"
     << "int spacearm_num_links() { return " << facts.dims.num_links << "; }\n"
     << "int spacearm_num_params() { return " << facts.parameter_names.size() << "; }\n"
+    << "int spacearm_num_base() { return " << facts.num_base << "; }\n"
+    << "int spacearm_free_floating() { return " << facts.free_floating << "; }\n"
+    << "int spacearm_passive_forces() { return " << facts.passive_forces << "; }\n"
+    << "// Where a quaternion (w, x, y, z) sits in q; -1: none, and q has one entry per velocity.\n"
+    << "int spacearm_configuration_layout() { return " << facts.quaternion_offset << "; }\n"
+    << "const char* spacearm_name() { return \"" << facts.name << "\"; }\n"
     << "const char* spacearm_coordinate_name(int i) { return kCoordinateNames[i]; }\n"
     << "const char* spacearm_parameter_name(int i) { return kParameterNames[i]; }\n"
     << "double spacearm_nominal_parameter(int i) { return kNominalParameters[i]; }\n"

@@ -32,6 +32,7 @@ struct FunctionSpec {
   // How its results were derived: "closed form" or "recursive (ABA)", ... (scene.hpp).
   std::string formulation;
   bool plain = false;               // the benchmark baseline: every expression printed inline
+  bool model_constant = false;      // a constant of the model (the gear ratios): no formulation
   std::vector<SRef> roots() const;  // every entry, each once
 };
 
@@ -50,6 +51,11 @@ struct ModelFacts {
   std::string coordinates_note;
   Dimensions dims;
   bool free_floating = false, geared = false;
+  // The base's velocities (0 for a fixed base) and where a quaternion sits in q (-1: none; the
+  // planar models have none, so nq = nv).
+  int num_base = 0, quaternion_offset = -1;
+  // Springs, dampers or friction act besides M qdd + b.
+  bool passive_forces = false;
   std::vector<std::string> coordinate_names, parameter_names;
   std::vector<double> nominal_parameters;
   std::string scene_hash;   // "fnv1a64:..."

@@ -71,12 +71,10 @@ std::vector<Eigen::MatrixXd> composed(const SymbolicModel& model, Output o, cons
   if (o == Output::inverse_dynamics) return {M * extra + b};
   if (o == Output::forward_dynamics) {
     // Unpivoted pivots D_j = L_jj^2 of M = L L^T, and D_j / M_jj.
-    const Eigen::LLT<Eigen::MatrixXd> llt(M);
-    if (llt.info() != Eigen::Success)
-      throw DynamicsError("model " + model.scene.name + ": mass matrix is not positive definite");
     Eigen::VectorXd d, scaled;
-    llt_pivots(llt, M, d, scaled);
-    return {llt.solve(extra - b), d, scaled};
+    const Eigen::VectorXd qdd =
+        cholesky_forward_dynamics(M, Eigen::VectorXd(extra - b), model.scene.name, d, scaled);
+    return {qdd, d, scaled};
   }
   if (o == Output::forward_dynamics_derivatives) {
     // dqdd/dx = -M^-1 dR/dx, dR/dx evaluated with GiNaC at the solved qdd.

@@ -108,4 +108,8 @@ unsigned long output_mask(const Outputs& outputs) {
 // "mass_matrix, coriolis_matrix, ..." for messages.
 std::string output_names();
 
+// The function that gives M and b in one call (sharing their sin/cos and common terms), emitted
+// beside them wherever a model has both; what forward dynamics needs.
+inline constexpr const char* kMassMatrixAndBias = "mass_matrix_and_bias";
+
 }  // namespace spacearm

@@ -66,7 +66,7 @@ Vec2 rotated(const ex& theta, const Vec2& u) {
 
 }  // namespace
 
-const GiNaC::matrix& SymbolicModel::expression(Output output) const {
+const GiNaC::matrix& ClosedForms::expression(Output output) const {
   auto it = outputs.find(output);
   if (it == outputs.end())
     throw std::invalid_argument("the model has no " + to_string(output) + " (not derived)");
@@ -135,6 +135,7 @@ class Derivation {
     for (const auto& name : scene_.coordinate_names()) model_.qd.emplace_back(name + "d");
     for (const auto& p : scene_.parameters) {
       model_.parameters.emplace_back(p.name);
+      model_.nominal_parameters.push_back(p.nominal.value);
       b_.parameter_symbols[p.name] = model_.parameters.back();
     }
     n_ = model_.n();
@@ -532,7 +533,7 @@ GiNaC::ex symbolic_entry(const SymbolicModel& model, const std::string& entry) {
                               "' (known: " + known + ")");
 }
 
-double evaluate(const SymbolicModel& model, const GiNaC::ex& e, const std::vector<double>& q,
+double evaluate(const ClosedForms& model, const GiNaC::ex& e, const std::vector<double>& q,
                 const std::vector<double>& qd, const std::vector<double>& params) {
   lst subs;
   // Doubles are converted exactly to rationals so the evaluation itself adds no rounding.
@@ -550,7 +551,7 @@ double evaluate(const SymbolicModel& model, const GiNaC::ex& e, const std::vecto
   }
   for (size_t i = 0; i < model.parameters.size(); ++i)
     subs.append(model.parameters[i] ==
-                exact(params.empty() ? model.scene.parameters[i].nominal.value : params.at(i)));
+                exact(params.empty() ? model.nominal_parameters.at(i) : params.at(i)));
   const ex value = GiNaC::evalf(e.subs(subs));
   GiNaC::Digits = saved_digits;
   if (!GiNaC::is_a<numeric>(value))
@@ -558,7 +559,7 @@ double evaluate(const SymbolicModel& model, const GiNaC::ex& e, const std::vecto
   return GiNaC::ex_to<numeric>(value).to_double();
 }
 
-std::vector<double> evaluate(const SymbolicModel& model, const GiNaC::matrix& m,
+std::vector<double> evaluate(const ClosedForms& model, const GiNaC::matrix& m,
                              const std::vector<double>& q, const std::vector<double>& qd,
                              const std::vector<double>& params) {
   std::vector<double> values;

@@ -14,11 +14,13 @@
 
 namespace spacearm {
 
-struct SymbolicModel {
-  Scene scene;
+// The closed forms and the symbols they are written in: all that expression lowering reads of a
+// symbolic derivation (no scene: the facts lowering needs come with the derived model).
+struct ClosedForms {
   // Symbols, created first and in a fixed order (coordinates, velocities, parameters) so
   // that GiNaC's term order, and so the emitted code, is reproducible.
   std::vector<GiNaC::symbol> q, qd, parameters;
+  std::vector<double> nominal_parameters;  // the parameters' values where none are given
   // Absolute angle theta_k and rate Omega_k of body k = 0 (base) .. N; linear in q, qd.
   std::vector<GiNaC::ex> theta, omega;
   // Constant Jacobian of the link-side relative joint angles with respect to q:
@@ -50,6 +52,11 @@ struct SymbolicModel {
   std::map<GiNaC::ex, std::pair<int, int>, GiNaC::ex_is_less> angle_table;
 };
 
+// A scene's derivation: its closed forms and the scene they were derived from.
+struct SymbolicModel : ClosedForms {
+  Scene scene;
+};
+
 struct DeriveOptions {
   // Derive every closed form, not only what the scene asks for (inspect); an error naming the
   // scene and kClosedFormLinks past the closed form's reach unless the scene's formulation is
@@ -74,10 +81,10 @@ std::string entry_text(const SymbolicModel& model, const std::string& entry, boo
 
 // Numeric value of an expression at q, qd and parameter values (nominal if empty),
 // with GiNaC's own arbitrary-precision evaluation.
-double evaluate(const SymbolicModel& model, const GiNaC::ex& e, const std::vector<double>& q,
+double evaluate(const ClosedForms& model, const GiNaC::ex& e, const std::vector<double>& q,
                 const std::vector<double>& qd, const std::vector<double>& params = {});
 // The same for every entry of a matrix, row by row.
-std::vector<double> evaluate(const SymbolicModel& model, const GiNaC::matrix& m,
+std::vector<double> evaluate(const ClosedForms& model, const GiNaC::matrix& m,
                              const std::vector<double>& q, const std::vector<double>& qd,
                              const std::vector<double>& params = {});
 

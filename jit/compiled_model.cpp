@@ -89,29 +89,37 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// The functions of the C interface the loader calls for `scene`: gear_ratios and one per output.
-std::vector<std::string> exported_functions(const Scene& scene) {
-  std::vector<std::string> names = {"gear_ratios"};
-  for (const auto& o : output_registry())
-    if (scene.wants(o.id)) names.push_back(o.name);
+// The self-description every library exports (cpp_printer.hpp), checked before anything is
+// called.
+const std::vector<std::string>& description_symbols() {
+  static const std::vector<std::string> names = {"spacearm_abi_version",
+                                                 "spacearm_nq",
+                                                 "spacearm_nv",
+                                                 "spacearm_num_links",
+                                                 "spacearm_num_params",
+                                                 "spacearm_coordinate_name",
+                                                 "spacearm_parameter_name",
+                                                 "spacearm_nominal_parameter",
+                                                 "spacearm_outputs",
+                                                 "spacearm_scene_hash",
+                                                 "spacearm_parameter_error",
+                                                 "spacearm_actuated_coordinate",
+                                                 "spacearm_name",
+                                                 "spacearm_num_base",
+                                                 "spacearm_free_floating",
+                                                 "spacearm_passive_forces",
+                                                 "spacearm_configuration_layout"};
   return names;
 }
 
-// The C symbols a library must export for `scene` (checked before anything is called).
-std::vector<std::string> required_symbols(const Scene& scene) {
-  std::vector<std::string> names = {"spacearm_abi_version",
-                                    "spacearm_nq",
-                                    "spacearm_nv",
-                                    "spacearm_num_links",
-                                    "spacearm_num_params",
-                                    "spacearm_coordinate_name",
-                                    "spacearm_parameter_name",
-                                    "spacearm_nominal_parameter",
-                                    "spacearm_outputs",
-                                    "spacearm_scene_hash",
-                                    "spacearm_parameter_error",
-                                    "spacearm_actuated_coordinate"};
-  for (const auto& f : exported_functions(scene)) names.push_back("spacearm_" + f);
+// The functions a library with the outputs `mask` exports: gear_ratios, one per output, and M
+// and b in one call where it has both.
+std::vector<std::string> exported_functions(unsigned long mask) {
+  std::vector<std::string> names = {"gear_ratios"};
+  for (const auto& o : output_registry())
+    if (mask & output_bit(o.id)) names.push_back(o.name);
+  if ((mask & output_bit(Output::mass_matrix)) && (mask & output_bit(Output::bias_forces)))
+    names.push_back(kMassMatrixAndBias);
   return names;
 }
 
@@ -315,7 +323,7 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
     why = e ? e : "dlopen failed";
     return m;
   }
-  for (const auto& name : required_symbols(scene))
+  for (const auto& name : description_symbols())
     if (!dlsym(m.handle_, name.c_str())) {
       why = "the library lacks the symbol " + name;
       return m;
@@ -332,38 +340,46 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
     why = "it was built from another scene (" + hash + ")";
     return m;
   }
+  // The model's facts, as the library states them.
+  m.name_ = reinterpret_cast<const char* (*)()>(sym("spacearm_name"))();
   m.dims_ = {number("spacearm_nq"), number("spacearm_nv"), number("spacearm_num_links")};
-  m.name_ = scene.name;
+  m.num_base_ = number("spacearm_num_base");
+  m.free_floating_ = number("spacearm_free_floating") != 0;
+  m.passive_forces_ = number("spacearm_passive_forces") != 0;
+  m.quaternion_offset_ = number("spacearm_configuration_layout");
   m.outputs_ = reinterpret_cast<unsigned long (*)()>(sym("spacearm_outputs"))();
   const int np = number("spacearm_num_params");
-  if (m.dims_.nq != scene.num_coordinates() || m.dims_.nv != scene.num_velocities() ||
-      m.dims_.num_links != scene.num_links() || np != static_cast<int>(scene.parameters.size()) ||
-      m.outputs_ != output_mask(scene.outputs)) {
-    why = "its sizes or outputs do not match the scene";
-    return m;
-  }
   auto coordinate = reinterpret_cast<const char* (*)(int)>(sym("spacearm_coordinate_name"));
   auto parameter = reinterpret_cast<const char* (*)(int)>(sym("spacearm_parameter_name"));
   auto nominal = reinterpret_cast<double (*)(int)>(sym("spacearm_nominal_parameter"));
+  auto actuated = reinterpret_cast<int (*)(int)>(sym("spacearm_actuated_coordinate"));
+  if (m.dims_.nq < 0 || m.dims_.nv < 0 || m.dims_.num_links < 0 || np < 0) {
+    why = "it states negative sizes";
+    return m;
+  }
   for (int i = 0; i < m.dims_.nq; ++i) m.coordinate_names_.push_back(coordinate(i));
   for (int i = 0; i < np; ++i) {
     m.parameter_names_.push_back(parameter(i));
     m.nominal_.push_back(nominal(i));
   }
+  for (int j = 0; j < m.dims_.num_links; ++j) m.actuated_.push_back(actuated(j));
+  // A cross-check only: the hash already names the scene.
+  if (m.name_ != scene.name || m.dims_.nq != scene.num_coordinates() ||
+      m.dims_.nv != scene.num_velocities() || m.dims_.num_links != scene.num_links() ||
+      np != static_cast<int>(scene.parameters.size()) || m.outputs_ != output_mask(scene.outputs) ||
+      m.free_floating_ != scene.free_floating()) {
+    why = "its facts do not match the scene";
+    return m;
+  }
   m.parameter_error_ =
       reinterpret_cast<const char* (*)(const double*)>(sym("spacearm_parameter_error"));
-  auto actuated = reinterpret_cast<int (*)(int)>(sym("spacearm_actuated_coordinate"));
-  for (int j = 0; j < m.dims_.num_links; ++j) {
-    m.actuated_.push_back(actuated(j));
-    if (m.actuated_.back() != scene.motor_coordinate(j)) {
-      why = "its actuated coordinates do not match the scene";
+  for (const auto& f : exported_functions(m.outputs_)) {
+    m.functions_[f] = reinterpret_cast<Function>(sym("spacearm_" + f));
+    if (!m.functions_[f]) {
+      why = "the library lacks the symbol spacearm_" + f;
       return m;
     }
   }
-  m.free_floating_ = scene.free_floating();
-  m.passive_forces_ = (scene.features() & (needs::springs | needs::friction)) != 0;
-  for (const auto& f : exported_functions(scene))
-    m.functions_[f] = reinterpret_cast<Function>(sym("spacearm_" + f));
   rep.load_ms = ms_since(t0);
   return m;
 }
@@ -385,6 +401,8 @@ CompiledModel& CompiledModel::operator=(CompiledModel&& o) noexcept {
   actuated_ = std::move(o.actuated_);
   free_floating_ = o.free_floating_;
   passive_forces_ = o.passive_forces_;
+  num_base_ = o.num_base_;
+  quaternion_offset_ = o.quaternion_offset_;
   return *this;
 }
 
@@ -505,6 +523,20 @@ Eigen::VectorXd CompiledModel::bias_forces(const Eigen::VectorXd& q, const Eigen
                                            const Eigen::VectorXd& params) const {
   return evaluate(Output::bias_forces, {q, qd}, params)[0];
 }
+void CompiledModel::mass_matrix_and_bias(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                                         const Eigen::VectorXd& params, Eigen::MatrixXd& M,
+                                         Eigen::VectorXd& b) const {
+  if (!has(Output::mass_matrix) || !has(Output::bias_forces))
+    throw std::invalid_argument(
+        "the scene does not emit mass_matrix and bias_forces (add them "
+        "to outputs)");
+  check("q", q, dims_.nq);
+  check("qd", qd, dims_.nv);
+  auto r = call(kMassMatrixAndBias, {{Size::nv, Size::nv}, {Size::nv, Size::one}},
+                {q.data(), qd.data()}, params);
+  M = std::move(r[0]);
+  b = std::move(r[1]);
+}
 double CompiledModel::kinetic_energy(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                                      const Eigen::VectorXd& params) const {
   return evaluate(Output::kinetic_energy, {q, qd}, params)[0](0, 0);
@@ -539,12 +571,10 @@ Eigen::VectorXd CompiledModel::forward_dynamics(const Eigen::VectorXd& q, const 
       throw std::invalid_argument("model " + name_ +
                                   ": a scene with springs, dampers or friction needs the "
                                   "forward_dynamics output for its forward dynamics");
-    const Eigen::MatrixXd M = mass_matrix(q, params);
-    const Eigen::LLT<Eigen::MatrixXd> llt(M);
-    if (llt.info() != Eigen::Success)
-      throw DynamicsError("model " + name_ + ": mass matrix is not positive definite");
-    llt_pivots(llt, M, pivots, scaled_pivots);
-    qdd = llt.solve(Q - bias_forces(q, qd, params));
+    Eigen::MatrixXd M;
+    Eigen::VectorXd b;
+    mass_matrix_and_bias(q, qd, params, M, b);
+    qdd = cholesky_forward_dynamics(M, Eigen::VectorXd(Q - b), name_, pivots, scaled_pivots);
   }
   check_forward_dynamics(pivots, scaled_pivots, qdd, name_);
   return qdd;
@@ -581,8 +611,7 @@ DynamicModel dynamic_model(const CompiledModel& m, const Eigen::VectorXd& params
     };
   if (m.has(Output::mass_matrix) && m.has(Output::bias_forces))
     d.mass_matrix_and_bias = [&m, params](const V& q, const V& qd, Eigen::MatrixXd& M, V& b) {
-      M = m.mass_matrix(q, params);
-      b = m.bias_forces(q, qd, params);
+      m.mass_matrix_and_bias(q, qd, params, M, b);
     };
   if (m.has(Output::forward_dynamics) || d.mass_matrix_and_bias)
     d.forward_dynamics = [&m, params](const V& q, const V& qd, const V& Q) {

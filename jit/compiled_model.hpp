@@ -74,6 +74,9 @@ class CompiledModel {
   const std::vector<std::string>& parameter_names() const { return parameter_names_; }
   const std::vector<double>& nominal_parameters() const { return nominal_; }
   bool free_floating() const { return free_floating_; }
+  // The base's velocities (0 for a fixed base), and where a quaternion sits in q (-1: none).
+  int num_base() const { return num_base_; }
+  int quaternion_offset() const { return quaternion_offset_; }
   // Per joint, the velocity index its torque drives (DynamicModel::actuated_coordinates).
   const std::vector<int>& actuated_coordinates() const { return actuated_; }
   // Springs, dampers or friction besides M qdd + b.
@@ -96,6 +99,10 @@ class CompiledModel {
   Eigen::MatrixXd mass_matrix(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const;
   Eigen::VectorXd bias_forces(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                               const Eigen::VectorXd& params) const;
+  // M and b in one call (the exported mass_matrix_and_bias).
+  void mass_matrix_and_bias(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                            const Eigen::VectorXd& params, Eigen::MatrixXd& M,
+                            Eigen::VectorXd& b) const;
   double kinetic_energy(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                         const Eigen::VectorXd& params) const;
   Eigen::Vector3d momentum(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
@@ -125,6 +132,7 @@ class CompiledModel {
   std::vector<double> nominal_;
   std::vector<int> actuated_;
   bool free_floating_ = false, passive_forces_ = false;
+  int num_base_ = 0, quaternion_offset_ = -1;
   static CompiledModel open_verified(const Scene& scene, const Fd& library, StageReport& rep,
                                      std::string& why);
   static CompiledModel load_built(const Scene& scene, const CacheFolder& cache,

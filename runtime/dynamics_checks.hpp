@@ -3,6 +3,7 @@
 // never a silently wrong acceleration.
 #pragma once
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 
 #include <cmath>
@@ -96,6 +97,20 @@ template <class Llt, class Matrix, class Vector>
 void llt_pivots(const Llt& llt, const Matrix& M, Vector& pivots, Vector& scaled_pivots) {
   pivots = llt.matrixLLT().diagonal().array().square();
   scaled_pivots = pivots.cwiseQuotient(M.diagonal());
+}
+
+// qdd = M^-1 rhs by Eigen's Cholesky factorization, with its pivots: the one forward-dynamics
+// fallback of a model that emits no forward_dynamics (linked or loaded alike). A DynamicsError
+// where M is not positive definite.
+template <class Matrix, class Vector>
+Vector cholesky_forward_dynamics(const Matrix& M, const Vector& rhs, std::string_view model_name,
+                                 Vector& pivots, Vector& scaled_pivots) {
+  const Eigen::LLT<Matrix> llt(M);
+  if (llt.info() != Eigen::Success)
+    throw DynamicsError("model " + std::string(model_name) +
+                        ": mass matrix is not positive definite");
+  llt_pivots(llt, M, pivots, scaled_pivots);
+  return llt.solve(rhs);
 }
 
 }  // namespace spacearm

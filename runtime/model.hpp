@@ -208,12 +208,7 @@ class Model {
       Matrix M;
       Velocity b;
       Generated::mass_matrix_and_bias(q, qd, params_, M, b);
-      const Eigen::LLT<Matrix> llt(M);
-      if (llt.info() != Eigen::Success)
-        throw DynamicsError(std::string("model ") + Generated::kName +
-                            ": mass matrix is not positive definite");
-      llt_pivots(llt, M, pivots, scaled_pivots);
-      qdd = llt.solve(Q - b);
+      qdd = cholesky_forward_dynamics(M, Velocity(Q - b), Generated::kName, pivots, scaled_pivots);
     }
     check_forward_dynamics(pivots, scaled_pivots, qdd, Generated::kName);
     return qdd;

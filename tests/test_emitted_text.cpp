@@ -20,7 +20,7 @@
 #include <sstream>
 
 #include "cpp_emitter.hpp"
-#include "planar_lowering.hpp"
+#include "planar_model.hpp"
 #include "scene.hpp"
 #include "support.hpp"
 #include "symbolic_model.hpp"

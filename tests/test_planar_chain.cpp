@@ -8,7 +8,7 @@
 #include <map>
 
 #include "numeric_outputs.hpp"
-#include "planar_lowering.hpp"
+#include "planar_model.hpp"
 #include "planar_chain.hpp"
 #include "support.hpp"
 #include "symbolic_model.hpp"
