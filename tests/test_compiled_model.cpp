@@ -165,6 +165,34 @@ TEST(CompiledModel, ChangedSceneIsRebuilt) {
   fs::remove_all(cache);
 }
 
+// The library describes its model (C interface 7): the facts read from it are the scene's, and
+// mass_matrix_and_bias gives in one call what mass_matrix and bias_forces give apart.
+TEST(CompiledModel, LibraryStatesTheModelsFacts) {
+  const fs::path cache = fresh_cache("facts");
+  CompileOptions options;
+  options.cache_dir = cache.string();
+  for (const char* file : {"/models/paper_flexible.yaml", "/tests/scenes/fixed_n4_geared.yaml"}) {
+    const Scene scene = load_scene(std::string(SPACEARM_SOURCE_DIR) + file);
+    const CompiledModel m = CompiledModel::load(scene, options);
+    SCOPED_TRACE(file);
+    EXPECT_EQ(m.name(), scene.name);
+    EXPECT_EQ(m.free_floating(), scene.free_floating());
+    EXPECT_EQ(m.num_base(), scene.free_floating() ? 3 : 0);
+    EXPECT_EQ(m.passive_forces(), scene.num_flexible() > 0 || scene.has_friction());
+    EXPECT_EQ(m.quaternion_offset(), -1);  // planar: nq = nv
+    const Eigen::VectorXd params = Eigen::Map<const Eigen::VectorXd>(m.nominal_parameters().data(),
+                                                                     m.nominal_parameters().size());
+    const Eigen::VectorXd q = Eigen::VectorXd::LinSpaced(m.nq(), 0.2, 1.1);
+    const Eigen::VectorXd qd = Eigen::VectorXd::LinSpaced(m.nv(), -0.7, 0.4);
+    Eigen::MatrixXd M;
+    Eigen::VectorXd b;
+    m.mass_matrix_and_bias(q, qd, params, M, b);
+    EXPECT_TRUE(M.isApprox(m.mass_matrix(q, params), 1e-14));
+    EXPECT_TRUE(b.isApprox(m.bias_forces(q, qd, params), 1e-14));
+  }
+  fs::remove_all(cache);
+}
+
 // Two models loaded at once are two libraries: dlopen matches the name it is given
 // (/proc/self/fd/N), so a second model opened under the first one's number would silently be
 // the first one.
