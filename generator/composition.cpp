@@ -73,7 +73,7 @@ struct Composer {
       X.push_back(ldlt_solve(p, f, col));
     }
     std::vector<SRef> Jg;
-    for (int r = 0; r < 3; ++r) {
+    for (int r = 0; r < derived.facts.dims(Size::twist); ++r) {
       std::vector<SRef> Jb;
       for (int k = 0; k < nb; ++k) Jb.push_back(fb.build(Je(r, k)));
       for (int c = 0; c < N; ++c) Jg.push_back(p.add({fb.build(Je(r, nb + c)), -dot(p, Jb, X[c])}));

@@ -322,21 +322,21 @@ bool returns_scalar(const FunctionSpec& f) {
   return f.results.size() == 1 && f.results[0].rows == Size::one && f.results[0].cols == Size::one;
 }
 
-std::string matrix_type(const ArraySpec& a, const std::string& scalar) {
+std::string matrix_type(const ArraySpec& a, const Dimensions& dims, const std::string& scalar) {
   // The header's aliases where one names the shape, for readable signatures.
   if (a.cols == Size::one && a.rows == Size::nq) return "Coordinates<" + scalar + ">";
   if (a.cols == Size::one && a.rows == Size::nv) return "Velocities<" + scalar + ">";
   if (a.cols == Size::one && a.rows == Size::num_links) return "JointVector<" + scalar + ">";
-  return "Eigen::Matrix<" + scalar + ", " + size_constant(a.rows) + ", " + size_constant(a.cols) +
-         ">";
+  return "Eigen::Matrix<" + scalar + ", " + size_constant(a.rows, dims) + ", " +
+         size_constant(a.cols, dims) + ">";
 }
 
 // with_names: a declaration or definition (definition: inputs may be unused, e.g. a
 // constant mass matrix); otherwise the form of an explicit instantiation.
 // part: the name suffix of one part of a split body (BodyPrinter), which also takes the work
 // array w (a function that returns its value is never split).
-std::string signature(const FunctionSpec& f, const std::string& scalar, bool with_names,
-                      bool definition = false, const std::string& part = "") {
+std::string signature(const FunctionSpec& f, const Dimensions& dims, const std::string& scalar,
+                      bool with_names, bool definition = false, const std::string& part = "") {
   std::string s = (returns_scalar(f) ? scalar : "void") + " " + f.name + part +
                   (with_names ? "" : "<" + scalar + ">") + "(";
   std::vector<std::string> parts;
@@ -344,10 +344,10 @@ std::string signature(const FunctionSpec& f, const std::string& scalar, bool wit
     parts.push_back(std::string(definition && (input || !part.empty()) ? "[[maybe_unused]] " : "") +
                     type + (with_names ? " " + name : ""));
   };
-  for (const auto& a : f.inputs) arg("const " + matrix_type(a, scalar) + "&", a.name, true);
+  for (const auto& a : f.inputs) arg("const " + matrix_type(a, dims, scalar) + "&", a.name, true);
   arg("const Parameters<" + scalar + ">&", "params", true);
   if (!returns_scalar(f))
-    for (const auto& r : f.results) arg(matrix_type(r, scalar) + "&", r.name, false);
+    for (const auto& r : f.results) arg(matrix_type(r, dims, scalar) + "&", r.name, false);
   if (!part.empty()) arg(scalar + "*", "w", false);
   for (size_t i = 0; i < parts.size(); ++i) s += (i ? ", " : "") + parts[i];
   return s + ")";
@@ -422,7 +422,7 @@ Body function_body(const FunctionSpec& f, const Dimensions& dims, int per_part,
                         "params, [[maybe_unused]] double* const* out, [[maybe_unused]] T* w) {\n" +
                         c_input_aliases(f)
                   : "template <typename T>\n[[gnu::noinline]] static " +
-                        signature(f, "T", true, true, suffix) + " {\n") +
+                        signature(f, dims, "T", true, true, suffix) + " {\n") +
                usings + printer.part(k) + "}\n\n";
     b.body += "  " + std::string(c ? "spacearm_" : "") + f.name + suffix + "(" + args + ", w);\n";
   }
@@ -581,10 +581,13 @@ std::string header_constants(const ModelFacts& facts) {
     << "template <typename T> using Velocities = Eigen::Matrix<T, kNv, 1>;\n"
     << "template <typename T> using Parameters = Eigen::Matrix<T, kNumParams, 1>;\n"
     << "template <typename T> using MassMatrix = Eigen::Matrix<T, kNv, kNv>;\n"
-    << "template <typename T> using Vector3 = Eigen::Matrix<T, 3, 1>;\n"
-    << "template <typename T> using PoseJacobian = Eigen::Matrix<T, 3, kNv>;\n"
+    << "template <typename T> using Vector3 = Eigen::Matrix<T, "
+    << size_constant(Size::pose, facts.dims) << ", 1>;\n"
+    << "template <typename T> using PoseJacobian = Eigen::Matrix<T, "
+    << size_constant(Size::twist, facts.dims) << ", kNv>;\n"
     << "template <typename T> using JointVector = Eigen::Matrix<T, kNumLinks, 1>;\n"
-    << "template <typename T> using JointPositions = Eigen::Matrix<T, 2, kNumLinks + 1>;\n\n";
+    << "template <typename T> using JointPositions = Eigen::Matrix<T, "
+    << size_constant(Size::point, facts.dims) << ", kNumLinks + 1>;\n\n";
   return h.str();
 }
 
@@ -623,8 +626,8 @@ std::string model_struct(const LoweredModel& model, const std::string& ns) {
     call += "params";
     if (!returns_scalar(f))
       for (const auto& r : f.results) call += ", " + r.name;
-    h << "  template <typename T>\n  static " << signature(f, "T", true) << " {\n    return " << ns
-      << "::" << f.name << "<T>(" << call << ");\n  }\n";
+    h << "  template <typename T>\n  static " << signature(f, model.facts.dims, "T", true)
+      << " {\n    return " << ns << "::" << f.name << "<T>(" << call << ");\n  }\n";
   }
   h << "};\n";
   return h.str();
@@ -671,6 +674,7 @@ std::string c_interface(const LoweredModel& model, int per_part) {
     << "int spacearm_num_links() { return " << facts.dims.num_links << "; }\n"
     << "int spacearm_num_params() { return " << facts.parameter_names.size() << "; }\n"
     << "int spacearm_num_base() { return " << facts.num_base << "; }\n"
+    << "int spacearm_spatial() { return " << facts.dims.spatial << "; }\n"
     << "int spacearm_free_floating() { return " << facts.free_floating << "; }\n"
     << "int spacearm_passive_forces() { return " << facts.passive_forces << "; }\n"
     << "// Where a quaternion (w, x, y, z) sits in q; -1: none, and q has one entry per velocity.\n"
@@ -719,7 +723,7 @@ EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
              : std::string(" Paper eq") +
                    (f.equation.find(' ') == std::string::npos ? ". " : "s. ") + f.equation + ".") +
         "\n";
-    h << "\n" << doc << "template <typename T>\n" << signature(f, "T", true) << ";\n";
+    h << "\n" << doc << "template <typename T>\n" << signature(f, facts.dims, "T", true) << ";\n";
     functions << "\n" << doc;
     if (f.plain) {
       result.stats.push_back({f.name, {}, "", f.formulation});
@@ -736,7 +740,7 @@ EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
     const Body b = function_body(f, facts.dims, options.statements_per_part);
     trig_batches |= b.trig_batches;
     functions << b.parts << "template <typename T>\n"
-              << signature(f, "T", true, true) << " {\n"
+              << signature(f, facts.dims, "T", true, true) << " {\n"
               << b.body << "}\n";
   }
   h << model_struct(model, ns);
@@ -745,7 +749,8 @@ EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
     << (trig_batches ? kTrigBatchHelper : "") << functions.str();
   s << "\n// Explicit instantiations.\n";
   for (const char* scalar : {"float", "double", "long double"})
-    for (const auto& f : model.functions) s << "template " << signature(f, scalar, false) << ";\n";
+    for (const auto& f : model.functions)
+      s << "template " << signature(f, facts.dims, scalar, false) << ";\n";
   s << "\n}  // namespace " << ns << "\n";
   h << "\n}  // namespace " << ns << "\n";
   result.header = h.str();

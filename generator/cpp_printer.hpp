@@ -14,8 +14,9 @@ inline constexpr const char* kGeneratorVersion = "0.3.0";
 // Version of the C interface (c_interface): each function is exported as
 //   void spacearm_<name>(const double* const* inputs, const double* params, double* const* results)
 // with arrays column-major in the order and shapes of its FunctionSpec; the model describes
-// itself (spacearm_name, _nq, _nv, _num_links, _num_base, _free_floating, _passive_forces,
-// _configuration_layout, _outputs, ...), so a loader needs no scene. 7: the self-description.
+// itself (spacearm_name, _nq, _nv, _num_links, _num_base, _spatial, _free_floating,
+// _passive_forces, _configuration_layout, _outputs, ...), so a loader needs no scene. 7: the
+// self-description.
 inline constexpr int kCInterfaceVersion = 7;
 
 struct PrintOptions {

@@ -8,10 +8,12 @@ int Dimensions::operator()(Size s) const {
   switch (s) {
     case Size::one:
       return 1;
-    case Size::two:
-      return 2;
-    case Size::three:
-      return 3;
+    case Size::pose:
+      return spatial ? 7 : 3;
+    case Size::twist:
+      return spatial ? 6 : 3;
+    case Size::point:
+      return spatial ? 3 : 2;
     case Size::nq:
       return nq;
     case Size::nv:
@@ -26,14 +28,14 @@ int Dimensions::operator()(Size s) const {
   throw std::logic_error("unknown size");
 }
 
-std::string size_constant(Size s) {
+std::string size_constant(Size s, const Dimensions& dims) {
   switch (s) {
     case Size::one:
       return "1";
-    case Size::two:
-      return "2";
-    case Size::three:
-      return "3";
+    case Size::pose:
+    case Size::twist:
+    case Size::point:
+      return std::to_string(dims(s));
     case Size::nq:
       return "kNq";
     case Size::nv:
@@ -83,17 +85,17 @@ const std::vector<OutputInfo>& output_registry() {
        kAnyBase, kByDefault, {}, "5", "Bias b = C(q, qd) qd, so that M qdd + b = Q."},
       {O::kinetic_energy, "kinetic_energy", "T", {I::q, I::qd}, {{"T", S::one, S::one, false}},
        kAnyBase, kByDefault, {}, "3 and 10", "Kinetic energy T = 1/2 qd^T M qd."},
-      {O::momentum, "momentum", "h", {I::q, I::qd}, {{"h", S::three, S::one, false}},
+      {O::momentum, "momentum", "h", {I::q, I::qd}, {{"h", S::twist, S::one, false}},
        kFreeBaseOnly, kByDefault, {}, "",
        "Momentum h = [Px, Py, L]: linear momentum and angular momentum about the world origin."},
-      {O::end_effector_pose, "end_effector_pose", "x", {I::q}, {{"x", S::three, S::one, false}},
+      {O::end_effector_pose, "end_effector_pose", "x", {I::q}, {{"x", S::pose, S::one, false}},
        kAnyBase, kByDefault, {}, "",
        "End-effector pose [x, y, phi]: tip of the last link, absolute angle of the last link."},
       {O::end_effector_jacobian, "end_effector_jacobian", "J", {I::q},
-       {{"J", S::three, S::nv, false}}, kAnyBase, kByDefault, {}, "",
+       {{"J", S::twist, S::nv, false}}, kAnyBase, kByDefault, {}, "",
        "Jacobian of the end-effector pose, d[x, y, phi]/dq."},
       {O::joint_positions, "joint_positions", "P", {I::q},
-       {{"P", S::two, S::num_links_plus_one, false}}, kAnyBase, kByDefault, {}, "",
+       {{"P", S::point, S::num_links_plus_one, false}}, kAnyBase, kByDefault, {}, "",
        "World positions of joints 1..N (columns) and of the tip (last column)."},
       {O::joint_angles, "joint_angles", "qj", {I::q}, {{"q_joints", S::num_links, S::one, false}},
        kAnyBase, kByDefault, {}, "12",
@@ -118,7 +120,7 @@ const std::vector<OutputInfo>& output_registry() {
        "positive for a positive definite M) and D_i / M_ii, the pivots of "
        "diag(M)^-1/2 M diag(M)^-1/2 (max/min bounds its condition number)."},
       {O::generalized_jacobian, "generalized_jacobian", "Jg", {I::q},
-       {{"Jg", S::three, S::num_links, false}}, kRigidFreeBase, kByDefault,
+       {{"Jg", S::twist, S::num_links, false}}, kRigidFreeBase, kByDefault,
        {O::mass_matrix, O::end_effector_jacobian}, "",
        "Generalized Jacobian J* (Umetani-Yoshida): end-effector velocity per rate of the joint "
        "coordinates (motor rates in a geared scene) with the base moving so that the momentum "

@@ -48,17 +48,20 @@ constexpr unsigned friction = 8;      // a `friction:` entry
 // defined for a free_floating base"; empty when it can.
 std::string missing_feature(unsigned required, unsigned features);
 
-// A size of the model: the shape of an input or a result.
-enum class Size { one, two, three, nq, nv, num_links, num_links_plus_one, num_base };
+// A size of the model: the shape of an input or a result. pose, twist and point depend on the
+// space the model moves in: a pose [x, y, phi] (3) or [position, quaternion w x y z] (7), a
+// twist, wrench or momentum (3 or 6), a point (2 or 3).
+enum class Size { one, nq, nv, num_links, num_links_plus_one, num_base, pose, twist, point };
 
 // The model's sizes, in one place: nq coordinates, nv velocities (equal for every planar
-// model so far, kept apart for a quaternion base), num_links joints.
+// model so far, kept apart for a quaternion base), num_links joints, and the space.
 struct Dimensions {
   int nq = 0, nv = 0, num_links = 0;
+  bool spatial = false;          // 3D (pose 7, twist 6, point 3); else the plane
   int operator()(Size s) const;  // num_base: the velocities of the base, nv - num_links
 };
 // The name of a size in generated code ("kNv", "3").
-std::string size_constant(Size s);
+std::string size_constant(Size s, const Dimensions& dims);
 
 // Inputs of emitted functions besides the run-time parameters, in a fixed order.
 enum class Input { q, qd, qdd, generalized_forces, joint_accelerations };

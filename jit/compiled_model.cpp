@@ -108,7 +108,8 @@ const std::vector<std::string>& description_symbols() {
                                                  "spacearm_num_base",
                                                  "spacearm_free_floating",
                                                  "spacearm_passive_forces",
-                                                 "spacearm_configuration_layout"};
+                                                 "spacearm_configuration_layout",
+                                                 "spacearm_spatial"};
   return names;
 }
 
@@ -342,7 +343,8 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
   }
   // The model's facts, as the library states them.
   m.name_ = reinterpret_cast<const char* (*)()>(sym("spacearm_name"))();
-  m.dims_ = {number("spacearm_nq"), number("spacearm_nv"), number("spacearm_num_links")};
+  m.dims_ = {number("spacearm_nq"), number("spacearm_nv"), number("spacearm_num_links"),
+             number("spacearm_spatial") != 0};
   m.num_base_ = number("spacearm_num_base");
   m.free_floating_ = number("spacearm_free_floating") != 0;
   m.passive_forces_ = number("spacearm_passive_forces") != 0;

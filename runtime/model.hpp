@@ -74,8 +74,10 @@ class Model {
   using Matrix = Eigen::Matrix<double, kNv, kNv>;
   using Params = Eigen::Matrix<double, kNumParams, 1>;
   using JointVector = Eigen::Matrix<double, kNumLinks, 1>;
-  using Vector3 = Eigen::Matrix<double, 3, 1>;
-  using PoseJacobian = Eigen::Matrix<double, 3, kNv>;
+  // The pose and its Jacobian as the generated header shapes them (the registry's pose and
+  // twist sizes: 3 in the plane).
+  using Vector3 = typename Generated::template Vector3<double>;
+  using PoseJacobian = typename Generated::template PoseJacobian<double>;
   using ConfigurationJacobian = Eigen::Matrix<double, kNv, kNq>;  // d(velocity-sized)/dq
   // The scene emits forward_dynamics_derivatives (the state Jacobian).
   static constexpr bool kHasStateJacobian = detail::has_state_jacobian<Generated>::value;

@@ -72,6 +72,10 @@ struct NearlySingular {
   static constexpr int kNq = 2, kNv = 2, kNumLinks = 2, kNumParams = 1;
   static constexpr bool kFreeFloating = false, kHas_forward_dynamics = false;
   static constexpr const char* kName = "nearly_singular";
+  template <typename T>
+  using Vector3 = Eigen::Matrix<T, 3, 1>;  // as a generated header's (the planar pose)
+  template <typename T>
+  using PoseJacobian = Eigen::Matrix<T, 3, kNv>;
   static const std::array<double, 1>& nominal_parameters() {
     static const std::array<double, 1> p = {1.0};
     return p;
