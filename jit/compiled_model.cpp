@@ -603,6 +603,7 @@ DynamicModel dynamic_model(const CompiledModel& m, const Eigen::VectorXd& params
   d.gear_ratios = m.gear_ratios(params);  // checks params (sizes, finite, ranges) once
   d.actuated_coordinates = m.actuated_coordinates();
   d.passive_forces = m.passive_forces();
+  d.set_layout(m.num_base(), m.quaternion_offset());
   // Only what the scene emits; evaluate() would refuse the rest.
   using V = Eigen::VectorXd;
   if (m.has(Output::end_effector_pose))

@@ -52,7 +52,23 @@ struct DynamicModel {
   std::function<double(const Vector& q)> potential_energy;               // V of the joint springs
   std::function<Velocity(const Velocity& qd)> friction_forces;  // f(w) on each velocity (nv)
 
-  int num_base() const { return free_floating ? 3 : 0; }
+  // The layout as data, not as the plane's numbers: the base's velocities (0 for a fixed base)
+  // and, per joint, the index of its slot in q and in v (equal while nq = nv). set_layout fills
+  // them; every adapter (dynamic_model of a linked or a loaded model) calls it.
+  int base_velocities = 0;
+  std::vector<int> joint_q_offsets, joint_v_offsets;
+  // The joint slots follow the base's num_base velocities (and its coordinates: a quaternion's
+  // extra entry shifts the q offsets by one).
+  void set_layout(int num_base, int quaternion_offset) {
+    base_velocities = num_base;
+    joint_q_offsets.clear();
+    joint_v_offsets.clear();
+    for (int i = 0; i < num_links; ++i) {
+      joint_v_offsets.push_back(num_base + i);
+      joint_q_offsets.push_back(num_base + i + (quaternion_offset >= 0 ? 1 : 0));
+    }
+  }
+  int num_base() const { return base_velocities; }
   bool has_state_jacobian() const { return static_cast<bool>(forward_dynamics_derivatives); }
   // Only the base and one slot per joint: no flexible joint's motor coordinates. The planner
   // and the CLI's link-side columns need it.
@@ -69,8 +85,9 @@ struct DynamicModel {
   JointVector joint_angles(const Eigen::VectorXd& x) const {
     JointVector a(num_links);
     for (int i = 0; i < num_links; ++i) {
-      const int slot = num_base() + i;
-      a[i] = actuated_coordinates.at(i) == slot ? x[slot] / gear_ratios[i] : x[slot];
+      const int slot = joint_q_offsets.at(i);
+      a[i] =
+          actuated_coordinates.at(i) == joint_v_offsets.at(i) ? x[slot] / gear_ratios[i] : x[slot];
     }
     return a;
   }
@@ -78,7 +95,7 @@ struct DynamicModel {
   // Whether joint j's slot holds a motor angle (a rigid gear: qm_j, not q_j), so that tables add
   // its link-side angle q_j = qm_j / p_j as a column of its own.
   bool slot_holds_motor(int j) const {
-    return coordinate_names.at(num_base() + j) != "q" + std::to_string(j + 1);
+    return coordinate_names.at(joint_q_offsets.at(j)) != "q" + std::to_string(j + 1);
   }
 
   // The joint angles (or rates, from qd) that the motor encoders read: qm / p of the coordinate
@@ -97,7 +114,7 @@ struct DynamicModel {
     Vector x(nq);
     x.head(num_base()) = base;
     for (int i = 0; i < num_links; ++i) {
-      const int slot = num_base() + i, motor = actuated_coordinates.at(i);
+      const int slot = joint_q_offsets.at(i), motor = actuated_coordinates.at(i);
       x[slot] = motor == slot ? gear_ratios[i] * angles[i] : angles[i];
       if (motor != slot) x[motor] = gear_ratios[i] * angles[i];
     }
@@ -128,6 +145,7 @@ DynamicModel dynamic_model(const Model<G>& m) {
   const auto actuated = M::actuated_coordinates();
   d.actuated_coordinates.assign(actuated.begin(), actuated.end());
   d.passive_forces = M::kHasPassiveForces;
+  d.set_layout(M::kFirstJoint, -1);
   // Only what the scene emits (the Model<G> functions of an absent output do not exist).
   if constexpr (G::kHas_end_effector_pose)
     d.end_effector_pose = [&m](const Eigen::VectorXd& q) {

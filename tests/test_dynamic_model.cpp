@@ -67,6 +67,18 @@ TEST(DynamicModel, HasOnlyWhatTheSceneEmits) {
   EXPECT_TRUE(d.forward_dynamics);
 }
 
+// The layout is data: a free base's three velocities, then the joint slots in q and in v (the
+// same indices in the plane), whatever the coordinates are named.
+TEST(DynamicModel, StatesItsLayout) {
+  const Geared geared;  // a free base with three joints
+  const DynamicModel d = dynamic_model(geared);
+  EXPECT_EQ(d.num_base(), 3);
+  EXPECT_EQ(d.joint_q_offsets, (std::vector<int>{3, 4, 5}));
+  EXPECT_EQ(d.joint_v_offsets, (std::vector<int>{3, 4, 5}));
+  const FixedN5 fixed;
+  EXPECT_EQ(dynamic_model(fixed).joint_v_offsets, (std::vector<int>{0, 1, 2, 3, 4}));
+}
+
 // The checks are the model's: a NaN is a DynamicsError naming the coordinate, whichever form.
 TEST(DynamicModel, SharesTheModelsChecks) {
   const Geared geared;
