@@ -6,6 +6,7 @@
 #include <map>
 
 #include "numeric_outputs.hpp"
+#include "parameter_rules.hpp"
 #include "planar_chain.hpp"
 
 namespace spacearm {
@@ -45,82 +46,29 @@ std::string value_span(const Scene& scene) {
   return text;
 }
 
-// The scene's range checks for quantities that depend on run-time parameters (positive
-// mass, inertia, length, ratio and stiffness, non-negative motor inertia, damping and friction,
-// positive compensated link inertia): the validation the scene parser does for literals,
-// repeated at run time.
-class ParameterChecks {
- public:
-  ParameterChecks(const Scene& scene, ModelFacts& facts) : facts_(facts), p_(facts.checks_program) {
-    for (size_t i = 0; i < scene.parameters.size(); ++i)
-      index_[scene.parameters[i].name] = static_cast<int>(i);
-    if (scene.free_floating()) {
-      check(scene.base.mass, true, "base.mass must be positive");
-      check(scene.base.inertia, true, "base.inertia must be positive");
-    }
-    for (int i = 0; i < scene.num_links(); ++i) {
-      const Link& l = scene.links[i];
-      const std::string f = "links[" + std::to_string(i) + "]";
-      check(l.mass, true, f + ".mass must be positive");
-      check(l.inertia, true, f + ".inertia must be positive");
-      check(l.length, true, f + ".length must be positive");
-      if (scene.has_gear(i)) gear(*scene.gears[i], l, i);
-      if (scene.has_friction() && scene.friction[i]) friction(*scene.friction[i], i);
-    }
+// The range rules (parameter_rules.hpp) whose value depends on a run-time parameter, as
+// programs: parameter_error() checks them for the parameters' values.
+void parameter_checks(const Scene& scene, ModelFacts& facts) {
+  Program& p = facts.checks_program;
+  std::map<std::string, int> index;
+  for (size_t i = 0; i < scene.parameters.size(); ++i)
+    index[scene.parameters[i].name] = static_cast<int>(i);
+  auto value = [&](const Quantity& q) {
+    if (q.is_parameter()) return p.input("params", index.at(q.parameter));
+    return q.value == 0 ? p.zero() : p.constant(q.value);
+  };
+  auto term = [&](const RangeTerm& t) {
+    if (t.constant) return p.constant(t.coefficient);
+    return t.coefficient < 0 ? -value(t.quantity) : value(t.quantity);
+  };
+  for (const RangeRule& rule : range_rules(scene)) {
+    if (!rule.at_run_time || !rule.uses_parameter()) continue;
+    std::vector<SRef> terms;
+    for (const RangeTerm& t : rule.terms) terms.push_back(term(t));
+    const SRef v = terms.size() == 1 ? terms[0] : p.add(terms);
+    facts.checks.push_back({v, rule.strict, rule.message});
   }
-
- private:
-  ModelFacts& facts_;
-  Program& p_;
-  std::map<std::string, int> index_;
-
-  SRef value(const Quantity& q) {
-    if (q.is_parameter()) return p_.input("params", index_.at(q.parameter));
-    return q.value == 0 ? p_.zero() : p_.constant(q.value);
-  }
-  void check(bool uses_parameter, SRef v, bool strict, const std::string& what) {
-    if (uses_parameter) facts_.checks.push_back({v, strict, what});
-  }
-  void check(const Quantity& q, bool strict, const std::string& what) {
-    check(q.is_parameter(), value(q), strict, what);
-  }
-
-  void gear(const Gear& g, const Link& l, int i) {
-    const std::string gf = "gears[" + std::to_string(i) + "]";
-    check(g.ratio, true, gf + ".ratio must be positive");
-    check(g.motor_inertia, g.flexible(),
-          gf + (g.flexible() ? ".motor_inertia must be positive (a flexible joint)"
-                             : ".motor_inertia must not be negative"));
-    if (g.compensate_link_inertia)
-      check(g.motor_inertia.is_parameter() || l.inertia.is_parameter(),
-            p_.add({value(l.inertia), -value(g.motor_inertia)}), true,
-            gf + ".motor_inertia must be smaller than the inertia of link " +
-                std::to_string(i + 1) + " it compensates");
-    if (g.stiffness) check(*g.stiffness, true, gf + ".stiffness must be positive");
-    if (g.coupling) {
-      check(*g.coupling, false, gf + ".rotor_coupling must be in [0, 1] (not negative)");
-      check(g.coupling->is_parameter(), p_.add({p_.constant(1), -value(*g.coupling)}), false,
-            gf + ".rotor_coupling must be in [0, 1] (not above 1)");
-    }
-    if (g.damping) check(*g.damping, false, gf + ".damping must not be negative");
-  }
-
-  void friction(const Friction& f, int i) {
-    const std::string ff = "friction[" + std::to_string(i) + "]";
-    check(f.viscous, false, ff + ".viscous must not be negative");
-    check(f.coulomb, false, ff + ".coulomb must not be negative");
-    auto at_least = [&](const Quantity& q, const std::string& what) {
-      check(q.is_parameter(), p_.add({value(q), p_.constant(-kMinFrictionVelocity)}), false, what);
-    };
-    if (f.has_coulomb)
-      at_least(f.velocity_scale, ff + ".velocity_scale must be at least 1e-9 rad/s");
-    if (!f.has_stribeck) return;
-    at_least(f.stribeck_velocity, ff + ".stribeck_velocity must be at least 1e-9 rad/s");
-    check(f.stribeck_static.is_parameter() || f.coulomb.is_parameter(),
-          p_.add({value(f.stribeck_static), -value(f.coulomb)}), false,
-          ff + ".stribeck_static must not be below coulomb");
-  }
-};
+}
 
 ModelFacts model_facts(const Scene& scene) {
   ModelFacts facts;
@@ -149,7 +97,7 @@ ModelFacts model_facts(const Scene& scene) {
   facts.formulation = to_string(scene.formulation);
   for (const auto& o : output_registry())
     if (scene.wants(o.id)) facts.outputs.push_back(o.id);
-  ParameterChecks{scene, facts};
+  parameter_checks(scene, facts);
   return facts;
 }
 

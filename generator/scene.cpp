@@ -1,6 +1,7 @@
 #include "scene.hpp"
 
 #include "emitted_text.hpp"
+#include "parameter_rules.hpp"
 #include "yaml_reader.hpp"
 
 #include <yaml-cpp/eventhandler.h>
@@ -11,6 +12,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <regex>
 #include <sstream>
 
@@ -174,6 +176,7 @@ class SceneReader {
     read_links();
     read_gears();
     read_friction();
+    check_ranges();
     read_formulation();  // before the outputs: it decides which are affordable
     coupling_formulation();
     read_outputs();
@@ -191,6 +194,19 @@ class SceneReader {
   Scene s;
   std::map<std::string, int> parameter_index;
   std::set<std::string> used_parameters;
+  std::map<std::string, YAML::Node> nodes;  // by field, for the range rules' errors
+  // "gears[1]" -> "gears" where one mapping gives every joint's gear (per_joint).
+  std::map<std::string, std::string> joint_fields;
+  std::vector<std::function<void()>> after_ranges;  // checks that follow the range rules
+
+  // A rule's field ("gears[1].ratio") as the scene file spells it ("gears.ratio" where one
+  // mapping gives every joint's gear).
+  std::string spelt(const std::string& field) const {
+    const size_t end = field.find(']');
+    if (end == std::string::npos) return field;
+    const auto it = joint_fields.find(field.substr(0, end + 1));
+    return it == joint_fields.end() ? field : it->second + field.substr(end + 1);
+  }
 
   void read_name() {
     const YAML::Node name = r.require(root, "name", "");
@@ -252,15 +268,10 @@ class SceneReader {
   }
 
   // "0.5" or "Im = 1e-5" for messages.
-  std::string shown(const Quantity& q) {
-    return q.is_parameter()
-               ? q.parameter + " = " + s.parameters[parameter_index[q.parameter]].nominal.literal
-               : q.literal;
-  }
-
-  // Resolves a quantity's value and checks its range; `positive` false allows zero.
-  Quantity checked(Quantity q, const std::string& field, const YAML::Node& node, bool positive,
-                   bool allow_negative = false) {
+  // Resolves a quantity's value (a parameter's nominal one) and keeps its node: its range is
+  // checked with the others' (check_ranges).
+  Quantity checked(Quantity q, const std::string& field, const YAML::Node& node) {
+    nodes[field] = node;
     if (q.is_parameter()) {
       auto it = parameter_index.find(q.parameter);
       if (it == parameter_index.end())
@@ -271,18 +282,30 @@ class SceneReader {
       q.value = s.parameters[it->second].nominal.value;
       used_parameters.insert(q.parameter);
     }
-    const std::string shown = this->shown(q);
-    if (!allow_negative) {
-      if (positive && !(q.value > 0)) r.fail(field, "must be positive, got " + shown, node);
-      if (!positive && !(q.value >= 0)) r.fail(field, "must not be negative, got " + shown, node);
-    }
     return q;
   }
-  Quantity number(const YAML::Node& map, const std::string& key, const std::string& field,
-                  bool positive, bool allow_negative = false) {
+  Quantity number(const YAML::Node& map, const std::string& key, const std::string& field) {
     const YAML::Node n = r.require(map, key, field);
     const std::string path = field + "." + key;
-    return checked(r.quantity(n, path), path, n, positive, allow_negative);
+    return checked(r.quantity(n, path), path, n);
+  }
+
+  // The range rules (parameter_rules.hpp) at the literal and nominal values, in their order;
+  // then the warning of a gear that speeds up.
+  void check_ranges() {
+    const auto given = [this](const std::string& field) { return nodes.count(spelt(field)) != 0; };
+    for (const RangeRule& rule : range_rules(s, given)) {
+      if (!rule.at_parse || rule.holds()) continue;
+      const auto node = nodes.find(spelt(rule.node_field.empty() ? rule.field : rule.node_field));
+      r.fail(spelt(rule.field), rule.literal_message, node == nodes.end() ? root : node->second);
+    }
+    for (const auto& check : after_ranges) check();
+    for (int i = 0; i < s.num_links(); ++i)
+      if (s.has_gear(i) && s.gears[i]->ratio.value < 1.0)
+        std::fprintf(stderr,
+                     "warning: scene '%s', field '%s': %g < 1 (a speed-up, not a reduction)\n",
+                     source_name.c_str(), spelt("gears[" + std::to_string(i) + "].ratio").c_str(),
+                     s.gears[i]->ratio.value);
   }
   void pair(const YAML::Node& map, const std::string& key, const std::string& field,
             Quantity out[2]) {
@@ -290,7 +313,7 @@ class SceneReader {
     const std::string path = field + "." + key;
     read_pair(r, n, path, out);
     for (int k = 0; k < 2; ++k)
-      out[k] = checked(out[k], path + "[" + std::to_string(k) + "]", n[k], false, true);
+      out[k] = checked(out[k], path + "[" + std::to_string(k) + "]", n[k]);
   }
 
   void read_base() {
@@ -300,12 +323,12 @@ class SceneReader {
     const std::string type_name = type.IsScalar() ? type.Scalar() : "";
     if (type_name == "free_floating") {
       s.base.type = BaseType::free_floating;
-      s.base.mass = number(base, "mass", "base", true);
-      s.base.inertia = number(base, "inertia", "base", true);
+      s.base.mass = number(base, "mass", "base");
+      s.base.inertia = number(base, "inertia", "base");
     } else if (type_name == "fixed") {
       s.base.type = BaseType::fixed;
-      if (base["mass"].IsDefined()) s.base.mass = number(base, "mass", "base", true);
-      if (base["inertia"].IsDefined()) s.base.inertia = number(base, "inertia", "base", true);
+      if (base["mass"].IsDefined()) s.base.mass = number(base, "mass", "base");
+      if (base["inertia"].IsDefined()) s.base.inertia = number(base, "inertia", "base");
     } else {
       r.fail("base.type", "expected 'free_floating' or 'fixed', got '" + type_name + "'", type);
     }
@@ -326,9 +349,9 @@ class SceneReader {
       const YAML::Node l = links[i];
       r.check_keys(l, field, {"mass", "inertia", "length", "com"});
       Link link;
-      link.mass = number(l, "mass", field, true);
-      link.inertia = number(l, "inertia", field, true);
-      link.length = number(l, "length", field, true);
+      link.mass = number(l, "mass", field);
+      link.inertia = number(l, "inertia", field);
+      link.length = number(l, "length", field);
       pair(l, "com", field, link.com);
       s.links.push_back(link);
     }
@@ -341,7 +364,10 @@ class SceneReader {
     const YAML::Node g = root[key];
     if (!g.IsDefined() || g.IsNull()) return entries;
     if (g.IsMap()) {
-      for (size_t i = 0; i < s.links.size(); ++i) entries.push_back({g, key});
+      for (size_t i = 0; i < s.links.size(); ++i) {
+        entries.push_back({g, key});
+        joint_fields[key + "[" + std::to_string(i) + "]"] = key;  // one mapping for all joints
+      }
     } else if (g.IsSequence()) {
       if (g.size() != s.links.size())
         r.fail(key,
@@ -364,20 +390,11 @@ class SceneReader {
         s.gears.emplace_back();
         continue;
       }
+      nodes[field] = node;
       Gear gear = read_gear(r, node, field);
-      gear.ratio = checked(gear.ratio, field + ".ratio", node["ratio"], true);
-      if (gear.ratio.value < 1.0)
-        std::fprintf(
-            stderr, "warning: scene '%s', field '%s.ratio': %g < 1 (a speed-up, not a reduction)\n",
-            source_name.c_str(), field.c_str(), gear.ratio.value);
+      gear.ratio = checked(gear.ratio, field + ".ratio", node["ratio"]);
       gear.motor_inertia =
-          checked(gear.motor_inertia, field + ".motor_inertia", node["motor_inertia"], false);
-      if (gear.compensate_link_inertia && !(gear.motor_inertia.value < s.links[i].inertia.value))
-        r.fail(field + ".motor_inertia",
-               "motor inertia " + std::to_string(gear.motor_inertia.value) +
-                   " must be smaller than the inertia of link " + std::to_string(i + 1) + " (" +
-                   std::to_string(s.links[i].inertia.value) + ") that it compensates",
-               node);
+          checked(gear.motor_inertia, field + ".motor_inertia", node["motor_inertia"]);
       if (gear.coupling) {
         if (gear.coupling->is_parameter() && !parameter_index.count(gear.coupling->parameter))
           r.fail(field + ".rotor_coupling",
@@ -385,13 +402,7 @@ class SceneReader {
                              "[0, 1], or a parameter declared under 'parameters'), got '") +
                      gear.coupling->parameter + "'",
                  node["rotor_coupling"]);
-        gear.coupling =
-            checked(*gear.coupling, field + ".rotor_coupling", node["rotor_coupling"], false);
-        if (!(gear.coupling->value <= 1))
-          r.fail(
-              field + ".rotor_coupling",
-              "a coupling factor is in [0, 1] (1 exact, 0 armature), got " + shown(*gear.coupling),
-              node["rotor_coupling"]);
+        gear.coupling = checked(*gear.coupling, field + ".rotor_coupling", node["rotor_coupling"]);
       }
       flexibility(gear, node, field);
       s.gears.push_back(gear);
@@ -407,14 +418,8 @@ class SceneReader {
     if (gear.damping && !gear.stiffness)
       r.fail(field + ".damping", "a damper needs a spring: give 'stiffness' too", node["damping"]);
     if (!gear.stiffness) return;
-    gear.stiffness = checked(*gear.stiffness, field + ".stiffness", node["stiffness"], true);
-    if (gear.damping)
-      gear.damping = checked(*gear.damping, field + ".damping", node["damping"], false);
-    if (!(gear.motor_inertia.value > 0))
-      r.fail(field + ".motor_inertia",
-             "a flexible joint (stiffness given) needs motor_inertia > 0, got " +
-                 shown(gear.motor_inertia) + " (the motor coordinate would have no inertia)",
-             node["motor_inertia"]);
+    gear.stiffness = checked(*gear.stiffness, field + ".stiffness", node["stiffness"]);
+    if (gear.damping) gear.damping = checked(*gear.damping, field + ".damping", node["damping"]);
   }
 
   void read_friction() {
@@ -436,48 +441,36 @@ class SceneReader {
   Friction friction(const YAML::Node& n, const std::string& field) {
     r.check_keys(n, field,
                  {"viscous", "coulomb", "velocity_scale", "stribeck_static", "stribeck_velocity"});
-    auto optional = [&](const char* key, bool positive) {
+    auto optional = [&](const char* key) {
       Quantity q;
       q.literal = "0";
-      if (n[key].IsDefined()) q = number(n, key, field, positive);
+      if (n[key].IsDefined()) q = number(n, key, field);
       return q;
     };
     Friction f;
-    f.viscous = optional("viscous", false);
-    f.coulomb = optional("coulomb", false);
-    f.velocity_scale = optional("velocity_scale", true);
-    f.stribeck_static =
-        n["stribeck_static"].IsDefined() ? optional("stribeck_static", false) : f.coulomb;
-    f.stribeck_velocity = optional("stribeck_velocity", true);
-    for (const auto& [key, q] : {std::pair{"velocity_scale", &f.velocity_scale},
-                                 std::pair{"stribeck_velocity", &f.stribeck_velocity}})
-      if (n[key].IsDefined() && q->value < kMinFrictionVelocity)
-        r.fail(field + "." + key,
-               "must be at least 1e-9 rad/s (tanh(w/vs) becomes a step that no integrator "
-               "follows), got " +
-                   shown(*q),
-               n[key]);
+    f.viscous = optional("viscous");
+    f.coulomb = optional("coulomb");
+    f.velocity_scale = optional("velocity_scale");
+    f.stribeck_static = n["stribeck_static"].IsDefined() ? optional("stribeck_static") : f.coulomb;
+    f.stribeck_velocity = optional("stribeck_velocity");
     auto present = [](const Quantity& q) { return q.is_parameter() || q.value != 0; };
     f.has_coulomb = present(f.coulomb) || present(f.stribeck_static);
     f.has_stribeck = n["stribeck_static"].IsDefined() &&
                      (f.stribeck_static.is_parameter() || f.coulomb.is_parameter() ||
                       f.stribeck_static.value != f.coulomb.value);
-    if (f.stribeck_static.value < f.coulomb.value)
-      r.fail(field + ".stribeck_static",
-             "the breakaway level Fs (" + std::to_string(f.stribeck_static.value) +
-                 ") must not be below the Coulomb level Fc (" + std::to_string(f.coulomb.value) +
-                 ")",
-             n["stribeck_static"]);
-    if (f.has_coulomb && !n["velocity_scale"].IsDefined())
-      r.fail(field + ".velocity_scale",
-             "Coulomb or static friction needs a positive velocity_scale vs [rad/s] (tanh(w/vs) "
-             "smooths sign(w))",
-             n);
-    if (f.has_stribeck && !n["stribeck_velocity"].IsDefined())
-      r.fail(field + ".stribeck_velocity",
-             "a Stribeck hump (stribeck_static differs from coulomb) needs a positive "
-             "stribeck_velocity [rad/s]",
-             n);
+    // After the range rules: a breakaway level below Coulomb's is the first thing to fix.
+    after_ranges.push_back([this, f, n, field] {
+      if (f.has_coulomb && !n["velocity_scale"].IsDefined())
+        r.fail(field + ".velocity_scale",
+               "Coulomb or static friction needs a positive velocity_scale vs [rad/s] (tanh(w/vs) "
+               "smooths sign(w))",
+               n);
+      if (f.has_stribeck && !n["stribeck_velocity"].IsDefined())
+        r.fail(field + ".stribeck_velocity",
+               "a Stribeck hump (stribeck_static differs from coulomb) needs a positive "
+               "stribeck_velocity [rad/s]",
+               n);
+    });
     return f;
   }
 

@@ -254,12 +254,8 @@ class Model {
   void update() {
     if (const char* error = Generated::parameter_error(params_))
       throw std::invalid_argument(std::string("model ") + Generated::kName + ": " + error);
+    // The ratios' range is the scene's rule (parameter_rules.hpp), checked above at run time.
     Generated::gear_ratios(params_, ratios_);
-    for (int i = 0; i < kNumLinks; ++i)
-      if (!(ratios_[i] > 0))
-        throw std::invalid_argument(std::string("model ") + Generated::kName +
-                                    ": gear ratio of joint " + std::to_string(i + 1) +
-                                    " must be positive, got " + std::to_string(ratios_[i]));
   }
 };
 

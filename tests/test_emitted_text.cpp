@@ -20,6 +20,7 @@
 #include <sstream>
 
 #include "cpp_emitter.hpp"
+#include "parameter_rules.hpp"
 #include "planar_model.hpp"
 #include "scene.hpp"
 #include "support.hpp"
@@ -35,6 +36,48 @@ std::vector<std::string> lines_of(const std::string& text) {
   std::istringstream in(text);
   for (std::string line; std::getline(in, line);) lines.push_back(line);
   return lines;
+}
+
+// One table of range rules (parameter_rules.hpp) gives the scene's errors and the generated
+// parameter_error(): the run-time checks are exactly the table's rules that use a parameter, in
+// its order; and a nominal value that breaks one of them is a scene error naming its field.
+TEST(EmittedText, ParameterChecksAreTheScenesRangeRules) {
+  const std::string scene_text = R"(name: rules
+parameters: {m: 1.0, p: 50, Im: 1e-5, k: 200, c: 1.0, fc: 0.1, vs: 0.01}
+base: {type: free_floating, mass: 10, inertia: m, mount: [0.1, 0]}
+links:
+  - {mass: m, inertia: 0.1, length: 0.5, com: [0.25, 0]}
+  - {mass: 1, inertia: 0.1, length: 0.5, com: [0.25, 0]}
+gears:
+  - {ratio: p, motor_inertia: Im, stiffness: k}
+  - {ratio: 10, motor_inertia: Im, rotor_coupling: c}
+friction: {viscous: 0.01, coulomb: fc, velocity_scale: vs}
+outputs: [mass_matrix, bias_forces, forward_dynamics]
+)";
+  const Scene scene = parse_scene(scene_text, "rules.yaml");
+  std::vector<std::string> run_time;
+  for (const RangeRule& rule : range_rules(scene))
+    if (rule.at_run_time && rule.uses_parameter()) run_time.push_back(rule.message);
+  const LoweredModel lowered = lower(derive(scene));
+  std::vector<std::string> printed;
+  for (const ParameterCheck& c : lowered.facts.checks) printed.push_back(c.message);
+  EXPECT_EQ(printed, run_time);
+  EXPECT_GE(printed.size(), 10u);  // mass, inertias, ratio, Im (twice), k, c (twice), fc, vs
+  // A nominal value against a rule: the scene's error, naming the field as the file spells it.
+  for (const auto& [from, to, field] :
+       {std::tuple{"p: 50", "p: -5", "gears[0].ratio"},
+        std::tuple{"c: 1.0", "c: 1.5", "gears[1].rotor_coupling"},
+        std::tuple{"vs: 0.01", "vs: 1e-12", "friction.velocity_scale"}}) {
+    std::string text = scene_text;
+    text.replace(text.find(from), std::string(from).size(), to);
+    try {
+      parse_scene(text, "rules.yaml");
+      ADD_FAILURE() << "accepted " << to;
+    } catch (const SceneError& e) {
+      EXPECT_NE(std::string(e.what()).find(std::string("field '") + field + "'"), std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 TEST(EmittedText, CommentLinesSplitEveryLineBreakAndEscapeWhatCouldEscape) {

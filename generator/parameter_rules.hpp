@@ -1,0 +1,47 @@
+// The range rules on a scene's quantities, in one table: positive masses, inertias, lengths,
+// ratios and stiffnesses, non-negative motor inertias, dampers and friction, a compensated link
+// inertia above its motor's, a coupling factor in [0, 1], friction velocities of at least 1e-9.
+// The scene's validation checks them for the literal (and nominal) values and names the field;
+// the generated parameter_error() checks the same rules again for run-time parameter values
+// (planar_model.cpp prints those whose value depends on a parameter).
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "scene.hpp"
+
+namespace spacearm {
+
+// One term of a rule's value: coefficient * quantity, or the constant `coefficient` alone.
+struct RangeTerm {
+  double coefficient = 1;
+  bool constant = false;
+  Quantity quantity;
+};
+
+struct RangeRule {
+  std::string field;             // the field an error names: "gears[0].ratio"
+  std::string node_field;        // the field whose YAML node an error points at (empty: field)
+  std::vector<RangeTerm> terms;  // value = the sum of the terms, in this order
+  bool strict = true;            // value > 0; else value >= 0
+  std::string message;           // at run time, fixed text: "gears[0].ratio must be positive"
+  std::string literal_message;   // at parse time, with the values: "must be positive, got 0"
+  bool at_parse = true;          // the scene checks it
+  bool at_run_time = true;       // parameter_error() checks it (where it uses a parameter)
+
+  bool uses_parameter() const;
+  bool holds() const;  // at the literal and nominal values
+};
+
+// Every rule of the scene, in the order parameter_error() checks them: the base, then per joint
+// its link, gear and friction. given(field): whether the scene file gives an optional field (a
+// fixed base's mass, a friction velocity); by default every one is taken as given.
+std::vector<RangeRule> range_rules(const Scene& scene,
+                                   const std::function<bool(const std::string&)>& given = {});
+
+// "0.5", or "Im = 1e-5" for a parameter with its nominal value, for messages.
+std::string shown(const Scene& scene, const Quantity& q);
+
+}  // namespace spacearm
