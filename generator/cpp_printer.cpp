@@ -388,7 +388,7 @@ std::string c_interface(const LoweredModel& model, int per_part) {
     << "int spacearm_num_base() { return " << facts.num_base << "; }\n"
     << "int spacearm_spatial() { return " << facts.dims.spatial << "; }\n"
     << "int spacearm_free_floating() { return " << facts.free_floating << "; }\n"
-    << "int spacearm_passive_forces() { return " << facts.passive_forces << "; }\n"
+    << "int spacearm_passive_forces() { return " << facts.has_passive_forces() << "; }\n"
     << "// Where a quaternion (w, x, y, z) sits in q; -1: none, and q has one entry per velocity.\n"
     << "int spacearm_configuration_layout() { return " << facts.quaternion_offset << "; }\n"
     << "const char* spacearm_name() { return \"" << facts.name << "\"; }\n"

@@ -54,14 +54,14 @@ struct ModelFacts {
   // The base's velocities (0 for a fixed base) and where a quaternion sits in q (-1: none; the
   // planar models have none, so nq = nv).
   int num_base = 0, quaternion_offset = -1;
-  // Springs, dampers or friction act besides M qdd + b.
-  bool passive_forces = false;
   std::vector<std::string> coordinate_names, parameter_names;
   std::vector<double> nominal_parameters;
   std::string scene_hash;   // "fnv1a64:..."
   std::string formulation;  // the scene's: "auto", "closed" or "recursive"
   std::vector<Output> outputs;
   unsigned features = 0;  // needs:: bits of the scene (outputs.hpp)
+  // Springs, dampers or friction act besides M qdd + b.
+  bool has_passive_forces() const { return (features & (needs::springs | needs::friction)) != 0; }
   // Velocity index that joint torque tau_i drives (as tau_i / p_i, eq. 14), where it is not
   // the joint's own slot (a flexible joint's motor); empty: the joint slots, nv - N .. nv - 1.
   std::vector<int> actuated_coordinates;

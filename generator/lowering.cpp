@@ -248,23 +248,20 @@ FunctionSpec lower_function(const DerivedModel& model, const FunctionSpec& f,
 LoweredModel lower(const DerivedModel& model, const LowerOptions& options) {
   LoweredModel lowered;
   lowered.facts = model.facts;
-  const std::vector<Output>& wanted = model.facts.outputs;
-  auto wants = [&](Output o) { return std::count(wanted.begin(), wanted.end(), o) != 0; };
+  std::vector<Output>& outputs = lowered.facts.outputs;  // in the registry's order
   if (options.plain) {  // the baseline: closed forms only, under its own name
     lowered.facts.name += "_plain";
-    std::vector<Output>& outputs = lowered.facts.outputs;
     outputs.erase(std::remove_if(outputs.begin(), outputs.end(),
                                  [](Output o) { return !info(o).composed_of.empty(); }),
                   outputs.end());
   }
-  for (const OutputInfo& o : output_registry()) {
-    if (!wants(o.id)) continue;
+  const bool has_mass_matrix = std::count(outputs.begin(), outputs.end(), Output::mass_matrix) != 0;
+  for (Output o : outputs) {
     FunctionSpec f;
-    describe(f, o);
-    if (!o.composed_of.empty() && options.plain) continue;  // the baseline has closed forms only
-    lowered.functions.push_back(lower_function(model, f, {o.id}, options.plain));
+    describe(f, info(o));
+    lowered.functions.push_back(lower_function(model, f, {o}, options.plain));
     // M and b together, sharing the sin/cos and common terms (what forward dynamics needs).
-    if (o.id == Output::bias_forces && wants(Output::mass_matrix)) {
+    if (o == Output::bias_forces && has_mass_matrix) {
       FunctionSpec mb;
       mb.name = kMassMatrixAndBias;
       mb.doc = "M and b together, sharing the sin/cos and common terms.";

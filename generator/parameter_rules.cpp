@@ -34,18 +34,25 @@ class RuleTable {
   bool given(const std::string& field) const { return !given_ || given_(field); }
   std::vector<RangeRule> rules;
 
-  // A single quantity > 0 (strict) or >= 0, with the usual messages.
-  RangeRule& sign(const std::string& field, const Quantity& q, bool strict) {
+  // A rule on `field`: the sum of `terms` > 0 (strict) or >= 0.
+  RangeRule& add(const std::string& field, std::vector<RangeTerm> terms, bool strict,
+                 std::string message, std::string literal_message) {
     RangeRule r;
     r.field = field;
-    r.terms = {{1, false, q}};
+    r.terms = std::move(terms);
     r.strict = strict;
-    r.message = field + (strict ? " must be positive" : " must not be negative");
-    r.literal_message =
-        std::string(strict ? "must be positive, got " : "must not be negative, got ") +
-        shown(s_, q);
-    rules.push_back(r);
+    r.message = std::move(message);
+    r.literal_message = std::move(literal_message);
+    rules.push_back(std::move(r));
     return rules.back();
+  }
+
+  // A single quantity > 0 (strict) or >= 0, with the usual messages.
+  RangeRule& sign(const std::string& field, const Quantity& q, bool strict) {
+    return add(field, {{1, false, q}}, strict,
+               field + (strict ? " must be positive" : " must not be negative"),
+               std::string(strict ? "must be positive, got " : "must not be negative, got ") +
+                   shown(s_, q));
   }
 
   void base() {
@@ -75,18 +82,14 @@ class RuleTable {
                            shown(s_, g.motor_inertia) +
                            " (the motor coordinate would have no inertia)";
     }
-    if (g.compensate_link_inertia) {
-      RangeRule r;
-      r.field = gf + ".motor_inertia";
-      r.node_field = gf;
-      r.terms = {{1, false, l.inertia}, {-1, false, g.motor_inertia}};
-      r.message = gf + ".motor_inertia must be smaller than the inertia of link " +
-                  std::to_string(i + 1) + " it compensates";
-      r.literal_message = "motor inertia " + std::to_string(g.motor_inertia.value) +
-                          " must be smaller than the inertia of link " + std::to_string(i + 1) +
-                          " (" + std::to_string(l.inertia.value) + ") that it compensates";
-      rules.push_back(r);
-    }
+    if (g.compensate_link_inertia)
+      add(gf + ".motor_inertia", {{1, false, l.inertia}, {-1, false, g.motor_inertia}}, true,
+          gf + ".motor_inertia must be smaller than the inertia of link " + std::to_string(i + 1) +
+              " it compensates",
+          "motor inertia " + std::to_string(g.motor_inertia.value) +
+              " must be smaller than the inertia of link " + std::to_string(i + 1) + " (" +
+              std::to_string(l.inertia.value) + ") that it compensates")
+          .node_field = gf;
     if (g.stiffness) sign(gf + ".stiffness", *g.stiffness, true);
     if (g.coupling) coupling(*g.coupling, gf);
     if (g.damping) sign(gf + ".damping", *g.damping, false);
@@ -95,13 +98,8 @@ class RuleTable {
   void coupling(const Quantity& c, const std::string& gf) {
     const std::string field = gf + ".rotor_coupling";
     sign(field, c, false).message = field + " must be in [0, 1] (not negative)";
-    RangeRule r;
-    r.field = field;
-    r.terms = {{1, true, {}}, {-1, false, c}};
-    r.strict = false;
-    r.message = field + " must be in [0, 1] (not above 1)";
-    r.literal_message = "a coupling factor is in [0, 1] (1 exact, 0 armature), got " + shown(s_, c);
-    rules.push_back(r);
+    add(field, {{1, true, {}}, {-1, false, c}}, false, field + " must be in [0, 1] (not above 1)",
+        "a coupling factor is in [0, 1] (1 exact, 0 armature), got " + shown(s_, c));
   }
 
   void friction(const Friction& f, int i) {
@@ -113,33 +111,24 @@ class RuleTable {
       const bool is_given = given(ff + "." + key);
       if (is_given) sign(ff + "." + key, q, true).at_run_time = false;
       if (!is_given && !acts) return;
-      RangeRule r;
-      r.field = ff + "." + key;
-      r.terms = {{1, false, q}, {-kMinFrictionVelocity, true, {}}};
-      r.strict = false;
-      r.message = r.field + " must be at least 1e-9 rad/s";
-      r.literal_message =
-          "must be at least 1e-9 rad/s (tanh(w/vs) becomes a step that no integrator follows), "
-          "got " +
-          shown(s_, q);
+      RangeRule& r =
+          add(ff + "." + key, {{1, false, q}, {-kMinFrictionVelocity, true, {}}}, false,
+              ff + "." + key + " must be at least 1e-9 rad/s",
+              "must be at least 1e-9 rad/s (tanh(w/vs) becomes a step that no integrator follows), "
+              "got " +
+                  shown(s_, q));
       r.at_parse = is_given;
       r.at_run_time = acts;
-      rules.push_back(r);
     };
     velocity("velocity_scale", f.velocity_scale, f.has_coulomb);
     if (given(ff + ".stribeck_static"))
       sign(ff + ".stribeck_static", f.stribeck_static, false).at_run_time = false;
     velocity("stribeck_velocity", f.stribeck_velocity, f.has_stribeck);
-    RangeRule r;
-    r.field = ff + ".stribeck_static";
-    r.terms = {{1, false, f.stribeck_static}, {-1, false, f.coulomb}};
-    r.strict = false;
-    r.message = ff + ".stribeck_static must not be below coulomb";
-    r.literal_message = "the breakaway level Fs (" + std::to_string(f.stribeck_static.value) +
-                        ") must not be below the Coulomb level Fc (" +
-                        std::to_string(f.coulomb.value) + ")";
-    r.at_run_time = f.has_stribeck;
-    rules.push_back(r);
+    add(ff + ".stribeck_static", {{1, false, f.stribeck_static}, {-1, false, f.coulomb}}, false,
+        ff + ".stribeck_static must not be below coulomb",
+        "the breakaway level Fs (" + std::to_string(f.stribeck_static.value) +
+            ") must not be below the Coulomb level Fc (" + std::to_string(f.coulomb.value) + ")")
+        .at_run_time = f.has_stribeck;
   }
 
  private:

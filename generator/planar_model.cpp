@@ -85,8 +85,7 @@ ModelFacts model_facts(const Scene& scene) {
       facts.actuated_coordinates.push_back(scene.motor_coordinate(j));
   facts.dims = scene.dimensions();
   facts.free_floating = scene.free_floating();
-  facts.num_base = scene.free_floating() ? 3 : 0;  // x0, y0, q0
-  facts.passive_forces = (scene.features() & (needs::springs | needs::friction)) != 0;
+  facts.num_base = scene.num_base();
   facts.geared = scene.geared();
   facts.coordinate_names = scene.coordinate_names();
   for (const auto& p : scene.parameters) {

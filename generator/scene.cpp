@@ -267,10 +267,9 @@ class SceneReader {
     }
   }
 
-  // "0.5" or "Im = 1e-5" for messages.
   // Resolves a quantity's value (a parameter's nominal one) and keeps its node: its range is
   // checked with the others' (check_ranges).
-  Quantity checked(Quantity q, const std::string& field, const YAML::Node& node) {
+  Quantity resolved(Quantity q, const std::string& field, const YAML::Node& node) {
     nodes[field] = node;
     if (q.is_parameter()) {
       auto it = parameter_index.find(q.parameter);
@@ -287,11 +286,11 @@ class SceneReader {
   Quantity number(const YAML::Node& map, const std::string& key, const std::string& field) {
     const YAML::Node n = r.require(map, key, field);
     const std::string path = field + "." + key;
-    return checked(r.quantity(n, path), path, n);
+    return resolved(r.quantity(n, path), path, n);
   }
 
   // The range rules (parameter_rules.hpp) at the literal and nominal values, in their order;
-  // then the warning of a gear that speeds up.
+  // then the checks that follow them (after_ranges) and the warning of a gear that speeds up.
   void check_ranges() {
     const auto given = [this](const std::string& field) { return nodes.count(spelt(field)) != 0; };
     for (const RangeRule& rule : range_rules(s, given)) {
@@ -313,7 +312,7 @@ class SceneReader {
     const std::string path = field + "." + key;
     read_pair(r, n, path, out);
     for (int k = 0; k < 2; ++k)
-      out[k] = checked(out[k], path + "[" + std::to_string(k) + "]", n[k]);
+      out[k] = resolved(out[k], path + "[" + std::to_string(k) + "]", n[k]);
   }
 
   void read_base() {
@@ -392,9 +391,9 @@ class SceneReader {
       }
       nodes[field] = node;
       Gear gear = read_gear(r, node, field);
-      gear.ratio = checked(gear.ratio, field + ".ratio", node["ratio"]);
+      gear.ratio = resolved(gear.ratio, field + ".ratio", node["ratio"]);
       gear.motor_inertia =
-          checked(gear.motor_inertia, field + ".motor_inertia", node["motor_inertia"]);
+          resolved(gear.motor_inertia, field + ".motor_inertia", node["motor_inertia"]);
       if (gear.coupling) {
         if (gear.coupling->is_parameter() && !parameter_index.count(gear.coupling->parameter))
           r.fail(field + ".rotor_coupling",
@@ -402,7 +401,7 @@ class SceneReader {
                              "[0, 1], or a parameter declared under 'parameters'), got '") +
                      gear.coupling->parameter + "'",
                  node["rotor_coupling"]);
-        gear.coupling = checked(*gear.coupling, field + ".rotor_coupling", node["rotor_coupling"]);
+        gear.coupling = resolved(*gear.coupling, field + ".rotor_coupling", node["rotor_coupling"]);
       }
       flexibility(gear, node, field);
       s.gears.push_back(gear);
@@ -418,8 +417,8 @@ class SceneReader {
     if (gear.damping && !gear.stiffness)
       r.fail(field + ".damping", "a damper needs a spring: give 'stiffness' too", node["damping"]);
     if (!gear.stiffness) return;
-    gear.stiffness = checked(*gear.stiffness, field + ".stiffness", node["stiffness"]);
-    if (gear.damping) gear.damping = checked(*gear.damping, field + ".damping", node["damping"]);
+    gear.stiffness = resolved(*gear.stiffness, field + ".stiffness", node["stiffness"]);
+    if (gear.damping) gear.damping = resolved(*gear.damping, field + ".damping", node["damping"]);
   }
 
   void read_friction() {
@@ -479,9 +478,7 @@ class SceneReader {
   void coupling_formulation() {
     for (size_t i = 0; i < s.gears.size(); ++i) {
       if (!s.gears[i] || !s.gears[i]->coupling) continue;
-      const std::string field =
-          "gears" + std::string(root["gears"].IsSequence() ? "[" + std::to_string(i) + "]" : "") +
-          ".rotor_coupling";
+      const std::string field = spelt("gears[" + std::to_string(i) + "].rotor_coupling");
       if (s.formulation == Formulation::recursive || s.num_links() > kMaxClosedFormLinks)
         r.fail(field,
                "a coupling factor needs the closed form ('formulation: closed', up to " +

@@ -530,8 +530,7 @@ void CompiledModel::mass_matrix_and_bias(const Eigen::VectorXd& q, const Eigen::
                                          Eigen::VectorXd& b) const {
   if (!has(Output::mass_matrix) || !has(Output::bias_forces))
     throw std::invalid_argument(
-        "the scene does not emit mass_matrix and bias_forces (add them "
-        "to outputs)");
+        "the scene does not emit mass_matrix and bias_forces (add them to outputs)");
   check("q", q, dims_.nq);
   check("qd", qd, dims_.nv);
   auto r = call(kMassMatrixAndBias, {{Size::nv, Size::nv}, {Size::nv, Size::one}},

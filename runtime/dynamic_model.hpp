@@ -115,8 +115,9 @@ struct DynamicModel {
     x.head(num_base()) = base;
     for (int i = 0; i < num_links; ++i) {
       const int slot = joint_q_offsets.at(i), motor = actuated_coordinates.at(i);
-      x[slot] = motor == slot ? gear_ratios[i] * angles[i] : angles[i];
-      if (motor != slot) x[motor] = gear_ratios[i] * angles[i];
+      const bool on_slot = motor == joint_v_offsets.at(i);  // a rigid gear's motor angle
+      x[slot] = on_slot ? gear_ratios[i] * angles[i] : angles[i];
+      if (!on_slot) x[motor] = gear_ratios[i] * angles[i];
     }
     return x;
   }

@@ -145,18 +145,28 @@ TEST(SymbolicIdentities, KineticEnergyIsHalfQdMQdAndCqdIsTheBias) {
   }
 }
 
-// The armature approximation drops exactly the rotor's coupling to the previous body:
-// T_exact - T_armature = sum_i I_m (Omega_{i-1} qd_m_i + Omega_{i-1}^2 / 2).
-TEST(SymbolicIdentities, ArmatureDropsOnlyTheRotorCoupling) {
+// A random three-link chain with geared joints (p and I_m as parameters), M and T.
+std::string three_geared_links() {
   ChainSpec spec;
   spec.links = 3;
   spec.geared = spec.gear_parameters = true;
   spec.outputs = "[mass_matrix, kinetic_energy]";
-  const std::string exact = test::random_scene_yaml(spec);
-  std::string armature = exact;
+  return test::random_scene_yaml(spec);
+}
+
+// The same scene with `rotor_coupling: coupling` on every gear.
+std::string with_rotor_coupling(std::string scene, const std::string& coupling) {
   const std::string key = "compensate_link_inertia: true}";
-  armature.replace(armature.find(key), key.size(),
-                   "compensate_link_inertia: true, rotor_coupling: armature}");
+  scene.replace(scene.find(key), key.size(),
+                "compensate_link_inertia: true, rotor_coupling: " + coupling + "}");
+  return scene;
+}
+
+// The armature approximation drops exactly the rotor's coupling to the previous body:
+// T_exact - T_armature = sum_i I_m (Omega_{i-1} qd_m_i + Omega_{i-1}^2 / 2).
+TEST(SymbolicIdentities, ArmatureDropsOnlyTheRotorCoupling) {
+  const std::string exact = three_geared_links();
+  const std::string armature = with_rotor_coupling(exact, "armature");
   const SymbolicModel e = derive(parse_scene(exact, "exact.yaml"));
   const SymbolicModel a = derive(parse_scene(armature, "armature.yaml"));
   ASSERT_TRUE(a.scene.gears[0]->armature);
@@ -189,18 +199,8 @@ TEST(SymbolicIdentities, ArmatureDropsOnlyTheRotorCoupling) {
 // and the armature model at c = 0, exactly (T and M, symbolically); the factor makes the
 // formulation closed, and its run-time range [0, 1] is checked by the generated code.
 TEST(SymbolicIdentities, CouplingFactorSpansExactAndArmature) {
-  ChainSpec spec;
-  spec.links = 3;
-  spec.geared = spec.gear_parameters = true;
-  spec.outputs = "[mass_matrix, kinetic_energy]";
-  const std::string exact = test::random_scene_yaml(spec);
-  auto with = [&](const std::string& coupling) {
-    std::string t = exact;
-    const std::string key = "compensate_link_inertia: true}";
-    t.replace(t.find(key), key.size(),
-              "compensate_link_inertia: true, rotor_coupling: " + coupling + "}");
-    return t;
-  };
+  const std::string exact = three_geared_links();
+  auto with = [&](const std::string& coupling) { return with_rotor_coupling(exact, coupling); };
   std::string factor = with("c");
   factor.replace(factor.find("parameters: {"), 13, "parameters: {c: 0.5, ");
   const SymbolicModel e = derive(parse_scene(exact, "exact.yaml"));
