@@ -162,8 +162,8 @@ struct States {
         for (int i = 0; i < 3; ++i) r[i] *= 0.1;
       }
       for (int j = 0; j < M::kNumLinks; ++j) {
-        a[M::kFirstJoint + j] *= model.gear_ratios()[j];
-        r[M::kFirstJoint + j] *= model.gear_ratios()[j];
+        a[M::kNumBase + j] *= model.gear_ratios()[j];
+        r[M::kNumBase + j] *= model.gear_ratios()[j];
       }
       q.push_back(a);
       qd.push_back(r);
@@ -269,8 +269,8 @@ void register_mujoco(const std::string& scene_file, const std::string& name) {
     States<G> s(model);
     for (int k = 0; k < kStates; ++k)  // to joint coordinates
       for (int j = 0; j < M::kNumLinks; ++j) {
-        s.q[k][M::kFirstJoint + j] /= model.gear_ratios()[j];
-        s.qd[k][M::kFirstJoint + j] /= model.gear_ratios()[j];
+        s.q[k][M::kNumBase + j] /= model.gear_ratios()[j];
+        s.qd[k][M::kNumBase + j] /= model.gear_ratios()[j];
       }
     return s;
   };
@@ -318,7 +318,7 @@ bool agrees_with_mujoco(const std::string& scene_file, const std::string& name) 
   const States<G> s(model);
   MujocoModel mj(load_scene(scene_file));
   typename M::Vector g = M::Vector::Ones();
-  for (int j = 0; j < M::kNumLinks; ++j) g[M::kFirstJoint + j] = 1 / model.gear_ratios()[j];
+  for (int j = 0; j < M::kNumLinks; ++j) g[M::kNumBase + j] = 1 / model.gear_ratios()[j];
   double worst_M = 0, worst_b = 0;
   for (int k = 0; k < kStates; ++k) {
     const typename M::Vector q = g.cwiseProduct(s.q[k]), qd = g.cwiseProduct(s.qd[k]);

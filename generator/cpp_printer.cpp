@@ -356,6 +356,9 @@ std::string c_interface(const LoweredModel& model, int per_part) {
     actuated += (j ? ", " : "") + std::to_string(facts.actuated_coordinates.empty()
                                                      ? facts.dims.nv - facts.dims.num_links + j
                                                      : facts.actuated_coordinates[j]);
+  std::string motor_angle_slots;
+  for (int j = 0; j < facts.dims.num_links; ++j)
+    motor_angle_slots += (j ? ", " : "") + std::to_string(int(facts.motor_angle_slots.at(j)));
   std::ostringstream functions;
   bool trig_batches = false;
   for (const auto& f : model.functions) {
@@ -378,7 +381,8 @@ std::string c_interface(const LoweredModel& model, int per_part) {
     << "const char* const kParameterNames[] = {"
     << (nominal.empty() ? "\"\"" : quoted_list(facts.parameter_names)) << "};\n"
     << "const double kNominalParameters[] = {" << (nominal.empty() ? "0.0" : nominal) << "};\n"
-    << "const int kActuatedCoordinates[] = {" << actuated << "};\n}  // namespace\n\n"
+    << "const int kActuatedCoordinates[] = {" << actuated << "};\n"
+    << "const int kMotorAngleSlots[] = {" << motor_angle_slots << "};\n}  // namespace\n\n"
     << "extern \"C\" {\n"
     << "int spacearm_abi_version() { return " << kCInterfaceVersion << "; }\n"
     << "int spacearm_nq() { return " << facts.dims.nq << "; }\n"
@@ -396,6 +400,8 @@ std::string c_interface(const LoweredModel& model, int per_part) {
     << "const char* spacearm_parameter_name(int i) { return kParameterNames[i]; }\n"
     << "double spacearm_nominal_parameter(int i) { return kNominalParameters[i]; }\n"
     << "int spacearm_actuated_coordinate(int joint) { return kActuatedCoordinates[joint]; }\n"
+    << "// 1 where the joint's slot in q holds its motor angle qm = p q (a rigid gear, eq. 12).\n"
+    << "int spacearm_slot_holds_motor(int joint) { return kMotorAngleSlots[joint]; }\n"
     << "unsigned long spacearm_outputs() { return " << output_mask(facts.outputs) << "ul; }\n"
     << "const char* spacearm_scene_hash() { return \"" << facts.scene_hash << "\"; }\n"
     << "const char* spacearm_parameter_error([[maybe_unused]] const double* params) {\n"

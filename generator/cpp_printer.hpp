@@ -16,8 +16,8 @@ inline constexpr const char* kGeneratorVersion = "0.3.0";
 // with arrays column-major in the order and shapes of its FunctionSpec; the model describes
 // itself (spacearm_name, _nq, _nv, _num_links, _num_base, _spatial, _free_floating,
 // _passive_forces, _configuration_layout, _outputs, ...), so a loader needs no scene. 7: the
-// self-description.
-inline constexpr int kCInterfaceVersion = 7;
+// self-description. 8: per joint, whether its slot holds a motor angle (_slot_holds_motor).
+inline constexpr int kCInterfaceVersion = 8;
 
 struct PrintOptions {
   std::string scene_path;  // as shown in the banner (keep it relative for reproducibility)

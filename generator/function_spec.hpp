@@ -65,6 +65,9 @@ struct ModelFacts {
   // Velocity index that joint torque tau_i drives (as tau_i / p_i, eq. 14), where it is not
   // the joint's own slot (a flexible joint's motor); empty: the joint slots, nv - N .. nv - 1.
   std::vector<int> actuated_coordinates;
+  // Per joint: its slot in q holds the motor angle qm = p q (a rigid gear, eq. 12), not the link
+  // angle q (no gear, or a flexible joint, whose motor angle has a coordinate of its own).
+  std::vector<bool> motor_angle_slots;
   Program checks_program;  // inputs: params(i)
   std::vector<ParameterCheck> checks;
 };

@@ -83,6 +83,8 @@ ModelFacts model_facts(const Scene& scene) {
   if (scene.num_flexible())
     for (int j = 0; j < scene.num_links(); ++j)
       facts.actuated_coordinates.push_back(scene.motor_coordinate(j));
+  for (int j = 0; j < scene.num_links(); ++j)
+    facts.motor_angle_slots.push_back(scene.has_gear(j) && !scene.is_flexible(j));
   facts.dims = scene.dimensions();
   facts.free_floating = scene.free_floating();
   facts.num_base = scene.num_base();

@@ -109,7 +109,8 @@ const std::vector<std::string>& description_symbols() {
                                                  "spacearm_free_floating",
                                                  "spacearm_passive_forces",
                                                  "spacearm_configuration_layout",
-                                                 "spacearm_spatial"};
+                                                 "spacearm_spatial",
+                                                 "spacearm_slot_holds_motor"};
   return names;
 }
 
@@ -364,7 +365,11 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
     m.parameter_names_.push_back(parameter(i));
     m.nominal_.push_back(nominal(i));
   }
-  for (int j = 0; j < m.dims_.num_links; ++j) m.actuated_.push_back(actuated(j));
+  auto motor_on_slot = reinterpret_cast<int (*)(int)>(sym("spacearm_slot_holds_motor"));
+  for (int j = 0; j < m.dims_.num_links; ++j) {
+    m.actuated_.push_back(actuated(j));
+    m.motor_angle_slots_.push_back(motor_on_slot(j) != 0);
+  }
   // A cross-check only: the hash already names the scene.
   if (m.name_ != scene.name || m.dims_.nq != scene.num_coordinates() ||
       m.dims_.nv != scene.num_velocities() || m.dims_.num_links != scene.num_links() ||
@@ -373,6 +378,11 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
     why = "its facts do not match the scene";
     return m;
   }
+  for (int j = 0; j < m.dims_.num_links; ++j)
+    if (m.motor_angle_slots_[j] != (scene.has_gear(j) && !scene.is_flexible(j))) {
+      why = "its joint slots do not match the scene";
+      return m;
+    }
   m.parameter_error_ =
       reinterpret_cast<const char* (*)(const double*)>(sym("spacearm_parameter_error"));
   for (const auto& f : exported_functions(m.outputs_)) {
@@ -401,6 +411,7 @@ CompiledModel& CompiledModel::operator=(CompiledModel&& o) noexcept {
   parameter_names_ = std::move(o.parameter_names_);
   nominal_ = std::move(o.nominal_);
   actuated_ = std::move(o.actuated_);
+  motor_angle_slots_ = std::move(o.motor_angle_slots_);
   free_floating_ = o.free_floating_;
   passive_forces_ = o.passive_forces_;
   num_base_ = o.num_base_;
@@ -542,13 +553,41 @@ double CompiledModel::kinetic_energy(const Eigen::VectorXd& q, const Eigen::Vect
                                      const Eigen::VectorXd& params) const {
   return evaluate(Output::kinetic_energy, {q, qd}, params)[0](0, 0);
 }
-Eigen::Vector3d CompiledModel::momentum(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+Eigen::VectorXd CompiledModel::momentum(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                                         const Eigen::VectorXd& params) const {
   return evaluate(Output::momentum, {q, qd}, params)[0];
 }
-Eigen::Vector3d CompiledModel::end_effector_pose(const Eigen::VectorXd& q,
+Eigen::VectorXd CompiledModel::end_effector_pose(const Eigen::VectorXd& q,
                                                  const Eigen::VectorXd& params) const {
   return evaluate(Output::end_effector_pose, {q}, params)[0];
+}
+Eigen::MatrixXd CompiledModel::end_effector_jacobian(const Eigen::VectorXd& q,
+                                                     const Eigen::VectorXd& params) const {
+  return evaluate(Output::end_effector_jacobian, {q}, params)[0];
+}
+double CompiledModel::potential_energy(const Eigen::VectorXd& q,
+                                       const Eigen::VectorXd& params) const {
+  return evaluate(Output::potential_energy, {q}, params)[0](0, 0);
+}
+Eigen::VectorXd CompiledModel::friction_forces(const Eigen::VectorXd& qd,
+                                               const Eigen::VectorXd& params) const {
+  return evaluate(Output::friction_forces, {qd}, params)[0];
+}
+bool CompiledModel::has_forward_dynamics() const {
+  return has(Output::forward_dynamics) ||
+         (has(Output::mass_matrix) && has(Output::bias_forces) && !passive_forces_);
+}
+Eigen::VectorXd CompiledModel::forward_dynamics_derivatives(
+    const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& Q,
+    const Eigen::VectorXd& params, Eigen::MatrixXd& dqdd_dq, Eigen::MatrixXd& dqdd_dqd) const {
+  auto r = evaluate(Output::forward_dynamics_derivatives, {q, qd, Q}, params);
+  for (const auto& part : r)
+    if (!part.allFinite())
+      throw DynamicsError("model " + name_ +
+                          ": the state Jacobian is not finite (mass matrix singular?)");
+  dqdd_dq = std::move(r[0]);
+  dqdd_dqd = std::move(r[1]);
+  return r[2];
 }
 Eigen::VectorXd CompiledModel::forward_dynamics(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                                                 const Eigen::VectorXd& Q,
@@ -591,62 +630,45 @@ void check_forward_dynamics(const std::vector<Eigen::MatrixXd>& results,
                          Eigen::VectorXd(results[0]), model_name);
 }
 
-DynamicModel dynamic_model(const CompiledModel& m, const Eigen::VectorXd& params) {
-  DynamicModel d;
-  d.name = m.name();
-  d.nq = m.nq();
-  d.nv = m.nv();
-  d.num_links = m.num_links();
-  d.free_floating = m.free_floating();
-  d.coordinate_names = m.coordinate_names();
-  d.gear_ratios = m.gear_ratios(params);  // checks params (sizes, finite, ranges) once
-  d.actuated_coordinates = m.actuated_coordinates();
-  d.passive_forces = m.passive_forces();
-  d.set_layout(m.num_base(), m.quaternion_offset());
-  // Only what the scene emits; evaluate() would refuse the rest.
-  using V = Eigen::VectorXd;
-  if (m.has(Output::end_effector_pose))
-    d.end_effector_pose = [&m, params](const V& q) { return m.end_effector_pose(q, params); };
-  if (m.has(Output::end_effector_jacobian))
-    d.end_effector_jacobian = [&m, params](const V& q) {
-      return Eigen::MatrixXd(m.evaluate(Output::end_effector_jacobian, {q}, params).front());
-    };
-  if (m.has(Output::mass_matrix) && m.has(Output::bias_forces))
-    d.mass_matrix_and_bias = [&m, params](const V& q, const V& qd, Eigen::MatrixXd& M, V& b) {
-      m.mass_matrix_and_bias(q, qd, params, M, b);
-    };
-  if (m.has(Output::forward_dynamics) || d.mass_matrix_and_bias)
-    d.forward_dynamics = [&m, params](const V& q, const V& qd, const V& Q) {
-      return m.forward_dynamics(q, qd, Q, params);
-    };
-  if (m.has(Output::forward_dynamics_derivatives))
-    d.forward_dynamics_derivatives = [&m, params](const V& q, const V& qd, const V& Q,
-                                                  Eigen::MatrixXd& dqdd_dq,
-                                                  Eigen::MatrixXd& dqdd_dqd) {
-      auto r = m.evaluate(Output::forward_dynamics_derivatives, {q, qd, Q}, params);
-      for (const auto& part : r)
-        if (!part.allFinite())
-          throw DynamicsError("model " + m.name() +
-                              ": the state Jacobian is not finite (mass matrix singular?)");
-      dqdd_dq = std::move(r[0]);
-      dqdd_dqd = std::move(r[1]);
-      return V(r[2]);
-    };
-  if (m.has(Output::kinetic_energy))
-    d.kinetic_energy = [&m, params](const V& q, const V& qd) {
-      return m.kinetic_energy(q, qd, params);
-    };
-  if (m.has(Output::potential_energy))
-    d.potential_energy = [&m, params](const V& q) {
-      return m.evaluate(Output::potential_energy, {q}, params)[0](0, 0);
-    };
-  if (m.has(Output::friction_forces))
-    d.friction_forces = [&m, params](const V& qd) {
-      return V(m.evaluate(Output::friction_forces, {qd}, params)[0]);
-    };
-  if (m.has(Output::momentum))
-    d.momentum = [&m, params](const V& q, const V& qd) { return m.momentum(q, qd, params); };
-  return d;
+bool LoadedSource::has(F f) const {
+  switch (f) {
+    case F::end_effector_pose:
+      return m_->has(Output::end_effector_pose);
+    case F::end_effector_jacobian:
+      return m_->has(Output::end_effector_jacobian);
+    case F::mass_matrix_and_bias:
+      return m_->has(Output::mass_matrix) && m_->has(Output::bias_forces);
+    case F::forward_dynamics:
+      return m_->has_forward_dynamics();
+    case F::forward_dynamics_derivatives:
+      return m_->has(Output::forward_dynamics_derivatives);
+    case F::kinetic_energy:
+      return m_->has(Output::kinetic_energy);
+    case F::potential_energy:
+      return m_->has(Output::potential_energy);
+    case F::friction_forces:
+      return m_->has(Output::friction_forces);
+    case F::momentum:
+      return m_->has(Output::momentum);
+  }
+  return false;
+}
+
+DynamicModelFacts LoadedSource::facts() const {
+  DynamicModelFacts f;
+  f.name = m_->name();
+  f.nq = m_->nq();
+  f.nv = m_->nv();
+  f.num_links = m_->num_links();
+  f.free_floating = m_->free_floating();
+  f.coordinate_names = m_->coordinate_names();
+  f.gear_ratios = m_->gear_ratios(params_);  // checks params (sizes, finite, ranges) once
+  f.actuated_coordinates = m_->actuated_coordinates();
+  f.motor_angle_slots = m_->motor_angle_slots();
+  f.passive_forces = m_->passive_forces();
+  f.base_velocities = m_->num_base();
+  f.quaternion_offset = m_->quaternion_offset();
+  return f;
 }
 
 }  // namespace spacearm

@@ -79,6 +79,8 @@ class CompiledModel {
   int quaternion_offset() const { return quaternion_offset_; }
   // Per joint, the velocity index its torque drives (DynamicModel::actuated_coordinates).
   const std::vector<int>& actuated_coordinates() const { return actuated_; }
+  // Per joint, whether its slot in q holds the motor angle qm = p q (a rigid gear, eq. 12).
+  const std::vector<bool>& motor_angle_slots() const { return motor_angle_slots_; }
   // Springs, dampers or friction besides M qdd + b.
   bool passive_forces() const { return passive_forces_; }
 
@@ -105,14 +107,27 @@ class CompiledModel {
                             Eigen::VectorXd& b) const;
   double kinetic_energy(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                         const Eigen::VectorXd& params) const;
-  Eigen::Vector3d momentum(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+  Eigen::VectorXd momentum(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                            const Eigen::VectorXd& params) const;
-  Eigen::Vector3d end_effector_pose(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const;
+  Eigen::VectorXd end_effector_pose(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const;
+  Eigen::MatrixXd end_effector_jacobian(const Eigen::VectorXd& q,
+                                        const Eigen::VectorXd& params) const;
+  double potential_energy(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const;
+  Eigen::VectorXd friction_forces(const Eigen::VectorXd& qd, const Eigen::VectorXd& params) const;
   Eigen::VectorXd gear_ratios(const Eigen::VectorXd& params) const;
+  // forward_dynamics works: the scene emits it, or M and b with nothing acting besides them.
+  bool has_forward_dynamics() const;
   // qdd = M^-1 (Q - b): the emitted solve if the scene has forward_dynamics, else a Cholesky
   // factorization of M; with the checks of runtime/dynamics_checks.hpp (DynamicsError).
   Eigen::VectorXd forward_dynamics(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                                    const Eigen::VectorXd& Q, const Eigen::VectorXd& params) const;
+  // The state Jacobian dqdd/dq, dqdd/dqd at constant Q; returns qdd. DynamicsError where a
+  // result is not finite (as Model<G>'s).
+  Eigen::VectorXd forward_dynamics_derivatives(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                                               const Eigen::VectorXd& Q,
+                                               const Eigen::VectorXd& params,
+                                               Eigen::MatrixXd& dqdd_dq,
+                                               Eigen::MatrixXd& dqdd_dqd) const;
 
   // The exported C function of an output, called as cpp_printer.hpp says, with no checks:
   // for callers that check their inputs once and then call it many times (benchmarks). It
@@ -131,6 +146,7 @@ class CompiledModel {
   std::vector<std::string> coordinate_names_, parameter_names_;
   std::vector<double> nominal_;
   std::vector<int> actuated_;
+  std::vector<bool> motor_angle_slots_;
   bool free_floating_ = false, passive_forces_ = false;
   int num_base_ = 0, quaternion_offset_ = -1;
   static CompiledModel open_verified(const Scene& scene, const Fd& library, StageReport& rep,
@@ -145,9 +161,45 @@ class CompiledModel {
                                     const Eigen::VectorXd& params) const;
 };
 
+// A loaded model at the parameter values `params` as a source of dynamic_model_of
+// (runtime/dynamic_model.hpp): its facts as the library states them, its functions by name.
+class LoadedSource {
+ public:
+  using F = DynamicModel::Function;
+  using V = Eigen::VectorXd;
+  using Mx = Eigen::MatrixXd;
+  LoadedSource(const CompiledModel& m, Eigen::VectorXd params)
+      : m_(&m), params_(std::move(params)) {}
+  bool has(F f) const;
+  DynamicModelFacts facts() const;  // checks the parameters (sizes, finite, ranges)
+  V end_effector_pose(const V& q) const { return m_->end_effector_pose(q, params_); }
+  Mx end_effector_jacobian(const V& q) const { return m_->end_effector_jacobian(q, params_); }
+  void mass_matrix_and_bias(const V& q, const V& qd, Mx& M, V& b) const {
+    m_->mass_matrix_and_bias(q, qd, params_, M, b);
+  }
+  V forward_dynamics(const V& q, const V& qd, const V& Q) const {
+    return m_->forward_dynamics(q, qd, Q, params_);
+  }
+  V forward_dynamics_derivatives(const V& q, const V& qd, const V& Q, Mx& dq, Mx& dqd) const {
+    return m_->forward_dynamics_derivatives(q, qd, Q, params_, dq, dqd);
+  }
+  double kinetic_energy(const V& q, const V& qd) const {
+    return m_->kinetic_energy(q, qd, params_);
+  }
+  double potential_energy(const V& q) const { return m_->potential_energy(q, params_); }
+  V friction_forces(const V& qd) const { return m_->friction_forces(qd, params_); }
+  V momentum(const V& q, const V& qd) const { return m_->momentum(q, qd, params_); }
+
+ private:
+  const CompiledModel* m_;
+  Eigen::VectorXd params_;
+};
+
 // The runtime's dynamic-size model (runtime/dynamic_model.hpp) of a loaded model at the
 // parameter values `params` (checked here). The result refers to m: keep m alive and in place.
-DynamicModel dynamic_model(const CompiledModel& m, const Eigen::VectorXd& params);
+inline DynamicModel dynamic_model(const CompiledModel& m, const Eigen::VectorXd& params) {
+  return dynamic_model_of(LoadedSource(m, params));
+}
 
 // runtime/dynamics_checks.hpp's checks on the results of evaluate(Output::forward_dynamics, ...)
 // (qdd, pivots, scaled_pivots: the registry's order); DynamicsError when one fails.

@@ -1,8 +1,9 @@
 // The dynamic-size runtime model: one interface for code whose sizes are known only at run time
 // (a loaded CompiledModel, jit/) and for algorithms written once for every model (the planner,
-// simulate() behind the CLI). A linked Model<G> converts to it with dynamic_model(). Its
-// functions are the model's own, so the checks are shared: forward_dynamics throws the same
-// DynamicsError (dynamics_checks.hpp) whichever model is behind it.
+// simulate() behind the CLI). dynamic_model() builds it, the same way for every model, from a
+// source: LinkedSource (a linked Model<G>, below) or jit's LoadedSource. Its functions are the
+// model's own, so the checks are shared: forward_dynamics throws the same DynamicsError
+// (dynamics_checks.hpp) whichever model is behind it.
 #pragma once
 
 #include <Eigen/Core>
@@ -16,14 +17,8 @@
 
 namespace spacearm {
 
-struct DynamicModel {
-  using Vector = Eigen::VectorXd;       // configuration q (nq)
-  using Velocity = Eigen::VectorXd;     // qd, qdd, generalized forces Q, bias b (nv)
-  using JointVector = Eigen::VectorXd;  // one value per joint
-  using Vector3 = Eigen::Vector3d;
-  using Matrix = Eigen::MatrixXd;                 // nv x nv
-  using ConfigurationJacobian = Eigen::MatrixXd;  // nv x nq
-
+// What a model states about itself, whichever way it was built.
+struct DynamicModelFacts {
   std::string name;
   int nq = 0, nv = 0, num_links = 0;
   bool free_floating = false;
@@ -32,13 +27,40 @@ struct DynamicModel {
   // Per joint, the velocity index its torque drives: the joint's slot (num_base() + i), or the
   // motor coordinate of a flexible joint (after all joint slots).
   std::vector<int> actuated_coordinates;
+  // Per joint: its slot in q holds the motor angle qm = p q (a rigid gear, eq. 12).
+  std::vector<bool> motor_angle_slots;
   // Springs, dampers or friction act besides M qdd + b (forward_dynamics includes them;
   // mass_matrix_and_bias alone does not describe the dynamics).
   bool passive_forces = false;
+  // The base's velocities (0 for a fixed base) and where a quaternion sits in q (-1: none).
+  int base_velocities = 0, quaternion_offset = -1;
+};
+
+struct DynamicModel : DynamicModelFacts {
+  using Vector = Eigen::VectorXd;                 // configuration q (nq)
+  using Velocity = Eigen::VectorXd;               // qd, qdd, generalized forces Q, bias b (nv)
+  using JointVector = Eigen::VectorXd;            // one value per joint
+  using Pose = Eigen::VectorXd;                   // the registry's pose: [x, y, phi] in the plane
+  using Momentum = Eigen::VectorXd;               // [Px, Py, L] in the plane
+  using Matrix = Eigen::MatrixXd;                 // nv x nv
+  using ConfigurationJacobian = Eigen::MatrixXd;  // nv x nq
+
+  // The functions a source may have; dynamic_model() asks it for each.
+  enum class Function {
+    end_effector_pose,
+    end_effector_jacobian,
+    mass_matrix_and_bias,
+    forward_dynamics,  // emitted, or M and b without passive forces (a Cholesky solve)
+    forward_dynamics_derivatives,
+    kinetic_energy,
+    potential_energy,
+    friction_forces,
+    momentum,
+  };
 
   // Each function is empty where the scene does not emit what it needs.
-  std::function<Vector3(const Vector& q)> end_effector_pose;
-  std::function<Eigen::MatrixXd(const Vector& q)> end_effector_jacobian;  // 3 x nv
+  std::function<Pose(const Vector& q)> end_effector_pose;
+  std::function<Eigen::MatrixXd(const Vector& q)> end_effector_jacobian;  // twist x nv
   std::function<void(const Vector& q, const Velocity& qd, Eigen::MatrixXd& M, Velocity& b)>
       mass_matrix_and_bias;
   // qdd = M^-1 (Q - b), eq. 8, with check_forward_dynamics (DynamicsError).
@@ -48,24 +70,23 @@ struct DynamicModel {
                          ConfigurationJacobian& dqdd_dq, Matrix& dqdd_dqd)>
       forward_dynamics_derivatives;
   std::function<double(const Vector& q, const Velocity& qd)> kinetic_energy;
-  std::function<Vector3(const Vector& q, const Velocity& qd)> momentum;  // [Px, Py, L]
-  std::function<double(const Vector& q)> potential_energy;               // V of the joint springs
+  std::function<Momentum(const Vector& q, const Velocity& qd)> momentum;
+  std::function<double(const Vector& q)> potential_energy;      // V of the joint springs
   std::function<Velocity(const Velocity& qd)> friction_forces;  // f(w) on each velocity (nv)
 
-  // The layout as data, not as the plane's numbers: the base's velocities (0 for a fixed base)
-  // and, per joint, the index of its slot in q and in v (equal while nq = nv). set_layout fills
-  // them; every adapter (dynamic_model of a linked or a loaded model) calls it.
-  int base_velocities = 0;
+  // The layout as data, not as the plane's numbers: per joint, the index of its slot in q and
+  // in v (equal while nq = nv). set_layout fills them from the facts; dynamic_model() calls it.
   std::vector<int> joint_q_offsets, joint_v_offsets;
-  // The joint slots follow the base's num_base velocities (and its coordinates: a quaternion's
-  // extra entry shifts the q offsets by one).
-  void set_layout(int num_base, int quaternion_offset) {
+  // The joint slots follow the base's velocities (and its coordinates: a quaternion's extra
+  // entry shifts the q offsets by one).
+  void set_layout(int num_base, int quaternion) {
     base_velocities = num_base;
+    quaternion_offset = quaternion;
     joint_q_offsets.clear();
     joint_v_offsets.clear();
     for (int i = 0; i < num_links; ++i) {
       joint_v_offsets.push_back(num_base + i);
-      joint_q_offsets.push_back(num_base + i + (quaternion_offset >= 0 ? 1 : 0));
+      joint_q_offsets.push_back(num_base + i + (quaternion >= 0 ? 1 : 0));
     }
   }
   int num_base() const { return base_velocities; }
@@ -80,23 +101,20 @@ struct DynamicModel {
     return qd;
   }
 
-  // Link-side joint angles (or rates, from qd): a slot that the joint's torque drives holds the
-  // motor angle qm = p q (eq. 12; p = 1 without a gear); a flexible joint's slot holds q itself.
+  // Link-side joint angles (or rates, from qd): a slot that holds the motor angle qm = p q
+  // (eq. 12) is divided by p; any other slot holds q itself.
   JointVector joint_angles(const Eigen::VectorXd& x) const {
     JointVector a(num_links);
     for (int i = 0; i < num_links; ++i) {
-      const int slot = joint_q_offsets.at(i);
-      a[i] =
-          actuated_coordinates.at(i) == joint_v_offsets.at(i) ? x[slot] / gear_ratios[i] : x[slot];
+      const double slot = x[joint_q_offsets.at(i)];
+      a[i] = slot_holds_motor(i) ? slot / gear_ratios[i] : slot;
     }
     return a;
   }
 
   // Whether joint j's slot holds a motor angle (a rigid gear: qm_j, not q_j), so that tables add
   // its link-side angle q_j = qm_j / p_j as a column of its own.
-  bool slot_holds_motor(int j) const {
-    return coordinate_names.at(joint_q_offsets.at(j)) != "q" + std::to_string(j + 1);
-  }
+  bool slot_holds_motor(int j) const { return motor_angle_slots.at(j); }
 
   // The joint angles (or rates, from qd) that the motor encoders read: qm / p of the coordinate
   // each joint's torque drives (q itself without a gear). Feedback from them is collocated with
@@ -115,8 +133,8 @@ struct DynamicModel {
     x.head(num_base()) = base;
     for (int i = 0; i < num_links; ++i) {
       const int slot = joint_q_offsets.at(i), motor = actuated_coordinates.at(i);
-      const bool on_slot = motor == joint_v_offsets.at(i);  // a rigid gear's motor angle
-      x[slot] = on_slot ? gear_ratios[i] * angles[i] : angles[i];
+      const bool on_slot = motor == joint_v_offsets.at(i);  // the torque drives the slot
+      x[slot] = slot_holds_motor(i) ? gear_ratios[i] * angles[i] : angles[i];
       if (!on_slot) x[motor] = gear_ratios[i] * angles[i];
     }
     return x;
@@ -130,73 +148,165 @@ struct DynamicModel {
   }
 };
 
+// The one adapter. A Source states the model's facts (facts()), whether it has each function
+// (has(DynamicModel::Function)) and calls them at dynamic size under the names of DynamicModel's
+// members; a function it lacks need not work. The result holds copies of the source: keep
+// the model behind it alive and in place while the result is used.
+template <class Source>
+DynamicModel dynamic_model_of(const Source& s) {
+  using F = DynamicModel::Function;
+  using V = Eigen::VectorXd;
+  using Mx = Eigen::MatrixXd;
+  DynamicModel d;
+  static_cast<DynamicModelFacts&>(d) = s.facts();
+  d.set_layout(d.base_velocities, d.quaternion_offset);
+  if (s.has(F::end_effector_pose))
+    d.end_effector_pose = [s](const V& q) { return s.end_effector_pose(q); };
+  if (s.has(F::end_effector_jacobian))
+    d.end_effector_jacobian = [s](const V& q) { return s.end_effector_jacobian(q); };
+  if (s.has(F::mass_matrix_and_bias))
+    d.mass_matrix_and_bias = [s](const V& q, const V& qd, Mx& M, V& b) {
+      s.mass_matrix_and_bias(q, qd, M, b);
+    };
+  if (s.has(F::forward_dynamics))
+    d.forward_dynamics = [s](const V& q, const V& qd, const V& Q) {
+      return s.forward_dynamics(q, qd, Q);
+    };
+  if (s.has(F::forward_dynamics_derivatives))
+    d.forward_dynamics_derivatives = [s](const V& q, const V& qd, const V& Q, Mx& dq, Mx& dqd) {
+      return s.forward_dynamics_derivatives(q, qd, Q, dq, dqd);
+    };
+  if (s.has(F::kinetic_energy))
+    d.kinetic_energy = [s](const V& q, const V& qd) { return s.kinetic_energy(q, qd); };
+  if (s.has(F::potential_energy))
+    d.potential_energy = [s](const V& q) { return s.potential_energy(q); };
+  if (s.has(F::friction_forces))
+    d.friction_forces = [s](const V& qd) { return s.friction_forces(qd); };
+  if (s.has(F::momentum)) d.momentum = [s](const V& q, const V& qd) { return s.momentum(q, qd); };
+  return d;
+}
+
+// A linked Model<G> as a source of dynamic_model_of: the generated header's flags say what it
+// has; a function it lacks is never instantiated (Model<G> does not declare it).
+template <class G>
+class LinkedSource {
+ public:
+  using M = Model<G>;
+  using F = DynamicModel::Function;
+  using V = Eigen::VectorXd;
+  using Mx = Eigen::MatrixXd;
+  explicit LinkedSource(const M& m) : m_(&m) {}
+
+  static constexpr bool has(F f) {
+    switch (f) {
+      case F::end_effector_pose:
+        return G::kHas_end_effector_pose;
+      case F::end_effector_jacobian:
+        return G::kHas_end_effector_jacobian;
+      case F::mass_matrix_and_bias:
+        return G::kHas_mass_matrix && G::kHas_bias_forces;
+      case F::forward_dynamics:
+        return M::kHasForwardDynamics;
+      case F::forward_dynamics_derivatives:
+        return M::kHasStateJacobian;
+      case F::kinetic_energy:
+        return G::kHas_kinetic_energy;
+      case F::potential_energy:
+        return M::kHasPotentialEnergy;
+      case F::friction_forces:
+        return M::kHasFrictionForces;
+      case F::momentum:
+        return G::kHas_momentum;
+    }
+    return false;
+  }
+
+  DynamicModelFacts facts() const {
+    DynamicModelFacts f;
+    f.name = M::name();
+    f.nq = M::kNq;
+    f.nv = M::kNv;
+    f.num_links = M::kNumLinks;
+    f.free_floating = M::kFreeFloating;
+    f.coordinate_names.assign(M::coordinate_names().begin(), M::coordinate_names().end());
+    f.gear_ratios = m_->gear_ratios();
+    const auto actuated = M::actuated_coordinates();
+    f.actuated_coordinates.assign(actuated.begin(), actuated.end());
+    // The header states a motor angle by its coordinate's name (qm_j in joint j's slot).
+    for (int j = 0; j < M::kNumLinks; ++j)
+      f.motor_angle_slots.push_back(f.coordinate_names.at(M::kNumBase + j) ==
+                                    "qm" + std::to_string(j + 1));
+    f.passive_forces = M::kHasPassiveForces;
+    f.base_velocities = M::kNumBase;
+    f.quaternion_offset = -1;  // no generated header has a quaternion yet
+    return f;
+  }
+
+  V end_effector_pose(const V& q) const {
+    if constexpr (has(F::end_effector_pose)) return V(m_->end_effector_pose(q));
+    absent();
+  }
+  Mx end_effector_jacobian(const V& q) const {
+    if constexpr (has(F::end_effector_jacobian)) return Mx(m_->end_effector_jacobian(q));
+    absent();
+  }
+  void mass_matrix_and_bias(const V& q, const V& qd, Mx& Mq, V& b) const {
+    if constexpr (has(F::mass_matrix_and_bias)) {
+      typename M::Matrix Mf;
+      typename M::Velocity bf;
+      m_->mass_matrix_and_bias(q, qd, Mf, bf);
+      Mq = Mf;
+      b = bf;
+    } else {
+      absent();
+    }
+  }
+  V forward_dynamics(const V& q, const V& qd, const V& Q) const {
+    if constexpr (has(F::forward_dynamics)) return V(m_->forward_dynamics(q, qd, Q));
+    absent();
+  }
+  V forward_dynamics_derivatives(const V& q, const V& qd, const V& Q, Mx& dqdd_dq,
+                                 Mx& dqdd_dqd) const {
+    if constexpr (has(F::forward_dynamics_derivatives)) {
+      typename M::ConfigurationJacobian dq;
+      typename M::Matrix dqd;
+      const V qdd = m_->forward_dynamics_derivatives(q, qd, Q, dq, dqd);
+      dqdd_dq = dq;
+      dqdd_dqd = dqd;
+      return qdd;
+    }
+    absent();
+  }
+  double kinetic_energy(const V& q, const V& qd) const {
+    if constexpr (has(F::kinetic_energy)) return m_->kinetic_energy(q, qd);
+    absent();
+  }
+  double potential_energy(const V& q) const {
+    if constexpr (has(F::potential_energy)) return m_->potential_energy(q);
+    absent();
+  }
+  V friction_forces(const V& qd) const {
+    if constexpr (has(F::friction_forces)) return V(m_->friction_forces(qd));
+    absent();
+  }
+  V momentum(const V& q, const V& qd) const {
+    if constexpr (has(F::momentum)) return V(m_->momentum(q, qd));
+    absent();
+  }
+
+ private:
+  const M* m_;
+  // Never called: dynamic_model_of binds only what has() says.
+  [[noreturn]] static void absent() {
+    throw std::logic_error("LinkedSource: a function the model does not have was called");
+  }
+};
+
 // A linked model at its current parameter values, at dynamic size. The result refers to m:
 // keep m alive while it is used. Vectors passed to it must have the model's sizes (nq, nv).
 template <class G>
 DynamicModel dynamic_model(const Model<G>& m) {
-  using M = Model<G>;
-  DynamicModel d;
-  d.name = M::name();
-  d.nq = M::kNq;
-  d.nv = M::kNv;
-  d.num_links = M::kNumLinks;
-  d.free_floating = M::kFreeFloating;
-  d.coordinate_names.assign(M::coordinate_names().begin(), M::coordinate_names().end());
-  d.gear_ratios = m.gear_ratios();
-  const auto actuated = M::actuated_coordinates();
-  d.actuated_coordinates.assign(actuated.begin(), actuated.end());
-  d.passive_forces = M::kHasPassiveForces;
-  d.set_layout(M::kFirstJoint, -1);
-  // Only what the scene emits (the Model<G> functions of an absent output do not exist).
-  if constexpr (G::kHas_end_effector_pose)
-    d.end_effector_pose = [&m](const Eigen::VectorXd& q) {
-      return Eigen::Vector3d(m.end_effector_pose(q));
-    };
-  if constexpr (G::kHas_end_effector_jacobian)
-    d.end_effector_jacobian = [&m](const Eigen::VectorXd& q) {
-      return Eigen::MatrixXd(m.end_effector_jacobian(q));
-    };
-  if constexpr (G::kHas_mass_matrix && G::kHas_bias_forces)
-    d.mass_matrix_and_bias = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
-                                  Eigen::MatrixXd& Mq, Eigen::VectorXd& b) {
-      typename M::Matrix Mf;
-      typename M::Velocity bf;
-      m.mass_matrix_and_bias(q, qd, Mf, bf);
-      Mq = Mf;
-      b = bf;
-    };
-  if constexpr (G::kHas_forward_dynamics ||
-                (G::kHas_mass_matrix && G::kHas_bias_forces && !M::kHasPassiveForces))
-    d.forward_dynamics = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
-                              const Eigen::VectorXd& Q) {
-      return Eigen::VectorXd(m.forward_dynamics(q, qd, Q));
-    };
-  if constexpr (M::kHasStateJacobian)
-    d.forward_dynamics_derivatives = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
-                                          const Eigen::VectorXd& Q, Eigen::MatrixXd& dqdd_dq,
-                                          Eigen::MatrixXd& dqdd_dqd) {
-      typename M::ConfigurationJacobian dq;
-      typename M::Matrix dqd;
-      const Eigen::VectorXd qdd = m.forward_dynamics_derivatives(q, qd, Q, dq, dqd);
-      dqdd_dq = dq;
-      dqdd_dqd = dqd;
-      return qdd;
-    };
-  if constexpr (G::kHas_kinetic_energy)
-    d.kinetic_energy = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
-      return m.kinetic_energy(q, qd);
-    };
-  if constexpr (M::kHasPotentialEnergy)
-    d.potential_energy = [&m](const Eigen::VectorXd& q) { return m.potential_energy(q); };
-  if constexpr (M::kHasFrictionForces)
-    d.friction_forces = [&m](const Eigen::VectorXd& qd) {
-      return Eigen::VectorXd(m.friction_forces(qd));
-    };
-  if constexpr (G::kHas_momentum)
-    d.momentum = [&m](const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
-      return Eigen::Vector3d(m.momentum(q, qd));
-    };
-  return d;
+  return dynamic_model_of(LinkedSource<G>(m));
 }
 
 }  // namespace spacearm

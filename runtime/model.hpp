@@ -63,9 +63,6 @@ class Model {
   static constexpr int kNumLinks = Generated::kNumLinks;
   static constexpr int kNumParams = Generated::kNumParams;
   static constexpr bool kFreeFloating = Generated::kFreeFloating;
-  // Velocity index of joint 1's slot, after the base's x0, y0, q0 (a flexible joint's motor
-  // coordinates follow the joint slots: actuated_coordinates()).
-  static constexpr int kFirstJoint = kFreeFloating ? 3 : 0;
   // Springs, dampers or friction: forces besides M qdd + b (forward_dynamics includes them).
   static constexpr bool kHasPassiveForces =
       detail::has_passive_forces<Generated>::value || detail::has_friction<Generated>::value;
@@ -79,6 +76,10 @@ class Model {
   using Vector3 = typename Generated::template Vector3<double>;
   using PoseJacobian = typename Generated::template PoseJacobian<double>;
   using ConfigurationJacobian = Eigen::Matrix<double, kNv, kNq>;  // d(velocity-sized)/dq
+  // The base's velocities, one twist (the pose Jacobian's rows: x0, y0, q0 in the plane), or
+  // none for a fixed base; joint 1's slot follows them (a flexible joint's motor coordinates
+  // follow the joint slots: actuated_coordinates()).
+  static constexpr int kNumBase = kFreeFloating ? int(PoseJacobian::RowsAtCompileTime) : 0;
   // The scene emits forward_dynamics_derivatives (the state Jacobian).
   static constexpr bool kHasStateJacobian = detail::has_state_jacobian<Generated>::value;
   static constexpr bool has_state_jacobian() { return kHasStateJacobian; }
@@ -171,6 +172,10 @@ class Model {
     return ff;
   }
   static constexpr bool kHasFrictionForces = detail::emits_friction<Generated>::value;
+  // forward_dynamics exists: emitted, or from M and b where nothing acts besides them.
+  static constexpr bool kHasForwardDynamics =
+      Generated::kHas_forward_dynamics ||
+      (Generated::kHas_mass_matrix && Generated::kHas_bias_forces && !kHasPassiveForces);
   Vector3 momentum(const Vector& q, const Velocity& qd) const {
     Vector3 h;
     Generated::momentum(q, qd, params_, h);

@@ -15,6 +15,7 @@
 #include <spawn.h>
 #include <sys/wait.h>
 
+#include "paper_flexible.hpp"
 #include "paper_geared.hpp"
 #include "paper_reference.hpp"
 #include "simulation.hpp"
@@ -165,7 +166,7 @@ TEST(CompiledModel, ChangedSceneIsRebuilt) {
   fs::remove_all(cache);
 }
 
-// The library describes its model (C interface 7): the facts read from it are the scene's, and
+// The library describes its model (C interface 8): the facts read from it are the scene's, and
 // mass_matrix_and_bias gives in one call what mass_matrix and bias_forces give apart.
 TEST(CompiledModel, LibraryStatesTheModelsFacts) {
   const fs::path cache = fresh_cache("facts");
@@ -180,6 +181,9 @@ TEST(CompiledModel, LibraryStatesTheModelsFacts) {
     EXPECT_EQ(m.num_base(), scene.free_floating() ? 3 : 0);
     EXPECT_EQ(m.passive_forces(), scene.num_flexible() > 0 || scene.has_friction());
     EXPECT_EQ(m.quaternion_offset(), -1);  // planar: nq = nv
+    ASSERT_EQ(m.motor_angle_slots().size(), size_t(scene.num_links()));
+    for (int j = 0; j < scene.num_links(); ++j)
+      EXPECT_EQ(m.motor_angle_slots()[j], scene.has_gear(j) && !scene.is_flexible(j)) << j;
     const Eigen::VectorXd params = Eigen::Map<const Eigen::VectorXd>(m.nominal_parameters().data(),
                                                                      m.nominal_parameters().size());
     const Eigen::VectorXd q = Eigen::VectorXd::LinSpaced(m.nq(), 0.2, 1.1);
@@ -249,6 +253,42 @@ TEST(CompiledModel, DynamicModelOfLoadedCodeEqualsTheLinkedModel) {
                        "q: expected 6 values, got 5");
   params[0] = -1;
   EXPECT_THROW(dynamic_model(loaded, params), std::invalid_argument);
+  fs::remove_all(dir);
+}
+
+// One adapter (dynamic_model_of) behind both: a loaded and a linked model state the same facts
+// and layout and have the same functions, for a rigid gear (each slot holds qm) and a flexible
+// joint (each slot holds q, its motor angle a coordinate after the joints).
+template <class G>
+void expect_same_adapter(const std::string& scene_file, const CompileOptions& options) {
+  SCOPED_TRACE(scene_file);
+  const Scene scene = load_scene(std::string(SPACEARM_SOURCE_DIR) + scene_file);
+  const CompiledModel loaded = CompiledModel::load(scene, options);
+  const Eigen::VectorXd params = Eigen::Map<const Eigen::VectorXd>(
+      loaded.nominal_parameters().data(), loaded.nominal_parameters().size());
+  const Model<G> linked;
+  const DynamicModel a = dynamic_model(loaded, params), b = dynamic_model(linked);
+  EXPECT_EQ(a.name, b.name);
+  EXPECT_EQ(a.actuated_coordinates, b.actuated_coordinates);
+  EXPECT_EQ(a.motor_angle_slots, b.motor_angle_slots);
+  EXPECT_EQ(a.passive_forces, b.passive_forces);
+  EXPECT_EQ(a.num_base(), b.num_base());
+  EXPECT_EQ(a.joint_q_offsets, b.joint_q_offsets);
+  EXPECT_EQ(a.joint_v_offsets, b.joint_v_offsets);
+  EXPECT_EQ(bool(a.potential_energy), bool(b.potential_energy));
+  EXPECT_EQ(bool(a.friction_forces), bool(b.friction_forces));
+  EXPECT_EQ(bool(a.forward_dynamics_derivatives), bool(b.forward_dynamics_derivatives));
+  EXPECT_EQ(bool(a.momentum), bool(b.momentum));
+  for (int j = 0; j < scene.num_links(); ++j)
+    EXPECT_EQ(b.slot_holds_motor(j), scene.has_gear(j) && !scene.is_flexible(j)) << j;
+}
+
+TEST(CompiledModel, LoadedAndLinkedModelsShareOneAdapter) {
+  const fs::path dir = fresh_cache("adapter");
+  CompileOptions options;
+  options.cache_dir = dir.string();
+  expect_same_adapter<models::paper_geared::Model>("/models/paper_geared.yaml", options);
+  expect_same_adapter<models::paper_flexible::Model>("/models/paper_flexible.yaml", options);
   fs::remove_all(dir);
 }
 
