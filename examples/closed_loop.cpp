@@ -84,7 +84,7 @@ Metrics run_loop(const Manoeuvre& m, const DynamicModel& plant, const DynamicMod
     // A loop gone unstable: stop instead of chasing a growing oscillation.
     if ((q_joints - target.q).cwiseAbs().maxCoeff() > 0.1)
       throw std::runtime_error("unstable: joint error above 0.1 rad at t = " + std::to_string(t));
-    return ct.torque(target, q.head(3), qd.head(3), q_joints, plant.joint_angles(qd));
+    return ct.torque(target, q.head(3), qd.head(3), q_joints, plant.joint_rates(qd));
   };
   Eigen::VectorXd q0 = Eigen::VectorXd::Zero(nv), qd0 = Eigen::VectorXd::Zero(nv);
   q0.head(3) = m.plan.q.front().head<3>();

@@ -510,8 +510,9 @@ py::dict PyModel::closed_loop(const py::object& plan_given, const std::string& c
   auto decide = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
     const JointTarget x = target(t);
     if (ct)
-      return ct->torque(x, q.head(nb), qd.head(nb), plant.joint_angles(q), plant.joint_angles(qd));
-    return Eigen::VectorXd(tau_ff(t) + pd.torque(x, plant.motor_side(q), plant.motor_side(qd)));
+      return ct->torque(x, q.head(nb), qd.head(nb), plant.joint_angles(q), plant.joint_rates(qd));
+    return Eigen::VectorXd(tau_ff(t) +
+                           pd.torque(x, plant.motor_side(q), plant.motor_side_rates(qd)));
   };
   Eigen::VectorXd x0, v0;
   replay_start(plant, plan, ff.front(), x0, v0);

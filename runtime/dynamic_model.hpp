@@ -101,43 +101,30 @@ struct DynamicModel : DynamicModelFacts {
     return qd;
   }
 
-  // Link-side joint angles (or rates, from qd): a slot that holds the motor angle qm = p q
-  // (eq. 12) is divided by p; any other slot holds q itself.
-  JointVector joint_angles(const Eigen::VectorXd& x) const {
-    JointVector a(num_links);
-    for (int i = 0; i < num_links; ++i) {
-      const double slot = x[joint_q_offsets.at(i)];
-      a[i] = slot_holds_motor(i) ? slot / gear_ratios[i] : slot;
-    }
-    return a;
-  }
+  // Link-side joint angles from q: a slot that holds the motor angle qm = p q (eq. 12) is
+  // divided by p; any other slot holds q itself. joint_rates does the same for qd.
+  JointVector joint_angles(const Vector& q) const { return link_side(q, joint_q_offsets, nq); }
+  JointVector joint_rates(const Velocity& qd) const { return link_side(qd, joint_v_offsets, nv); }
 
   // Whether joint j's slot holds a motor angle (a rigid gear: qm_j, not q_j), so that tables add
   // its link-side angle q_j = qm_j / p_j as a column of its own.
   bool slot_holds_motor(int j) const { return motor_angle_slots.at(j); }
 
-  // The joint angles (or rates, from qd) that the motor encoders read: qm / p of the coordinate
-  // each joint's torque drives (q itself without a gear). Feedback from them is collocated with
-  // the torque: it stays stable with flexible joints, where link-side feedback may not.
-  JointVector motor_side(const Eigen::VectorXd& x) const {
-    JointVector a(num_links);
-    for (int i = 0; i < num_links; ++i) a[i] = x[actuated_coordinates.at(i)] / gear_ratios[i];
-    return a;
-  }
+  // The joint angles (from q) or rates (from qd) that the motor encoders read: qm / p of the
+  // coordinate each joint's torque drives (q itself without a gear). Feedback from them is
+  // collocated with the torque: it stays stable with flexible joints, where link-side feedback
+  // may not.
+  JointVector motor_side(const Vector& q) const { return motor_angles(q, nq); }
+  JointVector motor_side_rates(const Velocity& qd) const { return motor_angles(qd, nv); }
 
-  // The configuration (or velocity, from rates) with the base pose `base` and link-side joint
-  // angles: joint_angles' inverse. A flexible joint's motor angle is p q, its spring relaxed
-  // (consistent_start.hpp pre-deflects it).
+  // The configuration with the base pose `base` and link-side joint angles: joint_angles'
+  // inverse. A flexible joint's motor angle is p q, its spring relaxed (consistent_start.hpp
+  // pre-deflects it). from_joint_rates does the same for the velocity.
   Vector from_joint_angles(const Eigen::VectorXd& base, const JointVector& angles) const {
-    Vector x(nq);
-    x.head(num_base()) = base;
-    for (int i = 0; i < num_links; ++i) {
-      const int slot = joint_q_offsets.at(i), motor = actuated_coordinates.at(i);
-      const bool on_slot = motor == joint_v_offsets.at(i);  // the torque drives the slot
-      x[slot] = slot_holds_motor(i) ? gear_ratios[i] * angles[i] : angles[i];
-      if (!on_slot) x[motor] = gear_ratios[i] * angles[i];
-    }
-    return x;
+    return assembled(base, angles, joint_q_offsets, nq);
+  }
+  Velocity from_joint_rates(const Eigen::VectorXd& base_rate, const JointVector& rates) const {
+    return assembled(base_rate, rates, joint_v_offsets, nv);
   }
 
   // Joint (or motor) torques as generalized forces, Q = tau / p on the joints, eq. 14.
@@ -145,6 +132,50 @@ struct DynamicModel : DynamicModelFacts {
     Velocity Q = Velocity::Zero(nv);
     for (int i = 0; i < num_links; ++i) Q[actuated_coordinates.at(i)] = tau[i] / gear_ratios[i];
     return Q;
+  }
+
+ private:
+  // A velocity index past the base as an index of q (a quaternion adds one entry to the base's
+  // coordinates); the same index for a vector of velocity size.
+  int index_in(Eigen::Index size, int v) const { return size == nv ? v : v + (nq - nv); }
+  JointVector link_side(const Eigen::VectorXd& x, const std::vector<int>& offsets, int size) const {
+    check_size(x, size);
+    JointVector a(num_links);
+    for (int i = 0; i < num_links; ++i) {
+      const double slot = x[offsets.at(i)];
+      a[i] = slot_holds_motor(i) ? slot / gear_ratios[i] : slot;
+    }
+    return a;
+  }
+  JointVector motor_angles(const Eigen::VectorXd& x, int size) const {
+    check_size(x, size);
+    JointVector a(num_links);
+    for (int i = 0; i < num_links; ++i)
+      a[i] = x[index_in(size, actuated_coordinates.at(i))] / gear_ratios[i];
+    return a;
+  }
+  Eigen::VectorXd assembled(const Eigen::VectorXd& base, const JointVector& angles,
+                            const std::vector<int>& offsets, int size) const {
+    const int base_size = num_base() + (size == nv ? 0 : nq - nv);
+    if (base.size() != base_size || angles.size() != num_links)
+      throw std::invalid_argument("model " + name + ": expected " + std::to_string(base_size) +
+                                  " base and " + std::to_string(num_links) + " joint values, got " +
+                                  std::to_string(base.size()) + " and " +
+                                  std::to_string(angles.size()));
+    Eigen::VectorXd x(size);
+    x.head(base_size) = base;
+    for (int i = 0; i < num_links; ++i) {
+      const double p = gear_ratios[i];
+      x[offsets.at(i)] = slot_holds_motor(i) ? p * angles[i] : angles[i];
+      const int motor = actuated_coordinates.at(i);
+      if (motor != joint_v_offsets.at(i)) x[index_in(size, motor)] = p * angles[i];
+    }
+    return x;
+  }
+  void check_size(const Eigen::VectorXd& x, int size) const {
+    if (x.size() != size)
+      throw std::invalid_argument("model " + name + ": expected " + std::to_string(size) +
+                                  " values, got " + std::to_string(x.size()));
   }
 };
 

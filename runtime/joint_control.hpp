@@ -151,26 +151,17 @@ class ComputedTorqueController {
                                    const Eigen::VectorXd& qd_joints,
                                    const Eigen::VectorXd& a) const {
     const int nv = model_.nv, nb = model_.num_base(), N = model_.num_links;
-    if (base_q.size() != nb || base_qd.size() != nb || q_joints.size() != N ||
+    const int base_coordinates = nb + model_.nq - model_.nv;  // a quaternion's extra entry
+    if (base_q.size() != base_coordinates || base_qd.size() != nb || q_joints.size() != N ||
         qd_joints.size() != N || a.size() != N)
       throw std::invalid_argument("ComputedTorqueController: the control model '" + model_.name +
                                   "' takes " + std::to_string(nb) + " base and " +
                                   std::to_string(N) +
                                   " joint values (a plant with another base or joint count?)");
-    Eigen::VectorXd q(nv), qd(nv), acc = Eigen::VectorXd::Zero(nv);
-    q.head(nb) = base_q;
-    qd.head(nb) = base_qd;
-    for (int j = 0; j < N; ++j) {
-      const int slot = nb + j, motor = model_.actuated_coordinates[j];
-      const double p = model_.gear_ratios[j];
-      const double link = motor == slot ? p : 1;  // a rigid gear's slot holds p q
-      q[slot] = link * q_joints[j];
-      qd[slot] = link * qd_joints[j];
-      acc[slot] = link * a[j];
-      q[motor] = p * q_joints[j];
-      qd[motor] = p * qd_joints[j];
-      acc[motor] = p * a[j];
-    }
+    // The state with each motor at p times its joint (a flexible joint's spring relaxed).
+    const Eigen::VectorXd q = model_.from_joint_angles(base_q, q_joints);
+    const Eigen::VectorXd qd = model_.from_joint_rates(base_qd, qd_joints);
+    Eigen::VectorXd acc = model_.from_joint_rates(Eigen::VectorXd::Zero(nb), a);
     Eigen::MatrixXd M;
     Eigen::VectorXd b;
     model_.mass_matrix_and_bias(q, qd, M, b);

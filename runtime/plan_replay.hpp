@@ -53,7 +53,7 @@ inline PlanSamples plan_samples(const Plan& plan, const DynamicModel& planner) {
     s.base.push_back(plan.q[k].head(nb));
     s.base_rate.push_back(plan.qd[k].head(nb));
     s.angles.push_back(planner.joint_angles(plan.q[k]));
-    s.rates.push_back(planner.joint_angles(plan.qd[k]));
+    s.rates.push_back(planner.joint_rates(plan.qd[k]));
   }
   return s;
 }
@@ -128,7 +128,7 @@ inline Eigen::VectorXd replay_start(const DynamicModel& model, const PlanSamples
                                     const Eigen::VectorXd& tau0, Eigen::VectorXd& q0,
                                     Eigen::VectorXd& qd0) {
   q0 = model.from_joint_angles(plan.base.front(), plan.angles.front());
-  qd0 = model.from_joint_angles(plan.base_rate.front(), plan.rates.front());
+  qd0 = model.from_joint_rates(plan.base_rate.front(), plan.rates.front());
   return consistent_start(model, q0, qd0, tau0);
 }
 
@@ -159,7 +159,7 @@ inline std::vector<Eigen::VectorXd> friction_along(const DynamicModel& model,
   std::vector<Eigen::VectorXd> tau_f;
   for (size_t k = 0; k < plan.rates.size(); ++k) {
     const Eigen::VectorXd f =
-        model.friction_forces(model.from_joint_angles(plan.base_rate[k], plan.rates[k]));
+        model.friction_forces(model.from_joint_rates(plan.base_rate[k], plan.rates[k]));
     Eigen::VectorXd t(model.num_links);
     for (int j = 0; j < model.num_links; ++j)
       t[j] = model.gear_ratios[j] * f[model.actuated_coordinates.at(j)];

@@ -45,7 +45,7 @@ class SimulationTable {
     out.insert(out.end(), q.data(), q.data() + q.size());
     out.insert(out.end(), qd.data(), qd.data() + qd.size());
     if (geared_) {
-      const Eigen::VectorXd angles = m_.joint_angles(q), rates = m_.joint_angles(qd);
+      const Eigen::VectorXd angles = m_.joint_angles(q), rates = m_.joint_rates(qd);
       for (int j = 0; j < N; ++j)
         if (link_side(j)) out.push_back(angles[j]);
       for (int j = 0; j < N; ++j)

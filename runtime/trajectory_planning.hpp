@@ -435,7 +435,7 @@ inline PlanTable plan_table(const Plan& plan, const DynamicModel& m, bool geared
     std::vector<double> row{plan.t[k]};
     for (const auto* v : {&plan.q[k], &plan.qd[k], &plan.qdd[k]})
       row.insert(row.end(), v->data(), v->data() + v->size());
-    const Eigen::VectorXd angles = m.joint_angles(plan.q[k]), rates = m.joint_angles(plan.qd[k]);
+    const Eigen::VectorXd angles = m.joint_angles(plan.q[k]), rates = m.joint_rates(plan.qd[k]);
     for (int j : motor_slots) row.push_back(angles[j]);
     for (int j : motor_slots) row.push_back(rates[j]);
     row.insert(row.end(), plan.tau[k].data(), plan.tau[k].data() + plan.tau[k].size());

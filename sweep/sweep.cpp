@@ -133,7 +133,7 @@ std::string StudyRunner::row(long run, std::string* series) const {
   try {
     const DynamicModel model = dynamic_model(loaded_->model, params);
     Eigen::VectorXd q0 = model.from_joint_angles(loaded_->base, loaded_->angles);
-    Eigen::VectorXd qd0 = model.from_joint_angles(loaded_->base_rate, loaded_->rates);
+    Eigen::VectorXd qd0 = model.from_joint_rates(loaded_->base_rate, loaded_->rates);
     IntegratorOptions opt = s.integrator;
     const TorqueSignal<Eigen::Dynamic>& signal = *loaded_->tau;
     const TorqueReplay<Eigen::Dynamic> replay(signal, opt, "integrator.dt");

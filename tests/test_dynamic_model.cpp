@@ -6,6 +6,7 @@
 #include <random>
 
 #include "fixed_n5_geared_params.hpp"
+#include "paper_flexible.hpp"
 #include "paper_geared.hpp"
 #include "simulation.hpp"
 #include "support.hpp"
@@ -77,6 +78,38 @@ TEST(DynamicModel, StatesItsLayout) {
   EXPECT_EQ(d.joint_v_offsets, (std::vector<int>{3, 4, 5}));
   const FixedN5 fixed;
   EXPECT_EQ(dynamic_model(fixed).joint_v_offsets, (std::vector<int>{0, 1, 2, 3, 4}));
+}
+
+// Joint angles and rates in, the state out and back: each slot holds what its fact says (qm = p q
+// for a rigid gear, q for a flexible joint, whose motor angle p q is a coordinate of its own),
+// the motor encoders read the joint angle, and a vector of the wrong size is an error.
+TEST(DynamicModel, JointAnglesAndRatesGoBothWays) {
+  Geared geared;
+  geared.set_parameter("p", 10);
+  const Model<models::paper_flexible::Model> flexible;
+  const Eigen::Vector3d base(0.1, -0.2, 0.3), angles(0.4, -0.5, 0.6), rates(1.0, 2.0, -3.0);
+  for (const DynamicModel& d : {dynamic_model(geared), dynamic_model(flexible)}) {
+    SCOPED_TRACE(d.name);
+    const Eigen::VectorXd q = d.from_joint_angles(base, angles);
+    const Eigen::VectorXd qd = d.from_joint_rates(base, rates);
+    ASSERT_EQ(q.size(), d.nq);
+    ASSERT_EQ(qd.size(), d.nv);
+    EXPECT_MATRIX_NEAR(d.joint_angles(q), angles, 1e-15);
+    EXPECT_MATRIX_NEAR(d.joint_rates(qd), rates, 1e-15);
+    EXPECT_MATRIX_NEAR(d.motor_side(q), angles, 1e-15);
+    EXPECT_MATRIX_NEAR(d.motor_side_rates(qd), rates, 1e-15);
+    for (int j = 0; j < d.num_links; ++j) {
+      const double p = d.gear_ratios[j], slot = q[d.joint_q_offsets[j]];
+      EXPECT_EQ(slot, d.slot_holds_motor(j) ? p * angles[j] : angles[j]);
+      EXPECT_EQ(q[d.actuated_coordinates[j]], p * angles[j]);
+    }
+    EXPECT_THROW_MESSAGE(d.joint_angles(q.head(d.nq - 1)), std::invalid_argument,
+                         "model " + d.name + ": expected " + std::to_string(d.nq) + " values");
+    EXPECT_THROW_MESSAGE(d.from_joint_angles(base.head(2), angles), std::invalid_argument,
+                         "expected 3 base and 3 joint values, got 2 and 3");
+  }
+  EXPECT_TRUE(dynamic_model(geared).slot_holds_motor(0));
+  EXPECT_FALSE(dynamic_model(flexible).slot_holds_motor(0));
 }
 
 // The checks are the model's: a NaN is a DynamicsError naming the coordinate, whichever form.

@@ -121,7 +121,7 @@ TEST(JointControl, ComputedTorqueOnTheMatchingModelTracksThePlan) {
         plant, q0, qd0,
         [&](double t, const Eigen::VectorXd& x, const Eigen::VectorXd& v) {
           return ct.torque(target(t), x.head(3), v.head(3), plant.joint_angles(x),
-                           plant.joint_angles(v));
+                           plant.joint_rates(v));
         },
         period, task.duration, opt,
         [&](double t, const Eigen::VectorXd& x, const Eigen::VectorXd&, const Eigen::VectorXd&) {
@@ -158,7 +158,7 @@ TEST(JointControl, AdaptiveStepsSeeEachNewTorque) {
     integrate_closed_loop(
         plant, q0, qd0,
         [&](double, const Eigen::VectorXd& x, const Eigen::VectorXd& v) {
-          return pd.torque(goal, plant.joint_angles(x), plant.joint_angles(v));
+          return pd.torque(goal, plant.joint_angles(x), plant.joint_rates(v));
         },
         0.01, 1.0, opt,
         [&](double, const Eigen::VectorXd& x, const Eigen::VectorXd&, const Eigen::VectorXd&) {
@@ -192,7 +192,7 @@ TEST(JointControl, PdRegulatesASetPoint) {
   integrate_closed_loop(
       plant, q0, qd0,
       [&](double, const Eigen::VectorXd& x, const Eigen::VectorXd& v) {
-        return pd.torque(goal, plant.joint_angles(x), plant.joint_angles(v));
+        return pd.torque(goal, plant.joint_angles(x), plant.joint_rates(v));
       },
       1e-3, 10.0, opt,
       [&](double, const Eigen::VectorXd& x, const Eigen::VectorXd&, const Eigen::VectorXd&) {

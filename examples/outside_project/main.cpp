@@ -58,7 +58,8 @@ Eigen::Vector3d closed_loop(const DynamicModel& plant, PlanSamples plan) {
   // p^2 I_m = 0.1 kg m^2, a joint bandwidth of about 60 rad/s, well below the springs' modes.
   const PdController pd(JointGains::critically_damped(plant.num_links, 20.0));
   auto control = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
-    const Eigen::VectorXd tau_pd = pd.torque(target(t), plant.motor_side(q), plant.motor_side(qd));
+    const Eigen::VectorXd tau_pd =
+        pd.torque(target(t), plant.motor_side(q), plant.motor_side_rates(qd));
     return Eigen::VectorXd(tau_ff(t) + tau_pd);
   };
   Eigen::VectorXd q0, qd0;
