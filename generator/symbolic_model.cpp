@@ -120,6 +120,8 @@ class Derivation {
   const bool free_, geared_;
   bool all_ = false;
   std::set<Output> wanted_;
+  // The Lagrangian's generalized coordinates and their rates: one count, nq = nv by
+  // construction (a base with a quaternion takes the recursive chain, recursive_algorithms.hpp).
   int n_ = 0, first_joint_ = 0;
   Vec2 r0_{0, 0}, r0d_{0, 0}, mount_{0, 0};
   std::vector<ex> p_, Im_, dT_dqd_;
