@@ -97,8 +97,15 @@ inline constexpr bool kHas_potential_energy = true;
 inline constexpr bool kHas_spring_damper_forces = true;
 inline constexpr bool kHas_friction_forces = true;
 inline constexpr bool kHas_forward_dynamics_derivatives = true;
-// Velocity index that joint torque tau_i drives, as tau_i / p_i (eq. 14): the motor.
+// The base's velocities (0: a fixed base) and where a quaternion (w, x, y, z) sits in q
+// (-1: none, nq = nv); springs, dampers or friction besides M qdd + b.
+inline constexpr int kNumBase = 3;
+inline constexpr int kQuaternionOffset = -1;
+inline constexpr bool kPassiveForces = true;
+// Per joint: the velocity index its torque drives, as tau_i / p_i (eq. 14), and whether
+// its slot in q holds the motor angle qm = p q (a rigid gear, eq. 12).
 inline constexpr std::array<int, kNumLinks> kActuatedCoordinates = {6, 7, 8};
+inline constexpr std::array<bool, kNumLinks> kMotorAngleSlots = {false, false, false};
 
 template <typename T> using Coordinates = Eigen::Matrix<T, kNq, 1>;
 template <typename T> using Velocities = Eigen::Matrix<T, kNv, 1>;
@@ -204,7 +211,11 @@ struct Model {
   static constexpr bool kHas_spring_damper_forces = spacearm::models::paper_flexible::kHas_spring_damper_forces;
   static constexpr bool kHas_friction_forces = spacearm::models::paper_flexible::kHas_friction_forces;
   static constexpr bool kHas_forward_dynamics_derivatives = spacearm::models::paper_flexible::kHas_forward_dynamics_derivatives;
+  static constexpr int kNumBase = spacearm::models::paper_flexible::kNumBase;
+  static constexpr int kQuaternionOffset = spacearm::models::paper_flexible::kQuaternionOffset;
+  static constexpr bool kPassiveForces = spacearm::models::paper_flexible::kPassiveForces;
   static constexpr const std::array<int, kNumLinks>& actuated_coordinates() { return kActuatedCoordinates; }
+  static constexpr const std::array<bool, kNumLinks>& motor_angle_slots() { return kMotorAngleSlots; }
   template <typename T> using Coordinates = spacearm::models::paper_flexible::Coordinates<T>;
   template <typename T> using Velocities = spacearm::models::paper_flexible::Velocities<T>;
   template <typename T> using Parameters = spacearm::models::paper_flexible::Parameters<T>;

@@ -65,6 +65,19 @@ inline constexpr bool kHas_inverse_dynamics = true;
 inline constexpr bool kHas_forward_dynamics = true;
 inline constexpr bool kHas_generalized_jacobian = true;
 inline constexpr bool kHas_free_base_inverse_dynamics = true;
+inline constexpr bool kHas_potential_energy = false;
+inline constexpr bool kHas_spring_damper_forces = false;
+inline constexpr bool kHas_friction_forces = false;
+inline constexpr bool kHas_forward_dynamics_derivatives = false;
+// The base's velocities (0: a fixed base) and where a quaternion (w, x, y, z) sits in q
+// (-1: none, nq = nv); springs, dampers or friction besides M qdd + b.
+inline constexpr int kNumBase = 3;
+inline constexpr int kQuaternionOffset = -1;
+inline constexpr bool kPassiveForces = false;
+// Per joint: the velocity index its torque drives, as tau_i / p_i (eq. 14), and whether
+// its slot in q holds the motor angle qm = p q (a rigid gear, eq. 12).
+inline constexpr std::array<int, kNumLinks> kActuatedCoordinates = {3, 4, 5};
+inline constexpr std::array<bool, kNumLinks> kMotorAngleSlots = {true, true, true};
 
 template <typename T> using Coordinates = Eigen::Matrix<T, kNq, 1>;
 template <typename T> using Velocities = Eigen::Matrix<T, kNv, 1>;
@@ -166,6 +179,15 @@ struct Model {
   static constexpr bool kHas_forward_dynamics = spacearm::models::paper_geared_armature::kHas_forward_dynamics;
   static constexpr bool kHas_generalized_jacobian = spacearm::models::paper_geared_armature::kHas_generalized_jacobian;
   static constexpr bool kHas_free_base_inverse_dynamics = spacearm::models::paper_geared_armature::kHas_free_base_inverse_dynamics;
+  static constexpr bool kHas_potential_energy = spacearm::models::paper_geared_armature::kHas_potential_energy;
+  static constexpr bool kHas_spring_damper_forces = spacearm::models::paper_geared_armature::kHas_spring_damper_forces;
+  static constexpr bool kHas_friction_forces = spacearm::models::paper_geared_armature::kHas_friction_forces;
+  static constexpr bool kHas_forward_dynamics_derivatives = spacearm::models::paper_geared_armature::kHas_forward_dynamics_derivatives;
+  static constexpr int kNumBase = spacearm::models::paper_geared_armature::kNumBase;
+  static constexpr int kQuaternionOffset = spacearm::models::paper_geared_armature::kQuaternionOffset;
+  static constexpr bool kPassiveForces = spacearm::models::paper_geared_armature::kPassiveForces;
+  static constexpr const std::array<int, kNumLinks>& actuated_coordinates() { return kActuatedCoordinates; }
+  static constexpr const std::array<bool, kNumLinks>& motor_angle_slots() { return kMotorAngleSlots; }
   template <typename T> using Coordinates = spacearm::models::paper_geared_armature::Coordinates<T>;
   template <typename T> using Velocities = spacearm::models::paper_geared_armature::Velocities<T>;
   template <typename T> using Parameters = spacearm::models::paper_geared_armature::Parameters<T>;

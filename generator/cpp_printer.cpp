@@ -10,6 +10,7 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <type_traits>
 #include <sstream>
 #include <stdexcept>
 
@@ -253,13 +254,26 @@ std::string parameter_error_function(const ModelFacts& facts) {
          parameter_checks(facts, Spelling::eigen);
 }
 
-// The kHas_ flags of outputs that need springs or friction, and that of the state Jacobian
-// (added with them), appear only where they can be true or are: the models of scenes
-// without them stay byte-identical to those generated before (the runtime detects them).
-bool flag_printed(const OutputInfo& o, const ModelFacts& facts) {
-  if (o.id == Output::forward_dynamics_derivatives)
-    return std::count(facts.outputs.begin(), facts.outputs.end(), o.id) != 0;
-  return (o.needs & (needs::springs | needs::friction) & ~facts.features) == 0;
+// Per joint, the velocity index its torque drives (as tau_i / p_i, eq. 14): the joint's own slot,
+// or a flexible joint's motor coordinate.
+std::vector<int> actuated_coordinates(const ModelFacts& facts) {
+  if (!facts.actuated_coordinates.empty()) return facts.actuated_coordinates;
+  std::vector<int> slots;
+  for (int j = 0; j < facts.dims.num_links; ++j) slots.push_back(facts.num_base + j);
+  return slots;
+}
+
+template <class List>
+std::string comma_list(const List& values) {
+  std::string list;
+  for (const auto& v : values) {
+    if (!list.empty()) list += ", ";
+    if constexpr (std::is_same_v<std::decay_t<decltype(v)>, bool>)
+      list += v ? "true" : "false";
+    else
+      list += std::to_string(v);
+  }
+  return list;
 }
 
 std::string header_constants(const ModelFacts& facts) {
@@ -279,16 +293,21 @@ std::string header_constants(const ModelFacts& facts) {
     << "inline constexpr const char* kSceneHash = \"" << facts.scene_hash << "\";\n"
     << parameter_error_function(facts);
   for (const auto& o : output_registry()) {
-    if (!flag_printed(o, facts)) continue;
     const bool has = std::count(facts.outputs.begin(), facts.outputs.end(), o.id) != 0;
     h << "inline constexpr bool kHas_" << o.name << " = " << (has ? "true" : "false") << ";\n";
   }
-  if (!facts.actuated_coordinates.empty()) {
-    std::string list;
-    for (int c : facts.actuated_coordinates) list += (list.empty() ? "" : ", ") + std::to_string(c);
-    h << "// Velocity index that joint torque tau_i drives, as tau_i / p_i (eq. 14): the motor.\n"
-      << "inline constexpr std::array<int, kNumLinks> kActuatedCoordinates = {" << list << "};\n";
-  }
+  h << "// The base's velocities (0: a fixed base) and where a quaternion (w, x, y, z) sits in q\n"
+    << "// (-1: none, nq = nv); springs, dampers or friction besides M qdd + b.\n"
+    << "inline constexpr int kNumBase = " << facts.num_base << ";\n"
+    << "inline constexpr int kQuaternionOffset = " << facts.quaternion_offset << ";\n"
+    << "inline constexpr bool kPassiveForces = " << (facts.has_passive_forces() ? "true" : "false")
+    << ";\n"
+    << "// Per joint: the velocity index its torque drives, as tau_i / p_i (eq. 14), and whether\n"
+    << "// its slot in q holds the motor angle qm = p q (a rigid gear, eq. 12).\n"
+    << "inline constexpr std::array<int, kNumLinks> kActuatedCoordinates = {"
+    << comma_list(actuated_coordinates(facts)) << "};\n"
+    << "inline constexpr std::array<bool, kNumLinks> kMotorAngleSlots = {"
+    << comma_list(facts.motor_angle_slots) << "};\n";
   h << "\ntemplate <typename T> using Coordinates = Eigen::Matrix<T, kNq, 1>;\n"
     << "template <typename T> using Velocities = Eigen::Matrix<T, kNv, 1>;\n"
     << "template <typename T> using Parameters = Eigen::Matrix<T, kNumParams, 1>;\n"
@@ -315,11 +334,14 @@ std::string model_struct(const LoweredModel& model, const std::string& ns) {
   for (const char* c : {"kFreeFloating", "kGeared"})
     h << "  static constexpr bool " << c << " = " << ns << "::" << c << ";\n";
   for (const auto& o : output_registry())
-    if (flag_printed(o, model.facts))
-      h << "  static constexpr bool kHas_" << o.name << " = " << ns << "::kHas_" << o.name << ";\n";
-  if (!model.facts.actuated_coordinates.empty())
-    h << "  static constexpr const std::array<int, kNumLinks>& actuated_coordinates() { return "
-         "kActuatedCoordinates; }\n";
+    h << "  static constexpr bool kHas_" << o.name << " = " << ns << "::kHas_" << o.name << ";\n";
+  for (const char* c : {"kNumBase", "kQuaternionOffset"})
+    h << "  static constexpr int " << c << " = " << ns << "::" << c << ";\n";
+  h << "  static constexpr bool kPassiveForces = " << ns << "::kPassiveForces;\n"
+    << "  static constexpr const std::array<int, kNumLinks>& actuated_coordinates() { return "
+       "kActuatedCoordinates; }\n"
+    << "  static constexpr const std::array<bool, kNumLinks>& motor_angle_slots() { return "
+       "kMotorAngleSlots; }\n";
   for (const char* alias : {"Coordinates", "Velocities", "Parameters", "MassMatrix", "Vector3",
                             "PoseJacobian", "JointVector", "JointPositions"})
     h << "  template <typename T> using " << alias << " = " << ns << "::" << alias << "<T>;\n";
@@ -351,14 +373,10 @@ std::string model_struct(const LoweredModel& model, const std::string& ns) {
 std::string c_interface(const LoweredModel& model, int per_part) {
   const ModelFacts& facts = model.facts;
   const std::string nominal = number_list(facts.nominal_parameters);
-  std::string actuated;
-  for (int j = 0; j < facts.dims.num_links; ++j)
-    actuated += (j ? ", " : "") + std::to_string(facts.actuated_coordinates.empty()
-                                                     ? facts.dims.nv - facts.dims.num_links + j
-                                                     : facts.actuated_coordinates[j]);
+  const std::string actuated = comma_list(actuated_coordinates(facts));
   std::string motor_angle_slots;
-  for (int j = 0; j < facts.dims.num_links; ++j)
-    motor_angle_slots += (j ? ", " : "") + std::to_string(int(facts.motor_angle_slots.at(j)));
+  for (bool on_slot : facts.motor_angle_slots)
+    motor_angle_slots += std::string(motor_angle_slots.empty() ? "" : ", ") + (on_slot ? "1" : "0");
   std::ostringstream functions;
   bool trig_batches = false;
   for (const auto& f : model.functions) {

@@ -263,13 +263,11 @@ class LinkedSource {
     f.gear_ratios = m_->gear_ratios();
     const auto actuated = M::actuated_coordinates();
     f.actuated_coordinates.assign(actuated.begin(), actuated.end());
-    // The header states a motor angle by its coordinate's name (qm_j in joint j's slot).
-    for (int j = 0; j < M::kNumLinks; ++j)
-      f.motor_angle_slots.push_back(f.coordinate_names.at(M::kNumBase + j) ==
-                                    "qm" + std::to_string(j + 1));
+    const auto motor_angle_slots = M::motor_angle_slots();
+    f.motor_angle_slots.assign(motor_angle_slots.begin(), motor_angle_slots.end());
     f.passive_forces = M::kHasPassiveForces;
     f.base_velocities = M::kNumBase;
-    f.quaternion_offset = -1;  // no generated header has a quaternion yet
+    f.quaternion_offset = M::kQuaternionOffset;
     return f;
   }
 

@@ -18,42 +18,6 @@
 
 namespace spacearm {
 
-namespace detail {
-// The kHas_ flags of outputs that need springs or friction, and kActuatedCoordinates, exist
-// only in models of scenes with flexible joints or friction (a scene without them generates
-// exactly the code it did before they existed), and the state Jacobian's flag (printed only
-// where the scene asks for it): detected here.
-template <class G, class = void>
-struct has_passive_forces : std::false_type {};
-template <class G>
-struct has_passive_forces<G, std::void_t<decltype(G::kHas_spring_damper_forces)>> : std::true_type {
-};
-template <class G, class = void>
-struct has_friction : std::false_type {};
-template <class G>
-struct has_friction<G, std::void_t<decltype(G::kHas_friction_forces)>> : std::true_type {};
-template <class G, class = void>
-struct emits_friction : std::false_type {};
-template <class G>
-struct emits_friction<G, std::void_t<decltype(G::kHas_friction_forces)>>
-    : std::bool_constant<G::kHas_friction_forces> {};
-template <class G, class = void>
-struct has_potential_energy : std::false_type {};
-template <class G>
-struct has_potential_energy<G, std::void_t<decltype(G::kHas_potential_energy)>>
-    : std::bool_constant<G::kHas_potential_energy> {};
-template <class G, class = void>
-struct has_state_jacobian : std::false_type {};
-template <class G>
-struct has_state_jacobian<G, std::void_t<decltype(G::kHas_forward_dynamics_derivatives)>>
-    : std::bool_constant<G::kHas_forward_dynamics_derivatives> {};
-template <class G, class = void>
-struct has_actuated_coordinates : std::false_type {};
-template <class G>
-struct has_actuated_coordinates<G, std::void_t<decltype(G::actuated_coordinates())>>
-    : std::true_type {};
-}  // namespace detail
-
 template <class Generated>
 class Model {
  public:
@@ -64,8 +28,7 @@ class Model {
   static constexpr int kNumParams = Generated::kNumParams;
   static constexpr bool kFreeFloating = Generated::kFreeFloating;
   // Springs, dampers or friction: forces besides M qdd + b (forward_dynamics includes them).
-  static constexpr bool kHasPassiveForces =
-      detail::has_passive_forces<Generated>::value || detail::has_friction<Generated>::value;
+  static constexpr bool kHasPassiveForces = Generated::kPassiveForces;
   using Vector = Eigen::Matrix<double, kNq, 1>;    // configuration q
   using Velocity = Eigen::Matrix<double, kNv, 1>;  // qd, qdd, generalized forces Q, bias b
   using Matrix = Eigen::Matrix<double, kNv, kNv>;
@@ -76,12 +39,13 @@ class Model {
   using Vector3 = typename Generated::template Vector3<double>;
   using PoseJacobian = typename Generated::template PoseJacobian<double>;
   using ConfigurationJacobian = Eigen::Matrix<double, kNv, kNq>;  // d(velocity-sized)/dq
-  // The base's velocities, one twist (the pose Jacobian's rows: x0, y0, q0 in the plane), or
-  // none for a fixed base; joint 1's slot follows them (a flexible joint's motor coordinates
-  // follow the joint slots: actuated_coordinates()).
-  static constexpr int kNumBase = kFreeFloating ? int(PoseJacobian::RowsAtCompileTime) : 0;
+  // The base's velocities (x0, y0, q0 in the plane; none for a fixed base); joint 1's slot
+  // follows them (a flexible joint's motor coordinates follow the joint slots:
+  // actuated_coordinates()). Where a quaternion sits in q (-1: none).
+  static constexpr int kNumBase = Generated::kNumBase;
+  static constexpr int kQuaternionOffset = Generated::kQuaternionOffset;
   // The scene emits forward_dynamics_derivatives (the state Jacobian).
-  static constexpr bool kHasStateJacobian = detail::has_state_jacobian<Generated>::value;
+  static constexpr bool kHasStateJacobian = Generated::kHas_forward_dynamics_derivatives;
   static constexpr bool has_state_jacobian() { return kHasStateJacobian; }
 
   Model() {
@@ -131,14 +95,12 @@ class Model {
 
   // Velocity index that joint torque tau_i drives (as tau_i / p_i): the joint's own slot, or
   // the motor coordinate of a flexible joint.
-  static std::array<int, kNumLinks> actuated_coordinates() {
-    if constexpr (detail::has_actuated_coordinates<Generated>::value) {
-      return Generated::actuated_coordinates();
-    } else {
-      std::array<int, kNumLinks> c{};
-      for (int i = 0; i < kNumLinks; ++i) c[i] = kNv - kNumLinks + i;
-      return c;
-    }
+  static const std::array<int, kNumLinks>& actuated_coordinates() {
+    return Generated::actuated_coordinates();
+  }
+  // Per joint, whether its slot in q holds the motor angle qm = p q (a rigid gear, eq. 12).
+  static const std::array<bool, kNumLinks>& motor_angle_slots() {
+    return Generated::motor_angle_slots();
   }
 
   Matrix mass_matrix(const Vector& q) const {
@@ -158,20 +120,19 @@ class Model {
     return Generated::kinetic_energy(q, qd, params_);
   }
   // V(q) of the joint springs, where the scene emits potential_energy.
-  template <class G2 = Generated,
-            std::enable_if_t<detail::has_potential_energy<G2>::value, int> = 0>
+  template <class G2 = Generated, std::enable_if_t<G2::kHas_potential_energy, int> = 0>
   double potential_energy(const Vector& q) const {
     return Generated::potential_energy(q, params_);
   }
-  static constexpr bool kHasPotentialEnergy = detail::has_potential_energy<Generated>::value;
+  static constexpr bool kHasPotentialEnergy = Generated::kHas_potential_energy;
   // The joint friction f(w) on each velocity (motor side), where the scene emits friction_forces.
-  template <class G2 = Generated, std::enable_if_t<detail::emits_friction<G2>::value, int> = 0>
+  template <class G2 = Generated, std::enable_if_t<G2::kHas_friction_forces, int> = 0>
   Velocity friction_forces(const Velocity& qd) const {
     Velocity ff;
     Generated::friction_forces(qd, params_, ff);
     return ff;
   }
-  static constexpr bool kHasFrictionForces = detail::emits_friction<Generated>::value;
+  static constexpr bool kHasFrictionForces = Generated::kHas_friction_forces;
   // forward_dynamics exists: emitted, or from M and b where nothing acts besides them.
   static constexpr bool kHasForwardDynamics =
       Generated::kHas_forward_dynamics ||
@@ -224,7 +185,7 @@ class Model {
   // The state Jacobian of forward dynamics at constant Q: dqdd/dq and dqdd/dqd, exact (from
   // the symbolic derivatives); returns qdd. Exists where the scene emits
   // forward_dynamics_derivatives. Throws DynamicsError as forward_dynamics does.
-  template <class G2 = Generated, std::enable_if_t<detail::has_state_jacobian<G2>::value, int> = 0>
+  template <class G2 = Generated, std::enable_if_t<G2::kHas_forward_dynamics_derivatives, int> = 0>
   Velocity forward_dynamics_derivatives(const Vector& q, const Velocity& qd, const Velocity& Q,
                                         ConfigurationJacobian& dqdd_dq, Matrix& dqdd_dqd) const {
     check_finite_inputs(q, qd, Q, Generated::kName, Generated::coordinate_names());

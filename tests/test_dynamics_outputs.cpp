@@ -172,7 +172,7 @@ void check_state_jacobian(double rate) {
   const typename G::template Parameters<double> params =
       Eigen::Map<const typename G::template Parameters<double>>(G::nominal_parameters().data());
   SCOPED_TRACE(G::kName);
-  static_assert(detail::has_state_jacobian<G>::value);
+  static_assert(G::kHas_forward_dynamics_derivatives);
   constexpr int n = G::kNv;
   using Vec = Eigen::Matrix<double, n, 1>;
   std::mt19937 rng(11);

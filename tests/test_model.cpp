@@ -71,7 +71,19 @@ TEST(Model, BadInputGetsAClearError) {
 struct NearlySingular {
   static constexpr int kNq = 2, kNv = 2, kNumLinks = 2, kNumParams = 1;
   static constexpr bool kFreeFloating = false, kHas_forward_dynamics = false;
+  static constexpr bool kHas_mass_matrix = true, kHas_bias_forces = true;
+  static constexpr bool kHas_potential_energy = false, kHas_friction_forces = false;
+  static constexpr bool kHas_forward_dynamics_derivatives = false, kPassiveForces = false;
+  static constexpr int kNumBase = 0, kQuaternionOffset = -1;
   static constexpr const char* kName = "nearly_singular";
+  static const std::array<int, 2>& actuated_coordinates() {
+    static const std::array<int, 2> c = {0, 1};
+    return c;
+  }
+  static const std::array<bool, 2>& motor_angle_slots() {
+    static const std::array<bool, 2> s = {false, false};
+    return s;
+  }
   template <typename T>
   using Vector3 = Eigen::Matrix<T, 3, 1>;  // as a generated header's (the planar pose)
   template <typename T>
