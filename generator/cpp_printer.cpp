@@ -431,6 +431,13 @@ std::string c_interface(const LoweredModel& model, int per_part) {
 
 EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
   const ModelFacts& facts = model.facts;
+  // Per-joint facts come from the derived model; a short list would print a wrong header.
+  if (facts.motor_angle_slots.size() != size_t(facts.dims.num_links) ||
+      !(facts.actuated_coordinates.empty() ||
+        facts.actuated_coordinates.size() == size_t(facts.dims.num_links)))
+    throw std::logic_error("print_cpp: model " + facts.name +
+                           " states motor_angle_slots or actuated_coordinates for " +
+                           "another number of joints than " + std::to_string(facts.dims.num_links));
   EmittedModel result;
   const std::string stem = options.file_stem.empty() ? facts.name : options.file_stem;
   check_file_stem(stem, "file stem");

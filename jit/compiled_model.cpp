@@ -371,18 +371,8 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
     m.motor_angle_slots_.push_back(motor_on_slot(j) != 0);
   }
   // A cross-check only: the hash already names the scene.
-  if (m.name_ != scene.name || m.dims_.nq != scene.num_coordinates() ||
-      m.dims_.nv != scene.num_velocities() || m.dims_.num_links != scene.num_links() ||
-      np != static_cast<int>(scene.parameters.size()) || m.outputs_ != output_mask(scene.outputs) ||
-      m.free_floating_ != scene.free_floating()) {
-    why = "its facts do not match the scene";
-    return m;
-  }
-  for (int j = 0; j < m.dims_.num_links; ++j)
-    if (m.motor_angle_slots_[j] != (scene.has_gear(j) && !scene.is_flexible(j))) {
-      why = "its joint slots do not match the scene";
-      return m;
-    }
+  why = m.mismatch_with(scene);
+  if (!why.empty()) return m;
   m.parameter_error_ =
       reinterpret_cast<const char* (*)(const double*)>(sym("spacearm_parameter_error"));
   for (const auto& f : exported_functions(m.outputs_)) {
@@ -394,6 +384,24 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
   }
   rep.load_ms = ms_since(t0);
   return m;
+}
+
+// The first fact the library states differently from the scene ("" if none). Every index the
+// runtime uses (the base, the actuated coordinates) is among them.
+std::string CompiledModel::mismatch_with(const Scene& scene) const {
+  if (name_ != scene.name || dims_.nq != scene.num_coordinates() ||
+      dims_.nv != scene.num_velocities() || dims_.num_links != scene.num_links() ||
+      parameter_names_.size() != scene.parameters.size() ||
+      outputs_ != output_mask(scene.outputs) || free_floating_ != scene.free_floating())
+    return "its facts do not match the scene";
+  const bool passive = (scene.features() & (needs::springs | needs::friction)) != 0;
+  if (num_base_ != scene.num_base() || quaternion_offset_ != -1 || passive_forces_ != passive)
+    return "its layout does not match the scene";
+  for (int j = 0; j < dims_.num_links; ++j)
+    if (actuated_.at(j) != scene.motor_coordinate(j) ||
+        motor_angle_slots_.at(j) != (scene.has_gear(j) && !scene.is_flexible(j)))
+      return "its joint " + std::to_string(j + 1) + " does not match the scene";
+  return "";
 }
 
 CompiledModel::~CompiledModel() {

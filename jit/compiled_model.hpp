@@ -154,6 +154,7 @@ class CompiledModel {
   static CompiledModel load_built(const Scene& scene, const CacheFolder& cache,
                                   const std::string& source, const std::string& no_compiler,
                                   StageReport& rep);
+  std::string mismatch_with(const Scene& scene) const;
   void check(const char* what, Eigen::Ref<const Eigen::VectorXd> v, int size) const;
   std::vector<Eigen::MatrixXd> call(const std::string& function,
                                     const std::vector<std::pair<Size, Size>>& shapes,

@@ -377,10 +377,7 @@ py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& 
                            const py::object& params_given) const {
   const Eigen::VectorXd params = named_parameters(model_, params_, params_given);
   const DynamicModel m = dynamic_model(model_, params);
-  if (!m.forward_dynamics)
-    throw py::value_error(
-        "simulate: the scene must emit forward_dynamics, or mass_matrix and "
-        "bias_forces (field 'outputs')");
+  m.require_forward_dynamics("simulate");
   if (o.consistent_start && !scene_.num_flexible())
     throw py::value_error("consistent_start: the scene has no flexible joint (gears[i].stiffness)");
   IntegratorOptions opt;
@@ -478,6 +475,7 @@ py::dict PyModel::closed_loop(const py::object& plan_given, const std::string& c
                               const py::object& params_given) const {
   const Eigen::VectorXd params = named_parameters(model_, params_, params_given);
   const DynamicModel plant = dynamic_model(model_, params);
+  plant.require_forward_dynamics("closed_loop");
   const int N = plant.num_links, nb = plant.num_base();
   if (controller != "pd" && controller != "computed_torque")
     throw py::value_error("controller: 'pd' or 'computed_torque', got '" + controller + "'");
@@ -510,7 +508,8 @@ py::dict PyModel::closed_loop(const py::object& plan_given, const std::string& c
   auto decide = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
     const JointTarget x = target(t);
     if (ct)
-      return ct->torque(x, q.head(nb), qd.head(nb), plant.joint_angles(q), plant.joint_rates(qd));
+      return ct->torque(x, q.head(plant.base_coordinates()), qd.head(nb), plant.joint_angles(q),
+                        plant.joint_rates(qd));
     return Eigen::VectorXd(tau_ff(t) +
                            pd.torque(x, plant.motor_side(q), plant.motor_side_rates(qd)));
   };

@@ -28,8 +28,10 @@ inline Eigen::VectorXd consistent_start(const DynamicModel& model, Eigen::Vector
   const std::vector<int>& actuated = model.actuated_coordinates;
   const Eigen::VectorXd& ratios = model.gear_ratios;
   // Joint j's slot follows the base; a flexible joint's torque drives a motor coordinate
-  // after all the slots instead.
-  auto slot = [&](int j) { return model.num_base() + j; };
+  // after all the slots instead (velocity indices; slot_q and motor_q are their places in q).
+  auto slot = [&](int j) { return model.joint_v_offsets.at(j); };
+  auto slot_q = [&](int j) { return model.joint_q_offsets.at(j); };
+  auto motor_q = [&](int j) { return model.q_index(actuated[j]); };
   std::vector<int> flexible;
   for (int j = 0; j < N; ++j)
     if (actuated[j] != slot(j)) flexible.push_back(j);
@@ -42,7 +44,7 @@ inline Eigen::VectorXd consistent_start(const DynamicModel& model, Eigen::Vector
     Eigen::VectorXd x = q;
     for (size_t k = 0; k < flexible.size(); ++k) {
       const int j = flexible[k];
-      x[actuated[j]] = ratios[j] * (q[slot(j)] + d[k]);
+      x[motor_q(j)] = ratios[j] * (q[slot_q(j)] + d[k]);
     }
     const Eigen::VectorXd qdd = model.forward_dynamics(x, qd, Q);
     Eigen::VectorXd r(flexible.size());
@@ -65,7 +67,7 @@ inline Eigen::VectorXd consistent_start(const DynamicModel& model, Eigen::Vector
   for (int k = 0; k < F; ++k) {
     const int j = flexible[k];
     e[j] = d[k];
-    q[actuated[j]] = ratios[j] * (q[slot(j)] + d[k]);
+    q[motor_q(j)] = ratios[j] * (q[slot_q(j)] + d[k]);
   }
   return e;
 }

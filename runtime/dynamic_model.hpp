@@ -90,7 +90,21 @@ struct DynamicModel : DynamicModelFacts {
     }
   }
   int num_base() const { return base_velocities; }
+  // The base's entries in q: its velocities' count, plus one for a quaternion.
+  int base_coordinates() const { return base_velocities + (quaternion_offset >= 0 ? 1 : 0); }
+  // The index in q of velocity index v past the base (a joint slot or a motor coordinate).
+  int q_index(int v) const { return v + base_coordinates() - base_velocities; }
   bool has_state_jacobian() const { return static_cast<bool>(forward_dynamics_derivatives); }
+  // std::invalid_argument, for `who` (a command or function), if the model has no forward
+  // dynamics, naming what its scene must emit.
+  void require_forward_dynamics(const std::string& who) const {
+    if (forward_dynamics) return;
+    throw std::invalid_argument(
+        who + (passive_forces ? ": a scene with springs, dampers or friction must emit "
+                                "forward_dynamics (field 'outputs')"
+                              : ": the scene must emit forward_dynamics, or mass_matrix and "
+                                "bias_forces (field 'outputs')"));
+  }
   // Only the base and one slot per joint: no flexible joint's motor coordinates. The planner
   // and the CLI's link-side columns need it.
   bool rigid_joints() const { return nv == num_base() + num_links; }
@@ -135,9 +149,8 @@ struct DynamicModel : DynamicModelFacts {
   }
 
  private:
-  // A velocity index past the base as an index of q (a quaternion adds one entry to the base's
-  // coordinates); the same index for a vector of velocity size.
-  int index_in(Eigen::Index size, int v) const { return size == nv ? v : v + (nq - nv); }
+  // A velocity index past the base in a vector of q's size or of v's.
+  int index_in(Eigen::Index size, int v) const { return size == nv ? v : q_index(v); }
   JointVector link_side(const Eigen::VectorXd& x, const std::vector<int>& offsets, int size) const {
     check_size(x, size);
     JointVector a(num_links);
@@ -156,7 +169,7 @@ struct DynamicModel : DynamicModelFacts {
   }
   Eigen::VectorXd assembled(const Eigen::VectorXd& base, const JointVector& angles,
                             const std::vector<int>& offsets, int size) const {
-    const int base_size = num_base() + (size == nv ? 0 : nq - nv);
+    const int base_size = size == nv ? num_base() : base_coordinates();
     if (base.size() != base_size || angles.size() != num_links)
       throw std::invalid_argument("model " + name + ": expected " + std::to_string(base_size) +
                                   " base and " + std::to_string(num_links) + " joint values, got " +

@@ -151,12 +151,12 @@ class ComputedTorqueController {
                                    const Eigen::VectorXd& qd_joints,
                                    const Eigen::VectorXd& a) const {
     const int nv = model_.nv, nb = model_.num_base(), N = model_.num_links;
-    const int base_coordinates = nb + model_.nq - model_.nv;  // a quaternion's extra entry
-    if (base_q.size() != base_coordinates || base_qd.size() != nb || q_joints.size() != N ||
+    const int nbq = model_.base_coordinates();  // nb, and one more for a quaternion
+    if (base_q.size() != nbq || base_qd.size() != nb || q_joints.size() != N ||
         qd_joints.size() != N || a.size() != N)
       throw std::invalid_argument("ComputedTorqueController: the control model '" + model_.name +
-                                  "' takes " + std::to_string(nb) + " base and " +
-                                  std::to_string(N) +
+                                  "' takes " + std::to_string(nbq) + " base coordinates, " +
+                                  std::to_string(nb) + " base rates and " + std::to_string(N) +
                                   " joint values (a plant with another base or joint count?)");
     // The state with each motor at p times its joint (a flexible joint's spring relaxed).
     const Eigen::VectorXd q = model_.from_joint_angles(base_q, q_joints);

@@ -50,7 +50,7 @@ inline PlanSamples plan_samples(const Plan& plan, const DynamicModel& planner) {
   s.torques.dt = plan.t.size() > 1 ? plan.t[1] - plan.t[0] : 0;
   s.torques.samples = plan.tau;
   for (size_t k = 0; k < plan.t.size(); ++k) {
-    s.base.push_back(plan.q[k].head(nb));
+    s.base.push_back(plan.q[k].head(planner.base_coordinates()));
     s.base_rate.push_back(plan.qd[k].head(nb));
     s.angles.push_back(planner.joint_angles(plan.q[k]));
     s.rates.push_back(planner.joint_rates(plan.qd[k]));

@@ -275,6 +275,13 @@ void expect_same_adapter(const std::string& scene_file, const CompileOptions& op
   EXPECT_EQ(a.num_base(), b.num_base());
   EXPECT_EQ(a.joint_q_offsets, b.joint_q_offsets);
   EXPECT_EQ(a.joint_v_offsets, b.joint_v_offsets);
+  EXPECT_EQ(a.quaternion_offset, b.quaternion_offset);
+  EXPECT_EQ(a.gear_ratios, b.gear_ratios);
+  EXPECT_EQ(bool(a.forward_dynamics), bool(b.forward_dynamics));
+  EXPECT_EQ(bool(a.mass_matrix_and_bias), bool(b.mass_matrix_and_bias));
+  EXPECT_EQ(bool(a.end_effector_pose), bool(b.end_effector_pose));
+  EXPECT_EQ(bool(a.end_effector_jacobian), bool(b.end_effector_jacobian));
+  EXPECT_EQ(bool(a.kinetic_energy), bool(b.kinetic_energy));
   EXPECT_EQ(bool(a.potential_energy), bool(b.potential_energy));
   EXPECT_EQ(bool(a.friction_forces), bool(b.friction_forces));
   EXPECT_EQ(bool(a.forward_dynamics_derivatives), bool(b.forward_dynamics_derivatives));

@@ -112,6 +112,19 @@ TEST(DynamicModel, JointAnglesAndRatesGoBothWays) {
   EXPECT_FALSE(dynamic_model(flexible).slot_holds_motor(0));
 }
 
+// A model without forward dynamics is refused up front, naming what its scene must emit.
+TEST(DynamicModel, NamesWhatForwardDynamicsNeeds) {
+  DynamicModel d;
+  EXPECT_THROW_MESSAGE(d.require_forward_dynamics("simulate"), std::invalid_argument,
+                       "simulate: the scene must emit forward_dynamics, or mass_matrix and "
+                       "bias_forces (field 'outputs')");
+  d.passive_forces = true;
+  EXPECT_THROW_MESSAGE(d.require_forward_dynamics("closed_loop"), std::invalid_argument,
+                       "closed_loop: a scene with springs, dampers or friction must emit "
+                       "forward_dynamics (field 'outputs')");
+  EXPECT_NO_THROW(dynamic_model(Geared()).require_forward_dynamics("simulate"));
+}
+
 // The checks are the model's: a NaN is a DynamicsError naming the coordinate, whichever form.
 TEST(DynamicModel, SharesTheModelsChecks) {
   const Geared geared;
