@@ -1,0 +1,210 @@
+// A serial chain of revolute joints in space on a base that floats in all six degrees of freedom
+// (or is fixed): forward kinematics, body velocities, the mass matrix, recursive Newton-Euler,
+// kinetic energy and momentum, written once over the scalar (double here; the recorded scalars
+// of recorded_scalar.hpp later, as planar_chain.cpp does). Spatial algebra in body coordinates
+// as Featherstone writes it (Rigid Body Dynamics Algorithms, 2008, ch. 2): a motion is
+// (omega, v), a force (n, f), a transform from a parent frame to a child frame is (E, r).
+//
+// The free base follows MuJoCo's free joint, so a state passes between the two unconverted:
+// q = [base origin in the world (3), unit quaternion w, x, y, z (4), joint angles],
+// v = [velocity of the base origin in the world (3), angular velocity in the base frame (3),
+// joint rates]; nq = nv + 1. This is the first part of issue 31 (spatial arms): not yet wired
+// into lowering; no rotors yet.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace spacearm::spatial {
+
+// One link and the revolute joint that carries it (URDF's joint origin and axis; the link's
+// inertial about its centre of mass, in the link frame).
+struct Link {
+  std::array<double, 3> origin_xyz{}, origin_rpy{};  // the joint frame in the parent link's
+  std::array<double, 3> axis{1, 0, 0};               // unit, in the joint frame
+  double mass = 0;
+  std::array<double, 3> com{};
+  std::array<double, 6> inertia{};  // ixx, ixy, ixz, iyy, iyz, izz about the com
+};
+
+// The base (the root link, the satellite) and the links after it, each the child of the one
+// before (a serial chain: branching is refused where chains are read).
+struct ChainDescription {
+  bool free_base = true;
+  Link base;  // its mass, com and inertia; its origin and axis are unused
+  std::vector<Link> links;
+  int num_base() const { return free_base ? 6 : 0; }
+  int nv() const { return num_base() + static_cast<int>(links.size()); }
+  int nq() const { return nv() + (free_base ? 1 : 0); }
+};
+
+template <class T>
+using Vec3 = std::array<T, 3>;
+// Row-major 3 x 3.
+template <class T>
+using Mat3 = std::array<T, 9>;
+
+template <class T>
+Vec3<T> operator+(const Vec3<T>& a, const Vec3<T>& b) {
+  return {a[0] + b[0], a[1] + b[1], a[2] + b[2]};
+}
+template <class T>
+Vec3<T> operator-(const Vec3<T>& a, const Vec3<T>& b) {
+  return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+template <class T>
+Vec3<T> scaled(const Vec3<T>& a, const T& k) {
+  return {a[0] * k, a[1] * k, a[2] * k};
+}
+template <class T>
+T dot(const Vec3<T>& a, const Vec3<T>& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+template <class T>
+Vec3<T> cross(const Vec3<T>& a, const Vec3<T>& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+template <class T>
+Vec3<T> times(const Mat3<T>& A, const Vec3<T>& x) {  // A x
+  return {A[0] * x[0] + A[1] * x[1] + A[2] * x[2], A[3] * x[0] + A[4] * x[1] + A[5] * x[2],
+          A[6] * x[0] + A[7] * x[1] + A[8] * x[2]};
+}
+template <class T>
+Vec3<T> transposed_times(const Mat3<T>& A, const Vec3<T>& x) {  // A^T x
+  return {A[0] * x[0] + A[3] * x[1] + A[6] * x[2], A[1] * x[0] + A[4] * x[1] + A[7] * x[2],
+          A[2] * x[0] + A[5] * x[1] + A[8] * x[2]};
+}
+template <class T>
+Mat3<T> product(const Mat3<T>& A, const Mat3<T>& B) {  // A B
+  Mat3<T> C;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+  return C;
+}
+
+template <class T>
+struct Motion {
+  Vec3<T> w, v;  // angular, linear (of the frame's origin)
+};
+template <class T>
+struct Force {
+  Vec3<T> n, f;  // moment about the frame's origin, force
+};
+template <class T>
+Force<T> operator+(const Force<T>& a, const Force<T>& b) {
+  return {a.n + b.n, a.f + b.f};
+}
+template <class T>
+T power(const Force<T>& F, const Motion<T>& V) {
+  return dot(F.n, V.w) + dot(F.f, V.v);
+}
+// V x m (Featherstone's crm) and V x* F (crf).
+template <class T>
+Motion<T> cross_motion(const Motion<T>& V, const Motion<T>& m) {
+  return {cross(V.w, m.w), cross(V.w, m.v) + cross(V.v, m.w)};
+}
+template <class T>
+Force<T> cross_force(const Motion<T>& V, const Force<T>& F) {
+  return {cross(V.w, F.n) + cross(V.v, F.f), cross(V.w, F.f)};
+}
+
+// A rigid body's inertia about a frame's origin: mass m, first moment h = m c, rotational
+// inertia I about the origin (row-major, symmetric).
+template <class T>
+struct RigidInertia {
+  T m;
+  Vec3<T> h;
+  Mat3<T> I;
+  Force<T> operator*(const Motion<T>& V) const {
+    return {times(I, V.w) + cross(h, V.v), scaled(V.v, m) - cross(h, V.w)};
+  }
+};
+
+// The transform from a parent frame to a child frame whose origin is r (parent coordinates) and
+// whose axes are the columns of E^T (E maps parent coordinates to child coordinates).
+template <class T>
+struct Transform {
+  Mat3<T> E;
+  Vec3<T> r;
+  Motion<T> apply(const Motion<T>& m) const {  // child coordinates of a parent motion
+    return {times(E, m.w), times(E, m.v - cross(r, m.w))};
+  }
+  Force<T> apply_transpose(const Force<T>& F) const {  // parent coordinates of a child force
+    const Vec3<T> f = transposed_times(E, F.f);
+    return {transposed_times(E, F.n) + cross(r, f), f};
+  }
+};
+
+// Rotation matrices (row-major) from URDF's roll-pitch-yaw (R = Rz(yaw) Ry(pitch) Rx(roll)),
+// about a unit axis by an angle (Rodrigues), and of a unit quaternion (w, x, y, z).
+inline Mat3<double> rpy_rotation(const std::array<double, 3>& rpy) {
+  const double cr = std::cos(rpy[0]), sr = std::sin(rpy[0]), cp = std::cos(rpy[1]),
+               sp = std::sin(rpy[1]), cy = std::cos(rpy[2]), sy = std::sin(rpy[2]);
+  return {cy * cp,
+          cy * sp * sr - sy * cr,
+          cy * sp * cr + sy * sr,
+          sy * cp,
+          sy * sp * sr + cy * cr,
+          sy * sp * cr - cy * sr,
+          -sp,
+          cp * sr,
+          cp * cr};
+}
+template <class T>
+Mat3<T> axis_rotation(const Vec3<T>& a, const T& c, const T& s, const T& one) {
+  const T t = one - c;
+  return {c + a[0] * a[0] * t,        a[0] * a[1] * t - a[2] * s, a[0] * a[2] * t + a[1] * s,
+          a[1] * a[0] * t + a[2] * s, c + a[1] * a[1] * t,        a[1] * a[2] * t - a[0] * s,
+          a[2] * a[0] * t - a[1] * s, a[2] * a[1] * t + a[0] * s, c + a[2] * a[2] * t};
+}
+template <class T>
+Mat3<T> quaternion_rotation(const T& w, const T& x, const T& y, const T& z, const T& one) {
+  const T two = one + one;
+  return {one - two * (y * y + z * z), two * (x * y - w * z),       two * (x * z + w * y),
+          two * (x * y + w * z),       one - two * (x * x + z * z), two * (y * z - w * x),
+          two * (x * z - w * y),       two * (y * z + w * x),       one - two * (x * x + y * y)};
+}
+
+// The chain at one state, in double: every quantity the outputs need.
+class Chain {
+ public:
+  // q has nq entries, v nv (the layout above). The quaternion must be of unit length.
+  Chain(const ChainDescription& d, const std::vector<double>& q, const std::vector<double>& v);
+
+  int nq() const { return d_.nq(); }
+  int nv() const { return d_.nv(); }
+  std::vector<double> mass_matrix() const;  // row-major nv x nv
+  // Q = M vdot + b (recursive Newton-Euler; no gravity: a satellite in free fall).
+  std::vector<double> inverse_dynamics(const std::vector<double>& vdot) const;
+  double kinetic_energy() const;
+  // [P (3), L (3)]: linear momentum and angular momentum about the world origin, in the world.
+  std::array<double, 6> momentum() const;
+  // World position and orientation (row-major) of body b (0: the base, i: link i).
+  const Vec3<double>& position(int b) const { return p_[b]; }
+  const Mat3<double>& rotation(int b) const { return R_[b]; }
+  // qdot = f(q, v): the base origin's velocity, the quaternion's rate 1/2 q (0, omega), the
+  // joint rates.
+  static std::vector<double> configuration_rate(const ChainDescription& d,
+                                                const std::vector<double>& q,
+                                                const std::vector<double>& v);
+
+ private:
+  const ChainDescription& d_;
+  int n_ = 0;
+  std::vector<Transform<double>> X_;      // parent -> link i (X_[0] unused)
+  std::vector<RigidInertia<double>> I_;   // each body's, about its origin, in its frame
+  std::vector<Motion<double>> V_;         // each body's velocity, in its frame
+  std::vector<Vec3<double>> p_;           // world positions of the body origins
+  std::vector<Mat3<double>> R_;           // world orientations
+  std::vector<Vec3<double>> axis_;        // each joint's axis, in its link's frame
+  std::vector<double> qd_;                // joint rates
+  Motion<double> base_unit(int k) const;  // the base's motion for a unit v_k (k < 6)
+};
+
+RigidInertia<double> rigid_inertia(const Link& l);
+
+}  // namespace spacearm::spatial
