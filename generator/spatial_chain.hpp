@@ -18,7 +18,13 @@
 #include <string>
 #include <vector>
 
+#include "outputs.hpp"
+#include "recorded_scalar.hpp"
+
 namespace spacearm::spatial {
+
+using spacearm::Dimensions;
+using spacearm::Values;
 
 // One link and the revolute joint that carries it (URDF's joint origin and axis; the link's
 // inertial about its centre of mass, in the link frame).
@@ -55,8 +61,8 @@ template <class T>
 Vec3<T> operator-(const Vec3<T>& a, const Vec3<T>& b) {
   return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
 }
-template <class T>
-Vec3<T> scaled(const Vec3<T>& a, const T& k) {
+template <class T, class K>
+Vec3<T> scaled(const Vec3<T>& a, const K& k) {
   return {a[0] * k, a[1] * k, a[2] * k};
 }
 template <class T>
@@ -169,42 +175,59 @@ Mat3<T> quaternion_rotation(const T& w, const T& x, const T& y, const T& z, cons
           two * (x * z - w * y),       two * (y * z + w * x),       one - two * (x * x + y * y)};
 }
 
-// The chain at one state, in double: every quantity the outputs need.
+RigidInertia<double> rigid_inertia(const Link& l);
+
+// Defined in spatial_chain.cpp for double, Sym and their duals. The chain at one state over the
+// scalar T (double, or recorded_scalar.hpp's Sym and Dual): its numbers come from Values (inputs
+// "q" and "qd" by the registry's names, literals), so one definition serves the reference in double
+// and the recorded programs. The members are those recursive_algorithms.hpp lists for a chain (the
+// forward dynamics to come).
+template <class T>
 class Chain {
  public:
   // q has nq entries, v nv (the layout above). The quaternion must be of unit length.
-  Chain(const ChainDescription& d, const std::vector<double>& q, const std::vector<double>& v);
+  Chain(const ChainDescription& d, Values<T> values);
 
+  static Dimensions dimensions(const ChainDescription& d) {
+    return {d.nq(), d.nv(), static_cast<int>(d.links.size()), true};
+  }
+  // Entry i of qdot = f(q, v): the base origin's velocity, the quaternion's rate
+  // 1/2 q (0, omega) with omega in the base frame, the joint rates.
+  static T configuration_rate(const ChainDescription& d, const Values<T>& values, int i);
   int nq() const { return d_.nq(); }
   int nv() const { return d_.nv(); }
-  std::vector<double> mass_matrix() const;  // row-major nv x nv
+  T input(const std::string& array, int i) const { return values_.input(array, i); }
+  std::vector<T> mass_matrix() const;  // row-major nv x nv
   // Q = M vdot + b (recursive Newton-Euler; no gravity: a satellite in free fall).
-  std::vector<double> inverse_dynamics(const std::vector<double>& vdot) const;
-  double kinetic_energy() const;
+  std::vector<T> inverse_dynamics(const std::vector<T>& vdot) const;
+  T kinetic_energy() const;
+  // M v: the momentum conjugate to each velocity (recursive_algorithms.hpp's P = d(M v)/dq).
+  std::vector<T> generalized_momentum() const;
   // [P (3), L (3)]: linear momentum and angular momentum about the world origin, in the world.
-  std::array<double, 6> momentum() const;
+  std::vector<T> momentum() const;
   // World position and orientation (row-major) of body b (0: the base, i: link i).
-  const Vec3<double>& position(int b) const { return p_[b]; }
-  const Mat3<double>& rotation(int b) const { return R_[b]; }
-  // qdot = f(q, v): the base origin's velocity, the quaternion's rate 1/2 q (0, omega), the
-  // joint rates.
-  static std::vector<double> configuration_rate(const ChainDescription& d,
-                                                const std::vector<double>& q,
-                                                const std::vector<double>& v);
+  const Vec3<T>& position(int b) const { return p_[b]; }
+  const Mat3<T>& rotation(int b) const { return R_[b]; }
 
  private:
   const ChainDescription& d_;
+  Values<T> values_;
   int n_ = 0;
-  std::vector<Transform<double>> X_;      // parent -> link i (X_[0] unused)
-  std::vector<RigidInertia<double>> I_;   // each body's, about its origin, in its frame
-  std::vector<Motion<double>> V_;         // each body's velocity, in its frame
-  std::vector<Vec3<double>> p_;           // world positions of the body origins
-  std::vector<Mat3<double>> R_;           // world orientations
-  std::vector<Vec3<double>> axis_;        // each joint's axis, in its link's frame
-  std::vector<double> qd_;                // joint rates
-  Motion<double> base_unit(int k) const;  // the base's motion for a unit v_k (k < 6)
+  std::vector<Transform<T>> X_;     // parent -> link i (X_[0] unused)
+  std::vector<RigidInertia<T>> I_;  // each body's, about its origin, in its frame
+  std::vector<Motion<T>> V_;        // each body's velocity, in its frame
+  std::vector<Vec3<T>> p_;          // world positions of the body origins
+  std::vector<Mat3<T>> R_;          // world orientations
+  std::vector<Vec3<T>> axis_;       // each joint's unit axis, in its link's frame
+  std::vector<T> qd_;               // joint rates (qd_[0] unused)
+  T num(double x) const { return values_.number(x); }
+  Vec3<T> num(const std::array<double, 3>& x) const { return {num(x[0]), num(x[1]), num(x[2])}; }
+  Mat3<T> num(const Mat3<double>& A) const;
+  static Vec3<T> zero3() { return {T{}, T{}, T{}}; }
+  static Motion<T> zero_motion() { return {zero3(), zero3()}; }
+  Motion<T> base_unit(int k) const;  // the base's motion for a unit v_k (k < 6)
+  // Body b's contribution: the bodies that carry mass (a fixed base carries none that moves).
+  int first_body() const { return d_.free_base ? 0 : 1; }
 };
-
-RigidInertia<double> rigid_inertia(const Link& l);
 
 }  // namespace spacearm::spatial

@@ -150,8 +150,21 @@ std::vector<double> as_std(const Eigen::VectorXd& x) { return {x.data(), x.data(
 Eigen::VectorXd as_eigen(const std::vector<double>& x) {
   return Eigen::Map<const Eigen::VectorXd>(x.data(), x.size());
 }
+// The inputs of a state by the registry's names.
+std::function<double(const std::string&, int)> inputs_of(const State& s) {
+  return [s](const std::string& a, int i) { return a == "q" ? s.q[i] : s.v[i]; };
+}
+Chain<double> chain_at(const ChainDescription& d, const State& s) {
+  return Chain<double>(d, Values<double>{inputs_of(s), [](double x) { return x; }});
+}
+Eigen::VectorXd configuration_rate(const ChainDescription& d, const State& s) {
+  const Values<double> values{inputs_of(s), [](double x) { return x; }};
+  Eigen::VectorXd qdot(d.nq());
+  for (int i = 0; i < d.nq(); ++i) qdot[i] = Chain<double>::configuration_rate(d, values, i);
+  return qdot;
+}
 Eigen::MatrixXd mass_matrix(const ChainDescription& d, const State& s) {
-  const std::vector<double> M = Chain(d, as_std(s.q), as_std(s.v)).mass_matrix();
+  const std::vector<double> M = chain_at(d, s).mass_matrix();
   return Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(M.data(), d.nv(), d.nv());
 }
 
@@ -166,7 +179,7 @@ TEST(SpatialChain, MassMatrixEnergyAndMomentumAreTheWorldComputations) {
     ASSERT_EQ(d.nq(), d.nv() + (free ? 1 : 0));
     for (int trial = 0; trial < 3; ++trial) {
       const State s = random_state(rng, d);
-      const Chain chain(d, as_std(s.q), as_std(s.v));
+      const Chain<double> chain = chain_at(d, s);
       const Eigen::MatrixXd M = mass_matrix(d, s), M_world = polarized_mass_matrix(d, s.q);
       EXPECT_LT((M - M_world).norm(), 1e-12 * M_world.norm());
       EXPECT_LT((M - M.transpose()).norm(), 1e-14 * M.norm());
@@ -174,8 +187,10 @@ TEST(SpatialChain, MassMatrixEnergyAndMomentumAreTheWorldComputations) {
       const double T = kinetic_energy(d, s.q, s.v);
       EXPECT_NEAR(chain.kinetic_energy(), T, 1e-12 * T);
       EXPECT_NEAR(0.5 * s.v.dot(M * s.v), T, 1e-12 * T);
+      EXPECT_LT((as_eigen(chain.generalized_momentum()) - M * s.v).norm(),
+                1e-12 * (M * s.v).norm());
       if (free) {
-        const std::array<double, 6> h = chain.momentum();
+        const std::vector<double> h = chain.momentum();
         const Eigen::Matrix<double, 6, 1> h_world = momentum(d, s.q, s.v);
         EXPECT_LT((Eigen::Map<const Eigen::Matrix<double, 6, 1>>(h.data()) - h_world).norm(),
                   1e-12 * h_world.norm());
@@ -195,14 +210,14 @@ TEST(SpatialChain, InverseDynamicsConservesMomentumAndEnergy) {
     SCOPED_TRACE(free ? "free base" : "fixed base");
     for (int trial = 0; trial < 3; ++trial) {
       const State s = random_state(rng, d);
-      const Chain chain(d, as_std(s.q), as_std(s.v));
+      const Chain<double> chain = chain_at(d, s);
       const Eigen::MatrixXd M = mass_matrix(d, s);
       const Eigen::VectorXd b = as_eigen(chain.inverse_dynamics(std::vector<double>(d.nv(), 0.0)));
       const Eigen::VectorXd a = Eigen::VectorXd::Random(d.nv());
       const Eigen::VectorXd Ma = as_eigen(chain.inverse_dynamics(as_std(a))) - b;
       EXPECT_LT((Ma - M * a).norm(), 1e-12 * (M * a).norm());
       const Eigen::VectorXd vdot = M.ldlt().solve(-b);
-      const Eigen::VectorXd qdot = as_eigen(Chain::configuration_rate(d, as_std(s.q), as_std(s.v)));
+      const Eigen::VectorXd qdot = configuration_rate(d, s);
       const double eps = 1e-5;
       auto at = [&](double t) { return State{s.q + t * qdot, s.v + t * vdot}; };
       const State plus = at(eps), minus = at(-eps);
@@ -224,13 +239,13 @@ TEST(SpatialChain, AJointTorqueLeavesTheMomentumOfAFreeBaseUnchanged) {
   std::mt19937 rng(33);
   const ChainDescription d = random_chain(rng, 6, true);
   const State s = random_state(rng, d);
-  const Chain chain(d, as_std(s.q), as_std(s.v));
+  const Chain<double> chain = chain_at(d, s);
   const Eigen::MatrixXd M = mass_matrix(d, s);
   const Eigen::VectorXd b = as_eigen(chain.inverse_dynamics(std::vector<double>(d.nv(), 0.0)));
   Eigen::VectorXd Q = Eigen::VectorXd::Zero(d.nv());
   Q[6] = 3.0;
   const Eigen::VectorXd vdot = M.ldlt().solve(Q - b);
-  const Eigen::VectorXd qdot = as_eigen(Chain::configuration_rate(d, as_std(s.q), as_std(s.v)));
+  const Eigen::VectorXd qdot = configuration_rate(d, s);
   const double eps = 1e-5;
   const Eigen::VectorXd dh = (momentum(d, s.q + eps * qdot, s.v + eps * vdot) -
                               momentum(d, s.q - eps * qdot, s.v - eps * vdot)) /
@@ -239,15 +254,37 @@ TEST(SpatialChain, AJointTorqueLeavesTheMomentumOfAFreeBaseUnchanged) {
   EXPECT_GT(vdot.head<6>().norm(), 1e-3);  // the base reacts
 }
 
-TEST(SpatialChain, RefusesWrongSizesAndAZeroAxis) {
+// The same definition recorded (Sym): the program's values are the double run's, bit for bit
+// up to the program's own order of operations.
+TEST(SpatialChain, RecordedProgramsGiveTheDoubleValues) {
+  std::mt19937 rng(35);
+  const ChainDescription d = random_chain(rng, 7, true);
+  const State s = random_state(rng, d);
+  Program p;
+  const Values<Sym> values{[&p](const std::string& a, int i) { return Sym(&p, p.input(a, i)); },
+                           [&p](double v) { return Sym::number(&p, v); }};
+  const Chain<Sym> recorded(d, values);
+  std::vector<SRef> roots;
+  for (const Sym& x : recorded.mass_matrix()) roots.push_back(x.ref());
+  for (const Sym& x : recorded.inverse_dynamics(std::vector<Sym>(d.nv(), Sym{})))
+    roots.push_back(x.ref());
+  const std::vector<double> values_of = p.evaluate(roots, inputs_of(s));
+  const Chain<double> chain = chain_at(d, s);
+  std::vector<double> expected = chain.mass_matrix();
+  for (double b : chain.inverse_dynamics(std::vector<double>(d.nv(), 0.0))) expected.push_back(b);
+  ASSERT_EQ(values_of.size(), expected.size());
+  for (size_t k = 0; k < expected.size(); ++k)
+    EXPECT_NEAR(values_of[k], expected[k], 1e-12 * (1 + std::abs(expected[k]))) << k;
+}
+
+TEST(SpatialChain, RefusesAWrongSizeAndAZeroAxis) {
   std::mt19937 rng(34);
   ChainDescription d = random_chain(rng, 2, true);
-  EXPECT_THROW_MESSAGE(Chain(d, std::vector<double>(8), std::vector<double>(8)),
-                       std::invalid_argument, "spatial chain: q needs 9 and v 8 values");
+  State s = random_state(rng, d);
+  EXPECT_THROW_MESSAGE(chain_at(d, s).inverse_dynamics(std::vector<double>(7, 0.0)),
+                       std::invalid_argument, "spatial chain: vdot needs 8 values");
   d.links[1].axis = {0, 0, 0};
-  std::vector<double> q(9, 0.0);
-  q[3] = 1;
-  EXPECT_THROW_MESSAGE(Chain(d, q, std::vector<double>(8)), std::invalid_argument,
+  EXPECT_THROW_MESSAGE(chain_at(d, s), std::invalid_argument,
                        "spatial chain: joint 2 has a zero axis");
 }
 
