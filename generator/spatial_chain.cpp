@@ -58,25 +58,41 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
   }
   axis_.push_back(zero3());
   qd_.push_back(T{});
-  // Each link: the joint frame from its origin, turned by q_i about the axis (Rodrigues).
+  // Each link: the joint frame from its origin, turned by q_i = qm_i / p_i about the axis
+  // (Rodrigues); an exact rotor in the joint frame at q = 0, turning at qd_m about the axis.
+  S_.push_back(zero_motion());
+  rotor_X_.resize(n_ + 1);
+  rotor_I_.resize(n_ + 1);
+  rotor_V_.resize(n_ + 1, zero_motion());
   for (int i = 1; i <= n_; ++i) {
     const Link& l = d.links[i - 1];
     const Vec3<double> a = unit_axis(l, i);
-    const T angle = q(jq + i - 1);
-    const Mat3<T> R = product(num(rpy_rotation(l.origin_rpy)),
-                              axis_rotation(num(a), cos(angle), sin(angle), num(1.0)));
-    Mat3<T> E;
-    for (int r = 0; r < 3; ++r)
-      for (int k = 0; k < 3; ++k) E[3 * r + k] = R[3 * k + r];
-    X_[i] = {E, num(l.origin_xyz)};
+    const double p = l.gear.present ? l.gear.ratio : 1.0;
+    const T angle = q(jq + i - 1) * (1 / p);
+    const Mat3<double> R_origin = rpy_rotation(l.origin_rpy);
+    const Mat3<T> R =
+        product(num(R_origin), axis_rotation(num(a), cos(angle), sin(angle), num(1.0)));
+    X_[i] = {transposed(R), num(l.origin_xyz)};
     R_.push_back(product(R_[i - 1], R));
     p_.push_back(p_[i - 1] + times(R_[i - 1], X_[i].r));
     axis_.push_back(num(a));
     qd_.push_back(v(jv + i - 1));
+    S_.push_back({num(scaled(a, 1 / p)), zero3()});
     Motion<T> Vi = X_[i].apply(V_[i - 1]);
-    Vi.w = Vi.w + scaled(axis_[i], qd_[i]);
+    Vi.w = Vi.w + scaled(S_[i].w, qd_[i]);
     V_.push_back(Vi);
     I_.push_back(inertia(l));
+    if (exact_rotor(i)) {
+      rotor_X_[i] = {num(transposed(R_origin)), num(l.origin_xyz)};
+      Mat3<double> Ir;  // transverse (1 - a a^T) + axial a a^T
+      for (int r = 0; r < 3; ++r)
+        for (int k = 0; k < 3; ++k)
+          Ir[3 * r + k] =
+              l.gear.transverse * ((r == k ? 1.0 : 0.0) - a[r] * a[k]) + l.gear.axial * a[r] * a[k];
+      rotor_I_[i] = {T{}, zero3(), num(Ir)};
+      rotor_V_[i] = rotor_X_[i].apply(V_[i - 1]);
+      rotor_V_[i].w = rotor_V_[i].w + scaled(axis_[i], qd_[i]);
+    }
   }
 }
 
@@ -116,21 +132,45 @@ std::vector<T> Chain<T>::mass_matrix() const {
   const int nv = d_.nv(), nb = d_.num_base();
   std::vector<T> M(nv * nv, T{});
   std::vector<Motion<T>> J(nv, zero_motion());
-  auto add = [&](int b) {
+  auto add = [&](const std::vector<Motion<T>>& Jb, const RigidInertia<T>& Ib) {
     for (int k = 0; k < nv; ++k) {
-      const Force<T> F = I_[b] * J[k];
-      for (int l = 0; l < nv; ++l) M[k * nv + l] += power(F, J[l]);
+      const Force<T> F = Ib * Jb[k];
+      for (int l = 0; l < nv; ++l) M[k * nv + l] += power(F, Jb[l]);
     }
   };
   for (int k = 0; k < nb; ++k) J[k] = base_unit(k);
-  if (d_.free_base) add(0);
+  if (d_.free_base) add(J, I_[0]);
   for (int i = 1; i <= n_; ++i) {
-    for (int k = 0; k < nb + i - 1; ++k) J[k] = X_[i].apply(J[k]);
-    J[nb + i - 1] = {axis_[i], zero3()};
-    add(i);
+    const int col = nb + i - 1;
+    if (exact_rotor(i)) {  // the rotor: the parent's Jacobian, and a on its own coordinate
+      std::vector<Motion<T>> Jr(nv, zero_motion());
+      for (int k = 0; k < col; ++k) Jr[k] = rotor_X_[i].apply(J[k]);
+      Jr[col] = {axis_[i], zero3()};
+      add(Jr, rotor_I_[i]);
+    }
+    for (int k = 0; k < col; ++k) J[k] = X_[i].apply(J[k]);
+    J[col] = S_[i];
+    add(J, I_[i]);
+    M[col * nv + col] += num(armature(i));
   }
   return M;
 }
+
+namespace {
+
+// A body's acceleration from its parent's over a joint of motion S at rate qd: X A_parent +
+// S qdd + (V x S) qd.
+template <class T>
+Motion<T> joint_acceleration(const Transform<T>& X, const Motion<T>& A_parent, const Motion<T>& V,
+                             const Motion<T>& S, const T& qdd, const T& qd) {
+  Motion<T> a = X.apply(A_parent);
+  const Motion<T> c = cross_motion(V, S);
+  a.w = a.w + scaled(S.w, qdd) + scaled(c.w, qd);
+  a.v = a.v + scaled(S.v, qdd) + scaled(c.v, qd);
+  return a;
+}
+
+}  // namespace
 
 // Recursive Newton-Euler (Featherstone, Algorithm 5.1) with the free base as joint 0: its
 // acceleration in its frame is (omega_dot, R^T vdot_world - omega x v_b), and its generalized
@@ -146,19 +186,30 @@ std::vector<T> Chain<T>::inverse_dynamics(const std::vector<T>& vdot) const {
     A[0] = {{vdot[3], vdot[4], vdot[5]},
             transposed_times(R_[0], Vec3<T>{vdot[0], vdot[1], vdot[2]}) - cross(V_[0].w, V_[0].v)};
   F[0] = I_[0] * A[0] + cross_force(V_[0], I_[0] * V_[0]);
-  for (int i = 1; i <= n_; ++i) {
-    const Motion<T> S = {axis_[i], zero3()};
-    Motion<T> a = X_[i].apply(A[i - 1]);
-    const Motion<T> c = cross_motion(V_[i], S);  // the joint's velocity-product acceleration
-    a.w = a.w + scaled(S.w, vdot[nb + i - 1]) + scaled(c.w, qd_[i]);
-    a.v = a.v + scaled(c.v, qd_[i]);
-    A[i] = a;
-    F[i] = I_[i] * A[i] + cross_force(V_[i], I_[i] * V_[i]);
-  }
+  // Forward: each link's acceleration and force; an exact rotor's, on its parent.
   std::vector<T> Q(nv, T{});
+  std::vector<Force<T>> rotor_F(n_ + 1);
+  for (int i = 1; i <= n_; ++i) {
+    const int col = nb + i - 1;
+    A[i] = joint_acceleration(X_[i], A[i - 1], V_[i], S_[i], vdot[col], qd_[i]);
+    F[i] = I_[i] * A[i] + cross_force(V_[i], I_[i] * V_[i]);
+    Q[col] = vdot[col] * num(armature(i));
+    if (exact_rotor(i)) {
+      const Motion<T> S = {axis_[i], zero3()};
+      const Motion<T> Ar =
+          joint_acceleration(rotor_X_[i], A[i - 1], rotor_V_[i], S, vdot[col], qd_[i]);
+      rotor_F[i] = rotor_I_[i] * Ar + cross_force(rotor_V_[i], rotor_I_[i] * rotor_V_[i]);
+    }
+  }
+  // Backward: each joint's share, the rest to the parent.
   for (int i = n_; i >= 1; --i) {
-    Q[nb + i - 1] = dot(axis_[i], F[i].n);
+    const int col = nb + i - 1;
+    Q[col] += power(F[i], S_[i]);
     F[i - 1] = F[i - 1] + X_[i].apply_transpose(F[i]);
+    if (exact_rotor(i)) {
+      Q[col] += dot(axis_[i], rotor_F[i].n);
+      F[i - 1] = F[i - 1] + rotor_X_[i].apply_transpose(rotor_F[i]);
+    }
   }
   if (d_.free_base) {
     const Vec3<T> f_world = times(R_[0], F[0].f);
@@ -174,6 +225,10 @@ template <class T>
 T Chain<T>::kinetic_energy() const {
   T twice{};
   for (int b = first_body(); b <= n_; ++b) twice += power(I_[b] * V_[b], V_[b]);
+  for (int i = 1; i <= n_; ++i) {
+    if (exact_rotor(i)) twice += power(rotor_I_[i] * rotor_V_[i], rotor_V_[i]);
+    twice += qd_[i] * qd_[i] * num(armature(i));
+  }
   return twice * 0.5;
 }
 
@@ -185,9 +240,15 @@ std::vector<T> Chain<T>::generalized_momentum() const {
   std::vector<T> p(nv, T{});
   Force<T> carried = {zero3(), zero3()};
   for (int i = n_; i >= 1; --i) {
+    const int col = nb + i - 1;
     carried = carried + I_[i] * V_[i];
-    p[nb + i - 1] = dot(axis_[i], carried.n);
+    p[col] = power(carried, S_[i]) + qd_[i] * num(armature(i));
     carried = X_[i].apply_transpose(carried);
+    if (exact_rotor(i)) {  // the rotor's momentum, in the parent's frame
+      const Force<T> h = rotor_I_[i] * rotor_V_[i];
+      p[col] += dot(axis_[i], h.n);
+      carried = carried + rotor_X_[i].apply_transpose(h);
+    }
   }
   if (d_.free_base) {
     carried = carried + I_[0] * V_[0];
@@ -199,15 +260,19 @@ std::vector<T> Chain<T>::generalized_momentum() const {
 template <class T>
 std::vector<T> Chain<T>::momentum() const {
   std::vector<T> h(6, T{});
-  for (int b = first_body(); b <= n_; ++b) {
-    const Force<T> F = I_[b] * V_[b];  // about the body's origin, in its frame
-    const Vec3<T> P = times(R_[b], F.f);
-    const Vec3<T> L = times(R_[b], F.n) + cross(p_[b], P);
+  auto add = [&h](const Force<T>& F, const Mat3<T>& R, const Vec3<T>& origin) {
+    const Vec3<T> P = times(R, F.f);  // F about the body's origin, in its frame
+    const Vec3<T> L = times(R, F.n) + cross(origin, P);
     for (int k = 0; k < 3; ++k) {
       h[k] += P[k];
       h[3 + k] += L[k];
     }
-  }
+  };
+  for (int b = first_body(); b <= n_; ++b) add(I_[b] * V_[b], R_[b], p_[b]);
+  // An exact rotor's angular momentum (armature drops it): its frame is the joint's at q = 0.
+  for (int i = 1; i <= n_; ++i)
+    if (exact_rotor(i))
+      add(rotor_I_[i] * rotor_V_[i], product(R_[i - 1], transposed(rotor_X_[i].E)), p_[i]);
   return h;
 }
 

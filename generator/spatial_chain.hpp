@@ -28,12 +28,27 @@ using spacearm::Values;
 
 // One link and the revolute joint that carries it (URDF's joint origin and axis; the link's
 // inertial about its centre of mass, in the link frame).
+// A joint's gear: a motor whose rotor turns at p times the joint's rate relative to the parent
+// link, so the joint's coordinate is the motor angle qm = p q (eq. 12 in the plane) and its
+// generalized force tau / p. The rotor is a body of revolution about the joint axis through
+// the joint's origin (its mass belongs to the parent link's inertial). Exact coupling carries
+// it on the parent, turning at omega_parent + qd_m a (its gyroscopic torques and angular
+// momentum included); armature keeps only the axial inertia on the motor coordinate (MuJoCo's,
+// Drake's and Pinocchio's model).
+struct Gear {
+  bool present = false;
+  double ratio = 1;
+  double axial = 0, transverse = 0;  // the rotor's inertia about its axis and across it
+  bool exact = true;
+};
+
 struct Link {
   std::array<double, 3> origin_xyz{}, origin_rpy{};  // the joint frame in the parent link's
   std::array<double, 3> axis{1, 0, 0};               // unit, in the joint frame
   double mass = 0;
   std::array<double, 3> com{};
   std::array<double, 6> inertia{};  // ixx, ixy, ixz, iyy, iyz, izz about the com
+  Gear gear;
 };
 
 // The base (the root link, the satellite) and the links after it, each the child of the one
@@ -82,6 +97,10 @@ template <class T>
 Vec3<T> transposed_times(const Mat3<T>& A, const Vec3<T>& x) {  // A^T x
   return {A[0] * x[0] + A[3] * x[1] + A[6] * x[2], A[1] * x[0] + A[4] * x[1] + A[7] * x[2],
           A[2] * x[0] + A[5] * x[1] + A[8] * x[2]};
+}
+template <class T>
+Mat3<T> transposed(const Mat3<T>& A) {
+  return {A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8]};
 }
 template <class T>
 Mat3<T> product(const Mat3<T>& A, const Mat3<T>& B) {  // A B
@@ -219,7 +238,21 @@ class Chain {
   std::vector<Vec3<T>> p_;          // world positions of the body origins
   std::vector<Mat3<T>> R_;          // world orientations
   std::vector<Vec3<T>> axis_;       // each joint's unit axis, in its link's frame
-  std::vector<T> qd_;               // joint rates (qd_[0] unused)
+  std::vector<T> qd_;               // joint (or motor) rates (qd_[0] unused)
+  // Per joint: the link's motion per unit rate (a / p, 0), and an exactly coupled rotor's
+  // transform from the parent (the joint's origin, not turned), inertia and velocity.
+  std::vector<Motion<T>> S_;
+  std::vector<Transform<T>> rotor_X_;
+  std::vector<RigidInertia<T>> rotor_I_;
+  std::vector<Motion<T>> rotor_V_;
+  bool exact_rotor(int i) const {
+    return d_.links[i - 1].gear.present && d_.links[i - 1].gear.exact;
+  }
+  // The armature inertia on joint i's coordinate (0 without an armature-coupled gear).
+  double armature(int i) const {
+    const Gear& g = d_.links[i - 1].gear;
+    return g.present && !g.exact ? g.axial : 0.0;
+  }
   T num(double x) const { return values_.number(x); }
   Vec3<T> num(const std::array<double, 3>& x) const { return {num(x[0]), num(x[1]), num(x[2])}; }
   Mat3<T> num(const Mat3<double>& A) const;

@@ -30,13 +30,31 @@ Link random_link(std::mt19937& rng) {
   return l;
 }
 
-ChainDescription random_chain(std::mt19937& rng, int links, bool free_base) {
+// geared: every joint has a motor (ratio 5 to 100), exactly coupled on the odd joints and as
+// armature on the even ones.
+ChainDescription random_chain(std::mt19937& rng, int links, bool free_base, bool geared = false) {
+  std::uniform_real_distribution<double> u(0, 1);
   ChainDescription d;
   d.free_base = free_base;
   d.base = random_link(rng);
   d.base.mass = 50;
-  for (int i = 0; i < links; ++i) d.links.push_back(random_link(rng));
+  for (int i = 0; i < links; ++i) {
+    d.links.push_back(random_link(rng));
+    if (!geared) continue;
+    Gear& g = d.links.back().gear;
+    g = {true, 5 + 95 * u(rng), 1e-4 * (1 + u(rng)), 0.6e-4 * (1 + u(rng)), i % 2 == 0};
+  }
   return d;
+}
+
+struct Case {
+  int links;
+  bool free, geared;
+};
+const Case kCases[] = {{7, true, false}, {6, false, false}, {7, true, true}, {6, false, true}};
+std::string name(const Case& c) {
+  return std::to_string(c.links) + (c.free ? " on a free base" : " on a fixed base") +
+         (c.geared ? ", geared" : "");
 }
 
 // The independent computation: world rotations by Eigen (URDF's rpy as Rz Ry Rx, the joint by
@@ -46,6 +64,7 @@ struct World {
   std::vector<Eigen::Vector3d> com, com_velocity, omega;
   std::vector<double> mass;
   std::vector<Eigen::Matrix3d> inertia;  // about the com, in the body frame
+  double armature_energy = 0;            // 1/2 I qd_m^2 of the armature-coupled motors
 };
 
 Eigen::Matrix3d inertia_of(const Link& l) {
@@ -87,10 +106,23 @@ World world(const ChainDescription& d, const Eigen::VectorXd& q, const Eigen::Ve
                                  Eigen::AngleAxisd(l.origin_rpy[0], Eigen::Vector3d::UnitX()))
                                     .toRotationMatrix();
     const Eigen::Vector3d axis = Eigen::Vector3d(l.axis[0], l.axis[1], l.axis[2]).normalized();
+    const double ratio = l.gear.present ? l.gear.ratio : 1, qm_rate = v[jv + i];
     pdot += omega.cross(R * origin);  // the joint's origin moves with the parent body
     p += R * origin;
-    R = R * rpy * Eigen::AngleAxisd(q[jq + i], axis).toRotationMatrix();
-    omega += R * axis * v[jv + i];
+    if (l.gear.present && l.gear.exact) {  // a massless rotor on the parent at qd_m
+      const Eigen::Matrix3d Rr = R * rpy;
+      w.R.push_back(Rr);
+      w.com.push_back(p);
+      w.com_velocity.push_back(pdot);
+      w.omega.push_back(omega + Rr * axis * qm_rate);
+      w.mass.push_back(0);
+      w.inertia.push_back(l.gear.transverse * Eigen::Matrix3d::Identity() +
+                          (l.gear.axial - l.gear.transverse) * axis * axis.transpose());
+    } else if (l.gear.present) {
+      w.armature_energy += 0.5 * l.gear.axial * qm_rate * qm_rate;
+    }
+    R = R * rpy * Eigen::AngleAxisd(q[jq + i] / ratio, axis).toRotationMatrix();
+    omega += R * axis * (qm_rate / ratio);
     add_body(l);
   }
   return w;
@@ -99,7 +131,7 @@ World world(const ChainDescription& d, const Eigen::VectorXd& q, const Eigen::Ve
 double kinetic_energy(const ChainDescription& d, const Eigen::VectorXd& q,
                       const Eigen::VectorXd& v) {
   const World w = world(d, q, v);
-  double T = 0;
+  double T = w.armature_energy;
   for (size_t b = 0; b < w.R.size(); ++b)
     T += 0.5 * w.mass[b] * w.com_velocity[b].squaredNorm() +
          0.5 * w.omega[b].dot(w.R[b] * w.inertia[b] * w.R[b].transpose() * w.omega[b]);
@@ -168,13 +200,15 @@ Eigen::MatrixXd mass_matrix(const ChainDescription& d, const State& s) {
   return Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(M.data(), d.nv(), d.nv());
 }
 
-// A 7-joint arm on a free base (13 velocities) and a 6-joint arm on a fixed base, at random
-// states: M, T and the momentum are the world computation's.
+// A 7-joint arm on a free base (13 velocities) and a 6-joint arm on a fixed base, each without
+// and with geared motors (exact and armature), at random states: M, T and the momentum are the
+// world computation's.
 TEST(SpatialChain, MassMatrixEnergyAndMomentumAreTheWorldComputations) {
   std::mt19937 rng(31);
-  for (const auto& [links, free] : {std::pair{7, true}, std::pair{6, false}}) {
-    const ChainDescription d = random_chain(rng, links, free);
-    SCOPED_TRACE(free ? "free base" : "fixed base");
+  for (const Case& c : kCases) {
+    const auto [links, free, geared] = c;
+    const ChainDescription d = random_chain(rng, links, free, geared);
+    SCOPED_TRACE(name(c));
     ASSERT_EQ(d.nv(), links + (free ? 6 : 0));
     ASSERT_EQ(d.nq(), d.nv() + (free ? 1 : 0));
     for (int trial = 0; trial < 3; ++trial) {
@@ -205,9 +239,10 @@ TEST(SpatialChain, MassMatrixEnergyAndMomentumAreTheWorldComputations) {
 // shows here.
 TEST(SpatialChain, InverseDynamicsConservesMomentumAndEnergy) {
   std::mt19937 rng(32);
-  for (const auto& [links, free] : {std::pair{7, true}, std::pair{6, false}}) {
-    const ChainDescription d = random_chain(rng, links, free);
-    SCOPED_TRACE(free ? "free base" : "fixed base");
+  for (const Case& c : kCases) {
+    const auto [links, free, geared] = c;
+    const ChainDescription d = random_chain(rng, links, free, geared);
+    SCOPED_TRACE(name(c));
     for (int trial = 0; trial < 3; ++trial) {
       const State s = random_state(rng, d);
       const Chain<double> chain = chain_at(d, s);
@@ -252,6 +287,45 @@ TEST(SpatialChain, AJointTorqueLeavesTheMomentumOfAFreeBaseUnchanged) {
                              (2 * eps);
   EXPECT_LT(dh.norm(), 1e-7 * (1 + momentum(d, s.q, s.v).norm()));
   EXPECT_GT(vdot.head<6>().norm(), 1e-3);  // the base reacts
+}
+
+// Exact against armature coupling on the same arm: the rotor's axial inertia sits on its motor
+// coordinate in both, and what exact coupling adds is the rotor's share of the angular momentum
+// (I_axial a qd_m, with a the rotor's axis in the world) and its coupling to the parent's
+// rotation. A gear of ratio 1 with no rotor is no gear at all.
+TEST(SpatialChain, ExactRotorsAddTheirAngularMomentumToArmature) {
+  std::mt19937 rng(36);
+  ChainDescription exact = random_chain(rng, 7, true, true);
+  const int joint = 3, col = 6 + joint;  // one motor, at joint 4; the rest are not geared
+  for (int j = 0; j < 7; ++j) exact.links[j].gear.present = j == joint;
+  exact.links[joint].gear.exact = true;
+  ChainDescription armature = exact;
+  armature.links[joint].gear.exact = false;
+  State s = random_state(rng, exact);
+  s.v.setZero();
+  s.v[col] = 50.0;  // only motor 4 turns: its parent is at rest
+  const Eigen::VectorXd h_exact = as_eigen(chain_at(exact, s).momentum()),
+                        h_armature = as_eigen(chain_at(armature, s).momentum());
+  const World w = world(exact, s.q, s.v);
+  // The rotor's axis in the world: the parent's rotation and the joint's origin rpy.
+  const Link& l = exact.links[joint];
+  const Eigen::Vector3d axis = Eigen::Vector3d(l.axis[0], l.axis[1], l.axis[2]).normalized();
+  const Eigen::Matrix3d R_parent = w.R[joint];  // the base and links 1..3, then the rotor
+  const Eigen::Matrix3d rpy = (Eigen::AngleAxisd(l.origin_rpy[2], Eigen::Vector3d::UnitZ()) *
+                               Eigen::AngleAxisd(l.origin_rpy[1], Eigen::Vector3d::UnitY()) *
+                               Eigen::AngleAxisd(l.origin_rpy[0], Eigen::Vector3d::UnitX()))
+                                  .toRotationMatrix();
+  const Eigen::Vector3d expected = l.gear.axial * 50.0 * R_parent * rpy * axis;
+  EXPECT_LT((h_exact.head<3>() - h_armature.head<3>()).norm(), 1e-12 * h_exact.norm());
+  EXPECT_LT((h_exact.tail<3>() - h_armature.tail<3>() - expected).norm(), 1e-12 * expected.norm());
+  const Eigen::MatrixXd M_exact = mass_matrix(exact, s), M_armature = mass_matrix(armature, s);
+  EXPECT_NEAR(M_exact(col, col), M_armature(col, col), 1e-12 * M_exact(col, col));
+  EXPECT_GT((M_exact - M_armature).norm(), 1e-6);
+  ChainDescription unit = random_chain(rng, 5, true);
+  const State u = random_state(rng, unit);
+  const Eigen::MatrixXd M_plain = mass_matrix(unit, u);
+  for (Link& k : unit.links) k.gear = {true, 1.0, 0.0, 0.0, true};
+  EXPECT_LT((mass_matrix(unit, u) - M_plain).norm(), 1e-14 * M_plain.norm());
 }
 
 // The same definition recorded (Sym): the program's values are the double run's, bit for bit
