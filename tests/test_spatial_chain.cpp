@@ -8,6 +8,8 @@
 
 #include <random>
 
+#include "planar_chain.hpp"
+#include "scene.hpp"
 #include "support.hpp"
 
 namespace spacearm::spatial {
@@ -326,6 +328,84 @@ TEST(SpatialChain, ExactRotorsAddTheirAngularMomentumToArmature) {
   const Eigen::MatrixXd M_plain = mass_matrix(unit, u);
   for (Link& k : unit.links) k.gear = {true, 1.0, 0.0, 0.0, true};
   EXPECT_LT((mass_matrix(unit, u) - M_plain).norm(), 1e-14 * M_plain.norm());
+}
+
+// The plane as a special case: a spatial arm whose axes are all z, its links along x, moving in
+// the plane, has the planar model's M and bias (planar_chain.cpp, the planar scene's
+// recursive forms) on the planar coordinates: base x0, y0, q0 (a free base turned by q0 about
+// z), then the motor angles of geared joints, rotors exactly coupled.
+TEST(SpatialChain, ThePlaneIsASpecialCase) {
+  const std::array<double, 4> mass = {1.281, 3.917, 0.912, 2.736},
+                              inertia = {0.0665, 0.0142, 0.0378, 0.0435},
+                              length = {0.50, 0.45, 0.40, 0.30}, cx = {0.194, 0.122, 0.095, 0.066},
+                              cy = {-0.0041, -0.0142, 0.0033, -0.0176}, ratio = {50, 3.5, 20, 1},
+                              rotor = {2e-4, 1e-3, 5e-4, 0};
+  for (const bool free : {false, true}) {
+    SCOPED_TRACE(free ? "free base" : "fixed base");
+    std::string yaml =
+        std::string("name: plane\nbase: ") +
+        (free ? "{type: free_floating, mass: 30.5, inertia: 1.25, mount: [0.3, 0.02]}"
+              : "{type: fixed, mount: [0.3, 0.02]}") +
+        "\nlinks:\n";
+    ChainDescription d;
+    d.free_base = free;
+    d.base.mass = 30.5;
+    d.base.inertia = {0.9, 0, 0, 0.8, 0, 1.25};  // only izz acts in the plane
+    std::string gears = "gears:\n";
+    for (int i = 0; i < 4; ++i) {
+      yaml += "  - {mass: " + std::to_string(mass[i]) + ", inertia: " + std::to_string(inertia[i]) +
+              ", length: " + std::to_string(length[i]) + ", com: [" + std::to_string(cx[i]) + ", " +
+              std::to_string(cy[i]) + "]}\n";
+      gears += "  - {ratio: " + std::to_string(ratio[i]) +
+               ", motor_inertia: " + std::to_string(rotor[i]) +
+               ", compensate_link_inertia: false}\n";
+      Link l;
+      l.origin_xyz = {i == 0 ? 0.3 : length[i - 1], i == 0 ? 0.02 : 0.0, 0.0};
+      l.axis = {0, 0, 1};
+      l.mass = mass[i];
+      l.com = {cx[i], cy[i], 0};
+      l.inertia = {0.5 * inertia[i], 0, 0, 0.7 * inertia[i], 0, inertia[i]};
+      l.gear = {true, ratio[i], rotor[i], 0.3 * rotor[i], true};
+      d.links.push_back(l);
+    }
+    const Scene scene = parse_scene(yaml + gears, "plane.yaml");
+    // A planar state, and the spatial one it is.
+    const Eigen::VectorXd q2 = Eigen::VectorXd::Random(scene.num_coordinates()),
+                          v2 = Eigen::VectorXd::Random(scene.num_velocities());
+    State s3{Eigen::VectorXd::Zero(d.nq()), Eigen::VectorXd::Zero(d.nv())};
+    std::vector<int> planar_rows;  // the spatial velocity index of each planar one
+    if (free) {
+      s3.q.head<2>() = q2.head<2>();
+      s3.q.segment<4>(3) << std::cos(q2[2] / 2), 0, 0, std::sin(q2[2] / 2);
+      s3.v.head<2>() = v2.head<2>();
+      s3.v[5] = v2[2];
+      planar_rows = {0, 1, 5};
+    }
+    const int jq = free ? 7 : 0, jv = free ? 6 : 0, j2 = free ? 3 : 0;
+    for (int i = 0; i < 4; ++i) {
+      s3.q[jq + i] = q2[j2 + i];
+      s3.v[jv + i] = v2[j2 + i];
+      planar_rows.push_back(jv + i);
+    }
+    auto planar = [&](Output o) {
+      const std::vector<double> r = evaluate_recursive(scene, o, [&](const std::string& a, int i) {
+        return a == "q" ? q2[i] : a == "qd" ? v2[i] : 0.0;
+      })[0];
+      return as_eigen(r);
+    };
+    const int n = scene.num_velocities();
+    const Eigen::MatrixXd M2 = Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(
+        planar(Output::mass_matrix).data(), n, n);
+    const Eigen::VectorXd b2 = planar(Output::bias_forces);
+    const Eigen::MatrixXd M3 = mass_matrix(d, s3);
+    const Eigen::VectorXd b3 =
+        as_eigen(chain_at(d, s3).inverse_dynamics(std::vector<double>(d.nv(), 0.0)));
+    for (int r = 0; r < n; ++r) {
+      EXPECT_NEAR(b3[planar_rows[r]], b2[r], 1e-12 * (1 + b2.norm())) << r;
+      for (int c = 0; c < n; ++c)
+        EXPECT_NEAR(M3(planar_rows[r], planar_rows[c]), M2(r, c), 1e-12 * M2.norm()) << r << c;
+    }
+  }
 }
 
 // The same definition recorded (Sym): the program's values are the double run's, bit for bit
