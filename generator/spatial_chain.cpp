@@ -222,6 +222,38 @@ std::vector<T> Chain<T>::inverse_dynamics(const std::vector<T>& vdot) const {
 }
 
 template <class T>
+std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) const {
+  const int n = nv();
+  if (static_cast<int>(Q.size()) != n)
+    throw std::invalid_argument("spatial chain: Q needs " + std::to_string(n) + " values");
+  const std::vector<T> M = mass_matrix(), b = inverse_dynamics(std::vector<T>(n, T{}));
+  // M = L D L^T, L unit lower triangular (row-major, below the diagonal).
+  std::vector<T> L(n * n, T{}), D(n), scaled(n);
+  for (int j = 0; j < n; ++j) {
+    T d = M[j * n + j];
+    for (int k = 0; k < j; ++k) d -= L[j * n + k] * L[j * n + k] * D[k];
+    D[j] = d;
+    scaled[j] = d / M[j * n + j];
+    for (int i = j + 1; i < n; ++i) {
+      T x = M[i * n + j];
+      for (int k = 0; k < j; ++k) x -= L[i * n + k] * L[j * n + k] * D[k];
+      L[i * n + j] = x / d;
+    }
+  }
+  // L z = Q - b, then D w = z, then L^T qdd = w.
+  std::vector<T> x(n);
+  for (int i = 0; i < n; ++i) {
+    T z = Q[i] - b[i];
+    for (int k = 0; k < i; ++k) z -= L[i * n + k] * x[k];
+    x[i] = z;
+  }
+  for (int i = 0; i < n; ++i) x[i] = x[i] / D[i];
+  for (int i = n - 1; i >= 0; --i)
+    for (int k = i + 1; k < n; ++k) x[i] -= L[k * n + i] * x[k];
+  return {x, D, scaled};
+}
+
+template <class T>
 T Chain<T>::kinetic_energy() const {
   T twice{};
   for (int b = first_body(); b <= n_; ++b) twice += power(I_[b] * V_[b], V_[b]);

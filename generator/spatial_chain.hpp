@@ -220,6 +220,11 @@ class Chain {
   // Q = M vdot + b (recursive Newton-Euler; no gravity: a satellite in free fall).
   std::vector<T> inverse_dynamics(const std::vector<T>& vdot) const;
   T kinetic_energy() const;
+  // qdd = M^-1 (Q - b) by an LDL^T factorization of M, with its pivots D_i and D_i / M_ii
+  // (as the planar chain's ABA returns them); the articulated-body algorithm to come.
+  std::vector<std::vector<T>> forward_dynamics(const std::vector<T>& Q) const;
+  // Springs, dampers and friction: none in space yet (zeros).
+  std::vector<T> passive_forces() const { return std::vector<T>(nv(), T{}); }
   // M v: the momentum conjugate to each velocity (recursive_algorithms.hpp's P = d(M v)/dq).
   std::vector<T> generalized_momentum() const;
   // [P (3), L (3)]: linear momentum and angular momentum about the world origin, in the world.

@@ -9,6 +9,7 @@
 #include <random>
 
 #include "planar_chain.hpp"
+#include "recursive_algorithms.hpp"
 #include "scene.hpp"
 #include "support.hpp"
 
@@ -429,6 +430,53 @@ TEST(SpatialChain, RecordedProgramsGiveTheDoubleValues) {
   ASSERT_EQ(values_of.size(), expected.size());
   for (size_t k = 0; k < expected.size(); ++k)
     EXPECT_NEAR(values_of[k], expected[k], 1e-12 * (1 + std::abs(expected[k]))) << k;
+}
+
+// The registry's outputs through recursive_algorithms.hpp, written once for any chain: forward
+// dynamics solves M qdd + b = Q with positive pivots, inverse dynamics inverts it, and the
+// state Jacobian (dual numbers; q's columns include the quaternion's four entries, nv x nq) is
+// that of central differences of forward dynamics.
+TEST(SpatialChain, GivesTheRegistrysRecursiveOutputs) {
+  std::mt19937 rng(38);
+  const ChainDescription d = random_chain(rng, 7, true, true);
+  const State s = random_state(rng, d);
+  const Eigen::VectorXd Q = Eigen::VectorXd::Random(d.nv());
+  auto at = [&](const State& x) {
+    return [x, Q](const std::string& a, int i) {
+      return a == "q" ? x.q[i] : a == "Q" ? Q[i] : x.v[i];
+    };
+  };
+  auto output = [&](Output o, const State& x) { return evaluate_chain<Chain>(d, o, at(x)); };
+  ASSERT_EQ(Chain<double>::dimensions(d).nq, 14);
+  const Eigen::VectorXd qdd = as_eigen(output(Output::forward_dynamics, s)[0]);
+  const Eigen::MatrixXd M = mass_matrix(d, s);
+  const Eigen::VectorXd b = as_eigen(output(Output::bias_forces, s)[0]);
+  EXPECT_LT((M * qdd + b - Q).norm(), 1e-12 * (1 + Q.norm()));
+  EXPECT_GT(as_eigen(output(Output::forward_dynamics, s)[1]).minCoeff(), 0);
+  const auto J = output(Output::forward_dynamics_derivatives, s);
+  const Eigen::MatrixXd dq = Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(
+                            J[0].data(), d.nv(), d.nq()),
+                        dv = Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(
+                            J[1].data(), d.nv(), d.nv());
+  const double h = 1e-6;
+  for (int k = 0; k < d.nq(); ++k) {
+    State plus = s, minus = s;
+    plus.q[k] += h;
+    minus.q[k] -= h;
+    const Eigen::VectorXd column = (as_eigen(output(Output::forward_dynamics, plus)[0]) -
+                                    as_eigen(output(Output::forward_dynamics, minus)[0])) /
+                                   (2 * h);
+    EXPECT_LT((dq.col(k) - column).norm(), 1e-6 * (1 + column.norm())) << "q " << k;
+  }
+  for (int k = 0; k < d.nv(); ++k) {
+    State plus = s, minus = s;
+    plus.v[k] += h;
+    minus.v[k] -= h;
+    const Eigen::VectorXd column = (as_eigen(output(Output::forward_dynamics, plus)[0]) -
+                                    as_eigen(output(Output::forward_dynamics, minus)[0])) /
+                                   (2 * h);
+    EXPECT_LT((dv.col(k) - column).norm(), 1e-6 * (1 + column.norm())) << "v " << k;
+  }
 }
 
 TEST(SpatialChain, RefusesAWrongSizeAndAZeroAxis) {
