@@ -308,6 +308,81 @@ std::vector<T> Chain<T>::momentum() const {
   return h;
 }
 
+namespace {
+
+// Quaternions (w, x, y, z) and their product.
+template <class T>
+using Quaternion = std::array<T, 4>;
+template <class T>
+Quaternion<T> operator*(const Quaternion<T>& a, const Quaternion<T>& b) {
+  return {a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+          a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+          a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+          a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0]};
+}
+// URDF's roll-pitch-yaw as a quaternion: Rz(yaw) Ry(pitch) Rx(roll).
+Quaternion<double> rpy_quaternion(const std::array<double, 3>& rpy) {
+  auto half = [](double a, int axis) {
+    Quaternion<double> q = {std::cos(a / 2), 0, 0, 0};
+    q[1 + axis] = std::sin(a / 2);
+    return q;
+  };
+  return half(rpy[2], 2) * half(rpy[1], 1) * half(rpy[0], 0);
+}
+
+}  // namespace
+
+template <class T>
+std::vector<T> Chain<T>::end_effector_pose() const {
+  const Vec3<T> tip = p_[n_] + times(R_[n_], num(d_.tip));
+  Quaternion<T> q = {num(1.0), T{}, T{}, T{}};
+  if (d_.free_base)
+    q = {values_.input("q", 3), values_.input("q", 4), values_.input("q", 5),
+         values_.input("q", 6)};
+  const int jq = d_.free_base ? 7 : 0;
+  for (int i = 1; i <= n_; ++i) {
+    const Link& l = d_.links[i - 1];
+    const Quaternion<double> o = rpy_quaternion(l.origin_rpy);
+    const double p = l.gear.present ? l.gear.ratio : 1.0;
+    const T half = values_.input("q", jq + i - 1) * (0.5 / p);
+    const T s = sin(half);
+    q = q * Quaternion<T>{num(o[0]), num(o[1]), num(o[2]), num(o[3])} *
+        Quaternion<T>{cos(half), s * axis_[i][0], s * axis_[i][1], s * axis_[i][2]};
+  }
+  return {tip[0], tip[1], tip[2], q[0], q[1], q[2], q[3]};
+}
+
+template <class T>
+std::vector<T> Chain<T>::end_effector_jacobian() const {
+  const int nv = d_.nv(), nb = d_.num_base();
+  const Vec3<T> tip = p_[n_] + times(R_[n_], num(d_.tip));
+  std::vector<T> J(6 * nv, T{});
+  auto column = [&](int c, const Vec3<T>& linear, const Vec3<T>& angular) {
+    for (int k = 0; k < 3; ++k) {
+      J[k * nv + c] = linear[k];
+      J[(3 + k) * nv + c] = angular[k];
+    }
+  };
+  // The base: its origin's world velocity moves the tip alike; its body angular velocity
+  // turns the tip about the origin.
+  for (int k = 0; k < nb; ++k) {
+    Vec3<double> e = {0, 0, 0};
+    e[k % 3] = 1;
+    if (k < 3) {
+      column(k, num(e), zero3());
+    } else {
+      const Vec3<T> w = times(R_[0], num(e));
+      column(k, cross(w, tip - p_[0]), w);
+    }
+  }
+  // Each joint turns everything after it about its world axis, at qd_m / p.
+  for (int i = 1; i <= n_; ++i) {
+    const Vec3<T> w = times(R_[i], S_[i].w);
+    column(nb + i - 1, cross(w, tip - p_[i]), w);
+  }
+  return J;
+}
+
 template class Chain<double>;
 template class Chain<Dual<double>>;
 template class Chain<Sym>;

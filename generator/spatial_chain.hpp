@@ -57,6 +57,7 @@ struct ChainDescription {
   bool free_base = true;
   Link base;  // its mass, com and inertia; its origin and axis are unused
   std::vector<Link> links;
+  std::array<double, 3> tip{};  // the end effector's point, in the last link's frame
   int num_base() const { return free_base ? 6 : 0; }
   int nv() const { return num_base() + static_cast<int>(links.size()); }
   int nq() const { return nv() + (free_base ? 1 : 0); }
@@ -229,6 +230,12 @@ class Chain {
   std::vector<T> generalized_momentum() const;
   // [P (3), L (3)]: linear momentum and angular momentum about the world origin, in the world.
   std::vector<T> momentum() const;
+  // The end effector's pose [x, y, z, w, qx, qy, qz]: the tip's world position and the last
+  // link's orientation as a unit quaternion, composed joint by joint (no branches: recordable).
+  std::vector<T> end_effector_pose() const;
+  // Its geometric Jacobian, row-major 6 x nv: the tip's linear and the last link's angular
+  // velocity in the world per unit velocity.
+  std::vector<T> end_effector_jacobian() const;
   // World position and orientation (row-major) of body b (0: the base, i: link i).
   const Vec3<T>& position(int b) const { return p_[b]; }
   const Mat3<T>& rotation(int b) const { return R_[b]; }

@@ -66,8 +66,9 @@ struct World {
   std::vector<Eigen::Matrix3d> R;
   std::vector<Eigen::Vector3d> com, com_velocity, omega;
   std::vector<double> mass;
-  std::vector<Eigen::Matrix3d> inertia;  // about the com, in the body frame
-  double armature_energy = 0;            // 1/2 I qd_m^2 of the armature-coupled motors
+  std::vector<Eigen::Matrix3d> inertia;               // about the com, in the body frame
+  double armature_energy = 0;                         // 1/2 I qd_m^2 of the armature-coupled motors
+  Eigen::Vector3d last_origin, last_origin_velocity;  // the last link frame's
 };
 
 Eigen::Matrix3d inertia_of(const Link& l) {
@@ -127,6 +128,8 @@ World world(const ChainDescription& d, const Eigen::VectorXd& q, const Eigen::Ve
     R = R * rpy * Eigen::AngleAxisd(q[jq + i] / ratio, axis).toRotationMatrix();
     omega += R * axis * (qm_rate / ratio);
     add_body(l);
+    w.last_origin = p;
+    w.last_origin_velocity = pdot;
   }
   return w;
 }
@@ -476,6 +479,34 @@ TEST(SpatialChain, GivesTheRegistrysRecursiveOutputs) {
                                     as_eigen(output(Output::forward_dynamics, minus)[0])) /
                                    (2 * h);
     EXPECT_LT((dv.col(k) - column).norm(), 1e-6 * (1 + column.norm())) << "v " << k;
+  }
+}
+
+// The end effector: its pose (the tip's position, the last link's orientation composed as a
+// quaternion) and its geometric Jacobian (J v = the tip's velocity and the link's angular
+// velocity) are the world computation's, on a free and a fixed base, geared.
+TEST(SpatialChain, EndEffectorPoseAndJacobianAreTheWorldComputations) {
+  std::mt19937 rng(39);
+  for (const bool free : {true, false}) {
+    ChainDescription d = random_chain(rng, 7, free, true);
+    d.tip = {0.2, -0.05, 0.1};
+    SCOPED_TRACE(free ? "free base" : "fixed base");
+    const State s = random_state(rng, d);
+    const Chain<double> chain = chain_at(d, s);
+    const World w = world(d, s.q, s.v);
+    const std::vector<double> pose = chain.end_effector_pose();
+    const Eigen::Vector3d tip = Eigen::Vector3d(d.tip[0], d.tip[1], d.tip[2]);
+    const Eigen::Matrix3d R = w.R.back();
+    EXPECT_LT((as_eigen(pose).head<3>() - (w.last_origin + R * tip)).norm(), 1e-12);
+    const Eigen::Quaterniond orientation(pose[3], pose[4], pose[5], pose[6]);
+    EXPECT_NEAR(orientation.norm(), 1, 1e-12);
+    EXPECT_LT((orientation.toRotationMatrix() - R).norm(), 1e-12);
+    const std::vector<double> J = chain.end_effector_jacobian();
+    const Eigen::VectorXd twist =
+        Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(J.data(), 6, d.nv()) * s.v;
+    EXPECT_LT((twist.head<3>() - (w.last_origin_velocity + w.omega.back().cross(R * tip))).norm(),
+              1e-12 * (1 + twist.norm()));
+    EXPECT_LT((twist.tail<3>() - w.omega.back()).norm(), 1e-12 * (1 + twist.norm()));
   }
 }
 
