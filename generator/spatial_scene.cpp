@@ -1,0 +1,155 @@
+#include "spatial_scene.hpp"
+
+#include <Eigen/Eigenvalues>
+
+#include "yaml_reader.hpp"
+
+namespace spacearm {
+
+namespace {
+
+constexpr int kMaxLinks = 30;  // as in the plane
+
+class SpatialReader {
+ public:
+  explicit SpatialReader(const YamlReader& r) : r_(r) {}
+
+  SpatialScene read(const YAML::Node& root) {
+    r_.check_keys(root, "",
+                  {"name", "description", "space", "base", "links", "gears", "end_effector"});
+    SpatialScene s;
+    s.name = r_.bounded(r_.require(root, "name", ""), "name").Scalar();
+    if (!is_identifier(s.name)) r_.fail("name", "'" + s.name + "' is not an identifier");
+    const std::string space = r_.bounded(r_.require(root, "space", ""), "space").Scalar();
+    if (space != "spatial") r_.fail("space", "expected 'spatial', got '" + space + "'");
+    read_base(r_.require(root, "base", ""), s.chain);
+    const YAML::Node links = r_.require(root, "links", "");
+    if (!links.IsSequence() || links.size() < 1 || links.size() > kMaxLinks)
+      r_.fail("links", "expected a list of 1 to " + std::to_string(kMaxLinks) + " links", links);
+    for (size_t i = 0; i < links.size(); ++i)
+      s.chain.links.push_back(read_link(links[i], "links[" + std::to_string(i) + "]"));
+    if (root["gears"]) read_gears(root["gears"], s.chain);
+    if (root["end_effector"]) s.chain.tip = vec3(root["end_effector"], "end_effector");
+    return s;
+  }
+
+ private:
+  const YamlReader& r_;
+
+  double number(const YAML::Node& n, const std::string& field) const {
+    const Quantity q = r_.quantity(n, field);
+    if (!q.parameter.empty())
+      r_.fail(field,
+              "'" + q.parameter +
+                  "': run-time parameters are not supported in spatial "
+                  "scenes yet; give a number",
+              n);
+    return q.value;
+  }
+  template <size_t K>
+  std::array<double, K> numbers(const YAML::Node& n, const std::string& field) const {
+    if (!n.IsSequence() || n.size() != K)
+      r_.fail(field, "expected a list of " + std::to_string(K) + " numbers", n);
+    std::array<double, K> a;
+    for (size_t k = 0; k < K; ++k) a[k] = number(n[k], field + "[" + std::to_string(k) + "]");
+    return a;
+  }
+  std::array<double, 3> vec3(const YAML::Node& n, const std::string& field) const {
+    return numbers<3>(n, field);
+  }
+
+  // A body's mass (> 0) and its inertia about the centre of mass: a physical tensor, positive
+  // definite with principal moments that satisfy the triangle inequality.
+  void read_inertial(const YAML::Node& n, const std::string& field, spatial::Link& l) const {
+    l.mass = number(r_.require(n, "mass", field), field + ".mass");
+    if (!(l.mass > 0))
+      r_.fail(field + ".mass", "must be positive, got " + std::to_string(l.mass), n);
+    if (n["com"]) l.com = vec3(n["com"], field + ".com");
+    l.inertia = numbers<6>(r_.require(n, "inertia", field), field + ".inertia");
+    const auto& i = l.inertia;
+    Eigen::Matrix3d I;
+    I << i[0], i[1], i[2], i[1], i[3], i[4], i[2], i[4], i[5];
+    const Eigen::Vector3d m = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I).eigenvalues();
+    const double slack = 1e-12 * m.cwiseAbs().maxCoeff();
+    if (!(m.minCoeff() > 0) || m[0] + m[1] < m[2] - slack)
+      r_.fail(field + ".inertia",
+              "not a physical inertia (principal moments " + std::to_string(m[0]) + ", " +
+                  std::to_string(m[1]) + ", " + std::to_string(m[2]) +
+                  ": each must be positive and at most the sum of the other two)",
+              n["inertia"]);
+  }
+
+  void read_base(const YAML::Node& n, spatial::ChainDescription& c) const {
+    r_.check_keys(n, "base", {"type", "mass", "com", "inertia"});
+    const std::string type = r_.bounded(r_.require(n, "type", "base"), "base.type").Scalar();
+    if (type != "free_floating" && type != "fixed")
+      r_.fail("base.type", "expected free_floating or fixed, got '" + type + "'", n["type"]);
+    c.free_base = type == "free_floating";
+    if (c.free_base) read_inertial(n, "base", c.base);
+  }
+
+  spatial::Link read_link(const YAML::Node& n, const std::string& field) const {
+    r_.check_keys(n, field, {"origin", "rpy", "axis", "mass", "com", "inertia"});
+    spatial::Link l;
+    if (n["origin"]) l.origin_xyz = vec3(n["origin"], field + ".origin");
+    if (n["rpy"]) l.origin_rpy = vec3(n["rpy"], field + ".rpy");
+    if (n["axis"]) l.axis = vec3(n["axis"], field + ".axis");  // URDF's default: (1, 0, 0)
+    const auto& a = l.axis;
+    if (!(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] > 1e-24))
+      r_.fail(field + ".axis", "must not be zero", n["axis"]);
+    read_inertial(n, field, l);
+    return l;
+  }
+
+  spatial::Gear read_gear(const YAML::Node& n, const std::string& field) const {
+    r_.check_keys(n, field, {"ratio", "rotor_inertia", "rotor_coupling"});
+    spatial::Gear g;
+    g.present = true;
+    g.ratio = number(r_.require(n, "ratio", field), field + ".ratio");
+    if (!(g.ratio > 0))
+      r_.fail(field + ".ratio", "must be positive, got " + std::to_string(g.ratio), n["ratio"]);
+    if (n["rotor_inertia"]) {
+      const auto r = numbers<2>(n["rotor_inertia"], field + ".rotor_inertia");
+      if (!(r[0] >= 0 && r[1] >= 0))
+        r_.fail(field + ".rotor_inertia", "axial and transverse inertia must not be negative",
+                n["rotor_inertia"]);
+      g.axial = r[0];
+      g.transverse = r[1];
+    }
+    if (n["rotor_coupling"]) {
+      const std::string c = r_.bounded(n["rotor_coupling"], field + ".rotor_coupling").Scalar();
+      if (c != "exact" && c != "armature")
+        r_.fail(field + ".rotor_coupling", "expected exact or armature, got '" + c + "'",
+                n["rotor_coupling"]);
+      g.exact = c == "exact";
+    }
+    return g;
+  }
+
+  void read_gears(const YAML::Node& n, spatial::ChainDescription& c) const {
+    const size_t N = c.links.size();
+    if (n.IsMap()) {
+      const spatial::Gear g = read_gear(n, "gears");
+      for (auto& l : c.links) l.gear = g;
+      return;
+    }
+    if (!n.IsSequence() || n.size() != N)
+      r_.fail("gears", "expected one mapping for all joints or a list of " + std::to_string(N), n);
+    for (size_t i = 0; i < N; ++i)
+      c.links[i].gear = read_gear(n[i], "gears[" + std::to_string(i) + "]");
+  }
+};
+
+}  // namespace
+
+SpatialScene parse_spatial_scene(const std::string& yaml_text, const std::string& source_name) {
+  const YamlReader r("scene", source_name, [](const std::string& m) { throw SceneError(m); });
+  const YAML::Node root = r.load(yaml_text);
+  try {
+    return SpatialReader(r).read(root);
+  } catch (const YAML::Exception& e) {
+    r.fail("", std::string("unexpected YAML structure: ") + e.what());
+  }
+}
+
+}  // namespace spacearm

@@ -1,0 +1,30 @@
+// The native YAML form of a spatial arm (issue 31, first part): a base floating in 3D (or
+// fixed) and a serial chain of revolute joints with any axes, read as untrusted input like every
+// scene (yaml_reader.hpp: one document, known keys, bounded numbers; every error names the file,
+// the line and the field). Run-time parameters and URDF come later; numbers only for now.
+//
+//   name: arm7
+//   space: spatial
+//   base: {type: free_floating, mass: 500, com: [0, 0, 0], inertia: [ixx, ixy, ixz, iyy, iyz, izz]}
+//   links:                                    # 1 to 30, each the child of the one before
+//     - {origin: [x, y, z], rpy: [r, p, y], axis: [0, 0, 1], mass: 5, com: [...], inertia: [...]}
+//   gears:                                    # optional: one mapping for all joints, or a list
+//     {ratio: 100, rotor_inertia: [axial, transverse], rotor_coupling: exact}   # or armature
+//   end_effector: [x, y, z]                   # the tip in the last link's frame (default 0)
+#pragma once
+
+#include <string>
+
+#include "spatial_chain.hpp"
+
+namespace spacearm {
+
+struct SpatialScene {
+  std::string name;
+  spatial::ChainDescription chain;
+};
+
+// Throws SceneError naming the field.
+SpatialScene parse_spatial_scene(const std::string& yaml_text, const std::string& source_name);
+
+}  // namespace spacearm

@@ -1,0 +1,88 @@
+// generator/spatial_scene.hpp: the native YAML form of a spatial arm is read into the chain's
+// description, and every malformed or unphysical field is an error naming the field.
+#include "spatial_scene.hpp"
+
+#include "scene.hpp"
+#include "support.hpp"
+
+namespace spacearm {
+namespace {
+
+const std::string kArm = R"(name: arm2
+space: spatial
+base: {type: free_floating, mass: 500, com: [0.1, 0, 0], inertia: [100, 0, 0, 120, 0, 150]}
+links:
+  - {origin: [0.5, 0, 0.2], rpy: [0, 1.5707963, 0], axis: [0, 0, 1], mass: 5, com: [0.2, 0, 0],
+     inertia: [0.01, 0, 0, 0.2, 0, 0.2]}
+  - {origin: [0.4, 0, 0], mass: 3, inertia: [0.01, 0.001, 0, 0.1, 0, 0.1]}
+gears: {ratio: 100, rotor_inertia: [1.0e-4, 6.0e-5], rotor_coupling: armature}
+end_effector: [0.3, 0, 0]
+)";
+
+TEST(SpatialScene, ReadsTheChain) {
+  const SpatialScene s = parse_spatial_scene(kArm, "arm2.yaml");
+  EXPECT_EQ(s.name, "arm2");
+  const spatial::ChainDescription& c = s.chain;
+  EXPECT_TRUE(c.free_base);
+  EXPECT_EQ(c.nv(), 8);
+  EXPECT_EQ(c.nq(), 9);
+  EXPECT_EQ(c.base.mass, 500);
+  EXPECT_EQ(c.base.inertia[5], 150);
+  ASSERT_EQ(c.links.size(), 2u);
+  EXPECT_EQ(c.links[0].origin_xyz[2], 0.2);
+  EXPECT_EQ(c.links[0].axis[2], 1);
+  EXPECT_EQ(c.links[1].axis[0], 1);  // URDF's default axis
+  EXPECT_EQ(c.links[1].inertia[1], 0.001);
+  for (const auto& l : c.links) {
+    EXPECT_TRUE(l.gear.present);
+    EXPECT_EQ(l.gear.ratio, 100);
+    EXPECT_FALSE(l.gear.exact);
+    EXPECT_EQ(l.gear.transverse, 6.0e-5);
+  }
+  EXPECT_EQ(c.tip[0], 0.3);
+}
+
+// Each malformed field, with the text that replaces a part of the valid arm, and the message.
+TEST(SpatialScene, NamesEveryBadField) {
+  struct Bad {
+    std::string from, to, message;
+  };
+  const std::vector<Bad> cases = {
+      {"space: spatial", "space: planar", "field 'space': expected 'spatial', got 'planar'"},
+      {"axis: [0, 0, 1]", "axis: [0, 0, 0]", "field 'links[0].axis': must not be zero"},
+      {"axis: [0, 0, 1]", "axis: [0, 1]", "field 'links[0].axis': expected a list of 3 numbers"},
+      {"mass: 5,", "mass: -5,", "field 'links[0].mass': must be positive"},
+      {"inertia: [0.01, 0, 0, 0.2, 0, 0.2]", "inertia: [0.5, 0, 0, 0.2, 0, 0.2]",
+       "field 'links[0].inertia': not a physical inertia"},
+      {"inertia: [100, 0, 0, 120, 0, 150]", "inertia: [100, 0, 0, 120, 0, -1]",
+       "field 'base.inertia': not a physical inertia"},
+      {"ratio: 100", "ratio: 0", "field 'gears.ratio': must be positive"},
+      {"ratio: 100", "ratio: p", "field 'gears.ratio': 'p': run-time parameters are not supported"},
+      {"rotor_coupling: armature", "rotor_coupling: loose",
+       "field 'gears.rotor_coupling': expected exact or armature, got 'loose'"},
+      {"rpy: [0, 1.5707963, 0]", "rpy: [0, .nan, 0]",
+       "field 'links[0].rpy[1]': value '.nan' is not finite"},
+      {"end_effector:", "end_effektor:", "field 'end_effektor': unknown field"},
+      {"type: free_floating", "type: floating",
+       "field 'base.type': expected free_floating or fixed"},
+  };
+  for (const Bad& b : cases) {
+    std::string text = kArm;
+    const size_t at = text.find(b.from);
+    ASSERT_NE(at, std::string::npos) << b.from;
+    text.replace(at, b.from.size(), b.to);
+    EXPECT_THROW_MESSAGE(parse_spatial_scene(text, "arm2.yaml"), SceneError, b.message);
+  }
+  std::string many = "name: long\nspace: spatial\nbase: {type: fixed}\nlinks:\n";
+  for (int i = 0; i < 31; ++i) many += "  - {mass: 1, inertia: [1, 0, 0, 1, 0, 1]}\n";
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(many, "long.yaml"), SceneError,
+                       "field 'links': expected a list of 1 to 30 links");
+  std::string gears = kArm;
+  gears.replace(gears.find("gears: {"), 8, "gears: [{");
+  gears.replace(gears.find("armature}"), 9, "armature}]");
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(gears, "arm2.yaml"), SceneError,
+                       "field 'gears': expected one mapping for all joints or a list of 2");
+}
+
+}  // namespace
+}  // namespace spacearm
