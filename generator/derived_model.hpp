@@ -42,6 +42,8 @@ struct DerivedModel {
   bool tries_recursive = false;
   // The outputs a recursive algorithm can give.
   std::map<Output, RecordedForm> recorded;
+  // The gear ratios (a model constant) where there are no closed forms to take them from.
+  RecordedForm gear_ratios;
   // Any output's value (composed ones included) at inputs in the registry's order and sizes,
   // from the derivation alone: what composed programs are checked against.
   std::function<std::vector<Eigen::MatrixXd>(Output, const std::vector<Eigen::VectorXd>&,

@@ -28,6 +28,12 @@ struct CheckPoint {
   explicit CheckPoint(const DerivedModel& model) : params(model.facts.nominal_parameters) {
     for (int i = 0; i < model.facts.dims.nq; ++i) q.push_back(0.3 + 0.7 * std::sin(1.3 * i + 0.4));
     for (int i = 0; i < model.facts.dims.nv; ++i) qd.push_back(0.5 - 0.9 * std::cos(0.7 * i + 1.1));
+    // A quaternion of unit length, as every state of such a model has.
+    if (const int k = model.facts.quaternion_offset; k >= 0) {
+      const double n =
+          std::sqrt(q[k] * q[k] + q[k + 1] * q[k + 1] + q[k + 2] * q[k + 2] + q[k + 3] * q[k + 3]);
+      for (int i = k; i < k + 4; ++i) q[i] /= n;
+    }
   }
   // Entry `index` of an input array; the composed outputs' other inputs (qdd, Q, qdd_joints)
   // get fixed values of their own.
@@ -277,8 +283,18 @@ LoweredModel lower(const DerivedModel& model, const LowerOptions& options) {
   ratios.doc = "Gear ratio p_i of each joint (1 for the reference model): Q_g = tau / p.";
   ratios.equation = "14";
   ratios.results = {{"p", Size::num_links, Size::one, false}};
-  lowered.functions.push_back(
-      lower_closed_form(model, ratios, {model.closed_forms->ratios}, options.plain));
+  if (model.closed_forms) {
+    lowered.functions.push_back(
+        lower_closed_form(model, ratios, {model.closed_forms->ratios}, options.plain));
+  } else {
+    if (!model.gear_ratios.record)
+      throw std::logic_error("lowering: model " + model.facts.name + " states no gear ratios");
+    FunctionSpec f = ratios;
+    f.entries = model.gear_ratios.record(f.program);
+    self_check(model, f, model.gear_ratios.evaluate([](const std::string&, int) { return 0.0; }));
+    f.formulation = "constant";
+    lowered.functions.push_back(std::move(f));
+  }
   lowered.functions.back().model_constant = true;
   return lowered;
 }

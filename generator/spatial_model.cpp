@@ -1,0 +1,105 @@
+#include "spatial_model.hpp"
+
+#include "recursive_algorithms.hpp"
+#include "scene.hpp"
+
+namespace spacearm {
+
+namespace {
+
+// The coordinate names: the base's origin and quaternion (MuJoCo's free joint), then per joint
+// its motor angle qm_i where it is geared (qm = p q), else q_i.
+std::vector<std::string> coordinate_names(const spatial::ChainDescription& c) {
+  std::vector<std::string> names;
+  if (c.free_base) names = {"x0", "y0", "z0", "qw0", "qx0", "qy0", "qz0"};
+  for (size_t j = 0; j < c.links.size(); ++j)
+    names.push_back((c.links[j].gear.present ? "qm" : "q") + std::to_string(j + 1));
+  return names;
+}
+
+ModelFacts spatial_facts(const SpatialScene& scene, const std::string& text) {
+  const spatial::ChainDescription& c = scene.chain;
+  ModelFacts f;
+  f.name = scene.name;
+  f.description = "spatial arm, " + std::to_string(c.links.size()) + " revolute joints";
+  f.coordinates_note = c.free_base ? " (MuJoCo's free joint: origin, quaternion w x y z)" : "";
+  f.dims = spatial::Chain<double>::dimensions(c);
+  f.free_floating = c.free_base;
+  f.num_base = c.num_base();
+  f.quaternion_offset = c.free_base ? 3 : -1;
+  f.coordinate_names = coordinate_names(c);
+  for (const auto& l : c.links) {
+    f.geared = f.geared || l.gear.present;
+    f.motor_angle_slots.push_back(l.gear.present);
+  }
+  f.scene_hash = "fnv1a64:" + content_hash(text);
+  f.formulation = "recursive";
+  f.features = (c.free_base ? needs::free_base : 0u) | needs::rigid_joints;
+  f.outputs = spatial_outputs(scene);
+  return f;
+}
+
+}  // namespace
+
+std::vector<Output> spatial_outputs(const SpatialScene& scene) {
+  std::vector<Output> outputs;
+  for (const OutputInfo& o : output_registry()) {
+    const bool given = o.id == Output::mass_matrix || o.id == Output::bias_forces ||
+                       o.id == Output::kinetic_energy || o.id == Output::inverse_dynamics ||
+                       o.id == Output::forward_dynamics ||
+                       o.id == Output::forward_dynamics_derivatives ||
+                       (o.id == Output::momentum && scene.chain.free_base);
+    if (given) outputs.push_back(o.id);
+  }
+  return outputs;
+}
+
+DerivedModel spatial_derived_model(const SpatialScene& scene, const std::string& text) {
+  DerivedModel derived;
+  derived.facts = spatial_facts(scene, text);
+  derived.tries_recursive = true;
+  const spatial::ChainDescription& chain = scene.chain;
+  for (Output o : derived.facts.outputs)
+    derived.recorded[o] = {
+        recursive_algorithm(o),
+        [&chain, o](Program& p) { return record_chain<spatial::Chain>(chain, o, p); },
+        [&chain, o](const InputValues& input) {
+          return evaluate_chain<spatial::Chain>(chain, o, input);
+        }};
+  // The gear ratios: constants (1 where a joint has no gear).
+  auto ratios = [&chain] {
+    std::vector<double> p;
+    for (const auto& l : chain.links) p.push_back(l.gear.present ? l.gear.ratio : 1.0);
+    return p;
+  };
+  derived.gear_ratios = {
+      "constant",
+      [ratios](Program& p) {
+        std::vector<SRef> r;
+        for (double x : ratios()) r.push_back(p.constant(x));
+        return std::vector<std::vector<SRef>>{r};
+      },
+      [ratios](const InputValues&) { return std::vector<std::vector<double>>{ratios()}; }};
+  // The reference of every output: the chain in double (no composed outputs here).
+  derived.reference = [&chain](Output o, const std::vector<Eigen::VectorXd>& inputs,
+                               const Eigen::VectorXd&) {
+    const OutputInfo& out = info(o);
+    auto input = [&](const std::string& a, int i) {
+      for (size_t k = 0; k < out.inputs.size(); ++k)
+        if (info(out.inputs[k]).name == a) return inputs[k][i];
+      return 0.0;
+    };
+    const Dimensions dims = spatial::Chain<double>::dimensions(chain);
+    std::vector<Eigen::MatrixXd> results;
+    const auto values = evaluate_chain<spatial::Chain>(chain, o, input);
+    for (size_t r = 0; r < values.size(); ++r) {
+      const int rows = dims(out.results[r].rows), cols = dims(out.results[r].cols);
+      results.push_back(Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(
+          values[r].data(), rows, cols));
+    }
+    return results;
+  };
+  return derived;
+}
+
+}  // namespace spacearm

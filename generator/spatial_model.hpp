@@ -1,0 +1,22 @@
+// The derived model of a spatial arm (spatial_scene.hpp): its facts, and each output the
+// spatial chain gives (spatial_chain.hpp) as a recorded program with the same algorithm run in
+// double as its reference. No closed forms: lowering keeps the recorded programs (formulation
+// recursive). What lowering, the printer and the C interface need, and nothing of the scene.
+#pragma once
+
+#include <string>
+
+#include "derived_model.hpp"
+#include "spatial_scene.hpp"
+
+namespace spacearm {
+
+// The outputs a spatial arm gives today, in the registry's order: M, b, kinetic energy,
+// momentum (free base), inverse and forward dynamics and the latter's state Jacobian.
+std::vector<Output> spatial_outputs(const SpatialScene& scene);
+
+// The scene must outlive the result (its recorders refer to it). `text` is the scene file's
+// content (its hash names the model's library).
+DerivedModel spatial_derived_model(const SpatialScene& scene, const std::string& text);
+
+}  // namespace spacearm
