@@ -39,6 +39,23 @@ ModelFacts spatial_facts(const SpatialScene& scene, const std::string& text) {
   return f;
 }
 
+// How the spatial chain gives output o (the banner's and --stats' words).
+const char* spatial_algorithm(Output o) {
+  switch (o) {
+    case Output::mass_matrix:
+      return "body Jacobians";
+    case Output::bias_forces:
+    case Output::inverse_dynamics:
+      return "RNEA";
+    case Output::forward_dynamics:
+      return "LDL^T of M, RNEA";
+    case Output::forward_dynamics_derivatives:
+      return "LDL^T of M, RNEA, forward-mode";
+    default:
+      return recursive_algorithm(o);  // the bodies' velocities and momenta
+  }
+}
+
 }  // namespace
 
 std::vector<Output> spatial_outputs(const SpatialScene& scene) {
@@ -61,7 +78,7 @@ DerivedModel spatial_derived_model(const SpatialScene& scene, const std::string&
   const spatial::ChainDescription& chain = scene.chain;
   for (Output o : derived.facts.outputs)
     derived.recorded[o] = {
-        recursive_algorithm(o),
+        spatial_algorithm(o),
         [&chain, o](Program& p) { return record_chain<spatial::Chain>(chain, o, p); },
         [&chain, o](const InputValues& input) {
           return evaluate_chain<spatial::Chain>(chain, o, input);
