@@ -12,6 +12,7 @@
 #include "comment_rule.hpp"
 #include "emitted_text.hpp"
 #include "scene.hpp"
+#include "spatial_scene.hpp"
 
 namespace spacearm::fuzz {
 
@@ -55,12 +56,64 @@ inline std::string broken_rule(const Scene& s) {
   return broken_comment_rule(comment_lines(s.description + "\n" + s.source_path));
 }
 
+// The same for a spatial arm (spatial_scene.hpp).
+inline std::string broken_spatial_rule(const SpatialScene& s) {
+  auto finite = [](const auto& a) {
+    for (double x : a)
+      if (!std::isfinite(x)) return false;
+    return true;
+  };
+  const auto& c = s.chain;
+  if (c.links.empty() || c.links.size() > 30) return "number of links out of range";
+  auto body = [&](const spatial::Link& l) {
+    if (!(l.mass > 0) || !std::isfinite(l.mass) || !finite(l.com) || !finite(l.inertia))
+      return false;
+    const auto& i = l.inertia;
+    return i[0] > 0 && i[3] > 0 && i[5] > 0;  // a positive definite tensor's diagonal
+  };
+  if (c.free_base && !body(c.base)) return "base mass/com/inertia";
+  for (const auto& l : c.links) {
+    if (!body(l)) return "link mass/com/inertia";
+    if (!finite(l.origin_xyz) || !finite(l.origin_rpy) || !finite(l.axis)) return "link frame";
+    if (!(l.axis[0] * l.axis[0] + l.axis[1] * l.axis[1] + l.axis[2] * l.axis[2] > 0))
+      return "zero axis";
+    if (l.gear.present && !(l.gear.ratio > 0 && l.gear.axial >= 0 && l.gear.transverse >= 0))
+      return "gear";
+  }
+  if (!finite(c.tip)) return "end effector";
+  if (is_cpp_reserved(s.name)) return "reserved scene name";
+  return "";
+}
+
 enum class Verdict { accepted, rejected };
+
+// A rejection must name the file and come from the checks, not from the YAML fallback.
+inline Verdict rejected(const SceneError& e, const std::string& source) {
+  const std::string what = e.what();  // prefixes, not substrings: messages echo the input
+  if (what.rfind("scene '" + source + "'", 0) != 0)
+    throw std::logic_error("rejection does not start with the file name: " + what);
+  if (what.rfind("scene '" + source + "': unexpected YAML structure", 0) == 0)
+    throw std::logic_error("a YAML exception reached the fallback: " + what);
+  return Verdict::rejected;
+}
+
+// The spatial reader on the same text: accepted only keeping its rules, else named.
+inline Verdict check_spatial_text(const std::string& text) {
+  const std::string source = "fuzz-input.yaml";
+  try {
+    const std::string rule = broken_spatial_rule(parse_spatial_scene(text, source));
+    if (!rule.empty()) throw std::logic_error("accepted a spatial scene that breaks: " + rule);
+    return Verdict::accepted;
+  } catch (const SceneError& e) {
+    return rejected(e, source);
+  }
+}
 
 // Throws std::logic_error for a broken rule or an unnamed rejection; lets any other
 // exception escape (the fuzzer reports it as a crash).
 inline Verdict check_scene_text(const std::string& text) {
   const std::string source = "fuzz-input.yaml";
+  check_spatial_text(text);
   try {
     const Scene s = parse_scene(text, source);
     const std::string rule = broken_rule(s);
@@ -68,13 +121,7 @@ inline Verdict check_scene_text(const std::string& text) {
     if (content_hash(text).size() != 16) throw std::logic_error("content hash");
     return Verdict::accepted;
   } catch (const SceneError& e) {
-    // Prefixes, not substrings: messages echo the offending input.
-    const std::string what = e.what();
-    if (what.rfind("scene '" + source + "'", 0) != 0)
-      throw std::logic_error("rejection does not start with the file name: " + what);
-    if (what.rfind("scene '" + source + "': unexpected YAML structure", 0) == 0)
-      throw std::logic_error("a YAML exception reached the fallback: " + what);
-    return Verdict::rejected;
+    return rejected(e, source);
   }
 }
 
