@@ -125,33 +125,40 @@ Motion<T> Chain<T>::base_unit(int k) const {
   return {num(e), zero3()};                                      // body angular
 }
 
-// M = sum over bodies of J_b^T I_b J_b, with each body's Jacobian (in its frame) carried down
-// the chain: O(N^3), the composite-rigid-body algorithm's O(N^2) to come.
+// The composite-rigid-body algorithm (Featherstone, Algorithm 6.2): each body's composite
+// inertia with everything it carries (an exact rotor with the body it sits on), then each
+// joint's column as the force of its composite per unit rate, carried towards the base.
 template <class T>
 std::vector<T> Chain<T>::mass_matrix() const {
   const int nv = d_.nv(), nb = d_.num_base();
   std::vector<T> M(nv * nv, T{});
-  std::vector<Motion<T>> J(nv, zero_motion());
-  auto add = [&](const std::vector<Motion<T>>& Jb, const RigidInertia<T>& Ib) {
-    for (int k = 0; k < nv; ++k) {
-      const Force<T> F = Ib * Jb[k];
-      for (int l = 0; l < nv; ++l) M[k * nv + l] += power(F, Jb[l]);
-    }
-  };
-  for (int k = 0; k < nb; ++k) J[k] = base_unit(k);
-  if (d_.free_base) add(J, I_[0]);
-  for (int i = 1; i <= n_; ++i) {
+  auto set = [&](int a, int b, const T& x) { M[a * nv + b] = M[b * nv + a] = x; };
+  std::vector<RigidInertia<T>> Ic = I_;
+  for (int i = n_; i >= 1; --i) {
     const int col = nb + i - 1;
-    if (exact_rotor(i)) {  // the rotor: the parent's Jacobian, and a on its own coordinate
-      std::vector<Motion<T>> Jr(nv, zero_motion());
-      for (int k = 0; k < col; ++k) Jr[k] = rotor_X_[i].apply(J[k]);
-      Jr[col] = {axis_[i], zero3()};
-      add(Jr, rotor_I_[i]);
+    // Column i: link i's composite at S_i, and an exact rotor at its axis (on the parent).
+    Force<T> F = Ic[i] * S_[i];
+    T Mii = power(F, S_[i]) + num(armature(i));
+    Force<T> up = X_[i].apply_transpose(F);
+    if (exact_rotor(i)) {
+      const Motion<T> Sr = {axis_[i], zero3()};
+      const Force<T> Fr = rotor_I_[i] * Sr;
+      Mii += power(Fr, Sr);
+      up = up + rotor_X_[i].apply_transpose(Fr);
     }
-    for (int k = 0; k < col; ++k) J[k] = X_[i].apply(J[k]);
-    J[col] = S_[i];
-    add(J, I_[i]);
-    M[col * nv + col] += num(armature(i));
+    M[col * nv + col] = Mii;
+    for (int j = i - 1; j >= 1; --j) {
+      set(nb + j - 1, col, power(up, S_[j]));
+      up = X_[j].apply_transpose(up);
+    }
+    for (int k = 0; k < nb; ++k) set(k, col, power(up, base_unit(k)));
+    // The parent's composite takes link i's (and the rotor's).
+    Ic[i - 1] = Ic[i - 1] + in_parent(X_[i], Ic[i]);
+    if (exact_rotor(i)) Ic[i - 1] = Ic[i - 1] + in_parent(rotor_X_[i], rotor_I_[i]);
+  }
+  for (int k = 0; k < nb; ++k) {
+    const Force<T> F = Ic[0] * base_unit(k);
+    for (int l = k; l < nb; ++l) set(k, l, power(F, base_unit(l)));
   }
   return M;
 }

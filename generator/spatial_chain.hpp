@@ -148,6 +148,11 @@ struct RigidInertia {
   Force<T> operator*(const Motion<T>& V) const {
     return {times(I, V.w) + cross(h, V.v), scaled(V.v, m) - cross(h, V.w)};
   }
+  RigidInertia operator+(const RigidInertia& o) const {
+    Mat3<T> sum;
+    for (int k = 0; k < 9; ++k) sum[k] = I[k] + o.I[k];
+    return {m + o.m, h + o.h, sum};
+  }
 };
 
 // The transform from a parent frame to a child frame whose origin is r (parent coordinates) and
@@ -164,6 +169,22 @@ struct Transform {
     return {transposed_times(E, F.n) + cross(r, f), f};
   }
 };
+
+// A child body's inertia in its parent's frame (X^T I X, Featherstone eq. 2.66): with h' = E^T h,
+// h_p = h' + m r and I_p = E^T I E + m (|r|^2 1 - r r^T) + 2 (r . h') 1 - h' r^T - r h'^T
+// (no division by m: a rotor has none).
+template <class T>
+RigidInertia<T> in_parent(const Transform<T>& X, const RigidInertia<T>& Ic) {
+  const Mat3<T> Et = transposed(X.E);
+  const Vec3<T> h = times(Et, Ic.h), r = X.r;
+  Mat3<T> I = product(Et, product(Ic.I, X.E));
+  const T rr = dot(r, r) * Ic.m, rh = dot(r, h) + dot(r, h);
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) I[3 * a + b] += -(r[a] * r[b] * Ic.m) - h[a] * r[b] - r[a] * h[b];
+    I[4 * a] += rr + rh;
+  }
+  return {Ic.m, h + scaled(r, Ic.m), I};
+}
 
 // Rotation matrices (row-major) from URDF's roll-pitch-yaw (R = Rz(yaw) Ry(pitch) Rx(roll)),
 // about a unit axis by an angle (Rodrigues), and of a unit quaternion (w, x, y, z).
