@@ -7,6 +7,7 @@
 
 #include "cpp_emitter.hpp"
 #include "scene.hpp"
+#include "spatial_model.hpp"
 #include "symbolic_model.hpp"
 
 namespace spacearm {
@@ -26,14 +27,46 @@ void print_stats(const EmittedModel& emitted, std::ostream& out) {
   }
 }
 
+// What a generation produced, whichever kind of scene.
+struct Generated {
+  EmittedModel emitted;
+  int coordinates = 0, parameters = 0;
+  double derive_ms = 0, emit_ms = 0;
+};
+
+double ms_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+}
+
+// A planar scene through its Lagrangian derivation, a spatial one (space: spatial) through the
+// spatial chain: both then share lowering and the printer.
+Generated generate(const std::string& text, const std::string& path, const EmitOptions& options) {
+  Generated g;
+  auto t = std::chrono::steady_clock::now();
+  if (is_spatial_scene(text)) {
+    const SpatialScene scene = parse_spatial_scene(text, path);
+    const DerivedModel derived = spatial_derived_model(scene, text);
+    g.derive_ms = ms_since(t);
+    t = std::chrono::steady_clock::now();
+    g.emitted = emit_cpp(derived, options);
+    g.coordinates = scene.chain.nq();
+  } else {
+    const Scene scene = parse_scene(text, path);
+    const SymbolicModel model = derive(scene);
+    g.derive_ms = ms_since(t);
+    t = std::chrono::steady_clock::now();
+    g.emitted = emit_cpp(model, options);
+    g.coordinates = scene.num_coordinates();
+    g.parameters = static_cast<int>(scene.parameters.size());
+  }
+  g.emit_ms = ms_since(t);
+  return g;
+}
+
 }  // namespace
 
 int run_generate(const GenerateArgs& a) {
-  using clock = std::chrono::steady_clock;
-  const auto t0 = clock::now();
-  const Scene scene = load_scene(a.scene_path);
-  const SymbolicModel model = derive(scene);
-  const auto t1 = clock::now();
+  const std::string text = read_scene_file(a.scene_path);
   EmitOptions options;
   options.scene_path = a.scene_path;
   options.command = "spacearm generate " + a.scene_path + " -o " + a.out_dir +
@@ -41,7 +74,8 @@ int run_generate(const GenerateArgs& a) {
                     (a.plain ? " --plain" : "");
   options.file_stem = a.file_stem;
   options.plain = a.plain;
-  const auto emitted = emit_cpp(model, options);
+  const Generated generated = generate(text, a.scene_path, options);
+  const EmittedModel& emitted = generated.emitted;
   const std::string header = a.out_dir + "/" + emitted.header_name,
                     source = a.out_dir + "/" + emitted.source_name;
   if (a.check) {
@@ -54,17 +88,15 @@ int run_generate(const GenerateArgs& a) {
     std::cout << "up to date: " << header << ", " << source << "\n";
     return 0;
   }
+  const auto t = std::chrono::steady_clock::now();
   write_files(emitted, a.out_dir);
-  const auto t2 = clock::now();
-  auto ms = [](auto from, auto to) {
-    return std::chrono::duration<double, std::milli>(to - from).count();
-  };
-  std::cout << "wrote " << header << " and " << source << " (" << scene.num_coordinates()
-            << " coordinates, " << scene.parameters.size() << " parameters)\n";
+  const double write_ms = ms_since(t);
+  std::cout << "wrote " << header << " and " << source << " (" << generated.coordinates
+            << " coordinates, " << generated.parameters << " parameters)\n";
   if (a.stats) {
     print_stats(emitted, std::cout);
-    std::cout << "derive " << std::lround(ms(t0, t1)) << " ms, emit " << std::lround(ms(t1, t2))
-              << " ms\n";
+    std::cout << "derive " << std::lround(generated.derive_ms) << " ms, emit "
+              << std::lround(generated.emit_ms + write_ms) << " ms\n";
   }
   return 0;
 }

@@ -1,10 +1,19 @@
 #include "cpp_emitter.hpp"
 
+#include <stdexcept>
+
 #include "planar_model.hpp"
 
 namespace spacearm {
 
 EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
+  return emit_cpp(planar_derived_model(model), options);
+}
+
+EmittedModel emit_cpp(const DerivedModel& model, const EmitOptions& options) {
+  if (options.plain && !model.closed_forms)
+    throw std::invalid_argument("--plain: model " + model.facts.name +
+                                " has no closed forms (a spatial arm is derived recursively)");
   LowerOptions lo;
   lo.plain = options.plain;
   PrintOptions po;

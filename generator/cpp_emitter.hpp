@@ -5,6 +5,7 @@
 #include <string>
 
 #include "cpp_printer.hpp"
+#include "derived_model.hpp"
 #include "symbolic_model.hpp"
 
 namespace spacearm {
@@ -17,5 +18,7 @@ struct EmitOptions {
 };
 
 EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options);
+// Any derived model (a spatial arm's: spatial_model.hpp). `plain` needs closed forms.
+EmittedModel emit_cpp(const DerivedModel& model, const EmitOptions& options);
 
 }  // namespace spacearm

@@ -560,7 +560,7 @@ Scene parse_scene(const std::string& yaml_text, const std::string& source_name) 
   }
 }
 
-Scene load_scene(const std::string& path) {
+std::string read_scene_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw SceneError("scene '" + path + "': cannot open file");
   // Scene files are a few kilobytes: read at most 1 MB (a pipe still works; /dev/zero or a
@@ -571,7 +571,9 @@ Scene load_scene(const std::string& path) {
   text.resize(static_cast<size_t>(in.gcount()));
   if (static_cast<std::streamsize>(text.size()) > kMaxSceneBytes)
     throw SceneError("scene '" + path + "': larger than 1 MB; scene files are a few kilobytes");
-  return parse_scene(text, path);
+  return text;
 }
+
+Scene load_scene(const std::string& path) { return parse_scene(read_scene_file(path), path); }
 
 }  // namespace spacearm

@@ -161,6 +161,8 @@ constexpr int kMaxLinks = 30;
 
 Scene parse_scene(const std::string& yaml_text, const std::string& source_name);
 Scene load_scene(const std::string& path);
+// A scene file's text (at most 1 MB), or a SceneError naming the file.
+std::string read_scene_file(const std::string& path);
 
 // Stable 64-bit FNV-1a hash as 16 hex digits. Hand-written because it must be identical on
 // every platform and standard library (std::hash is not) and needs no extra dependency.

@@ -43,7 +43,7 @@ ModelFacts spatial_facts(const SpatialScene& scene, const std::string& text) {
 const char* spatial_algorithm(Output o) {
   switch (o) {
     case Output::mass_matrix:
-      return "body Jacobians";
+      return "CRBA";
     case Output::bias_forces:
     case Output::inverse_dynamics:
       return "RNEA";

@@ -142,6 +142,19 @@ class SpatialReader {
 
 }  // namespace
 
+bool is_spatial_scene(const std::string& yaml_text) {
+  const YamlReader r("scene", "", [](const std::string& m) { throw SceneError(m); });
+  try {
+    const YAML::Node root = r.load(yaml_text);
+    return root.IsMap() && root["space"] && root["space"].IsScalar() &&
+           root["space"].Scalar() == "spatial";
+  } catch (const SceneError&) {
+    return false;
+  } catch (const YAML::Exception&) {
+    return false;
+  }
+}
+
 SpatialScene parse_spatial_scene(const std::string& yaml_text, const std::string& source_name) {
   const YamlReader r("scene", source_name, [](const std::string& m) { throw SceneError(m); });
   const YAML::Node root = r.load(yaml_text);

@@ -27,4 +27,8 @@ struct SpatialScene {
 // Throws SceneError naming the field.
 SpatialScene parse_spatial_scene(const std::string& yaml_text, const std::string& source_name);
 
+// Whether a scene text says `space: spatial` at its top level (false for anything else, malformed
+// text included: the planar reader then names what is wrong).
+bool is_spatial_scene(const std::string& yaml_text);
+
 }  // namespace spacearm
