@@ -59,15 +59,13 @@ const char* spatial_algorithm(Output o) {
 }  // namespace
 
 std::vector<Output> spatial_outputs(const SpatialScene& scene) {
+  if (!scene.outputs.empty()) return scene.outputs;
+  // As in the plane, the state Jacobian only where a scene asks for it (its code is the
+  // largest and the slowest to compile).
   std::vector<Output> outputs;
-  for (const OutputInfo& o : output_registry()) {
-    const bool given = o.id == Output::mass_matrix || o.id == Output::bias_forces ||
-                       o.id == Output::kinetic_energy || o.id == Output::inverse_dynamics ||
-                       o.id == Output::forward_dynamics ||
-                       o.id == Output::forward_dynamics_derivatives ||
-                       (o.id == Output::momentum && scene.chain.free_base);
-    if (given) outputs.push_back(o.id);
-  }
+  for (const OutputInfo& o : output_registry())
+    if (spatial_output(o.id, scene.chain.free_base) && o.id != Output::forward_dynamics_derivatives)
+      outputs.push_back(o.id);
   return outputs;
 }
 

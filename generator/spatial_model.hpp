@@ -11,8 +11,8 @@
 
 namespace spacearm {
 
-// The outputs a spatial arm gives today, in the registry's order: M, b, kinetic energy,
-// momentum (free base), inverse and forward dynamics and the latter's state Jacobian.
+// The outputs to emit, in the registry's order: the scene's list, else M, b, kinetic energy,
+// momentum (free base), inverse and forward dynamics (the state Jacobian where asked for).
 std::vector<Output> spatial_outputs(const SpatialScene& scene);
 
 // The scene must outlive the result (its recorders refer to it). `text` is the scene file's

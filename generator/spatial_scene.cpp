@@ -2,6 +2,9 @@
 
 #include <Eigen/Eigenvalues>
 
+#include <algorithm>
+#include <optional>
+
 #include "yaml_reader.hpp"
 
 namespace spacearm {
@@ -15,8 +18,9 @@ class SpatialReader {
   explicit SpatialReader(const YamlReader& r) : r_(r) {}
 
   SpatialScene read(const YAML::Node& root) {
-    r_.check_keys(root, "",
-                  {"name", "description", "space", "base", "links", "gears", "end_effector"});
+    r_.check_keys(
+        root, "",
+        {"name", "description", "space", "base", "links", "gears", "end_effector", "outputs"});
     SpatialScene s;
     s.name = r_.bounded(r_.require(root, "name", ""), "name").Scalar();
     if (!is_identifier(s.name)) r_.fail("name", "'" + s.name + "' is not an identifier");
@@ -30,6 +34,7 @@ class SpatialReader {
       s.chain.links.push_back(read_link(links[i], "links[" + std::to_string(i) + "]"));
     if (root["gears"]) read_gears(root["gears"], s.chain);
     if (root["end_effector"]) s.chain.tip = vec3(root["end_effector"], "end_effector");
+    if (root["outputs"]) s.outputs = read_outputs(root["outputs"], s.chain.free_base);
     return s;
   }
 
@@ -126,6 +131,31 @@ class SpatialReader {
     return g;
   }
 
+  // A list of registry outputs that a spatial arm gives, each once, kept in the registry's order.
+  std::vector<Output> read_outputs(const YAML::Node& n, bool free_base) const {
+    if (!n.IsSequence() || n.size() == 0) r_.fail("outputs", "expected a list of outputs", n);
+    std::vector<Output> listed;
+    for (size_t i = 0; i < n.size(); ++i) {
+      const std::string field = "outputs[" + std::to_string(i) + "]";
+      if (!n[i].IsScalar()) r_.fail(field, "expected an output name", n[i]);
+      const std::string name = r_.bounded(n[i], field).Scalar();
+      const std::optional<Output> o = output_from_string(name);
+      if (!o) r_.fail(field, "unknown output '" + name + "'", n[i]);
+      if (!spatial_output(*o, free_base))
+        r_.fail(field,
+                "'" + name + "' is not given for spatial arms yet" +
+                    (*o == Output::momentum ? " (momentum needs a free base)" : ""),
+                n[i]);
+      if (std::count(listed.begin(), listed.end(), *o))
+        r_.fail(field, "'" + name + "' is listed twice", n[i]);
+      listed.push_back(*o);
+    }
+    std::vector<Output> ordered;
+    for (const OutputInfo& o : output_registry())
+      if (std::count(listed.begin(), listed.end(), o.id)) ordered.push_back(o.id);
+    return ordered;
+  }
+
   void read_gears(const YAML::Node& n, spatial::ChainDescription& c) const {
     const size_t N = c.links.size();
     if (n.IsMap()) {
@@ -141,6 +171,22 @@ class SpatialReader {
 };
 
 }  // namespace
+
+bool spatial_output(Output o, bool free_base) {
+  switch (o) {
+    case Output::mass_matrix:
+    case Output::bias_forces:
+    case Output::kinetic_energy:
+    case Output::inverse_dynamics:
+    case Output::forward_dynamics:
+    case Output::forward_dynamics_derivatives:
+      return true;
+    case Output::momentum:
+      return free_base;
+    default:
+      return false;
+  }
+}
 
 bool is_spatial_scene(const std::string& yaml_text) {
   const YamlReader r("scene", "", [](const std::string& m) { throw SceneError(m); });

@@ -11,6 +11,7 @@
 //   gears:                                    # optional: one mapping for all joints, or a list
 //     {ratio: 100, rotor_inertia: [axial, transverse], rotor_coupling: exact}   # or armature
 //   end_effector: [x, y, z]                   # the tip in the last link's frame (default 0)
+//   outputs: [mass_matrix, forward_dynamics]  # optional: what to emit (default: spatial_model.hpp)
 #pragma once
 
 #include <string>
@@ -22,7 +23,11 @@ namespace spacearm {
 struct SpatialScene {
   std::string name;
   spatial::ChainDescription chain;
+  std::vector<Output> outputs;  // as listed (`outputs:`); empty: the defaults (spatial_model.hpp)
 };
+
+// The outputs a spatial arm can give today (the free-base ones only for a free base).
+bool spatial_output(Output o, bool free_base);
 
 // Throws SceneError naming the field.
 SpatialScene parse_spatial_scene(const std::string& yaml_text, const std::string& source_name);

@@ -10,7 +10,8 @@ trap 'rm -rf "$out"' EXIT
 "$spacearm" generate "$scene" -o "$out" | grep -q "(14 coordinates, 0 parameters)"
 for fact in "inline constexpr int kNq = 14;" "inline constexpr int kNv = 13;" \
             "inline constexpr int kQuaternionOffset = 3;" "inline constexpr int kNumBase = 6;" \
-            "inline constexpr bool kHas_forward_dynamics = true;"; do
+            "inline constexpr bool kHas_forward_dynamics = true;" \
+            "inline constexpr bool kHas_forward_dynamics_derivatives = false;"; do
   grep -qF "$fact" "$out/arm7.hpp" || { echo "missing in arm7.hpp: $fact" >&2; exit 1; }
 done
 "$spacearm" generate "$scene" -o "$out" --check | grep -q "up to date"

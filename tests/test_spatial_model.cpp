@@ -3,6 +3,7 @@
 // lowered programs give the spatial chain's values at any state.
 #include "spatial_model.hpp"
 
+#include <algorithm>
 #include <random>
 
 #include "cpp_printer.hpp"
@@ -28,6 +29,8 @@ gears:
   - {ratio: 100, rotor_inertia: [1.0e-4, 6.0e-5], rotor_coupling: exact}
   - {ratio: 50, rotor_inertia: [2.0e-4, 1.0e-4], rotor_coupling: armature}
   - {ratio: 1, rotor_inertia: [0, 0]}
+outputs: [forward_dynamics_derivatives, mass_matrix, bias_forces, kinetic_energy, momentum,
+          inverse_dynamics, forward_dynamics]
 )";
 
 TEST(SpatialModel, LowersAndPrintsFromTheDerivedModelAlone) {
@@ -42,6 +45,13 @@ TEST(SpatialModel, LowersAndPrintsFromTheDerivedModelAlone) {
                                              "kinetic_energy", "momentum", "inverse_dynamics",
                                              "forward_dynamics", "forward_dynamics_derivatives",
                                              "gear_ratios"}));
+  // Without `outputs:` the defaults, as in the plane: all but the state Jacobian.
+  std::string defaults = kArm;
+  defaults.erase(defaults.find("outputs:"));
+  const std::vector<Output> by_default = spatial_outputs(parse_spatial_scene(defaults, "arm3"));
+  EXPECT_EQ(by_default.size(), 6u);
+  EXPECT_EQ(std::count(by_default.begin(), by_default.end(), Output::forward_dynamics_derivatives),
+            0);
   const EmittedModel e = print_cpp(lowered, {});
   for (const char* fact :
        {"inline constexpr int kNq = 10;", "inline constexpr int kNv = 9;",

@@ -20,7 +20,12 @@ end_effector: [0.3, 0, 0]
 )";
 
 TEST(SpatialScene, ReadsTheChain) {
+  std::string listed = kArm + "outputs: [forward_dynamics, mass_matrix]\n";
+  EXPECT_EQ(
+      parse_spatial_scene(listed, "arm2.yaml").outputs,
+      (std::vector<Output>{Output::mass_matrix, Output::forward_dynamics}));  // registry order
   const SpatialScene s = parse_spatial_scene(kArm, "arm2.yaml");
+  EXPECT_TRUE(s.outputs.empty());
   EXPECT_EQ(s.name, "arm2");
   const spatial::ChainDescription& c = s.chain;
   EXPECT_TRUE(c.free_base);
@@ -43,6 +48,7 @@ TEST(SpatialScene, ReadsTheChain) {
 }
 
 // Each malformed field, with the text that replaces a part of the valid arm, and the message.
+// (14 + 4 outputs cases.)
 TEST(SpatialScene, NamesEveryBadField) {
   struct Bad {
     std::string from, to, message;
