@@ -1,15 +1,16 @@
 // A serial chain of revolute joints in space on a base that floats in all six degrees of freedom
-// (or is fixed): forward kinematics, body velocities, the mass matrix, recursive Newton-Euler,
-// kinetic energy and momentum, written once over the scalar (double here; the recorded scalars
-// of recorded_scalar.hpp later, as planar_chain.cpp does). Spatial algebra in body coordinates
-// as Featherstone writes it (Rigid Body Dynamics Algorithms, 2008, ch. 2): a motion is
-// (omega, v), a force (n, f), a transform from a parent frame to a child frame is (E, r).
+// (or is fixed): forward kinematics, body velocities, the mass matrix (CRBA), recursive
+// Newton-Euler, forward dynamics, kinetic energy, momentum and the end effector, written once
+// over the scalar (double, and recorded_scalar.hpp's Sym and duals, as planar_chain.cpp is).
+// Spatial algebra in body coordinates as Featherstone writes it (Rigid Body Dynamics Algorithms,
+// 2008, ch. 2): a motion is (omega, v), a force (n, f), a transform from a parent frame to a child
+// frame is (E, r).
 //
 // The free base follows MuJoCo's free joint, so a state passes between the two unconverted:
 // q = [base origin in the world (3), unit quaternion w, x, y, z (4), joint angles],
 // v = [velocity of the base origin in the world (3), angular velocity in the base frame (3),
-// joint rates]; nq = nv + 1. This is the first part of issue 31 (spatial arms): not yet wired
-// into lowering; no rotors yet.
+// joint rates]; nq = nv + 1. Geared joints use motor angles qm = p q, their rotors exactly
+// coupled or as armature (Gear).
 #pragma once
 
 #include <array>
@@ -178,7 +179,7 @@ RigidInertia<T> in_parent(const Transform<T>& X, const RigidInertia<T>& Ic) {
   const Mat3<T> Et = transposed(X.E);
   const Vec3<T> h = times(Et, Ic.h), r = X.r;
   Mat3<T> I = product(Et, product(Ic.I, X.E));
-  const T rr = dot(r, r) * Ic.m, rh = dot(r, h) + dot(r, h);
+  const T rr = dot(r, r) * Ic.m, rh = dot(r, h) * 2.0;
   for (int a = 0; a < 3; ++a) {
     for (int b = 0; b < 3; ++b) I[3 * a + b] += -(r[a] * r[b] * Ic.m) - h[a] * r[b] - r[a] * h[b];
     I[4 * a] += rr + rh;
@@ -186,21 +187,8 @@ RigidInertia<T> in_parent(const Transform<T>& X, const RigidInertia<T>& Ic) {
   return {Ic.m, h + scaled(r, Ic.m), I};
 }
 
-// Rotation matrices (row-major) from URDF's roll-pitch-yaw (R = Rz(yaw) Ry(pitch) Rx(roll)),
-// about a unit axis by an angle (Rodrigues), and of a unit quaternion (w, x, y, z).
-inline Mat3<double> rpy_rotation(const std::array<double, 3>& rpy) {
-  const double cr = std::cos(rpy[0]), sr = std::sin(rpy[0]), cp = std::cos(rpy[1]),
-               sp = std::sin(rpy[1]), cy = std::cos(rpy[2]), sy = std::sin(rpy[2]);
-  return {cy * cp,
-          cy * sp * sr - sy * cr,
-          cy * sp * cr + sy * sr,
-          sy * cp,
-          sy * sp * sr + cy * cr,
-          sy * sp * cr - cy * sr,
-          -sp,
-          cp * sr,
-          cp * cr};
-}
+// Rotation matrices (row-major) about a unit axis by an angle (Rodrigues) and of a unit
+// quaternion (w, x, y, z).
 template <class T>
 Mat3<T> axis_rotation(const Vec3<T>& a, const T& c, const T& s, const T& one) {
   const T t = one - c;
@@ -221,8 +209,7 @@ RigidInertia<double> rigid_inertia(const Link& l);
 // Defined in spatial_chain.cpp for double, Sym and their duals. The chain at one state over the
 // scalar T (double, or recorded_scalar.hpp's Sym and Dual): its numbers come from Values (inputs
 // "q" and "qd" by the registry's names, literals), so one definition serves the reference in double
-// and the recorded programs. The members are those recursive_algorithms.hpp lists for a chain (the
-// forward dynamics to come).
+// and the recorded programs. The members are those recursive_algorithms.hpp lists for a chain.
 template <class T>
 class Chain {
  public:
@@ -243,7 +230,7 @@ class Chain {
   std::vector<T> inverse_dynamics(const std::vector<T>& vdot) const;
   T kinetic_energy() const;
   // qdd = M^-1 (Q - b) by an LDL^T factorization of M, with its pivots D_i and D_i / M_ii
-  // (as the planar chain's ABA returns them); the articulated-body algorithm to come.
+  // (as the planar chain's ABA returns them); not yet the articulated-body algorithm.
   std::vector<std::vector<T>> forward_dynamics(const std::vector<T>& Q) const;
   // Springs, dampers and friction: none in space yet (zeros).
   std::vector<T> passive_forces() const { return std::vector<T>(nv(), T{}); }
@@ -257,9 +244,6 @@ class Chain {
   // Its geometric Jacobian, row-major 6 x nv: the tip's linear and the last link's angular
   // velocity in the world per unit velocity.
   std::vector<T> end_effector_jacobian() const;
-  // World position and orientation (row-major) of body b (0: the base, i: link i).
-  const Vec3<T>& position(int b) const { return p_[b]; }
-  const Mat3<T>& rotation(int b) const { return R_[b]; }
 
  private:
   const ChainDescription& d_;

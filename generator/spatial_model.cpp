@@ -39,21 +39,12 @@ ModelFacts spatial_facts(const SpatialScene& scene, const std::string& text) {
   return f;
 }
 
-// How the spatial chain gives output o (the banner's and --stats' words).
+// How the spatial chain gives output o (the banner's and --stats' words): as the planar chain
+// does, but forward dynamics solves M and b (no ABA yet).
 const char* spatial_algorithm(Output o) {
-  switch (o) {
-    case Output::mass_matrix:
-      return "CRBA";
-    case Output::bias_forces:
-    case Output::inverse_dynamics:
-      return "RNEA";
-    case Output::forward_dynamics:
-      return "LDL^T of M, RNEA";
-    case Output::forward_dynamics_derivatives:
-      return "LDL^T of M, RNEA, forward-mode";
-    default:
-      return recursive_algorithm(o);  // the bodies' velocities and momenta
-  }
+  if (o == Output::forward_dynamics) return "LDL^T of M, RNEA";
+  if (o == Output::forward_dynamics_derivatives) return "LDL^T of M, RNEA, forward-mode";
+  return recursive_algorithm(o);
 }
 
 }  // namespace
