@@ -211,9 +211,8 @@ int run_simulate(const SimulateArgs& args) {
   // Everything the run needs is checked before the output file is opened.
   SimulateArgs a = args;
   const Scene scene = load_scene(a.scene_path);
-  const bool passive = (scene.features() & (needs::springs | needs::friction)) != 0;
-  if (!scene.wants(Output::forward_dynamics) &&
-      (passive || !(scene.wants(Output::mass_matrix) && scene.wants(Output::bias_forces))))
+  const bool passive = has_passive_forces(scene.features());
+  if (!has_forward_dynamics([&scene](Output o) { return scene.wants(o); }, passive))
     throw std::invalid_argument(
         passive ? "simulate: a scene with springs, dampers or friction must emit forward_dynamics "
                   "(field 'outputs')"

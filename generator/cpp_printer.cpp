@@ -374,9 +374,6 @@ std::string c_interface(const LoweredModel& model, int per_part) {
   const ModelFacts& facts = model.facts;
   const std::string nominal = number_list(facts.nominal_parameters);
   const std::string actuated = comma_list(actuated_coordinates(facts));
-  std::string motor_angle_slots;
-  for (bool on_slot : facts.motor_angle_slots)
-    motor_angle_slots += std::string(motor_angle_slots.empty() ? "" : ", ") + (on_slot ? "1" : "0");
   std::ostringstream functions;
   bool trig_batches = false;
   for (const auto& f : model.functions) {
@@ -400,7 +397,8 @@ std::string c_interface(const LoweredModel& model, int per_part) {
     << (nominal.empty() ? "\"\"" : quoted_list(facts.parameter_names)) << "};\n"
     << "const double kNominalParameters[] = {" << (nominal.empty() ? "0.0" : nominal) << "};\n"
     << "const int kActuatedCoordinates[] = {" << actuated << "};\n"
-    << "const int kMotorAngleSlots[] = {" << motor_angle_slots << "};\n}  // namespace\n\n"
+    << "const bool kMotorAngleSlots[] = {" << comma_list(facts.motor_angle_slots)
+    << "};\n}  // namespace\n\n"
     << "extern \"C\" {\n"
     << "int spacearm_abi_version() { return " << kCInterfaceVersion << "; }\n"
     << "int spacearm_nq() { return " << facts.dims.nq << "; }\n"

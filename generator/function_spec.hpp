@@ -61,7 +61,7 @@ struct ModelFacts {
   std::vector<Output> outputs;
   unsigned features = 0;  // needs:: bits of the scene (outputs.hpp)
   // Springs, dampers or friction act besides M qdd + b.
-  bool has_passive_forces() const { return (features & (needs::springs | needs::friction)) != 0; }
+  bool has_passive_forces() const { return spacearm::has_passive_forces(features); }
   // Velocity index that joint torque tau_i drives (as tau_i / p_i, eq. 14), where it is not
   // the joint's own slot (a flexible joint's motor); empty: the joint slots, nv - N .. nv - 1.
   std::vector<int> actuated_coordinates;

@@ -44,6 +44,17 @@ constexpr unsigned rigid_joints = 2;  // no flexible joint (the joint rows are t
 constexpr unsigned springs = 4;       // a flexible joint (gears[i].stiffness)
 constexpr unsigned friction = 8;      // a `friction:` entry
 }  // namespace needs
+// Springs, dampers or friction act besides M qdd + b (needs:: bits of a scene).
+inline bool has_passive_forces(unsigned features) {
+  return (features & (needs::springs | needs::friction)) != 0;
+}
+// Forward dynamics is available: emitted, or solved from M and b where nothing acts besides
+// them. has(o): whether the model emits output o.
+template <class Has>
+bool has_forward_dynamics(const Has& has, bool passive_forces) {
+  return has(Output::forward_dynamics) ||
+         (has(Output::mass_matrix) && has(Output::bias_forces) && !passive_forces);
+}
 // Why a scene with `features` cannot have an output that needs `required`, e.g. "is only
 // defined for a free_floating base"; empty when it can.
 std::string missing_feature(unsigned required, unsigned features);

@@ -1,10 +1,12 @@
 #include "compiled_model.hpp"
 
 #include <dlfcn.h>
+#include <link.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
+#include <cstdint>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -77,11 +79,37 @@ std::vector<std::string> split_flags(const std::string& flags) {
   return out;
 }
 
-// Identity of the running generator: a hash of its own executable, so that a rebuilt
+// The file this code was linked into: the executable, or a shared object such as the Python
+// extension (where /proc/self/exe is the interpreter, the same whatever the generator). The
+// loader lists the main program with an empty name.
+std::string own_binary() {
+  struct Search {
+    std::uintptr_t address;
+    std::string file = "/proc/self/exe";
+  } search{reinterpret_cast<std::uintptr_t>(&own_binary)};
+  dl_iterate_phdr(
+      [](dl_phdr_info* object, size_t, void* data) {
+        auto* s = static_cast<Search*>(data);
+        for (int k = 0; k < object->dlpi_phnum; ++k) {
+          const ElfW(Phdr)& h = object->dlpi_phdr[k];
+          const std::uintptr_t start = object->dlpi_addr + h.p_vaddr;
+          if (h.p_type != PT_LOAD || s->address < start || s->address >= start + h.p_memsz)
+            continue;
+          if (object->dlpi_name != nullptr && object->dlpi_name[0] == '/')
+            s->file = object->dlpi_name;
+          return 1;
+        }
+        return 0;
+      },
+      &search);
+  return search.file;
+}
+
+// Identity of the running generator: a hash of the binary that holds it, so that a rebuilt
 // generator (which may emit different code under the same version number) gets new entries.
 const std::string& generator_identity() {
   static const std::string id =
-      sha256_hex(read_file("/proc/self/exe")) + "-abi" + std::to_string(kCInterfaceVersion);
+      sha256_hex(read_file(own_binary())) + "-abi" + std::to_string(kCInterfaceVersion);
   return id;
 }
 
@@ -394,8 +422,8 @@ std::string CompiledModel::mismatch_with(const Scene& scene) const {
       parameter_names_.size() != scene.parameters.size() ||
       outputs_ != output_mask(scene.outputs) || free_floating_ != scene.free_floating())
     return "its facts do not match the scene";
-  const bool passive = (scene.features() & (needs::springs | needs::friction)) != 0;
-  if (num_base_ != scene.num_base() || quaternion_offset_ != -1 || passive_forces_ != passive)
+  if (num_base_ != scene.num_base() || quaternion_offset_ != -1 ||
+      passive_forces_ != has_passive_forces(scene.features()))
     return "its layout does not match the scene";
   for (int j = 0; j < dims_.num_links; ++j)
     if (actuated_.at(j) != scene.motor_coordinate(j) ||

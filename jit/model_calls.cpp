@@ -166,8 +166,7 @@ Eigen::VectorXd CompiledModel::friction_forces(const Eigen::VectorXd& qd,
   return evaluate(Output::friction_forces, {qd}, params)[0];
 }
 bool CompiledModel::has_forward_dynamics() const {
-  return has(Output::forward_dynamics) ||
-         (has(Output::mass_matrix) && has(Output::bias_forces) && !passive_forces_);
+  return spacearm::has_forward_dynamics([this](Output o) { return has(o); }, passive_forces_);
 }
 Eigen::VectorXd CompiledModel::forward_dynamics_derivatives(
     const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& Q,

@@ -37,9 +37,8 @@ void check_outputs(const Study& s) {
     throw StudyError("study '" + s.source_path + "', field 'scene': scene '" + sc.source_path +
                      "' " + why + " (field 'outputs')");
   };
-  const bool passive = (sc.features() & (needs::springs | needs::friction)) != 0;
-  if (!sc.wants(Output::forward_dynamics) &&
-      (passive || !(sc.wants(Output::mass_matrix) && sc.wants(Output::bias_forces))))
+  if (!has_forward_dynamics([&sc](Output o) { return sc.wants(o); },
+                            has_passive_forces(sc.features())))
     fail("must emit forward_dynamics (or mass_matrix and bias_forces without springs)");
   if (!sc.wants(Output::end_effector_pose)) fail("must emit end_effector_pose");
   if (sc.free_floating() && !sc.wants(Output::momentum)) fail("must emit momentum (free base)");

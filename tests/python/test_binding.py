@@ -325,3 +325,32 @@ def test_closed_loop_tracks_the_plan_on_the_flexible_twin():
     with pytest.raises(ValueError, match="controller: 'pd' or 'computed_torque'"):
         flexible.closed_loop(plan, controller="lqr")
 
+
+
+def test_a_rebuilt_extension_gets_its_own_cache_entries(tmp_path):
+    """The cache key names the generator by a hash of the binary that holds it: for Python the
+    extension, not the interpreter (the same whatever spacearm was built from). A copy of the
+    package whose extension differs by one trailing byte stands for a rebuilt generator."""
+    import shutil
+    import subprocess
+    import sys
+
+    package = os.path.dirname(spacearm.__file__)
+    copy = tmp_path / "pkg" / "spacearm"
+    shutil.copytree(package, copy)
+    (extension,) = [p for p in copy.iterdir() if p.name.startswith("_spacearm")]
+    with open(extension, "ab") as f:
+        f.write(b"\0")
+    cache = tmp_path / "cache"
+    scene = os.path.join(SOURCE, "models", "paper_reference.yaml")
+    load = f"import spacearm; spacearm.load({scene!r}, cache_dir={str(cache)!r})"
+
+    def entries(pythonpath):
+        env = dict(os.environ, PYTHONPATH=pythonpath)
+        subprocess.run([sys.executable, "-c", load], env=env, check=True)
+        return {p.name for p in cache.iterdir() if p.is_dir()}
+
+    first = entries(os.path.dirname(package))
+    assert len(first) == 1
+    both = entries(str(tmp_path / "pkg"))
+    assert len(both) == 2, "the rebuilt extension reused the first one's entry"
