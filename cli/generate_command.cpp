@@ -7,7 +7,7 @@
 
 #include "cpp_emitter.hpp"
 #include "scene.hpp"
-#include "spatial_model.hpp"
+#include "model_recipe.hpp"
 #include "symbolic_model.hpp"
 
 namespace spacearm {
@@ -38,28 +38,14 @@ double ms_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
 }
 
-// A planar scene through its Lagrangian derivation, a spatial one (space: spatial) through the
-// spatial chain: both then share lowering and the printer.
 Generated generate(const std::string& text, const std::string& path, const EmitOptions& options) {
   Generated g;
-  auto t = std::chrono::steady_clock::now();
-  if (is_spatial_scene(text)) {
-    const SpatialScene scene = parse_spatial_scene(text, path);
-    const DerivedModel derived = spatial_derived_model(scene, text);
-    g.derive_ms = ms_since(t);
-    t = std::chrono::steady_clock::now();
-    g.emitted = emit_cpp(derived, options);
-    g.coordinates = scene.chain.nq();
-  } else {
-    const Scene scene = parse_scene(text, path);
-    const SymbolicModel model = derive(scene);
-    g.derive_ms = ms_since(t);
-    t = std::chrono::steady_clock::now();
-    g.emitted = emit_cpp(model, options);
-    g.coordinates = scene.num_coordinates();
-    g.parameters = static_cast<int>(scene.parameters.size());
-  }
-  g.emit_ms = ms_since(t);
+  const auto t = std::chrono::steady_clock::now();
+  const ModelRecipe recipe = ModelRecipe::parse(text, path);
+  g.emitted = recipe.emit(options, &g.derive_ms);
+  g.emit_ms = ms_since(t) - g.derive_ms;
+  g.coordinates = recipe.facts().dims.nq;
+  g.parameters = static_cast<int>(recipe.facts().parameter_names.size());
   return g;
 }
 

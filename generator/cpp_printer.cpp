@@ -254,15 +254,6 @@ std::string parameter_error_function(const ModelFacts& facts) {
          parameter_checks(facts, Spelling::eigen);
 }
 
-// Per joint, the velocity index its torque drives (as tau_i / p_i, eq. 14): the joint's own slot,
-// or a flexible joint's motor coordinate.
-std::vector<int> actuated_coordinates(const ModelFacts& facts) {
-  if (!facts.actuated_coordinates.empty()) return facts.actuated_coordinates;
-  std::vector<int> slots;
-  for (int j = 0; j < facts.dims.num_links; ++j) slots.push_back(facts.num_base + j);
-  return slots;
-}
-
 template <class List>
 std::string comma_list(const List& values) {
   std::string list;

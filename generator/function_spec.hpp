@@ -72,6 +72,15 @@ struct ModelFacts {
   std::vector<ParameterCheck> checks;
 };
 
+// Per joint, the velocity index its torque drives (as tau_i / p_i, eq. 14): the joint's own slot,
+// or a flexible joint's motor coordinate.
+inline std::vector<int> actuated_coordinates(const ModelFacts& facts) {
+  if (!facts.actuated_coordinates.empty()) return facts.actuated_coordinates;
+  std::vector<int> slots;
+  for (int j = 0; j < facts.dims.num_links; ++j) slots.push_back(facts.num_base + j);
+  return slots;
+}
+
 struct LoweredModel {
   ModelFacts facts;
   std::vector<FunctionSpec> functions;

@@ -70,7 +70,9 @@ void parameter_checks(const Scene& scene, ModelFacts& facts) {
   }
 }
 
-ModelFacts model_facts(const Scene& scene) {
+}  // namespace
+
+ModelFacts planar_facts(const Scene& scene) {
   ModelFacts facts;
   facts.name = scene.name;
   facts.description = scene.description;
@@ -102,12 +104,10 @@ ModelFacts model_facts(const Scene& scene) {
   return facts;
 }
 
-}  // namespace
-
 DerivedModel planar_derived_model(const SymbolicModel& model) {
   const Scene& scene = model.scene;
   DerivedModel derived;
-  derived.facts = model_facts(scene);
+  derived.facts = planar_facts(scene);
   derived.value_span = value_span(scene);
   derived.closed_forms = &model;
   derived.tries_recursive = scene.tries_recursive();

@@ -10,6 +10,10 @@
 
 namespace spacearm {
 
+// The facts of the model (sizes, names, layout, outputs, the run-time parameter checks), read
+// from the scene alone: no derivation.
+ModelFacts planar_facts(const Scene& scene);
+
 // The derived model refers to `model` (its closed forms and scene): keep `model` alive while
 // it is used.
 DerivedModel planar_derived_model(const SymbolicModel& model);

@@ -49,7 +49,7 @@ Quaternion<double> rpy_quaternion(const std::array<double, 3>& rpy) {
 // convention for the frames and for the pose.
 Mat3<double> rpy_rotation(const std::array<double, 3>& rpy) {
   const Quaternion<double> q = rpy_quaternion(rpy);
-  return quaternion_rotation(q[0], q[1], q[2], q[3], 1.0);
+  return quaternion_rotation(q[0], q[1], q[2], q[3], 1.0, 2.0);
 }
 
 }  // namespace
@@ -76,7 +76,9 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
   I_.push_back(inertia(d.base));
   if (d.free_base) {
     p_.push_back({q(0), q(1), q(2)});
-    R_.push_back(quaternion_rotation(q(3), q(4), q(5), q(6), num(1.0)));
+    // The base's quaternion need not be unit (an integrator's stage drifts off the sphere).
+    const T norm2 = q(3) * q(3) + q(4) * q(4) + q(5) * q(5) + q(6) * q(6);
+    R_.push_back(quaternion_rotation(q(3), q(4), q(5), q(6), num(1.0), num(2.0) / norm2));
     V_.push_back({{v(3), v(4), v(5)}, transposed_times(R_[0], Vec3<T>{v(0), v(1), v(2)})});
   } else {
     p_.push_back(zero3());

@@ -196,9 +196,11 @@ Mat3<T> axis_rotation(const Vec3<T>& a, const T& c, const T& s, const T& one) {
           a[1] * a[0] * t + a[2] * s, c + a[1] * a[1] * t,        a[1] * a[2] * t - a[0] * s,
           a[2] * a[0] * t - a[1] * s, a[2] * a[1] * t + a[0] * s, c + a[2] * a[2] * t};
 }
+// The rotation of the unit quaternion (w, x, y, z) / |q| for two = 2 / |q|^2 (2 for a unit one):
+// no square root, and any nonzero quaternion is a rotation (as in MuJoCo, which normalizes).
 template <class T>
-Mat3<T> quaternion_rotation(const T& w, const T& x, const T& y, const T& z, const T& one) {
-  const T two = one + one;
+Mat3<T> quaternion_rotation(const T& w, const T& x, const T& y, const T& z, const T& one,
+                            const T& two) {
   return {one - two * (y * y + z * z), two * (x * y - w * z),       two * (x * z + w * y),
           two * (x * y + w * z),       one - two * (x * x + z * z), two * (y * z - w * x),
           two * (x * z - w * y),       two * (y * z + w * x),       one - two * (x * x + y * y)};
@@ -239,7 +241,8 @@ class Chain {
   // [P (3), L (3)]: linear momentum and angular momentum about the world origin, in the world.
   std::vector<T> momentum() const;
   // The end effector's pose [x, y, z, w, qx, qy, qz]: the tip's world position and the last
-  // link's orientation as a unit quaternion, composed joint by joint (no branches: recordable).
+  // link's orientation as a quaternion, composed joint by joint (no branches: recordable); it has
+  // the norm of the base's quaternion in q (1 for a unit one; a square root is not recordable).
   std::vector<T> end_effector_pose() const;
   // Its geometric Jacobian, row-major 6 x nv: the tip's linear and the last link's angular
   // velocity in the world per unit velocity.

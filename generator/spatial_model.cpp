@@ -17,7 +17,9 @@ std::vector<std::string> coordinate_names(const spatial::ChainDescription& c) {
   return names;
 }
 
-ModelFacts spatial_facts(const SpatialScene& scene, const std::string& text) {
+}  // namespace
+
+ModelFacts spatial_facts(const SpatialScene& scene) {
   const spatial::ChainDescription& c = scene.chain;
   ModelFacts f;
   f.name = scene.name;
@@ -32,12 +34,14 @@ ModelFacts spatial_facts(const SpatialScene& scene, const std::string& text) {
     f.geared = f.geared || l.gear.present;
     f.motor_angle_slots.push_back(l.gear.present);
   }
-  f.scene_hash = "fnv1a64:" + content_hash(text);
+  f.scene_hash = "fnv1a64:" + content_hash(scene.content);
   f.formulation = "recursive";
   f.features = (c.free_base ? needs::free_base : 0u) | needs::rigid_joints;
   f.outputs = spatial_outputs(scene);
   return f;
 }
+
+namespace {
 
 // How the spatial chain gives output o (the banner's and --stats' words): as the planar chain
 // does, but forward dynamics solves M and b (no ABA yet).
@@ -60,9 +64,9 @@ std::vector<Output> spatial_outputs(const SpatialScene& scene) {
   return outputs;
 }
 
-DerivedModel spatial_derived_model(const SpatialScene& scene, const std::string& text) {
+DerivedModel spatial_derived_model(const SpatialScene& scene) {
   DerivedModel derived;
-  derived.facts = spatial_facts(scene, text);
+  derived.facts = spatial_facts(scene);
   derived.tries_recursive = true;
   const spatial::ChainDescription& chain = scene.chain;
   for (Output o : derived.facts.outputs)

@@ -15,8 +15,10 @@ namespace spacearm {
 // momentum (free base), inverse and forward dynamics (the state Jacobian where asked for).
 std::vector<Output> spatial_outputs(const SpatialScene& scene);
 
-// The scene must outlive the result (its recorders refer to it). `text` is the scene file's
-// content (its hash names the model's library).
-DerivedModel spatial_derived_model(const SpatialScene& scene, const std::string& text);
+// The facts of the model (sizes, names, layout, outputs), read from the scene alone.
+ModelFacts spatial_facts(const SpatialScene& scene);
+
+// The scene must outlive the result (its recorders refer to it).
+DerivedModel spatial_derived_model(const SpatialScene& scene);
 
 }  // namespace spacearm

@@ -205,7 +205,10 @@ SpatialScene parse_spatial_scene(const std::string& yaml_text, const std::string
   const YamlReader r("scene", source_name, [](const std::string& m) { throw SceneError(m); });
   const YAML::Node root = r.load(yaml_text);
   try {
-    return SpatialReader(r).read(root);
+    SpatialScene s = SpatialReader(r).read(root);
+    s.source_path = source_name;
+    s.content = yaml_text;
+    return s;
   } catch (const YAML::Exception& e) {
     r.fail("", std::string("unexpected YAML structure: ") + e.what());
   }

@@ -22,6 +22,8 @@ namespace spacearm {
 
 struct SpatialScene {
   std::string name;
+  std::string source_path;  // as given (messages, the generated banner)
+  std::string content;      // every byte the model is made from (its hash names the library)
   spatial::ChainDescription chain;
   std::vector<Output> outputs;  // as listed (`outputs:`); empty: the defaults (spatial_model.hpp)
 };

@@ -156,9 +156,10 @@ std::vector<std::string> exported_functions(unsigned long mask) {
 // Generates and compiles the scene into a new work folder; returns it, ready to install.
 // Every file is written and read relative to the folder's descriptor, and the compiler runs
 // inside it with relative names: nothing goes through the cache's path again.
-WorkFolder build_entry(const Scene& scene, const CacheFolder& cache, const std::string& entry,
-                       const std::string& compiler, const std::string& compiler_id,
-                       const CompileOptions& options, StageReport& rep) {
+WorkFolder build_entry(const ModelRecipe& recipe, const CacheFolder& cache,
+                       const std::string& entry, const std::string& compiler,
+                       const std::string& compiler_id, const CompileOptions& options,
+                       StageReport& rep) {
   auto say = [&](const std::string& m) {
     if (options.progress) options.progress(m);
   };
@@ -166,23 +167,18 @@ WorkFolder build_entry(const Scene& scene, const CacheFolder& cache, const std::
   const std::string shown = cache.path() + "/" + work.name;
   const int dir = work.fd.get();
   try {
-    say("deriving " + scene.name);
-    auto t0 = std::chrono::steady_clock::now();
-    const SymbolicModel model = derive(scene);
-    rep.derive_ms = ms_since(t0);
-    say("emitting C++");
-    t0 = std::chrono::steady_clock::now();
+    say("deriving " + recipe.name());
+    const auto t0 = std::chrono::steady_clock::now();
     EmitOptions eo;
-    eo.scene_path = scene.source_path;
+    eo.scene_path = recipe.source_path();
     eo.command = "spacearm (compile-and-load cache)";
-    const EmittedModel emitted = emit_cpp(model, eo);
-    // Only the self-contained C interface is compiled (no Eigen: cpp_printer.cpp says why).
+    const EmittedModel emitted = recipe.emit(eo, &rep.derive_ms);
     write_new_file_at(dir, "libmodel.cpp", emitted.c_interface, shown + "/libmodel.cpp");
-    rep.emit_ms = ms_since(t0);
+    rep.emit_ms = ms_since(t0) - rep.derive_ms;
     rep.generated = true;
 
     say("compiling with " + compiler);
-    t0 = std::chrono::steady_clock::now();
+    const auto t1 = std::chrono::steady_clock::now();
     std::vector<std::string> argv{compiler};
     for (const auto& f : split_flags(options.flags)) argv.push_back(f);
     for (const char* a : {"libmodel.cpp", "-o", "libmodel.so"}) argv.push_back(a);
@@ -194,8 +190,9 @@ WorkFolder build_entry(const Scene& scene, const CacheFolder& cache, const std::
     // The log in memory: the compiler's messages survive a full disk.
     const Fd log = memory_file("spacearm-compile-log");
     const RunResult run = run_interruptible(argv, dir, log.get(), [&] { cache.remove(work); });
-    rep.compile_ms = ms_since(t0);
-    if (run.interrupted) throw CompileError("compiling model '" + scene.name + "' was interrupted");
+    rep.compile_ms = ms_since(t1);
+    if (run.interrupted)
+      throw CompileError("compiling model '" + recipe.name() + "' was interrupted");
     if (run.status != 0) {
       const std::string text =
           run.status < 0 ? cannot_run(compiler, run.start_error) + "\n" : read_log(log);
@@ -205,7 +202,7 @@ WorkFolder build_entry(const Scene& scene, const CacheFolder& cache, const std::
       }
       const std::string kept = cache.keep_failed(work, entry);
       throw CompileError(
-          "compiling model '" + scene.name + "' failed" +
+          "compiling model '" + recipe.name() + "' failed" +
           (text.empty() ? " without a message (exit status " + std::to_string(run.status) + ")"
                         : "") +
           ":\n" + text + "sources and command: " + kept);
@@ -245,7 +242,7 @@ std::string cache_directory(const CompileOptions& options) {
 // Entries are named SCENE-SOURCE-COMPILER: the hash of what the code is made from (scene,
 // generator, flags, libraries), then of the compiler's identity. Without a compiler (a Dask
 // worker's image, a read-only cache), an entry of the same source built by any compiler loads.
-CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& options,
+CompiledModel CompiledModel::load(const ModelRecipe& recipe, const CompileOptions& options,
                                   StageReport* report) {
   StageReport local;
   StageReport& rep = report ? *report : local;
@@ -258,14 +255,14 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
   if (compiler.empty())
     compiler = std::getenv("CXX") && *std::getenv("CXX") ? std::getenv("CXX") : "c++";
   const std::string source =
-      scene.name + "-" +
-      sha256_hex(scene.content + '\0' + kGeneratorVersion + '\0' + generator_identity() + '\0' +
+      recipe.name() + "-" +
+      sha256_hex(recipe.content() + '\0' + kGeneratorVersion + '\0' + generator_identity() + '\0' +
                  options.flags + '\0' + options.libraries)
           .substr(0, 24) +
       "-";
   std::string no_compiler;
   const std::string compiler_id = compiler_identity(compiler, cache.fd(), no_compiler);
-  if (compiler_id.empty()) return load_built(scene, cache, source, no_compiler, rep);
+  if (compiler_id.empty()) return load_built(recipe, cache, source, no_compiler, rep);
   const std::string entry = source + sha256_hex(compiler_id).substr(0, 8);
   rep.cache_entry = cache.path() + "/" + entry;
 
@@ -282,12 +279,13 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
         say("cache entry " + rep.cache_entry + " is " + problem + ": rebuilding");
         cache.discard(entry);
       }
-      const WorkFolder work = build_entry(scene, cache, entry, compiler, compiler_id, options, rep);
+      const WorkFolder work =
+          build_entry(recipe, cache, entry, compiler, compiler_id, options, rep);
       cache.install(work, entry);
       continue;
     }
     std::string why;
-    CompiledModel m = open_verified(scene, library, rep, why);
+    CompiledModel m = open_verified(recipe, library, rep, why);
     if (why.empty()) return m;
     if (attempt > 0 || rep.compiled)
       throw CompileError("cannot load '" + rep.cache_entry + "/libmodel.so': " + why);
@@ -297,7 +295,7 @@ CompiledModel CompiledModel::load(const Scene& scene, const CompileOptions& opti
 }
 
 // A complete, verified entry of `source` built before by any compiler; nothing is written.
-CompiledModel CompiledModel::load_built(const Scene& scene, const CacheFolder& cache,
+CompiledModel CompiledModel::load_built(const ModelRecipe& recipe, const CacheFolder& cache,
                                         const std::string& source, const std::string& no_compiler,
                                         StageReport& rep) {
   std::string last;
@@ -316,12 +314,12 @@ CompiledModel CompiledModel::load_built(const Scene& scene, const CacheFolder& c
       continue;
     }
     std::string why;
-    CompiledModel m = open_verified(scene, library, rep, why);
+    CompiledModel m = open_verified(recipe, library, rep, why);
     if (why.empty()) return m;
     last = "; '" + rep.cache_entry + "/libmodel.so' cannot be loaded: " + why;
   }
   throw CompileError(no_compiler + ", and the cache folder '" + cache.path() +
-                     "' holds no complete build of model '" + scene.name + "' to load instead" +
+                     "' holds no complete build of model '" + recipe.name() + "' to load instead" +
                      last);
 }
 
@@ -343,8 +341,8 @@ std::string never_used_path(int fd) {
 // dlopen of the verified open file (through /proc/self/fd, so the bytes hashed are the bytes
 // mapped), then every symbol the scene needs is looked up before any is called, and the
 // library's scene hash must be this scene's.
-CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library, StageReport& rep,
-                                           std::string& why) {
+CompiledModel CompiledModel::open_verified(const ModelRecipe& recipe, const Fd& library,
+                                           StageReport& rep, std::string& why) {
   const auto t0 = std::chrono::steady_clock::now();
   CompiledModel m;
   m.handle_ = dlopen(never_used_path(library.get()).c_str(), RTLD_NOW | RTLD_LOCAL);
@@ -366,7 +364,7 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
   }
   // The library of this scene, not another one the process has loaded (dlopen matches names).
   const std::string hash = reinterpret_cast<const char* (*)()>(sym("spacearm_scene_hash"))();
-  if (hash != "fnv1a64:" + content_hash(scene.content)) {
+  if (hash != recipe.facts().scene_hash) {
     why = "it was built from another scene (" + hash + ")";
     return m;
   }
@@ -399,7 +397,7 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
     m.motor_angle_slots_.push_back(motor_on_slot(j) != 0);
   }
   // A cross-check only: the hash already names the scene.
-  why = m.mismatch_with(scene);
+  why = m.mismatch_with(recipe.facts());
   if (!why.empty()) return m;
   m.parameter_error_ =
       reinterpret_cast<const char* (*)(const double*)>(sym("spacearm_parameter_error"));
@@ -416,18 +414,19 @@ CompiledModel CompiledModel::open_verified(const Scene& scene, const Fd& library
 
 // The first fact the library states differently from the scene ("" if none). Every index the
 // runtime uses (the base, the actuated coordinates) is among them.
-std::string CompiledModel::mismatch_with(const Scene& scene) const {
-  if (name_ != scene.name || dims_.nq != scene.num_coordinates() ||
-      dims_.nv != scene.num_velocities() || dims_.num_links != scene.num_links() ||
-      parameter_names_.size() != scene.parameters.size() ||
-      outputs_ != output_mask(scene.outputs) || free_floating_ != scene.free_floating())
+std::string CompiledModel::mismatch_with(const ModelFacts& expected) const {
+  if (name_ != expected.name || dims_.nq != expected.dims.nq || dims_.nv != expected.dims.nv ||
+      dims_.num_links != expected.dims.num_links || dims_.spatial != expected.dims.spatial ||
+      parameter_names_ != expected.parameter_names || outputs_ != output_mask(expected.outputs) ||
+      free_floating_ != expected.free_floating)
     return "its facts do not match the scene";
-  if (num_base_ != scene.num_base() || quaternion_offset_ != -1 ||
-      passive_forces_ != has_passive_forces(scene.features()))
+  if (num_base_ != expected.num_base || quaternion_offset_ != expected.quaternion_offset ||
+      passive_forces_ != expected.has_passive_forces())
     return "its layout does not match the scene";
+  const std::vector<int> actuated = spacearm::actuated_coordinates(expected);
   for (int j = 0; j < dims_.num_links; ++j)
-    if (actuated_.at(j) != scene.motor_coordinate(j) ||
-        motor_angle_slots_.at(j) != (scene.has_gear(j) && !scene.is_flexible(j)))
+    if (actuated_.at(j) != actuated.at(j) ||
+        motor_angle_slots_.at(j) != expected.motor_angle_slots.at(j))
       return "its joint " + std::to_string(j + 1) + " does not match the scene";
   return "";
 }

@@ -15,6 +15,7 @@
 
 #include "dynamic_model.hpp"
 #include "model_cache.hpp"
+#include "model_recipe.hpp"
 #include "scene.hpp"
 
 namespace spacearm {
@@ -58,8 +59,13 @@ struct StageReport {
 // A generated model loaded from a shared library, with a dynamic-size interface.
 class CompiledModel {
  public:
-  static CompiledModel load(const Scene& scene, const CompileOptions& options,
+  // A scene of either kind (model_recipe.hpp).
+  static CompiledModel load(const ModelRecipe& recipe, const CompileOptions& options,
                             StageReport* report = nullptr);
+  static CompiledModel load(const Scene& scene, const CompileOptions& options,
+                            StageReport* report = nullptr) {
+    return load(ModelRecipe(scene), options, report);
+  }
   ~CompiledModel();
   CompiledModel(CompiledModel&&) noexcept;
   CompiledModel& operator=(CompiledModel&&) noexcept;
@@ -149,12 +155,12 @@ class CompiledModel {
   std::vector<bool> motor_angle_slots_;
   bool free_floating_ = false, passive_forces_ = false;
   int num_base_ = 0, quaternion_offset_ = -1;
-  static CompiledModel open_verified(const Scene& scene, const Fd& library, StageReport& rep,
+  static CompiledModel open_verified(const ModelRecipe& recipe, const Fd& library, StageReport& rep,
                                      std::string& why);
-  static CompiledModel load_built(const Scene& scene, const CacheFolder& cache,
+  static CompiledModel load_built(const ModelRecipe& recipe, const CacheFolder& cache,
                                   const std::string& source, const std::string& no_compiler,
                                   StageReport& rep);
-  std::string mismatch_with(const Scene& scene) const;
+  std::string mismatch_with(const ModelFacts& expected) const;
   void check(const char* what, Eigen::Ref<const Eigen::VectorXd> v, int size) const;
   std::vector<Eigen::MatrixXd> call(const std::string& function,
                                     const std::vector<std::pair<Size, Size>>& shapes,

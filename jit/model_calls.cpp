@@ -2,7 +2,9 @@
 // finiteness, the parameters' ranges) and of its results, and the model as a source of the
 // runtime's one adapter (LoadedSource). Loading it is compiled_model.cpp's.
 #include <cmath>
+#include <sstream>
 #include <string>
+#include <string_view>
 #include <tuple>
 
 #include "compiled_model.hpp"
@@ -28,6 +30,18 @@ void CompiledModel::check(const char* what, Eigen::Ref<const Eigen::VectorXd> v,
     if (!std::isfinite(v[i]))
       throw std::invalid_argument(std::string(what) + "[" + std::to_string(i) +
                                   "] is not finite: " + std::to_string(v[i]));
+  // The base's orientation is normalized by the model (spatial_chain.hpp): any quaternion of a
+  // norm that squares without under- or overflow is a rotation.
+  const int k = quaternion_offset_;
+  if (k >= 0 && std::string_view(what) == "q") {
+    const double norm = v.segment(k, 4).norm();
+    if (!(norm >= 1e-6 && norm <= 1e6)) {
+      std::ostringstream m;
+      m << "q[" << k << ".." << k + 3 << "], the base's orientation quaternion (w, x, y, z), has "
+        << "norm " << norm << ": expected a unit quaternion";
+      throw std::invalid_argument(m.str());
+    }
+  }
 }
 
 // Calls an exported function with checked parameters; results sized by `shapes`.

@@ -19,6 +19,7 @@
 #include "paper_geared.hpp"
 #include "paper_reference.hpp"
 #include "simulation.hpp"
+#include "spatial_model.hpp"
 #include "support.hpp"
 #include "torque_signal.hpp"
 
@@ -194,6 +195,65 @@ TEST(CompiledModel, LibraryStatesTheModelsFacts) {
     EXPECT_TRUE(M.isApprox(m.mass_matrix(q, params), 1e-14));
     EXPECT_TRUE(b.isApprox(m.bias_forces(q, qd, params), 1e-14));
   }
+  fs::remove_all(cache);
+}
+
+// A spatial arm (space: spatial) loads through the same cache: the library states the free
+// joint's layout, its functions give the spatial chain's values (its reference in double), a
+// second load is a cache hit, and a base quaternion of norm 0 is refused by name while a
+// non-unit one is normalized. Cost: one compile, about 1 s.
+TEST(CompiledModel, LoadsASpatialArmThroughTheSameCache) {
+  const fs::path cache = fresh_cache("spatial");
+  CompileOptions options;
+  options.cache_dir = cache.string();
+  const std::string text = R"(name: arm2
+space: spatial
+base: {type: free_floating, mass: 50, com: [0.1, 0, 0], inertia: [10, 0.1, 0, 12, 0, 15]}
+links:
+  - {origin: [0.5, 0, 0.2], axis: [0, 0, 1], mass: 5, com: [0.2, 0, 0],
+     inertia: [0.01, 0, 0, 0.2, 0, 0.2]}
+  - {origin: [0.4, 0, 0], rpy: [1.5707963, 0, 0], axis: [0, 1, 0], mass: 3, com: [0.2, 0, 0],
+     inertia: [0.01, 0.001, 0, 0.1, 0, 0.1]}
+gears: {ratio: 50, rotor_inertia: [1.0e-4, 6.0e-5], rotor_coupling: exact}
+)";
+  const ModelRecipe recipe = ModelRecipe::parse(text, "arm2.yaml");
+  StageReport first, second;
+  const CompiledModel m = CompiledModel::load(recipe, options, &first);
+  CompiledModel::load(recipe, options, &second);
+  EXPECT_TRUE(first.compiled);
+  EXPECT_FALSE(second.generated || second.compiled);
+  EXPECT_EQ(m.nq(), 9);
+  EXPECT_EQ(m.nv(), 8);
+  EXPECT_EQ(m.num_base(), 6);
+  EXPECT_EQ(m.quaternion_offset(), 3);
+  EXPECT_TRUE(m.dimensions().spatial);
+  EXPECT_EQ(m.coordinate_names()[3], "qw0");
+
+  const DerivedModel derived = spatial_derived_model(*recipe.spatial());
+  Eigen::VectorXd q(9), qd(8), qdd(8);
+  q << 0.1, -0.2, 0.3, 0.5, 0.5, -0.5, 0.5, 0.7, -1.1;
+  qd << 0.2, 0.1, -0.3, 0.4, -0.2, 0.3, 5.0, -8.0;
+  qdd << 0.3, -0.1, 0.2, 0.1, 0.2, -0.3, 1.0, 2.0;
+  const Eigen::VectorXd params(0);
+  for (Output o : recipe.facts().outputs) {
+    SCOPED_TRACE(info(o).name);
+    std::vector<Eigen::VectorXd> inputs;
+    for (Input in : info(o).inputs)
+      inputs.push_back(in == Input::q ? q : in == Input::qd ? qd : qdd);
+    const auto got = m.evaluate(o, inputs, params);
+    const auto want = derived.reference(o, inputs, params);
+    ASSERT_EQ(got.size(), want.size());
+    for (size_t r = 0; r < got.size(); ++r)
+      EXPECT_LT((got[r] - want[r]).norm(), 1e-12 * (1 + want[r].norm())) << r;
+  }
+  // A non-unit quaternion is the same rotation; a zero one is an error naming it.
+  Eigen::VectorXd scaled = q;
+  scaled.segment(3, 4) *= 3;
+  EXPECT_LT((m.mass_matrix(scaled, params) - m.mass_matrix(q, params)).norm(), 1e-12);
+  Eigen::VectorXd zero = q;
+  zero.segment(3, 4).setZero();
+  EXPECT_THROW_MESSAGE(m.mass_matrix(zero, params), std::invalid_argument,
+                       "q[3..6], the base's orientation quaternion (w, x, y, z), has norm 0");
   fs::remove_all(cache);
 }
 

@@ -35,7 +35,7 @@ outputs: [forward_dynamics_derivatives, mass_matrix, bias_forces, kinetic_energy
 
 TEST(SpatialModel, LowersAndPrintsFromTheDerivedModelAlone) {
   const SpatialScene scene = parse_spatial_scene(kArm, "arm3.yaml");
-  const LoweredModel lowered = lower(spatial_derived_model(scene, kArm), {});
+  const LoweredModel lowered = lower(spatial_derived_model(scene), {});
   EXPECT_EQ(lowered.facts.dims.nq, 10);
   EXPECT_EQ(lowered.facts.dims.nv, 9);
   EXPECT_TRUE(lowered.facts.dims.spatial);
@@ -66,7 +66,7 @@ TEST(SpatialModel, LowersAndPrintsFromTheDerivedModelAlone) {
 // chain run in double.
 TEST(SpatialModel, LoweredProgramsGiveTheChainsValues) {
   const SpatialScene scene = parse_spatial_scene(kArm, "arm3.yaml");
-  const LoweredModel lowered = lower(spatial_derived_model(scene, kArm), {});
+  const LoweredModel lowered = lower(spatial_derived_model(scene), {});
   std::mt19937 rng(40);
   std::uniform_real_distribution<double> u(-1, 1);
   for (int trial = 0; trial < 3; ++trial) {

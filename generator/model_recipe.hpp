@@ -1,0 +1,42 @@
+// A scene of either kind, planar (scene.hpp) or spatial (spatial_scene.hpp, `space: spatial`), as
+// what is made from it: the facts of its model, read from the scene alone, and its emitted code
+// (the derivation, then lowering and the printer). What the generate command and the
+// compile-and-load cache need, so neither asks which kind a scene is.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "cpp_emitter.hpp"
+#include "function_spec.hpp"
+#include "scene.hpp"
+#include "spatial_scene.hpp"
+
+namespace spacearm {
+
+class ModelRecipe {
+ public:
+  explicit ModelRecipe(Scene scene);
+  explicit ModelRecipe(SpatialScene scene);
+  // Parses a scene file's text (SceneError naming the field); `space: spatial` picks the kind.
+  static ModelRecipe parse(const std::string& text, const std::string& source_path);
+
+  const ModelFacts& facts() const { return facts_; }
+  const std::string& name() const { return facts_.name; }
+  // Every byte the model is made from: its hash names the cache entry and the library.
+  const std::string& content() const;
+  const std::string& source_path() const;
+  // Derives and emits the model; derive_ms (when given) receives the derivation's time.
+  EmittedModel emit(const EmitOptions& options, double* derive_ms = nullptr) const;
+
+  // The scene, for the tools that read more than the facts (nullptr: the other kind).
+  const Scene* planar() const { return planar_.get(); }
+  const SpatialScene* spatial() const { return spatial_.get(); }
+
+ private:
+  std::shared_ptr<const Scene> planar_;
+  std::shared_ptr<const SpatialScene> spatial_;
+  ModelFacts facts_;
+};
+
+}  // namespace spacearm
