@@ -18,6 +18,8 @@
 #include <functional>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "outputs.hpp"
@@ -124,6 +126,14 @@ std::vector<std::vector<T>> differentiated(const Description& d, const Values<T>
   return {C};
 }
 
+// Whether a chain gives its end effector's kinematics (the spatial chain does; the planar
+// chain's come from its closed forms).
+template <class C, class = void>
+struct has_kinematics : std::false_type {};
+template <class C>
+struct has_kinematics<C, std::void_t<decltype(std::declval<const C&>().end_effector_pose())>>
+    : std::true_type {};
+
 // The results of output o (the registry's, each row by row; a symmetric one in full).
 template <template <class> class Chain, class T, class Description>
 std::vector<std::vector<T>> compute(const Description& d, const Values<T>& values, Output o) {
@@ -148,6 +158,12 @@ std::vector<std::vector<T>> compute(const Description& d, const Values<T>& value
       return {{chain.kinetic_energy()}};
     case Output::momentum:
       return {chain.momentum()};
+    case Output::end_effector_pose:
+    case Output::end_effector_jacobian:
+      if constexpr (has_kinematics<Chain<T>>::value)
+        return {o == Output::end_effector_pose ? chain.end_effector_pose()
+                                               : chain.end_effector_jacobian()};
+      [[fallthrough]];
     default:
       throw std::logic_error("recursive dynamics: no recursive form of " + to_string(o));
   }

@@ -48,6 +48,8 @@ namespace {
 const char* spatial_algorithm(Output o) {
   if (o == Output::forward_dynamics) return "LDL^T of M, RNEA";
   if (o == Output::forward_dynamics_derivatives) return "LDL^T of M, RNEA, forward-mode";
+  if (o == Output::end_effector_pose || o == Output::end_effector_jacobian)
+    return "forward kinematics";
   return recursive_algorithm(o);
 }
 

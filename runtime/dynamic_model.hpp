@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "configuration_space.hpp"
 #include "model.hpp"
 
 namespace spacearm {
@@ -109,10 +110,11 @@ struct DynamicModel : DynamicModelFacts {
   // and the CLI's link-side columns need it.
   bool rigid_joints() const { return nv == num_base() + num_links; }
 
-  // dq/dt for velocity qd: the identity for every planar model (Model::configuration_rate).
-  Velocity configuration_rate(const Vector& /*q*/, const Velocity& qd) const {
-    if (nq != nv) throw std::logic_error("model " + name + ": configuration_rate needs nq == nv");
-    return qd;
+  // The configuration space (configuration_space.hpp) and dq/dt for velocity qd: the identity
+  // for every planar model, the quaternion's rate for a base floating in 3D.
+  ConfigurationSpace configuration_space() const { return {nq, nv, quaternion_offset}; }
+  Vector configuration_rate(const Vector& q, const Velocity& qd) const {
+    return configuration_space().rate(q, qd);
   }
 
   // Link-side joint angles from q: a slot that holds the motor angle qm = p q (eq. 12) is

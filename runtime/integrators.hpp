@@ -81,6 +81,10 @@ struct IntegratorOptions {
   // For rosenbrock4: the Jacobian J = df/dx of the right-hand side and df/dt, at (x, t).
   std::function<void(const Eigen::VectorXd& x, double t, Eigen::MatrixXd& J, Eigen::VectorXd& dfdt)>
       jacobian;
+  // Where the state lives on a manifold (a unit quaternion): moves x back onto it after every
+  // accepted step. dopri5 then takes controlled steps (its dense output would interpolate off
+  // the manifold between steps).
+  std::function<void(Eigen::Ref<Eigen::VectorXd> x)> project;
 };
 
 template <class State, class Rhs>
@@ -219,6 +223,7 @@ class Integration {
         const double t = t0_ + (k * per + s) * opt_.dt;
         if (opt_.step_begin) opt_.step_begin(t, t + opt_.dt);
         step(x_, t, opt_.dt);
+        if (opt_.project) opt_.project(x_);
         accept(t0_ + (k * per + s + 1) * opt_.dt, x_);
       }
       observe_(x_, t0_ + (k + 1) * dt_out_);
@@ -249,6 +254,7 @@ class Integration {
         if (opt_.step_begin) opt_.step_begin(t, clamped ? stop : t + step);
         dt = step;
         if (stepper.try_step(rhs_, x_, t, dt) == boost::numeric::odeint::success) {
+          if (opt_.project) opt_.project(x_);
           if (clamped) {
             t = stop;  // exactly on it, whatever rounding t + step gave
             reset_first_same_as_last(stepper, 0);
@@ -437,7 +443,7 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
       }
       case Method::dopri5: {
         using Dopri5 = odeint::runge_kutta_dopri5<State, double, State, double, Algebra>;
-        if (opt.breakpoint_interval > 0) {
+        if (opt.breakpoint_interval > 0 || opt.project) {
           auto stepper = odeint::make_controlled(opt.atol, opt.rtol, Dopri5());
           run.controlled_steps(stepper);
         } else {

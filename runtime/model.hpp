@@ -14,6 +14,7 @@
 #include <string>
 #include <type_traits>
 
+#include "configuration_space.hpp"
 #include "dynamics_checks.hpp"
 
 namespace spacearm {
@@ -83,11 +84,16 @@ class Model {
                                 name + "' (known: " + (known.empty() ? "none" : known) + ")");
   }
 
-  // dq/dt for velocity qd: the identity for every planar model (kNq == kNv). A base with a
-  // quaternion would map its angular velocity to the quaternion's rate here.
-  static Vector configuration_rate(const Vector& /*q*/, const Velocity& qd) {
-    static_assert(kNq == kNv, "configuration_rate: only qdot = qd models are generated today");
-    return qd;
+  // The configuration space (configuration_space.hpp): dq/dt from v, and the quaternion's
+  // projection onto the unit sphere where the base has one.
+  static ConfigurationSpace configuration_space() {
+    return {kNq, kNv, Generated::kQuaternionOffset};
+  }
+  static Vector configuration_rate(const Vector& q, const Velocity& qd) {
+    if constexpr (kNq == kNv)
+      return qd;
+    else
+      return configuration_space().rate(q, qd);
   }
 
   // Gear ratio per joint (1 for the reference model), eq. 9.

@@ -54,7 +54,8 @@ typename Mdl::Velocity force_slope(const Mdl& model, const Torque& tau, double t
 }
 
 // The Jacobian of the motion's right-hand side f(q, qd, t) = (qd, qdd(q, qd, Q(t))) for
-// rosenbrock4: [[0, I], [dqdd/dq, dqdd/dqd]] from the model's exact state Jacobian, and
+// rosenbrock4: [[d(dq/dt)/dq, d(dq/dt)/dqd], [dqdd/dq, dqdd/dqd]] (the first row [0, I] without a
+// quaternion, configuration_space.hpp) from the model's exact state Jacobian, and
 // df/dt = (0, M^-1 dQ/dt), which is qdd(Q + dQ/dt) - qdd(Q) since qdd is affine in Q.
 template <class Mdl, class Torque>
 auto motion_jacobian(const Mdl& model, const Torque& tau, Eigen::Index nq, Eigen::Index nv, int)
@@ -73,7 +74,10 @@ auto motion_jacobian(const Mdl& model, const Torque& tau, Eigen::Index nq, Eigen
     typename Mdl::Matrix dqd;
     const typename Mdl::Velocity qdd = model.forward_dynamics_derivatives(q, qd, Q, dq, dqd);
     J = Eigen::MatrixXd::Zero(nq + nv, nq + nv);
-    J.topRightCorner(nq, nv).setIdentity();
+    Eigen::MatrixXd rate_by_q, rate_by_v;  // of dq/dt (configuration_space.hpp)
+    model.configuration_space().rate_jacobians(q, qd, rate_by_q, rate_by_v);
+    J.topLeftCorner(nq, nq) = rate_by_q;
+    J.topRightCorner(nq, nv) = rate_by_v;
     J.bottomLeftCorner(nv, nq) = dq;
     J.bottomRightCorner(nv, nv) = dqd;
     dfdt = Eigen::VectorXd::Zero(nq + nv);
@@ -119,6 +123,12 @@ IntegrationStats integrate_motion(const Mdl& model, const typename Mdl::Vector& 
     observe(t, Vector(s.head(nq)), Velocity(s.tail(nv)));
   };
   IntegratorOptions opt = options;
+  const ConfigurationSpace space = model.configuration_space();
+  if (space.quaternion_offset >= 0 && !opt.project)
+    opt.project = [space, nq](Eigen::Ref<Eigen::VectorXd> s) {
+      auto q = s.head(nq);
+      space.project(q);
+    };
   if (opt.method == Method::rosenbrock4 && !opt.jacobian && model.has_state_jacobian())
     opt.jacobian = detail::motion_jacobian(model, tau, nq, nv, 0);
   return integrate(opt, f, x, 0.0, t_end, dt_out, on_sample);

@@ -215,6 +215,8 @@ links:
   - {origin: [0.4, 0, 0], rpy: [1.5707963, 0, 0], axis: [0, 1, 0], mass: 3, com: [0.2, 0, 0],
      inertia: [0.01, 0.001, 0, 0.1, 0, 0.1]}
 gears: {ratio: 50, rotor_inertia: [1.0e-4, 6.0e-5], rotor_coupling: exact}
+outputs: [mass_matrix, bias_forces, kinetic_energy, momentum, forward_dynamics,
+          forward_dynamics_derivatives, end_effector_pose, end_effector_jacobian]
 )";
   const ModelRecipe recipe = ModelRecipe::parse(text, "arm2.yaml");
   StageReport first, second;
@@ -254,6 +256,30 @@ gears: {ratio: 50, rotor_inertia: [1.0e-4, 6.0e-5], rotor_coupling: exact}
   zero.segment(3, 4).setZero();
   EXPECT_THROW_MESSAGE(m.mass_matrix(zero, params), std::invalid_argument,
                        "q[3..6], the base's orientation quaternion (w, x, y, z), has norm 0");
+
+  // Free motion through the runtime's integrators: the quaternion stays unit (projected after
+  // each step), momentum and energy are conserved (rosenbrock4 with its Jacobian of
+  // dq/dt = f(q, v), configuration_space.hpp, and rkf78).
+  const DynamicModel dm = dynamic_model(m, params);
+  const Eigen::VectorXd h0 = dm.momentum(q, qd);
+  const double T0 = dm.kinetic_energy(q, qd);
+  for (Method method : {Method::rkf78, Method::rosenbrock4}) {
+    SCOPED_TRACE(to_string(method));
+    IntegratorOptions opt;
+    opt.method = method;
+    opt.rtol = opt.atol = method == Method::rkf78 ? 1e-11 : 1e-9;
+    double worst_norm = 0, worst_h = 0, worst_T = 0;
+    integrate_motion(
+        dm, q, qd, [](double) { return Eigen::VectorXd::Zero(2); }, 2.0, 0.1, opt,
+        [&](double, const Eigen::VectorXd& qt, const Eigen::VectorXd& vt) {
+          worst_norm = std::max(worst_norm, std::abs(qt.segment(3, 4).norm() - 1));
+          worst_h = std::max(worst_h, (dm.momentum(qt, vt) - h0).norm() / h0.norm());
+          worst_T = std::max(worst_T, std::abs(dm.kinetic_energy(qt, vt) - T0) / T0);
+        });
+    EXPECT_LT(worst_norm, 1e-14);
+    EXPECT_LT(worst_h, method == Method::rkf78 ? 1e-9 : 1e-6);
+    EXPECT_LT(worst_T, method == Method::rkf78 ? 1e-9 : 1e-6);
+  }
   fs::remove_all(cache);
 }
 

@@ -49,7 +49,8 @@ TEST(SpatialModel, LowersAndPrintsFromTheDerivedModelAlone) {
   std::string defaults = kArm;
   defaults.erase(defaults.find("outputs:"));
   const std::vector<Output> by_default = spatial_outputs(parse_spatial_scene(defaults, "arm3"));
-  EXPECT_EQ(by_default.size(), 6u);
+  EXPECT_EQ(by_default.size(), 8u);  // M, b, T, momentum, ID, FD, the pose and its Jacobian
+  EXPECT_EQ(std::count(by_default.begin(), by_default.end(), Output::end_effector_jacobian), 1);
   EXPECT_EQ(std::count(by_default.begin(), by_default.end(), Output::forward_dynamics_derivatives),
             0);
   const EmittedModel e = print_cpp(lowered, {});

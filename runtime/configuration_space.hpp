@@ -1,0 +1,76 @@
+// The configuration space of a model whose base may float in 3D: q holds the base's orientation
+// as a quaternion (w, x, y, z) at `quaternion_offset` (MuJoCo's free joint: origin, quaternion,
+// joints; nq = nv + 1), v its angular velocity in the base's own frame. dq/dt is then not v:
+//   d(origin)/dt = v[0..2] (the origin's velocity in the world), dq_quat/dt = 1/2 q (0, omega),
+// and the joints' coordinates move at their rates. Without a quaternion (every planar model)
+// dq/dt = v. The integrators keep the quaternion on the unit sphere by project() after every
+// step: 1/2 q (0, omega) is tangent to the sphere, so a step drifts off it only by the method's
+// own error, which the projection removes.
+#pragma once
+
+#include <Eigen/Core>
+
+namespace spacearm {
+
+struct ConfigurationSpace {
+  int nq = 0, nv = 0;
+  int quaternion_offset = -1;  // -1: none, nq = nv
+
+  // dq/dt at (q, v).
+  Eigen::VectorXd rate(const Eigen::Ref<const Eigen::VectorXd>& q,
+                       const Eigen::Ref<const Eigen::VectorXd>& v) const {
+    const int k = quaternion_offset;
+    if (k < 0) return v;
+    Eigen::VectorXd qdot(nq);
+    qdot.head(k) = v.head(k);
+    const Eigen::Vector4d dquat = quaternion_matrix(q.segment<4>(k)) * v.segment<3>(k);
+    qdot.segment<4>(k) = dquat;
+    qdot.tail(nq - k - 4) = v.tail(nv - k - 3);
+    return qdot;
+  }
+
+  // d(dq/dt)/dq (nq x nq) and d(dq/dt)/dv (nq x nv) at (q, v), for an implicit method's Jacobian.
+  void rate_jacobians(const Eigen::Ref<const Eigen::VectorXd>& q,
+                      const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::MatrixXd& by_q,
+                      Eigen::MatrixXd& by_v) const {
+    const int k = quaternion_offset;
+    by_q = Eigen::MatrixXd::Zero(nq, nq);
+    by_v = Eigen::MatrixXd::Zero(nq, nv);
+    if (k < 0) {
+      by_v.setIdentity();
+      return;
+    }
+    by_v.topLeftCorner(k, k).setIdentity();
+    by_v.block<4, 3>(k, k) = quaternion_matrix(q.segment<4>(k));
+    by_v.bottomRightCorner(nq - k - 4, nv - k - 3).setIdentity();
+    // 1/2 q (0, omega) = 1/2 Omega(omega) q, linear in q.
+    const double ox = v[k], oy = v[k + 1], oz = v[k + 2];
+    Eigen::Matrix4d Omega;
+    Omega << 0, -ox, -oy, -oz,  //
+        ox, 0, oz, -oy,         //
+        oy, -oz, 0, ox,         //
+        oz, oy, -ox, 0;
+    by_q.block<4, 4>(k, k) = 0.5 * Omega;
+  }
+
+  // The configuration on the manifold: the quaternion scaled to unit norm (nothing else moves).
+  void project(Eigen::Ref<Eigen::VectorXd> q) const {
+    if (quaternion_offset < 0) return;
+    const double norm = q.segment<4>(quaternion_offset).norm();
+    if (norm > 0) q.segment<4>(quaternion_offset) /= norm;
+  }
+
+ private:
+  // 1/2 q (0, omega) = G(q) omega for the quaternion q = (w, x, y, z).
+  static Eigen::Matrix<double, 4, 3> quaternion_matrix(const Eigen::Vector4d& quat) {
+    const double w = quat[0], x = quat[1], y = quat[2], z = quat[3];
+    Eigen::Matrix<double, 4, 3> G;
+    G << -x, -y, -z,  //
+        w, -z, y,     //
+        z, w, -x,     //
+        -y, x, w;
+    return 0.5 * G;
+  }
+};
+
+}  // namespace spacearm
