@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "model_recipe.hpp"
 #include "scene.hpp"
 #include "text_numbers.hpp"
 
@@ -23,13 +24,10 @@ inline Eigen::VectorXd parse_vector(const std::string& text, const std::string& 
 
 // --param name=value pairs over the scene's nominal parameter values; each name once.
 inline Eigen::VectorXd parse_parameters(const std::vector<std::string>& assignments,
-                                        const Scene& scene) {
-  std::vector<std::string> names;
-  Eigen::VectorXd p(static_cast<int>(scene.parameters.size()));
-  for (const auto& param : scene.parameters) {
-    p[static_cast<int>(names.size())] = param.nominal.value;
-    names.push_back(param.name);
-  }
+                                        const ModelFacts& facts) {
+  const std::vector<std::string>& names = facts.parameter_names;
+  Eigen::VectorXd p = Eigen::Map<const Eigen::VectorXd>(
+      facts.nominal_parameters.data(), static_cast<Eigen::Index>(facts.nominal_parameters.size()));
   std::set<std::string> given;
   for (const auto& a : assignments) {
     const auto eq = a.find('=');
@@ -48,6 +46,10 @@ inline Eigen::VectorXd parse_parameters(const std::vector<std::string>& assignme
     p[it - names.begin()] = parse_number(a.substr(eq + 1), "--param " + name);
   }
   return p;
+}
+inline Eigen::VectorXd parse_parameters(const std::vector<std::string>& assignments,
+                                        const Scene& scene) {
+  return parse_parameters(assignments, ModelRecipe(scene).facts());
 }
 
 }  // namespace spacearm::cli

@@ -51,9 +51,9 @@ nlohmann::ordered_json to_json(const std::string& name, const Eigen::MatrixXd& m
 // An output's results: the value alone, or {name: value, ...} when it has several (the
 // pivots of forward_dynamics, the base acceleration of free_base_inverse_dynamics).
 // forward_dynamics passes the runtime's checks first: no meaningless accelerations.
-nlohmann::ordered_json results_json(const Scene& scene, const OutputInfo& o,
+nlohmann::ordered_json results_json(const std::string& model, const OutputInfo& o,
                                     const std::vector<Eigen::MatrixXd>& r) {
-  if (o.id == Output::forward_dynamics) check_forward_dynamics(r, scene.name);
+  if (o.id == Output::forward_dynamics) check_forward_dynamics(r, model);
   if (r.size() == 1) return to_json(o.name, r[0]);
   nlohmann::ordered_json all;
   for (size_t k = 0; k < r.size(); ++k)
@@ -81,12 +81,12 @@ void evaluate_symbolic(const Scene& scene, const EvalInputs& in, bool verbose,
   t0 = clock::now();
   for (const auto& o : output_registry())
     if (scene.wants(o.id))
-      out[o.name] = results_json(scene, o, evaluate_output(model, o.id, in.of(o), in.params));
+      out[o.name] = results_json(scene.name, o, evaluate_output(model, o.id, in.of(o), in.params));
   if (verbose) std::fprintf(stderr, "spacearm: evaluate (GiNaC) %.1f ms\n", ms_since(t0));
 }
 
 // The compiled model's value of each output the scene emits.
-void evaluate_compiled(const Scene& scene, const EvalArgs& a, const EvalInputs& in,
+void evaluate_compiled(const ModelRecipe& scene, const EvalArgs& a, const EvalInputs& in,
                        nlohmann::ordered_json& out) {
   CompileOptions options;
   options.cache_dir = a.cache_dir;
@@ -105,30 +105,43 @@ void evaluate_compiled(const Scene& scene, const EvalArgs& a, const EvalInputs& 
   const auto t0 = clock::now();
   for (const auto& o : output_registry())
     if (model.has(o.id))
-      out[o.name] = results_json(scene, o, model.evaluate(o.id, in.of(o), in.params));
+      out[o.name] = results_json(scene.name(), o, model.evaluate(o.id, in.of(o), in.params));
   if (a.verbose) std::fprintf(stderr, "spacearm: run %.3f ms\n", ms_since(t0));
 }
 
 // Generalized forces of joint torques tau (eq. 14): tau_j / p_j on the coordinate joint j
 // drives (its slot, or a flexible joint's motor coordinate), p_j at the parameters used.
-Eigen::VectorXd generalized_forces(const Scene& scene, const Eigen::VectorXd& params,
+Eigen::VectorXd generalized_forces(const ModelRecipe& recipe, const Eigen::VectorXd& params,
                                    const Eigen::VectorXd& tau) {
-  auto value = [&](const Quantity& x) {
-    for (size_t i = 0; i < scene.parameters.size(); ++i)
-      if (x.is_parameter() && scene.parameters[i].name == x.parameter) return params[i];
-    return x.value;
-  };
-  Eigen::VectorXd Q = Eigen::VectorXd::Zero(scene.num_velocities());
-  for (int j = 0; j < scene.num_links(); ++j)
-    Q[scene.motor_coordinate(j)] = tau[j] / (scene.has_gear(j) ? value(scene.gears[j]->ratio) : 1);
+  const ModelFacts& facts = recipe.facts();
+  std::vector<double> ratios;
+  if (const Scene* scene = recipe.planar()) {
+    auto value = [&](const Quantity& x) {
+      for (size_t i = 0; i < scene->parameters.size(); ++i)
+        if (x.is_parameter() && scene->parameters[i].name == x.parameter) return params[i];
+      return x.value;
+    };
+    for (int j = 0; j < scene->num_links(); ++j)
+      ratios.push_back(scene->has_gear(j) ? value(scene->gears[j]->ratio) : 1);
+  } else {
+    for (const auto& l : recipe.spatial()->chain.links)
+      ratios.push_back(l.gear.present ? l.gear.ratio : 1);
+  }
+  Eigen::VectorXd Q = Eigen::VectorXd::Zero(facts.dims.nv);
+  const std::vector<int> actuated = actuated_coordinates(facts);
+  for (int j = 0; j < facts.dims.num_links; ++j) Q[actuated[j]] = tau[j] / ratios[j];
   return Q;
 }
 
 }  // namespace
 
 int run_eval(const EvalArgs& a) {
-  const Scene scene = load_scene(a.scene_path);
-  const int nq = scene.num_coordinates(), nv = scene.num_velocities(), N = scene.num_links();
+  const ModelRecipe scene = ModelRecipe::load(a.scene_path);
+  const ModelFacts& facts = scene.facts();
+  const int nq = facts.dims.nq, nv = facts.dims.nv, N = facts.dims.num_links;
+  if (a.symbolic && !scene.planar())
+    throw std::invalid_argument("--symbolic: model '" + facts.name +
+                                "' is a spatial arm, which has no symbolic derivation");
   auto vector = [](const std::string& text, const char* option, int size) {
     return text.empty() ? Eigen::VectorXd::Zero(size) : cli::parse_vector(text, option, size);
   };
@@ -137,8 +150,9 @@ int run_eval(const EvalArgs& a) {
   // Angles as the planner bounds them: beyond 1e6 rad sin and cos keep few digits (none at
   // 1e16 in double, none at 1e100 in --symbolic's 40 digits, which then printed the stretched
   // arm).
-  const std::vector<std::string> names = scene.coordinate_names();
-  for (int i = scene.free_floating() ? 2 : 0; i < nq; ++i)
+  const std::vector<std::string>& names = facts.coordinate_names;
+  const int first_angle = !facts.free_floating ? 0 : facts.dims.spatial ? 7 : 2;
+  for (int i = first_angle; i < nq; ++i)
     if (!(std::abs(in.values[Input::q][i]) <= 1e6)) {
       char value[32];
       std::snprintf(value, sizeof value, "%g", in.values[Input::q][i]);
@@ -150,13 +164,13 @@ int run_eval(const EvalArgs& a) {
   in.values[Input::qdd] = vector(a.qdd_text, "--qdd", nv);
   in.values[Input::generalized_forces] = vector(a.forces_text, "--forces", nv);
   in.values[Input::joint_accelerations] = vector(a.qdd_joints_text, "--qdd-joints", N);
-  in.params = cli::parse_parameters(a.param_assignments, scene);
+  in.params = cli::parse_parameters(a.param_assignments, facts);
   const Eigen::VectorXd tau =
       a.tau_text.empty() ? Eigen::VectorXd() : cli::parse_vector(a.tau_text, "--tau", N);
   if (tau.size()) in.values[Input::generalized_forces] = generalized_forces(scene, in.params, tau);
   // An input that no output of the scene takes would do nothing: an error, not ignored.
   std::set<Input> used;
-  for (Output o : scene.outputs) used.insert(info(o).inputs.begin(), info(o).inputs.end());
+  for (Output o : facts.outputs) used.insert(info(o).inputs.begin(), info(o).inputs.end());
   for (const auto& [input, text, option] :
        {std::make_tuple(Input::qdd, a.qdd_text, "--qdd"),
         std::make_tuple(Input::generalized_forces, a.forces_text, "--forces"),
@@ -167,16 +181,16 @@ int run_eval(const EvalArgs& a) {
                                   info(input).name + " (field 'outputs')");
   // The state, inputs and parameters used, then every output by its registry name.
   nlohmann::ordered_json out;
-  out["coordinates"] = scene.coordinate_names();
+  out["coordinates"] = facts.coordinate_names;
   for (const auto& [input, v] : in.values)
     if (input == Input::q || used.count(input))
       out[info(input).name] = std::vector<double>(v.data(), v.data() + v.size());
   if (tau.size()) out["tau"] = std::vector<double>(tau.data(), tau.data() + tau.size());
   out["parameters"] = nlohmann::ordered_json::object();
-  for (size_t i = 0; i < scene.parameters.size(); ++i)
-    out["parameters"][scene.parameters[i].name] = in.params[i];
+  for (size_t i = 0; i < facts.parameter_names.size(); ++i)
+    out["parameters"][facts.parameter_names[i]] = in.params[i];
   if (a.symbolic)
-    evaluate_symbolic(scene, in, a.verbose, out);
+    evaluate_symbolic(*scene.planar(), in, a.verbose, out);
   else
     evaluate_compiled(scene, a, in, out);
   std::cout << (a.compact_json ? out.dump() : out.dump(2)) << "\n";

@@ -166,7 +166,7 @@ std::string failure_advice(const IntegrationError& e, const IntegratorOptions& o
 }
 
 // The scene's model, compiled or from the cache, with the stages reported under --verbose.
-CompiledModel load_model(const SimulateArgs& a, const Scene& scene) {
+CompiledModel load_model(const SimulateArgs& a, const ModelRecipe& scene) {
   CompileOptions options;
   options.cache_dir = a.cache_dir;
   options.progress = [&](const std::string& m) {
@@ -210,29 +210,35 @@ class Progress {
 int run_simulate(const SimulateArgs& args) {
   // Everything the run needs is checked before the output file is opened.
   SimulateArgs a = args;
-  const Scene scene = load_scene(a.scene_path);
-  const bool passive = has_passive_forces(scene.features());
-  if (!has_forward_dynamics([&scene](Output o) { return scene.wants(o); }, passive))
+  const ModelRecipe scene = ModelRecipe::load(a.scene_path);
+  const ModelFacts& facts = scene.facts();
+  const bool passive = facts.has_passive_forces();
+  const auto wants = [&facts](Output o) {
+    return std::count(facts.outputs.begin(), facts.outputs.end(), o) != 0;
+  };
+  if (!has_forward_dynamics(wants, passive))
     throw std::invalid_argument(
         passive ? "simulate: a scene with springs, dampers or friction must emit forward_dynamics "
                   "(field 'outputs')"
                 : "simulate: the scene must emit forward_dynamics, or mass_matrix and bias_forces "
                   "(field 'outputs')");
-  const int nq = scene.num_coordinates(), nv = scene.num_velocities(), N = scene.num_links();
-  if (a.consistent_start && !scene.num_flexible())
+  const int nq = facts.dims.nq, nv = facts.dims.nv, N = facts.dims.num_links;
+  if (a.consistent_start && !(scene.planar() && scene.planar()->num_flexible()))
     throw std::invalid_argument(
         "--consistent-start: the scene has no flexible joint (gears[i].stiffness)");
-  Eigen::VectorXd q0 =
-      a.q0_text.empty() ? Eigen::VectorXd::Zero(nq) : cli::parse_vector(a.q0_text, "--q0", nq);
+  // Default: at rest, the base's quaternion the identity.
+  Eigen::VectorXd q0 = Eigen::VectorXd::Zero(nq);
+  if (facts.quaternion_offset >= 0) q0[facts.quaternion_offset] = 1;
+  if (!a.q0_text.empty()) q0 = cli::parse_vector(a.q0_text, "--q0", nq);
   Eigen::VectorXd qd0 =
       a.qd0_text.empty() ? Eigen::VectorXd::Zero(nv) : cli::parse_vector(a.qd0_text, "--qd0", nv);
-  const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, scene);
+  const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, facts);
   // The samples: a plan's (its end is the default --t-end), a torque file's, or none.
   std::optional<PlanSamples> plan;
   std::optional<TorqueTable> torque_file;
   if (!a.plan_file.empty()) {
     plan =
-        read_plan_csv(read_text_file(a.plan_file, "--plan"), N, scene.free_floating(), a.plan_file);
+        read_plan_csv(read_text_file(a.plan_file, "--plan"), N, facts.free_floating, a.plan_file);
     if (a.t_end == 0) a.t_end = plan->torques.t_last();
   } else if (!a.zero_torque) {
     torque_file = read_torque_csv(read_text_file(a.torque_file, "--torques"), N, a.torque_file);
@@ -254,7 +260,7 @@ int run_simulate(const SimulateArgs& args) {
   // From a file: steps land on the samples, and a held torque is a true zero-order hold.
   std::unique_ptr<TorqueReplay<Eigen::Dynamic>> replay;
   if (!a.zero_torque) replay = std::make_unique<TorqueReplay<Eigen::Dynamic>>(*tau, opt, "--dt");
-  const SimulationTable table(model, scene.geared());
+  const SimulationTable table(model, facts.geared);
 
   // Opened only now: a run refused above leaves an existing output file untouched.
   refuse_input_as_output(

@@ -111,17 +111,20 @@ inline Verdict check_spatial_text(const std::string& text) {
 
 // Throws std::logic_error for a broken rule or an unnamed rejection; lets any other
 // exception escape (the fuzzer reports it as a crash).
+// Accepted: one of the two readers (planar, spatial) accepts the text.
 inline Verdict check_scene_text(const std::string& text) {
   const std::string source = "fuzz-input.yaml";
-  check_spatial_text(text);
+  const Verdict spatial = check_spatial_text(text);
   try {
     const Scene s = parse_scene(text, source);
     const std::string rule = broken_rule(s);
     if (!rule.empty()) throw std::logic_error("accepted a scene that breaks a rule: " + rule);
     if (content_hash(text).size() != 16) throw std::logic_error("content hash");
+    if (spatial == Verdict::accepted) throw std::logic_error("both readers accepted the text");
     return Verdict::accepted;
   } catch (const SceneError& e) {
-    return rejected(e, source);
+    rejected(e, source);
+    return spatial;
   }
 }
 

@@ -20,6 +20,8 @@ class ModelRecipe {
   explicit ModelRecipe(SpatialScene scene);
   // Parses a scene file's text (SceneError naming the field); `space: spatial` picks the kind.
   static ModelRecipe parse(const std::string& text, const std::string& source_path);
+  // Reads and parses a scene file (SceneError naming the file).
+  static ModelRecipe load(const std::string& path) { return parse(read_scene_file(path), path); }
 
   const ModelFacts& facts() const { return facts_; }
   const std::string& name() const { return facts_.name; }

@@ -165,6 +165,12 @@ class SceneReader {
 
   Scene read(const std::string& yaml_text) {
     if (!root.IsMap()) r.fail("", "expected a mapping at the top level");
+    // A spatial scene (spatial_scene.hpp) reaching a command that takes planar ones only.
+    if (root["space"] && root["space"].IsScalar() && root["space"].Scalar() == "spatial")
+      r.fail("space",
+             "a spatial arm: generate, eval, simulate and Python's load take it; this command "
+             "takes planar scenes only today",
+             root["space"]);
     r.check_keys(root, "",
                  {"name", "description", "base", "links", "gears", "friction", "parameters",
                   "outputs", "formulation"});

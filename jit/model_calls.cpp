@@ -273,6 +273,7 @@ DynamicModelFacts LoadedSource::facts() const {
   f.passive_forces = m_->passive_forces();
   f.base_velocities = m_->num_base();
   f.quaternion_offset = m_->quaternion_offset();
+  f.spatial = m_->dimensions().spatial;
   return f;
 }
 

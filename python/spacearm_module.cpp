@@ -78,8 +78,8 @@ struct SimulateOptions {
 // A loaded model and the parameter values its methods use unless given others.
 class PyModel {
  public:
-  PyModel(CompiledModel model, Eigen::VectorXd params, Scene scene)
-      : model_(std::move(model)), params_(std::move(params)), scene_(std::move(scene)) {}
+  PyModel(CompiledModel model, Eigen::VectorXd params, ModelRecipe recipe)
+      : model_(std::move(model)), params_(std::move(params)), recipe_(std::move(recipe)) {}
 
   const CompiledModel& model() const { return model_; }
   const Eigen::VectorXd& params() const { return params_; }
@@ -117,11 +117,14 @@ class PyModel {
   // One symbolic entry ("M[3][4]", "T", ...) as `spacearm inspect` prints it; the scene is
   // derived on the first call (without the GIL) and kept.
   std::string inspect(const std::string& entry, bool latex, bool decimal) {
+    if (!recipe_.planar())
+      throw py::value_error("inspect: model '" + model_.name() +
+                            "' is a spatial arm, which has no closed forms to print yet");
     if (!symbolic_) {
       py::gil_scoped_release release;
       DeriveOptions options;
       options.all_outputs = true;
-      symbolic_ = std::make_shared<const SymbolicModel>(derive(scene_, options));
+      symbolic_ = std::make_shared<const SymbolicModel>(derive(*recipe_.planar(), options));
     }
     return entry_text(*symbolic_, entry, latex, decimal);
   }
@@ -137,7 +140,7 @@ class PyModel {
  private:
   CompiledModel model_;
   Eigen::VectorXd params_;
-  Scene scene_;
+  ModelRecipe recipe_;
   std::shared_ptr<const SymbolicModel> symbolic_;
 };
 
@@ -279,7 +282,7 @@ py::dict PyModel::plan(const Eigen::VectorXd& start, const Eigen::VectorXd& goal
   const DynamicModel m = dynamic_model(model_, params);
   const PlanTable table = [&] {
     py::gil_scoped_release release;
-    return plan_table(plan_straight_line(m, task), m, scene_.geared());
+    return plan_table(plan_straight_line(m, task), m, recipe_.facts().geared);
   }();
   // The table's columns by name, and its groups as arrays: t, q, qd, qdd, tau, ...
   py::dict out, named;
@@ -292,7 +295,7 @@ py::dict PyModel::plan(const Eigen::VectorXd& start, const Eigen::VectorXd& goal
     out[group] = table_columns(table, at, nq, true), at += nq;
   while (table.names[at] != "tau1") ++at;  // past a motor slot's link-side q_j, q_jd
   out["tau"] = table_columns(table, at, n, true), at += n;
-  if (scene_.geared()) out["tau_motor"] = table_columns(table, at, n, true), at += n;
+  if (recipe_.facts().geared) out["tau_motor"] = table_columns(table, at, n, true), at += n;
   if (at < table.names.size()) out["base_residual"] = table_columns(table, at, 1, false);
   out["columns"] = named;
   return out;
@@ -378,7 +381,7 @@ py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& 
   const Eigen::VectorXd params = named_parameters(model_, params_, params_given);
   const DynamicModel m = dynamic_model(model_, params);
   m.require_forward_dynamics("simulate");
-  if (o.consistent_start && !scene_.num_flexible())
+  if (o.consistent_start && !(recipe_.planar() && recipe_.planar()->num_flexible()))
     throw py::value_error("consistent_start: the scene has no flexible joint (gears[i].stiffness)");
   IntegratorOptions opt;
   const bool automatic = o.integrator == "auto";
@@ -438,7 +441,7 @@ py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& 
                           ": give samples that cover it, or extrapolate='hold' or 'zero'");
   const TorqueSignal<Eigen::Dynamic> tau(table.t0, table.dt, table.samples,
                                          interpolation_from_string(o.interpolation), outside);
-  Eigen::VectorXd x0 = q0.is_none() ? Eigen::VectorXd::Zero(m.nq) : vector_argument(q0, "q0");
+  Eigen::VectorXd x0 = q0.is_none() ? m.neutral_configuration() : vector_argument(q0, "q0");
   Eigen::VectorXd v0 = qd0.is_none() ? Eigen::VectorXd::Zero(m.nv) : vector_argument(qd0, "qd0");
   if (x0.size() != m.nq || v0.size() != m.nv)
     throw py::value_error("q0 and qd0: expected " + std::to_string(m.nq) + " values each");
@@ -455,7 +458,7 @@ py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& 
   }
   const TorqueReplay<Eigen::Dynamic> replay(tau, opt, "dt");
   // The run without the GIL, one row per sample of the table.
-  const SimulationTable columns(m, scene_.geared());
+  const SimulationTable columns(m, recipe_.facts().geared);
   std::vector<std::vector<double>> rows;
   {
     py::gil_scoped_release release;
@@ -520,7 +523,7 @@ py::dict PyModel::closed_loop(const py::object& plan_given, const std::string& c
       choose_integrator(stiffest_mode(plant, x0, v0, plant.generalized_forces(ff.front())), period,
                         period, plant.has_state_jacobian());
   choice.apply(opt);
-  const SimulationTable columns(plant, scene_.geared());
+  const SimulationTable columns(plant, recipe_.facts().geared);
   std::vector<std::vector<double>> rows;
   long sample = 0;
   {
@@ -549,15 +552,16 @@ py::dict PyModel::closed_loop(const py::object& plan_given, const std::string& c
   return run_result(columns, std::move(rows), plant, choice.why);
 }
 
-// The YAML text of a scene (it has line breaks), else the path of a scene file.
-Scene scene_from(const std::string& path_or_text) {
-  if (path_or_text.find('\n') != std::string::npos) return parse_scene(path_or_text, "<yaml text>");
-  return load_scene(path_or_text);
+// The YAML text of a scene (it has line breaks), else the path of a scene file; either kind.
+ModelRecipe scene_from(const std::string& path_or_text) {
+  if (path_or_text.find('\n') != std::string::npos)
+    return ModelRecipe::parse(path_or_text, "<yaml text>");
+  return ModelRecipe::load(path_or_text);
 }
 
 PyModel load(const std::string& scene_text, const py::object& params,
              const std::string& cache_dir) {
-  const Scene scene = scene_from(scene_text);
+  const ModelRecipe scene = scene_from(scene_text);
   CompileOptions options;
   options.cache_dir = cache_dir;
   CompiledModel m = [&] {

@@ -35,6 +35,9 @@ struct DynamicModelFacts {
   bool passive_forces = false;
   // The base's velocities (0 for a fixed base) and where a quaternion sits in q (-1: none).
   int base_velocities = 0, quaternion_offset = -1;
+  // In 3D: the pose is [x, y, z, qw, qx, qy, qz], the momentum [P (3), L (3)]; in the plane
+  // [x, y, phi] and [Px, Py, L].
+  bool spatial = false;
 };
 
 struct DynamicModel : DynamicModelFacts {
@@ -91,6 +94,25 @@ struct DynamicModel : DynamicModelFacts {
     }
   }
   int num_base() const { return base_velocities; }
+  // The configuration at rest: zeros, and the identity rotation (w = 1) for a quaternion.
+  Vector neutral_configuration() const {
+    Vector q = Vector::Zero(nq);
+    if (quaternion_offset >= 0) q[quaternion_offset] = 1;
+    return q;
+  }
+  // A name per velocity: a coordinate's name with "d" where v is its rate; with a quaternion,
+  // the base's world velocity vx0, vy0, vz0 and its angular velocity in its own frame wx0..wz0.
+  std::vector<std::string> velocity_names() const {
+    std::vector<std::string> names;
+    int first = 0;
+    if (quaternion_offset >= 0) {
+      names = {"vx0", "vy0", "vz0", "wx0", "wy0", "wz0"};
+      first = base_coordinates();
+    }
+    for (size_t i = first; i < coordinate_names.size(); ++i)
+      names.push_back(coordinate_names[i] + "d");
+    return names;
+  }
   // The base's entries in q: its velocities' count, plus one for a quaternion.
   int base_coordinates() const { return base_velocities + (quaternion_offset >= 0 ? 1 : 0); }
   // The index in q of velocity index v past the base (a joint slot or a motor coordinate).
@@ -283,6 +305,7 @@ class LinkedSource {
     f.passive_forces = M::kHasPassiveForces;
     f.base_velocities = M::kNumBase;
     f.quaternion_offset = M::kQuaternionOffset;
+    f.spatial = false;  // Model<G> is planar today (its pose and momentum are 3-vectors)
     return f;
   }
 

@@ -53,14 +53,13 @@ inline void state_jacobian(const DynamicModel& m, const Eigen::VectorXd& q,
 // The stiffest linearised mode of the model at (q, qd) under generalized forces Q.
 inline StiffestMode stiffest_mode(const DynamicModel& m, const Eigen::VectorXd& q,
                                   const Eigen::VectorXd& qd, const Eigen::VectorXd& Q) {
-  if (m.nq != m.nv) throw std::logic_error("stiffest_mode: needs nq == nv");
-  Eigen::MatrixXd dq, dqd;
+  Eigen::MatrixXd dq, dqd, rate_by_q, rate_by_v;
   detail::state_jacobian(m, q, qd, Q, dq, dqd);
-  const int n = m.nv;
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(2 * n, 2 * n);
-  A.topRightCorner(n, n).setIdentity();
-  A.bottomLeftCorner(n, n) = dq;
-  A.bottomRightCorner(n, n) = dqd;
+  // The first row d(dq/dt)/d(q, qd): [0, I] without a quaternion (configuration_space.hpp).
+  m.configuration_space().rate_jacobians(q, qd, rate_by_q, rate_by_v);
+  const int nq = m.nq, nv = m.nv;
+  Eigen::MatrixXd A(nq + nv, nq + nv);
+  A << rate_by_q, rate_by_v, dq, dqd;
   StiffestMode mode;
   if (!A.allFinite()) {
     mode.rate = std::numeric_limits<double>::infinity();
@@ -72,7 +71,7 @@ inline StiffestMode stiffest_mode(const DynamicModel& m, const Eigen::VectorXd& 
   mode.rate = std::abs(eig.eigenvalues()[k]);
   mode.frequency = std::abs(eig.eigenvalues()[k].imag());
   Eigen::Index c = 0;
-  eig.eigenvectors().col(k).head(n).cwiseAbs().maxCoeff(&c);
+  eig.eigenvectors().col(k).head(nq).cwiseAbs().maxCoeff(&c);
   mode.coordinate = m.coordinate_names.at(static_cast<size_t>(c));
   return mode;
 }

@@ -2,7 +2,8 @@
 // sample of t, the coordinates and their rates; for a geared model the link-side angles and
 // rates of the joints whose slot holds a motor angle; the link-side torques tau1..N and, geared,
 // the motor torques tau_motor = tau / p (eq. 14); then what the model emits of the end-effector
-// pose, kinetic and potential energy and momentum.
+// pose, kinetic and potential energy and momentum (in 3D: the pose's position and quaternion,
+// linear and angular momentum).
 #pragma once
 
 #include <string>
@@ -18,7 +19,7 @@ class SimulationTable {
   SimulationTable(const DynamicModel& model, bool geared) : m_(model), geared_(geared) {
     names_.push_back("t");
     for (const auto& n : m_.coordinate_names) names_.push_back(n);
-    for (const auto& n : m_.coordinate_names) names_.push_back(n + "d");
+    for (const auto& n : m_.velocity_names()) names_.push_back(n);
     const int N = m_.num_links;
     if (geared_) {
       for (int j = 1; j <= N; ++j)
@@ -29,10 +30,16 @@ class SimulationTable {
     for (int j = 1; j <= N; ++j) names_.push_back("tau" + std::to_string(j));
     if (geared_)
       for (int j = 1; j <= N; ++j) names_.push_back("tau_motor" + std::to_string(j));
-    if (m_.end_effector_pose) names_.insert(names_.end(), {"ee_x", "ee_y", "ee_phi"});
+    if (m_.end_effector_pose && m_.spatial)
+      names_.insert(names_.end(), {"ee_x", "ee_y", "ee_z", "ee_qw", "ee_qx", "ee_qy", "ee_qz"});
+    else if (m_.end_effector_pose)
+      names_.insert(names_.end(), {"ee_x", "ee_y", "ee_phi"});
     if (m_.kinetic_energy) names_.push_back("kinetic_energy");
     if (m_.potential_energy) names_.push_back("potential_energy");
-    if (m_.momentum) names_.insert(names_.end(), {"Px", "Py", "L"});
+    if (m_.momentum && m_.spatial)
+      names_.insert(names_.end(), {"Px", "Py", "Pz", "Lx", "Ly", "Lz"});
+    else if (m_.momentum)
+      names_.insert(names_.end(), {"Px", "Py", "L"});
   }
 
   const std::vector<std::string>& names() const { return names_; }
@@ -55,14 +62,14 @@ class SimulationTable {
     if (geared_)
       for (int j = 0; j < N; ++j) out.push_back(tau[j] / m_.gear_ratios[j]);
     if (m_.end_effector_pose) {
-      const Eigen::Vector3d pose = m_.end_effector_pose(q);
-      out.insert(out.end(), pose.data(), pose.data() + 3);
+      const Eigen::VectorXd pose = m_.end_effector_pose(q);
+      out.insert(out.end(), pose.data(), pose.data() + pose.size());
     }
     if (m_.kinetic_energy) out.push_back(m_.kinetic_energy(q, qd));
     if (m_.potential_energy) out.push_back(m_.potential_energy(q));
     if (m_.momentum) {
-      const Eigen::Vector3d h = m_.momentum(q, qd);
-      out.insert(out.end(), h.data(), h.data() + 3);
+      const Eigen::VectorXd h = m_.momentum(q, qd);
+      out.insert(out.end(), h.data(), h.data() + h.size());
     }
   }
 

@@ -101,6 +101,7 @@ inline int check_task(const DynamicModel& m, const StraightLineTask& task,
     const auto r = std::to_chars(buf, buf + sizeof buf, v);
     return std::string(buf, r.ptr);
   };
+  if (m.spatial) fail("the planner plans planar arms only (the 3D planner is not written yet)");
   if (rows != 2 && rows != 3)
     fail(names.start + " must be x,y (position) or x,y,phi (pose), got " + std::to_string(rows) +
          " values");

@@ -656,6 +656,57 @@ class SimulateCli : public EvalCli {
   }
 };
 
+// A spatial arm through eval and simulate: joint torques enter as tau / p on the joint slots
+// after the base's six velocities; --symbolic is refused by name; free motion keeps the
+// quaternion unit and conserves momentum, with 3D columns (vx0..wz0, the pose's quaternion,
+// Px..Lz). Cost: one compile, about 1.5 s.
+TEST_F(SimulateCli, SpatialArmEvaluatesAndMoves) {
+  const std::string scene = std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/spatial_arm2.yaml";
+  const std::string q = "0.1,0.2,0.3,0.5,0.5,-0.5,0.5,3,-7";
+  int status = 0;
+  const auto out = nlohmann::json::parse(run(
+      cli + scene + " --q " + q + " --qd 0.1,0,0,0.2,-0.1,0.3,5,-2 --tau 2,-3 --json", &status));
+  ASSERT_EQ(status, 0);
+  const Eigen::MatrixXd M = matrix_of(out["mass_matrix"]);
+  const Eigen::VectorXd b = vector_of(out["bias_forces"]),
+                        qdd = vector_of(out["forward_dynamics"]["qdd"]);
+  Eigen::VectorXd Q = Eigen::VectorXd::Zero(8);
+  Q[6] = 2.0 / 50, Q[7] = -3.0 / 20;
+  EXPECT_EQ(vector_of(out["Q"]), Q);
+  EXPECT_LT((M * qdd + b - Q).norm(), 1e-12 * (1 + b.norm()));
+  EXPECT_EQ(out["end_effector_pose"].size(), 7u);
+  const std::string symbolic = run(cli + scene + " --q " + q + " --symbolic 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(symbolic.find("--symbolic: model 'spatial_arm2' is a spatial arm"), std::string::npos)
+      << symbolic;
+
+  // A command that takes planar scenes only says so, naming the field.
+  const std::string inspect =
+      run(std::string(SPACEARM_CLI) + " inspect " + scene + " 'M[0][0]' 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(inspect.find("field 'space': a spatial arm"), std::string::npos) << inspect;
+
+  const std::string simulate = std::string(SPACEARM_CLI) + " simulate --cache-dir " +
+                               cache.string() + " " + scene +
+                               " --zero --t-end 2 --dt-out 0.25 --integrator rkf78 --rtol 1e-11 "
+                               "--atol 1e-12 --qd0 0.1,0,0,0.2,-0.1,0.3,5,-2";
+  const std::string csv = run(simulate, &status);
+  ASSERT_EQ(status, 0) << csv;
+  const std::string head = csv.substr(0, csv.find('\n'));
+  for (const char* column :
+       {",qw0,", ",vx0,", ",wz0,", ",qm2d,", ",q2,", ",ee_z,", ",ee_qw,", ",Pz,", ",Lz"})
+    EXPECT_NE(head.find(column), std::string::npos) << column << " in " << head;
+  const auto table = rows(csv);
+  ASSERT_EQ(table.size(), 9u);
+  const size_t momentum = table[0].size() - 6;  // Px .. Lz, the last columns
+  for (const auto& r : table) {
+    EXPECT_NEAR(Eigen::Vector4d(r[4], r[5], r[6], r[7]).norm(), 1, 1e-14);
+    for (size_t k = 0; k < 6; ++k)
+      EXPECT_NEAR(r[momentum + k], table[0][momentum + k],
+                  1e-9 * (1 + std::abs(table[0][momentum + k])));
+  }
+}
+
 TEST_F(SimulateCli, ZeroTorqueFromRestStaysPutAndTorquesMoveTheArm) {
   int status = 0;
   const auto still =

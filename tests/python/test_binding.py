@@ -354,3 +354,30 @@ def test_a_rebuilt_extension_gets_its_own_cache_entries(tmp_path):
     assert len(first) == 1
     both = entries(str(tmp_path / "pkg"))
     assert len(both) == 2, "the rebuilt extension reused the first one's entry"
+
+
+def test_a_spatial_arm_loads_evaluates_and_moves():
+    """A spatial scene (space: spatial) through the same load: MuJoCo's free-joint layout
+    (nq = nv + 1), M symmetric positive definite and unchanged by the quaternion's scale, free
+    motion on the unit sphere with momentum conserved; what is planar only (inspect, plan) is
+    refused by name. Cost: one compile, about 1 s."""
+    arm = spacearm.load(os.path.join(SOURCE, "tests", "scenes", "spatial_arm2.yaml"),
+                        cache_dir=CACHE)
+    assert (arm.nq, arm.nv) == (9, 8)
+    assert arm.coordinate_names[:7] == ["x0", "y0", "z0", "qw0", "qx0", "qy0", "qz0"]
+    q = np.array([0.1, 0.2, 0.3, 0.5, 0.5, -0.5, 0.5, 3.0, -7.0])
+    M = arm.mass_matrix(q)
+    assert np.allclose(M, M.T, rtol=0, atol=1e-14 * abs(M).max())
+    assert np.linalg.eigvalsh(M).min() > 0
+    scaled = q.copy()
+    scaled[3:7] *= 2
+    assert np.allclose(arm.mass_matrix(scaled), M, rtol=0, atol=1e-13 * abs(M).max())
+    run = arm.simulate(2, qd0=[0.1, 0, 0, 0.2, -0.1, 0.3, 5, -2], integrator="rkf78",
+                       rtol=1e-11, atol=1e-12, dt_out=0.25)
+    assert np.allclose(np.linalg.norm(run["q"][:, 3:7], axis=1), 1, rtol=0, atol=1e-14)
+    h = np.column_stack([run["columns"][c] for c in ("Px", "Py", "Pz", "Lx", "Ly", "Lz")])
+    assert np.abs(h - h[0]).max() < 1e-9 * (1 + np.abs(h[0]).max())
+    with pytest.raises(ValueError, match="spatial arm"):
+        arm.inspect("M[0][0]")
+    with pytest.raises(ValueError, match="plans planar arms only"):
+        arm.plan([1, 0, 0], [1.1, 0, 0], 1)
