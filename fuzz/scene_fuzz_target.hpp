@@ -13,6 +13,7 @@
 #include "emitted_text.hpp"
 #include "scene.hpp"
 #include "spatial_scene.hpp"
+#include "urdf_reader.hpp"
 
 namespace spacearm::fuzz {
 
@@ -98,10 +99,10 @@ inline Verdict rejected(const SceneError& e, const std::string& source) {
 }
 
 // The spatial reader on the same text: accepted only keeping its rules, else named.
-inline Verdict check_spatial_text(const std::string& text) {
+inline Verdict check_spatial_text(const std::string& text, const UrdfFileReader& read_file) {
   const std::string source = "fuzz-input.yaml";
   try {
-    const std::string rule = broken_spatial_rule(parse_spatial_scene(text, source));
+    const std::string rule = broken_spatial_rule(parse_spatial_scene(text, source, read_file));
     if (!rule.empty()) throw std::logic_error("accepted a spatial scene that breaks: " + rule);
     return Verdict::accepted;
   } catch (const SceneError& e) {
@@ -111,10 +112,48 @@ inline Verdict check_spatial_text(const std::string& text) {
 
 // Throws std::logic_error for a broken rule or an unnamed rejection; lets any other
 // exception escape (the fuzzer reports it as a crash).
-// Accepted: one of the two readers (planar, spatial) accepts the text.
-inline Verdict check_scene_text(const std::string& text) {
+// The URDF reader on the same text (urdf_reader.hpp): a chain that keeps the spatial rules, or
+// an error naming the file.
+inline Verdict check_urdf_text(const std::string& text) {
+  try {
+    const spatial::ChainDescription c = read_urdf(text, "fuzz-input.urdf", true, "").chain;
+    // The reader's promises (the scene then checks masses and inertias): 1 to 30 joints,
+    // finite numbers, nonzero axes.
+    auto finite = [](const auto& a) {
+      for (double x : a)
+        if (!std::isfinite(x)) return false;
+      return true;
+    };
+    if (c.links.empty() || c.links.size() > 30)
+      throw std::logic_error("URDF: number of joints out of range");
+    for (const auto& l : c.links)
+      if (!finite(l.origin_xyz) || !finite(l.origin_rpy) || !finite(l.com) || !finite(l.inertia) ||
+          !std::isfinite(l.mass) ||
+          !(l.axis[0] * l.axis[0] + l.axis[1] * l.axis[1] + l.axis[2] * l.axis[2] > 0))
+        throw std::logic_error("URDF: a link's numbers");
+    if (!finite(c.tip) || !finite(c.tip_rpy)) throw std::logic_error("URDF: end effector");
+    return Verdict::accepted;
+  } catch (const SceneError& e) {
+    if (std::string(e.what()).rfind("URDF 'fuzz-input.urdf'", 0) != 0)
+      throw std::logic_error("a URDF rejection does not start with the file name: " +
+                             std::string(e.what()));
+    return Verdict::rejected;
+  }
+}
+
+// A scene's `urdf:` file while fuzzing: none is read.
+inline std::string no_files(const std::string& path) {
+  throw SceneError("fuzz-input.yaml: field 'urdf': '" + path + "' is not read while fuzzing");
+}
+
+// Accepted: one of the readers (planar, spatial, URDF) accepts the text. read_file gives a
+// spatial scene's URDF (by default none).
+inline Verdict check_scene_text(const std::string& text,
+                                const UrdfFileReader& read_file = no_files) {
   const std::string source = "fuzz-input.yaml";
-  const Verdict spatial = check_spatial_text(text);
+  const Verdict urdf = check_urdf_text(text);
+  const Verdict spatial = check_spatial_text(text, read_file);
+  if (urdf == Verdict::accepted) return urdf;
   try {
     const Scene s = parse_scene(text, source);
     const std::string rule = broken_rule(s);

@@ -45,14 +45,12 @@ Quaternion<double> rpy_quaternion(const std::array<double, 3>& rpy) {
   return half(rpy[2], 2) * half(rpy[1], 1) * half(rpy[0], 0);
 }
 
-// URDF's roll-pitch-yaw as a rotation matrix (row-major), from the same quaternion: one
-// convention for the frames and for the pose.
+}  // namespace
+
 Mat3<double> rpy_rotation(const std::array<double, 3>& rpy) {
   const Quaternion<double> q = rpy_quaternion(rpy);
   return quaternion_rotation(q[0], q[1], q[2], q[3], 1.0, 2.0);
 }
-
-}  // namespace
 
 template <class T>
 Mat3<T> Chain<T>::num(const Mat3<double>& A) const {
@@ -360,6 +358,10 @@ std::vector<T> Chain<T>::end_effector_pose() const {
     const T s = sin(half);
     q = q * Quaternion<T>{num(o[0]), num(o[1]), num(o[2]), num(o[3])} *
         Quaternion<T>{cos(half), s * axis_[i][0], s * axis_[i][1], s * axis_[i][2]};
+  }
+  if (d_.tip_rpy != std::array<double, 3>{}) {  // a welded end-effector frame's rotation
+    const Quaternion<double> t = rpy_quaternion(d_.tip_rpy);
+    q = q * Quaternion<T>{num(t[0]), num(t[1]), num(t[2]), num(t[3])};
   }
   return {tip[0], tip[1], tip[2], q[0], q[1], q[2], q[3]};
 }

@@ -58,7 +58,8 @@ struct ChainDescription {
   bool free_base = true;
   Link base;  // its mass, com and inertia; its origin and axis are unused
   std::vector<Link> links;
-  std::array<double, 3> tip{};  // the end effector's point, in the last link's frame
+  std::array<double, 3> tip{};      // the end effector's point, in the last link's frame
+  std::array<double, 3> tip_rpy{};  // its frame's orientation there (a welded URDF link's)
   int num_base() const { return free_base ? 6 : 0; }
   int nv() const { return num_base() + static_cast<int>(links.size()); }
   int nq() const { return nv() + (free_base ? 1 : 0); }
@@ -205,6 +206,10 @@ Mat3<T> quaternion_rotation(const T& w, const T& x, const T& y, const T& z, cons
           two * (x * y + w * z),       one - two * (x * x + z * z), two * (y * z - w * x),
           two * (x * z - w * y),       two * (y * z + w * x),       one - two * (x * x + y * y)};
 }
+
+// URDF's roll-pitch-yaw as a rotation matrix (R = Rz Ry Rx), from the quaternion the pose
+// composes: one convention for the frames and for the pose.
+Mat3<double> rpy_rotation(const std::array<double, 3>& rpy);
 
 RigidInertia<double> rigid_inertia(const Link& l);
 

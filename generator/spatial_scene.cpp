@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <optional>
 
+#include "private_folder.hpp"
+#include "urdf_reader.hpp"
 #include "yaml_reader.hpp"
 
 namespace spacearm {
@@ -13,27 +15,55 @@ namespace {
 
 constexpr int kMaxLinks = 30;  // as in the plane
 
+// Why a body's inertia about its centre is not physical ("" if it is): positive definite with
+// principal moments that satisfy the triangle inequality.
+std::string inertia_problem(const spatial::Link& l) {
+  const auto& i = l.inertia;
+  Eigen::Matrix3d I;
+  I << i[0], i[1], i[2], i[1], i[3], i[4], i[2], i[4], i[5];
+  const Eigen::Vector3d m = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I).eigenvalues();
+  const double slack = 1e-12 * m.cwiseAbs().maxCoeff();
+  if (m.minCoeff() > 0 && m[0] + m[1] >= m[2] - slack) return "";
+  return "not a physical inertia (principal moments " + std::to_string(m[0]) + ", " +
+         std::to_string(m[1]) + ", " + std::to_string(m[2]) +
+         ": each must be positive and at most the sum of the other two)";
+}
+
 class SpatialReader {
  public:
   explicit SpatialReader(const YamlReader& r) : r_(r) {}
 
-  SpatialScene read(const YAML::Node& root) {
-    r_.check_keys(
-        root, "",
-        {"name", "description", "space", "base", "links", "gears", "end_effector", "outputs"});
+  SpatialScene read(const YAML::Node& root, const std::string& text,
+                    const UrdfFileReader& read_file) {
+    r_.check_keys(root, "",
+                  {"name", "description", "space", "base", "links", "urdf", "end_effector_link",
+                   "gears", "end_effector", "outputs"});
     SpatialScene s;
+    s.content = text;
     s.name = r_.bounded(r_.require(root, "name", ""), "name").Scalar();
     if (!is_identifier(s.name)) r_.fail("name", "'" + s.name + "' is not an identifier");
     const std::string space = r_.bounded(r_.require(root, "space", ""), "space").Scalar();
     if (space != "spatial") r_.fail("space", "expected 'spatial', got '" + space + "'");
-    read_base(r_.require(root, "base", ""), s.chain);
-    const YAML::Node links = r_.require(root, "links", "");
-    if (!links.IsSequence() || links.size() < 1 || links.size() > kMaxLinks)
-      r_.fail("links", "expected a list of 1 to " + std::to_string(kMaxLinks) + " links", links);
-    for (size_t i = 0; i < links.size(); ++i)
-      s.chain.links.push_back(read_link(links[i], "links[" + std::to_string(i) + "]"));
+    if (root["urdf"]) {
+      read_urdf_chain(root, s, read_file);
+    } else {
+      if (root["end_effector_link"])
+        r_.fail("end_effector_link", "names a URDF link: needs field 'urdf'",
+                root["end_effector_link"]);
+      read_base(r_.require(root, "base", ""), s.chain);
+      const YAML::Node links = r_.require(root, "links", "");
+      if (!links.IsSequence() || links.size() < 1 || links.size() > kMaxLinks)
+        r_.fail("links", "expected a list of 1 to " + std::to_string(kMaxLinks) + " links", links);
+      for (size_t i = 0; i < links.size(); ++i)
+        s.chain.links.push_back(read_link(links[i], "links[" + std::to_string(i) + "]"));
+    }
     if (root["gears"]) read_gears(root["gears"], s.chain);
-    if (root["end_effector"]) s.chain.tip = vec3(root["end_effector"], "end_effector");
+    if (root["end_effector"]) {  // a point in the end-effector frame (URDF: its link's)
+      const std::array<double, 3> point = vec3(root["end_effector"], "end_effector");
+      const spatial::Mat3<double> R = spatial::rpy_rotation(s.chain.tip_rpy);
+      for (int k = 0; k < 3; ++k)
+        s.chain.tip[k] += R[3 * k] * point[0] + R[3 * k + 1] * point[1] + R[3 * k + 2] * point[2];
+    }
     if (root["outputs"]) s.outputs = read_outputs(root["outputs"], s.chain.free_base);
     return s;
   }
@@ -71,17 +101,39 @@ class SpatialReader {
       r_.fail(field + ".mass", "must be positive, got " + std::to_string(l.mass), n);
     if (n["com"]) l.com = vec3(n["com"], field + ".com");
     l.inertia = numbers<6>(r_.require(n, "inertia", field), field + ".inertia");
-    const auto& i = l.inertia;
-    Eigen::Matrix3d I;
-    I << i[0], i[1], i[2], i[1], i[3], i[4], i[2], i[4], i[5];
-    const Eigen::Vector3d m = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I).eigenvalues();
-    const double slack = 1e-12 * m.cwiseAbs().maxCoeff();
-    if (!(m.minCoeff() > 0) || m[0] + m[1] < m[2] - slack)
-      r_.fail(field + ".inertia",
-              "not a physical inertia (principal moments " + std::to_string(m[0]) + ", " +
-                  std::to_string(m[1]) + ", " + std::to_string(m[2]) +
-                  ": each must be positive and at most the sum of the other two)",
-              n["inertia"]);
+    const std::string why = inertia_problem(l);
+    if (!why.empty()) r_.fail(field + ".inertia", why, n["inertia"]);
+  }
+
+  // The chain of a URDF (urdf_reader.hpp) named by `urdf:`, its bodies checked as the YAML
+  // form's are; read_file gives the file's text.
+  void read_urdf_chain(const YAML::Node& root, SpatialScene& s, const UrdfFileReader& read_file) {
+    for (const char* field : {"links"})
+      if (root[field]) r_.fail(field, "comes from the URDF (field 'urdf')", root[field]);
+    const YAML::Node base = r_.require(root, "base", "");
+    r_.check_keys(base, "base", {"type"});
+    const std::string type = r_.bounded(r_.require(base, "type", "base"), "base.type").Scalar();
+    if (type != "free_floating" && type != "fixed")
+      r_.fail("base.type", "expected free_floating or fixed, got '" + type + "'", base["type"]);
+    const std::string path = r_.bounded(root["urdf"], "urdf").Scalar();
+    const std::string link =
+        root["end_effector_link"]
+            ? r_.bounded(root["end_effector_link"], "end_effector_link").Scalar()
+            : "";
+    const std::string xml = read_file(path);
+    UrdfChain u = read_urdf(xml, path, type == "free_floating", link);
+    auto check = [&](const spatial::Link& l, const std::string& body) {
+      std::string why = !(l.mass > 0) ? "its mass, " + std::to_string(l.mass) + ", must be positive"
+                                      : inertia_problem(l);
+      if (!why.empty())
+        r_.fail("urdf", "URDF '" + path + "', the body of " + body + ": " + why, root["urdf"]);
+    };
+    if (u.chain.free_base) check(u.chain.base, "the root link \"" + u.root_link + "\"");
+    for (size_t i = 0; i < u.chain.links.size(); ++i)
+      check(u.chain.links[i], "joint \"" + u.joint_names[i] + "\"");
+    s.chain = u.chain;
+    s.joint_names = u.joint_names;
+    s.content += std::string("\0urdf ", 6) + path + '\0' + xml;
   }
 
   void read_base(const YAML::Node& n, spatial::ChainDescription& c) const {
@@ -203,13 +255,23 @@ bool is_spatial_scene(const std::string& yaml_text) {
   }
 }
 
-SpatialScene parse_spatial_scene(const std::string& yaml_text, const std::string& source_name) {
+SpatialScene parse_spatial_scene(const std::string& yaml_text, const std::string& source_name,
+                                 const UrdfFileReader& read_file) {
   const YamlReader r("scene", source_name, [](const std::string& m) { throw SceneError(m); });
   const YAML::Node root = r.load(yaml_text);
+  // By default a URDF's path is relative to the scene file's folder.
+  const UrdfFileReader beside_scene = [&source_name](const std::string& path) {
+    const std::string folder = source_name.substr(0, source_name.find_last_of('/') + 1);
+    try {  // a regular file only: a FIFO or a device cannot block or fill memory
+      return read_regular_file(path.empty() || path[0] == '/' ? path : folder + path,
+                               "scene '" + source_name + "', field 'urdf'", 8 << 20);
+    } catch (const FolderError& e) {
+      throw SceneError(e.what());
+    }
+  };
   try {
-    SpatialScene s = SpatialReader(r).read(root);
+    SpatialScene s = SpatialReader(r).read(root, yaml_text, read_file ? read_file : beside_scene);
     s.source_path = source_name;
-    s.content = yaml_text;
     return s;
   } catch (const YAML::Exception& e) {
     r.fail("", std::string("unexpected YAML structure: ") + e.what());

@@ -14,7 +14,9 @@
 //   outputs: [mass_matrix, forward_dynamics]  # optional: what to emit (default: spatial_model.hpp)
 #pragma once
 
+#include <functional>
 #include <string>
+#include <vector>
 
 #include "spatial_chain.hpp"
 
@@ -22,8 +24,9 @@ namespace spacearm {
 
 struct SpatialScene {
   std::string name;
-  std::string source_path;  // as given (messages, the generated banner)
-  std::string content;      // every byte the model is made from (its hash names the library)
+  std::vector<std::string> joint_names;  // a URDF's moving joints (empty for the YAML form)
+  std::string source_path;               // as given (messages, the generated banner)
+  std::string content;  // every byte the model is made from (its hash names the library)
   spatial::ChainDescription chain;
   std::vector<Output> outputs;  // as listed (`outputs:`); empty: the defaults (spatial_model.hpp)
 };
@@ -31,8 +34,13 @@ struct SpatialScene {
 // The outputs a spatial arm can give today (the free-base ones only for a free base).
 bool spatial_output(Output o, bool free_base);
 
-// Throws SceneError naming the field.
-SpatialScene parse_spatial_scene(const std::string& yaml_text, const std::string& source_name);
+// A URDF file's text by the path the scene gives (`urdf:`); throws SceneError.
+using UrdfFileReader = std::function<std::string(const std::string& path)>;
+
+// Throws SceneError naming the field. A scene with `urdf:` reads the file through read_file;
+// by default relative to the folder of source_name (at most 8 MB, a regular file or a pipe).
+SpatialScene parse_spatial_scene(const std::string& yaml_text, const std::string& source_name,
+                                 const UrdfFileReader& read_file = {});
 
 // Whether a scene text says `space: spatial` at its top level (false for anything else, malformed
 // text included: the planar reader then names what is wrong).

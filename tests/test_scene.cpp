@@ -260,7 +260,14 @@ TEST(Scene, FuzzCorpusAndRegressionsReplay) {
                              std::istreambuf_iterator<char>());
       SCOPED_TRACE(entry.path().string());
       try {
-        const auto verdict = fuzz::check_scene_text(text);
+        // A scene's URDF beside it, as the CLI reads it.
+        const auto beside = [&entry](const std::string& path) {
+          std::ifstream urdf(entry.path().parent_path() / path, std::ios::binary);
+          if (!urdf) throw SceneError("no file '" + path + "'");
+          return std::string((std::istreambuf_iterator<char>(urdf)),
+                             std::istreambuf_iterator<char>());
+        };
+        const auto verdict = fuzz::check_scene_text(text, beside);
         (verdict == fuzz::Verdict::accepted ? accepted : rejected)++;
         const std::string f = folder;
         if (f == "models" || f == "tests/scenes") {

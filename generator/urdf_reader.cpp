@@ -1,0 +1,317 @@
+#include "urdf_reader.hpp"
+
+#include <tinyxml2.h>
+
+#include <Eigen/Geometry>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "scene.hpp"
+
+namespace spacearm {
+
+namespace {
+
+struct Frame {  // a pose in its parent's frame: x_parent = R x + p
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  Frame operator*(const Frame& b) const { return {R * b.R, p + R * b.p}; }
+};
+
+struct Inertial {
+  double mass = 0;
+  Eigen::Vector3d com = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d I = Eigen::Matrix3d::Zero();  // about the com
+};
+
+struct Joint {
+  const tinyxml2::XMLElement* element = nullptr;
+  std::string name, type, parent, child;
+  Frame origin;
+  std::array<double, 3> xyz{}, rpy{};
+  std::array<double, 3> axis{1, 0, 0};
+};
+
+// URDF's roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll).
+Eigen::Matrix3d rpy_matrix(const std::array<double, 3>& rpy) {
+  return (Eigen::AngleAxisd(rpy[2], Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(rpy[1], Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(rpy[0], Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+// Its inverse (a rotation composed through welded links back to rpy): at pitch +-pi/2 roll is 0.
+std::array<double, 3> matrix_rpy(const Eigen::Matrix3d& R) {
+  const double pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
+  if (std::abs(R(2, 0)) > 1 - 1e-12) return {0, pitch, std::atan2(-R(0, 1), R(1, 1))};
+  return {std::atan2(R(2, 1), R(2, 2)), pitch, std::atan2(R(1, 0), R(0, 0))};
+}
+
+class UrdfReader {
+ public:
+  UrdfReader(std::string source) : source_(std::move(source)) {}
+
+  [[noreturn]] void fail(const tinyxml2::XMLElement* e, const std::string& what) const {
+    std::string where = "URDF '" + source_ + "'";
+    if (e) {
+      where += " line " + std::to_string(e->GetLineNum()) + ", <" + e->Name();
+      if (const char* n = e->Attribute("name")) where += " name=\"" + printable(n) + "\"";
+      where += ">";
+    }
+    throw SceneError(where + ": " + what);
+  }
+
+  // User text in a message: printable ASCII, at most 64 characters.
+  static std::string printable(const std::string& s) {
+    std::string out;
+    for (char c : s.substr(0, 64)) out += (c >= 32 && c < 127) ? c : '?';
+    return s.size() > 64 ? out + "..." : out;
+  }
+
+  std::string attribute(const tinyxml2::XMLElement* e, const char* name,
+                        bool required = true) const {
+    const char* v = e->Attribute(name);
+    if (!v && required) fail(e, std::string("needs the attribute '") + name + "'");
+    return v ? v : "";
+  }
+
+  // K finite numbers of magnitude at most 1e6, separated by spaces.
+  template <size_t K>
+  std::array<double, K> numbers(const tinyxml2::XMLElement* e, const char* name,
+                                std::array<double, K> fallback) const {
+    const char* text = e ? e->Attribute(name) : nullptr;
+    if (!text) return fallback;
+    std::array<double, K> out{};
+    const char* s = text;
+    for (size_t k = 0; k < K; ++k) {
+      char* end = nullptr;
+      errno = 0;
+      out[k] = std::strtod(s, &end);
+      if (end == s || errno == ERANGE || !std::isfinite(out[k]) || std::abs(out[k]) > 1e6)
+        fail(e, std::string("attribute '") + name + "': expected " + std::to_string(K) +
+                    " finite numbers within +-1e6, got \"" + printable(text) + "\"");
+      s = end;
+    }
+    while (*s == ' ' || *s == '\t' || *s == '\n' || *s == '\r') ++s;
+    if (*s)
+      fail(e, std::string("attribute '") + name + "': more than " + std::to_string(K) +
+                  " numbers in \"" + printable(text) + "\"");
+    return out;
+  }
+
+  Frame origin(const tinyxml2::XMLElement* parent, std::array<double, 3>* xyz = nullptr,
+               std::array<double, 3>* rpy = nullptr) const {
+    const tinyxml2::XMLElement* o = parent->FirstChildElement("origin");
+    const auto x = numbers<3>(o, "xyz", {0, 0, 0}), r = numbers<3>(o, "rpy", {0, 0, 0});
+    if (xyz) *xyz = x;
+    if (rpy) *rpy = r;
+    return {rpy_matrix(r), Eigen::Vector3d(x[0], x[1], x[2])};
+  }
+
+  Inertial inertial(const tinyxml2::XMLElement* link) const {
+    Inertial in;
+    const tinyxml2::XMLElement* e = link->FirstChildElement("inertial");
+    if (!e) return in;
+    const tinyxml2::XMLElement* m = e->FirstChildElement("mass");
+    const tinyxml2::XMLElement* i = e->FirstChildElement("inertia");
+    if (!m || !i) fail(e, "needs <mass> and <inertia>");
+    in.mass = numbers<1>(m, "value", {std::nan("")})[0];
+    if (!(in.mass >= 0)) fail(m, "attribute 'value': the mass must be given and not negative");
+    double t[6];
+    const char* names[6] = {"ixx", "ixy", "ixz", "iyy", "iyz", "izz"};
+    for (int k = 0; k < 6; ++k) t[k] = numbers<1>(i, names[k], {0})[0];
+    Eigen::Matrix3d I;
+    I << t[0], t[1], t[2], t[1], t[3], t[4], t[2], t[4], t[5];
+    const Frame f = origin(e);
+    in.com = f.p;
+    in.I = f.R * I * f.R.transpose();
+    return in;
+  }
+
+  UrdfChain read(const std::string& xml, bool free_base, const std::string& end_effector_link) {
+    tinyxml2::XMLDocument doc;
+    if (doc.Parse(xml.data(), xml.size()) != tinyxml2::XML_SUCCESS)
+      throw SceneError("URDF '" + source_ + "' line " + std::to_string(doc.ErrorLineNum()) +
+                       ": not XML (" + printable(doc.ErrorStr() ? doc.ErrorStr() : "") + ")");
+    const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
+    if (!robot) fail(nullptr, "expected a <robot> element at the top");
+    read_elements(robot);
+    return chain(free_base, end_effector_link);
+  }
+
+ private:
+  std::string source_;
+  std::map<std::string, const tinyxml2::XMLElement*> links_;
+  std::map<std::string, Joint> joints_;                   // by name
+  std::map<std::string, std::string> parent_joint_;       // child link -> joint
+  std::multimap<std::string, std::string> child_joints_;  // parent link -> joints
+
+  void read_elements(const tinyxml2::XMLElement* robot) {
+    for (auto* l = robot->FirstChildElement("link"); l; l = l->NextSiblingElement("link")) {
+      const std::string name = attribute(l, "name");
+      if (!links_.emplace(name, l).second) fail(l, "a second link of this name");
+    }
+    if (links_.empty()) fail(robot, "has no <link>");
+    if (links_.size() > 1000) fail(robot, "has more than 1000 links");
+    for (auto* e = robot->FirstChildElement("joint"); e; e = e->NextSiblingElement("joint")) {
+      Joint j;
+      j.element = e;
+      j.name = attribute(e, "name");
+      j.type = attribute(e, "type");
+      const auto* parent = e->FirstChildElement("parent");
+      const auto* child = e->FirstChildElement("child");
+      if (!parent || !child) fail(e, "needs <parent link=...> and <child link=...>");
+      j.parent = attribute(parent, "link");
+      j.child = attribute(child, "link");
+      for (const auto& [end, name] : {std::pair{parent, j.parent}, std::pair{child, j.child}})
+        if (!links_.count(name)) fail(end, "no link named \"" + printable(name) + "\"");
+      j.origin = origin(e, &j.xyz, &j.rpy);
+      if (const auto* axis = e->FirstChildElement("axis")) {
+        j.axis = numbers<3>(axis, "xyz", {1, 0, 0});
+        const double n =
+            std::sqrt(j.axis[0] * j.axis[0] + j.axis[1] * j.axis[1] + j.axis[2] * j.axis[2]);
+        if (!(n > 1e-12)) fail(axis, "attribute 'xyz': the axis must not be zero");
+      }
+      if (j.type != "revolute" && j.type != "continuous" && j.type != "fixed")
+        fail(e, "joint type '" + printable(j.type) +
+                    "': only revolute, continuous and fixed joints are read (prismatic, "
+                    "floating and planar joints are not)");
+      if (parent_joint_.count(j.child))
+        fail(e, "link \"" + printable(j.child) + "\" already has a parent joint, \"" +
+                    printable(parent_joint_[j.child]) + "\": a URDF is a tree");
+      if (!joints_.emplace(j.name, j).second) fail(e, "a second joint of this name");
+      parent_joint_[j.child] = j.name;
+      child_joints_.emplace(j.parent, j.name);
+    }
+  }
+
+  // The links welded to `body` (itself included) with their frames in the body's; the moving
+  // joints that leave them.
+  void weld(const std::string& link, const Frame& in_body,
+            std::vector<std::pair<std::string, Frame>>& welded,
+            std::vector<const Joint*>& moving) const {
+    welded.push_back({link, in_body});
+    const auto [first, last] = child_joints_.equal_range(link);
+    for (auto it = first; it != last; ++it) {
+      const Joint& j = joints_.at(it->second);
+      if (j.type == "fixed")
+        weld(j.child, in_body * j.origin, welded, moving);
+      else
+        moving.push_back(&j);
+    }
+  }
+
+  // A body's lumped mass, centre and inertia about it, in the body's frame.
+  spatial::Link lumped(const std::vector<std::pair<std::string, Frame>>& welded) const {
+    double m = 0;
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    std::vector<Inertial> parts;
+    for (const auto& [name, f] : welded) {
+      Inertial in = inertial(links_.at(name));
+      in.com = f.p + f.R * in.com;
+      in.I = f.R * in.I * f.R.transpose();
+      m += in.mass;
+      c += in.mass * in.com;
+      parts.push_back(in);
+    }
+    spatial::Link l;
+    l.mass = m;
+    if (m > 0) c /= m;
+    Eigen::Matrix3d I = Eigen::Matrix3d::Zero();
+    for (const Inertial& in : parts) {
+      const Eigen::Vector3d d = in.com - c;
+      I += in.I + in.mass * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose());
+    }
+    l.com = {c[0], c[1], c[2]};
+    l.inertia = {I(0, 0), I(0, 1), I(0, 2), I(1, 1), I(1, 2), I(2, 2)};
+    return l;
+  }
+
+  UrdfChain chain(bool free_base, const std::string& end_effector_link) {
+    UrdfChain out;
+    std::vector<std::string> roots;
+    for (const auto& [name, e] : links_)
+      if (!parent_joint_.count(name)) roots.push_back(name);
+    if (roots.size() != 1)
+      fail(links_.begin()->second, std::to_string(roots.size()) +
+                                       " links have no parent joint; a URDF has exactly one root");
+    out.root_link = roots[0];
+    out.chain.free_base = free_base;
+    // Body by body from the root: its welded links, and the one moving joint after it.
+    std::string body = roots[0];
+    std::array<double, 3> joint_xyz{}, joint_rpy{};  // of the joint that carries `body`
+    const Joint* carrier = nullptr;
+    std::set<std::string> seen;
+    for (;;) {
+      std::vector<std::pair<std::string, Frame>> welded;
+      std::vector<const Joint*> moving;
+      weld(body, Frame{}, welded, moving);
+      for (const auto& w : welded) seen.insert(w.first);
+      spatial::Link l = lumped(welded);
+      if (carrier) {
+        l.origin_xyz = joint_xyz;
+        l.origin_rpy = joint_rpy;
+        l.axis = carrier->axis;
+        out.chain.links.push_back(l);
+        out.joint_names.push_back(carrier->name);
+      } else {
+        out.chain.base = l;
+      }
+      if (moving.size() > 1)
+        fail(moving[1]->element, "a second moving joint after body \"" + printable(body) +
+                                     "\" (the first is \"" + printable(moving[0]->name) +
+                                     "\"): only serial chains are read");
+      if (moving.empty()) {
+        end_effector(welded, end_effector_link, out);
+        break;
+      }
+      carrier = moving[0];
+      // The joint's frame in this body: as written where it leaves the body's own link, else
+      // composed through the welded link it leaves from.
+      joint_xyz = carrier->xyz, joint_rpy = carrier->rpy;
+      for (const auto& [name, f] : welded)
+        if (name == carrier->parent && name != body) {
+          const Frame composed = f * carrier->origin;
+          joint_xyz = {composed.p[0], composed.p[1], composed.p[2]};
+          joint_rpy = matrix_rpy(composed.R);
+        }
+      body = carrier->child;
+      if (out.chain.links.size() >= 30) fail(carrier->element, "more than 30 moving joints");
+    }
+    if (out.chain.links.empty()) fail(links_.at(roots[0]), "no moving joint");
+    if (seen.size() != links_.size())
+      fail(nullptr, "links not connected to the root \"" + printable(roots[0]) + "\"");
+    return out;
+  }
+
+  // The tip: the origin of the end-effector link, a link welded to the last body.
+  void end_effector(const std::vector<std::pair<std::string, Frame>>& welded,
+                    const std::string& wanted, UrdfChain& out) const {
+    const std::string& name = wanted.empty() ? welded.front().first : wanted;
+    for (const auto& [link, f] : welded)
+      if (link == name) {
+        out.end_effector_link = name;
+        out.chain.tip = {f.p[0], f.p[1], f.p[2]};
+        out.chain.tip_rpy = matrix_rpy(f.R);
+        return;
+      }
+    if (links_.count(name))
+      throw SceneError("URDF '" + source_ + "': end effector link \"" + printable(name) +
+                       "\" is not welded to the last moving body (joints after it move)");
+    throw SceneError("URDF '" + source_ + "': no link named \"" + printable(name) +
+                     "\" for the end effector");
+  }
+};
+
+}  // namespace
+
+UrdfChain read_urdf(const std::string& xml, const std::string& source, bool free_base,
+                    const std::string& end_effector_link) {
+  return UrdfReader(source).read(xml, free_base, end_effector_link);
+}
+
+}  // namespace spacearm

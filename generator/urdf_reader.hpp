@@ -1,0 +1,28 @@
+// A URDF robot as a spatial chain (spatial_chain.hpp), read with tinyxml2 as untrusted input:
+// every error names the file, the line and the element. The root link is the base; `revolute`
+// and `continuous` joints move; `fixed` joints weld their child to the parent (masses, centres
+// and inertias lumped into the moving body, frames kept, so a welded link can be the end
+// effector); joint origin xyz/rpy (R = Rz(y) Ry(p) Rx(r)), axis (absent: (1, 0, 0), as the URDF
+// specification says), inertial origin xyz/rpy and full tensors. Prismatic, floating and planar
+// joints, and moving branches, are refused by name.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "spatial_chain.hpp"
+
+namespace spacearm {
+
+struct UrdfChain {
+  spatial::ChainDescription chain;       // gears absent; tip at the end effector link's origin
+  std::vector<std::string> joint_names;  // the moving joints, base to tip
+  std::string root_link, end_effector_link;
+};
+
+// free_base: the root link floats (else it is fixed to the world). end_effector_link: a link
+// welded to the last moving body (empty: the last moving joint's child). Throws SceneError.
+UrdfChain read_urdf(const std::string& xml, const std::string& source, bool free_base,
+                    const std::string& end_effector_link);
+
+}  // namespace spacearm

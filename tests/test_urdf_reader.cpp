@@ -1,0 +1,231 @@
+// generator/urdf_reader.hpp and the spatial scene's `urdf:` field: models/space_arm7.urdf
+// against a forward kinematics written here with Eigen from the URDF's numbers (no code shared
+// with the reader or the chain): the end effector's pose at random joint angles, and the
+// lumped bodies (fixed joints) through the base block of M, which a rigid motion of the whole
+// robot gives as the sum over every link. Malformed and unsupported URDFs get errors naming the
+// line and the element.
+#include "urdf_reader.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "recursive_algorithms.hpp"
+#include "scene.hpp"
+#include "spatial_scene.hpp"
+#include "support.hpp"
+
+namespace spacearm {
+namespace {
+
+std::string model_file(const std::string& name) {
+  std::ifstream in(std::string(SPACEARM_SOURCE_DIR) + "/models/" + name);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// The URDF's numbers (models/space_arm7.urdf), copied by hand: joint origins, axes, link
+// inertials (mass, com, principal inertia, inertial yaw).
+struct UrdfLink {
+  Eigen::Vector3d xyz, rpy, axis;
+  double mass;
+  Eigen::Vector3d com, I;
+  double inertial_yaw;
+};
+const std::vector<UrdfLink> kArm = {
+    {{0.6, 0, 0.8}, {0, 0, 0}, {0, 0, 1}, 8, {0, 0, 0.12}, {0.08, 0.08, 0.03}, 0},
+    {{0, 0, 0.25}, {0, 0, 0}, {0, 1, 0}, 7, {0, 0, 0.2}, {0.1, 0.1, 0.02}, 0},
+    {{0, 0, 0.45}, {0, 0, 0}, {0, 0, 1}, 6, {0, 0, 0.15}, {0.06, 0.06, 0.015}, 0},
+    {{0, 0, 0.35}, {0, 0, 0}, {0, -1, 0}, 5, {0, 0, 0.18}, {0.05, 0.05, 0.01}, 0.3},
+    {{0, 0, 0.4}, {0, 0, 0}, {0, 0, 1}, 3, {0, 0, 0.1}, {0.02, 0.02, 0.006}, 0},
+    {{0, 0, 0.2}, {0, 0, 0}, {0, 1, 0}, 2, {0, 0, 0.06}, {0.008, 0.008, 0.003}, 0},
+    {{0, 0, 0.12}, {0, 0, 0.5}, {0, 0, 1}, 1, {0, 0, 0.04}, {0.003, 0.003, 0.002}, 0},
+};
+
+Eigen::Matrix3d rpy(const Eigen::Vector3d& a) {
+  return (Eigen::AngleAxisd(a[2], Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(a[1], Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(a[0], Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
+struct Body {  // a link's world pose and inertial
+  Eigen::Matrix3d R;
+  Eigen::Vector3d p;
+  double mass;
+  Eigen::Vector3d com_world;
+  Eigen::Matrix3d I_world;  // about its com
+};
+
+// Every link of the URDF in the world, the base at the identity, joints at angles q.
+std::vector<Body> world_bodies(const Eigen::VectorXd& q, Eigen::Matrix3d& R_flange,
+                               Eigen::Vector3d& p_flange) {
+  std::vector<Body> bodies;
+  auto add = [&](const Eigen::Matrix3d& R, const Eigen::Vector3d& p, double m,
+                 const Eigen::Vector3d& com, const Eigen::Vector3d& I, const Eigen::Matrix3d& Ri) {
+    bodies.push_back(
+        {R, p, m, p + R * com, R * Ri * I.asDiagonal() * Ri.transpose() * R.transpose()});
+  };
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  add(R, p, 500, {0.05, 0, 0}, {120, 140, 110}, Eigen::Matrix3d::Identity());
+  const Eigen::Matrix3d Rt = rpy({0, 0.3, 0});
+  add(Rt, Eigen::Vector3d(-0.5, 0.3, 0.6), 4, {0, 0, 0.05}, {0.01, 0.01, 0.008},
+      Eigen::Matrix3d::Identity());
+  for (size_t i = 0; i < kArm.size(); ++i) {
+    const UrdfLink& l = kArm[i];
+    p = p + R * l.xyz;
+    R = R * rpy(l.rpy) * Eigen::AngleAxisd(q[i], l.axis.normalized()).toRotationMatrix();
+    add(R, p, l.mass, l.com, l.I, rpy({0, 0, l.inertial_yaw}));
+  }
+  R_flange = R * rpy({0, 1.5707963267948966, 0});
+  p_flange = p + R * Eigen::Vector3d(0, 0, 0.1);
+  add(R_flange, p_flange, 0.5, {0, 0, 0.03}, {0.0005, 0.0005, 0.0004}, Eigen::Matrix3d::Identity());
+  return bodies;
+}
+
+SpatialScene arm7() {
+  return parse_spatial_scene(model_file("space_arm7.yaml"),
+                             std::string(SPACEARM_SOURCE_DIR) + "/models/space_arm7.yaml");
+}
+
+std::vector<double> chain_output(const SpatialScene& s, Output o, const Eigen::VectorXd& q) {
+  auto input = [&](const std::string& a, int i) { return a == "q" ? q[i] : 0.0; };
+  return evaluate_chain<spatial::Chain>(s.chain, o, input)[0];
+}
+
+TEST(UrdfReader, EndEffectorPoseEqualsTheUrdfsKinematics) {
+  const SpatialScene s = arm7();
+  ASSERT_EQ(s.chain.links.size(), 7u);
+  EXPECT_EQ(s.joint_names.front(), "joint1");
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<double> u(-2, 2);
+  for (int trial = 0; trial < 5; ++trial) {
+    Eigen::VectorXd angles(7), q = Eigen::VectorXd::Zero(14);
+    for (int i = 0; i < 7; ++i) angles[i] = u(rng);
+    q[3] = 1;                  // the base at the identity
+    q.tail(7) = 100 * angles;  // motor angles qm = p q
+    Eigen::Matrix3d R;
+    Eigen::Vector3d p;
+    world_bodies(angles, R, p);
+    const std::vector<double> pose = chain_output(s, Output::end_effector_pose, q);
+    EXPECT_LT((Eigen::Vector3d(pose[0], pose[1], pose[2]) - p).norm(), 1e-12);
+    const Eigen::Quaterniond got(pose[3], pose[4], pose[5], pose[6]);
+    EXPECT_LT((got.toRotationMatrix() - R).norm(), 1e-12);
+  }
+}
+
+// With the joints still, the robot moves as one rigid body: the base block of M is the
+// spatial inertia of all links (welded ones included) about the base origin.
+TEST(UrdfReader, LumpedBodiesGiveTheWholeRobotsInertia) {
+  const SpatialScene s = arm7();
+  Eigen::VectorXd angles(7);
+  angles << 0.3, -0.7, 1.1, 0.4, -1.3, 0.8, 2.0;
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(14);
+  q[3] = 1;
+  Eigen::Matrix3d R;
+  Eigen::Vector3d p;
+  double m = 0;
+  Eigen::Vector3d first_moment = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d I_origin = Eigen::Matrix3d::Zero();
+  for (const Body& b : world_bodies(angles, R, p)) {
+    m += b.mass;
+    first_moment += b.mass * b.com_world;
+    const Eigen::Vector3d c = b.com_world;
+    I_origin +=
+        b.I_world + b.mass * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
+  }
+  // The rotors' inertia is not in the URDF: a gearless copy, whose coordinates are the angles.
+  SpatialScene plain = s;
+  for (auto& l : plain.chain.links) l.gear = {};
+  q.tail(7) = angles;
+  const std::vector<double> Mv = chain_output(plain, Output::mass_matrix, q);
+  const Eigen::MatrixXd M =
+      Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(Mv.data(), 13, 13);
+  EXPECT_LT((M.topLeftCorner(3, 3) - m * Eigen::Matrix3d::Identity()).norm(), 1e-10 * m);
+  EXPECT_LT((M.block<3, 3>(3, 3) - I_origin).norm(), 1e-10 * I_origin.norm());
+  Eigen::Matrix3d cross;
+  cross << 0, -first_moment[2], first_moment[1], first_moment[2], 0, -first_moment[0],
+      -first_moment[1], first_moment[0], 0;
+  EXPECT_LT((M.block<3, 3>(0, 3) + cross).norm(), 1e-10 * first_moment.norm());
+}
+
+std::string robot(const std::string& body) { return "<robot name=\"r\">\n" + body + "</robot>\n"; }
+const std::string kTwoLinks =
+    "<link name=\"a\"><inertial><mass value=\"2\"/><inertia ixx=\"1\" iyy=\"1\" izz=\"1\"/>"
+    "</inertial></link>\n"
+    "<link name=\"b\"><inertial><mass value=\"1\"/><inertia ixx=\"0.1\" iyy=\"0.1\" izz=\"0.1\"/>"
+    "</inertial></link>\n";
+std::string joint(const std::string& name, const std::string& type, const std::string& parent,
+                  const std::string& child, const std::string& extra = "") {
+  return "<joint name=\"" + name + "\" type=\"" + type + "\"><parent link=\"" + parent +
+         "\"/><child link=\"" + child + "\"/>" + extra + "</joint>\n";
+}
+
+TEST(UrdfReader, AbsentAxisIsXAndErrorsNameTheElement) {
+  const UrdfChain c =
+      read_urdf(robot(kTwoLinks + joint("j", "revolute", "a", "b")), "r.urdf", true, "");
+  EXPECT_EQ(c.chain.links[0].axis, (std::array<double, 3>{1, 0, 0}));
+  EXPECT_EQ(c.end_effector_link, "b");
+  const std::string c_link =
+      "<link name=\"c\"><inertial><mass value=\"1\"/><inertia ixx=\"1\" iyy=\"1\" izz=\"1\"/>"
+      "</inertial></link>\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"<robot", "URDF 'r.urdf' line 1: not XML"},
+      {robot(kTwoLinks + joint("slide", "prismatic", "a", "b")),
+       "<joint name=\"slide\">: joint type 'prismatic': only revolute, continuous and fixed"},
+      {robot(kTwoLinks + joint("j", "revolute", "a", "nowhere")),
+       "<child>: no link named \"nowhere\""},
+      {robot(kTwoLinks + joint("j", "revolute", "a", "b", "<axis xyz=\"0 0 0\"/>")),
+       "<axis>: attribute 'xyz': the axis must not be zero"},
+      {robot(kTwoLinks + joint("j", "revolute", "a", "b", "<origin xyz=\"1 nan 0\"/>")),
+       "<origin>: attribute 'xyz': expected 3 finite numbers"},
+      {robot(kTwoLinks + c_link + joint("j", "revolute", "a", "b") +
+             joint("k", "revolute", "a", "c")),
+       "<joint name=\"k\">: a second moving joint after body \"a\" (the first is \"j\")"},
+      {robot(kTwoLinks + joint("j", "revolute", "a", "b") + joint("k", "revolute", "a", "b")),
+       "link \"b\" already has a parent joint, \"j\""},
+      {robot(kTwoLinks), "2 links have no parent joint"},
+      {robot(kTwoLinks + joint("j", "fixed", "a", "b")), "no moving joint"},
+  };
+  for (const auto& [xml, message] : cases) {
+    SCOPED_TRACE(message);
+    EXPECT_THROW_MESSAGE(read_urdf(xml, "r.urdf", true, ""), SceneError, message);
+  }
+  EXPECT_THROW_MESSAGE(
+      read_urdf(robot(kTwoLinks + joint("j", "revolute", "a", "b")), "r.urdf", true, "a"),
+      SceneError, "end effector link \"a\" is not welded to the last moving body");
+}
+
+// The scene side: the URDF's path relative to the scene file; the fields URDF gives are refused
+// beside it; its bodies are checked as the YAML form's are; the URDF's text is in the content
+// (the cache key), so an edited URDF is a new model.
+TEST(UrdfReader, SceneNamesTheUrdfAndChecksItsBodies) {
+  const SpatialScene s = arm7();
+  EXPECT_NE(s.content.find("<robot name=\"space_arm7\">"), std::string::npos);
+  const std::string head = "name: x\nspace: spatial\nbase: {type: free_floating}\n";
+  auto reader = [](const std::string& xml) { return [xml](const std::string&) { return xml; }; };
+  const std::string massless_root = robot(
+      "<link name=\"a\"/>\n<link name=\"b\"><inertial><mass value=\"1\"/><inertia "
+      "ixx=\"1\" iyy=\"1\" izz=\"1\"/></inertial></link>\n" +
+      joint("j", "revolute", "a", "b"));
+  EXPECT_THROW_MESSAGE(
+      parse_spatial_scene(head + "urdf: r.urdf\n", "s.yaml", reader(massless_root)), SceneError,
+      "field 'urdf': URDF 'r.urdf', the body of the root link \"a\": its mass, "
+      "0.000000, must be positive");
+  EXPECT_THROW_MESSAGE(
+      parse_spatial_scene(head + "urdf: r.urdf\nlinks: []\n", "s.yaml", reader(massless_root)),
+      SceneError, "field 'links': comes from the URDF");
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(head + "urdf: missing.urdf\n", "/nonexistent/s.yaml"),
+                       SceneError, "field 'urdf': cannot open '/nonexistent/missing.urdf'");
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(head + "urdf: /dev/zero\n", "s.yaml"), SceneError,
+                       "'/dev/zero' is not a regular file");
+}
+
+}  // namespace
+}  // namespace spacearm
