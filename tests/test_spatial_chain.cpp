@@ -8,6 +8,8 @@
 
 #include <random>
 
+#include "configuration_space.hpp"
+#include "integrators.hpp"
 #include "planar_chain.hpp"
 #include "recursive_algorithms.hpp"
 #include "scene.hpp"
@@ -410,6 +412,56 @@ TEST(SpatialChain, ThePlaneIsASpecialCase) {
         EXPECT_NEAR(M3(planar_rows[r], planar_rows[c]), M2(r, c), 1e-12 * M2.norm()) << r << c;
     }
   }
+}
+
+// A free base started in the plane (every axis along z, every mass in z = 0, no products of
+// inertia with z, velocities in the plane) stays there over a long free motion: through the
+// runtime's integrator with the quaternion's dq/dt and projection (configuration_space.hpp).
+TEST(SpatialChain, AFreeBaseStartedInThePlaneStaysThere) {
+  ChainDescription d;
+  d.base.mass = 40;
+  d.base.com = {0.1, -0.05, 0};
+  d.base.inertia = {3, 0, 0, 4, 0, 5};
+  for (int i = 0; i < 3; ++i) {
+    Link l;
+    l.origin_xyz = {i == 0 ? 0.5 : 0.4, 0.05, 0};
+    l.axis = {0, 0, 1};
+    l.mass = 3.0 - i;
+    l.com = {0.2, 0.01 * i, 0};
+    l.inertia = {0.02, 0.001, 0, 0.1, 0, 0.11};
+    l.gear = {true, 20.0 + 10 * i, 1e-4, 6e-5, i != 1};  // exact and armature rotors
+    d.links.push_back(l);
+  }
+  const ConfigurationSpace space{d.nq(), d.nv(), 3};
+  Eigen::VectorXd x(d.nq() + d.nv());
+  x << 0.1, 0.2, 0, std::cos(0.2), 0, 0, std::sin(0.2), 5, -10, 20,  // q: origin, yaw 0.4, qm
+      0.3, -0.2, 0, 0, 0, 0.5, 30, -40, 25;                          // v: in the plane
+  auto f = [&](const Eigen::VectorXd& s, Eigen::VectorXd& dsdt, double) {
+    const State at{s.head(d.nq()), s.tail(d.nv())};
+    dsdt.resize(s.size());
+    dsdt.head(d.nq()) = space.rate(at.q, at.v);
+    dsdt.tail(d.nv()) =
+        as_eigen(chain_at(d, at).forward_dynamics(std::vector<double>(d.nv(), 0.0))[0]);
+  };
+  IntegratorOptions opt;
+  opt.method = Method::rkf78;
+  opt.rtol = opt.atol = 1e-11;
+  opt.project = [&](Eigen::Ref<Eigen::VectorXd> s) {
+    auto q = s.head(d.nq());
+    space.project(q);
+  };
+  // The runtime's dq/dt is the one the generator differentiates (the state Jacobian's).
+  std::mt19937 rng(12);
+  const State random = random_state(rng, d);
+  EXPECT_LT((space.rate(random.q, random.v) - configuration_rate(d, random)).norm(), 1e-15);
+  double out_of_plane = 0;
+  integrate(opt, f, x, 0.0, 3.0, 0.1, [&](const Eigen::VectorXd& s, double) {
+    // z, the quaternion's x and y, vz, wx, wy
+    for (int k : {2, 4, 5, d.nq() + 2, d.nq() + 3, d.nq() + 4})
+      out_of_plane = std::max(out_of_plane, std::abs(s[k]));
+  });
+  EXPECT_LT(out_of_plane, 1e-13);
+  EXPECT_GT(std::abs(x[6] - std::sin(0.2)), 1e-3);  // it did turn about z
 }
 
 // The same definition recorded (Sym): the program's values are the double run's, bit for bit
