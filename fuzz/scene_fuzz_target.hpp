@@ -143,7 +143,7 @@ inline Verdict check_urdf_text(const std::string& text) {
 
 // A scene's `urdf:` file while fuzzing: none is read.
 inline std::string no_files(const std::string& path) {
-  throw SceneError("fuzz-input.yaml: field 'urdf': '" + path + "' is not read while fuzzing");
+  throw SceneError("'" + path + "' is not read while fuzzing");
 }
 
 // Accepted: one of the readers (planar, spatial, URDF) accepts the text. read_file gives a

@@ -25,32 +25,7 @@ Vec3<double> unit_axis(const Link& l, int joint) {
   return scaled(a, 1 / len);
 }
 
-// Quaternions (w, x, y, z) and their product.
-template <class T>
-using Quaternion = std::array<T, 4>;
-template <class T>
-Quaternion<T> operator*(const Quaternion<T>& a, const Quaternion<T>& b) {
-  return {a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
-          a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
-          a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
-          a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0]};
-}
-// URDF's roll-pitch-yaw as a quaternion: Rz(yaw) Ry(pitch) Rx(roll).
-Quaternion<double> rpy_quaternion(const std::array<double, 3>& rpy) {
-  auto half = [](double a, int axis) {
-    Quaternion<double> q = {std::cos(a / 2), 0, 0, 0};
-    q[1 + axis] = std::sin(a / 2);
-    return q;
-  };
-  return half(rpy[2], 2) * half(rpy[1], 1) * half(rpy[0], 0);
-}
-
 }  // namespace
-
-Mat3<double> rpy_rotation(const std::array<double, 3>& rpy) {
-  const Quaternion<double> q = rpy_quaternion(rpy);
-  return quaternion_rotation(q[0], q[1], q[2], q[3], 1.0, 2.0);
-}
 
 template <class T>
 Mat3<T> Chain<T>::num(const Mat3<double>& A) const {

@@ -207,9 +207,33 @@ Mat3<T> quaternion_rotation(const T& w, const T& x, const T& y, const T& z, cons
           two * (x * z - w * y),       two * (y * z + w * x),       one - two * (x * x + y * y)};
 }
 
+// Quaternions (w, x, y, z) and their product.
+template <class T>
+using Quaternion = std::array<T, 4>;
+template <class T>
+Quaternion<T> operator*(const Quaternion<T>& a, const Quaternion<T>& b) {
+  return {a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+          a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+          a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+          a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0]};
+}
+// URDF's roll-pitch-yaw as a quaternion: Rz(yaw) Ry(pitch) Rx(roll).
+inline Quaternion<double> rpy_quaternion(const std::array<double, 3>& rpy) {
+  auto half = [](double a, int axis) {
+    Quaternion<double> q = {std::cos(a / 2), 0, 0, 0};
+    q[1 + axis] = std::sin(a / 2);
+    return q;
+  };
+  return half(rpy[2], 2) * half(rpy[1], 1) * half(rpy[0], 0);
+}
+
 // URDF's roll-pitch-yaw as a rotation matrix (R = Rz Ry Rx), from the quaternion the pose
-// composes: one convention for the frames and for the pose.
-Mat3<double> rpy_rotation(const std::array<double, 3>& rpy);
+// composes: one convention for the frames and for the pose. Inline: the scene readers use it
+// without the chain's algorithms.
+inline Mat3<double> rpy_rotation(const std::array<double, 3>& rpy) {
+  const Quaternion<double> q = rpy_quaternion(rpy);
+  return quaternion_rotation(q[0], q[1], q[2], q[3], 1.0, 2.0);
+}
 
 RigidInertia<double> rigid_inertia(const Link& l);
 

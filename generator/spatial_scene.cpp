@@ -120,8 +120,18 @@ class SpatialReader {
         root["end_effector_link"]
             ? r_.bounded(root["end_effector_link"], "end_effector_link").Scalar()
             : "";
-    const std::string xml = read_file(path);
-    UrdfChain u = read_urdf(xml, path, type == "free_floating", link);
+    for (char c : path)
+      if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
+        r_.fail("urdf", "the path holds a control character", root["urdf"]);
+    // The file's and the URDF's errors, under the scene's name and field.
+    std::string xml;
+    UrdfChain u;
+    try {
+      xml = read_file(path);
+      u = read_urdf(xml, path, type == "free_floating", link);
+    } catch (const SceneError& e) {
+      r_.fail("urdf", e.what(), root["urdf"]);
+    }
     auto check = [&](const spatial::Link& l, const std::string& body) {
       std::string why = !(l.mass > 0) ? "its mass, " + std::to_string(l.mass) + ", must be positive"
                                       : inertia_problem(l);
@@ -263,8 +273,8 @@ SpatialScene parse_spatial_scene(const std::string& yaml_text, const std::string
   const UrdfFileReader beside_scene = [&source_name](const std::string& path) {
     const std::string folder = source_name.substr(0, source_name.find_last_of('/') + 1);
     try {  // a regular file only: a FIFO or a device cannot block or fill memory
-      return read_regular_file(path.empty() || path[0] == '/' ? path : folder + path,
-                               "scene '" + source_name + "', field 'urdf'", 8 << 20);
+      return read_regular_file(path.empty() || path[0] == '/' ? path : folder + path, "URDF",
+                               8 << 20);
     } catch (const FolderError& e) {
       throw SceneError(e.what());
     }

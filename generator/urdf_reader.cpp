@@ -4,9 +4,10 @@
 
 #include <Eigen/Geometry>
 
-#include <cerrno>
+#include <charconv>
+#include <optional>
+#include <string_view>
 #include <cmath>
-#include <cstdlib>
 #include <map>
 #include <set>
 #include <sstream>
@@ -44,11 +45,14 @@ Eigen::Matrix3d rpy_matrix(const std::array<double, 3>& rpy) {
           Eigen::AngleAxisd(rpy[0], Eigen::Vector3d::UnitX()))
       .toRotationMatrix();
 }
-// Its inverse (a rotation composed through welded links back to rpy): at pitch +-pi/2 roll is 0.
+// Its inverse (a rotation composed through welded links back to rpy), exact to rounding at
+// every pitch: roll from R's last row, then pitch and yaw from R Rx(roll)^T = Rz(yaw) Ry(pitch),
+// which holds for any roll (at the lock R21 = R22 = 0 gives roll 0).
 std::array<double, 3> matrix_rpy(const Eigen::Matrix3d& R) {
-  const double pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
-  if (std::abs(R(2, 0)) > 1 - 1e-12) return {0, pitch, std::atan2(-R(0, 1), R(1, 1))};
-  return {std::atan2(R(2, 1), R(2, 2)), pitch, std::atan2(R(1, 0), R(0, 0))};
+  const double roll = std::atan2(R(2, 1), R(2, 2));
+  const Eigen::Matrix3d M =
+      R * Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()).toRotationMatrix().transpose();
+  return {roll, std::atan2(-M(2, 0), M(2, 2)), std::atan2(-M(0, 1), M(1, 1))};
 }
 
 class UrdfReader {
@@ -79,34 +83,54 @@ class UrdfReader {
     return v ? v : "";
   }
 
-  // K finite numbers of magnitude at most 1e6, separated by spaces.
+  // K decimal numbers separated by white space, each zero or of magnitude 1e-30 to 1e6 (the
+  // YAML form's rule, yaml_reader.hpp, with URDF's lengths in metres): std::from_chars, so no
+  // hex, no locale, and a token must be one number ("1-2" is refused, not read as 1 and -2).
   template <size_t K>
   std::array<double, K> numbers(const tinyxml2::XMLElement* e, const char* name,
-                                std::array<double, K> fallback) const {
+                                std::optional<std::array<double, K>> fallback) const {
     const char* text = e ? e->Attribute(name) : nullptr;
-    if (!text) return fallback;
+    if (!text && fallback) return *fallback;
+    if (!text) fail(e, std::string("needs the attribute '") + name + "'");
+    auto bad = [&](const std::string& why) {
+      fail(e, std::string("attribute '") + name + "': expected " + std::to_string(K) +
+                  (K == 1 ? " number" : " numbers") + ", each 0 or of magnitude 1e-30 to 1e6 (" +
+                  why + "), got \"" + printable(text) + "\"");
+    };
     std::array<double, K> out{};
-    const char* s = text;
-    for (size_t k = 0; k < K; ++k) {
-      char* end = nullptr;
-      errno = 0;
-      out[k] = std::strtod(s, &end);
-      if (end == s || errno == ERANGE || !std::isfinite(out[k]) || std::abs(out[k]) > 1e6)
-        fail(e, std::string("attribute '") + name + "': expected " + std::to_string(K) +
-                    " finite numbers within +-1e6, got \"" + printable(text) + "\"");
-      s = end;
+    const std::string_view all(text);
+    size_t at = 0, k = 0;
+    auto space = [](char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; };
+    for (;;) {
+      while (at < all.size() && space(all[at])) ++at;
+      if (at == all.size()) break;
+      size_t end = at;
+      while (end < all.size() && !space(all[end])) ++end;
+      if (k == K) bad("too many");
+      double v = 0;
+      const auto r = std::from_chars(all.data() + at, all.data() + end, v);
+      if (r.ec != std::errc() || r.ptr != all.data() + end) bad("not a number");
+      if (!std::isfinite(v)) bad("not finite");
+      if (!(v == 0 || (std::abs(v) >= 1e-30 && std::abs(v) <= 1e6))) bad("out of range");
+      out[k++] = v;
+      at = end;
     }
-    while (*s == ' ' || *s == '\t' || *s == '\n' || *s == '\r') ++s;
-    if (*s)
-      fail(e, std::string("attribute '") + name + "': more than " + std::to_string(K) +
-                  " numbers in \"" + printable(text) + "\"");
+    if (k != K) bad("too few");
     return out;
   }
 
+  // The one child element `name` (nullptr: none); a second one is an error, not ignored. (A
+  // repeated attribute is not XML: tinyxml2 refuses it.)
+  const tinyxml2::XMLElement* only_child(const tinyxml2::XMLElement* e, const char* name) const {
+    const tinyxml2::XMLElement* c = e->FirstChildElement(name);
+    if (c && c->NextSiblingElement(name)) fail(c->NextSiblingElement(name), "a second one");
+    return c;
+  }
   Frame origin(const tinyxml2::XMLElement* parent, std::array<double, 3>* xyz = nullptr,
                std::array<double, 3>* rpy = nullptr) const {
-    const tinyxml2::XMLElement* o = parent->FirstChildElement("origin");
-    const auto x = numbers<3>(o, "xyz", {0, 0, 0}), r = numbers<3>(o, "rpy", {0, 0, 0});
+    const tinyxml2::XMLElement* o = only_child(parent, "origin");
+    const std::array<double, 3> zero{};
+    const auto x = numbers<3>(o, "xyz", zero), r = numbers<3>(o, "rpy", zero);
     if (xyz) *xyz = x;
     if (rpy) *rpy = r;
     return {rpy_matrix(r), Eigen::Vector3d(x[0], x[1], x[2])};
@@ -114,16 +138,16 @@ class UrdfReader {
 
   Inertial inertial(const tinyxml2::XMLElement* link) const {
     Inertial in;
-    const tinyxml2::XMLElement* e = link->FirstChildElement("inertial");
+    const tinyxml2::XMLElement* e = only_child(link, "inertial");
     if (!e) return in;
-    const tinyxml2::XMLElement* m = e->FirstChildElement("mass");
-    const tinyxml2::XMLElement* i = e->FirstChildElement("inertia");
+    const tinyxml2::XMLElement* m = only_child(e, "mass");
+    const tinyxml2::XMLElement* i = only_child(e, "inertia");
     if (!m || !i) fail(e, "needs <mass> and <inertia>");
-    in.mass = numbers<1>(m, "value", {std::nan("")})[0];
-    if (!(in.mass >= 0)) fail(m, "attribute 'value': the mass must be given and not negative");
+    in.mass = numbers<1>(m, "value", std::nullopt)[0];
+    if (!(in.mass >= 0)) fail(m, "attribute 'value': the mass must not be negative");
     double t[6];
     const char* names[6] = {"ixx", "ixy", "ixz", "iyy", "iyz", "izz"};
-    for (int k = 0; k < 6; ++k) t[k] = numbers<1>(i, names[k], {0})[0];
+    for (int k = 0; k < 6; ++k) t[k] = numbers<1>(i, names[k], std::nullopt)[0];
     Eigen::Matrix3d I;
     I << t[0], t[1], t[2], t[1], t[3], t[4], t[2], t[4], t[5];
     const Frame f = origin(e);
@@ -154,24 +178,26 @@ class UrdfReader {
     for (auto* l = robot->FirstChildElement("link"); l; l = l->NextSiblingElement("link")) {
       const std::string name = attribute(l, "name");
       if (!links_.emplace(name, l).second) fail(l, "a second link of this name");
+      if (links_.size() > 1000) fail(l, "more than 1000 links");
     }
     if (links_.empty()) fail(robot, "has no <link>");
-    if (links_.size() > 1000) fail(robot, "has more than 1000 links");
     for (auto* e = robot->FirstChildElement("joint"); e; e = e->NextSiblingElement("joint")) {
       Joint j;
       j.element = e;
       j.name = attribute(e, "name");
       j.type = attribute(e, "type");
-      const auto* parent = e->FirstChildElement("parent");
-      const auto* child = e->FirstChildElement("child");
+      const auto* parent = only_child(e, "parent");
+      const auto* child = only_child(e, "child");
+      if (const auto* mimic = e->FirstChildElement("mimic"))
+        fail(mimic, "a mimic joint (coupled to another) is not read");
       if (!parent || !child) fail(e, "needs <parent link=...> and <child link=...>");
       j.parent = attribute(parent, "link");
       j.child = attribute(child, "link");
       for (const auto& [end, name] : {std::pair{parent, j.parent}, std::pair{child, j.child}})
         if (!links_.count(name)) fail(end, "no link named \"" + printable(name) + "\"");
       j.origin = origin(e, &j.xyz, &j.rpy);
-      if (const auto* axis = e->FirstChildElement("axis")) {
-        j.axis = numbers<3>(axis, "xyz", {1, 0, 0});
+      if (const auto* axis = only_child(e, "axis")) {
+        j.axis = numbers<3>(axis, "xyz", std::array<double, 3>{1, 0, 0});
         const double n =
             std::sqrt(j.axis[0] * j.axis[0] + j.axis[1] * j.axis[1] + j.axis[2] * j.axis[2]);
         if (!(n > 1e-12)) fail(axis, "attribute 'xyz': the axis must not be zero");
@@ -239,7 +265,7 @@ class UrdfReader {
     if (roots.size() != 1)
       fail(links_.begin()->second, std::to_string(roots.size()) +
                                        " links have no parent joint; a URDF has exactly one root");
-    out.root_link = roots[0];
+    out.root_link = printable(roots[0]);
     out.chain.free_base = free_base;
     // Body by body from the root: its welded links, and the one moving joint after it.
     std::string body = roots[0];
@@ -257,7 +283,7 @@ class UrdfReader {
         l.origin_rpy = joint_rpy;
         l.axis = carrier->axis;
         out.chain.links.push_back(l);
-        out.joint_names.push_back(carrier->name);
+        out.joint_names.push_back(printable(carrier->name));
       } else {
         out.chain.base = l;
       }
@@ -294,7 +320,7 @@ class UrdfReader {
     const std::string& name = wanted.empty() ? welded.front().first : wanted;
     for (const auto& [link, f] : welded)
       if (link == name) {
-        out.end_effector_link = name;
+        out.end_effector_link = printable(name);
         out.chain.tip = {f.p[0], f.p[1], f.p[2]};
         out.chain.tip_rpy = matrix_rpy(f.R);
         return;

@@ -15,7 +15,8 @@
 namespace spacearm {
 
 struct UrdfChain {
-  spatial::ChainDescription chain;       // gears absent; tip at the end effector link's origin
+  spatial::ChainDescription chain;  // gears absent; tip at the end effector link's origin
+  // For messages, as printable text (ASCII, at most 64 characters each).
   std::vector<std::string> joint_names;  // the moving joints, base to tip
   std::string root_link, end_effector_link;
 };

@@ -195,12 +195,21 @@ std::string read_all(int fd, const std::string& shown, size_t limit) {
 }
 
 std::string read_regular_file(const std::string& path, const std::string& what, size_t limit) {
-  const Fd fd(::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC));
-  if (!fd.valid())
+  // O_PATH first: a device is never opened (opening one may act: a watchdog starts, a tape
+  // rewinds), then the checked file itself through its descriptor.
+  const Fd where(::open(path.c_str(), O_PATH | O_CLOEXEC));
+  if (!where.valid())
     throw FolderError(what + ": cannot open '" + path + "' (" + std::strerror(errno) + ")");
   struct stat st;
-  if (::fstat(fd.get(), &st) != 0 || !S_ISREG(st.st_mode))
+  if (::fstat(where.get(), &st) != 0 || !S_ISREG(st.st_mode))
     throw FolderError(what + ": '" + path + "' is not a regular file");
+  const Fd fd(::open(("/proc/self/fd/" + std::to_string(where.get())).c_str(),
+                     O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC));
+  if (!fd.valid())
+    throw FolderError(what + ": cannot open '" + path + "' (" + std::strerror(errno) + ")");
+  struct stat opened;
+  if (::fstat(fd.get(), &opened) != 0 || opened.st_dev != st.st_dev || opened.st_ino != st.st_ino)
+    throw FolderError(what + ": '" + path + "' changed while it was opened");
   if (static_cast<std::uintmax_t>(st.st_size) > limit)
     throw FolderError(what + ": '" + path + "' is larger than " + std::to_string(limit >> 20) +
                       " MB");

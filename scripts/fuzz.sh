@@ -15,7 +15,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
 build_dir=${2:-build-fuzz}
-scripts/install-packages.sh clang libclang-rt-14-dev libyaml-cpp-dev libeigen3-dev libboost-dev cmake ninja-build
+scripts/install-packages.sh clang libclang-rt-14-dev libyaml-cpp-dev libeigen3-dev libboost-dev libtinyxml2-dev pkg-config cmake ninja-build
 CC=clang CXX=clang++ cmake -S fuzz -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 cmake --build "$build_dir"
 

@@ -157,9 +157,11 @@ TEST(UrdfReader, LumpedBodiesGiveTheWholeRobotsInertia) {
 
 std::string robot(const std::string& body) { return "<robot name=\"r\">\n" + body + "</robot>\n"; }
 const std::string kTwoLinks =
-    "<link name=\"a\"><inertial><mass value=\"2\"/><inertia ixx=\"1\" iyy=\"1\" izz=\"1\"/>"
+    "<link name=\"a\"><inertial><mass value=\"2\"/><inertia ixx=\"1\" ixy=\"0\" ixz=\"0\" "
+    "iyy=\"1\" iyz=\"0\" izz=\"1\"/>"
     "</inertial></link>\n"
-    "<link name=\"b\"><inertial><mass value=\"1\"/><inertia ixx=\"0.1\" iyy=\"0.1\" izz=\"0.1\"/>"
+    "<link name=\"b\"><inertial><mass value=\"1\"/><inertia ixx=\"0.1\" ixy=\"0\" ixz=\"0\" "
+    "iyy=\"0.1\" iyz=\"0\" izz=\"0.1\"/>"
     "</inertial></link>\n";
 std::string joint(const std::string& name, const std::string& type, const std::string& parent,
                   const std::string& child, const std::string& extra = "") {
@@ -173,7 +175,8 @@ TEST(UrdfReader, AbsentAxisIsXAndErrorsNameTheElement) {
   EXPECT_EQ(c.chain.links[0].axis, (std::array<double, 3>{1, 0, 0}));
   EXPECT_EQ(c.end_effector_link, "b");
   const std::string c_link =
-      "<link name=\"c\"><inertial><mass value=\"1\"/><inertia ixx=\"1\" iyy=\"1\" izz=\"1\"/>"
+      "<link name=\"c\"><inertial><mass value=\"1\"/><inertia ixx=\"1\" ixy=\"0\" ixz=\"0\" "
+      "iyy=\"1\" iyz=\"0\" izz=\"1\"/>"
       "</inertial></link>\n";
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"<robot", "URDF 'r.urdf' line 1: not XML"},
@@ -184,7 +187,8 @@ TEST(UrdfReader, AbsentAxisIsXAndErrorsNameTheElement) {
       {robot(kTwoLinks + joint("j", "revolute", "a", "b", "<axis xyz=\"0 0 0\"/>")),
        "<axis>: attribute 'xyz': the axis must not be zero"},
       {robot(kTwoLinks + joint("j", "revolute", "a", "b", "<origin xyz=\"1 nan 0\"/>")),
-       "<origin>: attribute 'xyz': expected 3 finite numbers"},
+       "<origin>: attribute 'xyz': expected 3 numbers, each 0 or of magnitude 1e-30 to 1e6 (not "
+       "finite)"},
       {robot(kTwoLinks + c_link + joint("j", "revolute", "a", "b") +
              joint("k", "revolute", "a", "c")),
        "<joint name=\"k\">: a second moving joint after body \"a\" (the first is \"j\")"},
@@ -192,6 +196,18 @@ TEST(UrdfReader, AbsentAxisIsXAndErrorsNameTheElement) {
        "link \"b\" already has a parent joint, \"j\""},
       {robot(kTwoLinks), "2 links have no parent joint"},
       {robot(kTwoLinks + joint("j", "fixed", "a", "b")), "no moving joint"},
+      {robot(kTwoLinks + joint("j", "revolute", "a", "b", "<origin xyz=\"1-2 3\"/>")),
+       "<origin>: attribute 'xyz': expected 3 numbers, each 0 or of magnitude 1e-30 to 1e6 (not "
+       "a number)"},
+      {robot(kTwoLinks + joint("j", "revolute", "a", "b", "<origin xyz=\"0x1p-3 0 0\"/>")),
+       "(not a number)"},
+      {robot(kTwoLinks + joint("j", "revolute", "a", "b", "<origin xyz=\"1e-300 0 0\"/>")),
+       "(out of range)"},
+      {robot(kTwoLinks + joint("j", "revolute", "a", "b", "<origin/><origin/>")),
+       "<origin>: a second one"},
+      {robot(kTwoLinks + joint("j", "revolute", "a", "b", "<mimic joint=\"k\"/>")),
+       "<mimic>: a mimic joint (coupled to another) is not read"},
+      {robot("<link name=\"a\" name=\"b\"/>"), "line 2: not XML"},
   };
   for (const auto& [xml, message] : cases) {
     SCOPED_TRACE(message);
@@ -200,6 +216,19 @@ TEST(UrdfReader, AbsentAxisIsXAndErrorsNameTheElement) {
   EXPECT_THROW_MESSAGE(
       read_urdf(robot(kTwoLinks + joint("j", "revolute", "a", "b")), "r.urdf", true, "a"),
       SceneError, "end effector link \"a\" is not welded to the last moving body");
+}
+
+// A welded end-effector frame near the gimbal lock (pitch pi/2 - 5e-7) composes back exactly:
+// the rotation the reader keeps (as roll-pitch-yaw) is the URDF's.
+TEST(UrdfReader, WeldedFramesNearTheGimbalLockAreExact) {
+  const std::string xml = robot(
+      kTwoLinks + joint("j", "revolute", "a", "b") + "<link name=\"tool\"/>\n" +
+      joint("w", "fixed", "b", "tool", "<origin xyz=\"0.1 0.2 0.3\" rpy=\"1 1.5707958 0.4\"/>"));
+  const UrdfChain c = read_urdf(xml, "r.urdf", true, "tool");
+  const spatial::Mat3<double> got = spatial::rpy_rotation(c.chain.tip_rpy);
+  const Eigen::Matrix3d want = rpy({1, 1.5707958, 0.4});
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) EXPECT_NEAR(got[3 * i + j], want(i, j), 1e-14) << i << j;
 }
 
 // The scene side: the URDF's path relative to the scene file; the fields URDF gives are refused
@@ -212,7 +241,7 @@ TEST(UrdfReader, SceneNamesTheUrdfAndChecksItsBodies) {
   auto reader = [](const std::string& xml) { return [xml](const std::string&) { return xml; }; };
   const std::string massless_root = robot(
       "<link name=\"a\"/>\n<link name=\"b\"><inertial><mass value=\"1\"/><inertia "
-      "ixx=\"1\" iyy=\"1\" izz=\"1\"/></inertial></link>\n" +
+      "ixx=\"1\" ixy=\"0\" ixz=\"0\" iyy=\"1\" iyz=\"0\" izz=\"1\"/></inertial></link>\n" +
       joint("j", "revolute", "a", "b"));
   EXPECT_THROW_MESSAGE(
       parse_spatial_scene(head + "urdf: r.urdf\n", "s.yaml", reader(massless_root)), SceneError,
@@ -222,7 +251,7 @@ TEST(UrdfReader, SceneNamesTheUrdfAndChecksItsBodies) {
       parse_spatial_scene(head + "urdf: r.urdf\nlinks: []\n", "s.yaml", reader(massless_root)),
       SceneError, "field 'links': comes from the URDF");
   EXPECT_THROW_MESSAGE(parse_spatial_scene(head + "urdf: missing.urdf\n", "/nonexistent/s.yaml"),
-                       SceneError, "field 'urdf': cannot open '/nonexistent/missing.urdf'");
+                       SceneError, "field 'urdf': URDF: cannot open '/nonexistent/missing.urdf'");
   EXPECT_THROW_MESSAGE(parse_spatial_scene(head + "urdf: /dev/zero\n", "s.yaml"), SceneError,
                        "'/dev/zero' is not a regular file");
 }
