@@ -1,0 +1,88 @@
+// A spatial chain (spatial_chain.hpp) as a MuJoCo model, the peer for agreement tests and
+// benchmarks: the base a free joint (MuJoCo's layout is the chain's), one hinge per joint at
+// its body's origin; gravity, contacts, constraints and passive forces off. A gear can only be
+// the armature approximation there: p^2 I_axial on the joint's diagonal (MuJoCo's coordinate is
+// the link angle q, the chain's the motor angle qm = p q).
+#pragma once
+
+#include <mujoco/mujoco.h>
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <unistd.h>
+
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "spatial_chain.hpp"
+
+namespace spacearm::test {
+
+inline std::string mjcf_of(const spatial::ChainDescription& c) {
+  std::ostringstream x;
+  x.precision(17);
+  // The principal axes by Eigen's exact symmetric solver: MuJoCo's own (fullinertia, an
+  // iterative eig3) leaves about 1e-10 relative in M.
+  auto inertial = [&x](const spatial::Link& l) {
+    const auto& i = l.inertia;  // ixx ixy ixz iyy iyz izz
+    Eigen::Matrix3d I;
+    I << i[0], i[1], i[2], i[1], i[3], i[4], i[2], i[4], i[5];
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(I);
+    Eigen::Matrix3d axes = eig.eigenvectors();
+    if (axes.determinant() < 0) axes.col(2) *= -1;
+    const Eigen::Quaterniond r(axes);
+    x << "<inertial pos=\"" << l.com[0] << " " << l.com[1] << " " << l.com[2] << "\" mass=\""
+      << l.mass << "\" quat=\"" << r.w() << " " << r.x() << " " << r.y() << " " << r.z()
+      << "\" diaginertia=\"" << eig.eigenvalues()[0] << " " << eig.eigenvalues()[1] << " "
+      << eig.eigenvalues()[2] << "\"/>\n";
+  };
+  x << "<mujoco model=\"spatial\">\n"
+    << "  <compiler angle=\"radian\" boundmass=\"0\" boundinertia=\"0\"/>\n"
+    << "  <option gravity=\"0 0 0\" timestep=\"0.001\">\n"
+    << "    <flag contact=\"disable\" constraint=\"disable\" passive=\"disable\" "
+       "gravity=\"disable\"/>\n"
+    << "  </option>\n  <worldbody>\n    <body name=\"base\">\n";
+  if (c.free_base) x << "      <freejoint/>\n";
+  x << "      ";
+  inertial(c.base);
+  for (size_t j = 0; j < c.links.size(); ++j) {
+    const spatial::Link& l = c.links[j];
+    const auto q = spatial::rpy_quaternion(l.origin_rpy);
+    const double armature =
+        l.gear.present && !l.gear.exact ? l.gear.axial * l.gear.ratio * l.gear.ratio : 0;
+    x << "<body name=\"link" << j + 1 << "\" pos=\"" << l.origin_xyz[0] << " " << l.origin_xyz[1]
+      << " " << l.origin_xyz[2] << "\" quat=\"" << q[0] << " " << q[1] << " " << q[2] << " " << q[3]
+      << "\">\n<joint type=\"hinge\" axis=\"" << l.axis[0] << " " << l.axis[1] << " " << l.axis[2]
+      << "\" armature=\"" << armature << "\"/>\n";
+    inertial(l);
+  }
+  for (size_t j = 0; j <= c.links.size(); ++j) x << "</body>\n";
+  x << "  </worldbody>\n</mujoco>\n";
+  return x.str();
+}
+
+struct MujocoModel {
+  std::unique_ptr<mjModel, void (*)(mjModel*)> m{nullptr, mj_deleteModel};
+  std::unique_ptr<mjData, void (*)(mjData*)> d{nullptr, mj_deleteData};
+
+  explicit MujocoModel(const std::string& mjcf) {
+    // mj_loadXML reads files only (2.2): a private temporary file.
+    char path[] = "/tmp/spacearm-mjcf-XXXXXX";
+    const int fd = mkstemp(path);
+    if (fd < 0) throw std::runtime_error("mujoco: cannot create a temporary file");
+    close(fd);
+    const std::string xml_path = std::string(path) + ".xml";
+    std::rename(path, xml_path.c_str());
+    std::ofstream(xml_path) << mjcf;
+    char error[1000] = "";
+    m.reset(mj_loadXML(xml_path.c_str(), nullptr, error, sizeof error));
+    std::remove(xml_path.c_str());
+    if (!m) throw std::runtime_error(std::string("mujoco: cannot load the model: ") + error);
+    d.reset(mj_makeData(m.get()));
+  }
+};
+
+}  // namespace spacearm::test
