@@ -586,7 +586,7 @@ void bind_study(py::module& module);  // study_binding.cpp
 
 PYBIND11_MODULE(_spacearm, module) {
   using namespace spacearm;
-  module.doc() = "spacearm: exact dynamics of planar free-floating space manipulators";
+  module.doc() = "spacearm: exact dynamics of free-floating space manipulators, planar and spatial";
   py::register_exception<DynamicsError>(module, "DynamicsError", PyExc_ArithmeticError);
   py::register_exception<CompileError>(module, "CompileError", PyExc_RuntimeError);
   bind_study(module);
