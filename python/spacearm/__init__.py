@@ -1,4 +1,4 @@
-"""spacearm: exact dynamics of planar free-floating space manipulators, from Python.
+"""spacearm: exact dynamics of free-floating space manipulators (planar and spatial), from Python.
 
     import spacearm
     model = spacearm.load("models/paper_geared.yaml", params={"p": 10})
