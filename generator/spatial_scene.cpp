@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "private_folder.hpp"
+#include "text_numbers.hpp"
 #include "urdf_reader.hpp"
 #include "yaml_reader.hpp"
 
@@ -138,9 +139,9 @@ class SpatialReader {
       if (!why.empty())
         r_.fail("urdf", "URDF '" + path + "', the body of " + body + ": " + why, root["urdf"]);
     };
-    if (u.chain.free_base) check(u.chain.base, "the root link \"" + u.root_link + "\"");
+    if (u.chain.free_base) check(u.chain.base, "the root link " + quoted_text(u.root_link));
     for (size_t i = 0; i < u.chain.links.size(); ++i)
-      check(u.chain.links[i], "joint \"" + u.joint_names[i] + "\"");
+      check(u.chain.links[i], "joint " + quoted_text(u.joint_names[i]));
     s.chain = u.chain;
     s.joint_names = u.joint_names;
     s.content += std::string("\0urdf ", 6) + path + '\0' + xml;

@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "scene.hpp"
+#include "text_numbers.hpp"
 
 namespace spacearm {
 
@@ -63,17 +64,10 @@ class UrdfReader {
     std::string where = "URDF '" + source_ + "'";
     if (e) {
       where += " line " + std::to_string(e->GetLineNum()) + ", <" + e->Name();
-      if (const char* n = e->Attribute("name")) where += " name=\"" + printable(n) + "\"";
+      if (const char* n = e->Attribute("name")) where += " name=" + quoted_text(n);
       where += ">";
     }
     throw SceneError(where + ": " + what);
-  }
-
-  // User text in a message: printable ASCII, at most 64 characters.
-  static std::string printable(const std::string& s) {
-    std::string out;
-    for (char c : s.substr(0, 64)) out += (c >= 32 && c < 127) ? c : '?';
-    return s.size() > 64 ? out + "..." : out;
   }
 
   std::string attribute(const tinyxml2::XMLElement* e, const char* name,
@@ -95,7 +89,7 @@ class UrdfReader {
     auto bad = [&](const std::string& why) {
       fail(e, std::string("attribute '") + name + "': expected " + std::to_string(K) +
                   (K == 1 ? " number" : " numbers") + ", each 0 or of magnitude 1e-30 to 1e6 (" +
-                  why + "), got \"" + printable(text) + "\"");
+                  why + "), got " + quoted_text(text));
     };
     std::array<double, K> out{};
     const std::string_view all(text);
@@ -160,7 +154,7 @@ class UrdfReader {
     tinyxml2::XMLDocument doc;
     if (doc.Parse(xml.data(), xml.size()) != tinyxml2::XML_SUCCESS)
       throw SceneError("URDF '" + source_ + "' line " + std::to_string(doc.ErrorLineNum()) +
-                       ": not XML (" + printable(doc.ErrorStr() ? doc.ErrorStr() : "") + ")");
+                       ": not XML (" + quoted_text(doc.ErrorStr() ? doc.ErrorStr() : "") + ")");
     const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
     if (!robot) fail(nullptr, "expected a <robot> element at the top");
     read_elements(robot);
@@ -194,7 +188,7 @@ class UrdfReader {
       j.parent = attribute(parent, "link");
       j.child = attribute(child, "link");
       for (const auto& [end, name] : {std::pair{parent, j.parent}, std::pair{child, j.child}})
-        if (!links_.count(name)) fail(end, "no link named \"" + printable(name) + "\"");
+        if (!links_.count(name)) fail(end, "no link named " + quoted_text(name));
       j.origin = origin(e, &j.xyz, &j.rpy);
       if (const auto* axis = only_child(e, "axis")) {
         j.axis = numbers<3>(axis, "xyz", std::array<double, 3>{1, 0, 0});
@@ -203,12 +197,12 @@ class UrdfReader {
         if (!(n > 1e-12)) fail(axis, "attribute 'xyz': the axis must not be zero");
       }
       if (j.type != "revolute" && j.type != "continuous" && j.type != "fixed")
-        fail(e, "joint type '" + printable(j.type) +
-                    "': only revolute, continuous and fixed joints are read (prismatic, "
+        fail(e, "joint type " + quoted_text(j.type) +
+                    ": only revolute, continuous and fixed joints are read (prismatic, "
                     "floating and planar joints are not)");
       if (parent_joint_.count(j.child))
-        fail(e, "link \"" + printable(j.child) + "\" already has a parent joint, \"" +
-                    printable(parent_joint_[j.child]) + "\": a URDF is a tree");
+        fail(e, "link " + quoted_text(j.child) + " already has a parent joint, " +
+                    quoted_text(parent_joint_[j.child]) + ": a URDF is a tree");
       if (!joints_.emplace(j.name, j).second) fail(e, "a second joint of this name");
       parent_joint_[j.child] = j.name;
       child_joints_.emplace(j.parent, j.name);
@@ -265,7 +259,7 @@ class UrdfReader {
     if (roots.size() != 1)
       fail(links_.begin()->second, std::to_string(roots.size()) +
                                        " links have no parent joint; a URDF has exactly one root");
-    out.root_link = printable(roots[0]);
+    out.root_link = roots[0];
     out.chain.free_base = free_base;
     // Body by body from the root: its welded links, and the one moving joint after it.
     std::string body = roots[0];
@@ -283,14 +277,14 @@ class UrdfReader {
         l.origin_rpy = joint_rpy;
         l.axis = carrier->axis;
         out.chain.links.push_back(l);
-        out.joint_names.push_back(printable(carrier->name));
+        out.joint_names.push_back(carrier->name);
       } else {
         out.chain.base = l;
       }
       if (moving.size() > 1)
-        fail(moving[1]->element, "a second moving joint after body \"" + printable(body) +
-                                     "\" (the first is \"" + printable(moving[0]->name) +
-                                     "\"): only serial chains are read");
+        fail(moving[1]->element, "a second moving joint after body " + quoted_text(body) +
+                                     " (the first is " + quoted_text(moving[0]->name) +
+                                     "): only serial chains are read");
       if (moving.empty()) {
         end_effector(welded, end_effector_link, out);
         break;
@@ -310,7 +304,7 @@ class UrdfReader {
     }
     if (out.chain.links.empty()) fail(links_.at(roots[0]), "no moving joint");
     if (seen.size() != links_.size())
-      fail(nullptr, "links not connected to the root \"" + printable(roots[0]) + "\"");
+      fail(nullptr, "links not connected to the root " + quoted_text(roots[0]));
     return out;
   }
 
@@ -320,16 +314,16 @@ class UrdfReader {
     const std::string& name = wanted.empty() ? welded.front().first : wanted;
     for (const auto& [link, f] : welded)
       if (link == name) {
-        out.end_effector_link = printable(name);
+        out.end_effector_link = name;
         out.chain.tip = {f.p[0], f.p[1], f.p[2]};
         out.chain.tip_rpy = matrix_rpy(f.R);
         return;
       }
     if (links_.count(name))
-      throw SceneError("URDF '" + source_ + "': end effector link \"" + printable(name) +
-                       "\" is not welded to the last moving body (joints after it move)");
-    throw SceneError("URDF '" + source_ + "': no link named \"" + printable(name) +
-                     "\" for the end effector");
+      throw SceneError("URDF '" + source_ + "': end effector link " + quoted_text(name) +
+                       " is not welded to the last moving body (joints after it move)");
+    throw SceneError("URDF '" + source_ + "': no link named " + quoted_text(name) +
+                     " for the end effector");
   }
 };
 

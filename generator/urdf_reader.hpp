@@ -15,8 +15,7 @@
 namespace spacearm {
 
 struct UrdfChain {
-  spatial::ChainDescription chain;  // gears absent; tip at the end effector link's origin
-  // For messages, as printable text (ASCII, at most 64 characters each).
+  spatial::ChainDescription chain;       // gears absent; tip at the end effector link's origin
   std::vector<std::string> joint_names;  // the moving joints, base to tip
   std::string root_link, end_effector_link;
 };

@@ -181,9 +181,9 @@ TEST(UrdfReader, AbsentAxisIsXAndErrorsNameTheElement) {
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"<robot", "URDF 'r.urdf' line 1: not XML"},
       {robot(kTwoLinks + joint("slide", "prismatic", "a", "b")),
-       "<joint name=\"slide\">: joint type 'prismatic': only revolute, continuous and fixed"},
+       "<joint name='slide'>: joint type 'prismatic': only revolute, continuous and fixed"},
       {robot(kTwoLinks + joint("j", "revolute", "a", "nowhere")),
-       "<child>: no link named \"nowhere\""},
+       "<child>: no link named 'nowhere'"},
       {robot(kTwoLinks + joint("j", "revolute", "a", "b", "<axis xyz=\"0 0 0\"/>")),
        "<axis>: attribute 'xyz': the axis must not be zero"},
       {robot(kTwoLinks + joint("j", "revolute", "a", "b", "<origin xyz=\"1 nan 0\"/>")),
@@ -191,9 +191,9 @@ TEST(UrdfReader, AbsentAxisIsXAndErrorsNameTheElement) {
        "finite)"},
       {robot(kTwoLinks + c_link + joint("j", "revolute", "a", "b") +
              joint("k", "revolute", "a", "c")),
-       "<joint name=\"k\">: a second moving joint after body \"a\" (the first is \"j\")"},
+       "<joint name='k'>: a second moving joint after body 'a' (the first is 'j')"},
       {robot(kTwoLinks + joint("j", "revolute", "a", "b") + joint("k", "revolute", "a", "b")),
-       "link \"b\" already has a parent joint, \"j\""},
+       "link 'b' already has a parent joint, 'j'"},
       {robot(kTwoLinks), "2 links have no parent joint"},
       {robot(kTwoLinks + joint("j", "fixed", "a", "b")), "no moving joint"},
       {robot(kTwoLinks + joint("j", "revolute", "a", "b", "<origin xyz=\"1-2 3\"/>")),
@@ -215,7 +215,7 @@ TEST(UrdfReader, AbsentAxisIsXAndErrorsNameTheElement) {
   }
   EXPECT_THROW_MESSAGE(
       read_urdf(robot(kTwoLinks + joint("j", "revolute", "a", "b")), "r.urdf", true, "a"),
-      SceneError, "end effector link \"a\" is not welded to the last moving body");
+      SceneError, "end effector link 'a' is not welded to the last moving body");
 }
 
 // A welded end-effector frame near the gimbal lock (pitch pi/2 - 5e-7) composes back exactly:
@@ -245,7 +245,7 @@ TEST(UrdfReader, SceneNamesTheUrdfAndChecksItsBodies) {
       joint("j", "revolute", "a", "b"));
   EXPECT_THROW_MESSAGE(
       parse_spatial_scene(head + "urdf: r.urdf\n", "s.yaml", reader(massless_root)), SceneError,
-      "field 'urdf': URDF 'r.urdf', the body of the root link \"a\": its mass, "
+      "field 'urdf': URDF 'r.urdf', the body of the root link 'a': its mass, "
       "0.000000, must be positive");
   EXPECT_THROW_MESSAGE(
       parse_spatial_scene(head + "urdf: r.urdf\nlinks: []\n", "s.yaml", reader(massless_root)),
