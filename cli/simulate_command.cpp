@@ -227,9 +227,9 @@ int run_simulate(const SimulateArgs& args) {
     throw std::invalid_argument(
         "--consistent-start: the scene has no flexible joint (gears[i].stiffness)");
   // Default: at rest, the base's quaternion the identity.
-  Eigen::VectorXd q0 = Eigen::VectorXd::Zero(nq);
-  if (facts.quaternion_offset >= 0) q0[facts.quaternion_offset] = 1;
-  if (!a.q0_text.empty()) q0 = cli::parse_vector(a.q0_text, "--q0", nq);
+  Eigen::VectorXd q0 = a.q0_text.empty()
+                           ? ConfigurationSpace{nq, nv, facts.quaternion_offset}.neutral()
+                           : cli::parse_vector(a.q0_text, "--q0", nq);
   Eigen::VectorXd qd0 =
       a.qd0_text.empty() ? Eigen::VectorXd::Zero(nv) : cli::parse_vector(a.qd0_text, "--qd0", nv);
   const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, facts);

@@ -57,17 +57,20 @@ inline std::string broken_rule(const Scene& s) {
   return broken_comment_rule(comment_lines(s.description + "\n" + s.source_path));
 }
 
+// Every number of a list is finite.
+template <class List>
+bool all_finite(const List& a) {
+  for (double x : a)
+    if (!std::isfinite(x)) return false;
+  return true;
+}
+
 // The same for a spatial arm (spatial_scene.hpp).
 inline std::string broken_spatial_rule(const SpatialScene& s) {
-  auto finite = [](const auto& a) {
-    for (double x : a)
-      if (!std::isfinite(x)) return false;
-    return true;
-  };
   const auto& c = s.chain;
   if (c.links.empty() || c.links.size() > 30) return "number of links out of range";
   auto body = [&](const spatial::Link& l) {
-    if (!(l.mass > 0) || !std::isfinite(l.mass) || !finite(l.com) || !finite(l.inertia))
+    if (!(l.mass > 0) || !std::isfinite(l.mass) || !all_finite(l.com) || !all_finite(l.inertia))
       return false;
     const auto& i = l.inertia;
     return i[0] > 0 && i[3] > 0 && i[5] > 0;  // a positive definite tensor's diagonal
@@ -75,13 +78,14 @@ inline std::string broken_spatial_rule(const SpatialScene& s) {
   if (c.free_base && !body(c.base)) return "base mass/com/inertia";
   for (const auto& l : c.links) {
     if (!body(l)) return "link mass/com/inertia";
-    if (!finite(l.origin_xyz) || !finite(l.origin_rpy) || !finite(l.axis)) return "link frame";
+    if (!all_finite(l.origin_xyz) || !all_finite(l.origin_rpy) || !all_finite(l.axis))
+      return "link frame";
     if (!(l.axis[0] * l.axis[0] + l.axis[1] * l.axis[1] + l.axis[2] * l.axis[2] > 0))
       return "zero axis";
     if (l.gear.present && !(l.gear.ratio > 0 && l.gear.axial >= 0 && l.gear.transverse >= 0))
       return "gear";
   }
-  if (!finite(c.tip)) return "end effector";
+  if (!all_finite(c.tip)) return "end effector";
   if (is_cpp_reserved(s.name)) return "reserved scene name";
   return "";
 }
@@ -110,8 +114,6 @@ inline Verdict check_spatial_text(const std::string& text, const UrdfFileReader&
   }
 }
 
-// Throws std::logic_error for a broken rule or an unnamed rejection; lets any other
-// exception escape (the fuzzer reports it as a crash).
 // The URDF reader on the same text (urdf_reader.hpp): a chain that keeps the spatial rules, or
 // an error naming the file.
 inline Verdict check_urdf_text(const std::string& text) {
@@ -119,19 +121,14 @@ inline Verdict check_urdf_text(const std::string& text) {
     const spatial::ChainDescription c = read_urdf(text, "fuzz-input.urdf", true, "").chain;
     // The reader's promises (the scene then checks masses and inertias): 1 to 30 joints,
     // finite numbers, nonzero axes.
-    auto finite = [](const auto& a) {
-      for (double x : a)
-        if (!std::isfinite(x)) return false;
-      return true;
-    };
     if (c.links.empty() || c.links.size() > 30)
       throw std::logic_error("URDF: number of joints out of range");
     for (const auto& l : c.links)
-      if (!finite(l.origin_xyz) || !finite(l.origin_rpy) || !finite(l.com) || !finite(l.inertia) ||
-          !std::isfinite(l.mass) ||
+      if (!all_finite(l.origin_xyz) || !all_finite(l.origin_rpy) || !all_finite(l.com) ||
+          !all_finite(l.inertia) || !std::isfinite(l.mass) ||
           !(l.axis[0] * l.axis[0] + l.axis[1] * l.axis[1] + l.axis[2] * l.axis[2] > 0))
         throw std::logic_error("URDF: a link's numbers");
-    if (!finite(c.tip) || !finite(c.tip_rpy)) throw std::logic_error("URDF: end effector");
+    if (!all_finite(c.tip) || !all_finite(c.tip_rpy)) throw std::logic_error("URDF: end effector");
     return Verdict::accepted;
   } catch (const SceneError& e) {
     if (std::string(e.what()).rfind("URDF 'fuzz-input.urdf'", 0) != 0)
@@ -148,6 +145,8 @@ inline std::string no_files(const std::string& path) {
 
 // Accepted: one of the readers (planar, spatial, URDF) accepts the text. read_file gives a
 // spatial scene's URDF (by default none).
+// Throws std::logic_error for a broken rule or an unnamed rejection; lets any other
+// exception escape (the fuzzer reports it as a crash).
 inline Verdict check_scene_text(const std::string& text,
                                 const UrdfFileReader& read_file = no_files) {
   const std::string source = "fuzz-input.yaml";

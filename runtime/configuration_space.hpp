@@ -53,6 +53,13 @@ struct ConfigurationSpace {
     by_q.block<4, 4>(k, k) = 0.5 * Omega;
   }
 
+  // The configuration at rest: zeros, and the identity rotation (w = 1) for a quaternion.
+  Eigen::VectorXd neutral() const {
+    Eigen::VectorXd q = Eigen::VectorXd::Zero(nq);
+    if (quaternion_offset >= 0) q[quaternion_offset] = 1;
+    return q;
+  }
+
   // The configuration on the manifold: the quaternion scaled to unit norm (nothing else moves).
   void project(Eigen::Ref<Eigen::VectorXd> q) const {
     if (quaternion_offset < 0) return;

@@ -95,11 +95,7 @@ struct DynamicModel : DynamicModelFacts {
   }
   int num_base() const { return base_velocities; }
   // The configuration at rest: zeros, and the identity rotation (w = 1) for a quaternion.
-  Vector neutral_configuration() const {
-    Vector q = Vector::Zero(nq);
-    if (quaternion_offset >= 0) q[quaternion_offset] = 1;
-    return q;
-  }
+  Vector neutral_configuration() const { return configuration_space().neutral(); }
   // A name per velocity: a coordinate's name with "d" where v is its rate; with a quaternion,
   // the base's world velocity vx0, vy0, vz0 and its angular velocity in its own frame wx0..wz0.
   std::vector<std::string> velocity_names() const {
