@@ -277,7 +277,7 @@ void register_mujoco(const std::string& scene_file, const std::string& name) {
   // Each benchmark loads the k-th state into MuJoCo's data, then runs body(mj).
   auto run = [scene, states](auto&& body) {
     return [scene, states, body](benchmark::State& st) {
-      MujocoModel mj(scene);
+      MujocoModel mj(mjcf_of(scene));
       const States<G> s = states();
       int k = 0;
       for (auto _ : st) {
@@ -289,12 +289,7 @@ void register_mujoco(const std::string& scene_file, const std::string& name) {
   };
   benchmark::RegisterBenchmark(("mujoco/M+bias/" + name).c_str(), run([](MujocoModel& mj) {
                                  std::array<mjtNum, M::kNq * M::kNq> full;
-                                 mj_kinematics(mj.m.get(), mj.d.get());
-                                 mj_comPos(mj.m.get(), mj.d.get());
-                                 mj_crb(mj.m.get(), mj.d.get());
-                                 mj_comVel(mj.m.get(), mj.d.get());
-                                 mj_rne(mj.m.get(), mj.d.get(), 0, mj.d->qfrc_bias);
-                                 mj_fullM(mj.m.get(), full.data(), mj.d->qM);
+                                 mj.mass_matrix_and_bias(full.data());
                                  benchmark::DoNotOptimize(full.data());
                                  benchmark::DoNotOptimize(mj.d->qfrc_bias);
                                }));
@@ -316,7 +311,7 @@ bool agrees_with_mujoco(const std::string& scene_file, const std::string& name) 
   using M = Model<G>;
   const M model = make_model<G>();
   const States<G> s(model);
-  MujocoModel mj(load_scene(scene_file));
+  MujocoModel mj(mjcf_of(load_scene(scene_file)));
   typename M::Vector g = M::Vector::Ones();
   for (int j = 0; j < M::kNumLinks; ++j) g[M::kNumBase + j] = 1 / model.gear_ratios()[j];
   double worst_M = 0, worst_b = 0;

@@ -3,15 +3,10 @@
 // Gears can only be the armature approximation there (I_m p^2 on the joint's diagonal).
 #pragma once
 
-#include <mujoco/mujoco.h>
+#include "mujoco_model.hpp"
 
-#include <cstdio>
-#include <fstream>
-#include <memory>
 #include <sstream>
-#include <stdexcept>
 #include <string>
-#include <unistd.h>
 
 #include "scene.hpp"
 
@@ -70,25 +65,6 @@ inline std::string mjcf_of(const Scene& s) {
   return x.str();
 }
 
-struct MujocoModel {
-  std::unique_ptr<mjModel, void (*)(mjModel*)> m{nullptr, mj_deleteModel};
-  std::unique_ptr<mjData, void (*)(mjData*)> d{nullptr, mj_deleteData};
-
-  explicit MujocoModel(const Scene& s) {
-    // mj_loadXML reads files only (2.2): write the MJCF to a private temporary file.
-    char path[] = "/tmp/spacearm-mjcf-XXXXXX";
-    const int fd = mkstemp(path);
-    if (fd < 0) throw std::runtime_error("mujoco: cannot create a temporary file");
-    close(fd);
-    const std::string xml_path = std::string(path) + ".xml";
-    std::rename(path, xml_path.c_str());
-    std::ofstream(xml_path) << mjcf_of(s);
-    char error[1000] = "";
-    m.reset(mj_loadXML(xml_path.c_str(), nullptr, error, sizeof error));
-    std::remove(xml_path.c_str());
-    if (!m) throw std::runtime_error(std::string("mujoco: cannot load the model: ") + error);
-    d.reset(mj_makeData(m.get()));
-  }
-};
+using test::MujocoModel;  // loaded from mjcf_of(scene)
 
 }  // namespace spacearm::bench

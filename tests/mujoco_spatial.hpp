@@ -1,22 +1,17 @@
-// A spatial chain (spatial_chain.hpp) as a MuJoCo model, the peer for agreement tests and
-// benchmarks: the base a free joint (MuJoCo's layout is the chain's), one hinge per joint at
-// its body's origin; gravity, contacts, constraints and passive forces off. A gear can only be
-// the armature approximation there: p^2 I_axial on the joint's diagonal (MuJoCo's coordinate is
-// the link angle q, the chain's the motor angle qm = p q).
+// A spatial chain (spatial_chain.hpp) as MuJoCo's MJCF (load it with mujoco_model.hpp), the peer
+// for agreement tests and benchmarks: the base a free joint (MuJoCo's layout is the chain's), one
+// hinge per joint at its body's origin; gravity, contacts, constraints and passive forces off. A
+// gear can only be the armature approximation there: p^2 I_axial on the joint's diagonal (MuJoCo's
+// coordinate is the link angle q, the chain's the motor angle qm = p q).
 #pragma once
 
-#include <mujoco/mujoco.h>
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
-#include <unistd.h>
 
-#include <cstdio>
-#include <fstream>
-#include <memory>
 #include <sstream>
-#include <stdexcept>
 #include <string>
 
+#include "mujoco_model.hpp"
 #include "spatial_chain.hpp"
 
 namespace spacearm::test {
@@ -63,26 +58,5 @@ inline std::string mjcf_of(const spatial::ChainDescription& c) {
   x << "  </worldbody>\n</mujoco>\n";
   return x.str();
 }
-
-struct MujocoModel {
-  std::unique_ptr<mjModel, void (*)(mjModel*)> m{nullptr, mj_deleteModel};
-  std::unique_ptr<mjData, void (*)(mjData*)> d{nullptr, mj_deleteData};
-
-  explicit MujocoModel(const std::string& mjcf) {
-    // mj_loadXML reads files only (2.2): a private temporary file.
-    char path[] = "/tmp/spacearm-mjcf-XXXXXX";
-    const int fd = mkstemp(path);
-    if (fd < 0) throw std::runtime_error("mujoco: cannot create a temporary file");
-    close(fd);
-    const std::string xml_path = std::string(path) + ".xml";
-    std::rename(path, xml_path.c_str());
-    std::ofstream(xml_path) << mjcf;
-    char error[1000] = "";
-    m.reset(mj_loadXML(xml_path.c_str(), nullptr, error, sizeof error));
-    std::remove(xml_path.c_str());
-    if (!m) throw std::runtime_error(std::string("mujoco: cannot load the model: ") + error);
-    d.reset(mj_makeData(m.get()));
-  }
-};
 
 }  // namespace spacearm::test
