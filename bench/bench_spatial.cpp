@@ -3,7 +3,7 @@
 // compile-and-load cache at -O2 and called through its C interface without checks, against
 // MuJoCo 2.2's mj_forward and its M + bias stages on the same MJCF (tests/mujoco_spatial.hpp).
 // MuJoCo has armature gears only; the exact rotors run on the same states for their cost.
-// Forward dynamics is an LDL^T of M today (no spatial ABA yet). Before anything is timed, the
+// Forward dynamics is the articulated-body algorithm. Before anything is timed, the
 // armature model's forward dynamics must equal MuJoCo's to 1e-12.
 //   scripts/bench.sh --spatial
 #include <benchmark/benchmark.h>

@@ -72,8 +72,8 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
     const double p = l.gear.present ? l.gear.ratio : 1.0;
     const T angle = q(jq + i - 1) * (1 / p);
     const Mat3<double> R_origin = rpy_rotation(l.origin_rpy);
-    const Mat3<T> R =
-        product(num(R_origin), axis_rotation(num(a), cos(angle), sin(angle), num(1.0)));
+    const Mat3<T> R = product(num(R_origin), axis_rotation(a, cos(angle), sin(angle),
+                                                           [this](double x) { return num(x); }));
     X_[i] = {transposed(R), num(l.origin_xyz)};
     R_.push_back(product(R_[i - 1], R));
     p_.push_back(p_[i - 1] + times(R_[i - 1], X_[i].r));
@@ -127,15 +127,14 @@ Motion<T> Chain<T>::base_unit(int k) const {
   return {num(e), zero3()};                                      // body angular
 }
 
-// The composite-rigid-body algorithm (Featherstone, Algorithm 6.2): each body's composite
-// inertia with everything it carries (an exact rotor with the body it sits on), then each
-// joint's column as the force of its composite per unit rate, carried towards the base.
+// The composite-rigid-body algorithm (Featherstone, Algorithm 6.2): each joint's column as the
+// force of its composite per unit rate, carried towards the base.
 template <class T>
 std::vector<T> Chain<T>::mass_matrix() const {
   const int nv = d_.nv(), nb = d_.num_base();
   std::vector<T> M(nv * nv, T{});
   auto set = [&](int a, int b, const T& x) { M[a * nv + b] = M[b * nv + a] = x; };
-  std::vector<RigidInertia<T>> Ic = I_;
+  const std::vector<RigidInertia<T>> Ic = composite_inertias();
   for (int i = n_; i >= 1; --i) {
     const int col = nb + i - 1;
     // Column i: link i's composite at S_i, and an exact rotor at its axis (on the parent).
@@ -154,9 +153,6 @@ std::vector<T> Chain<T>::mass_matrix() const {
       up = X_[j].apply_transpose(up);
     }
     for (int k = 0; k < nb; ++k) set(k, col, power(up, base_unit(k)));
-    // The parent's composite takes link i's (and the rotor's).
-    Ic[i - 1] = Ic[i - 1] + in_parent(X_[i], Ic[i]);
-    if (exact_rotor(i)) Ic[i - 1] = Ic[i - 1] + in_parent(rotor_X_[i], rotor_I_[i]);
   }
   for (int k = 0; k < nb; ++k) {
     const Force<T> F = Ic[0] * base_unit(k);
@@ -230,36 +226,156 @@ std::vector<T> Chain<T>::inverse_dynamics(const std::vector<T>& vdot) const {
   return Q;
 }
 
+// The bodies' composite inertias (each with everything it carries; an exact rotor with the body
+// it sits on), about their origins in their frames.
 template <class T>
-std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) const {
-  const int n = nv();
-  if (static_cast<int>(Q.size()) != n)
-    throw std::invalid_argument("spatial chain: Q needs " + std::to_string(n) + " values");
-  const std::vector<T> M = mass_matrix(), b = inverse_dynamics(std::vector<T>(n, T{}));
-  // M = L D L^T, L unit lower triangular (row-major, below the diagonal).
-  std::vector<T> L(n * n, T{}), D(n), scaled(n);
-  for (int j = 0; j < n; ++j) {
-    T d = M[j * n + j];
-    for (int k = 0; k < j; ++k) d -= L[j * n + k] * L[j * n + k] * D[k];
-    D[j] = d;
-    scaled[j] = d / M[j * n + j];
-    for (int i = j + 1; i < n; ++i) {
-      T x = M[i * n + j];
-      for (int k = 0; k < j; ++k) x -= L[i * n + k] * L[j * n + k] * D[k];
-      L[i * n + j] = x / d;
+std::vector<RigidInertia<T>> Chain<T>::composite_inertias() const {
+  std::vector<RigidInertia<T>> Ic = I_;
+  for (int i = n_; i >= 1; --i) {
+    if (i == 1 && !d_.free_base) break;  // a fixed base carries no coordinate
+    Ic[i - 1] = Ic[i - 1] + in_parent(X_[i], Ic[i]);
+    if (exact_rotor(i)) Ic[i - 1] = Ic[i - 1] + in_parent(rotor_X_[i], rotor_I_[i]);
+  }
+  return Ic;
+}
+
+// M_ii alone, from the composite inertias: the base's total mass (its linear rows) and
+// rotational inertia about its origin; each joint's S^T Ic S with its rotor's axial inertia.
+template <class T>
+std::vector<T> Chain<T>::mass_matrix_diagonal() const {
+  const std::vector<RigidInertia<T>> Ic = composite_inertias();
+  const int nb = d_.num_base();
+  std::vector<T> diagonal(d_.nv());
+  for (int k = 0; k < nb; ++k) diagonal[k] = k < 3 ? Ic[0].m : Ic[0].I[4 * (k - 3)];
+  for (int i = 1; i <= n_; ++i) {
+    const double rotor = exact_rotor(i) ? d_.links[i - 1].gear.axial : armature(i);
+    diagonal[nb + i - 1] = power(Ic[i] * S_[i], S_[i]) + num(rotor);
+  }
+  return diagonal;
+}
+
+namespace {
+
+// I^A a = rhs for the free base's 6 x 6 articulated inertia, by LDL^T in the order (linear,
+// angular) of its own frame; its pivots are those of M with the base's linear rows turned into
+// that frame (an orthogonal change of basis: their signs, and M_ii, are unchanged).
+template <class T>
+Motion<T> solve_base(const ArticulatedInertia<T>& I, const Force<T>& rhs, const T& one, T* pivots) {
+  T K[6][6];  // the lower triangle, (linear, angular)
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) {
+      K[r][k] = I.C[3 * r + k];
+      K[3 + r][k] = I.B[3 * r + k];
+      K[3 + r][3 + k] = I.A[3 * r + k];
+    }
+  T L[6][6], inverse[6], x[6];  // one division per pivot
+  const T b[6] = {rhs.f[0], rhs.f[1], rhs.f[2], rhs.n[0], rhs.n[1], rhs.n[2]};
+  for (int j = 0; j < 6; ++j) {
+    T d = K[j][j];
+    for (int k = 0; k < j; ++k) d -= L[j][k] * L[j][k] * pivots[k];
+    pivots[j] = d;
+    inverse[j] = one / d;
+    for (int i = j + 1; i < 6; ++i) {
+      T e = K[i][j];
+      for (int k = 0; k < j; ++k) e -= L[i][k] * L[j][k] * pivots[k];
+      L[i][j] = e * inverse[j];
     }
   }
-  // L z = Q - b, then D w = z, then L^T qdd = w.
-  std::vector<T> x(n);
-  for (int i = 0; i < n; ++i) {
-    T z = Q[i] - b[i];
-    for (int k = 0; k < i; ++k) z -= L[i * n + k] * x[k];
-    x[i] = z;
+  for (int i = 0; i < 6; ++i) {
+    x[i] = b[i];
+    for (int k = 0; k < i; ++k) x[i] -= L[i][k] * x[k];
   }
-  for (int i = 0; i < n; ++i) x[i] = x[i] / D[i];
-  for (int i = n - 1; i >= 0; --i)
-    for (int k = i + 1; k < n; ++k) x[i] -= L[k * n + i] * x[k];
-  return {x, D, scaled};
+  for (int i = 5; i >= 0; --i) {
+    x[i] = x[i] * inverse[i];
+    for (int k = i + 1; k < 6; ++k) x[i] -= L[k][i] * x[k];
+  }
+  return {{x[3], x[4], x[5]}, {x[0], x[1], x[2]}};
+}
+
+}  // namespace
+
+// An exact rotor's share of joint i's articulated step, in link i's frame: the rotor is symmetric
+// about the joint axis a through the joint's origin, so its inertia there is the same as in its
+// own frame, and it turns with the link's parent at omega' (link i's frame) plus a qd_m. With the
+// link it is one cluster on the coordinate (Featherstone ch. 7 for a joint moving two bodies):
+// U gains I_r a, D gains a . I_r a, the inertia passed on gains I_r, the bias gains the rotor's
+// omega_r x I_r omega_r + I_r (omega' x a) qd_m. Its bias along a, a . (omega_r x I_r omega_r), and
+// U_r . c_r = a . I_r (omega' x a) qd_m vanish for a rotor symmetric about a.
+template <class T>
+void Chain<T>::add_rotor(int i, ArticulatedInertia<T>& Ia, Force<T>& U, T& D, Force<T>& pa) const {
+  const Mat3<T>& Ir = rotor_I_[i].I;
+  const Vec3<T>& a = axis_[i];
+  const Gear& g = d_.links[i - 1].gear;
+  const Vec3<T> w_parent = V_[i].w - scaled(S_[i].w, qd_[i]),
+                w_rotor = w_parent + scaled(a, qd_[i]);
+  U.n = U.n + scaled(a, num(g.ratio * g.axial));  // I_r a = axial a, per unit link rate p a
+  D += num(g.ratio * g.ratio * g.axial);
+  pa.n = pa.n + cross(w_rotor, times(Ir, w_rotor)) + scaled(times(Ir, cross(w_parent, a)), qd_[i]);
+  for (int k = 0; k < 9; ++k) Ia.A[k] += Ir[k];
+}
+
+// The articulated-body algorithm (Featherstone, Algorithm 7.1) with the free base's 6 x 6 solve
+// (his Table 9.6): from the tip, each joint's U = I^A S, D = S^T U and u, the reduced inertia
+// and bias passed to the parent; the base's acceleration from I^A_0 a_0 = f_0 - p^A_0; then each
+// joint's qdd outward. Its pivots: each joint's D (tip first), then the base's six.
+template <class T>
+std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) const {
+  const int nv = d_.nv(), nb = d_.num_base();
+  if (static_cast<int>(Q.size()) != nv)
+    throw std::invalid_argument("spatial chain: Q needs " + std::to_string(nv) + " values");
+  const std::vector<T> passive = passive_forces();
+  std::vector<ArticulatedInertia<T>> IA;
+  std::vector<Force<T>> pA, U(n_ + 1);
+  std::vector<Motion<T>> c(n_ + 1);
+  std::vector<T> D(n_ + 1), inverse_D(n_ + 1), u(n_ + 1), qdd(nv), pivots(nv);
+  for (int b = 0; b <= n_; ++b) {
+    IA.emplace_back(I_[b]);
+    pA.push_back(cross_force(V_[b], I_[b] * V_[b]));
+  }
+  // Backward, per unit link rate (S = (a, 0): U a column of I^A, no 1 / p), so D, U and u are
+  // p^2, p and p times the motor coordinate's: u = p Q - S^T p^A - U^T c (c the velocity
+  // product, as a' = X a_parent + c).
+  for (int i = n_; i >= 1; --i) {
+    const int col = nb + i - 1;
+    const double p = ratio(i);
+    const Motion<T> S = {axis_[i], zero3()};
+    c[i] = scaled(cross_motion(V_[i], S_[i]), qd_[i]);
+    U[i] = IA[i] * S;
+    D[i] = power(U[i], S) + num(p * p * armature(i));
+    u[i] = (Q[col] - passive[col]) * p - power(pA[i], S) - power(U[i], c[i]);
+    Force<T> pa = pA[i] + IA[i] * c[i];
+    ArticulatedInertia<T> Ia = IA[i];
+    if (exact_rotor(i)) add_rotor(i, Ia, U[i], D[i], pa);
+    pivots[col] = D[i] * (1 / (p * p));
+    inverse_D[i] = num(1.0) / D[i];
+    if (i == 1 && !d_.free_base) break;
+    const Force<T> W = scaled(U[i], inverse_D[i]);
+    IA[i - 1] = IA[i - 1] + in_parent(X_[i], Ia.minus_outer(U[i], W));
+    pA[i - 1] = pA[i - 1] + X_[i].apply_transpose(pa + scaled(W, u[i]));
+  }
+  // The base: f_0 in its frame is (n, R^T f_world); a_0 = (omega_dot, R^T vdot - omega x v).
+  Motion<T> a = zero_motion();
+  if (d_.free_base) {
+    const Force<T> f0 = {
+        Vec3<T>{Q[3] - passive[3], Q[4] - passive[4], Q[5] - passive[5]},
+        transposed_times(R_[0], Vec3<T>{Q[0] - passive[0], Q[1] - passive[1], Q[2] - passive[2]})};
+    a = solve_base(IA[0], {f0.n - pA[0].n, f0.f - pA[0].f}, num(1.0), pivots.data());
+    const Vec3<T> linear = times(R_[0], a.v + cross(V_[0].w, V_[0].v));
+    for (int k = 0; k < 3; ++k) qdd[k] = linear[k], qdd[3 + k] = a.w[k];
+  }
+  // Forward: the link's acceleration (u - U^T X a_parent) / D, a = X a_parent + c + S qdd, and
+  // the motor's p times it.
+  for (int i = 1; i <= n_; ++i) {
+    const Motion<T> ap = X_[i].apply(a);
+    const T link = (u[i] - power(U[i], ap)) * inverse_D[i];
+    qdd[nb + i - 1] = link * ratio(i);
+    a = ap + c[i];
+    a.w = a.w + scaled(axis_[i], link);
+  }
+  const std::vector<T> diagonal = mass_matrix_diagonal();
+  std::vector<T> scaled_pivots(nv);
+  for (int k = 0; k < nv; ++k) scaled_pivots[k] = pivots[k] / diagonal[k];
+  return {qdd, pivots, scaled_pivots};
 }
 
 template <class T>

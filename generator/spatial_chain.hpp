@@ -127,6 +127,18 @@ Force<T> operator+(const Force<T>& a, const Force<T>& b) {
   return {a.n + b.n, a.f + b.f};
 }
 template <class T>
+Motion<T> operator+(const Motion<T>& a, const Motion<T>& b) {
+  return {a.w + b.w, a.v + b.v};
+}
+template <class T>
+Motion<T> scaled(const Motion<T>& m, const T& k) {
+  return {scaled(m.w, k), scaled(m.v, k)};
+}
+template <class T>
+Force<T> scaled(const Force<T>& F, const T& k) {
+  return {scaled(F.n, k), scaled(F.f, k)};
+}
+template <class T>
 T power(const Force<T>& F, const Motion<T>& V) {
   return dot(F.n, V.w) + dot(F.f, V.v);
 }
@@ -188,14 +200,79 @@ RigidInertia<T> in_parent(const Transform<T>& X, const RigidInertia<T>& Ic) {
   return {Ic.m, h + scaled(r, Ic.m), I};
 }
 
-// Rotation matrices (row-major) about a unit axis by an angle (Rodrigues) and of a unit
-// quaternion (w, x, y, z).
+// The skew matrix of r (r x y = skew(r) y), and a matrix whose lower triangle is its upper one:
+// a symmetric result is computed once per entry, so a recorded program holds each entry once.
 template <class T>
-Mat3<T> axis_rotation(const Vec3<T>& a, const T& c, const T& s, const T& one) {
-  const T t = one - c;
-  return {c + a[0] * a[0] * t,        a[0] * a[1] * t - a[2] * s, a[0] * a[2] * t + a[1] * s,
-          a[1] * a[0] * t + a[2] * s, c + a[1] * a[1] * t,        a[1] * a[2] * t - a[0] * s,
-          a[2] * a[0] * t - a[1] * s, a[2] * a[1] * t + a[0] * s, c + a[2] * a[2] * t};
+Mat3<T> skew(const Vec3<T>& r) {
+  return {T{}, -r[2], r[1], r[2], T{}, -r[0], -r[1], r[0], T{}};
+}
+template <class T>
+Mat3<T> upper_mirrored(Mat3<T> S) {
+  S[3] = S[1], S[6] = S[2], S[7] = S[5];
+  return S;
+}
+
+// An articulated-body inertia (Featherstone, ch. 7), the symmetric 6 x 6 [[A, B], [B^T, C]]
+// acting on a motion as n = A w + B v, f = B^T w + C v (A and C symmetric).
+template <class T>
+struct ArticulatedInertia {
+  Mat3<T> A, B, C;
+  explicit ArticulatedInertia(const RigidInertia<T>& I)  // h x v = skew(h) v, C = m 1
+      : A(I.I), B(skew(I.h)), C{I.m, T{}, T{}, T{}, I.m, T{}, T{}, T{}, I.m} {}
+  ArticulatedInertia(const Mat3<T>& a, const Mat3<T>& b, const Mat3<T>& c) : A(a), B(b), C(c) {}
+  Force<T> operator*(const Motion<T>& V) const {
+    return {times(A, V.w) + times(B, V.v), transposed_times(B, V.w) + times(C, V.v)};
+  }
+  ArticulatedInertia operator+(const ArticulatedInertia& o) const {
+    ArticulatedInertia sum = *this;
+    for (int k = 0; k < 9; ++k) sum.A[k] += o.A[k], sum.B[k] += o.B[k], sum.C[k] += o.C[k];
+    return sum;
+  }
+  // I - U W^T for W = U / D (the articulated body's reduction, Featherstone eq. 7.39).
+  ArticulatedInertia minus_outer(const Force<T>& U, const Force<T>& W) const {
+    Mat3<T> a = A, b = B, c = C;
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 3; ++k) {
+        a[3 * r + k] -= U.n[r] * W.n[k];
+        b[3 * r + k] -= U.n[r] * W.f[k];
+        c[3 * r + k] -= U.f[r] * W.f[k];
+      }
+    return {upper_mirrored(a), b, upper_mirrored(c)};
+  }
+};
+
+// X^T I X: an articulated inertia in its parent's frame. Turned by E (A' = E^T A E, likewise B',
+// C'), then moved to the parent's origin with rx = skew(r): A = A' - K - K^T - rx C' rx with
+// K = B' rx, B = B' + rx C', C = C'.
+template <class T>
+ArticulatedInertia<T> in_parent(const Transform<T>& X, const ArticulatedInertia<T>& I) {
+  const Mat3<T> Et = transposed(X.E), rx = skew(X.r);
+  const Mat3<T> A = product(Et, product(I.A, X.E)), B = product(Et, product(I.B, X.E));
+  const Mat3<T> C = upper_mirrored(product(Et, product(I.C, X.E)));
+  const Mat3<T> K = product(B, rx), L = product(rx, C), N = product(L, rx);
+  Mat3<T> Ap, Bp;
+  for (int k = 0; k < 9; ++k) {
+    Ap[k] = A[k] - K[k] - K[3 * (k % 3) + k / 3] - N[k];
+    Bp[k] = B[k] + L[k];
+  }
+  return {upper_mirrored(Ap), Bp, C};
+}
+
+// The rotation (row-major) by an angle of cosine c and sine s about a unit axis a of numbers
+// (Rodrigues: a a^T + c (1 - a a^T) + s skew(a)); a term whose coefficient is 0 is left out and
+// one of +-1 is not multiplied, so that an axis along a frame's axis gives the plain rotation in
+// that plane (and a recorded program no c + 1 - c). number(x): x as a T.
+template <class T, class Number>
+Mat3<T> axis_rotation(const Vec3<double>& a, const T& c, const T& s, const Number& number) {
+  auto term = [](double k, const T& x) { return k == 0 ? T{} : k == 1 ? x : k == -1 ? -x : x * k; };
+  const Mat3<double> ax = skew(a);
+  Mat3<T> R;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) {
+      const double aa = a[r] * a[k];
+      R[3 * r + k] = number(aa) + term((r == k ? 1.0 : 0.0) - aa, c) + term(ax[3 * r + k], s);
+    }
+  return R;
 }
 // The rotation of the unit quaternion (w, x, y, z) / |q| for two = 2 / |q|^2 (2 for a unit one):
 // no square root, and any nonzero quaternion is a rotation (as in MuJoCo, which normalizes).
@@ -260,8 +337,8 @@ class Chain {
   // Q = M vdot + b (recursive Newton-Euler; no gravity: a satellite in free fall).
   std::vector<T> inverse_dynamics(const std::vector<T>& vdot) const;
   T kinetic_energy() const;
-  // qdd = M^-1 (Q - b) by an LDL^T factorization of M, with its pivots D_i and D_i / M_ii
-  // (as the planar chain's ABA returns them); not yet the articulated-body algorithm.
+  // qdd = M^-1 (Q - b) by the articulated-body algorithm, with the pivots D_i of M factored from
+  // the tip inward (the base's last, in its own frame) and D_i / M_ii.
   std::vector<std::vector<T>> forward_dynamics(const std::vector<T>& Q) const;
   // Springs, dampers and friction: none in space yet (zeros).
   std::vector<T> passive_forces() const { return std::vector<T>(nv(), T{}); }
@@ -297,6 +374,10 @@ class Chain {
   bool exact_rotor(int i) const {
     return d_.links[i - 1].gear.present && d_.links[i - 1].gear.exact;
   }
+  double ratio(int i) const {  // joint i's gear ratio (1 without a gear)
+    const Gear& g = d_.links[i - 1].gear;
+    return g.present ? g.ratio : 1.0;
+  }
   // The armature inertia on joint i's coordinate (0 without an armature-coupled gear).
   double armature(int i) const {
     const Gear& g = d_.links[i - 1].gear;
@@ -308,6 +389,9 @@ class Chain {
   static Vec3<T> zero3() { return {T{}, T{}, T{}}; }
   static Motion<T> zero_motion() { return {zero3(), zero3()}; }
   Motion<T> base_unit(int k) const;  // the base's motion for a unit v_k (k < 6)
+  std::vector<RigidInertia<T>> composite_inertias() const;
+  std::vector<T> mass_matrix_diagonal() const;
+  void add_rotor(int i, ArticulatedInertia<T>& Ia, Force<T>& U, T& D, Force<T>& pa) const;
   // Body b's contribution: the bodies that carry mass (a fixed base carries none that moves).
   int first_body() const { return d_.free_base ? 0 : 1; }
 };

@@ -44,10 +44,8 @@ ModelFacts spatial_facts(const SpatialScene& scene) {
 namespace {
 
 // How the spatial chain gives output o (the banner's and --stats' words): as the planar chain
-// does, but forward dynamics solves M and b (no ABA yet).
+// does, with its end effector from forward kinematics.
 const char* spatial_algorithm(Output o) {
-  if (o == Output::forward_dynamics) return "LDL^T of M, RNEA";
-  if (o == Output::forward_dynamics_derivatives) return "LDL^T of M, RNEA, forward-mode";
   if (o == Output::end_effector_pose || o == Output::end_effector_jacobian)
     return "forward kinematics";
   return recursive_algorithm(o);

@@ -487,6 +487,56 @@ TEST(SpatialChain, RecordedProgramsGiveTheDoubleValues) {
     EXPECT_NEAR(values_of[k], expected[k], 1e-12 * (1 + std::abs(expected[k]))) << k;
 }
 
+// The articulated-body algorithm eliminates from the tip inward (joints N to 1), then the free
+// base in its own frame, linear before angular: its pivots are those of Gaussian elimination of
+// T M T^T in that order, with T turning the base's world-linear rows into the base frame.
+Eigen::VectorXd tip_first_pivots(const ChainDescription& d, const State& s,
+                                 const Eigen::MatrixXd& M) {
+  const int n = d.nv(), nb = d.num_base();
+  Eigen::MatrixXd T = Eigen::MatrixXd::Identity(n, n);
+  if (d.free_base)
+    T.topLeftCorner<3, 3>() =
+        Eigen::Quaterniond(s.q[3], s.q[4], s.q[5], s.q[6]).toRotationMatrix().transpose();
+  std::vector<int> order;
+  for (int i = n - 1; i >= nb; --i) order.push_back(i);
+  for (int i = 0; i < nb; ++i) order.push_back(i);
+  const Eigen::MatrixXd turned = T * M * T.transpose();
+  Eigen::MatrixXd A(n, n);
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < n; ++b) A(a, b) = turned(order[a], order[b]);
+  Eigen::VectorXd pivots(n);
+  for (int k = 0; k < n; ++k) {  // without pivoting (Eigen's LDLT reorders by size)
+    pivots[order[k]] = A(k, k);
+    for (int i = k + 1; i < n; ++i)
+      for (int j = k + 1; j < n; ++j) A(i, j) -= A(i, k) * A(k, j) / A(k, k);
+  }
+  return pivots;
+}
+
+// Forward dynamics by the articulated-body algorithm (exact rotors as clusters with their links,
+// armature on the diagonal) solves M qdd + b = Q, and its pivots are the tip-first ones of M.
+TEST(SpatialChain, ForwardDynamicsIsTheArticulatedBodyAlgorithm) {
+  std::mt19937 rng(43);
+  for (const Case& c : kCases) {
+    SCOPED_TRACE(name(c));
+    const ChainDescription d = random_chain(rng, c.links, c.free, c.geared);
+    for (int trial = 0; trial < 3; ++trial) {
+      const State s = random_state(rng, d);
+      const Chain<double> chain = chain_at(d, s);
+      const Eigen::VectorXd Q = Eigen::VectorXd::Random(d.nv());
+      const auto fd = chain.forward_dynamics(std::vector<double>(Q.data(), Q.data() + Q.size()));
+      const Eigen::MatrixXd M = mass_matrix(d, s);
+      const Eigen::VectorXd b = as_eigen(chain.inverse_dynamics(std::vector<double>(d.nv(), 0)));
+      const Eigen::VectorXd qdd = as_eigen(fd[0]), pivots = as_eigen(fd[1]);
+      const Eigen::VectorXd expected = M.ldlt().solve(Q - b);
+      EXPECT_LT((qdd - expected).norm(), 1e-10 * (1 + expected.norm()));
+      const Eigen::VectorXd D = tip_first_pivots(d, s, M);
+      EXPECT_LT((pivots - D).norm(), 1e-10 * D.norm());
+      EXPECT_LT((as_eigen(fd[2]) - D.cwiseQuotient(M.diagonal())).norm(), 1e-10 * D.size());
+    }
+  }
+}
+
 // The registry's outputs through recursive_algorithms.hpp, written once for any chain: forward
 // dynamics solves M qdd + b = Q with positive pivots, inverse dynamics inverts it, and the
 // state Jacobian (dual numbers; q's columns include the quaternion's four entries, nv x nq) is
