@@ -80,10 +80,10 @@ std::vector<T> jacobian(const Description& d, const Values<T>& values, Input x, 
   return J;
 }
 
-// The chain's input array x (sized by the registry: q has nq entries, the others nv).
-template <template <class> class Chain, class T>
-std::vector<T> inputs(const Chain<T>& chain, Input x) {
-  const int n = info(x).size == Size::nq ? chain.nq() : chain.nv();
+// The chain's input array x (sized by the registry: q has nq entries, qdd_joints num_links).
+template <template <class> class Chain, class T, class Description>
+std::vector<T> inputs(const Description& d, const Chain<T>& chain, Input x) {
+  const int n = Chain<T>::dimensions(d)(info(x).size);
   std::vector<T> v;
   for (int i = 0; i < n; ++i) v.push_back(chain.input(info(x).name, i));
   return v;
@@ -106,12 +106,12 @@ std::vector<std::vector<T>> differentiated(const Description& d, const Values<T>
                                            Output o) {
   const int n = Chain<T>::dimensions(d).nv;
   if (o == Output::forward_dynamics_derivatives) {
-    auto qdd = [](const Chain<Dual<T>>& c) {
-      return c.forward_dynamics(inputs(c, Input::generalized_forces))[0];
+    auto qdd = [&d](const Chain<Dual<T>>& c) {
+      return c.forward_dynamics(inputs(d, c, Input::generalized_forces))[0];
     };
     const Chain<T> chain(d, values);
     return {jacobian<Chain>(d, values, Input::q, qdd), jacobian<Chain>(d, values, Input::qd, qdd),
-            chain.forward_dynamics(inputs(chain, Input::generalized_forces))[0]};
+            chain.forward_dynamics(inputs(d, chain, Input::generalized_forces))[0]};
   }
   const std::vector<T> Mdot = tangents(along_configuration_rate<Chain>(d, values).mass_matrix());
   if (o == Output::mass_matrix_derivative) return {Mdot};
@@ -126,8 +126,9 @@ std::vector<std::vector<T>> differentiated(const Description& d, const Values<T>
   return {C};
 }
 
-// Whether a chain gives its end effector's kinematics (the spatial chain does; the planar
-// chain's come from its closed forms).
+// Whether a chain gives its end effector's kinematics and what composes from them with M (the
+// generalized Jacobian, free-base inverse dynamics): the spatial chain does; the planar chain's
+// come from its closed forms.
 template <class C, class = void>
 struct has_kinematics : std::false_type {};
 template <class C>
@@ -147,22 +148,27 @@ std::vector<std::vector<T>> compute(const Description& d, const Values<T>& value
     case Output::bias_forces:
       return {chain.inverse_dynamics(std::vector<T>(chain.nv(), T{}))};
     case Output::inverse_dynamics: {
-      std::vector<T> Q = chain.inverse_dynamics(inputs(chain, Input::qdd));
+      std::vector<T> Q = chain.inverse_dynamics(inputs(d, chain, Input::qdd));
       const std::vector<T> passive = chain.passive_forces();
       for (int i = 0; i < chain.nv(); ++i) Q[i] += passive[i];
       return {Q};
     }
     case Output::forward_dynamics:
-      return chain.forward_dynamics(inputs(chain, Input::generalized_forces));
+      return chain.forward_dynamics(inputs(d, chain, Input::generalized_forces));
     case Output::kinetic_energy:
       return {{chain.kinetic_energy()}};
     case Output::momentum:
       return {chain.momentum()};
     case Output::end_effector_pose:
     case Output::end_effector_jacobian:
-      if constexpr (has_kinematics<Chain<T>>::value)
-        return {o == Output::end_effector_pose ? chain.end_effector_pose()
-                                               : chain.end_effector_jacobian()};
+    case Output::generalized_jacobian:
+    case Output::free_base_inverse_dynamics:
+      if constexpr (has_kinematics<Chain<T>>::value) {
+        if (o == Output::end_effector_pose) return {chain.end_effector_pose()};
+        if (o == Output::end_effector_jacobian) return {chain.end_effector_jacobian()};
+        if (o == Output::generalized_jacobian) return {chain.generalized_jacobian()};
+        return chain.free_base_inverse_dynamics(inputs(d, chain, Input::joint_accelerations));
+      }
       [[fallthrough]];
     default:
       throw std::logic_error("recursive dynamics: no recursive form of " + to_string(o));

@@ -256,39 +256,50 @@ std::vector<T> Chain<T>::mass_matrix_diagonal() const {
 
 namespace {
 
-// I^A a = rhs for the free base's 6 x 6 articulated inertia, by LDL^T in the order (linear,
-// angular) of its own frame; its pivots are those of M with the base's linear rows turned into
-// that frame (an orthogonal change of basis: their signs, and M_ii, are unchanged).
+// A x = b for each column b of B (A symmetric positive definite, n x n row-major, its lower
+// triangle read; B n x m), by LDL^T without pivoting and one division per pivot D_j (written to
+// pivots where given). The chain's small dense solves: the free base's 6 x 6, M_bb.
+template <class T>
+std::vector<T> ldlt_solve(const std::vector<T>& A, int n, std::vector<T> B, int m, const T& one,
+                          T* pivots = nullptr) {
+  std::vector<T> L(n * n), D(n), inverse(n);
+  for (int j = 0; j < n; ++j) {
+    T d = A[j * n + j];
+    for (int k = 0; k < j; ++k) d -= L[j * n + k] * L[j * n + k] * D[k];
+    D[j] = d;
+    inverse[j] = one / d;
+    if (pivots) pivots[j] = d;
+    for (int i = j + 1; i < n; ++i) {
+      T e = A[i * n + j];
+      for (int k = 0; k < j; ++k) e -= L[i * n + k] * L[j * n + k] * D[k];
+      L[i * n + j] = e * inverse[j];
+    }
+  }
+  for (int c = 0; c < m; ++c) {
+    for (int i = 0; i < n; ++i)
+      for (int k = 0; k < i; ++k) B[i * m + c] -= L[i * n + k] * B[k * m + c];
+    for (int i = n - 1; i >= 0; --i) {
+      B[i * m + c] = B[i * m + c] * inverse[i];
+      for (int k = i + 1; k < n; ++k) B[i * m + c] -= L[k * n + i] * B[k * m + c];
+    }
+  }
+  return B;
+}
+
+// I^A a = rhs for the free base's 6 x 6 articulated inertia, in the order (linear, angular) of
+// its own frame; its pivots are those of M with the base's linear rows turned into that frame
+// (an orthogonal change of basis: their signs, and M_ii, are unchanged).
 template <class T>
 Motion<T> solve_base(const ArticulatedInertia<T>& I, const Force<T>& rhs, const T& one, T* pivots) {
-  T K[6][6];  // the lower triangle, (linear, angular)
+  std::vector<T> A(36);  // the lower triangle
   for (int r = 0; r < 3; ++r)
     for (int k = 0; k < 3; ++k) {
-      K[r][k] = I.C[3 * r + k];
-      K[3 + r][k] = I.B[3 * r + k];
-      K[3 + r][3 + k] = I.A[3 * r + k];
+      A[6 * r + k] = I.C[3 * r + k];
+      A[6 * (3 + r) + k] = I.B[3 * r + k];
+      A[6 * (3 + r) + 3 + k] = I.A[3 * r + k];
     }
-  T L[6][6], inverse[6], x[6];  // one division per pivot
-  const T b[6] = {rhs.f[0], rhs.f[1], rhs.f[2], rhs.n[0], rhs.n[1], rhs.n[2]};
-  for (int j = 0; j < 6; ++j) {
-    T d = K[j][j];
-    for (int k = 0; k < j; ++k) d -= L[j][k] * L[j][k] * pivots[k];
-    pivots[j] = d;
-    inverse[j] = one / d;
-    for (int i = j + 1; i < 6; ++i) {
-      T e = K[i][j];
-      for (int k = 0; k < j; ++k) e -= L[i][k] * L[j][k] * pivots[k];
-      L[i][j] = e * inverse[j];
-    }
-  }
-  for (int i = 0; i < 6; ++i) {
-    x[i] = b[i];
-    for (int k = 0; k < i; ++k) x[i] -= L[i][k] * x[k];
-  }
-  for (int i = 5; i >= 0; --i) {
-    x[i] = x[i] * inverse[i];
-    for (int k = i + 1; k < 6; ++k) x[i] -= L[k][i] * x[k];
-  }
+  const std::vector<T> x = ldlt_solve(
+      A, 6, {rhs.f[0], rhs.f[1], rhs.f[2], rhs.n[0], rhs.n[1], rhs.n[2]}, 1, one, pivots);
   return {{x[3], x[4], x[5]}, {x[0], x[1], x[2]}};
 }
 
@@ -376,6 +387,57 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
   std::vector<T> scaled_pivots(nv);
   for (int k = 0; k < nv; ++k) scaled_pivots[k] = pivots[k] / diagonal[k];
   return {qdd, pivots, scaled_pivots};
+}
+
+// J* = J_m - J_b X with M_bb X = M_bm (Umetani and Yoshida): with M_bb v_b + M_bm qd = 0 the
+// momentum is zero, and the end effector's twist is J_b v_b + J_m qd.
+template <class T>
+std::vector<T> Chain<T>::generalized_jacobian() const {
+  if (!d_.free_base) throw std::logic_error("spatial chain: generalized Jacobian of a fixed base");
+  const int nv = d_.nv(), N = n_;
+  const std::vector<T> M = mass_matrix(), J = end_effector_jacobian();
+  std::vector<T> Mbb(36), Mbm(6 * N);
+  for (int r = 0; r < 6; ++r) {
+    for (int k = 0; k < 6; ++k) Mbb[6 * r + k] = M[r * nv + k];
+    for (int c = 0; c < N; ++c) Mbm[r * N + c] = M[r * nv + 6 + c];
+  }
+  const std::vector<T> X = ldlt_solve(Mbb, 6, Mbm, N, num(1.0));
+  std::vector<T> Jg(6 * N);
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < N; ++c) {
+      T x = J[r * nv + 6 + c];
+      for (int k = 0; k < 6; ++k) x -= J[r * nv + k] * X[k * N + c];
+      Jg[r * N + c] = x;
+    }
+  return Jg;
+}
+
+// M_bb a_b = -(M_bm a + b_b) with a = p qdd_joints (the motors'); tau = p (M_mb a_b + M_mm a +
+// b_m).
+template <class T>
+std::vector<std::vector<T>> Chain<T>::free_base_inverse_dynamics(
+    const std::vector<T>& qdd_joints) const {
+  if (!d_.free_base)
+    throw std::logic_error("spatial chain: free-base inverse dynamics of a fixed base");
+  const int nv = d_.nv(), N = n_;
+  const std::vector<T> M = mass_matrix(), b = inverse_dynamics(std::vector<T>(nv, T{}));
+  std::vector<T> a(N), Mbb(36), rhs(6);
+  for (int j = 0; j < N; ++j) a[j] = qdd_joints[j] * ratio(j + 1);
+  for (int r = 0; r < 6; ++r) {
+    for (int k = 0; k < 6; ++k) Mbb[6 * r + k] = M[r * nv + k];
+    T x = b[r];
+    for (int c = 0; c < N; ++c) x += M[r * nv + 6 + c] * a[c];
+    rhs[r] = -x;
+  }
+  const std::vector<T> base = ldlt_solve(Mbb, 6, rhs, 1, num(1.0));
+  std::vector<T> tau(N);
+  for (int j = 0; j < N; ++j) {
+    T Q = b[6 + j];
+    for (int k = 0; k < 6; ++k) Q += M[(6 + j) * nv + k] * base[k];
+    for (int c = 0; c < N; ++c) Q += M[(6 + j) * nv + 6 + c] * a[c];
+    tau[j] = Q * ratio(j + 1);
+  }
+  return {tau, base};
 }
 
 template <class T>

@@ -353,6 +353,12 @@ class Chain {
   // Its geometric Jacobian, row-major 6 x nv: the tip's linear and the last link's angular
   // velocity in the world per unit velocity.
   std::vector<T> end_effector_jacobian() const;
+  // Umetani and Yoshida's generalized Jacobian J* (6 x N): the end effector's twist per unit
+  // joint (motor) rate with the base moving so that the momentum stays zero. Free base only.
+  std::vector<T> generalized_jacobian() const;
+  // The joint torques tau = p Q that give the link-side joint accelerations qdd_joints with no
+  // force on the free base, and the base's acceleration: {tau (N), qdd_base (6)}.
+  std::vector<std::vector<T>> free_base_inverse_dynamics(const std::vector<T>& qdd_joints) const;
 
  private:
   const ChainDescription& d_;

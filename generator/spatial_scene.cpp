@@ -247,6 +247,8 @@ bool spatial_output(Output o, bool free_base) {
     case Output::end_effector_jacobian:
       return true;
     case Output::momentum:
+    case Output::generalized_jacobian:
+    case Output::free_base_inverse_dynamics:
       return free_base;
     default:
       return false;

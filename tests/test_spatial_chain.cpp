@@ -584,6 +584,53 @@ TEST(SpatialChain, GivesTheRegistrysRecursiveOutputs) {
   }
 }
 
+// The generalized Jacobian against the world computation alone: the base velocity that keeps the
+// world momentum zero is solved from the momentum's six columns, and the world tip twist it
+// gives with the joint rates is J* qd; free-base inverse dynamics leaves the base unforced.
+TEST(SpatialChain, GeneralizedJacobianKeepsTheWorldMomentumZero) {
+  std::mt19937 rng(47);
+  for (const bool geared : {false, true}) {
+    SCOPED_TRACE(geared ? "geared" : "no gears");
+    ChainDescription d = random_chain(rng, 7, true, geared);
+    d.tip = {0.2, -0.05, 0.1};
+    const State s = random_state(rng, d);
+    const int N = 7;
+    const Eigen::VectorXd qd = s.v.tail(N);
+    // h(v) is linear in v: h = H_b v_b + h(0, qd).
+    Eigen::VectorXd v = Eigen::VectorXd::Zero(d.nv());
+    v.tail(N) = qd;
+    const Eigen::Matrix<double, 6, 1> h_joints = momentum(d, s.q, v);
+    Eigen::Matrix<double, 6, 6> Hb;
+    for (int k = 0; k < 6; ++k) Hb.col(k) = momentum(d, s.q, Eigen::VectorXd::Unit(d.nv(), k));
+    v.head(6) = -Hb.lu().solve(h_joints);
+    ASSERT_LT(momentum(d, s.q, v).norm(), 1e-12);
+    const World w = world(d, s.q, v);
+    const Eigen::Vector3d tip = w.R.back() * Eigen::Vector3d(d.tip[0], d.tip[1], d.tip[2]);
+    Eigen::Matrix<double, 6, 1> twist;
+    twist << w.last_origin_velocity + w.omega.back().cross(tip), w.omega.back();
+    const std::vector<double> Jg = chain_at(d, s).generalized_jacobian();
+    const Eigen::VectorXd predicted =
+        Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(Jg.data(), 6, N) * qd;
+    EXPECT_LT((predicted - twist).norm(), 1e-12 * (1 + twist.norm()));
+    // Free-base inverse dynamics: RNEA at [qdd_base, p qdd_joints] gives tau / p on the joints
+    // and nothing on the base.
+    const Eigen::VectorXd joints = Eigen::VectorXd::Random(N);
+    const auto out = chain_at(d, s).free_base_inverse_dynamics(as_std(joints));
+    Eigen::VectorXd vdot(d.nv());
+    vdot.head(6) = as_eigen(out[1]);
+    for (int j = 0; j < N; ++j) {
+      const double p = d.links[j].gear.present ? d.links[j].gear.ratio : 1;
+      vdot[6 + j] = p * joints[j];
+    }
+    const Eigen::VectorXd Q = as_eigen(chain_at(d, s).inverse_dynamics(as_std(vdot)));
+    EXPECT_LT(Q.head(6).norm(), 1e-10 * (1 + Q.norm()));
+    for (int j = 0; j < N; ++j) {
+      const double p = d.links[j].gear.present ? d.links[j].gear.ratio : 1;
+      EXPECT_NEAR(out[0][j], p * Q[6 + j], 1e-10 * (1 + std::abs(out[0][j])));
+    }
+  }
+}
+
 // The end effector: its pose (the tip's position, the last link's orientation composed as a
 // quaternion) and its geometric Jacobian (J v = the tip's velocity and the link's angular
 // velocity) are the world computation's, on a free and a fixed base, geared.

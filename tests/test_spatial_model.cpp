@@ -49,8 +49,11 @@ TEST(SpatialModel, LowersAndPrintsFromTheDerivedModelAlone) {
   std::string defaults = kArm;
   defaults.erase(defaults.find("outputs:"));
   const std::vector<Output> by_default = spatial_outputs(parse_spatial_scene(defaults, "arm3"));
-  EXPECT_EQ(by_default.size(), 8u);  // M, b, T, momentum, ID, FD, the pose and its Jacobian
-  EXPECT_EQ(std::count(by_default.begin(), by_default.end(), Output::end_effector_jacobian), 1);
+  // M, b, T, momentum, ID, FD, the pose and its Jacobian, J*, free-base ID.
+  EXPECT_EQ(by_default.size(), 10u);
+  for (Output o : {Output::end_effector_jacobian, Output::generalized_jacobian,
+                   Output::free_base_inverse_dynamics})
+    EXPECT_EQ(std::count(by_default.begin(), by_default.end(), o), 1) << to_string(o);
   EXPECT_EQ(std::count(by_default.begin(), by_default.end(), Output::forward_dynamics_derivatives),
             0);
   const EmittedModel e = print_cpp(lowered, {});
