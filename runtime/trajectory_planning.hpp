@@ -1,16 +1,18 @@
 // Trajectory planning by the inverse-dynamics approach (Basmadji, Seweryn and Sasiadek 2020,
 // as used in the paper's Section 3): the end-effector follows a straight line in the world
-// frame (position, or position and constant-rate orientation) while, for a free-floating
-// base, the total momentum stays zero. Momentum conservation eliminates the base velocities
-// (the generalized Jacobian, Umetani-Yoshida): v_task = J* z for the link-side joint rates z.
-// Joint torques come from eq. 5 (M qdd + b, joint rows; times the gear ratio on the link side,
-// eq. 14). Any chain: a fixed or free base, N >= 2 joints for a position task, N >= 3 for a
-// pose. Redundant arms take the minimum-norm link-side joint rates z = J*^+ v_task. Dynamic
-// sizes: the planner reads a model through DynamicModel (dynamic_model.hpp), so a linked
-// Model<G> and a loaded CompiledModel share it. It integrates qd as dq/dt (nq == nv).
+// frame (position, or position and orientation: at a constant rate in the plane, slerped about
+// one axis in 3D) while, for a free-floating base, the total momentum stays zero. Momentum
+// conservation eliminates the base velocities (the generalized Jacobian, Umetani-Yoshida): v_task =
+// J* z for the link-side joint rates z. Joint torques come from eq. 5 (M qdd + b, joint rows; times
+// the gear ratio on the link side, eq. 14). Any chain: a fixed or free base, N >= 2 joints for a
+// position task, N >= 3 for a pose. Redundant arms take the minimum-norm link-side joint rates z =
+// J*^+ v_task. Dynamic sizes: the planner reads a model through DynamicModel (dynamic_model.hpp),
+// so a linked Model<G> and a loaded CompiledModel share it. In 3D (N >= 3 for a position, N >= 6
+// for a pose) it integrates dq/dt = f(q, qd) with the base's quaternion kept on the unit sphere.
 #pragma once
 
 #include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <Eigen/QR>
 
 #include <algorithm>
@@ -47,13 +49,15 @@ inline Eigen::Vector3d time_law(TimeLaw law, double tau) {
 }
 
 struct StraightLineTask {
-  // End-effector [x, y] (a position task) or [x, y, phi] (a pose task) at t = 0 and t = T.
+  // End-effector [x, y] (a position task) or [x, y, phi] (a pose task) at t = 0 and t = T; in
+  // 3D [x, y, z] or [x, y, z, qw, qx, qy, qz] (the pose output's layout; any nonzero quaternion,
+  // normalized).
   Eigen::VectorXd start = Eigen::Vector3d(1.5, 0.0, M_PI / 6);
   Eigen::VectorXd goal = Eigen::Vector3d(1.1, 0.0, M_PI / 6);
   double duration = 10.0;  // s
   double dt = 0.01;        // output grid of the plan
   TimeLaw law = TimeLaw::quintic;
-  int elbow = +1;  // sign of the second joint angle at the start
+  int elbow = +1;  // sign of the second joint angle at the start (3D: of every joint's seed)
   // Non-empty: the start configuration's guess (nq values) instead of the elbow seed. Its
   // base coordinates are kept; its joint angles are refined to put the end-effector at start.
   Eigen::VectorXd q0;
@@ -72,7 +76,7 @@ struct BasicPlan {
   // (O(dt^2)): the forces on the base, and the planned qdd itself.
   double max_base_residual = 0;
   double max_acceleration_mismatch = 0;
-  double max_path_error = 0;  // max |x_task(q(t)) - x_desired(t)|
+  double max_path_error = 0;  // max |x_task(q(t)) - x_desired(t)| (3D: and the angle's error)
   double max_momentum = 0;    // max |h(q, qd)| along the plan (free base; NaN if not emitted)
 };
 using Plan = BasicPlan<>;
@@ -88,11 +92,18 @@ struct TaskNames {
 // Largest plan accepted: samples are held in memory until the plan is complete.
 inline constexpr double kMaxPlanSamples = 1e6;
 
+// The task's rows of the end-effector Jacobian for `values` pose values: in 3D a quaternion's
+// four values are three angular velocities.
+inline int task_rows(const DynamicModel& m, int values) {
+  return m.spatial && values == 7 ? 6 : values;
+}
+
 // Checks a task against a model's sizes, before anything is computed; returns the task rows of
-// the end-effector pose: 2 (position) or 3 (pose). Errors name the field (TaskNames).
+// the end-effector Jacobian: 2 (position) or 3 (pose) in the plane, 3 or 6 in 3D. Errors name
+// the field (TaskNames).
 inline int check_task(const DynamicModel& m, const StraightLineTask& task,
                       const TaskNames& names = {}) {
-  const int rows = static_cast<int>(task.start.size());
+  const int values = static_cast<int>(task.start.size()), rows = task_rows(m, values);
   auto fail = [&](const std::string& why) {
     throw std::invalid_argument("planner, model " + m.name + ": " + why);
   };
@@ -101,18 +112,24 @@ inline int check_task(const DynamicModel& m, const StraightLineTask& task,
     const auto r = std::to_chars(buf, buf + sizeof buf, v);
     return std::string(buf, r.ptr);
   };
-  if (m.spatial) fail("the planner plans planar arms only (the 3D planner is not written yet)");
-  if (rows != 2 && rows != 3)
-    fail(names.start + " must be x,y (position) or x,y,phi (pose), got " + std::to_string(rows) +
-         " values");
-  if (task.goal.size() != rows)
+  const int position = m.spatial ? 3 : 2;
+  if (values != position && values != (m.spatial ? 7 : 3))
+    fail(names.start +
+         (m.spatial ? " must be x,y,z (position) or x,y,z,qw,qx,qy,qz (pose), got "
+                    : " must be x,y (position) or x,y,phi (pose), got ") +
+         std::to_string(values) + " values");
+  if (task.goal.size() != values)
     fail(names.goal + " has " + std::to_string(task.goal.size()) + " values and " + names.start +
-         " " + std::to_string(rows));
+         " " + std::to_string(values));
   if (m.num_links < rows)
     fail("a " + std::to_string(m.num_links) + "-link arm cannot follow a " +
-         (rows == 3 ? "pose" : "position") + " (" + std::to_string(rows) + " task coordinates)" +
-         (m.num_links == 2 ? ": give x,y only in " + names.start + " and " + names.goal : ""));
-  if (m.nq != m.nv) fail("needs nq == nv (it integrates qd as dq/dt)");
+         (rows > position ? "pose" : "position") + " (" + std::to_string(rows) +
+         " task coordinates)" +
+         (m.num_links >= position ? ": give " + std::string(m.spatial ? "x,y,z" : "x,y") +
+                                        " only in " + names.start + " and " + names.goal
+                                  : ""));
+  if (m.nq != m.nv && m.quaternion_offset < 0)
+    fail("needs nq == nv or a base quaternion (it integrates dq/dt = f(q, qd))");
   if (!(task.duration > 0) || !std::isfinite(task.duration))
     fail(names.duration + " must be positive and finite, got " + text(task.duration));
   if (!(task.dt > 0)) fail(names.dt + " must be positive, got " + text(task.dt));
@@ -132,6 +149,15 @@ inline int check_task(const DynamicModel& m, const StraightLineTask& task,
   if (task.q0.size() != 0 && (task.q0.size() != m.nq || !task.q0.allFinite()))
     fail(names.q0 + " must have " + std::to_string(m.nq) + " finite values, got " +
          std::to_string(task.q0.size()));
+  if (values == 7)  // a quaternion of any nonzero size is a rotation
+    for (const auto& [v, name] :
+         {std::make_pair(&task.start, names.start), std::make_pair(&task.goal, names.goal)})
+      if (!(v->tail<4>().norm() > 1e-6))
+        fail(name + "'s quaternion (values 4 to 7) must be nonzero, got norm " +
+             text(v->tail<4>().norm()));
+  if (task.q0.size() != 0 && m.quaternion_offset >= 0 &&
+      !(task.q0.segment<4>(m.quaternion_offset).norm() > 1e-6))
+    fail(names.q0 + "'s base quaternion must be nonzero");
   if (task.q0.size() == 0 && task.elbow != 1 && task.elbow != -1)
     fail(names.elbow + " must be +1 or -1, got " + std::to_string(task.elbow));
   return rows;
@@ -199,15 +225,48 @@ inline Eigen::VectorXd row_scales(const Eigen::MatrixXd& A) {
   return s;
 }
 
-// The straight line's desired pose, velocity and acceleration at t.
+// The straight line's desired pose (the pose output's values), velocity and acceleration (task
+// rows) at t.
 struct Desired {
   Eigen::VectorXd x, v, a;
 };
-inline Desired desired(const StraightLineTask& task, double t) {
+inline Eigen::Quaterniond quaternion_of(const Eigen::VectorXd& v, int at) {  // (w, x, y, z)
+  return Eigen::Quaterniond(v[at], v[at + 1], v[at + 2], v[at + 3]).normalized();
+}
+inline Desired desired(const DynamicModel& m, const StraightLineTask& task, double t) {
   const double T = task.duration;
   const Eigen::Vector3d s = time_law(task.law, t / T);
-  const Eigen::VectorXd d = task.goal - task.start;
-  return {task.start + s[0] * d, s[1] / T * d, s[2] / (T * T) * d};
+  if (!(m.spatial && task.start.size() == 7)) {
+    const Eigen::VectorXd d = task.goal - task.start;
+    return {task.start + s[0] * d, s[1] / T * d, s[2] / (T * T) * d};
+  }
+  // 3D pose: the position on the line; the orientation turned from the start's to the goal's
+  // about one axis u by s theta (slerp, the shorter way), so the angular velocity in the world
+  // is s' theta R_start u.
+  const Eigen::Vector3d d = task.goal.head<3>() - task.start.head<3>();
+  const Eigen::Quaterniond q0 = quaternion_of(task.start, 3), q1 = quaternion_of(task.goal, 3);
+  Eigen::Quaterniond turn = q0.conjugate() * q1;
+  if (turn.w() < 0) turn.coeffs() = -turn.coeffs();
+  const Eigen::AngleAxisd total(turn);
+  const Eigen::Quaterniond q = q0 * Eigen::AngleAxisd(s[0] * total.angle(), total.axis());
+  const Eigen::Vector3d w = q0 * (total.angle() * total.axis());
+  Desired out{Eigen::VectorXd(7), Eigen::VectorXd(6), Eigen::VectorXd(6)};
+  out.x << task.start.head<3>() + s[0] * d, q.w(), q.x(), q.y(), q.z();
+  out.v << s[1] / T * d, s[1] / T * w;
+  out.a << s[2] / (T * T) * d, s[2] / (T * T) * w;
+  return out;
+}
+
+// How far the end effector's pose is from the desired one, in task rows: the difference in the
+// plane; in 3D the position's difference and the rotation vector of R_desired R^T (in the world,
+// as the Jacobian's angular rows).
+inline Eigen::VectorXd pose_error(const DynamicModel& m, int rows, const Eigen::VectorXd& pose,
+                                  const Eigen::VectorXd& desired_pose) {
+  if (!(m.spatial && rows == 6)) return desired_pose.head(rows) - pose.head(rows);
+  Eigen::VectorXd e(6);
+  const Eigen::AngleAxisd turn(quaternion_of(desired_pose, 3) * quaternion_of(pose, 3).conjugate());
+  e << desired_pose.head<3>() - pose.head<3>(), turn.angle() * turn.axis();
+  return e;
 }
 
 // One sample's rates: z = A^+ v (minimum norm on the link side), qd = E z.
@@ -236,20 +295,21 @@ inline Rates rates(const DynamicModel& m, int rows, const Eigen::VectorXd& q,
 }
 
 // The time derivative of the minimum-norm rates z = A^T lambda: zd = Adot^T lambda + A^T mu
-// with A zd = a - Adot z. Adot by central differences in time along qd (a step of 1e-6 in q
-// whatever the speed). Then qdd_j = P zd and the base from no force on it (eq. 5 base rows,
-// M_bb qdd_b = -b_b - M_bj qdd_j); on a zero-momentum motion this is the derivative of the
-// base rates, since b_b - (Mdot qd)_b = -dT/dq_b = 0 there (dT/dx0 = dT/dy0 = 0,
-// dT/dq0 = -r0d x P).
+// with A zd = a - Adot z. Adot by central differences in time along dq/dt (a step of 1e-6 in
+// q whatever the speed; a quaternion off the sphere by O(h^2) is a rotation all the same). Then
+// qdd_j = P zd and the base from no force on it (eq. 5 base rows, M_bb qdd_b = -b_b - M_bj qdd_j);
+// on a zero-momentum motion this is the derivative of the base rates, since b_b - (Mdot qd)_b =
+// -dT/dq_b = 0 there (dT/dx0 = dT/dy0 = 0, dT/dq0 = -r0d x P).
 inline Eigen::VectorXd accelerations(const DynamicModel& m, int rows, const Eigen::VectorXd& q,
                                      const Rates& r, const Eigen::VectorXd& a,
                                      const Eigen::MatrixXd& M, const Eigen::VectorXd& b) {
   const int nb = m.num_base(), n = m.num_links;
-  const double speed = r.qd.cwiseAbs().maxCoeff();
+  const Eigen::VectorXd qdot = m.configuration_rate(q, r.qd);
+  const double speed = qdot.cwiseAbs().maxCoeff();
   Eigen::MatrixXd Adot = Eigen::MatrixXd::Zero(rows, n);
   if (speed > 0) {
     const double h = 1e-6 / speed;
-    Adot = (task_map(m, rows, q + h * r.qd).A - task_map(m, rows, q - h * r.qd).A) / (2 * h);
+    Adot = (task_map(m, rows, q + h * qdot).A - task_map(m, rows, q - h * qdot).A) / (2 * h);
   }
   const MinimumNorm mn(r.scale.asDiagonal() * r.map.A);
   const Eigen::VectorXd At_lambda_dot = Adot.transpose() * r.lambda;
@@ -283,43 +343,50 @@ inline void check_by_central_differences(const DynamicModel& m, Plan& plan) {
 
 }  // namespace detail
 
-// Joint angles that put the end-effector at task.start (base coordinates at zero, or those of
-// task.q0), by Newton's method on the link-side joint angles with minimum-norm steps (at most
-// 0.5 rad) and, for a redundant arm, a pull in the null space towards the seed, so that the
-// start stays near it. `elbow` picks the branch by the sign of joint 2 and seeds the
-// iteration; task.q0 replaces the seed.
+// Joint angles that put the end-effector at task.start (the base at rest in its neutral
+// configuration, or where task.q0 puts it), by Newton's method on the link-side joint angles with
+// minimum-norm steps (at most 0.5 rad) and, for a redundant arm, a pull in the null space
+// towards the seed, so that the start stays near it. In the plane `elbow` picks the branch by
+// the sign of joint 2 and seeds the iteration; in 3D it is the sign of every joint's seed
+// (0.4 rad, clear of the stretched arm's singularity). task.q0 replaces the seed.
 inline Eigen::VectorXd initial_configuration(const DynamicModel& m, const StraightLineTask& task) {
-  const int rows = check_task(m, task), j0 = m.num_base(), n = m.num_links;
+  const int rows = check_task(m, task), jv = m.num_base(), n = m.num_links;
+  const int jq = m.q_index(jv);
   const Eigen::VectorXd p = m.gear_ratios;
-  Eigen::VectorXd q = Eigen::VectorXd::Zero(m.nq);
+  Eigen::VectorXd q = m.neutral_configuration();
   if (task.q0.size() != 0) {
     q = task.q0;
+    m.configuration_space().project(q);
   } else {
     // Link-side angles; a geared model's coordinates are the motor angles qm = p q (eq. 12).
     for (int i = 0; i < n; ++i)
-      q[j0 + i] = p[i] * task.elbow * (i == 0 ? -0.3 : i == 1 ? 1.2 : -0.5 / (n - 2));
+      q[jq + i] = p[i] * task.elbow *
+                  (m.spatial ? 0.4
+                   : i == 0  ? -0.3
+                   : i == 1  ? 1.2
+                             : -0.5 / (n - 2));
   }
-  const Eigen::VectorXd seed = q.segment(j0, n).cwiseQuotient(p);  // link side
+  const Eigen::VectorXd seed = q.segment(jq, n).cwiseQuotient(p);  // link side
   auto error = [&](const Eigen::VectorXd& x) {
-    const Eigen::VectorXd pose = m.end_effector_pose(x);
-    return Eigen::VectorXd(task.start - pose.head(rows));
+    return detail::pose_error(m, rows, m.end_effector_pose(x), task.start);
   };
   for (int it = 0; it < 300; ++it) {
     const Eigen::VectorXd err = error(q);
-    const Eigen::MatrixXd J = m.end_effector_jacobian(q).block(0, j0, rows, n) * p.asDiagonal();
+    const Eigen::MatrixXd J = m.end_effector_jacobian(q).block(0, jv, rows, n) * p.asDiagonal();
     const auto cod = J.completeOrthogonalDecomposition();
-    const Eigen::VectorXd pull = seed - q.segment(j0, n).cwiseQuotient(p);
+    const Eigen::VectorXd pull = seed - q.segment(jq, n).cwiseQuotient(p);
     const Eigen::VectorXd null_pull = pull - cod.solve(J * pull);
     Eigen::VectorXd step = cod.solve(err) + 0.5 * null_pull;
     if (!step.allFinite()) break;
     if (err.norm() < 1e-14 && null_pull.norm() < 1e-10) break;
     if (step.norm() > 0.5) step *= 0.5 / step.norm();  // stay near the seed's branch
-    q.segment(j0, n) += p.cwiseProduct(step);
+    q.segment(jq, n) += p.cwiseProduct(step);
   }
-  const bool branch_ok = task.q0.size() != 0 || q[j0 + 1] * task.elbow > 0;
+  const bool branch_ok = task.q0.size() != 0 || m.spatial || q[jq + 1] * task.elbow > 0;
   if (!(error(q).norm() < 1e-12) || !branch_ok) {
     std::string pose;
-    for (int i = 0; i < rows; ++i) pose += (i ? ", " : "") + std::to_string(task.start[i]);
+    for (Eigen::Index i = 0; i < task.start.size(); ++i)
+      pose += (i ? ", " : "") + std::to_string(task.start[i]);
     throw std::runtime_error("planner, model " + m.name + ": no start configuration " +
                              (task.q0.size() ? std::string("near the given q0")
                                              : "on elbow branch " + std::to_string(task.elbow)) +
@@ -349,8 +416,10 @@ inline Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& ta
   opt.method = Method::rkf78;
   opt.rtol = 1e-13;
   opt.atol = 1e-14;
+  const ConfigurationSpace space = m.configuration_space();
+  opt.project = [space](Eigen::Ref<VectorXd> x) { space.project(x); };
   auto f = [&](const VectorXd& s, VectorXd& dsdt, double t) {
-    dsdt = detail::rates(m, rows, s, detail::desired(task, t).v, t).qd;
+    dsdt = space.rate(s, detail::rates(m, rows, s, detail::desired(m, task, t).v, t).qd);
   };
   auto observe = [&](const VectorXd& s, double t) {
     plan.t.push_back(t);
@@ -373,7 +442,7 @@ inline Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& ta
   plan.max_momentum = m.momentum || nb == 0 ? 0.0 : std::numeric_limits<double>::quiet_NaN();
   for (size_t k = 0; k < plan.t.size(); ++k) {
     const VectorXd& qk = plan.q[k];
-    const detail::Desired d = detail::desired(task, plan.t[k]);
+    const detail::Desired d = detail::desired(m, task, plan.t[k]);
     const detail::Rates r = detail::rates(m, rows, qk, d.v, plan.t[k]);
     Eigen::MatrixXd Mk;
     VectorXd b;
@@ -384,9 +453,9 @@ inline Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& ta
     plan.qdd.push_back(qdd);
     plan.tau.push_back(Q.tail(n).cwiseProduct(m.gear_ratios));
     if (nb > 0) plan.base_residual.push_back(Q.head(nb).cwiseAbs().maxCoeff());
-    const VectorXd pose = m.end_effector_pose(qk);
     plan.max_path_error =
-        std::max(plan.max_path_error, (pose.head(rows) - d.x).cwiseAbs().maxCoeff());
+        std::max(plan.max_path_error,
+                 detail::pose_error(m, rows, m.end_effector_pose(qk), d.x).cwiseAbs().maxCoeff());
     if (m.momentum && nb > 0)
       plan.max_momentum = std::max(plan.max_momentum, m.momentum(qk, r.qd).cwiseAbs().maxCoeff());
   }
@@ -418,8 +487,9 @@ struct PlanTable {
 };
 inline PlanTable plan_table(const Plan& plan, const DynamicModel& m, bool geared) {
   PlanTable table{{"t"}, {}};
-  for (const char* suffix : {"", "d", "dd"})
-    for (const auto& name : m.coordinate_names) table.names.push_back(name + suffix);
+  table.names.insert(table.names.end(), m.coordinate_names.begin(), m.coordinate_names.end());
+  for (const char* suffix : {"", "d"})  // a coordinate's rate is its name + d (3D: vx0..wz0)
+    for (const auto& name : m.velocity_names()) table.names.push_back(name + suffix);
   // A motor slot's joint also gets its link-side angle and rate (q_j = qm_j / p_j), so that
   // simulate --plan can replay the plan into a scene with other gears (plan_replay.hpp).
   std::vector<int> motor_slots;
