@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # The main job: set up (packages, configure, build), run the paper's experiment (plan a
 # straight line, replay the torques into geared models, Table 2) and draw Figures 3-8; then the
-# paper's study as a sweep over p x I_m (studies/paper_gear_ratio.yaml) and its Figures 9-10.
+# paper's study as a sweep over p x I_m (studies/paper_gear_ratio.yaml) and its Figures 9-10;
+# then the experiment in 3D (examples/spatial_experiment) and its figure.
 # Usage: scripts/run-paper.sh [options of examples/paper_experiment, e.g. --elbow -1]
 # Output folder: out/paper (override with OUT_DIR=...).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # Only what it runs (the generator and the experiment; the tests are test.sh's), with progress.
-SPACEARM_TARGETS="spacearm paper_experiment" scripts/setup.sh build
+SPACEARM_TARGETS="spacearm paper_experiment spatial_experiment" scripts/setup.sh build
 out="${OUT_DIR:-out/paper}"
 echo "== operation counts of the paper's generated models"
 for scene in models/paper_reference.yaml models/paper_geared.yaml; do
@@ -21,3 +22,7 @@ echo "== the paper's study as a sweep: 37 gear ratios x 31 motor inertias (studi
 rm -rf "$out/sweep"
 build/cli/spacearm sweep studies/paper_gear_ratio.yaml -o "$out/sweep"
 scripts/plot_sweep.sh "$out/sweep" studies/paper_gear_ratio.yaml
+echo
+echo "== the experiment in 3D: models/space_arm7, exact rotors against armature (examples/spatial_experiment)"
+build/examples/spatial_experiment --out "$out/spatial"
+scripts/plot_spatial.sh "$out/spatial"
