@@ -1,5 +1,6 @@
 #include "plan_command.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -13,13 +14,14 @@ namespace spacearm {
 
 namespace {
 
-void check_outputs(const Scene& scene) {
+void check_outputs(const ModelFacts& facts) {
   std::string missing;
   for (Output o : {Output::end_effector_pose, Output::end_effector_jacobian, Output::mass_matrix,
                    Output::bias_forces})
-    if (!scene.wants(o)) missing += (missing.empty() ? "" : ", ") + to_string(o);
+    if (std::find(facts.outputs.begin(), facts.outputs.end(), o) == facts.outputs.end())
+      missing += (missing.empty() ? "" : ", ") + to_string(o);
   if (!missing.empty())
-    throw std::invalid_argument("plan: scene '" + scene.name + "' does not emit " + missing +
+    throw std::invalid_argument("plan: scene '" + facts.name + "' does not emit " + missing +
                                 " (add them to its field 'outputs')");
 }
 
@@ -74,7 +76,7 @@ void refuse_same_outputs(const PlanArgs& a) {
 }
 
 // The task from the options, checked against the scene's sizes before anything is compiled.
-StraightLineTask task_from_options(const PlanArgs& a, const Scene& scene) {
+StraightLineTask task_from_options(const PlanArgs& a, const ModelFacts& facts) {
   StraightLineTask task;
   const std::vector<double> from = parse_number_list(a.from_text, "--from"),
                             to = parse_number_list(a.to_text, "--to");
@@ -84,13 +86,15 @@ StraightLineTask task_from_options(const PlanArgs& a, const Scene& scene) {
   task.dt = a.dt;
   task.law = time_law_from_string(a.time_law);
   task.elbow = a.elbow;
-  if (!a.q0_text.empty()) task.q0 = cli::parse_vector(a.q0_text, "--q0", scene.num_coordinates());
+  if (!a.q0_text.empty()) task.q0 = cli::parse_vector(a.q0_text, "--q0", facts.dims.nq);
   DynamicModel sizes;
-  sizes.name = scene.name;
-  sizes.nq = scene.num_coordinates();
-  sizes.nv = scene.num_velocities();
-  sizes.num_links = scene.num_links();
-  sizes.free_floating = scene.free_floating();
+  sizes.name = facts.name;
+  sizes.nq = facts.dims.nq;
+  sizes.nv = facts.dims.nv;
+  sizes.num_links = facts.dims.num_links;
+  sizes.free_floating = facts.free_floating;
+  sizes.spatial = facts.dims.spatial;
+  sizes.set_layout(facts.num_base, facts.quaternion_offset);
   check_task(sizes, task, {"--from", "--to", "--duration", "--dt", "--elbow", "--q0"});
   return task;
 }
@@ -98,11 +102,12 @@ StraightLineTask task_from_options(const PlanArgs& a, const Scene& scene) {
 }  // namespace
 
 int run_plan(const PlanArgs& a) {
-  const Scene scene = load_scene(a.scene_path);
-  check_outputs(scene);
-  const StraightLineTask task = task_from_options(a, scene);
+  const ModelRecipe recipe = ModelRecipe::load(a.scene_path);
+  const ModelFacts& facts = recipe.facts();
+  check_outputs(facts);
+  const StraightLineTask task = task_from_options(a, facts);
   refuse_same_outputs(a);
-  const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, scene);
+  const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, facts);
 
   CompileOptions options;
   options.cache_dir = a.cache_dir;
@@ -110,13 +115,13 @@ int run_plan(const PlanArgs& a) {
     if (a.verbose || msg.rfind("compiling", 0) == 0)
       std::fprintf(stderr, "spacearm: %s\n", msg.c_str());
   };
-  const auto model = CompiledModel::load(scene, options);
+  const auto model = CompiledModel::load(recipe, options);
   const DynamicModel dynamic = dynamic_model(model, params);
   const Plan plan = plan_straight_line(dynamic, task);
 
   refuse_input_as_output(a.output_file, {{"the scene", a.scene_path}});
   refuse_input_as_output(a.torque_file, {{"the scene", a.scene_path}}, "--torque-file");
-  write_plan(plan_table(plan, dynamic, scene.geared()), a.output_file);
+  write_plan(plan_table(plan, dynamic, facts.geared), a.output_file);
   if (!a.torque_file.empty()) write_torques(plan, a.torque_file);
   std::fprintf(stderr,
                "spacearm: plan of %zu samples: max path error %.2e, max |qdd - central differences "

@@ -237,8 +237,8 @@ int run_simulate(const SimulateArgs& args) {
   std::optional<PlanSamples> plan;
   std::optional<TorqueTable> torque_file;
   if (!a.plan_file.empty()) {
-    plan =
-        read_plan_csv(read_text_file(a.plan_file, "--plan"), N, facts.free_floating, a.plan_file);
+    plan = read_plan_csv(read_text_file(a.plan_file, "--plan"), N, facts.free_floating, a.plan_file,
+                         facts.dims.spatial);
     if (a.t_end == 0) a.t_end = plan->torques.t_last();
   } else if (!a.zero_torque) {
     torque_file = read_torque_csv(read_text_file(a.torque_file, "--torques"), N, a.torque_file);

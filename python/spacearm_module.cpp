@@ -415,7 +415,8 @@ py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& 
           "plan: replaces torques, q0, qd0 and consistent_start (its start is mapped to this "
           "model's coordinates)");
     plan = read_plan_csv(plan_text(o.plan), N, m.free_floating,
-                         py::isinstance<py::str>(o.plan) ? o.plan.cast<std::string>() : "plan");
+                         py::isinstance<py::str>(o.plan) ? o.plan.cast<std::string>() : "plan",
+                         m.spatial);
     if (o.feedforward == "friction") {
       feed_friction_forward(m, *plan);
     } else if (o.feedforward != "none") {
@@ -490,7 +491,8 @@ py::dict PyModel::closed_loop(const py::object& plan_given, const std::string& c
   const long every = std::lround(dt_out / period);
   if (every < 1 || std::abs(every * period - dt_out) > 1e-9 * dt_out)
     throw py::value_error("dt_out must be a positive multiple of period");
-  PlanSamples plan = read_plan_csv(plan_text(plan_given), N, plant.free_floating, "plan");
+  PlanSamples plan =
+      read_plan_csv(plan_text(plan_given), N, plant.free_floating, "plan", plant.spatial);
   const SampledJointTrajectory target = joint_target(plan);
   // PD: the plan's torques (and friction) fed forward, feedback from the motor encoders.
   if (feedforward == "friction") feed_friction_forward(plant, plan);

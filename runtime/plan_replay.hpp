@@ -2,10 +2,10 @@
 // planner refuses springs and friction), its geared, flexible or friction twin flies it.
 // The plan file is the CSV `spacearm plan` writes; read as untrusted text, its columns found by
 // name (t, tau1..N, the link-side angles q1..N and rates q1d..qNd, and for a free base
-// x0,y0,q0 and their rates), every other column ignored. The start is mapped to the scene's
-// coordinates (motor angles p q, a flexible joint's spring pre-deflected by consistent_start);
-// the torques stay link side and reach a motor as tau/p (eq. 14); friction can be fed forward
-// from the scene's own friction law along the planned rates.
+// x0,y0,q0 and their rates, or in 3D x0,y0,z0,qw0..qz0 and vx0..wz0), every other column ignored.
+// The start is mapped to the scene's coordinates (motor angles p q, a flexible joint's spring
+// pre-deflected by consistent_start); the torques stay link side and reach a motor as tau/p (eq.
+// 14); friction can be fed forward from the scene's own friction law along the planned rates.
 #pragma once
 
 #include <Eigen/Core>
@@ -32,9 +32,13 @@ struct PlanSamples {
 
 namespace detail {
 // The plan columns a scene with `num_joints` joints and this base needs, in reading order.
-inline std::vector<std::string> plan_columns(int num_joints, bool free_floating) {
+inline std::vector<std::string> plan_columns(int num_joints, bool free_floating, bool spatial) {
   std::vector<std::string> names = torque_csv_columns(num_joints);
-  if (free_floating)
+  if (free_floating && spatial)
+    for (const char* n :
+         {"x0", "y0", "z0", "qw0", "qx0", "qy0", "qz0", "vx0", "vy0", "vz0", "wx0", "wy0", "wz0"})
+      names.push_back(n);
+  else if (free_floating)
     for (const char* n : {"x0", "y0", "q0", "x0d", "y0d", "q0d"}) names.push_back(n);
   for (const char* suffix : {"", "d"})
     for (int j = 1; j <= num_joints; ++j) names.push_back("q" + std::to_string(j) + suffix);
@@ -58,10 +62,10 @@ inline PlanSamples plan_samples(const Plan& plan, const DynamicModel& planner) {
   return s;
 }
 
-// Reads a plan for a scene with num_joints joints; errors name the file, line and column, and
-// say when the plan was made for another base or number of joints.
+// Reads a plan for a scene with num_joints joints (spatial: a base floating in 3D); errors name
+// the file, line and column, and say when the plan was made for another base or number of joints.
 inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool free_floating,
-                                 const std::string& source) {
+                                 const std::string& source, bool spatial = false) {
   const std::string where = "plan file '" + source + "'";
   const detail::CsvErrors fail{where};
   const auto lines = detail::csv_lines(text);
@@ -81,7 +85,12 @@ inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool f
                                                "and the scene's base is free_floating"
                                              : "has a column 'x0': it was planned on a "
                                                "free-floating base and the scene's base is fixed");
-  const std::vector<std::string> needed = detail::plan_columns(num_joints, free_floating);
+  if (free_floating && column.count("z0") != static_cast<size_t>(spatial))
+    throw fail(lines[0].first, spatial ? "has no column 'z0': it was planned on a planar arm and "
+                                         "the scene is spatial"
+                                       : "has a column 'z0': it was planned on a spatial arm and "
+                                         "the scene is planar");
+  const std::vector<std::string> needed = detail::plan_columns(num_joints, free_floating, spatial);
   for (const auto& n : needed)
     if (!column.count(n))
       throw fail(lines[0].first, "missing column '" + n + "' (a plan from spacearm plan has it" +
@@ -89,7 +98,12 @@ inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool f
   // Rows: the needed columns must be finite numbers; the others are not read.
   PlanSamples plan;
   std::vector<double> times;
-  const int nb = free_floating ? 3 : 0;
+  const int pose = !free_floating ? 0
+                   : spatial      ? 7
+                                  : 3,
+            rate = !free_floating ? 0
+                   : spatial      ? 6
+                                  : 3;
   for (size_t r = 1; r < lines.size(); ++r) {
     const long number = lines[r].first;
     const auto fields = detail::split_csv_line(lines[r].second);
@@ -108,8 +122,8 @@ inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool f
       return x;
     };
     plan.torques.samples.push_back(take(num_joints));
-    plan.base.push_back(take(nb));
-    plan.base_rate.push_back(take(nb));
+    plan.base.push_back(take(pose));
+    plan.base_rate.push_back(take(rate));
     plan.angles.push_back(take(num_joints));
     plan.rates.push_back(take(num_joints));
   }
