@@ -98,9 +98,35 @@ Chain<Dual<T>> along_configuration_rate(const Description& d, const Values<T>& v
       }));
 }
 
+// G = d(qdot)/dv (nq x nv, row-major): qdot = f(q, v) is linear in v, so one forward pass per
+// velocity gives it exactly.
+template <template <class> class Chain, class T, class Description>
+std::vector<T> configuration_rate_matrix(const Description& d, const Values<T>& values) {
+  const Dimensions dims = Chain<T>::dimensions(d);
+  std::vector<T> G(dims.nq * dims.nv);
+  for (int k = 0; k < dims.nv; ++k) {
+    const Values<Dual<T>> unit = seeded<T>(values, [&values, k](const std::string& a, int i) {
+      return a == info(Input::qd).name && i == k ? values.number(1.0) : T{};
+    });
+    for (int i = 0; i < dims.nq; ++i)
+      G[i * dims.nv + k] = Chain<Dual<T>>::configuration_rate(d, unit, i).d;
+  }
+  return G;
+}
+
+// Whether a chain has quasi-velocities whose directions do not commute (the spatial chain's
+// base angular velocity in its own frame): it then gives their Hamel coupling as a matrix.
+template <class C, class = void>
+struct has_quasi_velocities : std::false_type {};
+template <class C>
+struct has_quasi_velocities<C, std::void_t<decltype(&C::hamel_coupling)>> : std::true_type {};
+
 // The outputs made by differentiating the algorithms forward: Mdot = dM/dq qdot; with P =
 // d(M v)/dq (v held), C of eq. 7 = Mdot - P^T / 2 and the Christoffel form (Mdot + P - P^T) / 2
-// (both as written for nq = nv); the state Jacobian of forward dynamics at constant Q.
+// (where nq = nv); the state Jacobian of forward dynamics at constant Q. With quasi-velocities
+// (qdot = G v, nq > nv) C is the Boltzmann-Hamel factorization: C = Mdot - (P G)^T / 2 + H, so
+// that C v = Mdot v - G^T dT/dq + H v with H v the Hamel terms (omega x (M v)_omega for a base
+// turning at omega in its own frame, Euler's).
 template <template <class> class Chain, class T, class Description>
 std::vector<std::vector<T>> differentiated(const Description& d, const Values<T>& values,
                                            Output o) {
@@ -115,14 +141,30 @@ std::vector<std::vector<T>> differentiated(const Description& d, const Values<T>
   }
   const std::vector<T> Mdot = tangents(along_configuration_rate<Chain>(d, values).mass_matrix());
   if (o == Output::mass_matrix_derivative) return {Mdot};
-  const std::vector<T> P = jacobian<Chain>(
+  std::vector<T> P = jacobian<Chain>(
       d, values, Input::q, [](const Chain<Dual<T>>& c) { return c.generalized_momentum(); });
+  const int nq = Chain<T>::dimensions(d).nq;
+  if (nq != n) {
+    if (o == Output::christoffel_coriolis_matrix)
+      throw std::logic_error("recursive dynamics: no Christoffel form with quasi-velocities");
+    const std::vector<T> G = configuration_rate_matrix<Chain>(d, values);
+    std::vector<T> PG(n * n, T{});  // d(M v)/dq along each velocity's direction
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j)
+        for (int k = 0; k < nq; ++k) PG[i * n + j] += P[i * nq + k] * G[k * n + j];
+    P = PG;
+  }
   std::vector<T> C(n * n);
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j)
       C[i * n + j] = o == Output::coriolis_matrix
                          ? Mdot[i * n + j] - P[j * n + i] * 0.5
                          : (Mdot[i * n + j] + P[i * n + j] - P[j * n + i]) * 0.5;
+  if constexpr (has_quasi_velocities<Chain<T>>::value) {
+    const Chain<T> chain(d, values);
+    const std::vector<T> H = chain.hamel_coupling(chain.mass_matrix());
+    for (int k = 0; k < n * n; ++k) C[k] += H[k];
+  }
   return {C};
 }
 

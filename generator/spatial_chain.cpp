@@ -477,6 +477,19 @@ std::vector<T> Chain<T>::generalized_momentum() const {
 }
 
 template <class T>
+std::vector<T> Chain<T>::hamel_coupling(const std::vector<T>& M) const {
+  const int nv = d_.nv();
+  std::vector<T> H(nv * nv, T{});
+  if (!d_.free_base) return H;
+  const Vec3<T>& w = V_[0].w;
+  for (int c = 0; c < nv; ++c) {  // rows 3..5: omega x (column c of M's angular rows)
+    const Vec3<T> m = {M[3 * nv + c], M[4 * nv + c], M[5 * nv + c]}, h = cross(w, m);
+    for (int k = 0; k < 3; ++k) H[(3 + k) * nv + c] = h[k];
+  }
+  return H;
+}
+
+template <class T>
 std::vector<T> Chain<T>::momentum() const {
   std::vector<T> h(6, T{});
   auto add = [&h](const Force<T>& F, const Mat3<T>& R, const Vec3<T>& origin) {

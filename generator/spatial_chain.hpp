@@ -344,6 +344,10 @@ class Chain {
   std::vector<T> passive_forces() const { return std::vector<T>(nv(), T{}); }
   // M v: the momentum conjugate to each velocity (recursive_algorithms.hpp's P = d(M v)/dq).
   std::vector<T> generalized_momentum() const;
+  // The Hamel coupling of the quasi-velocities as a matrix H(M) (nv x nv, row-major) with
+  // H v = [0, omega x (M v)_omega, 0]: the base's angular velocity is in its own frame, whose
+  // directions do not commute (Euler's omega x L). Zero for a fixed base.
+  std::vector<T> hamel_coupling(const std::vector<T>& M) const;
   // [P (3), L (3)]: linear momentum and angular momentum about the world origin, in the world.
   std::vector<T> momentum() const;
   // The end effector's pose [x, y, z, w, qx, qy, qz]: the tip's world position and the last

@@ -57,12 +57,11 @@ const char* spatial_algorithm(Output o) {
 
 std::vector<Output> spatial_outputs(const SpatialScene& scene) {
   if (!scene.outputs.empty()) return scene.outputs;
-  // As in the plane, the state Jacobian only where a scene asks for it (its code is the
-  // largest and the slowest to compile).
+  // As in the plane, the registry's defaults (the state Jacobian and Mdot only where a scene
+  // asks for them).
   std::vector<Output> outputs;
   for (const OutputInfo& o : output_registry())
-    if (spatial_output(o.id, scene.chain.free_base) && o.id != Output::forward_dynamics_derivatives)
-      outputs.push_back(o.id);
+    if (spatial_output(o.id, scene.chain.free_base) && o.by_default) outputs.push_back(o.id);
   return outputs;
 }
 

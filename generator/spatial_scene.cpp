@@ -243,6 +243,8 @@ bool spatial_output(Output o, bool free_base) {
     case Output::inverse_dynamics:
     case Output::forward_dynamics:
     case Output::forward_dynamics_derivatives:
+    case Output::mass_matrix_derivative:
+    case Output::coriolis_matrix:
     case Output::end_effector_pose:
     case Output::end_effector_jacobian:
       return true;

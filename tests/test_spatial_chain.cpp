@@ -631,6 +631,55 @@ TEST(SpatialChain, GeneralizedJacobianKeepsTheWorldMomentumZero) {
   }
 }
 
+// C in 3D is the Boltzmann-Hamel factorization: C = Mdot - (P G)^T / 2 + H with qdot = G v,
+// P = d(M v)/dq and H v = [0, omega x (M v)_omega, 0]. C v is the bias (RNEA) to rounding, and
+// each part is rebuilt here by central differences along qdot and along each velocity's
+// direction of q (the quaternion's included).
+TEST(SpatialChain, CoriolisMatrixIsTheBoltzmannHamelFactorization) {
+  std::mt19937 rng(53);
+  for (const Case& c : kCases) {
+    SCOPED_TRACE(name(c));
+    const ChainDescription d = random_chain(rng, c.links, c.free, c.geared);
+    const State s = random_state(rng, d);
+    const int n = d.nv();
+    auto output = [&](Output o, const State& x) {
+      return evaluate_chain<Chain>(
+          d, o, [&x](const std::string& a, int i) { return a == "q" ? x.q[i] : x.v[i]; });
+    };
+    const std::vector<double> Cv = output(Output::coriolis_matrix, s)[0];
+    const Eigen::MatrixXd C =
+        Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(Cv.data(), n, n);
+    const Eigen::VectorXd b = as_eigen(output(Output::bias_forces, s)[0]);
+    EXPECT_LT((C * s.v - b).norm(), 1e-12 * (1 + b.norm()));
+    // The parts by central differences (h = 1e-6).
+    const double h = 1e-6;
+    auto moved = [&](const Eigen::VectorXd& dq, double step) {
+      State x = s;
+      x.q += step * dq;
+      return x;
+    };
+    const Eigen::VectorXd qdot = configuration_rate(d, s);
+    const Eigen::MatrixXd Mdot =
+        (mass_matrix(d, moved(qdot, h)) - mass_matrix(d, moved(qdot, -h))) / (2 * h);
+    Eigen::MatrixXd PG(n, n);
+    for (int k = 0; k < n; ++k) {
+      State unit = s;
+      unit.v = Eigen::VectorXd::Unit(n, k);
+      const Eigen::VectorXd g = configuration_rate(d, unit);  // G e_k
+      PG.col(k) = (mass_matrix(d, moved(g, h)) - mass_matrix(d, moved(g, -h))) * s.v / (2 * h);
+    }
+    const Eigen::MatrixXd M = mass_matrix(d, s);
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, n);
+    if (c.free) {
+      const Eigen::Vector3d w = s.v.segment<3>(3);
+      for (int k = 0; k < n; ++k)
+        H.block<3, 1>(3, k) = w.cross(Eigen::Vector3d(M.block<3, 1>(3, k)));
+    }
+    const Eigen::MatrixXd expected = Mdot - 0.5 * PG.transpose() + H;
+    EXPECT_LT((C - expected).norm(), 1e-6 * (1 + expected.norm()));
+  }
+}
+
 // The end effector: its pose (the tip's position, the last link's orientation composed as a
 // quaternion) and its geometric Jacobian (J v = the tip's velocity and the link's angular
 // velocity) are the world computation's, on a free and a fixed base, geared.

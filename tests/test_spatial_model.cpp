@@ -49,10 +49,11 @@ TEST(SpatialModel, LowersAndPrintsFromTheDerivedModelAlone) {
   std::string defaults = kArm;
   defaults.erase(defaults.find("outputs:"));
   const std::vector<Output> by_default = spatial_outputs(parse_spatial_scene(defaults, "arm3"));
-  // M, b, T, momentum, ID, FD, the pose and its Jacobian, J*, free-base ID.
-  EXPECT_EQ(by_default.size(), 10u);
-  for (Output o : {Output::end_effector_jacobian, Output::generalized_jacobian,
-                   Output::free_base_inverse_dynamics})
+  // M, C, b, T, momentum, ID, FD, the pose and its Jacobian, J*, free-base ID (not Mdot).
+  EXPECT_EQ(by_default.size(), 11u);
+  EXPECT_EQ(std::count(by_default.begin(), by_default.end(), Output::mass_matrix_derivative), 0);
+  for (Output o : {Output::coriolis_matrix, Output::end_effector_jacobian,
+                   Output::generalized_jacobian, Output::free_base_inverse_dynamics})
     EXPECT_EQ(std::count(by_default.begin(), by_default.end(), o), 1) << to_string(o);
   EXPECT_EQ(std::count(by_default.begin(), by_default.end(), Output::forward_dynamics_derivatives),
             0);
