@@ -88,9 +88,19 @@ int run_generate(const GenerateArgs& a) {
 }
 
 int run_inspect(const InspectArgs& a) {
+  const ModelRecipe recipe = ModelRecipe::load(a.scene_path);
+  if (recipe.spatial()) {
+    if (a.latex || a.decimal)
+      throw std::invalid_argument("inspect: --latex and --decimal need a closed form; model '" +
+                                  recipe.name() +
+                                  "' is a spatial arm, whose entries are printed "
+                                  "as the statements that compute them");
+    std::cout << recipe.entry_program(a.entry);
+    return 0;
+  }
   DeriveOptions options;
   options.all_outputs = true;
-  const SymbolicModel model = derive(load_scene(a.scene_path), options);
+  const SymbolicModel model = derive(*recipe.planar(), options);
   std::cout << entry_text(model, a.entry, a.latex, a.decimal) << "\n";
   return 0;
 }

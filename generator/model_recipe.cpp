@@ -1,7 +1,10 @@
 #include "model_recipe.hpp"
 
 #include <chrono>
+#include <stdexcept>
 
+#include "body_printer.hpp"
+#include "lowering.hpp"
 #include "planar_model.hpp"
 #include "spatial_model.hpp"
 
@@ -44,6 +47,53 @@ EmittedModel ModelRecipe::emit(const EmitOptions& options, double* derive_ms) co
   const DerivedModel model = spatial_derived_model(*spatial_);
   derived();
   return emit_cpp(model, options);
+}
+
+std::string ModelRecipe::entry_program(const std::string& entry) const {
+  if (!spatial_) throw std::logic_error("entry_program: a spatial scene's");
+  const EntryText e = parse_entry(entry);
+  const std::string shown =
+      "entry '" + (entry.size() > 40 ? entry.substr(0, 40) + "..." : entry) + "'";
+  // The output by its symbol, among those a spatial model of this base gives.
+  const OutputInfo* output = nullptr;
+  std::string known;
+  for (const OutputInfo& o : output_registry()) {
+    if (!spatial_output(o.id, spatial_->chain.free_base)) continue;
+    known += (known.empty() ? "" : ", ") + std::string(o.symbol);
+    if (e.name == o.symbol) output = &o;
+  }
+  if (!output)
+    throw std::invalid_argument(shown + ": unknown quantity '" + e.name + "' for a spatial arm" +
+                                " (known: " + known + ")");
+  // Its first result's shape: a scalar takes no index, a vector one, a matrix two.
+  const ResultInfo& shape = output->results[0];
+  const int rows = facts_.dims(shape.rows), cols = facts_.dims(shape.cols);
+  const size_t count = shape.cols != Size::one ? 2 : shape.rows != Size::one ? 1 : 0;
+  if (e.indices.size() != count)
+    throw std::invalid_argument(shown + ": " + e.name + " takes " + std::to_string(count) +
+                                (count == 1 ? " index" : " indices") + ", got " +
+                                std::to_string(e.indices.size()));
+  const int limits[2] = {count == 2 ? rows : rows * cols, cols};
+  for (size_t k = 0; k < count; ++k)
+    if (e.indices[k] >= limits[k])
+      throw std::invalid_argument(shown + ": index " + std::to_string(e.indices[k]) +
+                                  " out of range 0.." + std::to_string(limits[k] - 1));
+  const int index = count == 2 ? e.indices[0] * cols + e.indices[1] : count ? e.indices[0] : 0;
+  // The output alone, lowered (CSE'd) as generate would; the entry's statements printed.
+  SpatialScene alone = *spatial_;
+  alone.outputs = {output->id};
+  const LoweredModel lowered = lower(spatial_derived_model(alone));
+  for (const FunctionSpec& f : lowered.functions) {
+    if (f.name != output->name) continue;
+    std::string target = shape.name;
+    for (int i : e.indices) target += "[" + std::to_string(i) + "]";
+    const BodyPrinter body(f.program, {{target, f.entries[0].at(index), ""}}, false);
+    std::string text = "// " + target + " of " + f.name + " (" + f.formulation + ") in model " +
+                       facts_.name + ": the statements it depends on\n";
+    for (int k = 0; k < body.num_parts(); ++k) text += body.part(k);
+    return text;
+  }
+  throw std::logic_error("entry_program: no function " + std::string(output->name));
 }
 
 }  // namespace spacearm

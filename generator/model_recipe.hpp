@@ -30,6 +30,10 @@ class ModelRecipe {
   const std::string& source_path() const;
   // Derives and emits the model; derive_ms (when given) receives the derivation's time.
   EmittedModel emit(const EmitOptions& options, double* derive_ms = nullptr) const;
+  // One entry of a spatial model's output ("M[3][4]", inspect's syntax) as the statements of its
+  // lowered program that it depends on, ending in the entry's value: how the generated code
+  // computes it (a spatial model has no closed forms). std::invalid_argument naming the entry.
+  std::string entry_program(const std::string& entry) const;
 
   // The scene, for the tools that read more than the facts (nullptr: the other kind).
   const Scene* planar() const { return planar_.get(); }

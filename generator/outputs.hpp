@@ -126,4 +126,12 @@ std::string output_names();
 // beside them wherever a model has both; what forward dynamics needs.
 inline constexpr const char* kMassMatrixAndBias = "mass_matrix_and_bias";
 
+// An entry "NAME", "NAME[i]" or "NAME[i][j]" as inspect takes it (NAME a registry symbol, spaces
+// allowed around the parts); std::invalid_argument naming the entry if malformed.
+struct EntryText {
+  std::string name;
+  std::vector<int> indices;
+};
+EntryText parse_entry(const std::string& entry);
+
 }  // namespace spacearm

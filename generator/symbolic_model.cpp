@@ -455,47 +455,6 @@ SymbolicModel derive(const Scene& scene, const DeriveOptions& options) {
   return model;
 }
 
-namespace {
-
-// An entry "NAME", "NAME[i]" or "NAME[i][j]" (spaces allowed around the parts), parsed by
-// hand in one pass: a regular expression recursed once per character on long input.
-struct EntryText {
-  std::string name;
-  std::vector<int> indices;
-};
-
-EntryText parse_entry(const std::string& entry) {
-  const std::string shown =
-      "entry '" + (entry.size() > 40 ? entry.substr(0, 40) + "..." : entry) + "'";
-  const std::string usage = ": expected e.g. T, M[3][4], C[0][3], b[2], h[0], x[1], J[0][3]";
-  if (entry.size() > 100) throw std::invalid_argument(shown + " is too long" + usage);
-  EntryText e;
-  size_t i = 0;
-  auto skip = [&] {
-    while (i < entry.size() && entry[i] == ' ') ++i;
-  };
-  skip();
-  while (i < entry.size() && std::isalpha(static_cast<unsigned char>(entry[i])))
-    e.name += entry[i++];
-  if (e.name.empty()) throw std::invalid_argument(shown + usage);
-  for (skip(); i < entry.size() && entry[i] == '['; skip()) {
-    ++i;
-    skip();
-    std::string digits;
-    while (i < entry.size() && std::isdigit(static_cast<unsigned char>(entry[i])))
-      digits += entry[i++];
-    skip();
-    if (digits.empty() || digits.size() > 6 || i >= entry.size() || entry[i] != ']')
-      throw std::invalid_argument(shown + usage);
-    ++i;
-    e.indices.push_back(std::stoi(digits));
-  }
-  if (i != entry.size() || e.indices.size() > 2) throw std::invalid_argument(shown + usage);
-  return e;
-}
-
-}  // namespace
-
 GiNaC::ex symbolic_entry(const SymbolicModel& model, const std::string& entry) {
   const EntryText e = parse_entry(entry);
   std::string known;

@@ -117,9 +117,15 @@ class PyModel {
   // One symbolic entry ("M[3][4]", "T", ...) as `spacearm inspect` prints it; the scene is
   // derived on the first call (without the GIL) and kept.
   std::string inspect(const std::string& entry, bool latex, bool decimal) {
-    if (!recipe_.planar())
-      throw py::value_error("inspect: model '" + model_.name() +
-                            "' is a spatial arm, which has no closed forms to print yet");
+    if (!recipe_.planar()) {  // a spatial arm: the statements that compute the entry
+      if (latex || decimal)
+        throw py::value_error("inspect: latex and decimal need a closed form; model '" +
+                              model_.name() +
+                              "' is a spatial arm, whose entries are printed as "
+                              "the statements that compute them");
+      py::gil_scoped_release release;
+      return recipe_.entry_program(entry);
+    }
     if (!symbolic_) {
       py::gil_scoped_release release;
       DeriveOptions options;
@@ -667,7 +673,8 @@ PYBIND11_MODULE(_spacearm, module) {
       .def("inspect", &PyModel::inspect, py::arg("entry"), py::arg("latex") = false,
            py::arg("decimal") = false,
            "One symbolic entry as text (or LaTeX), e.g. model.inspect(\"M[3][4]\", latex=True): "
-           "the closed form that `spacearm inspect` prints, grouped by velocities and parameters.")
+           "the closed form that `spacearm inspect` prints, grouped by velocities and parameters; "
+           "for a spatial arm the statements that compute it.")
       .def("__repr__", &PyModel::repr);
   module.def("load", &load, py::arg("scene"), py::arg("params") = py::none(),
              py::arg("cache_dir") = "",

@@ -680,11 +680,20 @@ TEST_F(SimulateCli, SpatialArmEvaluatesAndMoves) {
   EXPECT_NE(symbolic.find("--symbolic: model 'spatial_arm2' is a spatial arm"), std::string::npos)
       << symbolic;
 
-  // A command that takes planar scenes only says so, naming the field.
+  // inspect prints a spatial entry as the statements that compute it, ending in its value; a
+  // closed-form option is refused by name.
   const std::string inspect =
-      run(std::string(SPACEARM_CLI) + " inspect " + scene + " 'M[0][0]' 2>&1", &status);
+      run(std::string(SPACEARM_CLI) + " inspect " + scene + " 'M[6][7]' 2>&1", &status);
+  EXPECT_EQ(status, 0) << inspect;
+  EXPECT_EQ(inspect.rfind("// M[6][7] of mass_matrix (recursive (CRBA)) in model spatial_arm2", 0),
+            0u)
+      << inspect;
+  EXPECT_NE(inspect.find("cosines0[1]"), std::string::npos) << inspect;  // M[6][7] depends on q2
+  EXPECT_NE(inspect.find("\n  M[6][7] = "), std::string::npos) << inspect;
+  const std::string latex =
+      run(std::string(SPACEARM_CLI) + " inspect " + scene + " 'M[6][7]' --latex 2>&1", &status);
   EXPECT_NE(status, 0);
-  EXPECT_NE(inspect.find("field 'space': a spatial arm"), std::string::npos) << inspect;
+  EXPECT_NE(latex.find("--latex and --decimal need a closed form"), std::string::npos) << latex;
 
   const std::string simulate = std::string(SPACEARM_CLI) + " simulate --cache-dir " +
                                cache.string() + " " + scene +

@@ -377,8 +377,10 @@ def test_a_spatial_arm_loads_evaluates_and_moves():
     assert np.allclose(np.linalg.norm(run["q"][:, 3:7], axis=1), 1, rtol=0, atol=1e-14)
     h = np.column_stack([run["columns"][c] for c in ("Px", "Py", "Pz", "Lx", "Ly", "Lz")])
     assert np.abs(h - h[0]).max() < 1e-9 * (1 + np.abs(h[0]).max())
+    program = arm.inspect("M[6][7]")  # a spatial entry: the statements that compute it
+    assert program.startswith("// M[6][7] of mass_matrix") and "\n  M[6][7] = " in program
     with pytest.raises(ValueError, match="spatial arm"):
-        arm.inspect("M[0][0]")
+        arm.inspect("M[6][7]", latex=True)
     # The 3D planner needs three joints for a position (six for a pose): it says so by name.
     with pytest.raises(ValueError, match="a 2-link arm cannot follow a position"):
         arm.plan([1, 0, 0], [1.1, 0, 0], 1)
