@@ -26,6 +26,7 @@
 #include "eval_command.hpp"
 #include "scene.hpp"
 #include "simulate_command.hpp"
+#include "spatial_scene.hpp"
 #include "sweep_command.hpp"
 
 namespace {
@@ -112,12 +113,18 @@ CLI::App* add_generate(CLI::App& app, spacearm::GenerateArgs& a) {
 CLI::App* add_inspect(CLI::App& app, spacearm::InspectArgs& a) {
   auto* command = app.add_subcommand("inspect", "Print one symbolic entry of the derived model");
   command->add_option("scene", a.scene_path, "Scene file (YAML)")->required();
-  std::string entry_help;
-  for (const auto& o : spacearm::output_registry())
+  std::string entry_help, spatial_help;
+  for (const auto& o : spacearm::output_registry()) {
     if (o.composed_of.empty())
       entry_help += (entry_help.empty() ? "" : ", ") + std::string(o.symbol) + " (" + o.name + ")";
+    if (spacearm::spatial_output(o.id, true))
+      spatial_help += (spatial_help.empty() ? "" : ", ") + std::string(o.symbol);
+  }
   command
-      ->add_option("entry", a.entry, "An entry such as M[3][4] or b[2]; the symbols: " + entry_help)
+      ->add_option(
+          "entry", a.entry,
+          "An entry such as M[3][4] or b[2]; the symbols: " + entry_help +
+              "; of a spatial arm (printed as the statements computing it): " + spatial_help)
       ->required();
   command->add_flag("--latex", a.latex, "Print LaTeX instead of plain text");
   command->add_flag("--decimal", a.decimal,
@@ -244,7 +251,8 @@ CLI::App* add_plan(CLI::App& app, spacearm::PlanArgs& a) {
   command
       ->add_option(
           "--from", a.from_text,
-          "End-effector start: x,y (position; 2 joints or more) or x,y,phi (pose; 3 or more)")
+          "End-effector start: x,y (position; 2 joints or more) or x,y,phi (pose; 3 or more); "
+          "for a spatial arm x,y,z (3 or more) or x,y,z,qw,qx,qy,qz (pose; 6 or more)")
       ->required();
   command->add_option("--to", a.to_text, "End-effector goal, as --from")->required();
   command->add_option("--duration", a.duration, "Duration T [s]")
@@ -255,7 +263,9 @@ CLI::App* add_plan(CLI::App& app, spacearm::PlanArgs& a) {
   command->add_option("--time-law", a.time_law, "quintic (default) or cubic")
       ->check(CLI::IsMember({"quintic", "cubic"}));
   auto* elbow_opt = command->add_option(
-      "--elbow", a.elbow, "Start branch: sign of joint 2's angle, +1 (default) or -1");
+      "--elbow", a.elbow,
+      "Start branch: sign of joint 2's angle, +1 (default) or -1 (spatial: of every joint's "
+      "0.4 rad seed)");
   command
       ->add_option(
           "--q0", a.q0_text,

@@ -119,8 +119,10 @@ int run_plan(const PlanArgs& a) {
   const DynamicModel dynamic = dynamic_model(model, params);
   const Plan plan = plan_straight_line(dynamic, task);
 
-  refuse_input_as_output(a.output_file, {{"the scene", a.scene_path}});
-  refuse_input_as_output(a.torque_file, {{"the scene", a.scene_path}}, "--torque-file");
+  std::vector<std::pair<std::string, std::string>> inputs = {{"the scene", a.scene_path}};
+  for (const std::string& path : recipe.read_files()) inputs.push_back({"the scene's URDF", path});
+  refuse_input_as_output(a.output_file, inputs);
+  refuse_input_as_output(a.torque_file, inputs, "--torque-file");
   write_plan(plan_table(plan, dynamic, facts.geared), a.output_file);
   if (!a.torque_file.empty()) write_torques(plan, a.torque_file);
   std::fprintf(stderr,

@@ -30,6 +30,10 @@ const std::string& ModelRecipe::source_path() const {
   return planar_ ? planar_->source_path : spatial_->source_path;
 }
 
+std::vector<std::string> ModelRecipe::read_files() const {
+  return spatial_ ? spatial_->read_files : std::vector<std::string>{};
+}
+
 EmittedModel ModelRecipe::emit(const EmitOptions& options, double* derive_ms) const {
   const auto t0 = std::chrono::steady_clock::now();
   auto derived = [&] {

@@ -6,6 +6,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "cpp_emitter.hpp"
 #include "function_spec.hpp"
@@ -28,6 +29,8 @@ class ModelRecipe {
   // Every byte the model is made from: its hash names the cache entry and the library.
   const std::string& content() const;
   const std::string& source_path() const;
+  // The files besides the scene that it was read from (a spatial scene's URDF), as opened.
+  std::vector<std::string> read_files() const;
   // Derives and emits the model; derive_ms (when given) receives the derivation's time.
   EmittedModel emit(const EmitOptions& options, double* derive_ms = nullptr) const;
   // One entry of a spatial model's output ("M[3][4]", inspect's syntax) as the statements of its

@@ -275,11 +275,12 @@ SpatialScene parse_spatial_scene(const std::string& yaml_text, const std::string
   const YamlReader r("scene", source_name, [](const std::string& m) { throw SceneError(m); });
   const YAML::Node root = r.load(yaml_text);
   // By default a URDF's path is relative to the scene file's folder.
-  const UrdfFileReader beside_scene = [&source_name](const std::string& path) {
+  std::vector<std::string> opened;
+  const UrdfFileReader beside_scene = [&source_name, &opened](const std::string& path) {
     const std::string folder = source_name.substr(0, source_name.find_last_of('/') + 1);
+    opened.push_back(path.empty() || path[0] == '/' ? path : folder + path);
     try {  // a regular file only: a FIFO or a device cannot block or fill memory
-      return read_regular_file(path.empty() || path[0] == '/' ? path : folder + path, "URDF",
-                               8 << 20);
+      return read_regular_file(opened.back(), "URDF", 8 << 20);
     } catch (const FolderError& e) {
       throw SceneError(e.what());
     }
@@ -287,6 +288,7 @@ SpatialScene parse_spatial_scene(const std::string& yaml_text, const std::string
   try {
     SpatialScene s = SpatialReader(r).read(root, yaml_text, read_file ? read_file : beside_scene);
     s.source_path = source_name;
+    s.read_files = opened;
     return s;
   } catch (const YAML::Exception& e) {
     r.fail("", std::string("unexpected YAML structure: ") + e.what());

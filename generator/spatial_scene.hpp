@@ -29,6 +29,9 @@ struct SpatialScene {
   std::string content;  // every byte the model is made from (its hash names the library)
   spatial::ChainDescription chain;
   std::vector<Output> outputs;  // as listed (`outputs:`); empty: the defaults (spatial_model.hpp)
+  // The files it was read from besides itself, as opened (the URDF's path beside the scene):
+  // a command refuses to write over them.
+  std::vector<std::string> read_files;
 };
 
 // The outputs a spatial arm can give today (the free-base ones only for a free base).

@@ -129,6 +129,7 @@ IntegrationStats integrate_motion(const Mdl& model, const typename Mdl::Vector& 
       auto q = s.head(nq);
       space.project(q);
     };
+  if (opt.project) opt.project(x);  // the start on the manifold too (its first sample is output)
   if (opt.method == Method::rosenbrock4 && !opt.jacobian && model.has_state_jacobian())
     opt.jacobian = detail::motion_jacobian(model, tau, nq, nv, 0);
   return integrate(opt, f, x, 0.0, t_end, dt_out, on_sample);

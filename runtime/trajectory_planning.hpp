@@ -155,9 +155,13 @@ inline int check_task(const DynamicModel& m, const StraightLineTask& task,
       if (!(v->tail<4>().norm() > 1e-6))
         fail(name + "'s quaternion (values 4 to 7) must be nonzero, got norm " +
              text(v->tail<4>().norm()));
-  if (task.q0.size() != 0 && m.quaternion_offset >= 0 &&
-      !(task.q0.segment<4>(m.quaternion_offset).norm() > 1e-6))
-    fail(names.q0 + "'s base quaternion must be nonzero");
+  if (task.q0.size() != 0 && m.quaternion_offset >= 0) {
+    const int k = m.quaternion_offset;
+    const double norm = task.q0.segment<4>(k).stableNorm();  // no overflow for 1e300
+    if (!(norm >= 1e-6 && norm <= 1e6))
+      fail(names.q0 + " values " + std::to_string(k + 1) + " to " + std::to_string(k + 4) +
+           ", the base's quaternion, must have a norm in [1e-6, 1e6], got " + text(norm));
+  }
   if (task.q0.size() == 0 && task.elbow != 1 && task.elbow != -1)
     fail(names.elbow + " must be +1 or -1, got " + std::to_string(task.elbow));
   return rows;

@@ -329,6 +329,32 @@ TEST_F(PlanCommand, SpatialArmPlansAPoseAndSimulateFliesIt) {
   EXPECT_LT((run.values(last, {"ee_x", "ee_y", "ee_z"}) - Eigen::Vector3d(1.6, 0.15, 1.15)).norm(),
             3e-5);
   EXPECT_LT(run.values(last, {"Px", "Py", "Pz", "Lx", "Ly", "Lz"}).norm(), 1e-8);
+
+  // The scene's URDF is an input: -o and --torque-file refuse it (a copy here, so that a failure
+  // cannot overwrite the repository's); a base quaternion of no usable size in --q0 is named.
+  fs::copy_file(fs::path(SPACEARM_SOURCE_DIR) / "models/space_arm7.urdf", dir() / "space_arm7.urdf",
+                fs::copy_options::overwrite_existing);
+  fs::copy_file(scene, dir() / "space_arm7.yaml", fs::copy_options::overwrite_existing);
+  const std::string urdf = (dir() / "space_arm7.urdf").string();
+  const std::string copy = cli() + "plan " + (dir() / "space_arm7.yaml").string() + " --from " +
+                           from + " --to " + to + " --duration 4 --q0 " + q0 + cache();
+  for (const std::string& option : {std::string(" -o "), " -o " + csv + " --torque-file "}) {
+    const std::string refused = test::run_command(copy + option + urdf + " 2>&1", &status);
+    EXPECT_NE(status, 0) << refused;
+    EXPECT_NE(refused.find("is the scene's URDF file: it would be overwritten"), std::string::npos)
+        << refused;
+  }
+  EXPECT_NE(test::read_text_file(urdf).find("<robot"), std::string::npos);
+  const std::string huge =
+      test::run_command(cli() + "plan " + scene + " --from " + from + " --to " + to +
+                            " --duration 4 --q0 0,0,0,1e300,0,0,0,30,50,-20,-160,40,90,10 -o " +
+                            csv + cache() + " 2>&1",
+                        &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(huge.find("--q0 values 4 to 7, the base's quaternion, must have a norm in [1e-6, 1e6], "
+                      "got 1e+300"),
+            std::string::npos)
+      << huge;
 }
 
 }  // namespace
