@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "model_recipe.hpp"
@@ -14,6 +15,15 @@
 #include "text_numbers.hpp"
 
 namespace spacearm::cli {
+
+// The files a command read a scene from, as (what, path) pairs for refuse_input_as_output: the
+// scene and what it names (a spatial scene's URDF).
+inline std::vector<std::pair<std::string, std::string>> scene_inputs(const std::string& scene_path,
+                                                                     const ModelRecipe& recipe) {
+  std::vector<std::pair<std::string, std::string>> inputs = {{"the scene", scene_path}};
+  for (const std::string& path : recipe.read_files()) inputs.push_back({"the scene's URDF", path});
+  return inputs;
+}
 
 // Parses "a,b,c" for option `name` into exactly n finite numbers (strictly: no empty
 // items, nothing out of the range of double).

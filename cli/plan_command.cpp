@@ -119,8 +119,7 @@ int run_plan(const PlanArgs& a) {
   const DynamicModel dynamic = dynamic_model(model, params);
   const Plan plan = plan_straight_line(dynamic, task);
 
-  std::vector<std::pair<std::string, std::string>> inputs = {{"the scene", a.scene_path}};
-  for (const std::string& path : recipe.read_files()) inputs.push_back({"the scene's URDF", path});
+  const auto inputs = cli::scene_inputs(a.scene_path, recipe);
   refuse_input_as_output(a.output_file, inputs);
   refuse_input_as_output(a.torque_file, inputs, "--torque-file");
   write_plan(plan_table(plan, dynamic, facts.geared), a.output_file);

@@ -263,9 +263,8 @@ int run_simulate(const SimulateArgs& args) {
   const SimulationTable table(model, facts.geared);
 
   // Opened only now: a run refused above leaves an existing output file untouched.
-  std::vector<std::pair<std::string, std::string>> inputs = {
-      {"the scene", a.scene_path}, {"--torques", a.torque_file}, {"--plan", a.plan_file}};
-  for (const std::string& path : scene.read_files()) inputs.push_back({"the scene's URDF", path});
+  auto inputs = cli::scene_inputs(a.scene_path, scene);
+  inputs.insert(inputs.end(), {{"--torques", a.torque_file}, {"--plan", a.plan_file}});
   refuse_input_as_output(a.output_file, inputs);
   RowWriter out(a.output_file);
   const std::string head = header(table);

@@ -69,20 +69,10 @@ std::string ModelRecipe::entry_program(const std::string& entry) const {
   if (!output)
     throw std::invalid_argument(shown + ": unknown quantity '" + e.name + "' for a spatial arm" +
                                 " (known: " + known + ")");
-  // Its first result's shape: a scalar takes no index, a vector one, a matrix two.
   const ResultInfo& shape = output->results[0];
-  const int rows = facts_.dims(shape.rows), cols = facts_.dims(shape.cols);
-  const size_t count = shape.cols != Size::one ? 2 : shape.rows != Size::one ? 1 : 0;
-  if (e.indices.size() != count)
-    throw std::invalid_argument(shown + ": " + e.name + " takes " + std::to_string(count) +
-                                (count == 1 ? " index" : " indices") + ", got " +
-                                std::to_string(e.indices.size()));
-  const int limits[2] = {count == 2 ? rows : rows * cols, cols};
-  for (size_t k = 0; k < count; ++k)
-    if (e.indices[k] >= limits[k])
-      throw std::invalid_argument(shown + ": index " + std::to_string(e.indices[k]) +
-                                  " out of range 0.." + std::to_string(limits[k] - 1));
-  const int index = count == 2 ? e.indices[0] * cols + e.indices[1] : count ? e.indices[0] : 0;
+  const int cols = facts_.dims(shape.cols);
+  const auto [row, col] = entry_position(e, *output, facts_.dims(shape.rows), cols, shown);
+  const int index = row * cols + col;
   // The output alone, lowered (CSE'd) as generate would; the entry's statements printed.
   SpatialScene alone = *spatial_;
   alone.outputs = {output->id};

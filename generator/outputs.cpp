@@ -218,4 +218,20 @@ EntryText parse_entry(const std::string& entry) {
   return e;
 }
 
+std::pair<int, int> entry_position(const EntryText& e, const OutputInfo& o, int rows, int cols,
+                                   const std::string& shown) {
+  const ResultInfo& shape = o.results[0];
+  const size_t count = shape.cols != Size::one ? 2 : shape.rows != Size::one ? 1 : 0;
+  if (e.indices.size() != count)
+    throw std::invalid_argument(shown + ": " + e.name + " takes " + std::to_string(count) +
+                                (count == 1 ? " index" : " indices") + ", got " +
+                                std::to_string(e.indices.size()));
+  const int limits[2] = {rows, cols};
+  for (size_t k = 0; k < count; ++k)
+    if (e.indices[k] >= limits[k])
+      throw std::invalid_argument(shown + ": index " + std::to_string(e.indices[k]) +
+                                  " out of range 0.." + std::to_string(limits[k] - 1));
+  return {count ? e.indices[0] : 0, count == 2 ? e.indices[1] : 0};
+}
+
 }  // namespace spacearm

@@ -8,6 +8,7 @@
 
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace spacearm {
@@ -133,5 +134,10 @@ struct EntryText {
   std::vector<int> indices;
 };
 EntryText parse_entry(const std::string& entry);
+// The (row, column) entry e names in output o's first result, rows x cols: a scalar takes no
+// index, a vector one, a matrix two (by the registry's shape, so that a one-coordinate model's M
+// still takes two); each in range, else std::invalid_argument after `shown` ("entry 'M[9]'").
+std::pair<int, int> entry_position(const EntryText& e, const OutputInfo& o, int rows, int cols,
+                                   const std::string& shown);
 
 }  // namespace spacearm

@@ -286,6 +286,15 @@ std::vector<T> ldlt_solve(const std::vector<T>& A, int n, std::vector<T> B, int 
   return B;
 }
 
+// The rows x cols block of a row-major matrix with n columns at (r0, c0), row-major.
+template <class T>
+std::vector<T> block(const std::vector<T>& M, int n, int r0, int c0, int rows, int cols) {
+  std::vector<T> b;
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) b.push_back(M[(r0 + r) * n + c0 + c]);
+  return b;
+}
+
 // I^A a = rhs for the free base's 6 x 6 articulated inertia, in the order (linear, angular) of
 // its own frame; its pivots are those of M with the base's linear rows turned into that frame
 // (an orthogonal change of basis: their signs, and M_ii, are unchanged).
@@ -396,12 +405,8 @@ std::vector<T> Chain<T>::generalized_jacobian() const {
   if (!d_.free_base) throw std::logic_error("spatial chain: generalized Jacobian of a fixed base");
   const int nv = d_.nv(), N = n_;
   const std::vector<T> M = mass_matrix(), J = end_effector_jacobian();
-  std::vector<T> Mbb(36), Mbm(6 * N);
-  for (int r = 0; r < 6; ++r) {
-    for (int k = 0; k < 6; ++k) Mbb[6 * r + k] = M[r * nv + k];
-    for (int c = 0; c < N; ++c) Mbm[r * N + c] = M[r * nv + 6 + c];
-  }
-  const std::vector<T> X = ldlt_solve(Mbb, 6, Mbm, N, num(1.0));
+  const std::vector<T> X =
+      ldlt_solve(block(M, nv, 0, 0, 6, 6), 6, block(M, nv, 0, 6, 6, N), N, num(1.0));
   std::vector<T> Jg(6 * N);
   for (int r = 0; r < 6; ++r)
     for (int c = 0; c < N; ++c) {
@@ -421,15 +426,14 @@ std::vector<std::vector<T>> Chain<T>::free_base_inverse_dynamics(
     throw std::logic_error("spatial chain: free-base inverse dynamics of a fixed base");
   const int nv = d_.nv(), N = n_;
   const std::vector<T> M = mass_matrix(), b = inverse_dynamics(std::vector<T>(nv, T{}));
-  std::vector<T> a(N), Mbb(36), rhs(6);
+  std::vector<T> a(N), rhs(6);
   for (int j = 0; j < N; ++j) a[j] = qdd_joints[j] * ratio(j + 1);
   for (int r = 0; r < 6; ++r) {
-    for (int k = 0; k < 6; ++k) Mbb[6 * r + k] = M[r * nv + k];
     T x = b[r];
     for (int c = 0; c < N; ++c) x += M[r * nv + 6 + c] * a[c];
     rhs[r] = -x;
   }
-  const std::vector<T> base = ldlt_solve(Mbb, 6, rhs, 1, num(1.0));
+  const std::vector<T> base = ldlt_solve(block(M, nv, 0, 0, 6, 6), 6, rhs, 1, num(1.0));
   std::vector<T> tau(N);
   for (int j = 0; j < N; ++j) {
     T Q = b[6 + j];

@@ -475,20 +475,9 @@ GiNaC::ex symbolic_entry(const SymbolicModel& model, const std::string& entry) {
     if (const std::string why = missing_feature(o.needs, model.scene.features()); !why.empty())
       throw std::invalid_argument("entry '" + entry + "': " + o.name + " " + why);
     const matrix& m = model.expression(o.id);
-    // A scalar takes no index, a vector one, a matrix two (by the registry's shape, so that
-    // a one-coordinate model's M still takes two); each in range.
-    const ResultInfo& shape = o.results[0];
-    const size_t count = shape.cols != Size::one ? 2 : shape.rows != Size::one ? 1 : 0;
-    if (e.indices.size() != count)
-      throw std::invalid_argument("entry '" + entry + "': " + e.name + " takes " +
-                                  std::to_string(count) + (count == 1 ? " index" : " indices") +
-                                  ", got " + std::to_string(e.indices.size()));
-    const unsigned limits[2] = {m.rows(), m.cols()};
-    for (size_t k = 0; k < count; ++k)
-      if (static_cast<unsigned>(e.indices[k]) >= limits[k])
-        throw std::invalid_argument("entry '" + entry + "': index " + std::to_string(e.indices[k]) +
-                                    " out of range 0.." + std::to_string(limits[k] - 1));
-    return m(count ? e.indices[0] : 0, count == 2 ? e.indices[1] : 0);
+    const auto [row, col] = entry_position(e, o, static_cast<int>(m.rows()),
+                                           static_cast<int>(m.cols()), "entry '" + entry + "'");
+    return m(row, col);
   }
   throw std::invalid_argument("entry '" + entry + "': unknown quantity '" + e.name +
                               "' (known: " + known + ")");
