@@ -291,7 +291,10 @@ LoweredModel lower(const DerivedModel& model, const LowerOptions& options) {
       throw std::logic_error("lowering: model " + model.facts.name + " states no gear ratios");
     FunctionSpec f = ratios;
     f.entries = model.gear_ratios.record(f.program);
-    self_check(model, f, model.gear_ratios.evaluate([](const std::string&, int) { return 0.0; }));
+    const CheckPoint at(model);
+    self_check(model, f, model.gear_ratios.evaluate([&at](const std::string& a, int i) {
+      return at.input(a, i);
+    }));
     f.formulation = "constant";
     lowered.functions.push_back(std::move(f));
   }

@@ -37,6 +37,37 @@ bool is_reserved(const std::string& s) {
 
 using Reader = YamlReader;
 
+}  // namespace
+
+std::vector<Parameter> read_scene_parameters(const YamlReader& r, const YAML::Node& ps) {
+  std::vector<Parameter> parameters;
+  if (!ps.IsDefined() || ps.IsNull()) return parameters;
+  if (!ps.IsMap())
+    r.fail("parameters", "expected a mapping of parameter name to nominal value, e.g. {p: 1.0}",
+           ps);
+  std::set<std::string> seen;
+  for (const auto& kv : ps) {
+    const std::string pname = r.key_text(kv.first, "parameters");
+    const std::string field = "parameters." + pname;
+    if (!is_identifier(pname))
+      r.fail(field, "parameter name '" + pname + "' is not an identifier", kv.first);
+    if (is_reserved(pname))
+      r.fail(field,
+             "parameter name '" + pname +
+                 "' is reserved (a coordinate, a generated symbol or a C++ keyword)",
+             kv.first);
+    if (!seen.insert(pname).second)
+      r.fail(field, "parameter '" + pname + "' given more than once", kv.first);
+    Parameter p{pname, r.quantity(kv.second, field)};
+    if (p.nominal.is_parameter())
+      r.fail(field, "nominal value must be a number, got '" + p.nominal.parameter + "'", kv.second);
+    parameters.push_back(p);
+  }
+  return parameters;
+}
+
+namespace {
+
 void read_pair(const Reader& r, const YAML::Node& n, const std::string& field, Quantity out[2]) {
   if (!n.IsSequence() || n.size() != 2) r.fail(field, "expected a list of two numbers [x, y]", n);
   out[0] = r.quantity(n[0], field + "[0]");
@@ -246,31 +277,9 @@ class SceneReader {
   }
 
   void read_parameters() {
-    if (root["parameters"].IsDefined() && !root["parameters"].IsNull()) {
-      const YAML::Node ps = root["parameters"];
-      if (!ps.IsMap())
-        r.fail("parameters", "expected a mapping of parameter name to nominal value, e.g. {p: 1.0}",
-               ps);
-      for (const auto& kv : ps) {
-        const std::string pname = r.key_text(kv.first, "parameters");
-        const std::string field = "parameters." + pname;
-        if (!is_identifier(pname))
-          r.fail(field, "parameter name '" + pname + "' is not an identifier", kv.first);
-        if (is_reserved(pname))
-          r.fail(field,
-                 "parameter name '" + pname +
-                     "' is reserved (a coordinate, a generated symbol or a C++ keyword)",
-                 kv.first);
-        if (parameter_index.count(pname))
-          r.fail(field, "parameter '" + pname + "' given more than once", kv.first);
-        Parameter p{pname, r.quantity(kv.second, field)};
-        if (p.nominal.is_parameter())
-          r.fail(field, "nominal value must be a number, got '" + p.nominal.parameter + "'",
-                 kv.second);
-        parameter_index[pname] = static_cast<int>(s.parameters.size());
-        s.parameters.push_back(p);
-      }
-    }
+    s.parameters = read_scene_parameters(r, root["parameters"]);
+    for (size_t i = 0; i < s.parameters.size(); ++i)
+      parameter_index[s.parameters[i].name] = static_cast<int>(i);
   }
 
   // Resolves a quantity's value (a parameter's nominal one) and keeps its node: its range is

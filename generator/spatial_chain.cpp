@@ -1,16 +1,13 @@
 #include "spatial_chain.hpp"
 
+#include <algorithm>
+
 namespace spacearm::spatial {
 
-RigidInertia<double> rigid_inertia(const Link& l) {
-  const Vec3<double> c = {l.com[0], l.com[1], l.com[2]};
-  const auto& i = l.inertia;  // ixx, ixy, ixz, iyy, iyz, izz about the com
-  // Parallel axes: I_o = I_c + m (|c|^2 1 - c c^T).
-  const double cc = dot(c, c);
-  Mat3<double> I = {i[0], i[1], i[2], i[1], i[3], i[4], i[2], i[4], i[5]};
-  for (int r = 0; r < 3; ++r)
-    for (int k = 0; k < 3; ++k) I[3 * r + k] += l.mass * ((r == k ? cc : 0.0) - c[r] * c[k]);
-  return {l.mass, scaled(c, l.mass), I};
+bool Inertial::uses_parameter() const {
+  auto literal = [](int p) { return p == kLiteral; };
+  return !literal(mass_param) || !std::all_of(com_param.begin(), com_param.end(), literal) ||
+         !std::all_of(inertia_param.begin(), inertia_param.end(), literal);
 }
 
 namespace {
@@ -34,19 +31,79 @@ Mat3<T> Chain<T>::num(const Mat3<double>& A) const {
   return B;
 }
 
+// Parallel axes: I_o = I_c + m (|c|^2 1 - c c^T), h = m c; in double where every number is a
+// literal (a recorded program then holds only the results, as constants).
+template <class T, class Number>
+RigidInertia<T> about_origin(const T& m, const Vec3<T>& c, const std::array<T, 6>& i,
+                             const Number& number) {
+  const T cc = dot(c, c);
+  Mat3<T> I = {i[0], i[1], i[2], i[1], i[3], i[4], i[2], i[4], i[5]};
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) I[3 * r + k] += m * ((r == k ? cc : number(0.0)) - c[r] * c[k]);
+  return {m, scaled(c, m), I};
+}
+
+template <class T>
+RigidInertia<T> Chain<T>::rigid_inertia(const Inertial& b) const {
+  if (!b.uses_parameter()) {
+    const RigidInertia<double> I = about_origin(b.mass, Vec3<double>{b.com[0], b.com[1], b.com[2]},
+                                                b.inertia, [](double x) { return x; });
+    return {num(I.m), num(I.h), num(I.I)};
+  }
+  Vec3<T> c;
+  for (int k = 0; k < 3; ++k) c[k] = value(b.com[k], b.com_param[k]);
+  std::array<T, 6> i;
+  for (int k = 0; k < 6; ++k) i[k] = value(b.inertia[k], b.inertia_param[k]);
+  return about_origin(value(b.mass, b.mass_param), c, i, [this](double x) { return num(x); });
+}
+
+template <class T>
+RigidInertia<T> Chain<T>::body_inertia(const Link& l) const {
+  RigidInertia<T> I = rigid_inertia(l);
+  for (const Part& part : l.parts)
+    I = I + in_parent(Transform<T>{num(transposed(rpy_rotation(part.rpy))), num(part.xyz)},
+                      rigid_inertia(part.inertial));
+  return I;
+}
+
+// An exact rotor's inertia about joint i's origin: transverse (1 - a a^T) + axial a a^T.
+template <class T>
+Mat3<T> Chain<T>::rotor_inertia(int i, const Vec3<double>& a) const {
+  const Gear& g = d_.links[i - 1].gear;
+  Mat3<T> Ir;
+  if (g.axial_param == kLiteral && g.transverse_param == kLiteral) {
+    Mat3<double> I;
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 3; ++k)
+        I[3 * r + k] = g.transverse * ((r == k ? 1.0 : 0.0) - a[r] * a[k]) + g.axial * a[r] * a[k];
+    return num(I);
+  }
+  const T transverse = value(g.transverse, g.transverse_param);
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k)
+      Ir[3 * r + k] =
+          transverse * num((r == k ? 1.0 : 0.0) - a[r] * a[k]) + axial(i) * num(a[r] * a[k]);
+  return Ir;
+}
+
+// p^2 times the armature: joint i's armature per unit link rate.
+template <class T>
+T Chain<T>::armature_per_link_rate(int i) const {
+  const Gear& g = d_.links[i - 1].gear;
+  if (!g.present || g.exact) return T{};
+  if (literal_ratio(i) && g.axial_param == kLiteral) return num(g.ratio * g.ratio * g.axial);
+  return ratio(i) * ratio(i) * armature(i);
+}
+
 template <class T>
 Chain<T>::Chain(const ChainDescription& d, Values<T> values)
     : d_(d), values_(std::move(values)), n_(static_cast<int>(d.links.size())) {
   const int jq = d.free_base ? 7 : 0, jv = d.num_base();
   auto q = [this](int i) { return values_.input("q", i); };
   auto v = [this](int i) { return values_.input("qd", i); };
-  auto inertia = [this](const Link& l) {
-    const RigidInertia<double> I = rigid_inertia(l);
-    return RigidInertia<T>{num(I.m), num(I.h), num(I.I)};
-  };
   // The base: its pose from q, its velocity in its own frame (omega_b, R^T v_world).
   X_.resize(n_ + 1);
-  I_.push_back(inertia(d.base));
+  I_.push_back(body_inertia(d.base));
   if (d.free_base) {
     p_.push_back({q(0), q(1), q(2)});
     // The base's quaternion need not be unit (an integrator's stage drifts off the sphere).
@@ -69,8 +126,7 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
   for (int i = 1; i <= n_; ++i) {
     const Link& l = d.links[i - 1];
     const Vec3<double> a = unit_axis(l, i);
-    const double p = l.gear.present ? l.gear.ratio : 1.0;
-    const T angle = q(jq + i - 1) * (1 / p);
+    const T qi = q(jq + i - 1), angle = qi * over_ratio(i, 1.0);
     const Mat3<double> R_origin = rpy_rotation(l.origin_rpy);
     const Mat3<T> R = product(num(R_origin), axis_rotation(a, cos(angle), sin(angle),
                                                            [this](double x) { return num(x); }));
@@ -79,19 +135,16 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
     p_.push_back(p_[i - 1] + times(R_[i - 1], X_[i].r));
     axis_.push_back(num(a));
     qd_.push_back(v(jv + i - 1));
-    S_.push_back({num(scaled(a, 1 / p)), zero3()});
+    S_.push_back(
+        {literal_ratio(i) ? num(scaled(a, 1 / ratio_value(i))) : scaled(num(a), over_ratio(i, 1.0)),
+         zero3()});
     Motion<T> Vi = X_[i].apply(V_[i - 1]);
     Vi.w = Vi.w + scaled(S_[i].w, qd_[i]);
     V_.push_back(Vi);
-    I_.push_back(inertia(l));
+    I_.push_back(body_inertia(l));
     if (exact_rotor(i)) {
       rotor_X_[i] = {num(transposed(R_origin)), num(l.origin_xyz)};
-      Mat3<double> Ir;  // transverse (1 - a a^T) + axial a a^T
-      for (int r = 0; r < 3; ++r)
-        for (int k = 0; k < 3; ++k)
-          Ir[3 * r + k] =
-              l.gear.transverse * ((r == k ? 1.0 : 0.0) - a[r] * a[k]) + l.gear.axial * a[r] * a[k];
-      rotor_I_[i] = {T{}, zero3(), num(Ir)};
+      rotor_I_[i] = {T{}, zero3(), rotor_inertia(i, a)};
       rotor_V_[i] = rotor_X_[i].apply(V_[i - 1]);
       rotor_V_[i].w = rotor_V_[i].w + scaled(axis_[i], qd_[i]);
     }
@@ -139,7 +192,7 @@ std::vector<T> Chain<T>::mass_matrix() const {
     const int col = nb + i - 1;
     // Column i: link i's composite at S_i, and an exact rotor at its axis (on the parent).
     Force<T> F = Ic[i] * S_[i];
-    T Mii = power(F, S_[i]) + num(armature(i));
+    T Mii = power(F, S_[i]) + armature(i);
     Force<T> up = X_[i].apply_transpose(F);
     if (exact_rotor(i)) {
       const Motion<T> Sr = {axis_[i], zero3()};
@@ -198,7 +251,7 @@ std::vector<T> Chain<T>::inverse_dynamics(const std::vector<T>& vdot) const {
     const int col = nb + i - 1;
     A[i] = joint_acceleration(X_[i], A[i - 1], V_[i], S_[i], vdot[col], qd_[i]);
     F[i] = I_[i] * A[i] + cross_force(V_[i], I_[i] * V_[i]);
-    Q[col] = vdot[col] * num(armature(i));
+    Q[col] = vdot[col] * armature(i);
     if (exact_rotor(i)) {
       const Motion<T> S = {axis_[i], zero3()};
       const Motion<T> Ar =
@@ -248,8 +301,7 @@ std::vector<T> Chain<T>::mass_matrix_diagonal() const {
   std::vector<T> diagonal(d_.nv());
   for (int k = 0; k < nb; ++k) diagonal[k] = k < 3 ? Ic[0].m : Ic[0].I[4 * (k - 3)];
   for (int i = 1; i <= n_; ++i) {
-    const double rotor = exact_rotor(i) ? d_.links[i - 1].gear.axial : armature(i);
-    diagonal[nb + i - 1] = power(Ic[i] * S_[i], S_[i]) + num(rotor);
+    diagonal[nb + i - 1] = power(Ic[i] * S_[i], S_[i]) + (exact_rotor(i) ? axial(i) : armature(i));
   }
   return diagonal;
 }
@@ -325,11 +377,13 @@ template <class T>
 void Chain<T>::add_rotor(int i, ArticulatedInertia<T>& Ia, Force<T>& U, T& D, Force<T>& pa) const {
   const Mat3<T>& Ir = rotor_I_[i].I;
   const Vec3<T>& a = axis_[i];
-  const Gear& g = d_.links[i - 1].gear;
   const Vec3<T> w_parent = V_[i].w - scaled(S_[i].w, qd_[i]),
                 w_rotor = w_parent + scaled(a, qd_[i]);
-  U.n = U.n + scaled(a, num(g.ratio * g.axial));  // I_r a = axial a, per unit link rate p a
-  D += num(g.ratio * g.ratio * g.axial);
+  const Gear& g = d_.links[i - 1].gear;
+  const bool literal = literal_ratio(i) && g.axial_param == kLiteral;
+  // I_r a = axial a, per unit link rate p a
+  U.n = U.n + scaled(a, literal ? num(g.ratio * g.axial) : ratio(i) * axial(i));
+  D += literal ? num(g.ratio * g.ratio * g.axial) : ratio(i) * ratio(i) * axial(i);
   pa.n = pa.n + cross(w_rotor, times(Ir, w_rotor)) + scaled(times(Ir, cross(w_parent, a)), qd_[i]);
   for (int k = 0; k < 9; ++k) Ia.A[k] += Ir[k];
 }
@@ -357,16 +411,15 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
   // product, as a' = X a_parent + c).
   for (int i = n_; i >= 1; --i) {
     const int col = nb + i - 1;
-    const double p = ratio(i);
     const Motion<T> S = {axis_[i], zero3()};
     c[i] = scaled(cross_motion(V_[i], S_[i]), qd_[i]);
     U[i] = IA[i] * S;
-    D[i] = power(U[i], S) + num(p * p * armature(i));
-    u[i] = (Q[col] - passive[col]) * p - power(pA[i], S) - power(U[i], c[i]);
+    D[i] = power(U[i], S) + armature_per_link_rate(i);
+    u[i] = (Q[col] - passive[col]) * ratio(i) - power(pA[i], S) - power(U[i], c[i]);
     Force<T> pa = pA[i] + IA[i] * c[i];
     ArticulatedInertia<T> Ia = IA[i];
     if (exact_rotor(i)) add_rotor(i, Ia, U[i], D[i], pa);
-    pivots[col] = D[i] * (1 / (p * p));
+    pivots[col] = D[i] * over_ratio(i, 1.0, 2);
     inverse_D[i] = num(1.0) / D[i];
     if (i == 1 && !d_.free_base) break;
     const Force<T> W = scaled(U[i], inverse_D[i]);
@@ -450,7 +503,7 @@ T Chain<T>::kinetic_energy() const {
   for (int b = first_body(); b <= n_; ++b) twice += power(I_[b] * V_[b], V_[b]);
   for (int i = 1; i <= n_; ++i) {
     if (exact_rotor(i)) twice += power(rotor_I_[i] * rotor_V_[i], rotor_V_[i]);
-    twice += qd_[i] * qd_[i] * num(armature(i));
+    twice += qd_[i] * qd_[i] * armature(i);
   }
   return twice * 0.5;
 }
@@ -465,7 +518,7 @@ std::vector<T> Chain<T>::generalized_momentum() const {
   for (int i = n_; i >= 1; --i) {
     const int col = nb + i - 1;
     carried = carried + I_[i] * V_[i];
-    p[col] = power(carried, S_[i]) + qd_[i] * num(armature(i));
+    p[col] = power(carried, S_[i]) + qd_[i] * armature(i);
     carried = X_[i].apply_transpose(carried);
     if (exact_rotor(i)) {  // the rotor's momentum, in the parent's frame
       const Force<T> h = rotor_I_[i] * rotor_V_[i];
@@ -523,8 +576,7 @@ std::vector<T> Chain<T>::end_effector_pose() const {
   for (int i = 1; i <= n_; ++i) {
     const Link& l = d_.links[i - 1];
     const Quaternion<double> o = rpy_quaternion(l.origin_rpy);
-    const double p = l.gear.present ? l.gear.ratio : 1.0;
-    const T half = values_.input("q", jq + i - 1) * (0.5 / p);
+    const T qi = values_.input("q", jq + i - 1), half = qi * over_ratio(i, 0.5);
     const T s = sin(half);
     q = q * Quaternion<T>{num(o[0]), num(o[1]), num(o[2]), num(o[3])} *
         Quaternion<T>{cos(half), s * axis_[i][0], s * axis_[i][1], s * axis_[i][2]};

@@ -27,8 +27,11 @@ namespace spacearm::spatial {
 using spacearm::Dimensions;
 using spacearm::Values;
 
-// One link and the revolute joint that carries it (URDF's joint origin and axis; the link's
-// inertial about its centre of mass, in the link frame).
+// A number of the model may be a run-time parameter: its index in `params` beside it (-1: the
+// number itself, a literal); the number is then the parameter's nominal value (what the scene's
+// checks use). The chain reads the parameter, never the nominal value.
+constexpr int kLiteral = -1;
+
 // A joint's gear: a motor whose rotor turns at p times the joint's rate relative to the parent
 // link, so the joint's coordinate is the motor angle qm = p q (eq. 12 in the plane) and its
 // generalized force tau / p. The rotor is a body of revolution about the joint axis through
@@ -41,14 +44,34 @@ struct Gear {
   double ratio = 1;
   double axial = 0, transverse = 0;  // the rotor's inertia about its axis and across it
   bool exact = true;
+  int ratio_param = kLiteral, axial_param = kLiteral, transverse_param = kLiteral;
 };
 
-struct Link {
-  std::array<double, 3> origin_xyz{}, origin_rpy{};  // the joint frame in the parent link's
-  std::array<double, 3> axis{1, 0, 0};               // unit, in the joint frame
+// A body's mass, centre of mass and inertia about it (ixx, ixy, ixz, iyy, iyz, izz), in its
+// frame, each a literal or a run-time parameter.
+struct Inertial {
   double mass = 0;
   std::array<double, 3> com{};
-  std::array<double, 6> inertia{};  // ixx, ixy, ixz, iyy, iyz, izz about the com
+  std::array<double, 6> inertia{};
+  int mass_param = kLiteral;
+  std::array<int, 3> com_param{kLiteral, kLiteral, kLiteral};
+  std::array<int, 6> inertia_param{kLiteral, kLiteral, kLiteral, kLiteral, kLiteral, kLiteral};
+  bool uses_parameter() const;
+};
+
+// A body welded to a link at a fixed frame (its origin xyz and rpy in the link's frame): a
+// URDF link whose inertial a scene gives (a parameter cannot be lumped in numbers).
+struct Part {
+  std::array<double, 3> xyz{}, rpy{};
+  Inertial inertial;
+};
+
+// One link and the revolute joint that carries it (URDF's joint origin and axis; the link's
+// inertial about its centre of mass, in the link frame), with the parts welded to it.
+struct Link : Inertial {
+  std::array<double, 3> origin_xyz{}, origin_rpy{};  // the joint frame in the parent link's
+  std::array<double, 3> axis{1, 0, 0};               // unit, in the joint frame
+  std::vector<Part> parts;
   Gear gear;
 };
 
@@ -312,8 +335,6 @@ inline Mat3<double> rpy_rotation(const std::array<double, 3>& rpy) {
   return quaternion_rotation(q[0], q[1], q[2], q[3], 1.0, 2.0);
 }
 
-RigidInertia<double> rigid_inertia(const Link& l);
-
 // Defined in spatial_chain.cpp for double, Sym and their duals. The chain at one state over the
 // scalar T (double, or recorded_scalar.hpp's Sym and Dual): its numbers come from Values (inputs
 // "q" and "qd" by the registry's names, literals), so one definition serves the reference in double
@@ -384,15 +405,44 @@ class Chain {
   bool exact_rotor(int i) const {
     return d_.links[i - 1].gear.present && d_.links[i - 1].gear.exact;
   }
-  double ratio(int i) const {  // joint i's gear ratio (1 without a gear)
+  // A number of the description: the literal, or the run-time parameter params[param].
+  T value(double literal, int param) const {
+    return param == kLiteral ? num(literal) : values_.input("params", param);
+  }
+  T ratio(int i) const {  // joint i's gear ratio (1 without a gear)
+    const Gear& g = d_.links[i - 1].gear;
+    return g.present ? value(g.ratio, g.ratio_param) : num(1.0);
+  }
+  // k / p_i^power, power 1 or 2 (a literal ratio's folded to one number).
+  T over_ratio(int i, double k, int power = 1) const {
+    const Gear& g = d_.links[i - 1].gear;
+    if (!g.present) return num(k);
+    if (g.ratio_param == kLiteral) return num(power == 1 ? k / g.ratio : k / (g.ratio * g.ratio));
+    const T r = num(1.0) / ratio(i);
+    return power == 1 ? r * k : r * r * k;
+  }
+  // The armature inertia on joint i's coordinate (0 without an armature-coupled gear).
+  T armature(int i) const {
+    const Gear& g = d_.links[i - 1].gear;
+    return g.present && !g.exact ? value(g.axial, g.axial_param) : T{};
+  }
+  T axial(int i) const {  // the rotor's axial inertia
+    const Gear& g = d_.links[i - 1].gear;
+    return value(g.axial, g.axial_param);
+  }
+  bool literal_ratio(int i) const {
+    const Gear& g = d_.links[i - 1].gear;
+    return !g.present || g.ratio_param == kLiteral;
+  }
+  double ratio_value(int i) const {  // a literal ratio
     const Gear& g = d_.links[i - 1].gear;
     return g.present ? g.ratio : 1.0;
   }
-  // The armature inertia on joint i's coordinate (0 without an armature-coupled gear).
-  double armature(int i) const {
-    const Gear& g = d_.links[i - 1].gear;
-    return g.present && !g.exact ? g.axial : 0.0;
-  }
+  T armature_per_link_rate(int i) const;
+  Mat3<T> rotor_inertia(int i, const Vec3<double>& a) const;
+  // A body's inertia about its frame's origin: its own inertial and its welded parts'.
+  RigidInertia<T> body_inertia(const Link& l) const;
+  RigidInertia<T> rigid_inertia(const Inertial& b) const;
   T num(double x) const { return values_.number(x); }
   Vec3<T> num(const std::array<double, 3>& x) const { return {num(x[0]), num(x[1]), num(x[2])}; }
   Mat3<T> num(const Mat3<double>& A) const;

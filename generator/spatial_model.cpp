@@ -17,6 +17,56 @@ std::vector<std::string> coordinate_names(const spatial::ChainDescription& c) {
   return names;
 }
 
+// A physical inertia (ixx, ixy, ixz, iyy, iyz, izz) as conditions value > 0 or >= 0: positive
+// definite (I's leading minors), and principal moments within the triangle inequality, which is
+// Sigma = tr(I) / 2 - I positive semidefinite (all its principal minors; Sigma is the body's
+// second moment of mass). A minor of degree k may fall short of 0 by 1e-12 tr^k: the reader's
+// slack, so that a flat plate or a thin rod at its nominal value passes.
+std::vector<std::pair<Sym, bool>> physical_inertia(const std::array<Sym, 6>& i) {
+  const Sym &a = i[0], &b = i[1], &c = i[2], &d = i[3], &e = i[4], &f = i[5];
+  const Sym tr = a + d + f, slack = tr * 1e-12;
+  const Sym sx = (d + f - a) * 0.5, sy = (a + f - d) * 0.5, sz = (a + d - f) * 0.5;
+  const Sym det_I = a * (d * f - e * e) - b * (b * f - e * c) + c * (b * e - d * c);
+  const Sym det_sigma = sx * sy * sz - sx * e * e - sy * c * c - sz * b * b - b * c * e * 2.0;
+  return {{a, true},
+          {a * d - b * b, true},
+          {det_I, true},
+          {sx + slack, false},
+          {sy + slack, false},
+          {sz + slack, false},
+          {sx * sy - b * b + slack * tr, false},
+          {sx * sz - c * c + slack * tr, false},
+          {sy * sz - e * e + slack * tr, false},
+          {det_sigma + slack * tr * tr, false}};
+}
+
+// The scene's range rules on quantities with a run-time parameter, as programs: the generated
+// parameter_error() checks them for the parameters' values.
+void parameter_checks(const SpatialScene& scene, ModelFacts& f) {
+  Program& p = f.checks_program;
+  auto value = [&p](const std::pair<double, int>& v) {
+    return v.second == spatial::kLiteral ? Sym::number(&p, v.first)
+                                         : Sym(&p, p.input("params", v.second));
+  };
+  using Kind = SpatialRangeRule::Kind;
+  for (const SpatialRangeRule& rule : scene.run_time_rules) {
+    if (rule.kind != Kind::physical_inertia) {
+      const bool strict = rule.kind == Kind::positive;
+      f.checks.push_back({value(rule.values.at(0)).ref(), strict,
+                          rule.field + (strict ? " must be positive" : " must not be negative")});
+      continue;
+    }
+    std::array<Sym, 6> i;
+    for (int k = 0; k < 6; ++k) i[k] = value(rule.values.at(k));
+    for (const auto& [v, strict] : physical_inertia(i))
+      if (!v.is_zero())  // 0 >= 0 (a strict one cannot fold to 0: the reader checked it)
+        f.checks.push_back({v.ref(), strict,
+                            rule.field +
+                                " must be a physical inertia (positive definite, principal moments "
+                                "within the triangle inequality)"});
+  }
+}
+
 }  // namespace
 
 ModelFacts spatial_facts(const SpatialScene& scene) {
@@ -38,6 +88,11 @@ ModelFacts spatial_facts(const SpatialScene& scene) {
   f.formulation = "recursive";
   f.features = (c.free_base ? needs::free_base : 0u) | needs::rigid_joints;
   f.outputs = spatial_outputs(scene);
+  for (const Parameter& p : scene.parameters) {
+    f.parameter_names.push_back(p.name);
+    f.nominal_parameters.push_back(p.nominal.value);
+  }
+  parameter_checks(scene, f);
   return f;
 }
 
@@ -77,25 +132,32 @@ DerivedModel spatial_derived_model(const SpatialScene& scene) {
         [&chain, o](const InputValues& input) {
           return evaluate_chain<spatial::Chain>(chain, o, input);
         }};
-  // The gear ratios: constants (1 where a joint has no gear).
-  auto ratios = [&chain] {
-    std::vector<double> p;
-    for (const auto& l : chain.links) p.push_back(l.gear.present ? l.gear.ratio : 1.0);
-    return p;
-  };
-  derived.gear_ratios = {
-      "constant",
-      [ratios](Program& p) {
-        std::vector<SRef> r;
-        for (double x : ratios()) r.push_back(p.constant(x));
-        return std::vector<std::vector<SRef>>{r};
-      },
-      [ratios](const InputValues&) { return std::vector<std::vector<double>>{ratios()}; }};
+  // The gear ratios: constants (1 where a joint has no gear) or run-time parameters.
+  derived.gear_ratios = {"constant",
+                         [&chain](Program& p) {
+                           std::vector<SRef> r;
+                           for (const auto& l : chain.links)
+                             r.push_back(!l.gear.present ? p.constant(1.0)
+                                         : l.gear.ratio_param == spatial::kLiteral
+                                             ? p.constant(l.gear.ratio)
+                                             : p.input("params", l.gear.ratio_param));
+                           return std::vector<std::vector<SRef>>{r};
+                         },
+                         [&chain](const InputValues& input) {
+                           std::vector<double> r;
+                           for (const auto& l : chain.links)
+                             r.push_back(!l.gear.present ? 1.0
+                                         : l.gear.ratio_param == spatial::kLiteral
+                                             ? l.gear.ratio
+                                             : input("params", l.gear.ratio_param));
+                           return std::vector<std::vector<double>>{r};
+                         }};
   // The reference of every output: the chain in double (no composed outputs here).
   derived.reference = [&chain](Output o, const std::vector<Eigen::VectorXd>& inputs,
-                               const Eigen::VectorXd&) {
+                               const Eigen::VectorXd& params) {
     const OutputInfo& out = info(o);
     auto input = [&](const std::string& a, int i) {
+      if (a == "params") return params[i];
       for (size_t k = 0; k < out.inputs.size(); ++k)
         if (info(out.inputs[k]).name == a) return inputs[k][i];
       return 0.0;

@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <optional>
+#include <set>
 
 #include "private_folder.hpp"
+#include "scene.hpp"
 #include "text_numbers.hpp"
 #include "urdf_reader.hpp"
 #include "yaml_reader.hpp"
@@ -18,7 +20,7 @@ constexpr int kMaxLinks = 30;  // as in the plane
 
 // Why a body's inertia about its centre is not physical ("" if it is): positive definite with
 // principal moments that satisfy the triangle inequality.
-std::string inertia_problem(const spatial::Link& l) {
+std::string inertia_problem(const spatial::Inertial& l) {
   const auto& i = l.inertia;
   Eigen::Matrix3d I;
   I << i[0], i[1], i[2], i[1], i[3], i[4], i[2], i[4], i[5];
@@ -30,6 +32,13 @@ std::string inertia_problem(const spatial::Link& l) {
          ": each must be positive and at most the sum of the other two)";
 }
 
+// A field's name for a generated message (fixed text: a URDF link's name only where it is a
+// short identifier, else the entry's index).
+std::string inertials_field(const std::string& link, size_t index) {
+  return is_identifier(link) && link.size() <= 64 ? "inertials." + link
+                                                  : "inertials[" + std::to_string(index) + "]";
+}
+
 class SpatialReader {
  public:
   explicit SpatialReader(const YamlReader& r) : r_(r) {}
@@ -38,9 +47,12 @@ class SpatialReader {
                     const UrdfFileReader& read_file) {
     r_.check_keys(root, "",
                   {"name", "description", "space", "base", "links", "urdf", "end_effector_link",
-                   "gears", "end_effector", "outputs"});
+                   "gears", "end_effector", "outputs", "parameters", "inertials"});
     SpatialScene s;
     s.content = text;
+    s.parameters = read_scene_parameters(r_, root["parameters"]);  // first: fields refer to them
+    parameters_ = &s.parameters;
+    rules_ = &s.run_time_rules;
     s.name = r_.bounded(r_.require(root, "name", ""), "name").Scalar();
     if (!is_identifier(s.name)) r_.fail("name", "'" + s.name + "' is not an identifier");
     const std::string space = r_.bounded(r_.require(root, "space", ""), "space").Scalar();
@@ -48,9 +60,8 @@ class SpatialReader {
     if (root["urdf"]) {
       read_urdf_chain(root, s, read_file);
     } else {
-      if (root["end_effector_link"])
-        r_.fail("end_effector_link", "names a URDF link: needs field 'urdf'",
-                root["end_effector_link"]);
+      for (const char* field : {"end_effector_link", "inertials"})
+        if (root[field]) r_.fail(field, "names URDF links: needs field 'urdf'", root[field]);
       read_base(r_.require(root, "base", ""), s.chain);
       const YAML::Node links = r_.require(root, "links", "");
       if (!links.IsSequence() || links.size() < 1 || links.size() > kMaxLinks)
@@ -66,49 +77,96 @@ class SpatialReader {
         s.chain.tip[k] += R[3 * k] * point[0] + R[3 * k + 1] * point[1] + R[3 * k + 2] * point[2];
     }
     if (root["outputs"]) s.outputs = read_outputs(root["outputs"], s.chain.free_base);
+    for (const Parameter& p : s.parameters)
+      if (!used_.count(p.name))
+        r_.fail("parameters." + p.name, "parameter '" + p.name + "' is declared but never used",
+                root["parameters"]);
     return s;
   }
 
  private:
   const YamlReader& r_;
+  const std::vector<Parameter>* parameters_ = nullptr;
+  std::vector<SpatialRangeRule>* rules_ = nullptr;
+  std::set<std::string> used_;
 
-  double number(const YAML::Node& n, const std::string& field) const {
+  // A number or a declared parameter: its (nominal) value, and its index in param.
+  double quantity(const YAML::Node& n, const std::string& field, int& param) {
     const Quantity q = r_.quantity(n, field);
-    if (!q.parameter.empty())
-      r_.fail(field,
-              "'" + q.parameter +
-                  "': run-time parameters are not supported in spatial "
-                  "scenes yet; give a number",
-              n);
-    return q.value;
+    param = spatial::kLiteral;
+    if (!q.is_parameter()) return q.value;
+    for (size_t i = 0; i < parameters_->size(); ++i)
+      if ((*parameters_)[i].name == q.parameter) {
+        used_.insert(q.parameter);
+        param = static_cast<int>(i);
+        return (*parameters_)[i].nominal.value;
+      }
+    r_.fail(field,
+            "refers to parameter '" + q.parameter + "', which is not declared under 'parameters'",
+            n);
   }
   template <size_t K>
-  std::array<double, K> numbers(const YAML::Node& n, const std::string& field) const {
+  std::array<double, K> quantities(const YAML::Node& n, const std::string& field,
+                                   std::array<int, K>& params) {
     if (!n.IsSequence() || n.size() != K)
       r_.fail(field, "expected a list of " + std::to_string(K) + " numbers", n);
     std::array<double, K> a;
-    for (size_t k = 0; k < K; ++k) a[k] = number(n[k], field + "[" + std::to_string(k) + "]");
+    for (size_t k = 0; k < K; ++k)
+      a[k] = quantity(n[k], field + "[" + std::to_string(k) + "]", params[k]);
     return a;
   }
+  // Geometry: numbers only (a frame or an axis as a parameter would change the model's form).
   std::array<double, 3> vec3(const YAML::Node& n, const std::string& field) const {
-    return numbers<3>(n, field);
+    if (!n.IsSequence() || n.size() != 3) r_.fail(field, "expected a list of 3 numbers", n);
+    std::array<double, 3> a;
+    for (size_t k = 0; k < 3; ++k) {
+      const std::string f = field + "[" + std::to_string(k) + "]";
+      const Quantity q = r_.quantity(n[k], f);
+      if (q.is_parameter())
+        r_.fail(f,
+                "'" + q.parameter +
+                    "': a frame, an axis or the end effector takes numbers; run-time parameters "
+                    "are masses, centres of mass, inertias, gear ratios and rotor inertias",
+                n[k]);
+      a[k] = q.value;
+    }
+    return a;
+  }
+  void rule(SpatialRangeRule::Kind kind, const std::string& field, double value, int param) {
+    if (param != spatial::kLiteral) rules_->push_back({kind, field, {{value, param}}});
   }
 
   // A body's mass (> 0) and its inertia about the centre of mass: a physical tensor, positive
-  // definite with principal moments that satisfy the triangle inequality.
-  void read_inertial(const YAML::Node& n, const std::string& field, spatial::Link& l) const {
-    l.mass = number(r_.require(n, "mass", field), field + ".mass");
+  // definite with principal moments that satisfy the triangle inequality. rule_field: the
+  // field its run-time rules name (fixed text).
+  void read_inertial(const YAML::Node& n, const std::string& field, spatial::Inertial& l,
+                     const std::string& rule_field) {
+    l.mass = quantity(r_.require(n, "mass", field), field + ".mass", l.mass_param);
     if (!(l.mass > 0))
       r_.fail(field + ".mass", "must be positive, got " + std::to_string(l.mass), n);
-    if (n["com"]) l.com = vec3(n["com"], field + ".com");
-    l.inertia = numbers<6>(r_.require(n, "inertia", field), field + ".inertia");
+    rule(SpatialRangeRule::Kind::positive, rule_field + ".mass", l.mass, l.mass_param);
+    if (n["com"]) l.com = quantities<3>(n["com"], field + ".com", l.com_param);
+    l.inertia = quantities<6>(r_.require(n, "inertia", field), field + ".inertia", l.inertia_param);
     const std::string why = inertia_problem(l);
     if (!why.empty()) r_.fail(field + ".inertia", why, n["inertia"]);
+    SpatialRangeRule tensor{SpatialRangeRule::Kind::physical_inertia, rule_field + ".inertia", {}};
+    for (int k = 0; k < 6; ++k) tensor.values.push_back({l.inertia[k], l.inertia_param[k]});
+    if (std::any_of(l.inertia_param.begin(), l.inertia_param.end(),
+                    [](int p) { return p != spatial::kLiteral; }))
+      rules_->push_back(tensor);
   }
 
   // The chain of a URDF (urdf_reader.hpp) named by `urdf:`, its bodies checked as the YAML
   // form's are; read_file gives the file's text.
   void read_urdf_chain(const YAML::Node& root, SpatialScene& s, const UrdfFileReader& read_file) {
+    // The links whose inertial the scene gives (`inertials:`), by name.
+    const YAML::Node given = root["inertials"];
+    std::vector<std::string> given_links;
+    if (given) {
+      if (!given.IsMap() || given.size() == 0)
+        r_.fail("inertials", "expected a mapping of URDF link name to {mass, com, inertia}", given);
+      for (const auto& kv : given) given_links.push_back(r_.key_text(kv.first, "inertials"));
+    }
     for (const char* field : {"links"})
       if (root[field]) r_.fail(field, "comes from the URDF (field 'urdf')", root[field]);
     const YAML::Node base = r_.require(root, "base", "");
@@ -129,11 +187,28 @@ class SpatialReader {
     UrdfChain u;
     try {
       xml = read_file(path);
-      u = read_urdf(xml, path, type == "free_floating", link);
+      u = read_urdf(xml, path, type == "free_floating", link,
+                    std::set<std::string>(given_links.begin(), given_links.end()));
     } catch (const SceneError& e) {
       r_.fail("urdf", e.what(), root["urdf"]);
     }
+    // The given inertials, into their bodies' parts.
+    for (size_t k = 0; k < given_links.size(); ++k) {
+      const std::string& name = given_links[k];
+      const std::string field = "inertials." + (is_identifier(name) ? name : quoted_text(name));
+      const YAML::Node n = given[given_links[k]];
+      const auto it = u.given_parts.find(given_links[k]);
+      if (it == u.given_parts.end())
+        r_.fail(field, "URDF '" + path + "' has no link of this name", n);
+      const auto [body, part] = it->second;
+      spatial::Link& l = body == 0 ? u.chain.base : u.chain.links[body - 1];
+      if (!n.IsMap()) r_.fail(field, "expected a mapping {mass, com, inertia}", n);
+      r_.check_keys(n, field, {"mass", "com", "inertia"});
+      read_inertial(n, field, l.parts[part].inertial, inertials_field(given_links[k], k));
+    }
+    // A body's URDF inertial (what is lumped from its links), unless the scene gives them all.
     auto check = [&](const spatial::Link& l, const std::string& body) {
+      if (!l.parts.empty() && l.mass == 0 && l.inertia == std::array<double, 6>{}) return;
       std::string why = !(l.mass > 0) ? "its mass, " + std::to_string(l.mass) + ", must be positive"
                                       : inertia_problem(l);
       if (!why.empty())
@@ -147,16 +222,16 @@ class SpatialReader {
     s.content += std::string("\0urdf ", 6) + path + '\0' + xml;
   }
 
-  void read_base(const YAML::Node& n, spatial::ChainDescription& c) const {
+  void read_base(const YAML::Node& n, spatial::ChainDescription& c) {
     r_.check_keys(n, "base", {"type", "mass", "com", "inertia"});
     const std::string type = r_.bounded(r_.require(n, "type", "base"), "base.type").Scalar();
     if (type != "free_floating" && type != "fixed")
       r_.fail("base.type", "expected free_floating or fixed, got '" + type + "'", n["type"]);
     c.free_base = type == "free_floating";
-    if (c.free_base) read_inertial(n, "base", c.base);
+    if (c.free_base) read_inertial(n, "base", c.base, "base");
   }
 
-  spatial::Link read_link(const YAML::Node& n, const std::string& field) const {
+  spatial::Link read_link(const YAML::Node& n, const std::string& field) {
     r_.check_keys(n, field, {"origin", "rpy", "axis", "mass", "com", "inertia"});
     spatial::Link l;
     if (n["origin"]) l.origin_xyz = vec3(n["origin"], field + ".origin");
@@ -165,24 +240,31 @@ class SpatialReader {
     const auto& a = l.axis;
     if (!(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] > 1e-24))
       r_.fail(field + ".axis", "must not be zero", n["axis"]);
-    read_inertial(n, field, l);
+    read_inertial(n, field, l, field);
     return l;
   }
 
-  spatial::Gear read_gear(const YAML::Node& n, const std::string& field) const {
+  spatial::Gear read_gear(const YAML::Node& n, const std::string& field) {
     r_.check_keys(n, field, {"ratio", "rotor_inertia", "rotor_coupling"});
     spatial::Gear g;
     g.present = true;
-    g.ratio = number(r_.require(n, "ratio", field), field + ".ratio");
+    g.ratio = quantity(r_.require(n, "ratio", field), field + ".ratio", g.ratio_param);
     if (!(g.ratio > 0))
       r_.fail(field + ".ratio", "must be positive, got " + std::to_string(g.ratio), n["ratio"]);
+    rule(SpatialRangeRule::Kind::positive, field + ".ratio", g.ratio, g.ratio_param);
     if (n["rotor_inertia"]) {
-      const auto r = numbers<2>(n["rotor_inertia"], field + ".rotor_inertia");
+      std::array<int, 2> params;
+      const auto r = quantities<2>(n["rotor_inertia"], field + ".rotor_inertia", params);
       if (!(r[0] >= 0 && r[1] >= 0))
         r_.fail(field + ".rotor_inertia", "axial and transverse inertia must not be negative",
                 n["rotor_inertia"]);
       g.axial = r[0];
       g.transverse = r[1];
+      g.axial_param = params[0];
+      g.transverse_param = params[1];
+      for (int k = 0; k < 2; ++k)
+        rule(SpatialRangeRule::Kind::non_negative,
+             field + ".rotor_inertia[" + std::to_string(k) + "]", r[k], params[k]);
     }
     if (n["rotor_coupling"]) {
       const std::string c = r_.bounded(n["rotor_coupling"], field + ".rotor_coupling").Scalar();
@@ -219,7 +301,7 @@ class SpatialReader {
     return ordered;
   }
 
-  void read_gears(const YAML::Node& n, spatial::ChainDescription& c) const {
+  void read_gears(const YAML::Node& n, spatial::ChainDescription& c) {
     const size_t N = c.links.size();
     if (n.IsMap()) {
       const spatial::Gear g = read_gear(n, "gears");

@@ -1,7 +1,7 @@
 // The native YAML form of a spatial arm (issue 31, first part): a base floating in 3D (or
 // fixed) and a serial chain of revolute joints with any axes, read as untrusted input like every
 // scene (yaml_reader.hpp: one document, known keys, bounded numbers; every error names the file,
-// the line and the field). Run-time parameters and URDF come later; numbers only for now.
+// the line and the field).
 //
 //   name: arm7
 //   space: spatial
@@ -11,6 +11,10 @@
 //   gears:                                    # optional: one mapping for all joints, or a list
 //     {ratio: 100, rotor_inertia: [axial, transverse], rotor_coupling: exact}   # or armature
 //   end_effector: [x, y, z]                   # the tip in the last link's frame (default 0)
+//   parameters: {m7: 1.0, p: 100}             # run-time parameters with their nominal values:
+//                                             # any mass, com, inertia entry, ratio, rotor inertia
+//   inertials: {link7: {mass: m7, com: [...], inertia: [...]}}   # (URDF form) a link's inertial
+//                                             # given by the scene, in the link's frame
 //   outputs: [mass_matrix, forward_dynamics]  # optional: what to emit (default: spatial_model.hpp)
 #pragma once
 
@@ -18,9 +22,20 @@
 #include <string>
 #include <vector>
 
+#include "scene.hpp"
 #include "spatial_chain.hpp"
 
 namespace spacearm {
+
+// A range rule on a quantity that uses a run-time parameter: the generated parameter_error()
+// checks it for the parameters' values (the reader checks the nominal ones). A mass or a ratio
+// must be positive, a rotor inertia not negative, an inertia tensor physical (values: its six
+// entries).
+struct SpatialRangeRule {
+  enum class Kind { positive, non_negative, physical_inertia } kind;
+  std::string field;  // the scene's field, e.g. "links[2].mass" or "inertials.link7.inertia"
+  std::vector<std::pair<double, int>> values;  // (literal, parameter index or spatial::kLiteral)
+};
 
 struct SpatialScene {
   std::string name;
@@ -29,6 +44,8 @@ struct SpatialScene {
   std::string content;  // every byte the model is made from (its hash names the library)
   spatial::ChainDescription chain;
   std::vector<Output> outputs;  // as listed (`outputs:`); empty: the defaults (spatial_model.hpp)
+  std::vector<Parameter> parameters;  // run-time parameters, params[i] in the generated code
+  std::vector<SpatialRangeRule> run_time_rules;
   // The files it was read from besides itself, as opened (the URDF's path beside the scene):
   // a command refuses to write over them.
   std::vector<std::string> read_files;

@@ -58,7 +58,8 @@ std::array<double, 3> matrix_rpy(const Eigen::Matrix3d& R) {
 
 class UrdfReader {
  public:
-  UrdfReader(std::string source) : source_(std::move(source)) {}
+  UrdfReader(std::string source, std::set<std::string> given)
+      : source_(std::move(source)), given_(std::move(given)) {}
 
   [[noreturn]] void fail(const tinyxml2::XMLElement* e, const std::string& what) const {
     std::string where = "URDF '" + source_ + "'";
@@ -163,6 +164,7 @@ class UrdfReader {
 
  private:
   std::string source_;
+  std::set<std::string> given_;  // links whose inertial the scene gives: parts, not lumped
   std::map<std::string, const tinyxml2::XMLElement*> links_;
   std::map<std::string, Joint> joints_;                   // by name
   std::map<std::string, std::string> parent_joint_;       // child link -> joint
@@ -231,6 +233,7 @@ class UrdfReader {
     Eigen::Vector3d c = Eigen::Vector3d::Zero();
     std::vector<Inertial> parts;
     for (const auto& [name, f] : welded) {
+      if (given_.count(name)) continue;
       Inertial in = inertial(links_.at(name));
       in.com = f.p + f.R * in.com;
       in.I = f.R * in.I * f.R.transpose();
@@ -272,6 +275,12 @@ class UrdfReader {
       weld(body, Frame{}, welded, moving);
       for (const auto& w : welded) seen.insert(w.first);
       spatial::Link l = lumped(welded);
+      for (const auto& [name, f] : welded)
+        if (given_.count(name)) {
+          out.given_parts[name] = {static_cast<int>(out.chain.links.size()) + (carrier ? 1 : 0),
+                                   static_cast<int>(l.parts.size())};
+          l.parts.push_back({{f.p[0], f.p[1], f.p[2]}, matrix_rpy(f.R), {}});
+        }
       if (carrier) {
         l.origin_xyz = joint_xyz;
         l.origin_rpy = joint_rpy;
@@ -330,8 +339,8 @@ class UrdfReader {
 }  // namespace
 
 UrdfChain read_urdf(const std::string& xml, const std::string& source, bool free_base,
-                    const std::string& end_effector_link) {
-  return UrdfReader(source).read(xml, free_base, end_effector_link);
+                    const std::string& end_effector_link, const std::set<std::string>& given) {
+  return UrdfReader(source, given).read(xml, free_base, end_effector_link);
 }
 
 }  // namespace spacearm

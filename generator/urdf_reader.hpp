@@ -7,6 +7,8 @@
 // joints, and moving branches, are refused by name.
 #pragma once
 
+#include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -18,11 +20,16 @@ struct UrdfChain {
   spatial::ChainDescription chain;       // gears absent; tip at the end effector link's origin
   std::vector<std::string> joint_names;  // the moving joints, base to tip
   std::string root_link, end_effector_link;
+  // Each link whose inertial the scene gives: its body (0 the base, i link i) and its index among
+  // that body's parts (its frame there; the inertial left to the scene).
+  std::map<std::string, std::pair<int, int>> given_parts;
 };
 
 // free_base: the root link floats (else it is fixed to the world). end_effector_link: a link
 // welded to the last moving body (empty: the last moving joint's child). Throws SceneError.
+// given: links whose inertial the scene gives (left out of the lumping, kept as parts; a name
+// that is no link is not in given_parts).
 UrdfChain read_urdf(const std::string& xml, const std::string& source, bool free_base,
-                    const std::string& end_effector_link);
+                    const std::string& end_effector_link, const std::set<std::string>& given = {});
 
 }  // namespace spacearm

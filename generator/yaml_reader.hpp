@@ -11,6 +11,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "scene.hpp"
 
@@ -150,4 +151,8 @@ class YamlReader {
   std::string kind_, source_;
   Raise raise_;
 };
+// A scene's `parameters:` mapping (absent or null: none), each name an identifier that the
+// generated code does not use itself, its nominal value a number.
+std::vector<Parameter> read_scene_parameters(const YamlReader& r, const YAML::Node& node);
+
 }  // namespace spacearm

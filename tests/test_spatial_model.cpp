@@ -4,7 +4,9 @@
 #include "spatial_model.hpp"
 
 #include <algorithm>
+#include <map>
 #include <random>
+#include <regex>
 
 #include "cpp_printer.hpp"
 #include "lowering.hpp"
@@ -95,6 +97,150 @@ TEST(SpatialModel, LoweredProgramsGiveTheChainsValues) {
         EXPECT_NEAR(got[k], want[k], 1e-12 * (1 + std::abs(want[k]))) << f.name << " " << k;
     }
   }
+}
+
+// kArm with run-time parameters for a ratio of each coupling, the rotor inertias, the base's and
+// a link's mass, centre and inertia entries; and kArm itself with the values P written in.
+const std::string kParametric = R"(name: arm3
+space: spatial
+base: {type: free_floating, mass: mb, com: [cb, 0, 0], inertia: [100, 0, 0, 120, 0, izb]}
+links:
+  - {origin: [0.5, 0, 0.2], axis: [0, 0, 1], mass: 5, com: [0.2, 0, 0],
+     inertia: [0.01, 0, 0, 0.2, 0, 0.2]}
+  - {origin: [0.4, 0, 0], rpy: [1.5707963, 0, 0], axis: [0, 0, 1], mass: m2, com: [0.2, 0, 0],
+     inertia: [0.01, ixy2, 0, 0.1, 0, 0.1]}
+  - {origin: [0.3, 0, 0], axis: [0, 1, 0], mass: 2, com: [0.1, cy3, 0],
+     inertia: [0.01, 0, 0, 0.05, 0, 0.05]}
+gears:
+  - {ratio: p1, rotor_inertia: [Ia1, It1], rotor_coupling: exact}
+  - {ratio: p2, rotor_inertia: [Ia2, 1.0e-4], rotor_coupling: armature}
+  - {ratio: 1, rotor_inertia: [0, 0]}
+parameters: {mb: 500, cb: 0.1, izb: 150, m2: 3, ixy2: 0.001, cy3: 0.01, p1: 100, Ia1: 1.0e-4,
+             It1: 6.0e-5, p2: 50, Ia2: 2.0e-4}
+outputs: [forward_dynamics_derivatives, mass_matrix, coriolis_matrix, bias_forces, kinetic_energy,
+          momentum, inverse_dynamics, forward_dynamics, end_effector_pose, end_effector_jacobian,
+          generalized_jacobian, free_base_inverse_dynamics]
+)";
+
+// The parametric model at parameter values P is the model with P written in as numbers: every
+// output's lowered program at random states (so no nominal value is baked into the code).
+TEST(SpatialModel, RunTimeParametersGiveTheModelWithTheirValuesWrittenIn) {
+  const std::vector<std::pair<std::string, std::string>> P = {
+      {"mb", "420"},     {"cb", "-0.07"}, {"izb", "170"},   {"m2", "4.5"},
+      {"ixy2", "-0.02"}, {"cy3", "0.03"}, {"p1", "37"},     {"Ia1", "3.0e-4"},
+      {"It1", "1.0e-5"}, {"p2", "8"},     {"Ia2", "5.0e-4"}};
+  std::string literal = kParametric;
+  literal.erase(literal.find("parameters:"),
+                literal.find("outputs:") - literal.find("parameters:"));
+  std::vector<double> params;
+  for (const auto& [name, value] : P) {
+    params.push_back(std::stod(value));
+    const std::regex word("\\b" + name + "\\b");
+    literal = std::regex_replace(literal, word, value);
+  }
+  const SpatialScene with_parameters = parse_spatial_scene(kParametric, "arm3p.yaml");
+  const SpatialScene with_numbers = parse_spatial_scene(literal, "arm3.yaml");
+  ASSERT_EQ(with_parameters.parameters.size(), P.size());
+  const LoweredModel a = lower(spatial_derived_model(with_parameters), {});
+  const LoweredModel b = lower(spatial_derived_model(with_numbers), {});
+  ASSERT_EQ(a.functions.size(), b.functions.size());
+  std::mt19937 rng(41);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int trial = 0; trial < 3; ++trial) {
+    std::vector<double> q(10), v(9);
+    for (double& x : q) x = u(rng);
+    for (double& x : v) x = u(rng);
+    auto input = [&](const std::string& array, int i) {
+      return array == "q"        ? q[i]
+             : array == "qd"     ? v[i]
+             : array == "params" ? params.at(i)
+                                 : 0.3 * std::cos(i);
+    };
+    for (size_t f = 0; f < a.functions.size(); ++f) {
+      ASSERT_EQ(a.functions[f].name, b.functions[f].name);
+      for (size_t r = 0; r < a.functions[f].entries.size(); ++r) {
+        const auto got = a.functions[f].program.evaluate(a.functions[f].entries[r], input);
+        const auto want = b.functions[f].program.evaluate(b.functions[f].entries[r], input);
+        ASSERT_EQ(got.size(), want.size());
+        for (size_t k = 0; k < want.size(); ++k)
+          EXPECT_NEAR(got[k], want[k], 1e-11 * (1 + std::abs(want[k])))
+              << a.functions[f].name << " result " << r << " entry " << k;
+      }
+    }
+  }
+}
+
+// The scene's range rules hold at the nominal values and are checked again at run time for the
+// parameters' values (the generated parameter_error()), naming the field.
+TEST(SpatialModel, RunTimeParametersAreCheckedByTheScenesRules) {
+  const ModelFacts facts = spatial_facts(parse_spatial_scene(kParametric, "arm3p.yaml"));
+  const std::vector<std::string>& names = facts.parameter_names;
+  auto first_failure = [&](const std::map<std::string, double>& changed) -> std::string {
+    std::vector<double> params = facts.nominal_parameters;
+    for (const auto& [name, value] : changed)
+      params[std::find(names.begin(), names.end(), name) - names.begin()] = value;
+    auto input = [&](const std::string&, int i) { return params.at(i); };
+    for (const ParameterCheck& c : facts.checks) {
+      const double v = facts.checks_program.evaluate({c.value}, input)[0];
+      if (!(c.strict ? v > 0 : v >= 0)) return c.message;
+    }
+    return "";
+  };
+  EXPECT_EQ(first_failure({}), "");
+  EXPECT_EQ(first_failure({{"mb", 0}}), "base.mass must be positive");
+  EXPECT_EQ(first_failure({{"m2", -1}}), "links[1].mass must be positive");
+  EXPECT_EQ(first_failure({{"p2", 0}}), "gears[1].ratio must be positive");
+  EXPECT_EQ(first_failure({{"Ia1", -1e-9}}), "gears[0].rotor_inertia[0] must not be negative");
+  EXPECT_EQ(first_failure({{"It1", -1e-9}}), "gears[0].rotor_inertia[1] must not be negative");
+  const std::string physical =
+      " must be a physical inertia (positive definite, principal "
+      "moments within the triangle inequality)";
+  EXPECT_EQ(first_failure({{"izb", 221}}), "base.inertia" + physical);  // 100 + 120 < 221
+  EXPECT_EQ(first_failure({{"izb", 220}}), "");                         // a flat plate
+  EXPECT_EQ(first_failure({{"izb", -1}}), "base.inertia" + physical);
+  EXPECT_EQ(first_failure({{"ixy2", 0.04}}), "links[1].inertia" + physical);   // 0.01 0.1 - ixy^2
+  EXPECT_EQ(first_failure({{"cb", 40}, {"ixy2", -0.005}}), "");                // a centre anywhere
+  EXPECT_EQ(first_failure({{"ixy2", -0.03}}), "links[1].inertia" + physical);  // triangle
+  // The run-time rules accept the tensors the reader accepts (eigenvalues), and no others.
+  const std::string one_link = R"(name: one
+space: spatial
+base: {type: free_floating, mass: 10, inertia: [a, b, c, d, e, f]}
+links: [{mass: 1, inertia: [1, 0, 0, 1, 0, 1]}]
+)";
+  const ModelFacts f =
+      spatial_facts(parse_spatial_scene(one_link + "parameters: {a: 1, b: 0, c: 0, d: 1, e: 0, "
+                                                   "f: 1}\n",
+                                        "one.yaml"));
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int accepted = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    std::vector<double> I = {1 + 0.5 * u(rng), 0.3 * u(rng), 0.3 * u(rng), 1 + 0.5 * u(rng),
+                             0.3 * u(rng)};
+    I.push_back((I[0] + I[3]) * (0.8 + 0.3 * u(rng)));
+    std::string literal = one_link;
+    const char* names[] = {"a", "b", "c", "d", "e", "f"};
+    for (int k = 0; k < 6; ++k)
+      literal = std::regex_replace(literal, std::regex(std::string("\\b") + names[k] + "\\b"),
+                                   std::to_string(I[k]));
+    for (double& x : I) x = std::stod(std::to_string(x));  // the numbers the reader reads
+    bool reader_accepts = true;
+    try {
+      parse_spatial_scene(literal, "one.yaml");
+    } catch (const SceneError&) {
+      reader_accepts = false;
+    }
+    bool rules_accept = true;
+    for (const ParameterCheck& c : f.checks) {
+      const double v = f.checks_program.evaluate(
+          {c.value}, [&](const std::string&, int i) { return I.at(i); })[0];
+      rules_accept = rules_accept && (c.strict ? v > 0 : v >= 0);
+    }
+    EXPECT_EQ(rules_accept, reader_accepts) << literal;
+    accepted += reader_accepts;
+  }
+  EXPECT_GT(accepted, 60);
+  EXPECT_LT(accepted, 240);
 }
 
 }  // namespace

@@ -48,7 +48,7 @@ TEST(SpatialScene, ReadsTheChain) {
 }
 
 // Each malformed field, with the text that replaces a part of the valid arm, and the message.
-// (14 + 4 outputs cases.)
+// (18 + 4 outputs cases.)
 TEST(SpatialScene, NamesEveryBadField) {
   struct Bad {
     std::string from, to, message;
@@ -63,7 +63,14 @@ TEST(SpatialScene, NamesEveryBadField) {
       {"inertia: [100, 0, 0, 120, 0, 150]", "inertia: [100, 0, 0, 120, 0, -1]",
        "field 'base.inertia': not a physical inertia"},
       {"ratio: 100", "ratio: 0", "field 'gears.ratio': must be positive"},
-      {"ratio: 100", "ratio: p", "field 'gears.ratio': 'p': run-time parameters are not supported"},
+      {"ratio: 100", "ratio: p",
+       "field 'gears.ratio': refers to parameter 'p', which is not declared under 'parameters'"},
+      {"end_effector: [0.3, 0, 0]", "parameters: {p: 1}",
+       "field 'parameters.p': parameter 'p' is declared but never used"},
+      {"end_effector: [0.3, 0, 0]", "parameters: {x0: 1}",
+       "field 'parameters.x0': parameter name 'x0' is reserved"},
+      {"origin: [0.4, 0, 0]", "origin: [L, 0, 0]",
+       "field 'links[1].origin[0]': 'L': a frame, an axis or the end effector takes numbers"},
       {"rotor_coupling: armature", "rotor_coupling: loose",
        "field 'gears.rotor_coupling': expected exact or armature, got 'loose'"},
       {"rpy: [0, 1.5707963, 0]", "rpy: [0, .nan, 0]",

@@ -155,6 +155,69 @@ TEST(UrdfReader, LumpedBodiesGiveTheWholeRobotsInertia) {
   EXPECT_LT((M.block<3, 3>(0, 3) + cross).norm(), 1e-10 * first_moment.norm());
 }
 
+// A scene may give URDF links' inertials, with run-time parameters (`inertials:`): each is a
+// part of its body at the link's frame. Given as the URDF has them they reproduce the URDF's
+// model; with a parameter's other value, the URDF with that value written in.
+TEST(UrdfReader, InertialsTheSceneGivesArePartsOfTheirBodies) {
+  const std::string path = std::string(SPACEARM_SOURCE_DIR) + "/models/space_arm7.yaml";
+  const std::string xml = model_file("space_arm7.urdf");
+  auto with_urdf = [](const std::string& text) {
+    return [text](const std::string&) { return text; };
+  };
+  const std::string given = model_file("space_arm7.yaml") +
+                            "parameters: {mp: 0.5}\n"
+                            "inertials:\n"
+                            "  tool_flange: {mass: mp, com: [0, 0, 0.03],\n"
+                            "                inertia: [0.0005, 0, 0, 0.0005, 0, 0.0004]}\n"
+                            "  link7: {mass: 1.0, com: [0, 0, 0.04],\n"
+                            "          inertia: [0.003, 0, 0, 0.003, 0, 0.002]}\n"
+                            "  star_tracker: {mass: 4.0, com: [0, 0, 0.05],\n"
+                            "                 inertia: [0.01, 0, 0, 0.01, 0, 0.008]}\n";
+  const SpatialScene parts = parse_spatial_scene(given, path, with_urdf(xml));
+  EXPECT_EQ(parts.chain.links[6].parts.size(), 2u);  // link7 itself and the flange
+  EXPECT_EQ(parts.chain.links[6].mass, 0);
+  EXPECT_EQ(parts.chain.base.parts.size(), 1u);
+  std::string heavier = xml;
+  const std::string flange_mass = "<mass value=\"0.5\"/>";
+  ASSERT_EQ(heavier.find(flange_mass), heavier.rfind(flange_mass));
+  heavier.replace(heavier.find(flange_mass), flange_mass.size(), "<mass value=\"2.5\"/>");
+  std::mt19937 rng(32);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (double mp : {0.5, 2.5}) {
+    const SpatialScene urdf = parse_spatial_scene(model_file("space_arm7.yaml"), path,
+                                                  with_urdf(mp == 0.5 ? xml : heavier));
+    Eigen::VectorXd q(14), v(13);
+    for (int k = 0; k < 14; ++k) q[k] = u(rng);
+    for (int k = 0; k < 13; ++k) v[k] = u(rng);
+    q.segment(3, 4).normalize();
+    auto input = [&](const std::string& a, int i) {
+      return a == "q" ? q[i] : a == "qd" ? v[i] : a == "params" ? mp : 0.0;
+    };
+    for (Output o : {Output::mass_matrix, Output::bias_forces, Output::momentum}) {
+      const auto want = evaluate_chain<spatial::Chain>(urdf.chain, o, input)[0];
+      const auto got = evaluate_chain<spatial::Chain>(parts.chain, o, input)[0];
+      for (size_t k = 0; k < want.size(); ++k)
+        EXPECT_NEAR(got[k], want[k], 1e-12 * (1 + std::abs(want[k]))) << to_string(o) << " " << k;
+    }
+  }
+  // Errors name the field.
+  EXPECT_THROW_MESSAGE(
+      parse_spatial_scene(model_file("space_arm7.yaml") + "inertials: {tool: {mass: 1, inertia: "
+                                                          "[1, 0, 0, 1, 0, 1]}}\n",
+                          path, with_urdf(xml)),
+      SceneError, "field 'inertials.tool': URDF 'space_arm7.urdf' has no link of this name");
+  EXPECT_THROW_MESSAGE(
+      parse_spatial_scene(model_file("space_arm7.yaml") + "inertials: {link7: {mass: 1}}\n", path,
+                          with_urdf(xml)),
+      SceneError, "field 'inertials.link7.inertia': missing required field");
+  EXPECT_THROW_MESSAGE(
+      parse_spatial_scene(model_file("space_arm7.yaml") +
+                              "parameters: {m: 1}\ninertials: {link7: {mass: m, com: [0, 0, m], "
+                              "inertia: [1, 0, 0, 1, 0, 1], rpy: [0, 0, 0]}}\n",
+                          path, with_urdf(xml)),
+      SceneError, "rpy");
+}
+
 std::string robot(const std::string& body) { return "<robot name=\"r\">\n" + body + "</robot>\n"; }
 const std::string kTwoLinks =
     "<link name=\"a\"><inertial><mass value=\"2\"/><inertia ixx=\"1\" ixy=\"0\" ixz=\"0\" "
