@@ -6,7 +6,8 @@
 // armature (I_axial on the motor coordinate only, MuJoCo's, Drake's and Pinocchio's model), over
 // the same gear ratios, and compare the final end-effector pose with the replay into the model
 // without gears. Every model is compiled through the compile-and-load cache (the first run
-// compiles one per ratio and coupling; later runs load them). Writes a table (terminal + CSV)
+// compiles three: the gearless arm and one per coupling, whose ratio p is a run-time parameter;
+// later runs load them). Writes a table (terminal + CSV)
 // and the figure's data into --out; scripts/plot_spatial.sh draws the figure.
 #include <CLI/CLI.hpp>
 
@@ -27,10 +28,9 @@ using namespace spacearm;
 
 namespace {
 
-// The scene at path (models/space_arm7.yaml) with its gears replaced: none (ratio 0), or ratio p
-// with the shipped rotor inertias and the given coupling.
-ModelRecipe arm7(const std::string& path, double p, const std::string& coupling,
-                 const std::string& outputs) {
+// The scene at path (models/space_arm7.yaml) with its gears replaced: none (coupling ""), or the
+// run-time ratio p with the shipped rotor inertias and the given coupling.
+ModelRecipe arm7(const std::string& path, const std::string& coupling, const std::string& outputs) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot read " + path);
   std::stringstream text;
@@ -39,13 +39,9 @@ ModelRecipe arm7(const std::string& path, double p, const std::string& coupling,
   const size_t gears = scene.find("\ngears:");
   if (gears == std::string::npos) throw std::runtime_error(path + " has no gears: line");
   scene.erase(gears + 1);
-  if (p > 0) {
-    std::ostringstream g;
-    g.precision(17);
-    g << "gears: {ratio: " << p << ", rotor_inertia: [1.2e-4, 7.0e-5], rotor_coupling: " << coupling
-      << "}\n";
-    scene += g.str();
-  }
+  if (!coupling.empty())
+    scene += "gears: {ratio: p, rotor_inertia: [1.2e-4, 7.0e-5], rotor_coupling: " + coupling +
+             "}\nparameters: {p: 1}\n";
   scene += "outputs: [" + outputs + "]\n";
   return ModelRecipe::parse(scene, path);
 }
@@ -96,7 +92,7 @@ int main(int argc, char** argv) {
     // 1. Plan on the arm without gears: from a bent pose, 0.1 m x, -0.08 m y, -0.1 m z, and a
     // turn of 0.5 rad about (1, 2, -1) in the end effector's frame.
     const CompiledModel reference =
-        CompiledModel::load(arm7(scene, 0, "",
+        CompiledModel::load(arm7(scene, "",
                                  "mass_matrix, bias_forces, forward_dynamics, end_effector_pose, "
                                  "end_effector_jacobian, momentum"),
                             options);
@@ -135,15 +131,16 @@ int main(int argc, char** argv) {
     table.precision(10);
     std::printf("%6s %15s %15s %15s %15s %15s\n", "p", "exact [m]", "exact [rad]", "armature [m]",
                 "armature [rad]", "|exact-arm.| [m]");
+    const CompiledModel geared[2] = {
+        CompiledModel::load(arm7(scene, "exact", "forward_dynamics, end_effector_pose, momentum"),
+                            options),
+        CompiledModel::load(
+            arm7(scene, "armature", "forward_dynamics, end_effector_pose, momentum"), options)};
     for (double p : ratios) {
       Eigen::VectorXd pose[2];
       double drift = 0;
       for (int k = 0; k < 2; ++k) {
-        const CompiledModel g =
-            CompiledModel::load(arm7(scene, p, k == 0 ? "exact" : "armature",
-                                     "forward_dynamics, end_effector_pose, momentum"),
-                                options);
-        const DynamicModel m = dynamic_model(g, Eigen::VectorXd(0));
+        const DynamicModel m = dynamic_model(geared[k], Eigen::VectorXd::Constant(1, p));
         Eigen::VectorXd qm = plan.q.front();
         qm.tail(7) *= p;  // motor angles q_m = p q
         const Replay r = replay(m, qm, plan, dt);
