@@ -38,11 +38,11 @@ inline std::string broken_rule(const Study& s) {
   if (s.torques) {
     if (s.torques->samples.size() < 2 || !(s.torques->dt > 0)) return "torque grid";
     for (const auto& sample : s.torques->samples)
-      if (sample.size() != s.scene.num_links() || !sample.allFinite()) return "torque sample";
+      if (sample.size() != s.scene.num_links || !sample.allFinite()) return "torque sample";
   }
   for (long run : {0L, n / 2, n - 1}) {
     const Eigen::VectorXd p = s.parameters(run);
-    if (p.size() != static_cast<Eigen::Index>(s.scene.parameters.size()) || !p.allFinite())
+    if (p.size() != static_cast<Eigen::Index>(s.scene.parameter_names.size()) || !p.allFinite())
       return "parameters of run " + std::to_string(run);
   }
   if (s.identity.empty()) return "no identity";

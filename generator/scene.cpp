@@ -199,8 +199,8 @@ class SceneReader {
     // A spatial scene (spatial_scene.hpp) reaching a command that takes planar ones only.
     if (root["space"] && root["space"].IsScalar() && root["space"].Scalar() == "spatial")
       r.fail("space",
-             "a spatial arm: generate, eval, simulate and Python's load take it; this command "
-             "takes planar scenes only today",
+             "a spatial arm, which this reader of planar scenes does not take (every spacearm "
+             "command and Python's load read it through ModelRecipe)",
              root["space"]);
     r.check_keys(root, "",
                  {"name", "description", "base", "links", "gears", "friction", "parameters",

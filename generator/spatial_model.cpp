@@ -86,7 +86,7 @@ ModelFacts spatial_facts(const SpatialScene& scene) {
   }
   f.scene_hash = "fnv1a64:" + content_hash(scene.content);
   f.formulation = "recursive";
-  f.features = (c.free_base ? needs::free_base : 0u) | needs::rigid_joints;
+  f.features = spatial_features(scene);
   f.outputs = spatial_outputs(scene);
   for (const Parameter& p : scene.parameters) {
     f.parameter_names.push_back(p.name);
@@ -109,16 +109,6 @@ const char* spatial_algorithm(Output o) {
 }
 
 }  // namespace
-
-std::vector<Output> spatial_outputs(const SpatialScene& scene) {
-  if (!scene.outputs.empty()) return scene.outputs;
-  // As in the plane, the registry's defaults (the state Jacobian and Mdot only where a scene
-  // asks for them).
-  std::vector<Output> outputs;
-  for (const OutputInfo& o : output_registry())
-    if (spatial_output(o.id, scene.chain.free_base) && o.by_default) outputs.push_back(o.id);
-  return outputs;
-}
 
 DerivedModel spatial_derived_model(const SpatialScene& scene) {
   DerivedModel derived;

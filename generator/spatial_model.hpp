@@ -11,10 +11,6 @@
 
 namespace spacearm {
 
-// The outputs to emit, in the registry's order: the scene's list, else M, b, kinetic energy,
-// momentum (free base), inverse and forward dynamics (the state Jacobian where asked for).
-std::vector<Output> spatial_outputs(const SpatialScene& scene);
-
 // The facts of the model (sizes, names, layout, outputs), read from the scene alone.
 ModelFacts spatial_facts(const SpatialScene& scene);
 

@@ -339,6 +339,18 @@ bool spatial_output(Output o, bool free_base) {
   }
 }
 
+std::vector<Output> spatial_outputs(const SpatialScene& scene) {
+  if (!scene.outputs.empty()) return scene.outputs;
+  std::vector<Output> outputs;
+  for (const OutputInfo& o : output_registry())
+    if (spatial_output(o.id, scene.chain.free_base) && o.by_default) outputs.push_back(o.id);
+  return outputs;
+}
+
+unsigned spatial_features(const SpatialScene& scene) {
+  return (scene.chain.free_base ? needs::free_base : 0u) | needs::rigid_joints;
+}
+
 bool is_spatial_scene(const std::string& yaml_text) {
   const YamlReader r("scene", "", [](const std::string& m) { throw SceneError(m); });
   try {

@@ -54,6 +54,12 @@ struct SpatialScene {
 // The outputs a spatial arm can give today (the free-base ones only for a free base).
 bool spatial_output(Output o, bool free_base);
 
+// The outputs to emit, in the registry's order: the scene's list, else the registry's defaults
+// that a spatial arm gives (as in the plane: the state Jacobian and Mdot only where asked for).
+std::vector<Output> spatial_outputs(const SpatialScene& scene);
+// The scene's needs:: bits (outputs.hpp): a free base; rigid joints (no springs in 3D yet).
+unsigned spatial_features(const SpatialScene& scene);
+
 // A URDF file's text by the path the scene gives (`urdf:`); throws SceneError.
 using UrdfFileReader = std::function<std::string(const std::string& path)>;
 

@@ -46,7 +46,8 @@ for ((c = 2; c < first_metric; ++c)); do
 done
 units() {
   case $1 in
-    ee_x|ee_y|ee_error|base_drift) echo "[m]" ;; ee_phi|base_rotation) echo "[rad]" ;;
+    ee_x|ee_y|ee_z|ee_error|base_drift) echo "[m]" ;;
+    ee_phi|ee_angle_error|base_rotation) echo "[rad]" ;;
     torque_rms) echo "[N m]" ;; momentum_drift) echo "[N s, N m s]" ;; *) echo "" ;;
   esac
 }

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -94,17 +95,18 @@ class StudyReader {
     r_.fail(field, "'" + p + "' is not a " + list + " file", n);
     return p;
   }
-  Scene scene(const YAML::Node& n, const std::string& field) const {
+  StudyScene scene(const YAML::Node& n, const std::string& field) const {
     const std::string p = named_file(n, field, {".yaml", ".yml"});
     if (!std::filesystem::is_regular_file(p)) r_.fail(field, "no scene file '" + p + "'", n);
-    return load_scene(p);
+    return load_study_scene(p);
   }
   int parameter(const Study& s, const YAML::Node& key, const std::string& field) const {
     const std::string name = r_.key_text(key, field);
-    for (size_t i = 0; i < s.scene.parameters.size(); ++i)
-      if (s.scene.parameters[i].name == name) return static_cast<int>(i);
+    const std::vector<std::string>& names = s.scene.parameter_names;
+    for (size_t i = 0; i < names.size(); ++i)
+      if (names[i] == name) return static_cast<int>(i);
     std::string known;
-    for (const auto& p : s.scene.parameters) known += (known.empty() ? "" : ", ") + p.name;
+    for (const auto& p : names) known += (known.empty() ? "" : ", ") + p;
     r_.fail(field + "." + name,
             "not a run-time parameter of scene '" + s.scene.name +
                 "' (known: " + (known.empty() ? "none" : known) + ")",
@@ -151,14 +153,32 @@ void StudyReader::manoeuvre(Study& s, const YAML::Node& n) const {
   }
   if (n["plan"].IsDefined() == n["torques"].IsDefined())
     r_.fail("manoeuvre", "give either plan (a straight line) or torques (a CSV file)", n);
-  const int nq = s.scene.num_base() + s.scene.num_links();  // base pose, link-side angles
-  if (n["target"].IsDefined()) s.target = numbers(n["target"], "manoeuvre.target", 2, 2);
+  // The base pose (3D: origin and quaternion) and link-side angles; a position or a pose.
+  const StudyScene& f = s.scene;
+  const bool spatial = f.is_spatial();
+  const int nq = f.base_coordinates + f.num_links;
+  const int position = spatial ? 3 : 2, pose = spatial ? 7 : 3;
+  if (n["target"].IsDefined()) {
+    s.target = numbers(n["target"], "manoeuvre.target", position, spatial ? pose : position);
+    if (s.target.size() != position && s.target.size() != pose)
+      r_.fail("manoeuvre.target", "expected a position (3 numbers) or a pose (7)", n["target"]);
+  }
   if (n["torques"].IsDefined()) {
     s.torque_path = named_file(n["torques"], "manoeuvre.torques", {".csv"});
     s.torques = read_torque_csv(read_file(s.torque_path, "manoeuvre.torques", kMaxTorqueBytes),
-                                s.scene.num_links(), s.torque_path);
-    s.q0 =
-        n["q0"].IsDefined() ? numbers(n["q0"], "manoeuvre.q0", nq, nq) : Eigen::VectorXd::Zero(nq);
+                                f.num_links, s.torque_path);
+    s.q0 = Eigen::VectorXd::Zero(nq);
+    if (f.quaternion_offset >= 0) s.q0[f.quaternion_offset] = 1;  // the base unturned
+    if (n["q0"].IsDefined()) s.q0 = numbers(n["q0"], "manoeuvre.q0", nq, nq);
+    if (f.quaternion_offset >= 0) {
+      const double norm = s.q0.segment(f.quaternion_offset, 4).norm();
+      if (!(norm >= 1e-6 && norm <= 1e6))
+        r_.fail("manoeuvre.q0",
+                "the base's quaternion (entries " + std::to_string(f.quaternion_offset) + " to " +
+                    std::to_string(f.quaternion_offset + 3) + ") needs a norm from 1e-6 to 1e6",
+                n["q0"]);
+      s.q0.segment(f.quaternion_offset, 4) /= norm;
+    }
     return;
   }
   for (const char* f : {"q0", "target"})
@@ -170,8 +190,15 @@ void StudyReader::manoeuvre(Study& s, const YAML::Node& n) const {
   const YAML::Node p = n["plan"];
   r_.check_keys(p, "manoeuvre.plan", {"from", "to", "duration", "time_law", "elbow", "scene"});
   StraightLineTask task;
-  task.start = numbers(r_.require(p, "from", "manoeuvre.plan"), "manoeuvre.plan.from", 2, 3);
-  task.goal = numbers(r_.require(p, "to", "manoeuvre.plan"), "manoeuvre.plan.to", 2, 3);
+  task.start =
+      numbers(r_.require(p, "from", "manoeuvre.plan"), "manoeuvre.plan.from", position, pose);
+  task.goal = numbers(r_.require(p, "to", "manoeuvre.plan"), "manoeuvre.plan.to", position, pose);
+  for (const auto& [end, field] : {std::pair{&task.start, "from"}, std::pair{&task.goal, "to"}})
+    if (end->size() != position && end->size() != pose)
+      r_.fail(std::string("manoeuvre.plan.") + field,
+              "expected a position (3 numbers) or a pose (7: x, y, z, qw, qx, qy, qz)", p[field]);
+  if (task.start.size() != task.goal.size())
+    r_.fail("manoeuvre.plan.to", "must have as many numbers as manoeuvre.plan.from", p["to"]);
   task.duration = positive(r_.require(p, "duration", "manoeuvre.plan"), "manoeuvre.plan.duration");
   if (p["time_law"].IsDefined()) {
     const std::string law = text(p["time_law"], "manoeuvre.plan.time_law");
@@ -186,7 +213,7 @@ void StudyReader::manoeuvre(Study& s, const YAML::Node& n) const {
     task.elbow = static_cast<int>(e);
   }
   if (p["scene"].IsDefined()) s.plan_scene = scene(p["scene"], "manoeuvre.plan.scene");
-  s.target = task.goal.head(2);
+  s.target = task.goal;
   s.plan = task;
 }
 
@@ -240,7 +267,7 @@ void StudyReader::grid(Study& s, const YAML::Node& n) const {
   std::set<int> seen;
   for (const auto& kv : n) {
     const int index = parameter(s, kv.first, "grid");
-    const std::string field = "grid." + s.scene.parameters[index].name;
+    const std::string field = "grid." + s.scene.parameter_names[index];
     if (!seen.insert(index).second) r_.fail(field, "given more than once", kv.first);
     const YAML::Node& v = kv.second;
     std::vector<double> values;
@@ -279,7 +306,7 @@ void StudyReader::random(Study& s, const YAML::Node& n) const {
     r_.fail("random.draws", "expected a mapping of parameter: distribution", d);
   for (const auto& kv : d) {
     const int index = parameter(s, kv.first, "random.draws");
-    const std::string field = "random.draws." + s.scene.parameters[index].name;
+    const std::string field = "random.draws." + s.scene.parameter_names[index];
     for (const auto& [i, values] : s.grid)
       if (i == index) r_.fail(field, "is already on the grid; give it in one place", kv.first);
     for (const auto& [i, dist] : s.draws)
@@ -319,24 +346,62 @@ void StudyReader::time_series(Study& s, const YAML::Node& n) const {
 
 }  // namespace
 
+bool StudyScene::wants(Output o) const {
+  return std::find(outputs.begin(), outputs.end(), o) != outputs.end();
+}
+
+StudyScene load_study_scene(const std::string& path) {
+  const std::string text = read_scene_file(path);
+  StudyScene s;
+  if (is_spatial_scene(text)) {
+    s.spatial = std::make_shared<const SpatialScene>(parse_spatial_scene(text, path));
+    const SpatialScene& sc = *s.spatial;
+    s.name = sc.name, s.source_path = sc.source_path, s.content = sc.content;
+    for (const Parameter& p : sc.parameters) {
+      s.parameter_names.push_back(p.name);
+      s.nominal_parameters.push_back(p.nominal.value);
+    }
+    s.free_floating = sc.chain.free_base;
+    for (const auto& l : sc.chain.links) s.geared = s.geared || l.gear.present;
+    s.num_links = static_cast<int>(sc.chain.links.size());
+    s.base_coordinates = s.free_floating ? 7 : 0;
+    s.quaternion_offset = s.free_floating ? 3 : -1;
+    s.features = spatial_features(sc);
+    s.outputs = spatial_outputs(sc);
+    return s;
+  }
+  s.planar = std::make_shared<const Scene>(parse_scene(text, path));
+  const Scene& sc = *s.planar;
+  s.name = sc.name, s.source_path = sc.source_path, s.content = sc.content;
+  for (const Parameter& p : sc.parameters) {
+    s.parameter_names.push_back(p.name);
+    s.nominal_parameters.push_back(p.nominal.value);
+  }
+  s.free_floating = sc.free_floating();
+  s.geared = sc.geared();
+  s.num_links = sc.num_links();
+  s.base_coordinates = sc.num_base();
+  s.features = sc.features();
+  for (const OutputInfo& o : output_registry())
+    if (sc.wants(o.id)) s.outputs.push_back(o.id);
+  return s;
+}
+
 long Study::num_runs() const {
   long runs = draws_per_point;
   for (const auto& g : grid) runs *= static_cast<long>(g.second.size());
   return runs;
 }
 
-std::vector<std::string> Study::parameter_names() const {
-  std::vector<std::string> names;
-  for (const auto& p : scene.parameters) names.push_back(p.name);
-  return names;
-}
+std::vector<std::string> Study::parameter_names() const { return scene.parameter_names; }
 
 Eigen::VectorXd Study::parameters(long run) const {
   if (run < 0 || run >= num_runs())
     throw std::out_of_range("study: run " + std::to_string(run) + " of " +
                             std::to_string(num_runs()));
-  Eigen::VectorXd p(static_cast<int>(scene.parameters.size()));
-  for (int i = 0; i < p.size(); ++i) p[i] = scene.parameters[i].nominal.value;
+  const std::vector<double>& nominal = scene.nominal_parameters;
+  Eigen::VectorXd p =
+      Eigen::Map<const Eigen::VectorXd>(nominal.data(), static_cast<Eigen::Index>(nominal.size()));
   // The grid point, in mixed radix with the last grid parameter fastest.
   long point = run / draws_per_point;
   for (auto g = grid.rbegin(); g != grid.rend(); ++g) {

@@ -15,7 +15,10 @@
 #include <vector>
 
 #include "integrators.hpp"
+#include <memory>
+
 #include "scene.hpp"
+#include "spatial_scene.hpp"
 #include "torque_csv.hpp"
 #include "torque_signal.hpp"
 #include "trajectory_planning.hpp"
@@ -33,20 +36,43 @@ struct Distribution {
   double a = 0, b = 0;  // uniform, log_uniform: [a, b); normal: mean a, standard deviation b
 };
 
+// A study's scene, planar or spatial (`space: spatial`), as read: what the study checks
+// against it; the runner derives and compiles its model (sweep.cpp).
+struct StudyScene {
+  std::shared_ptr<const Scene> planar;
+  std::shared_ptr<const SpatialScene> spatial;
+  std::string name, source_path, content;
+  std::vector<std::string> parameter_names;
+  std::vector<double> nominal_parameters;
+  bool free_floating = false, geared = false;
+  int num_links = 0;
+  int base_coordinates = 0;  // q's base entries: 3 (x0, y0, q0), 7 (origin, quaternion) or 0
+  int quaternion_offset = -1;
+  unsigned features = 0;  // needs:: bits (outputs.hpp)
+  std::vector<Output> outputs;
+  bool is_spatial() const { return spatial != nullptr; }
+  bool wants(Output o) const;
+};
+
+// Reads and parses a scene file of either kind (SceneError naming the file and field).
+StudyScene load_study_scene(const std::string& path);
+
 struct Study {
   std::string source_path, content;  // the study file
   std::string identity;  // hash of the study, its scenes and its torque file (results/ checks it)
-  Scene scene;           // the model of every run
+  StudyScene scene;      // the model of every run (planar, or spatial: a base floating in 3D)
   // The manoeuvre: a straight-line plan, computed once with the nominal parameters of
   // plan_scene (the run scene if not given) and replayed open loop into every run (the paper's
   // experiment, Section 3); or torques from a file, from q0.
   std::optional<StraightLineTask> plan;
-  std::optional<Scene> plan_scene;
+  std::optional<StudyScene> plan_scene;
   std::optional<TorqueTable> torques;
   std::string torque_path;
   // Torque manoeuvre: the start, as the base pose and link-side joint angles (num_base + N).
   Eigen::VectorXd q0;
-  Eigen::VectorXd target;  // end-effector goal (x, y) for ee_error: the plan's, or given
+  // End-effector goal for ee_error: the plan's, or given; (x, y), in 3D (x, y, z) or the pose
+  // (x, y, z, qw, qx, qy, qz), whose angle error is ee_angle_error.
+  Eigen::VectorXd target;
   // Which gear ratio divides the link-side torques into motor commands: each run's own p
   // ("run": a different, known gearbox; the default) or the scene's nominal p ("nominal": the
   // real p is not the p the controller believes, so the link gets tau p_run / p_nominal).

@@ -7,6 +7,7 @@
 #include <cstdlib>
 
 #include "consistent_start.hpp"
+#include "model_recipe.hpp"
 #include "plan_replay.hpp"
 #include "simulation.hpp"
 #include "text_numbers.hpp"
@@ -32,26 +33,42 @@ std::string csv_text(std::string s) {
 
 // What the sweep reads from a scene, with an error naming the field if it is missing.
 void check_outputs(const Study& s) {
-  const Scene& sc = s.scene;
+  const StudyScene& sc = s.scene;
   auto fail = [&](const std::string& why) {
     throw StudyError("study '" + s.source_path + "', field 'scene': scene '" + sc.source_path +
                      "' " + why + " (field 'outputs')");
   };
   if (!has_forward_dynamics([&sc](Output o) { return sc.wants(o); },
-                            has_passive_forces(sc.features())))
+                            has_passive_forces(sc.features)))
     fail("must emit forward_dynamics (or mass_matrix and bias_forces without springs)");
   if (!sc.wants(Output::end_effector_pose)) fail("must emit end_effector_pose");
-  if (sc.free_floating() && !sc.wants(Output::momentum)) fail("must emit momentum (free base)");
+  if (sc.free_floating && !sc.wants(Output::momentum)) fail("must emit momentum (free base)");
   if (s.integrator.method == Method::rosenbrock4 && !sc.wants(Output::forward_dynamics_derivatives))
     fail("must emit forward_dynamics_derivatives for integrator.method rosenbrock4");
 }
 
+// The model of a study's scene (derived, lowered and printed by the cache when it compiles).
+ModelRecipe recipe(const StudyScene& s) {
+  return s.spatial ? ModelRecipe(*s.spatial) : ModelRecipe(*s.planar);
+}
+
 // The metrics of one run, observed at every integrator step.
 struct Metrics {
-  Eigen::Vector3d base0, h0, pose;
+  Eigen::VectorXd base0, h0, pose;
   double base_drift = 0, base_rotation = 0, momentum_drift = 0, tau_squares = 0;
   long samples = 0;
 };
+
+// The end effector's pose columns: [x, y, phi], in 3D [x, y, z, w, qx, qy, qz] (the output's).
+std::string pose_columns(bool spatial) {
+  return spatial ? ",ee_x,ee_y,ee_z,ee_qw,ee_qx,ee_qy,ee_qz" : ",ee_x,ee_y,ee_phi";
+}
+
+// The angle between two orientations (quaternions w, x, y, z of any nonzero norm), in [0, pi].
+double angle_between(const Eigen::Vector4d& a, const Eigen::Vector4d& b) {
+  const double c = std::abs(a.dot(b)) / (a.norm() * b.norm());
+  return 2 * std::acos(std::min(1.0, c));
+}
 
 }  // namespace
 
@@ -66,22 +83,24 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
   const Study& s = study_;
   check_outputs(s);
   loaded_ = std::make_unique<Loaded>(
-      Loaded{CompiledModel::load(s.scene, options), {}, {}, {}, {}, {}, {}});
+      Loaded{CompiledModel::load(recipe(s.scene), options), {}, {}, {}, {}, {}, {}});
   // The run scene at its nominal parameters: what a controller believes (its p, its friction).
   const std::vector<double>& nominal = loaded_->model.nominal_parameters();
   const DynamicModel believed = dynamic_model(
       loaded_->model,
       Eigen::Map<const Eigen::VectorXd>(nominal.data(), static_cast<Eigen::Index>(nominal.size())));
   loaded_->nominal_ratios = believed.gear_ratios;
-  const int nb = s.scene.num_base(), N = s.scene.num_links();
+  const StudyScene& f = s.scene;
+  const int N = f.num_links;
   if (s.plan) {
     // Planned once, with the plan scene's nominal parameters (the paper's experiment).
-    const Scene& ps = s.plan_scene ? *s.plan_scene : s.scene;
-    if (ps.num_links() != N || ps.free_floating() != s.scene.free_floating())
+    const StudyScene& pf = s.plan_scene ? *s.plan_scene : f;
+    if (pf.num_links != N || pf.free_floating != f.free_floating ||
+        pf.is_spatial() != f.is_spatial())
       throw StudyError("study '" + s.source_path + "', field 'manoeuvre.plan.scene': scene '" +
-                       ps.source_path + "' must have the run scene's base and joints");
+                       pf.source_path + "' must have the run scene's base and joints");
     std::optional<CompiledModel> own;
-    if (s.plan_scene) own.emplace(CompiledModel::load(ps, options));
+    if (s.plan_scene) own.emplace(CompiledModel::load(recipe(*s.plan_scene), options));
     const CompiledModel& pm = own ? *own : loaded_->model;
     const DynamicModel planner =
         dynamic_model(pm, Eigen::Map<const Eigen::VectorXd>(
@@ -100,9 +119,9 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
   } else {
     loaded_->tau = std::make_unique<TorqueSignal<Eigen::Dynamic>>(
         s.torques->t0, s.torques->dt, s.torques->samples, s.interpolation);
-    loaded_->base = s.q0.head(nb);
+    loaded_->base = s.q0.head(s.q0.size() - N);
     loaded_->angles = s.q0.tail(N);
-    loaded_->base_rate = Eigen::VectorXd::Zero(nb);
+    loaded_->base_rate = Eigen::VectorXd::Zero(f.free_floating ? (f.is_spatial() ? 6 : 3) : 0);
     loaded_->rates = Eigen::VectorXd::Zero(N);
   }
   if (const std::string gap =
@@ -113,9 +132,10 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
   // The header: one place names the columns, row() follows it.
   header_ = "run,status";
   for (const auto& n : s.parameter_names()) header_ += "," + n;
-  header_ += ",ee_x,ee_y,ee_phi";
+  header_ += pose_columns(f.is_spatial());
   if (s.target.size()) header_ += ",ee_error";
-  if (s.scene.free_floating()) header_ += ",base_drift,base_rotation,momentum_drift";
+  if (f.is_spatial() && s.target.size() == 7) header_ += ",ee_angle_error";
+  if (f.free_floating) header_ += ",base_drift,base_rotation,momentum_drift";
   header_ += ",torque_rms,command_ratio,message\n";
 }
 
@@ -143,18 +163,21 @@ std::string StudyRunner::row(long run, std::string* series) const {
             ? Eigen::VectorXd(Eigen::VectorXd::Ones(model.num_links))
             : Eigen::VectorXd(model.gear_ratios.cwiseQuotient(loaded_->nominal_ratios));
     auto tau = [&](double t) -> Eigen::VectorXd { return scale.cwiseProduct(signal(t)); };
-    if (s.scene.num_flexible()) consistent_start(model, q0, qd0, tau(0.0));
+    if (s.scene.features & needs::springs) consistent_start(model, q0, qd0, tau(0.0));
     // Metrics at every step; the time series every series_every steps.
     Metrics m;
     const int nb = model.num_base();
     std::string csv;
     auto observe = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
       m.pose = model.end_effector_pose(q);
-      if (nb) {
-        const Eigen::Vector3d h = model.momentum(q, qd);
-        if (m.samples == 0) m.base0 = q.head(3), m.h0 = h;
-        m.base_drift = std::max(m.base_drift, (q.head(2) - m.base0.head(2)).norm());
-        m.base_rotation = std::max(m.base_rotation, std::abs(q[2] - m.base0[2]));
+      if (nb) {  // the base's drift (its origin) and turn (angle, or 3D the rotation's angle)
+        const Eigen::VectorXd h = model.momentum(q, qd);
+        const int moves = model.spatial ? 3 : 2;
+        if (m.samples == 0) m.base0 = q.head(moves + (model.spatial ? 4 : 1)), m.h0 = h;
+        m.base_drift = std::max(m.base_drift, (q.head(moves) - m.base0.head(moves)).norm());
+        m.base_rotation = std::max(
+            m.base_rotation, model.spatial ? angle_between(q.segment<4>(3), m.base0.segment<4>(3))
+                                           : std::abs(q[2] - m.base0[2]));
         m.momentum_drift = std::max(m.momentum_drift, (h - m.h0).cwiseAbs().maxCoeff());
       }
       m.tau_squares += tau(t).squaredNorm();
@@ -172,8 +195,12 @@ std::string StudyRunner::row(long run, std::string* series) const {
     integrate_motion(
         model, q0, qd0, [&](double t) -> Eigen::VectorXd { return scale.cwiseProduct(replay(t)); },
         s.t_end, s.integrator.dt, opt, observe);
-    std::vector<double> measures(m.pose.data(), m.pose.data() + 3);
-    if (s.target.size()) measures.push_back((m.pose.head(2) - s.target).norm());
+    std::vector<double> measures(m.pose.data(), m.pose.data() + m.pose.size());
+    const int position = model.spatial ? 3 : 2;
+    if (s.target.size())
+      measures.push_back((m.pose.head(position) - s.target.head(position)).norm());
+    if (model.spatial && s.target.size() == 7)
+      measures.push_back(angle_between(m.pose.tail<4>(), s.target.tail<4>()));
     if (nb) measures.insert(measures.end(), {m.base_drift, m.base_rotation, m.momentum_drift});
     measures.push_back(std::sqrt(m.tau_squares / static_cast<double>(m.samples * model.num_links)));
     std::string measured;
@@ -186,7 +213,7 @@ std::string StudyRunner::row(long run, std::string* series) const {
       std::string head = "t";
       for (const auto& n : model.coordinate_names) head += "," + n;
       for (const auto& n : model.coordinate_names) head += "," + n + "d";
-      *series = head + ",ee_x,ee_y,ee_phi\n" + csv;
+      *series = head + pose_columns(model.spatial) + "\n" + csv;
     }
     return r + ",ok" + values + "," + ratio + ",\n";
   } catch (const std::exception& e) {
@@ -204,7 +231,7 @@ std::string StudyRunner::row_problem(const std::string& row, long* run) const {
   if (run) *run = r;
   // The fields before the message: run, status, parameters, metrics.
   const long fields = std::count(header_.begin(), header_.end(), ','),
-             params = static_cast<long>(study_.scene.parameters.size());
+             params = static_cast<long>(study_.scene.parameter_names.size());
   std::vector<std::string> f;
   size_t at = 0;
   for (long k = 0; k < fields; ++k) {
