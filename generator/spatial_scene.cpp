@@ -165,7 +165,13 @@ class SpatialReader {
     if (given) {
       if (!given.IsMap() || given.size() == 0)
         r_.fail("inertials", "expected a mapping of URDF link name to {mass, com, inertia}", given);
-      for (const auto& kv : given) given_links.push_back(r_.key_text(kv.first, "inertials"));
+      for (const auto& kv : given) {
+        const std::string link = r_.key_text(kv.first, "inertials");
+        if (std::count(given_links.begin(), given_links.end(), link))
+          r_.fail("inertials." + (is_identifier(link) ? link : quoted_text(link)),
+                  "given more than once", kv.first);
+        given_links.push_back(link);
+      }
     }
     for (const char* field : {"links"})
       if (root[field]) r_.fail(field, "comes from the URDF (field 'urdf')", root[field]);

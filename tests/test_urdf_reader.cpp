@@ -207,6 +207,12 @@ TEST(UrdfReader, InertialsTheSceneGivesArePartsOfTheirBodies) {
                           path, with_urdf(xml)),
       SceneError, "field 'inertials.tool': URDF 'space_arm7.urdf' has no link of this name");
   EXPECT_THROW_MESSAGE(
+      parse_spatial_scene(model_file("space_arm7.yaml") +
+                              "inertials:\n  link7: {mass: 1, inertia: [1, 0, 0, 1, 0, 1]}\n"
+                              "  link7: {mass: 2, inertia: [1, 0, 0, 1, 0, 1]}\n",
+                          path, with_urdf(xml)),
+      SceneError, "field 'inertials.link7': given more than once");
+  EXPECT_THROW_MESSAGE(
       parse_spatial_scene(model_file("space_arm7.yaml") + "inertials: {link7: {mass: 1}}\n", path,
                           with_urdf(xml)),
       SceneError, "field 'inertials.link7.inertia': missing required field");
