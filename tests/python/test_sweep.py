@@ -90,3 +90,20 @@ def test_study_table_is_named_numpy_columns(study_path):
     for c, name in enumerate(header[2:-2], start=2):
         assert table[name][4] == float(row[c]), name
 
+
+
+def test_a_spatial_study_is_a_table_of_3d_rows():
+    """A study of the 3D arm (issue 31, studies/space_arm7_payload.yaml): the rows carry the 3D
+    pose and its errors; the nominal run (p = 100, 0.5 kg) ends at the plan's goal (about 2 s,
+    the model compiled once or found in the cache)."""
+    study = spacearm.Study(os.path.join(ROOT, "studies", "space_arm7_payload.yaml"), CACHE)
+    assert study.num_runs == 8 and "8 runs of scene space_arm7_payload" in repr(study)
+    table = study.table(runs=[1, 7], threads=2)
+    for name in ("ee_z", "ee_qw", "ee_angle_error", "base_rotation", "momentum_drift"):
+        assert name in table, name
+    assert table["status"] == ["ok", "ok"]
+    assert list(table["p"]) == [100.0, 100.0] and list(table["mp"]) == [0.5, 20.0]
+    assert table["ee_error"][0] < 3e-5 and table["ee_angle_error"][0] < 1e-5
+    assert table["ee_error"][1] > 0.05  # 20 kg the plan did not know
+    quaternion = np.array([table[c] for c in ("ee_qw", "ee_qx", "ee_qy", "ee_qz")])
+    assert np.allclose(np.linalg.norm(quaternion, axis=0), 1, atol=1e-9)
