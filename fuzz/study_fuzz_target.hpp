@@ -1,8 +1,10 @@
 // The check the study fuzzer runs on every input, shared with the replay test
 // (Study.FuzzSeedsAndRegressionsReplay in tests/test_sweep.cpp). An input is a study file's
 // text, optionally followed by a line "#torques" and a torque file's text. In the study, SCENE
-// stands for the paper's geared scene and TORQUES for a file holding the torque part (written
-// into `scratch` for each input), so that mutations reach the manoeuvre and the torque reader.
+// stands for the paper's geared scene, SPATIAL_SCENE for the 3D arm beside it
+// (models/space_arm7_payload.yaml, its URDF read too) and TORQUES for a file holding the torque
+// part (written into `scratch` for each input), so that mutations reach the manoeuvre and the
+// torque reader.
 // A study must be rejected with an error that names the study, the field or the file it is
 // about, or be accepted as one that keeps every documented rule; anything else is a bug.
 #pragma once
@@ -28,6 +30,19 @@ inline std::string replaced_all(std::string s, const std::string& key, const std
   return s;
 }
 
+// The 3D arm's scene beside the planar one (same folder).
+inline std::string spatial_scene_beside(const std::string& scene) {
+  return scene.substr(0, scene.find_last_of('/') + 1) + "space_arm7_payload.yaml";
+}
+
+// The study text with its placeholders replaced (SPATIAL_SCENE before SCENE, which it contains).
+inline std::string study_text(const std::string& text, const std::string& scene,
+                              const std::string& torques) {
+  return replaced_all(replaced_all(replaced_all(text, "SPATIAL_SCENE", spatial_scene_beside(scene)),
+                                   "SCENE", scene),
+                      "TORQUES", torques);
+}
+
 // Empty when the accepted study keeps the rules, else the rule it breaks.
 inline std::string broken_rule(const Study& s) {
   const long n = s.num_runs();
@@ -36,6 +51,11 @@ inline std::string broken_rule(const Study& s) {
   if (!(s.integrator.dt > 0) || !std::isfinite(s.integrator.dt)) return "integrator.dt";
   if (!s.plan && !s.torques) return "no manoeuvre";
   if (s.torques) {
+    if (s.q0.size() != s.scene.base_coordinates + s.scene.num_links || !s.q0.allFinite())
+      return "q0";
+    if (const int k = s.scene.quaternion_offset;
+        k >= 0 && std::abs(s.q0.segment(k, 4).norm() - 1) > 1e-12)
+      return "q0's base quaternion is not unit";
     if (s.torques->samples.size() < 2 || !(s.torques->dt > 0)) return "torque grid";
     for (const auto& sample : s.torques->samples)
       if (sample.size() != s.scene.num_links || !sample.allFinite()) return "torque sample";
@@ -62,10 +82,12 @@ inline void check_study_input(const std::string& input, const std::string& scene
     std::ofstream out(tau, std::ios::binary | std::ios::trunc);
     out << torques;
   }
-  text = replaced_all(replaced_all(text, "SCENE", scene), "TORQUES", tau);
+  text = study_text(text, scene, tau);
   auto names_its_subject = [&](const std::string& what) {
     return what.rfind("study '" + source + "'", 0) == 0 || what.find(tau) != std::string::npos ||
-           what.find(scene) != std::string::npos || what.rfind("manoeuvre.", 0) == 0;
+           what.find(scene) != std::string::npos ||
+           what.find(spatial_scene_beside(scene)) != std::string::npos ||
+           what.rfind("manoeuvre.", 0) == 0;
   };
   try {
     const std::string rule = broken_rule(parse_study(text, source));

@@ -482,12 +482,11 @@ TEST(Study, FuzzSeedsAndRegressionsReplay) {
       if (std::string(folder) == "fuzz/study_seeds") {
         ++seeds;
         std::string text = input.substr(0, input.find("\n#torques\n"));
-        text = fuzz::replaced_all(fuzz::replaced_all(text, "SCENE", scene), "TORQUES",
-                                  (dir / "torques.csv").string());
+        text = fuzz::study_text(text, scene, (dir / "torques.csv").string());
         EXPECT_NO_THROW(parse_study(text, (dir / "seed.yaml").string())) << "a seed is refused";
       }
     }
-  EXPECT_GE(seeds, 4);
+  EXPECT_GE(seeds, 6);
   fs::remove_all(dir);
 }
 
