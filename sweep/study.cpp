@@ -114,6 +114,8 @@ class StudyReader {
   }
 
   void manoeuvre(Study& s, const YAML::Node& n) const;
+  void torque_manoeuvre(Study& s, const YAML::Node& n) const;
+  void plan(Study& s, const YAML::Node& p) const;
   void integrator(Study& s, const YAML::Node& n) const;
   void grid(Study& s, const YAML::Node& n) const;
   void random(Study& s, const YAML::Node& n) const;
@@ -153,41 +155,48 @@ void StudyReader::manoeuvre(Study& s, const YAML::Node& n) const {
   }
   if (n["plan"].IsDefined() == n["torques"].IsDefined())
     r_.fail("manoeuvre", "give either plan (a straight line) or torques (a CSV file)", n);
-  // The base pose (3D: origin and quaternion) and link-side angles; a position or a pose.
-  const StudyScene& f = s.scene;
-  const bool spatial = f.is_spatial();
-  const int nq = f.base_coordinates + f.num_links;
+  // A target: a position or a pose.
+  const bool spatial = s.scene.is_spatial();
   const int position = spatial ? 3 : 2, pose = spatial ? 7 : 3;
   if (n["target"].IsDefined()) {
     s.target = numbers(n["target"], "manoeuvre.target", position, spatial ? pose : position);
     if (s.target.size() != position && s.target.size() != pose)
       r_.fail("manoeuvre.target", "expected a position (3 numbers) or a pose (7)", n["target"]);
   }
-  if (n["torques"].IsDefined()) {
-    s.torque_path = named_file(n["torques"], "manoeuvre.torques", {".csv"});
-    s.torques = read_torque_csv(read_file(s.torque_path, "manoeuvre.torques", kMaxTorqueBytes),
-                                f.num_links, s.torque_path);
-    s.q0 = Eigen::VectorXd::Zero(nq);
-    if (f.quaternion_offset >= 0) s.q0[f.quaternion_offset] = 1;  // the base unturned
-    if (n["q0"].IsDefined()) s.q0 = numbers(n["q0"], "manoeuvre.q0", nq, nq);
-    if (f.quaternion_offset >= 0) {
-      const double norm = s.q0.segment(f.quaternion_offset, 4).norm();
-      if (!(norm >= 1e-6 && norm <= 1e6))
-        r_.fail("manoeuvre.q0",
-                "the base's quaternion (entries " + std::to_string(f.quaternion_offset) + " to " +
-                    std::to_string(f.quaternion_offset + 3) + ") needs a norm from 1e-6 to 1e6",
-                n["q0"]);
-      s.q0.segment(f.quaternion_offset, 4) /= norm;
-    }
-    return;
-  }
+  if (n["torques"].IsDefined()) return torque_manoeuvre(s, n);
   for (const char* f : {"q0", "target"})
     if (n[f].IsDefined())
       r_.fail(std::string("manoeuvre.") + f,
               "belongs to a torque manoeuvre; a plan starts at "
               "its line's start and aims at its end",
               n[f]);
-  const YAML::Node p = n["plan"];
+  plan(s, n["plan"]);
+}
+
+// Torques from a file, from q0 (the base pose and link-side angles; 3D: origin, quaternion).
+void StudyReader::torque_manoeuvre(Study& s, const YAML::Node& n) const {
+  const StudyScene& f = s.scene;
+  const int nq = f.base_coordinates + f.num_links, k = f.quaternion_offset;
+  s.torque_path = named_file(n["torques"], "manoeuvre.torques", {".csv"});
+  s.torques = read_torque_csv(read_file(s.torque_path, "manoeuvre.torques", kMaxTorqueBytes),
+                              f.num_links, s.torque_path);
+  s.q0 = Eigen::VectorXd::Zero(nq);
+  if (k >= 0) s.q0[k] = 1;  // the base unturned
+  if (n["q0"].IsDefined()) s.q0 = numbers(n["q0"], "manoeuvre.q0", nq, nq);
+  if (k < 0) return;
+  const double norm = s.q0.segment(k, 4).norm();
+  if (!(norm >= 1e-6 && norm <= 1e6))
+    r_.fail("manoeuvre.q0",
+            "the base's quaternion (entries " + std::to_string(k) + " to " + std::to_string(k + 3) +
+                ") needs a norm from 1e-6 to 1e6",
+            n["q0"]);
+  s.q0.segment(k, 4) /= norm;
+}
+
+// A straight line of the end effector, a position or a pose (3D: with the orientation slerped).
+void StudyReader::plan(Study& s, const YAML::Node& p) const {
+  const bool spatial = s.scene.is_spatial();
+  const int position = spatial ? 3 : 2, pose = spatial ? 7 : 3;
   r_.check_keys(p, "manoeuvre.plan", {"from", "to", "duration", "time_law", "elbow", "scene"});
   StraightLineTask task;
   task.start =
