@@ -32,6 +32,38 @@ std::string inertia_problem(const spatial::Inertial& l) {
          ": each must be positive and at most the sum of the other two)";
 }
 
+// A body's inertial with its parts (a URDF's links given by the scene) at their nominal values:
+// what must be physical as a whole (a part alone, or the rest alone, may be a point mass).
+spatial::Inertial whole_body(const spatial::Link& l) {
+  if (l.parts.empty()) return l;
+  auto rigid = [](const spatial::Inertial& b) {  // about the frame's origin
+    const spatial::Vec3<double> c = {b.com[0], b.com[1], b.com[2]};
+    const auto& i = b.inertia;
+    spatial::Mat3<double> I = {i[0], i[1], i[2], i[1], i[3], i[4], i[2], i[4], i[5]};
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 3; ++k)
+        I[3 * r + k] += b.mass * ((r == k ? spatial::dot(c, c) : 0) - c[r] * c[k]);
+    return spatial::RigidInertia<double>{b.mass, spatial::scaled(c, b.mass), I};
+  };
+  spatial::RigidInertia<double> sum = rigid(l);
+  for (const spatial::Part& p : l.parts)
+    sum = sum + spatial::in_parent(
+                    spatial::Transform<double>{spatial::transposed(spatial::rpy_rotation(p.rpy)),
+                                               {p.xyz[0], p.xyz[1], p.xyz[2]}},
+                    rigid(p.inertial));
+  spatial::Inertial whole;
+  whole.mass = sum.m;
+  if (!(sum.m > 0)) return whole;
+  const spatial::Vec3<double> c = spatial::scaled(sum.h, 1 / sum.m);
+  spatial::Mat3<double> I = sum.I;  // back to the centre: I_c = I_o - m (|c|^2 1 - c c^T)
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k)
+      I[3 * r + k] -= sum.m * ((r == k ? spatial::dot(c, c) : 0) - c[r] * c[k]);
+  whole.com = {c[0], c[1], c[2]};
+  whole.inertia = {I[0], I[1], I[2], I[4], I[5], I[8]};
+  return whole;
+}
+
 // A field's name for a generated message (fixed text: a URDF link's name only where it is a
 // short identifier, else the entry's index).
 std::string inertials_field(const std::string& link, size_t index) {
@@ -207,14 +239,19 @@ class SpatialReader {
       if (it == u.given_parts.end())
         r_.fail(field, "URDF '" + path + "' has no link of this name", n);
       const auto [body, part] = it->second;
+      if (body == 0 && !u.chain.free_base)
+        r_.fail(field,
+                "is the root link of a fixed base or welded to it: it does not move, so its "
+                "inertial has no effect",
+                n);
       spatial::Link& l = body == 0 ? u.chain.base : u.chain.links[body - 1];
       if (!n.IsMap()) r_.fail(field, "expected a mapping {mass, com, inertia}", n);
       r_.check_keys(n, field, {"mass", "com", "inertia"});
       read_inertial(n, field, l.parts[part].inertial, inertials_field(given_links[k], k));
     }
     // A body's URDF inertial (what is lumped from its links), unless the scene gives them all.
-    auto check = [&](const spatial::Link& l, const std::string& body) {
-      if (!l.parts.empty() && l.mass == 0 && l.inertia == std::array<double, 6>{}) return;
+    auto check = [&](const spatial::Link& body_link, const std::string& body) {
+      const spatial::Inertial l = whole_body(body_link);
       std::string why = !(l.mass > 0) ? "its mass, " + std::to_string(l.mass) + ", must be positive"
                                       : inertia_problem(l);
       if (!why.empty())
@@ -234,7 +271,11 @@ class SpatialReader {
     if (type != "free_floating" && type != "fixed")
       r_.fail("base.type", "expected free_floating or fixed, got '" + type + "'", n["type"]);
     c.free_base = type == "free_floating";
-    if (c.free_base) read_inertial(n, "base", c.base, "base");
+    if (c.free_base) return read_inertial(n, "base", c.base, "base");
+    for (const char* field : {"mass", "com", "inertia"})
+      if (n[field])
+        r_.fail(std::string("base.") + field,
+                "a fixed base does not move: it takes no mass, centre or inertia", n[field]);
   }
 
   spatial::Link read_link(const YAML::Node& n, const std::string& field) {
@@ -279,6 +320,12 @@ class SpatialReader {
                 n["rotor_coupling"]);
       g.exact = c == "exact";
     }
+    if (!g.exact && g.transverse_param != spatial::kLiteral)
+      r_.fail(field + ".rotor_inertia[1]",
+              "'" + (*parameters_)[g.transverse_param].name +
+                  "': the transverse inertia acts only with rotor_coupling exact (armature keeps "
+                  "the axial inertia alone)",
+              n["rotor_inertia"]);
     return g;
   }
 

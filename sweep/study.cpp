@@ -37,6 +37,15 @@ std::string read_file(const std::string& path, const std::string& what, std::uin
       "", [&] { return read_regular_file(path, what, static_cast<size_t>(max_bytes)); });
 }
 
+// Why a 3D pose's quaternion (entries 3 to 6) is not usable ("" if it is): a norm from 1e-6 to
+// 1e6, as everywhere a quaternion is read.
+std::string quaternion_problem(const Eigen::VectorXd& pose) {
+  if (pose.size() != 7) return "";
+  const double norm = pose.tail<4>().norm();
+  if (norm >= 1e-6 && norm <= 1e6) return "";
+  return "the quaternion (entries 3 to 6) needs a norm from 1e-6 to 1e6, got " + text_of(norm);
+}
+
 // Reads a study's fields; every error names the field (YamlReader::fail).
 class StudyReader {
  public:
@@ -162,6 +171,8 @@ void StudyReader::manoeuvre(Study& s, const YAML::Node& n) const {
     s.target = numbers(n["target"], "manoeuvre.target", position, spatial ? pose : position);
     if (s.target.size() != position && s.target.size() != pose)
       r_.fail("manoeuvre.target", "expected a position (3 numbers) or a pose (7)", n["target"]);
+    if (spatial && !quaternion_problem(s.target).empty())
+      r_.fail("manoeuvre.target", quaternion_problem(s.target), n["target"]);
   }
   if (n["torques"].IsDefined()) return torque_manoeuvre(s, n);
   for (const char* f : {"q0", "target"})
@@ -206,6 +217,9 @@ void StudyReader::plan(Study& s, const YAML::Node& p) const {
     if (end->size() != position && end->size() != pose)
       r_.fail(std::string("manoeuvre.plan.") + field,
               "expected a position (3 numbers) or a pose (7: x, y, z, qw, qx, qy, qz)", p[field]);
+  for (const auto& [end, field] : {std::pair{&task.start, "from"}, std::pair{&task.goal, "to"}})
+    if (spatial && !quaternion_problem(*end).empty())
+      r_.fail(std::string("manoeuvre.plan.") + field, quaternion_problem(*end), p[field]);
   if (task.start.size() != task.goal.size())
     r_.fail("manoeuvre.plan.to", "must have as many numbers as manoeuvre.plan.from", p["to"]);
   task.duration = positive(r_.require(p, "duration", "manoeuvre.plan"), "manoeuvre.plan.duration");

@@ -48,7 +48,7 @@ TEST(SpatialScene, ReadsTheChain) {
 }
 
 // Each malformed field, with the text that replaces a part of the valid arm, and the message.
-// (18 + 4 outputs cases.)
+// (20 + 4 outputs cases.)
 TEST(SpatialScene, NamesEveryBadField) {
   struct Bad {
     std::string from, to, message;
@@ -69,6 +69,12 @@ TEST(SpatialScene, NamesEveryBadField) {
        "field 'parameters.p': parameter 'p' is declared but never used"},
       {"end_effector: [0.3, 0, 0]", "parameters: {x0: 1}",
        "field 'parameters.x0': parameter name 'x0' is reserved"},
+      {"rotor_inertia: [1.0e-4, 6.0e-5], rotor_coupling: armature}",
+       "rotor_inertia: [1.0e-4, It], rotor_coupling: armature}\nparameters: {It: 1}",
+       "field 'gears.rotor_inertia[1]': 'It': the transverse inertia acts only with "
+       "rotor_coupling exact"},
+      {"type: free_floating, mass: 500", "type: fixed, mass: 500",
+       "field 'base.mass': a fixed base does not move"},
       {"origin: [0.4, 0, 0]", "origin: [L, 0, 0]",
        "field 'links[1].origin[0]': 'L': a frame, an axis or the end effector takes numbers"},
       {"rotor_coupling: armature", "rotor_coupling: loose",

@@ -576,6 +576,14 @@ TEST(Sweep, SpatialArmSweepsAPayloadAndTheRatioWithOneModel) {
                "]\n    duration"),
        "field 'manoeuvre.plan.to': must have as many numbers as manoeuvre.plan.from"},
       {replace(text, "  plan:", "  target: [1, 2]\n  plan:"), "field 'manoeuvre.target'"},
+      {replace(text,
+               "from: [0.9890759074845017, 0.09644127280457315, 2.5871675060636314,\n"
+               "           0.23278826646791523, -0.5742630346705958, 0.4637325048812545, "
+               "0.633232780201987]",
+               "from: [1, 0, 2.5, 0, 0, 0, 0]"),
+       "field 'manoeuvre.plan.from': the quaternion (entries 3 to 6) needs a norm from 1e-6 to "
+       "1e6, "
+       "got 0"},
       {replace(text, "mp: {from", "payload: {from"),
        "field 'grid.payload': not a run-time "
        "parameter of scene 'space_arm7_payload' "
@@ -603,6 +611,14 @@ TEST(Sweep, SpatialArmSweepsAPayloadAndTheRatioWithOneModel) {
   } catch (const StudyError& e) {
     EXPECT_NE(std::string(e.what()).find("field 'manoeuvre.q0': the base's quaternion (entries 3 "
                                          "to 6) needs a norm from 1e-6 to 1e6"),
+              std::string::npos)
+        << e.what();
+  }
+  try {
+    parse_study(replace(torque_study, "]}\n", "], target: [1, 0, 2, 0, 0, 0, 0]}\n"), "3d.yaml");
+    FAIL();
+  } catch (const StudyError& e) {
+    EXPECT_NE(std::string(e.what()).find("field 'manoeuvre.target': the quaternion"),
               std::string::npos)
         << e.what();
   }

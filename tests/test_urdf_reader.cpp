@@ -206,6 +206,25 @@ TEST(UrdfReader, InertialsTheSceneGivesArePartsOfTheirBodies) {
                                                           "[1, 0, 0, 1, 0, 1]}}\n",
                           path, with_urdf(xml)),
       SceneError, "field 'inertials.tool': URDF 'space_arm7.urdf' has no link of this name");
+  // A fixed base's links do not move: an inertial given for one would have no effect.
+  std::string fixed = model_file("space_arm7.yaml");
+  fixed.replace(fixed.find("type: free_floating"), 19, "type: fixed");
+  EXPECT_THROW_MESSAGE(
+      parse_spatial_scene(fixed + "inertials: {star_tracker: {mass: 1, inertia: [1, 0, 0, 1, 0, "
+                                  "1]}}\n",
+                          path, with_urdf(xml)),
+      SceneError, "field 'inertials.star_tracker': is the root link of a fixed base or welded");
+  // The body is checked whole: the flange alone a point mass, the body physical with link7.
+  std::string point_flange = xml;
+  const std::string flange_tensor =
+      "<inertia ixx=\"0.0005\" ixy=\"0\" ixz=\"0\" iyy=\"0.0005\" iyz=\"0\" izz=\"0.0004\"/>";
+  ASSERT_NE(point_flange.find(flange_tensor), std::string::npos);
+  point_flange.replace(point_flange.find(flange_tensor), flange_tensor.size(),
+                       "<inertia ixx=\"0\" ixy=\"0\" ixz=\"0\" iyy=\"0\" iyz=\"0\" izz=\"0\"/>");
+  EXPECT_NO_THROW(parse_spatial_scene(model_file("space_arm7.yaml") +
+                                          "inertials: {link7: {mass: 1, com: [0, 0, 0.04], "
+                                          "inertia: [0.003, 0, 0, 0.003, 0, 0.002]}}\n",
+                                      path, with_urdf(point_flange)));
   EXPECT_THROW_MESSAGE(
       parse_spatial_scene(model_file("space_arm7.yaml") +
                               "inertials:\n  link7: {mass: 1, inertia: [1, 0, 0, 1, 0, 1]}\n"
