@@ -45,11 +45,22 @@ function(spacearm_add_model target)
   if(ARG_PLAIN)
     set(flags --plain)
   endif()
+  # A spatial scene's URDF (`urdf: FILE`, beside the scene) is an input too: an edited URDF
+  # regenerates the model; an edited scene re-reads which URDF it names.
+  set(inputs "${scene}")
+  file(STRINGS "${scene}" urdf_line REGEX "^urdf:[ \t]*[^ \t#]+" LIMIT_COUNT 1)
+  if(urdf_line)
+    string(REGEX REPLACE "^urdf:[ \t]*[\"']?([^\"' \t#]+).*$" "\\1" urdf "${urdf_line}")
+    get_filename_component(scene_dir "${scene}" DIRECTORY)
+    get_filename_component(urdf "${urdf}" ABSOLUTE BASE_DIR "${scene_dir}")
+    list(APPEND inputs "${urdf}")
+    set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS "${scene}")
+  endif()
   set(dir "${CMAKE_CURRENT_BINARY_DIR}/spacearm_models/${target}")
   add_custom_command(
     OUTPUT "${dir}/${target}.hpp" "${dir}/${target}.cpp"
     COMMAND spacearm::spacearm generate "${scene}" -o "${dir}" --file-stem "${target}" ${flags}
-    DEPENDS "${scene}" "$<TARGET_FILE:spacearm::spacearm>"
+    DEPENDS ${inputs} "$<TARGET_FILE:spacearm::spacearm>"
     COMMENT "spacearm: generating model ${target} from ${ARG_SCENE}"
     VERBATIM)
   add_library(${target} STATIC "${dir}/${target}.cpp" "${dir}/${target}.hpp")

@@ -301,7 +301,7 @@ class LinkedSource {
     f.passive_forces = M::kHasPassiveForces;
     f.base_velocities = M::kNumBase;
     f.quaternion_offset = M::kQuaternionOffset;
-    f.spatial = false;  // Model<G> is planar today (its pose and momentum are 3-vectors)
+    f.spatial = M::kSpatial;
     return f;
   }
 

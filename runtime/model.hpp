@@ -22,7 +22,7 @@ namespace spacearm {
 template <class Generated>
 class Model {
  public:
-  // Configuration and velocity sizes, kept apart (equal for every planar model today).
+  // Configuration and velocity sizes, kept apart (nq = nv + 1 on a base floating in 3D).
   static constexpr int kNq = Generated::kNq;
   static constexpr int kNv = Generated::kNv;
   static constexpr int kNumLinks = Generated::kNumLinks;
@@ -36,9 +36,14 @@ class Model {
   using Params = Eigen::Matrix<double, kNumParams, 1>;
   using JointVector = Eigen::Matrix<double, kNumLinks, 1>;
   // The pose and its Jacobian as the generated header shapes them (the registry's pose and
-  // twist sizes: 3 in the plane).
+  // twist sizes: 3 in the plane; in 3D a pose [x, y, z, w, qx, qy, qz] and a 6-row Jacobian).
   using Vector3 = typename Generated::template Vector3<double>;
+  using Pose = Vector3;
   using PoseJacobian = typename Generated::template PoseJacobian<double>;
+  // A spatial arm (a base floating in 3D, or fixed): its pose has 7 entries.
+  static constexpr bool kSpatial = Pose::RowsAtCompileTime == 7;
+  // The base's momentum: [px, py, L] in the plane; [P (3), L (3)] in 3D, L about the world origin.
+  using Momentum = Eigen::Matrix<double, kSpatial ? 6 : 3, 1>;
   using ConfigurationJacobian = Eigen::Matrix<double, kNv, kNq>;  // d(velocity-sized)/dq
   // The base's velocities (x0, y0, q0 in the plane; none for a fixed base); joint 1's slot
   // follows them (a flexible joint's motor coordinates follow the joint slots:
@@ -143,8 +148,8 @@ class Model {
   static constexpr bool kHasForwardDynamics =
       Generated::kHas_forward_dynamics ||
       (Generated::kHas_mass_matrix && Generated::kHas_bias_forces && !kHasPassiveForces);
-  Vector3 momentum(const Vector& q, const Velocity& qd) const {
-    Vector3 h;
+  Momentum momentum(const Vector& q, const Velocity& qd) const {
+    Momentum h;
     Generated::momentum(q, qd, params_, h);
     return h;
   }

@@ -20,7 +20,8 @@ struct Trajectory {
   std::vector<double> t;
   std::vector<typename M::Vector> q;
   std::vector<typename M::Velocity> qd;
-  std::vector<typename M::Vector3> end_effector, momentum;
+  std::vector<typename M::Pose> end_effector;
+  std::vector<typename M::Momentum> momentum;
   std::vector<double> kinetic_energy;
   std::vector<double> work;  // work done by the joint torques since t0 (trapezoidal in time)
   std::vector<double> condition_number;  // cond(M(q)), 2-norm
