@@ -31,18 +31,8 @@ Mat3<T> Chain<T>::num(const Mat3<double>& A) const {
   return B;
 }
 
-// Parallel axes: I_o = I_c + m (|c|^2 1 - c c^T), h = m c; in double where every number is a
+// A body's own inertial about its origin (about_origin): in double where every number is a
 // literal (a recorded program then holds only the results, as constants).
-template <class T, class Number>
-RigidInertia<T> about_origin(const T& m, const Vec3<T>& c, const std::array<T, 6>& i,
-                             const Number& number) {
-  const T cc = dot(c, c);
-  Mat3<T> I = {i[0], i[1], i[2], i[1], i[3], i[4], i[2], i[4], i[5]};
-  for (int r = 0; r < 3; ++r)
-    for (int k = 0; k < 3; ++k) I[3 * r + k] += m * ((r == k ? cc : number(0.0)) - c[r] * c[k]);
-  return {m, scaled(c, m), I};
-}
-
 template <class T>
 RigidInertia<T> Chain<T>::rigid_inertia(const Inertial& b) const {
   if (!b.uses_parameter()) {

@@ -192,6 +192,19 @@ struct RigidInertia {
   }
 };
 
+// A body's inertia about its frame's origin from its mass m, centre c and inertia i about the
+// centre (ixx, ixy, ixz, iyy, iyz, izz), by parallel axes: I_o = I_c + m (|c|^2 1 - c c^T),
+// h = m c. number(x): x as a T.
+template <class T, class Number>
+RigidInertia<T> about_origin(const T& m, const Vec3<T>& c, const std::array<T, 6>& i,
+                             const Number& number) {
+  const T cc = dot(c, c);
+  Mat3<T> I = {i[0], i[1], i[2], i[1], i[3], i[4], i[2], i[4], i[5]};
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) I[3 * r + k] += m * ((r == k ? cc : number(0.0)) - c[r] * c[k]);
+  return {m, scaled(c, m), I};
+}
+
 // The transform from a parent frame to a child frame whose origin is r (parent coordinates) and
 // whose axes are the columns of E^T (E maps parent coordinates to child coordinates).
 template <class T>

@@ -37,13 +37,8 @@ std::string inertia_problem(const spatial::Inertial& l) {
 spatial::Inertial whole_body(const spatial::Link& l) {
   if (l.parts.empty()) return l;
   auto rigid = [](const spatial::Inertial& b) {  // about the frame's origin
-    const spatial::Vec3<double> c = {b.com[0], b.com[1], b.com[2]};
-    const auto& i = b.inertia;
-    spatial::Mat3<double> I = {i[0], i[1], i[2], i[1], i[3], i[4], i[2], i[4], i[5]};
-    for (int r = 0; r < 3; ++r)
-      for (int k = 0; k < 3; ++k)
-        I[3 * r + k] += b.mass * ((r == k ? spatial::dot(c, c) : 0) - c[r] * c[k]);
-    return spatial::RigidInertia<double>{b.mass, spatial::scaled(c, b.mass), I};
+    return spatial::about_origin(b.mass, {b.com[0], b.com[1], b.com[2]}, b.inertia,
+                                 [](double x) { return x; });
   };
   spatial::RigidInertia<double> sum = rigid(l);
   for (const spatial::Part& p : l.parts)
