@@ -92,10 +92,8 @@ ModelFacts planar_facts(const Scene& scene) {
   facts.num_base = scene.num_base();
   facts.geared = scene.geared();
   facts.coordinate_names = scene.coordinate_names();
-  for (const auto& p : scene.parameters) {
-    facts.parameter_names.push_back(p.name);
-    facts.nominal_parameters.push_back(p.nominal.value);
-  }
+  facts.parameter_names = parameter_names(scene.parameters);
+  facts.nominal_parameters = nominal_values(scene.parameters);
   facts.scene_hash = "fnv1a64:" + content_hash(scene.content);
   facts.formulation = to_string(scene.formulation);
   for (const auto& o : output_registry())

@@ -35,6 +35,17 @@ struct Parameter {
   std::string name;
   Quantity nominal;  // always a literal: used for self-checks and as a default at run time
 };
+// The parameters' names and nominal values in their order (params[i] in the generated code).
+inline std::vector<std::string> parameter_names(const std::vector<Parameter>& parameters) {
+  std::vector<std::string> names;
+  for (const Parameter& p : parameters) names.push_back(p.name);
+  return names;
+}
+inline std::vector<double> nominal_values(const std::vector<Parameter>& parameters) {
+  std::vector<double> values;
+  for (const Parameter& p : parameters) values.push_back(p.nominal.value);
+  return values;
+}
 
 enum class BaseType { free_floating, fixed };
 

@@ -50,39 +50,43 @@ RigidInertia<T> Chain<T>::rigid_inertia(const Inertial& b) const {
 template <class T>
 RigidInertia<T> Chain<T>::body_inertia(const Link& l) const {
   RigidInertia<T> I = rigid_inertia(l);
-  for (const Part& part : l.parts)
-    I = I + in_parent(Transform<T>{num(transposed(rpy_rotation(part.rpy))), num(part.xyz)},
-                      rigid_inertia(part.inertial));
+  for (const Part& part : l.parts) {
+    const Transform<double> X = part_frame(part);
+    I = I + in_parent(Transform<T>{num(X.E), num(X.r)}, rigid_inertia(part.inertial));
+  }
   return I;
 }
 
-// An exact rotor's inertia about joint i's origin: transverse (1 - a a^T) + axial a a^T.
+namespace {
+
+// A rotor's inertia tensor about its axis a through its origin: transverse (1 - a a^T) + axial
+// a a^T.
+template <class T>
+Mat3<T> rotor_tensor(const T& transverse, const T& axial, const Vec3<double>& a) {
+  Mat3<T> I;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k)
+      I[3 * r + k] = transverse * ((r == k ? 1.0 : 0.0) - a[r] * a[k]) + axial * a[r] * a[k];
+  return I;
+}
+
+}  // namespace
+
+// An exact rotor's inertia about joint i's origin; in double where both inertias are literals.
 template <class T>
 Mat3<T> Chain<T>::rotor_inertia(int i, const Vec3<double>& a) const {
   const Gear& g = d_.links[i - 1].gear;
-  Mat3<T> Ir;
-  if (g.axial_param == kLiteral && g.transverse_param == kLiteral) {
-    Mat3<double> I;
-    for (int r = 0; r < 3; ++r)
-      for (int k = 0; k < 3; ++k)
-        I[3 * r + k] = g.transverse * ((r == k ? 1.0 : 0.0) - a[r] * a[k]) + g.axial * a[r] * a[k];
-    return num(I);
-  }
-  const T transverse = value(g.transverse, g.transverse_param);
-  for (int r = 0; r < 3; ++r)
-    for (int k = 0; k < 3; ++k)
-      Ir[3 * r + k] =
-          transverse * num((r == k ? 1.0 : 0.0) - a[r] * a[k]) + axial(i) * num(a[r] * a[k]);
-  return Ir;
+  if (g.axial_param == kLiteral && g.transverse_param == kLiteral)
+    return num(rotor_tensor(g.transverse, g.axial, a));
+  return rotor_tensor(value(g.transverse, g.transverse_param), axial(i), a);
 }
 
-// p^2 times the armature: joint i's armature per unit link rate.
 template <class T>
-T Chain<T>::armature_per_link_rate(int i) const {
+T Chain<T>::ratio_times_axial(int i, int power) const {
   const Gear& g = d_.links[i - 1].gear;
-  if (!g.present || g.exact) return T{};
-  if (literal_ratio(i) && g.axial_param == kLiteral) return num(g.ratio * g.ratio * g.axial);
-  return ratio(i) * ratio(i) * armature(i);
+  if (literal_ratio(i) && g.axial_param == kLiteral)
+    return num(power == 1 ? g.ratio * g.axial : g.ratio * g.ratio * g.axial);
+  return power == 1 ? ratio(i) * axial(i) : ratio(i) * ratio(i) * axial(i);
 }
 
 template <class T>
@@ -369,11 +373,8 @@ void Chain<T>::add_rotor(int i, ArticulatedInertia<T>& Ia, Force<T>& U, T& D, Fo
   const Vec3<T>& a = axis_[i];
   const Vec3<T> w_parent = V_[i].w - scaled(S_[i].w, qd_[i]),
                 w_rotor = w_parent + scaled(a, qd_[i]);
-  const Gear& g = d_.links[i - 1].gear;
-  const bool literal = literal_ratio(i) && g.axial_param == kLiteral;
-  // I_r a = axial a, per unit link rate p a
-  U.n = U.n + scaled(a, literal ? num(g.ratio * g.axial) : ratio(i) * axial(i));
-  D += literal ? num(g.ratio * g.ratio * g.axial) : ratio(i) * ratio(i) * axial(i);
+  U.n = U.n + scaled(a, ratio_times_axial(i, 1));  // I_r a = axial a, per unit link rate p a
+  D += ratio_times_axial(i, 2);
   pa.n = pa.n + cross(w_rotor, times(Ir, w_rotor)) + scaled(times(Ir, cross(w_parent, a)), qd_[i]);
   for (int k = 0; k < 9; ++k) Ia.A[k] += Ir[k];
 }

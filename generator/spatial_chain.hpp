@@ -348,6 +348,11 @@ inline Mat3<double> rpy_rotation(const std::array<double, 3>& rpy) {
   return quaternion_rotation(q[0], q[1], q[2], q[3], 1.0, 2.0);
 }
 
+// A part's frame as the transform from the link's frame to the part's.
+inline Transform<double> part_frame(const Part& p) {
+  return {transposed(rpy_rotation(p.rpy)), {p.xyz[0], p.xyz[1], p.xyz[2]}};
+}
+
 // Defined in spatial_chain.cpp for double, Sym and their duals. The chain at one state over the
 // scalar T (double, or recorded_scalar.hpp's Sym and Dual): its numbers come from Values (inputs
 // "q" and "qd" by the registry's names, literals), so one definition serves the reference in double
@@ -451,7 +456,13 @@ class Chain {
     const Gear& g = d_.links[i - 1].gear;
     return g.present ? g.ratio : 1.0;
   }
-  T armature_per_link_rate(int i) const;
+  // p_i^power (1 or 2) times the rotor's axial inertia, one number where both are literals.
+  T ratio_times_axial(int i, int power) const;
+  // p^2 times the armature: joint i's armature per unit link rate.
+  T armature_per_link_rate(int i) const {
+    const Gear& g = d_.links[i - 1].gear;
+    return g.present && !g.exact ? ratio_times_axial(i, 2) : T{};
+  }
   Mat3<T> rotor_inertia(int i, const Vec3<double>& a) const;
   // A body's inertia about its frame's origin: its own inertial and its welded parts'.
   RigidInertia<T> body_inertia(const Link& l) const;

@@ -88,10 +88,8 @@ ModelFacts spatial_facts(const SpatialScene& scene) {
   f.formulation = "recursive";
   f.features = spatial_features(scene);
   f.outputs = spatial_outputs(scene);
-  for (const Parameter& p : scene.parameters) {
-    f.parameter_names.push_back(p.name);
-    f.nominal_parameters.push_back(p.nominal.value);
-  }
+  f.parameter_names = parameter_names(scene.parameters);
+  f.nominal_parameters = nominal_values(scene.parameters);
   parameter_checks(scene, f);
   return f;
 }
@@ -122,25 +120,24 @@ DerivedModel spatial_derived_model(const SpatialScene& scene) {
         [&chain, o](const InputValues& input) {
           return evaluate_chain<spatial::Chain>(chain, o, input);
         }};
-  // The gear ratios: constants (1 where a joint has no gear) or run-time parameters.
+  // The gear ratios: constants (1 where a joint has no gear) or run-time parameters, as
+  // number(x) and parameter(i) give them (recorded, or in double).
+  auto ratios = [&chain](const auto& number, const auto& parameter) {
+    std::vector<std::decay_t<decltype(number(1.0))>> r;
+    for (const auto& l : chain.links)
+      r.push_back(!l.gear.present                           ? number(1.0)
+                  : l.gear.ratio_param == spatial::kLiteral ? number(l.gear.ratio)
+                                                            : parameter(l.gear.ratio_param));
+    return std::vector<decltype(r)>{r};
+  };
   derived.gear_ratios = {"constant",
-                         [&chain](Program& p) {
-                           std::vector<SRef> r;
-                           for (const auto& l : chain.links)
-                             r.push_back(!l.gear.present ? p.constant(1.0)
-                                         : l.gear.ratio_param == spatial::kLiteral
-                                             ? p.constant(l.gear.ratio)
-                                             : p.input("params", l.gear.ratio_param));
-                           return std::vector<std::vector<SRef>>{r};
+                         [ratios](Program& p) {
+                           return ratios([&p](double x) { return p.constant(x); },
+                                         [&p](int i) { return p.input("params", i); });
                          },
-                         [&chain](const InputValues& input) {
-                           std::vector<double> r;
-                           for (const auto& l : chain.links)
-                             r.push_back(!l.gear.present ? 1.0
-                                         : l.gear.ratio_param == spatial::kLiteral
-                                             ? l.gear.ratio
-                                             : input("params", l.gear.ratio_param));
-                           return std::vector<std::vector<double>>{r};
+                         [ratios](const InputValues& input) {
+                           return ratios([](double x) { return x; },
+                                         [&input](int i) { return input("params", i); });
                          }};
   // The reference of every output: the chain in double (no composed outputs here).
   derived.reference = [&chain](Output o, const std::vector<Eigen::VectorXd>& inputs,

@@ -42,10 +42,7 @@ spatial::Inertial whole_body(const spatial::Link& l) {
   };
   spatial::RigidInertia<double> sum = rigid(l);
   for (const spatial::Part& p : l.parts)
-    sum = sum + spatial::in_parent(
-                    spatial::Transform<double>{spatial::transposed(spatial::rpy_rotation(p.rpy)),
-                                               {p.xyz[0], p.xyz[1], p.xyz[2]}},
-                    rigid(p.inertial));
+    sum = sum + spatial::in_parent(spatial::part_frame(p), rigid(p.inertial));
   spatial::Inertial whole;
   whole.mass = sum.m;
   if (!(sum.m > 0)) return whole;
@@ -57,6 +54,11 @@ spatial::Inertial whole_body(const spatial::Link& l) {
   whole.com = {c[0], c[1], c[2]};
   whole.inertia = {I[0], I[1], I[2], I[4], I[5], I[8]};
   return whole;
+}
+
+// A given URDF link's field in the scene's errors: inertials.NAME (quoted unless an identifier).
+std::string inertials_error_field(const std::string& link) {
+  return "inertials." + (is_identifier(link) ? link : quoted_text(link));
 }
 
 // A field's name for a generated message (fixed text: a URDF link's name only where it is a
@@ -176,11 +178,13 @@ class SpatialReader {
     l.inertia = quantities<6>(r_.require(n, "inertia", field), field + ".inertia", l.inertia_param);
     const std::string why = inertia_problem(l);
     if (!why.empty()) r_.fail(field + ".inertia", why, n["inertia"]);
-    SpatialRangeRule tensor{SpatialRangeRule::Kind::physical_inertia, rule_field + ".inertia", {}};
-    for (int k = 0; k < 6; ++k) tensor.values.push_back({l.inertia[k], l.inertia_param[k]});
     if (std::any_of(l.inertia_param.begin(), l.inertia_param.end(),
-                    [](int p) { return p != spatial::kLiteral; }))
+                    [](int p) { return p != spatial::kLiteral; })) {
+      SpatialRangeRule tensor{
+          SpatialRangeRule::Kind::physical_inertia, rule_field + ".inertia", {}};
+      for (int k = 0; k < 6; ++k) tensor.values.push_back({l.inertia[k], l.inertia_param[k]});
       rules_->push_back(tensor);
+    }
   }
 
   // The chain of a URDF (urdf_reader.hpp) named by `urdf:`, its bodies checked as the YAML
@@ -195,8 +199,7 @@ class SpatialReader {
       for (const auto& kv : given) {
         const std::string link = r_.key_text(kv.first, "inertials");
         if (std::count(given_links.begin(), given_links.end(), link))
-          r_.fail("inertials." + (is_identifier(link) ? link : quoted_text(link)),
-                  "given more than once", kv.first);
+          r_.fail(inertials_error_field(link), "given more than once", kv.first);
         given_links.push_back(link);
       }
     }
@@ -228,9 +231,9 @@ class SpatialReader {
     // The given inertials, into their bodies' parts.
     for (size_t k = 0; k < given_links.size(); ++k) {
       const std::string& name = given_links[k];
-      const std::string field = "inertials." + (is_identifier(name) ? name : quoted_text(name));
-      const YAML::Node n = given[given_links[k]];
-      const auto it = u.given_parts.find(given_links[k]);
+      const std::string field = inertials_error_field(name);
+      const YAML::Node n = given[name];
+      const auto it = u.given_parts.find(name);
       if (it == u.given_parts.end())
         r_.fail(field, "URDF '" + path + "' has no link of this name", n);
       const auto [body, part] = it->second;
@@ -242,7 +245,7 @@ class SpatialReader {
       spatial::Link& l = body == 0 ? u.chain.base : u.chain.links[body - 1];
       if (!n.IsMap()) r_.fail(field, "expected a mapping {mass, com, inertia}", n);
       r_.check_keys(n, field, {"mass", "com", "inertia"});
-      read_inertial(n, field, l.parts[part].inertial, inertials_field(given_links[k], k));
+      read_inertial(n, field, l.parts[part].inertial, inertials_field(name, k));
     }
     // A body's URDF inertial (what is lumped from its links), unless the scene gives them all.
     auto check = [&](const spatial::Link& body_link, const std::string& body) {

@@ -37,13 +37,13 @@ std::string read_file(const std::string& path, const std::string& what, std::uin
       "", [&] { return read_regular_file(path, what, static_cast<size_t>(max_bytes)); });
 }
 
-// Why a 3D pose's quaternion (entries 3 to 6) is not usable ("" if it is): a norm from 1e-6 to
-// 1e6, as everywhere a quaternion is read.
-std::string quaternion_problem(const Eigen::VectorXd& pose) {
-  if (pose.size() != 7) return "";
-  const double norm = pose.tail<4>().norm();
+// Why the quaternion at entries k .. k + 3 of v is not usable ("" if it is): a norm from 1e-6 to
+// 1e6, as everywhere a quaternion is read. what: how the message names it.
+std::string quaternion_problem(const Eigen::VectorXd& v, int k, const std::string& what) {
+  const double norm = v.segment(k, 4).norm();
   if (norm >= 1e-6 && norm <= 1e6) return "";
-  return "the quaternion (entries 3 to 6) needs a norm from 1e-6 to 1e6, got " + text_of(norm);
+  return what + " (entries " + std::to_string(k) + " to " + std::to_string(k + 3) +
+         ") needs a norm from 1e-6 to 1e6, got " + text_of(norm);
 }
 
 // Reads a study's fields; every error names the field (YamlReader::fail).
@@ -83,6 +83,19 @@ class StudyReader {
               n);
     Eigen::VectorXd v(static_cast<int>(n.size()));
     for (int i = 0; i < v.size(); ++i) v[i] = number(n[i], field + "[" + std::to_string(i) + "]");
+    return v;
+  }
+  // An end-effector position, or where pose_allowed a pose: in the plane [x, y] or [x, y, phi],
+  // in 3D [x, y, z] or [x, y, z, qw, qx, qy, qz] with a usable quaternion.
+  Eigen::VectorXd position_or_pose(const YAML::Node& n, const std::string& field, bool spatial,
+                                   bool pose_allowed) const {
+    const int position = spatial ? 3 : 2, pose = spatial ? 7 : 3;
+    const Eigen::VectorXd v = numbers(n, field, position, pose_allowed ? pose : position);
+    if (v.size() != position && v.size() != pose)
+      r_.fail(field, "expected a position (3 numbers) or a pose (7: x, y, z, qw, qx, qy, qz)", n);
+    if (spatial && v.size() == pose)
+      if (const std::string why = quaternion_problem(v, 3, "the quaternion"); !why.empty())
+        r_.fail(field, why, n);
     return v;
   }
   // A file named relative to the study's folder.
@@ -164,16 +177,10 @@ void StudyReader::manoeuvre(Study& s, const YAML::Node& n) const {
   }
   if (n["plan"].IsDefined() == n["torques"].IsDefined())
     r_.fail("manoeuvre", "give either plan (a straight line) or torques (a CSV file)", n);
-  // A target: a position or a pose.
+  // A target: a position (in 3D also a pose).
   const bool spatial = s.scene.is_spatial();
-  const int position = spatial ? 3 : 2, pose = spatial ? 7 : 3;
-  if (n["target"].IsDefined()) {
-    s.target = numbers(n["target"], "manoeuvre.target", position, spatial ? pose : position);
-    if (s.target.size() != position && s.target.size() != pose)
-      r_.fail("manoeuvre.target", "expected a position (3 numbers) or a pose (7)", n["target"]);
-    if (spatial && !quaternion_problem(s.target).empty())
-      r_.fail("manoeuvre.target", quaternion_problem(s.target), n["target"]);
-  }
+  if (n["target"].IsDefined())
+    s.target = position_or_pose(n["target"], "manoeuvre.target", spatial, spatial);
   if (n["torques"].IsDefined()) return torque_manoeuvre(s, n);
   for (const char* f : {"q0", "target"})
     if (n[f].IsDefined())
@@ -195,31 +202,20 @@ void StudyReader::torque_manoeuvre(Study& s, const YAML::Node& n) const {
   if (k >= 0) s.q0[k] = 1;  // the base unturned
   if (n["q0"].IsDefined()) s.q0 = numbers(n["q0"], "manoeuvre.q0", nq, nq);
   if (k < 0) return;
-  const double norm = s.q0.segment(k, 4).norm();
-  if (!(norm >= 1e-6 && norm <= 1e6))
-    r_.fail("manoeuvre.q0",
-            "the base's quaternion (entries " + std::to_string(k) + " to " + std::to_string(k + 3) +
-                ") needs a norm from 1e-6 to 1e6",
-            n["q0"]);
-  s.q0.segment(k, 4) /= norm;
+  if (const std::string why = quaternion_problem(s.q0, k, "the base's quaternion"); !why.empty())
+    r_.fail("manoeuvre.q0", why, n["q0"]);
+  s.q0.segment(k, 4).normalize();
 }
 
 // A straight line of the end effector, a position or a pose (3D: with the orientation slerped).
 void StudyReader::plan(Study& s, const YAML::Node& p) const {
   const bool spatial = s.scene.is_spatial();
-  const int position = spatial ? 3 : 2, pose = spatial ? 7 : 3;
   r_.check_keys(p, "manoeuvre.plan", {"from", "to", "duration", "time_law", "elbow", "scene"});
   StraightLineTask task;
-  task.start =
-      numbers(r_.require(p, "from", "manoeuvre.plan"), "manoeuvre.plan.from", position, pose);
-  task.goal = numbers(r_.require(p, "to", "manoeuvre.plan"), "manoeuvre.plan.to", position, pose);
-  for (const auto& [end, field] : {std::pair{&task.start, "from"}, std::pair{&task.goal, "to"}})
-    if (end->size() != position && end->size() != pose)
-      r_.fail(std::string("manoeuvre.plan.") + field,
-              "expected a position (3 numbers) or a pose (7: x, y, z, qw, qx, qy, qz)", p[field]);
-  for (const auto& [end, field] : {std::pair{&task.start, "from"}, std::pair{&task.goal, "to"}})
-    if (spatial && !quaternion_problem(*end).empty())
-      r_.fail(std::string("manoeuvre.plan.") + field, quaternion_problem(*end), p[field]);
+  task.start = position_or_pose(r_.require(p, "from", "manoeuvre.plan"), "manoeuvre.plan.from",
+                                spatial, true);
+  task.goal =
+      position_or_pose(r_.require(p, "to", "manoeuvre.plan"), "manoeuvre.plan.to", spatial, true);
   if (task.start.size() != task.goal.size())
     r_.fail("manoeuvre.plan.to", "must have as many numbers as manoeuvre.plan.from", p["to"]);
   task.duration = positive(r_.require(p, "duration", "manoeuvre.plan"), "manoeuvre.plan.duration");
@@ -373,17 +369,25 @@ bool StudyScene::wants(Output o) const {
   return std::find(outputs.begin(), outputs.end(), o) != outputs.end();
 }
 
+namespace {
+
+// What a scene of either kind names alike: its name, file, bytes and run-time parameters.
+template <class SceneKind>
+void read_common(StudyScene& s, const SceneKind& sc) {
+  s.name = sc.name, s.source_path = sc.source_path, s.content = sc.content;
+  s.parameter_names = parameter_names(sc.parameters);
+  s.nominal_parameters = nominal_values(sc.parameters);
+}
+
+}  // namespace
+
 StudyScene load_study_scene(const std::string& path) {
   const std::string text = read_scene_file(path);
   StudyScene s;
   if (is_spatial_scene(text)) {
     s.spatial = std::make_shared<const SpatialScene>(parse_spatial_scene(text, path));
     const SpatialScene& sc = *s.spatial;
-    s.name = sc.name, s.source_path = sc.source_path, s.content = sc.content;
-    for (const Parameter& p : sc.parameters) {
-      s.parameter_names.push_back(p.name);
-      s.nominal_parameters.push_back(p.nominal.value);
-    }
+    read_common(s, sc);
     s.free_floating = sc.chain.free_base;
     for (const auto& l : sc.chain.links) s.geared = s.geared || l.gear.present;
     s.num_links = static_cast<int>(sc.chain.links.size());
@@ -395,11 +399,7 @@ StudyScene load_study_scene(const std::string& path) {
   }
   s.planar = std::make_shared<const Scene>(parse_scene(text, path));
   const Scene& sc = *s.planar;
-  s.name = sc.name, s.source_path = sc.source_path, s.content = sc.content;
-  for (const Parameter& p : sc.parameters) {
-    s.parameter_names.push_back(p.name);
-    s.nominal_parameters.push_back(p.nominal.value);
-  }
+  read_common(s, sc);
   s.free_floating = sc.free_floating();
   s.geared = sc.geared();
   s.num_links = sc.num_links();
