@@ -97,6 +97,8 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
   auto v = [this](int i) { return values_.input("qd", i); };
   // The base: its pose from q, its velocity in its own frame (omega_b, R^T v_world).
   X_.resize(n_ + 1);
+  turns_.resize(n_ + 1);
+  shift_.resize(n_ + 1);
   I_.push_back(body_inertia(d.base));
   if (d.free_base) {
     p_.push_back({q(0), q(1), q(2)});
@@ -125,6 +127,8 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
     const Mat3<T> R = product(num(R_origin), axis_rotation(a, cos(angle), sin(angle),
                                                            [this](double x) { return num(x); }));
     X_[i] = {transposed(R), num(l.origin_xyz)};
+    turns_[i] = joint_turns(l, a, cos(angle), sin(angle));
+    shift_[i] = {num(Mat3<double>{1, 0, 0, 0, 1, 0, 0, 0, 1}), num(l.origin_xyz)};
     R_.push_back(product(R_[i - 1], R));
     p_.push_back(p_[i - 1] + times(R_[i - 1], X_[i].r));
     axis_.push_back(num(a));
@@ -143,6 +147,58 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
       rotor_V_[i].w = rotor_V_[i].w + scaled(axis_[i], qd_[i]);
     }
   }
+}
+
+namespace {
+
+// k where a is +-e_k, else -1.
+int frame_axis(const Vec3<double>& a) {
+  for (int k = 0; k < 3; ++k)
+    if (std::abs(a[k]) == 1 && a[(k + 1) % 3] == 0 && a[(k + 2) % 3] == 0) return k;
+  return -1;
+}
+
+}  // namespace
+
+// The joint frame's rotation R_origin R_a(q) as turns: URDF's yaw, pitch and roll (R_origin = Rz
+// Ry Rx; a zero angle left out), then the joint's turn about its axis (-e_k: by -q). A joint that
+// turns about the axis of the origin's last turn takes it into its own angle (c c' - s s', ...).
+template <class T>
+std::vector<Turn<T>> Chain<T>::joint_turns(const Link& l, const Vec3<double>& a, const T& c,
+                                           const T& s) const {
+  std::vector<Turn<T>> turns;
+  for (int k : {2, 1, 0})
+    if (l.origin_rpy[k] != 0)
+      turns.push_back({k, num(std::cos(l.origin_rpy[k])), num(std::sin(l.origin_rpy[k])), {}});
+  const int k = frame_axis(a);
+  if (k < 0) {
+    turns.push_back({-1, T{}, T{}, axis_rotation(a, c, s, [this](double x) { return num(x); })});
+    return turns;
+  }
+  const T sk = a[k] > 0 ? s : -s;
+  if (!turns.empty() && turns.back().k == k) {
+    Turn<T>& o = turns.back();
+    o = {k, o.c * c - o.s * sk, o.s * c + o.c * sk, {}};
+  } else {
+    turns.push_back({k, c, sk, {}});
+  }
+  return turns;
+}
+
+template <class T>
+RigidInertia<T> Chain<T>::in_parent_of(int i, const RigidInertia<T>& I) const {
+  RigidInertia<T> turned_I = I;
+  for (auto t = turns_[i].rbegin(); t != turns_[i].rend(); ++t)
+    turned_I = {turned_I.m, turned(*t, turned_I.h), turned(*t, turned_I.I)};
+  return in_parent(shift_[i], turned_I);
+}
+
+template <class T>
+ArticulatedInertia<T> Chain<T>::in_parent_of(int i, const ArticulatedInertia<T>& I) const {
+  ArticulatedInertia<T> turned_I = I;
+  for (auto t = turns_[i].rbegin(); t != turns_[i].rend(); ++t)
+    turned_I = {turned(*t, turned_I.A), turned(*t, turned_I.B), turned(*t, turned_I.C)};
+  return in_parent(shift_[i], turned_I);
 }
 
 template <class T>
@@ -280,7 +336,7 @@ std::vector<RigidInertia<T>> Chain<T>::composite_inertias() const {
   std::vector<RigidInertia<T>> Ic = I_;
   for (int i = n_; i >= 1; --i) {
     if (i == 1 && !d_.free_base) break;  // a fixed base carries no coordinate
-    Ic[i - 1] = Ic[i - 1] + in_parent(X_[i], Ic[i]);
+    Ic[i - 1] = Ic[i - 1] + in_parent_of(i, Ic[i]);
     if (exact_rotor(i)) Ic[i - 1] = Ic[i - 1] + in_parent(rotor_X_[i], rotor_I_[i]);
   }
   return Ic;
@@ -414,7 +470,14 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
     inverse_D[i] = num(1.0) / D[i];
     if (i == 1 && !d_.free_base) break;
     const Force<T> W = scaled(U[i], inverse_D[i]);
-    IA[i - 1] = IA[i - 1] + in_parent(X_[i], Ia.minus_outer(U[i], W));
+    ArticulatedInertia<T> reduced = Ia.minus_outer(U[i], W);
+    // Without a gear, I^A - U U^T / D takes S to zero (U = I^A S, D = S^T U): row and column k
+    // of A and row k of B for an axis +-e_k are zero, not rounding left over.
+    const int k = frame_axis(unit_axis(d_.links[i - 1], i));
+    if (!d_.links[i - 1].gear.present && k >= 0)
+      for (int m = 0; m < 3; ++m)
+        reduced.A[3 * k + m] = reduced.A[3 * m + k] = reduced.B[3 * k + m] = T{};
+    IA[i - 1] = IA[i - 1] + in_parent_of(i, reduced);
     pA[i - 1] = pA[i - 1] + X_[i].apply_transpose(pa + scaled(W, u[i]));
   }
   // The base: f_0 in its frame is (n, R^T f_world); a_0 = (omega_dot, R^T vdot - omega x v).

@@ -294,6 +294,52 @@ ArticulatedInertia<T> in_parent(const Transform<T>& X, const ArticulatedInertia<
   return {upper_mirrored(Ap), Bp, C};
 }
 
+// One factor of a joint's rotation: a turn about the frame axis k (0, 1, 2) by the angle of cosine
+// c and sine s, or (k = -1) the general rotation R. A turn about a frame axis changes a matrix or a
+// vector in its plane alone: R B R^T by the double angle costs 18 operations for a symmetric B,
+// where the product of dense matrices costs 54 (the articulated inertias' transforms, seven per
+// joint).
+template <class T>
+struct Turn {
+  int k = -1;
+  T c, s;
+  Mat3<T> R;
+};
+// R h.
+template <class T>
+Vec3<T> turned(const Turn<T>& t, const Vec3<T>& h) {
+  if (t.k < 0) return times(t.R, h);
+  const int i = (t.k + 1) % 3, j = (t.k + 2) % 3;
+  Vec3<T> r = h;
+  r[i] = t.c * h[i] - t.s * h[j];
+  r[j] = t.s * h[i] + t.c * h[j];
+  return r;
+}
+// R B R^T. In the turn's plane (i, j) by the double angle: with h = (c^2 - s^2) / 2 and cs = c s,
+// B'_ii, B'_jj = (B_ii + B_jj) / 2 +- t1 and B'_ij, B'_ji = t2 +- (B_ij - B_ji) / 2, where
+// t1 = (B_ii - B_jj) h - (B_ij + B_ji) cs and t2 = (B_ii - B_jj) cs + (B_ij + B_ji) h; row and
+// column k as vectors. A symmetric B's mirrored entries are one value, so its result is too.
+template <class T>
+Mat3<T> turned(const Turn<T>& t, const Mat3<T>& B) {
+  if (t.k < 0) return product(t.R, product(B, transposed(t.R)));
+  const int i = (t.k + 1) % 3, j = (t.k + 2) % 3, k = t.k;
+  auto at = [](int r, int c) { return 3 * r + c; };
+  const T h = (t.c * t.c - t.s * t.s) * 0.5, cs = t.c * t.s;
+  const T sum = B[at(i, i)] + B[at(j, j)], dif = B[at(i, i)] - B[at(j, j)];
+  const T sym = B[at(i, j)] + B[at(j, i)], anti = (B[at(i, j)] - B[at(j, i)]) * 0.5;
+  const T mean = sum * 0.5, t1 = dif * h - sym * cs, t2 = dif * cs + sym * h;
+  Mat3<T> R = B;
+  R[at(i, i)] = mean + t1;
+  R[at(j, j)] = mean - t1;
+  R[at(i, j)] = t2 + anti;
+  R[at(j, i)] = t2 - anti;
+  R[at(i, k)] = t.c * B[at(i, k)] - t.s * B[at(j, k)];
+  R[at(j, k)] = t.s * B[at(i, k)] + t.c * B[at(j, k)];
+  R[at(k, i)] = t.c * B[at(k, i)] - t.s * B[at(k, j)];
+  R[at(k, j)] = t.s * B[at(k, i)] + t.c * B[at(k, j)];
+  return R;
+}
+
 // The rotation (row-major) by an angle of cosine c and sine s about a unit axis a of numbers
 // (Rodrigues: a a^T + c (1 - a a^T) + s skew(a)); a term whose coefficient is 0 is left out and
 // one of +-1 is not multiplied, so that an axis along a frame's axis gives the plain rotation in
@@ -407,7 +453,11 @@ class Chain {
   const ChainDescription& d_;
   Values<T> values_;
   int n_ = 0;
-  std::vector<Transform<T>> X_;     // parent -> link i (X_[0] unused)
+  std::vector<Transform<T>> X_;  // parent -> link i (X_[0] unused)
+  // X_[i] as turns and a shift: R = E^T = turns_[i][0] turns_[i][1] ... (the origin's yaw, pitch
+  // and roll, then the joint's own turn), and shift_[i] = (1, r); for the inertias' transforms.
+  std::vector<std::vector<Turn<T>>> turns_;
+  std::vector<Transform<T>> shift_;
   std::vector<RigidInertia<T>> I_;  // each body's, about its origin, in its frame
   std::vector<Motion<T>> V_;        // each body's velocity, in its frame
   std::vector<Vec3<T>> p_;          // world positions of the body origins
@@ -474,6 +524,11 @@ class Chain {
   static Motion<T> zero_motion() { return {zero3(), zero3()}; }
   Motion<T> base_unit(int k) const;  // the base's motion for a unit v_k (k < 6)
   std::vector<RigidInertia<T>> composite_inertias() const;
+  // in_parent(X_[i], I), turn by turn: the cheaper form of the same transform.
+  RigidInertia<T> in_parent_of(int i, const RigidInertia<T>& I) const;
+  ArticulatedInertia<T> in_parent_of(int i, const ArticulatedInertia<T>& I) const;
+  std::vector<Turn<T>> joint_turns(const Link& l, const Vec3<double>& a, const T& c,
+                                   const T& s) const;
   std::vector<T> mass_matrix_diagonal() const;
   void add_rotor(int i, ArticulatedInertia<T>& Ia, Force<T>& U, T& D, Force<T>& pa) const;
   // Body b's contribution: the bodies that carry mass (a fixed base carries none that moves).

@@ -35,9 +35,22 @@ Link random_link(std::mt19937& rng) {
   return l;
 }
 
+// A joint about +-e_k, as URDFs mostly have, with its origin's rpy by i % 3: none, a turn about
+// the same axis (which the joint's own turn takes in), or any (the chain's turns about frame
+// axes, and a reduced articulated inertia's exact zeros without a gear).
+void frame_axis_joint(std::mt19937& rng, Link& l, int i) {
+  std::uniform_int_distribution<int> axis(0, 5);
+  const int k = axis(rng);
+  l.axis = {0, 0, 0};
+  l.axis[k % 3] = k < 3 ? 1 : -1;
+  if (i % 3 == 0) l.origin_rpy = {0, 0, 0};
+  if (i % 3 == 1) l.origin_rpy = {0, 0, 0}, l.origin_rpy[k % 3] = 0.7;
+}
+
 // geared: every joint has a motor (ratio 5 to 100), exactly coupled on the odd joints and as
-// armature on the even ones.
-ChainDescription random_chain(std::mt19937& rng, int links, bool free_base, bool geared = false) {
+// armature on the even ones. frame_axes: every joint about a frame axis (frame_axis_joint).
+ChainDescription random_chain(std::mt19937& rng, int links, bool free_base, bool geared = false,
+                              bool frame_axes = false) {
   std::uniform_real_distribution<double> u(0, 1);
   ChainDescription d;
   d.free_base = free_base;
@@ -45,6 +58,7 @@ ChainDescription random_chain(std::mt19937& rng, int links, bool free_base, bool
   d.base.mass = 50;
   for (int i = 0; i < links; ++i) {
     d.links.push_back(random_link(rng));
+    if (frame_axes) frame_axis_joint(rng, d.links.back(), i);
     if (!geared) continue;
     Gear& g = d.links.back().gear;
     g = {true, 5 + 95 * u(rng), 1e-4 * (1 + u(rng)), 0.6e-4 * (1 + u(rng)), i % 2 == 0};
@@ -54,12 +68,17 @@ ChainDescription random_chain(std::mt19937& rng, int links, bool free_base, bool
 
 struct Case {
   int links;
-  bool free, geared;
+  bool free, geared, frame_axes = false;
 };
-const Case kCases[] = {{7, true, false}, {6, false, false}, {7, true, true}, {6, false, true}};
+const Case kCases[] = {{7, true, false},       {6, false, false},      {7, true, true},
+                       {6, false, true},       {7, true, false, true}, {7, true, true, true},
+                       {6, false, false, true}};
 std::string name(const Case& c) {
   return std::to_string(c.links) + (c.free ? " on a free base" : " on a fixed base") +
-         (c.geared ? ", geared" : "");
+         (c.geared ? ", geared" : "") + (c.frame_axes ? ", about frame axes" : "");
+}
+ChainDescription random_chain(std::mt19937& rng, const Case& c) {
+  return random_chain(rng, c.links, c.free, c.geared, c.frame_axes);
 }
 
 // The independent computation: world rotations by Eigen (URDF's rpy as Rz Ry Rx, the joint by
@@ -214,8 +233,8 @@ Eigen::MatrixXd mass_matrix(const ChainDescription& d, const State& s) {
 TEST(SpatialChain, MassMatrixEnergyAndMomentumAreTheWorldComputations) {
   std::mt19937 rng(31);
   for (const Case& c : kCases) {
-    const auto [links, free, geared] = c;
-    const ChainDescription d = random_chain(rng, links, free, geared);
+    const auto [links, free, geared, frame_axes] = c;
+    const ChainDescription d = random_chain(rng, c);
     SCOPED_TRACE(name(c));
     ASSERT_EQ(d.nv(), links + (free ? 6 : 0));
     ASSERT_EQ(d.nq(), d.nv() + (free ? 1 : 0));
@@ -248,8 +267,8 @@ TEST(SpatialChain, MassMatrixEnergyAndMomentumAreTheWorldComputations) {
 TEST(SpatialChain, InverseDynamicsConservesMomentumAndEnergy) {
   std::mt19937 rng(32);
   for (const Case& c : kCases) {
-    const auto [links, free, geared] = c;
-    const ChainDescription d = random_chain(rng, links, free, geared);
+    const auto [links, free, geared, frame_axes] = c;
+    const ChainDescription d = random_chain(rng, c);
     SCOPED_TRACE(name(c));
     for (int trial = 0; trial < 3; ++trial) {
       const State s = random_state(rng, d);
@@ -519,7 +538,7 @@ TEST(SpatialChain, ForwardDynamicsIsTheArticulatedBodyAlgorithm) {
   std::mt19937 rng(43);
   for (const Case& c : kCases) {
     SCOPED_TRACE(name(c));
-    const ChainDescription d = random_chain(rng, c.links, c.free, c.geared);
+    const ChainDescription d = random_chain(rng, c);
     for (int trial = 0; trial < 3; ++trial) {
       const State s = random_state(rng, d);
       const Chain<double> chain = chain_at(d, s);
@@ -639,7 +658,7 @@ TEST(SpatialChain, CoriolisMatrixIsTheBoltzmannHamelFactorization) {
   std::mt19937 rng(53);
   for (const Case& c : kCases) {
     SCOPED_TRACE(name(c));
-    const ChainDescription d = random_chain(rng, c.links, c.free, c.geared);
+    const ChainDescription d = random_chain(rng, c);
     const State s = random_state(rng, d);
     const int n = d.nv();
     auto output = [&](Output o, const State& x) {
