@@ -1,10 +1,11 @@
 // Spatial arms against MuJoCo, in one run: forward dynamics and M + bias of models/space_arm7
-// (a 7-joint arm on a free base from its URDF, 13 velocities), compiled through the
-// compile-and-load cache at -O2 and called through its C interface without checks, against
-// MuJoCo 2.2's mj_forward and its M + bias stages on the same MJCF (tests/mujoco_spatial.hpp).
-// MuJoCo has armature gears only; the exact rotors run on the same states for their cost.
-// Forward dynamics is the articulated-body algorithm. Before anything is timed, the
-// armature model's forward dynamics must equal MuJoCo's to 1e-12.
+// (a 7-joint arm on a free base from its URDF, 13 velocities) without gears, with armature gears
+// and with exact rotors, compiled through the compile-and-load cache with its default flags and
+// called through its C interface without checks, against MuJoCo 2.2's mj_forward and its M + bias
+// stages on the same MJCF (tests/mujoco_spatial.hpp), without gears and with armature. MuJoCo has
+// armature gears only; the exact rotors run on the same states for their cost against the ungeared
+// arm's. Forward dynamics is the articulated-body algorithm. Before anything is timed, the ungeared
+// and the armature model's forward dynamics must equal MuJoCo's to 1e-12.
 //   scripts/bench.sh --spatial
 #include <benchmark/benchmark.h>
 
@@ -26,15 +27,21 @@ namespace {
 
 constexpr int kStates = 64;
 
-SpatialScene arm7(bool exact) {
+// The arm without gears, with armature gears (MuJoCo's model of a rotor) or with exact rotors.
+enum class Gears { none, armature, exact };
+SpatialScene arm7(Gears gears) {
   const std::string path = std::string(SPACEARM_SOURCE_DIR) + "/models/space_arm7.yaml";
   std::ifstream in(path);
   std::stringstream text;
   text << in.rdbuf();
   SpatialScene s = parse_spatial_scene(text.str(), path);
-  for (auto& l : s.chain.links) l.gear.exact = exact;
-  s.name = exact ? "space_arm7_exact" : "space_arm7_armature";
-  s.content += exact ? "\n# exact" : "\n# armature";  // two models, two cache entries
+  const char* kind[] = {"ungeared", "armature", "exact"};
+  for (auto& l : s.chain.links) {
+    l.gear.exact = gears == Gears::exact;
+    l.gear.present = gears != Gears::none;
+  }
+  s.name = std::string("space_arm7_") + kind[static_cast<int>(gears)];
+  s.content += std::string("\n# ") + kind[static_cast<int>(gears)];  // one cache entry each
   return s;
 }
 
@@ -57,15 +64,17 @@ States random_states(const spatial::ChainDescription& c) {
   return s;
 }
 
+States states;  // the timed states, the same for every model
+
 struct Loaded {
   CompiledModel model;
   spatial::ChainDescription chain;
 };
-Loaded load(bool exact) {
-  const SpatialScene s = arm7(exact);
+Loaded load(Gears gears) {
+  const SpatialScene s = arm7(gears);
   CompileOptions options;
   options.cache_dir = (std::filesystem::temp_directory_path() / "spacearm-bench-spatial").string();
-  options.flags = compile_flags("-O2");
+  options.flags = compile_flags();  // the default, what eval, simulate and Python get
   return {CompiledModel::load(ModelRecipe(s), options), s.chain};
 }
 
@@ -75,7 +84,8 @@ double worst_disagreement(const Loaded& ours, test::MujocoModel& mj, const State
   double worst = 0;
   for (int k = 0; k < kStates; ++k) {
     Eigen::VectorXd D = Eigen::VectorXd::Ones(c.nv());
-    for (size_t j = 0; j < c.links.size(); ++j) D[6 + j] = c.links[j].gear.ratio;
+    for (size_t j = 0; j < c.links.size(); ++j)
+      D[6 + j] = c.links[j].gear.present ? c.links[j].gear.ratio : 1;
     for (int i = 0; i < c.nq(); ++i) mj.d->qpos[i] = i < 7 ? s.q[k][i] : s.q[k][i] / D[i - 1];
     for (int i = 0; i < c.nv(); ++i) {
       mj.d->qvel[i] = s.v[k][i] / D[i];
@@ -91,68 +101,77 @@ double worst_disagreement(const Loaded& ours, test::MujocoModel& mj, const State
   return worst;
 }
 
-void register_all() {
-  static const Loaded armature = load(false), exact = load(true);
-  static test::MujocoModel mj(test::mjcf_of(armature.chain));
-  static const States s = random_states(armature.chain);
-  const double worst = worst_disagreement(armature, mj, s);
-  std::printf("check space_arm7 armature: forward dynamics against MuJoCo, max relative %.1e  %s\n",
-              worst, worst < 1e-12 ? "ok" : "DISAGREE");
-  if (!(worst < 1e-12)) std::exit(1);
-  const int nv = armature.chain.nv();
-  for (const Loaded* m : {&armature, &exact}) {
-    const std::string name = m->model.name();
-    const CompiledModel::Function fd = m->model.function(Output::forward_dynamics);
-    benchmark::RegisterBenchmark(("spacearm/FD/" + name).c_str(), [fd, nv](benchmark::State& st) {
-      std::vector<double> qdd(nv), pivots(nv), scaled(nv);
-      double* results[] = {qdd.data(), pivots.data(), scaled.data()};
+// Forward dynamics and M + b (mass_matrix_and_bias, one call as MuJoCo's stages are) of a
+// model, under its name.
+void register_ours(const Loaded& m, int nv) {
+  const std::string name = m.model.name();
+  const CompiledModel::Function fd = m.model.function(Output::forward_dynamics);
+  benchmark::RegisterBenchmark(("spacearm/FD/" + name).c_str(), [fd, nv](benchmark::State& st) {
+    std::vector<double> qdd(nv), pivots(nv), scaled(nv);
+    double* results[] = {qdd.data(), pivots.data(), scaled.data()};
+    int k = 0;
+    for (auto _ : st) {
+      const double* inputs[] = {states.q[k].data(), states.v[k].data(), states.Q[k].data()};
+      fd(inputs, nullptr, results);
+      benchmark::DoNotOptimize(qdd.data());
+      k = (k + 1) % kStates;
+    }
+  });
+  const CompiledModel::Function mb = m.model.function(kMassMatrixAndBias);
+  benchmark::RegisterBenchmark(("spacearm/M+bias/" + name).c_str(), [mb, nv](benchmark::State& st) {
+    std::vector<double> M(nv * nv), b(nv);
+    double* results[] = {M.data(), b.data()};
+    int k = 0;
+    for (auto _ : st) {
+      const double* inputs[] = {states.q[k].data(), states.v[k].data()};
+      mb(inputs, nullptr, results);
+      benchmark::DoNotOptimize(M.data());
+      benchmark::DoNotOptimize(b.data());
+      k = (k + 1) % kStates;
+    }
+  });
+}
+
+// mj_forward and M + bias of MuJoCo's model of the arm, under its name.
+void register_mujoco(test::MujocoModel& mj, const std::string& name, int nv) {
+  auto timed = [&mj, nv](auto body) {
+    return [&mj, nv, body](benchmark::State& st) {
       int k = 0;
       for (auto _ : st) {
-        const double* inputs[] = {s.q[k].data(), s.v[k].data(), s.Q[k].data()};
-        fd(inputs, nullptr, results);
-        benchmark::DoNotOptimize(qdd.data());
-        k = (k + 1) % kStates;
-      }
-    });
-    const CompiledModel::Function mb = m->model.function(Output::mass_matrix);
-    const CompiledModel::Function bias = m->model.function(Output::bias_forces);
-    benchmark::RegisterBenchmark(("spacearm/M+bias/" + name).c_str(),
-                                 [mb, bias, nv](benchmark::State& st) {
-                                   std::vector<double> M(nv * nv), b(nv);
-                                   double* rm[] = {M.data()};
-                                   double* rb[] = {b.data()};
-                                   int k = 0;
-                                   for (auto _ : st) {
-                                     const double* iq[] = {s.q[k].data()};
-                                     const double* iqv[] = {s.q[k].data(), s.v[k].data()};
-                                     mb(iq, nullptr, rm);
-                                     bias(iqv, nullptr, rb);
-                                     benchmark::DoNotOptimize(M.data());
-                                     benchmark::DoNotOptimize(b.data());
-                                     k = (k + 1) % kStates;
-                                   }
-                                 });
-  }
-  auto mujoco = [nv](auto body) {
-    return [nv, body](benchmark::State& st) {
-      int k = 0;
-      for (auto _ : st) {
-        for (int i = 0; i < nv + 1; ++i) mj.d->qpos[i] = s.q[k][i];
-        for (int i = 0; i < nv; ++i) mj.d->qvel[i] = s.v[k][i];
+        for (int i = 0; i < nv + 1; ++i) mj.d->qpos[i] = states.q[k][i];
+        for (int i = 0; i < nv; ++i) mj.d->qvel[i] = states.v[k][i];
         body();
         k = (k + 1) % kStates;
       }
     };
   };
-  benchmark::RegisterBenchmark("mujoco/FD/space_arm7", mujoco([] {
+  benchmark::RegisterBenchmark(("mujoco/FD/" + name).c_str(), timed([&mj] {
                                  mj_forward(mj.m.get(), mj.d.get());
                                  benchmark::DoNotOptimize(mj.d->qacc);
                                }));
-  static std::vector<mjtNum> full(nv * nv);  // allocated once, outside the timed loop
-  benchmark::RegisterBenchmark("mujoco/M+bias/space_arm7", mujoco([] {
-                                 mj.mass_matrix_and_bias(full.data());
-                                 benchmark::DoNotOptimize(full.data());
+  auto full = std::make_shared<std::vector<mjtNum>>(nv * nv);  // allocated outside the loop
+  benchmark::RegisterBenchmark(("mujoco/M+bias/" + name).c_str(), timed([&mj, full] {
+                                 mj.mass_matrix_and_bias(full->data());
+                                 benchmark::DoNotOptimize(full->data());
                                }));
+}
+
+void register_all() {
+  static const Loaded ungeared = load(Gears::none), armature = load(Gears::armature),
+                      exact = load(Gears::exact);
+  static test::MujocoModel mj_ungeared(test::mjcf_of(ungeared.chain)),
+      mj_armature(test::mjcf_of(armature.chain));
+  states = random_states(armature.chain);
+  for (auto [ours, mj] : {std::pair{&ungeared, &mj_ungeared}, {&armature, &mj_armature}}) {
+    const double worst = worst_disagreement(*ours, *mj, states);
+    std::printf("check %s: forward dynamics against MuJoCo, max relative %.1e  %s\n",
+                ours->model.name().c_str(), worst, worst < 1e-12 ? "ok" : "DISAGREE");
+    if (!(worst < 1e-12)) std::exit(1);
+  }
+  const int nv = armature.chain.nv();
+  for (const Loaded* m : {&ungeared, &armature, &exact}) register_ours(*m, nv);
+  register_mujoco(mj_ungeared, "space_arm7_ungeared", nv);
+  register_mujoco(mj_armature, "space_arm7_armature", nv);
 }
 
 }  // namespace

@@ -98,6 +98,7 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
   // The base: its pose from q, its velocity in its own frame (omega_b, R^T v_world).
   X_.resize(n_ + 1);
   turns_.resize(n_ + 1);
+  parent_w_.resize(n_ + 1, zero3());
   shift_.resize(n_ + 1);
   I_.push_back(body_inertia(d.base));
   if (d.free_base) {
@@ -137,6 +138,7 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
         {literal_ratio(i) ? num(scaled(a, 1 / ratio_value(i))) : scaled(num(a), over_ratio(i, 1.0)),
          zero3()});
     Motion<T> Vi = X_[i].apply(V_[i - 1]);
+    parent_w_[i] = Vi.w;
     Vi.w = Vi.w + scaled(S_[i].w, qd_[i]);
     V_.push_back(Vi);
     I_.push_back(body_inertia(l));
@@ -427,11 +429,14 @@ template <class T>
 void Chain<T>::add_rotor(int i, ArticulatedInertia<T>& Ia, Force<T>& U, T& D, Force<T>& pa) const {
   const Mat3<T>& Ir = rotor_I_[i].I;
   const Vec3<T>& a = axis_[i];
-  const Vec3<T> w_parent = V_[i].w - scaled(S_[i].w, qd_[i]),
-                w_rotor = w_parent + scaled(a, qd_[i]);
+  const Vec3<T>& w_parent = parent_w_[i];
   U.n = U.n + scaled(a, ratio_times_axial(i, 1));  // I_r a = axial a, per unit link rate p a
   D += ratio_times_axial(i, 2);
-  pa.n = pa.n + cross(w_rotor, times(Ir, w_rotor)) + scaled(times(Ir, cross(w_parent, a)), qd_[i]);
+  // With I_r = t (1 - a a^T) + J a a^T and omega_r = omega' + a qd_m, the bias's
+  // omega_r x I_r omega_r + I_r (omega' x a) qd_m is (omega' x a) ((J - t) a . omega' + J qd_m).
+  const Gear& g = d_.links[i - 1].gear;
+  const T J = axial(i), t = value(g.transverse, g.transverse_param);
+  pa.n = pa.n + scaled(cross(w_parent, a), (J - t) * dot(a, w_parent) + J * qd_[i]);
   for (int k = 0; k < 9; ++k) Ia.A[k] += Ir[k];
 }
 

@@ -460,6 +460,7 @@ class Chain {
   std::vector<Transform<T>> shift_;
   std::vector<RigidInertia<T>> I_;  // each body's, about its origin, in its frame
   std::vector<Motion<T>> V_;        // each body's velocity, in its frame
+  std::vector<Vec3<T>> parent_w_;   // the parent's angular velocity, in link i's frame
   std::vector<Vec3<T>> p_;          // world positions of the body origins
   std::vector<Mat3<T>> R_;          // world orientations
   std::vector<Vec3<T>> axis_;       // each joint's unit axis, in its link's frame

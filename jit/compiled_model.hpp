@@ -32,9 +32,13 @@ inline constexpr const char* kVectorTrigFlag = "";
 inline constexpr const char* kVectorTrigLibraries = "";
 #endif
 
-// The compile flags at an optimization level ("-O1" by default): a shared, position-independent
-// C++17 library, with the vector sin/cos where the build has them.
-inline std::string compile_flags(const std::string& optimization = "-O1") {
+// The compile flags at an optimization level (kDefaultOptimization by default): a shared,
+// position-independent C++17 library, with the vector sin/cos where the build has them.
+// -fexpensive-optimizations: -O1's register allocation spills the spatial arms' long programs
+// (space_arm7's forward dynamics 1245 ns at -O1, 595 ns with it, 589 ns at -O2; bench_spatial),
+// for 6 % more compile time.
+inline constexpr const char* kDefaultOptimization = "-O1 -fexpensive-optimizations";
+inline std::string compile_flags(const std::string& optimization = kDefaultOptimization) {
   return optimization + " -std=c++17 -fPIC -shared" + kVectorTrigFlag;
 }
 
@@ -42,7 +46,8 @@ struct CompileOptions {
   std::string cache_dir;  // empty: $SPACEARM_CACHE_DIR, else $XDG_CACHE_HOME/spacearm, else
                           // ~/.cache/spacearm
   std::string compiler;   // empty: $CXX, else c++ (one program, run without a shell)
-  // -O1: as fast per call as -O2 (bench_first_use) and up to 40 % quicker to compile.
+  // -O1 (with -fexpensive-optimizations): as fast per call as -O2 (bench_first_use,
+  // bench_spatial) and up to 40 % quicker to compile.
   // Split at spaces.
   std::string flags = compile_flags();
   std::string libraries = kVectorTrigLibraries;      // after the source, split at spaces
@@ -140,6 +145,8 @@ class CompiledModel {
   // points into the loaded library: valid while this model lives.
   using Function = void (*)(const double* const*, const double*, double* const*);
   Function function(Output o) const;
+  // By its exported name without the prefix: an output's, or mass_matrix_and_bias.
+  Function function(const std::string& name) const;
 
  private:
   CompiledModel() = default;

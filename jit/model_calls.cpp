@@ -22,6 +22,13 @@ CompiledModel::Function CompiledModel::function(Output o) const {
   return functions_.at(info(o).name);
 }
 
+CompiledModel::Function CompiledModel::function(const std::string& name) const {
+  const auto f = functions_.find(name);
+  if (f == functions_.end())
+    throw std::invalid_argument("the model does not export '" + name + "'");
+  return f->second;
+}
+
 void CompiledModel::check(const char* what, Eigen::Ref<const Eigen::VectorXd> v, int size) const {
   if (v.size() != size)
     throw std::invalid_argument(std::string(what) + ": expected " + std::to_string(size) +
