@@ -99,7 +99,6 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
   X_.resize(n_ + 1);
   turns_.resize(n_ + 1);
   parent_w_.resize(n_ + 1, zero3());
-  shift_.resize(n_ + 1);
   I_.push_back(body_inertia(d.base));
   if (d.free_base) {
     p_.push_back({q(0), q(1), q(2)});
@@ -124,12 +123,12 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
     const Link& l = d.links[i - 1];
     const Vec3<double> a = unit_axis(l, i);
     const T qi = q(jq + i - 1), angle = qi * over_ratio(i, 1.0);
+    const T s = sin(angle), c = cos(angle);  // in this order: the recorded nodes as before
     const Mat3<double> R_origin = rpy_rotation(l.origin_rpy);
-    const Mat3<T> R = product(num(R_origin), axis_rotation(a, cos(angle), sin(angle),
-                                                           [this](double x) { return num(x); }));
+    const Mat3<T> R =
+        product(num(R_origin), axis_rotation(a, c, s, [this](double x) { return num(x); }));
     X_[i] = {transposed(R), num(l.origin_xyz)};
-    turns_[i] = joint_turns(l, a, cos(angle), sin(angle));
-    shift_[i] = {num(Mat3<double>{1, 0, 0, 0, 1, 0, 0, 0, 1}), num(l.origin_xyz)};
+    turns_[i] = joint_turns(l, a, c, s);
     R_.push_back(product(R_[i - 1], R));
     p_.push_back(p_[i - 1] + times(R_[i - 1], X_[i].r));
     axis_.push_back(num(a));
@@ -192,7 +191,7 @@ RigidInertia<T> Chain<T>::in_parent_of(int i, const RigidInertia<T>& I) const {
   RigidInertia<T> turned_I = I;
   for (auto t = turns_[i].rbegin(); t != turns_[i].rend(); ++t)
     turned_I = {turned_I.m, turned(*t, turned_I.h), turned(*t, turned_I.I)};
-  return in_parent(shift_[i], turned_I);
+  return in_parent(shift(i), turned_I);
 }
 
 template <class T>
@@ -200,7 +199,7 @@ ArticulatedInertia<T> Chain<T>::in_parent_of(int i, const ArticulatedInertia<T>&
   ArticulatedInertia<T> turned_I = I;
   for (auto t = turns_[i].rbegin(); t != turns_[i].rend(); ++t)
     turned_I = {turned(*t, turned_I.A), turned(*t, turned_I.B), turned(*t, turned_I.C)};
-  return in_parent(shift_[i], turned_I);
+  return in_parent(shift(i), turned_I);
 }
 
 template <class T>
@@ -478,7 +477,7 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
     ArticulatedInertia<T> reduced = Ia.minus_outer(U[i], W);
     // Without a gear, I^A - U U^T / D takes S to zero (U = I^A S, D = S^T U): row and column k
     // of A and row k of B for an axis +-e_k are zero, not rounding left over.
-    const int k = frame_axis(unit_axis(d_.links[i - 1], i));
+    const int k = turns_[i].back().k;  // the joint's own turn (-1: not about a frame axis)
     if (!d_.links[i - 1].gear.present && k >= 0)
       for (int m = 0; m < 3; ++m)
         reduced.A[3 * k + m] = reduced.A[3 * m + k] = reduced.B[3 * k + m] = T{};

@@ -454,10 +454,13 @@ class Chain {
   Values<T> values_;
   int n_ = 0;
   std::vector<Transform<T>> X_;  // parent -> link i (X_[0] unused)
-  // X_[i] as turns and a shift: R = E^T = turns_[i][0] turns_[i][1] ... (the origin's yaw, pitch
-  // and roll, then the joint's own turn), and shift_[i] = (1, r); for the inertias' transforms.
+  // X_[i]'s rotation as turns, R = E^T = turns_[i][0] turns_[i][1] ... (the origin's yaw, pitch
+  // and roll, then the joint's own turn, always last), for the inertias' transforms.
   std::vector<std::vector<Turn<T>>> turns_;
-  std::vector<Transform<T>> shift_;
+  // X_[i]'s shift alone, (1, r): applied after the turns.
+  Transform<T> shift(int i) const {
+    return {num(Mat3<double>{1, 0, 0, 0, 1, 0, 0, 0, 1}), X_[i].r};
+  }
   std::vector<RigidInertia<T>> I_;  // each body's, about its origin, in its frame
   std::vector<Motion<T>> V_;        // each body's velocity, in its frame
   std::vector<Vec3<T>> parent_w_;   // the parent's angular velocity, in link i's frame
