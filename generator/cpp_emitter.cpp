@@ -20,6 +20,7 @@ EmittedModel emit_cpp(const DerivedModel& model, const EmitOptions& options) {
   po.scene_path = options.scene_path;
   po.command = options.command;
   po.file_stem = options.file_stem;
+  po.c_units = options.c_units;
   return print_cpp(lower(model, lo), po);
 }
 

@@ -15,6 +15,7 @@ struct EmitOptions {
   std::string command;     // the regeneration command shown in the banner
   std::string file_stem;   // file names STEM.hpp/STEM.cpp; empty: the model's name
   bool plain = false;      // the benchmark baseline (see LowerOptions)
+  int c_units = 1;         // PrintOptions::c_units
 };
 
 EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options);

@@ -358,62 +358,89 @@ std::string model_struct(const LoweredModel& model, const std::string& ns) {
   return h.str();
 }
 
-// The library the compile-and-load path builds: one self-contained translation unit with
-// only <cmath>, every function straight-line over plain arrays. Eigen's headers and the
-// templates' three instantiations cost seconds to compile; this compiles in a fraction.
-std::string c_interface(const LoweredModel& model, int per_part) {
+// The library the compile-and-load path builds: self-contained translation units with only
+// <cmath>, every function straight-line over plain arrays. Eigen's headers and the templates'
+// three instantiations cost seconds to compile; this compiles in a fraction. `units` > 1 deals
+// the functions out (largest first, each to the least loaded unit, by text length) so that
+// that many compilers can build them at once; the first unit also has the model's facts.
+std::vector<std::string> c_interface(const LoweredModel& model, int per_part, int units) {
   const ModelFacts& facts = model.facts;
   const std::string nominal = number_list(facts.nominal_parameters);
   const std::string actuated = comma_list(actuated_coordinates(facts));
-  std::ostringstream functions;
-  bool trig_batches = false;
+  std::vector<std::string> texts;
+  std::vector<bool> batches;
   for (const auto& f : model.functions) {
     const Body b = function_body(f, facts.dims, per_part, Spelling::c_arrays);
-    trig_batches |= b.trig_batches;
-    functions << "\n// " << f.doc << "\n"
-              << b.parts << "void spacearm_" << f.name
-              << "([[maybe_unused]] const double* const* in, [[maybe_unused]] const double* "
-                 "params, double* const* out) {\n"
-              << (b.parts.empty() ? c_input_aliases(f) : "") << b.body << "}\n";
+    batches.push_back(b.trig_batches);
+    texts.push_back("\n// " + f.doc + "\n" + b.parts + "void spacearm_" + f.name +
+                    "([[maybe_unused]] const double* const* in, [[maybe_unused]] const double* "
+                    "params, double* const* out) {\n" +
+                    (b.parts.empty() ? c_input_aliases(f) : "") + b.body + "}\n");
   }
-  std::ostringstream s;
-  s << "// C interface of model " << facts.name
-    << " for dlopen (written by spacearm; do not edit).\n"
-    << "// Arrays are column-major; spacearm's cpp_printer.hpp gives the calling convention.\n"
-    << "#include <cmath>\n"
-    << (trig_batches ? kTrigBatchIncludes : "") << "\nnamespace {\nusing T = double;\n"
-    << (trig_batches ? kTrigBatchHelper : "") << "const char* const kCoordinateNames[] = {"
-    << quoted_list(facts.coordinate_names) << "};\n"
-    << "const char* const kParameterNames[] = {"
-    << (nominal.empty() ? "\"\"" : quoted_list(facts.parameter_names)) << "};\n"
-    << "const double kNominalParameters[] = {" << (nominal.empty() ? "0.0" : nominal) << "};\n"
-    << "const int kActuatedCoordinates[] = {" << actuated << "};\n"
-    << "const bool kMotorAngleSlots[] = {" << comma_list(facts.motor_angle_slots)
-    << "};\n}  // namespace\n\n"
-    << "extern \"C\" {\n"
-    << "int spacearm_abi_version() { return " << kCInterfaceVersion << "; }\n"
-    << "int spacearm_nq() { return " << facts.dims.nq << "; }\n"
-    << "int spacearm_nv() { return " << facts.dims.nv << "; }\n"
-    << "int spacearm_num_links() { return " << facts.dims.num_links << "; }\n"
-    << "int spacearm_num_params() { return " << facts.parameter_names.size() << "; }\n"
-    << "int spacearm_num_base() { return " << facts.num_base << "; }\n"
-    << "int spacearm_spatial() { return " << facts.dims.spatial << "; }\n"
-    << "int spacearm_free_floating() { return " << facts.free_floating << "; }\n"
-    << "int spacearm_passive_forces() { return " << facts.has_passive_forces() << "; }\n"
-    << "// Where a quaternion (w, x, y, z) sits in q; -1: none, and q has one entry per velocity.\n"
-    << "int spacearm_configuration_layout() { return " << facts.quaternion_offset << "; }\n"
-    << "const char* spacearm_name() { return \"" << facts.name << "\"; }\n"
-    << "const char* spacearm_coordinate_name(int i) { return kCoordinateNames[i]; }\n"
-    << "const char* spacearm_parameter_name(int i) { return kParameterNames[i]; }\n"
-    << "double spacearm_nominal_parameter(int i) { return kNominalParameters[i]; }\n"
-    << "int spacearm_actuated_coordinate(int joint) { return kActuatedCoordinates[joint]; }\n"
-    << "// 1 where the joint's slot in q holds its motor angle qm = p q (a rigid gear, eq. 12).\n"
-    << "int spacearm_slot_holds_motor(int joint) { return kMotorAngleSlots[joint]; }\n"
-    << "unsigned long spacearm_outputs() { return " << output_mask(facts.outputs) << "ul; }\n"
-    << "const char* spacearm_scene_hash() { return \"" << facts.scene_hash << "\"; }\n"
-    << "const char* spacearm_parameter_error([[maybe_unused]] const double* params) {\n"
-    << parameter_checks(facts, Spelling::c_arrays) << functions.str() << "}\n";
-  return s.str();
+  units = std::max(1, std::min<int>(units, texts.size()));
+  std::vector<int> unit_of(texts.size());
+  std::vector<size_t> load(units);
+  std::vector<size_t> order(texts.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return texts[a].size() > texts[b].size(); });
+  for (size_t i : order) {
+    unit_of[i] = std::min_element(load.begin(), load.end()) - load.begin();
+    load[unit_of[i]] += texts[i].size();
+  }
+  std::vector<std::string> result;
+  for (int u = 0; u < units; ++u) {
+    std::string functions;
+    bool trig_batches = false;
+    for (size_t i = 0; i < texts.size(); ++i)
+      if (unit_of[i] == u) functions += texts[i], trig_batches = trig_batches || batches[i];
+    std::ostringstream s;
+    s << "// C interface of model " << facts.name << " for dlopen (written by spacearm; do not edit"
+      << (units > 1 ? "; part " + std::to_string(u + 1) + " of " + std::to_string(units) : "")
+      << ").\n"
+      << "// Arrays are column-major; spacearm's cpp_printer.hpp gives the calling convention.\n"
+      << "#include <cmath>\n"
+      << (trig_batches ? kTrigBatchIncludes : "") << "\nnamespace {\nusing T = double;\n"
+      << (trig_batches ? kTrigBatchHelper : "");
+    if (u > 0) {
+      s << "}  // namespace\n\nextern \"C\" {" << functions << "}\n";
+      result.push_back(s.str());
+      continue;
+    }
+    s << "const char* const kCoordinateNames[] = {" << quoted_list(facts.coordinate_names) << "};\n"
+      << "const char* const kParameterNames[] = {"
+      << (nominal.empty() ? "\"\"" : quoted_list(facts.parameter_names)) << "};\n"
+      << "const double kNominalParameters[] = {" << (nominal.empty() ? "0.0" : nominal) << "};\n"
+      << "const int kActuatedCoordinates[] = {" << actuated << "};\n"
+      << "const bool kMotorAngleSlots[] = {" << comma_list(facts.motor_angle_slots)
+      << "};\n}  // namespace\n\n"
+      << "extern \"C\" {\n"
+      << "int spacearm_abi_version() { return " << kCInterfaceVersion << "; }\n"
+      << "int spacearm_nq() { return " << facts.dims.nq << "; }\n"
+      << "int spacearm_nv() { return " << facts.dims.nv << "; }\n"
+      << "int spacearm_num_links() { return " << facts.dims.num_links << "; }\n"
+      << "int spacearm_num_params() { return " << facts.parameter_names.size() << "; }\n"
+      << "int spacearm_num_base() { return " << facts.num_base << "; }\n"
+      << "int spacearm_spatial() { return " << facts.dims.spatial << "; }\n"
+      << "int spacearm_free_floating() { return " << facts.free_floating << "; }\n"
+      << "int spacearm_passive_forces() { return " << facts.has_passive_forces() << "; }\n"
+      << "// Where a quaternion (w, x, y, z) sits in q; -1: none, and q has one entry per "
+         "velocity.\n"
+      << "int spacearm_configuration_layout() { return " << facts.quaternion_offset << "; }\n"
+      << "const char* spacearm_name() { return \"" << facts.name << "\"; }\n"
+      << "const char* spacearm_coordinate_name(int i) { return kCoordinateNames[i]; }\n"
+      << "const char* spacearm_parameter_name(int i) { return kParameterNames[i]; }\n"
+      << "double spacearm_nominal_parameter(int i) { return kNominalParameters[i]; }\n"
+      << "int spacearm_actuated_coordinate(int joint) { return kActuatedCoordinates[joint]; }\n"
+      << "// 1 where the joint's slot in q holds its motor angle qm = p q (a rigid gear, eq. 12).\n"
+      << "int spacearm_slot_holds_motor(int joint) { return kMotorAngleSlots[joint]; }\n"
+      << "unsigned long spacearm_outputs() { return " << output_mask(facts.outputs) << "ul; }\n"
+      << "const char* spacearm_scene_hash() { return \"" << facts.scene_hash << "\"; }\n"
+      << "const char* spacearm_parameter_error([[maybe_unused]] const double* params) {\n"
+      << parameter_checks(facts, Spelling::c_arrays) << functions << "}\n";
+    result.push_back(s.str());
+  }
+  return result;
 }
 
 }  // namespace
@@ -487,7 +514,8 @@ EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
   h << "\n}  // namespace " << ns << "\n";
   result.header = h.str();
   result.source = s.str();
-  result.c_interface = c_interface(model, options.statements_per_part);
+  result.c_units = c_interface(model, options.statements_per_part, options.c_units);
+  if (result.c_units.size() == 1) result.c_interface = result.c_units[0];
   return result;
 }
 

@@ -30,6 +30,8 @@ struct PrintOptions {
   // and 8.9 GB to compile at -O1; in parts of 2000, 33 s and 0.6 GB). Values a later part reads
   // pass through a work array on the stack whose slots are reused after their last reader.
   int statements_per_part = 2000;
+  // The C interface in this many translation units (c_units), for as many compilers at once.
+  int c_units = 1;
 };
 
 struct FunctionStats {
@@ -42,7 +44,8 @@ struct FunctionStats {
 struct EmittedModel {
   std::string header_name, source_name;
   std::string header, source;
-  std::string c_interface;  // extern "C" wrappers of every function, for dlopen
+  std::string c_interface;  // extern "C" wrappers of every function, for dlopen (c_units = 1)
+  std::vector<std::string> c_units;  // the same in PrintOptions::c_units translation units
   std::vector<FunctionStats> stats;
 };
 

@@ -173,6 +173,10 @@ const OutputInfo& info(Output output) {
   throw std::logic_error("output missing from the registry");
 }
 
+bool emitted_by_default(const OutputInfo& o, bool closed_form_affordable) {
+  return o.by_default && (closed_form_affordable || o.id != Output::coriolis_matrix);
+}
+
 std::string to_string(Output output) { return info(output).name; }
 
 std::optional<Output> output_from_string(const std::string& name) {

@@ -542,11 +542,9 @@ class SceneReader {
           r.fail("outputs[" + std::to_string(i) + "]", "output '" + n + "' listed twice", outs[i]);
       }
     } else {
-      // Past the closed form's reach C (N^2 entries, eq. 7) leaves the defaults: at N = 30 it
-      // doubles the first eval's compile time (12.6 s with it). It stays available by name.
       for (const OutputInfo& o : output_registry())
-        if (o.by_default && missing_feature(o.needs, s.features()).empty() &&
-            (s.closed_form_affordable() || o.id != Output::coriolis_matrix))
+        if (emitted_by_default(o, s.closed_form_affordable()) &&
+            missing_feature(o.needs, s.features()).empty())
           s.outputs.insert(o.id);
     }
     for (Output o : s.outputs) {

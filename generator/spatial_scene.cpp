@@ -394,7 +394,8 @@ std::vector<Output> spatial_outputs(const SpatialScene& scene) {
   if (!scene.outputs.empty()) return scene.outputs;
   std::vector<Output> outputs;
   for (const OutputInfo& o : output_registry())
-    if (spatial_output(o.id, scene.chain.free_base) && o.by_default) outputs.push_back(o.id);
+    if (spatial_output(o.id, scene.chain.free_base) && emitted_by_default(o, false))
+      outputs.push_back(o.id);  // recursive forms only: no closed form in 3D
   return outputs;
 }
 

@@ -2,6 +2,7 @@
 
 #include <dlfcn.h>
 #include <link.h>
+#include <sched.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -14,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 
 #include <Eigen/Cholesky>
 
@@ -153,6 +155,46 @@ std::vector<std::string> exported_functions(unsigned long mask) {
   return names;
 }
 
+// A command as compile_command.txt shows it.
+std::string shown_command(const std::vector<std::string>& argv) {
+  std::string command;
+  for (const auto& a : argv) command += (command.empty() ? "" : " ") + a;
+  return command;
+}
+
+// Runs the compilers at once, their messages (kept in memory: they survive a full disk) added
+// to `log_text`; the first nonzero exit status (-1: one could not start), or 0.
+int run_compilers(const std::vector<std::vector<std::string>>& commands, int dir,
+                  std::string& log_text, const std::function<void()>& on_interrupt,
+                  const std::string& compiler, const std::string& model) {
+  std::vector<Fd> logs;
+  std::vector<int> fds;
+  for (size_t k = 0; k < commands.size(); ++k) {
+    logs.push_back(memory_file("spacearm-compile-log"));
+    fds.push_back(logs.back().get());
+  }
+  const std::vector<RunResult> runs = run_all_interruptible(commands, dir, fds, on_interrupt);
+  int failed = 0;
+  for (size_t k = 0; k < runs.size(); ++k) {
+    if (runs[k].interrupted) throw CompileError("compiling model '" + model + "' was interrupted");
+    if (runs[k].status == 0) continue;
+    log_text +=
+        runs[k].status < 0 ? cannot_run(compiler, runs[k].start_error) + "\n" : read_log(logs[k]);
+    if (failed == 0) failed = runs[k].status;
+  }
+  return failed;
+}
+
+// How many compilers a library is built by at once: the CPUs this process may run on, at
+// most 4 (each unit costs a compiler start and <cmath>, about 0.1 s).
+int compile_jobs(const CompileOptions& options) {
+  if (options.jobs > 0) return options.jobs;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  const int cpus = ::sched_getaffinity(0, sizeof set, &set) == 0 ? CPU_COUNT(&set) : 1;
+  return std::clamp(cpus, 1, 4);
+}
+
 // Generates and compiles the scene into a new work folder; returns it, ready to install.
 // Every file is written and read relative to the folder's descriptor, and the compiler runs
 // inside it with relative names: nothing goes through the cache's path again.
@@ -172,41 +214,67 @@ WorkFolder build_entry(const ModelRecipe& recipe, const CacheFolder& cache,
     EmitOptions eo;
     eo.scene_path = recipe.source_path();
     eo.command = "spacearm (compile-and-load cache)";
+    eo.c_units = compile_jobs(options);
     const EmittedModel emitted = recipe.emit(eo, &rep.derive_ms);
-    write_new_file_at(dir, "libmodel.cpp", emitted.c_interface, shown + "/libmodel.cpp");
+    const size_t units = emitted.c_units.size();
+    std::vector<std::string> sources;
+    for (size_t u = 0; u < units; ++u) {
+      sources.push_back(units == 1 ? "libmodel.cpp" : "libmodel_" + std::to_string(u) + ".cpp");
+      write_new_file_at(dir, sources[u], emitted.c_units[u], shown + "/" + sources[u]);
+    }
     rep.emit_ms = ms_since(t0) - rep.derive_ms;
     rep.generated = true;
 
-    say("compiling with " + compiler);
+    say("compiling with " + compiler +
+        (units > 1 ? " (" + std::to_string(units) + " at once)" : ""));
     const auto t1 = std::chrono::steady_clock::now();
-    std::vector<std::string> argv{compiler};
-    for (const auto& f : split_flags(options.flags)) argv.push_back(f);
-    for (const char* a : {"libmodel.cpp", "-o", "libmodel.so"}) argv.push_back(a);
-    for (const auto& l : split_flags(options.libraries)) argv.push_back(l);
+    const auto argv = [&](const std::vector<std::string>& middle, bool link) {
+      std::vector<std::string> a{compiler};
+      for (const auto& f : split_flags(options.flags)) a.push_back(f);
+      a.insert(a.end(), middle.begin(), middle.end());
+      if (link)
+        for (const auto& l : split_flags(options.libraries)) a.push_back(l);
+      return a;
+    };
+    // One unit: compiled and linked by one command; several: each to an object at once, then
+    // linked.
+    std::vector<std::vector<std::string>> compiles;
+    std::vector<std::string> link{};
+    if (units == 1) {
+      compiles.push_back(argv({"libmodel.cpp", "-o", "libmodel.so"}, true));
+    } else {
+      for (const auto& src : sources) {
+        const std::string object = src.substr(0, src.size() - 3) + "o";
+        compiles.push_back(argv({"-c", src, "-o", object}, false));
+        link.push_back(object);
+      }
+      link.insert(link.end(), {"-o", "libmodel.so"});
+    }
     std::string command;
-    for (const auto& a : argv) command += (command.empty() ? "" : " ") + a;
-    write_new_file_at(dir, "compile_command.txt", "cd " + shown + " && " + command + "\n",
+    for (const auto& c : compiles) command += "\n" + shown_command(c) + (units > 1 ? " &" : "");
+    if (units > 1) command += "\nwait\n" + shown_command(argv(link, true));
+    write_new_file_at(dir, "compile_command.txt", "cd " + shown + command + "\n",
                       shown + "/compile_command.txt");
-    // The log in memory: the compiler's messages survive a full disk.
-    const Fd log = memory_file("spacearm-compile-log");
-    const RunResult run = run_interruptible(argv, dir, log.get(), [&] { cache.remove(work); });
+    std::string log_text;
+    const auto remove = [&] { cache.remove(work); };
+    int failed = run_compilers(compiles, dir, log_text, remove, compiler, recipe.name());
+    if (failed == 0 && units > 1)
+      failed = run_compilers({argv(link, true)}, dir, log_text, remove, compiler, recipe.name());
     rep.compile_ms = ms_since(t1);
-    if (run.interrupted)
-      throw CompileError("compiling model '" + recipe.name() + "' was interrupted");
-    if (run.status != 0) {
-      const std::string text =
-          run.status < 0 ? cannot_run(compiler, run.start_error) + "\n" : read_log(log);
+    if (failed != 0) {
       try {
-        write_new_file_at(dir, "compile.log", text, shown + "/compile.log");
+        write_new_file_at(dir, "compile.log", log_text, shown + "/compile.log");
       } catch (const FolderError&) {  // a full disk: the message below still has the log
       }
       const std::string kept = cache.keep_failed(work, entry);
-      throw CompileError(
-          "compiling model '" + recipe.name() + "' failed" +
-          (text.empty() ? " without a message (exit status " + std::to_string(run.status) + ")"
-                        : "") +
-          ":\n" + text + "sources and command: " + kept);
+      throw CompileError("compiling model '" + recipe.name() + "' failed" +
+                         (log_text.empty()
+                              ? " without a message (exit status " + std::to_string(failed) + ")"
+                              : "") +
+                         ":\n" + log_text + "sources and command: " + kept);
     }
+    for (const auto& object : link)  // the objects are in the library now
+      if (object != "-o" && object != "libmodel.so") ::unlinkat(dir, object.c_str(), 0);
     rep.compiled = true;
     // The marker, written last, records the library's SHA-256 on its first line.
     const Fd library =

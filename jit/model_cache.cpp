@@ -220,20 +220,13 @@ void kill_own_group(int) { ::kill(0, SIGKILL); }
 }
 }  // namespace
 
-RunResult run_interruptible(const std::vector<std::string>& argv, int work_dir, int log,
-                            const std::function<void()>& on_interrupt) {
-  RunResult result;
-  std::vector<char*> args;
-  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-  int pipe_fds[2];
-  if (::pipe2(pipe_fds, O_CLOEXEC | O_NONBLOCK) != 0) {
-    result.start_error = errno;
-    return result;
-  }
-  const Fd error_in(pipe_fds[0]);
-  Fd error_out(pipe_fds[1]);
-  // Our handlers while the compiler runs: a signal stops it instead of leaving it orphaned.
+std::vector<RunResult> run_all_interruptible(const std::vector<std::vector<std::string>>& argvs,
+                                             int work_dir, const std::vector<int>& logs,
+                                             const std::function<void()>& on_interrupt) {
+  if (logs.size() != argvs.size()) throw std::logic_error("run_all_interruptible: one log each");
+  const size_t n = argvs.size();
+  std::vector<RunResult> results(n);
+  // Our handlers while the compilers run: a signal stops them instead of leaving them orphaned.
   // A signal the caller ignores (a background job's SIGINT) stays ignored.
   struct sigaction ours {
   }, old_int{}, old_term{};
@@ -244,25 +237,52 @@ RunResult run_interruptible(const std::vector<std::string>& argv, int work_dir, 
   sigaction(SIGTERM, nullptr, &old_term);
   if (old_int.sa_handler != SIG_IGN) sigaction(SIGINT, &ours, nullptr);
   if (old_term.sa_handler != SIG_IGN) sigaction(SIGTERM, &ours, nullptr);
+  // Each program under its own watcher, in its own process group.
   const pid_t parent = ::getpid();
-  const pid_t pid = ::fork();
-  if (pid == 0) watch(args.data(), parent, work_dir, log, error_out.get());
-  if (pid > 0) ::setpgid(pid, pid);  // also here: no window where a signal misses the group
-  if (pid < 0) result.start_error = errno;
-  error_out = Fd();
-  int status = 0;
-  if (pid > 0) {
-    for (int waited_after_signal = 0;;) {
-      const pid_t r = ::waitpid(pid, &status, WNOHANG);
-      if (r == pid || (r < 0 && errno != EINTR)) break;
-      // SIGTERM to the whole group, SIGKILL if it is still there 5 s later.
-      if (g_signal) ::kill(-pid, ++waited_after_signal > 250 ? SIGKILL : SIGTERM);
-      const timespec pause{0, 20 * 1000 * 1000};
-      ::nanosleep(&pause, nullptr);
+  std::vector<pid_t> pids(n, -1);
+  std::vector<Fd> error_ins(n);
+  for (size_t k = 0; k < n && !g_signal; ++k) {
+    std::vector<char*> args;
+    for (const auto& a : argvs[k]) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    int pipe_fds[2];
+    if (::pipe2(pipe_fds, O_CLOEXEC | O_NONBLOCK) != 0) {
+      results[k].start_error = errno;
+      continue;
     }
+    error_ins[k] = Fd(pipe_fds[0]);
+    Fd error_out(pipe_fds[1]);
+    pids[k] = ::fork();
+    if (pids[k] == 0) watch(args.data(), parent, work_dir, logs[k], error_out.get());
+    if (pids[k] > 0) ::setpgid(pids[k], pids[k]);  // also here: no window where a signal misses
+    if (pids[k] < 0) results[k].start_error = errno;
+  }
+  // Wait for all; on a signal SIGTERM to every group, SIGKILL if one is still there 5 s later.
+  std::vector<int> status(n, 0);
+  std::vector<bool> done(n);
+  for (size_t k = 0; k < n; ++k) done[k] = pids[k] <= 0;
+  for (int waited_after_signal = 0;;) {
+    bool all_done = true;
+    for (size_t k = 0; k < n; ++k) {
+      if (done[k]) continue;
+      const pid_t r = ::waitpid(pids[k], &status[k], WNOHANG);
+      if (r == pids[k] || (r < 0 && errno != EINTR)) done[k] = true;
+      all_done = all_done && done[k];
+    }
+    if (all_done) break;
+    if (g_signal) {
+      ++waited_after_signal;
+      for (size_t k = 0; k < n; ++k)
+        if (!done[k]) ::kill(-pids[k], waited_after_signal > 250 ? SIGKILL : SIGTERM);
+    }
+    const timespec pause{0, 20 * 1000 * 1000};
+    ::nanosleep(&pause, nullptr);
+  }
+  for (size_t k = 0; k < n; ++k) {
     int error = 0;
-    if (::read(error_in.get(), &error, sizeof error) == static_cast<ssize_t>(sizeof error))
-      result.start_error = error;
+    if (pids[k] > 0 &&
+        ::read(error_ins[k].get(), &error, sizeof error) == static_cast<ssize_t>(sizeof error))
+      results[k].start_error = error;
   }
   sigaction(SIGINT, &old_int, nullptr);
   sigaction(SIGTERM, &old_term, nullptr);
@@ -270,13 +290,21 @@ RunResult run_interruptible(const std::vector<std::string>& argv, int work_dir, 
     const int sig = g_signal;
     if (on_interrupt) on_interrupt();
     ::raise(sig);
-    result.interrupted = true;  // a handler of the caller's took the signal
-    return result;
+    for (auto& r : results) r.interrupted = true;  // a handler of the caller's took the signal
+    return results;
   }
-  if (pid < 0 || result.start_error != 0) return result;
-  result.status =
-      WIFEXITED(status) ? WEXITSTATUS(status) : 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
-  return result;
+  for (size_t k = 0; k < n; ++k) {
+    if (pids[k] < 0 || results[k].start_error != 0) continue;
+    results[k].status = WIFEXITED(status[k])
+                            ? WEXITSTATUS(status[k])
+                            : 128 + (WIFSIGNALED(status[k]) ? WTERMSIG(status[k]) : 0);
+  }
+  return results;
+}
+
+RunResult run_interruptible(const std::vector<std::string>& argv, int work_dir, int log,
+                            const std::function<void()>& on_interrupt) {
+  return run_all_interruptible({argv}, work_dir, {log}, on_interrupt)[0];
 }
 
 }  // namespace spacearm

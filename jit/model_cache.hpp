@@ -90,6 +90,11 @@ struct RunResult {
 RunResult run_interruptible(const std::vector<std::string>& argv, int work_dir, int log,
                             const std::function<void()>& on_interrupt);
 
+// The same for several programs at once, each with its own log; a signal stops them all.
+std::vector<RunResult> run_all_interruptible(const std::vector<std::vector<std::string>>& argvs,
+                                             int work_dir, const std::vector<int>& logs,
+                                             const std::function<void()>& on_interrupt);
+
 // An anonymous file in memory (memfd): a compiler's messages survive a full disk.
 Fd memory_file(const char* name);
 

@@ -263,15 +263,19 @@ TEST(EmittedText, EveryAcceptedSceneEmitsCodeThatCompilesWithUserTextOnlyInComme
 // Every function of a C interface, compiled (with `extra` flags and libraries after the source)
 // and loaded, called at one state (inputs 0.3, 0.4, ..., the nominal parameters): each
 // result's entries, by function.
-std::map<std::string, std::vector<double>> call_every_function(const LoweredModel& model,
-                                                               const std::string& c_interface,
-                                                               const fs::path& dir,
-                                                               const std::string& extra = "") {
+// A C interface in several units is linked from all of them.
+std::map<std::string, std::vector<double>> call_every_function(
+    const LoweredModel& model, const std::vector<std::string>& units, const fs::path& dir,
+    const std::string& extra = "") {
   fs::create_directories(dir);
-  std::ofstream(dir / "libmodel.cpp") << c_interface;
-  const auto [ok, log] = run(std::string(SPACEARM_CXX) + " -O1 -std=c++17 -fPIC -shared '" +
-                             (dir / "libmodel.cpp").string() + "' -o '" +
-                             (dir / "libmodel.so").string() + "'" + extra);
+  std::string sources;
+  for (size_t u = 0; u < units.size(); ++u) {
+    const fs::path source = dir / ("libmodel_" + std::to_string(u) + ".cpp");
+    std::ofstream(source) << units[u];
+    sources += " '" + source.string() + "'";
+  }
+  const auto [ok, log] = run(std::string(SPACEARM_CXX) + " -O1 -std=c++17 -fPIC -shared" + sources +
+                             " -o '" + (dir / "libmodel.so").string() + "'" + extra);
   EXPECT_TRUE(ok) << log;
   void* lib = dlopen((dir / "libmodel.so").c_str(), RTLD_NOW | RTLD_LOCAL);
   EXPECT_NE(lib, nullptr) << dlerror();
@@ -299,6 +303,13 @@ std::map<std::string, std::vector<double>> call_every_function(const LoweredMode
   }
   dlclose(lib);
   return values;
+}
+
+std::map<std::string, std::vector<double>> call_every_function(const LoweredModel& model,
+                                                               const std::string& c_interface,
+                                                               const fs::path& dir,
+                                                               const std::string& extra = "") {
+  return call_every_function(model, std::vector<std::string>{c_interface}, dir, extra);
 }
 
 // A body split into parts (PrintOptions::statements_per_part, here 40 statements instead of
@@ -351,6 +362,41 @@ TEST(EmittedText, GeneratedFilesNeverWriteThroughALinkPlantedInTheFolder) {
   EXPECT_EQ(test::read_text_file(victim.string()), "precious\n");
   EXPECT_EQ(test::read_text_file((dir / e.header_name).string()), e.header);
   EXPECT_EQ(test::read_text_file((dir / e.source_name).string()), e.source);
+  fs::remove_all(dir);
+}
+
+// The C interface in units (one compiler each, at once) computes what one unit computes, bit
+// for bit; each unit compiles alone without a warning, and the model's facts are in the first.
+TEST(EmittedText, UnitsComputeWhatOneUnitComputes) {
+  const fs::path dir = fs::temp_directory_path() / ("spacearm-units-" + std::to_string(getpid()));
+  const LoweredModel model =
+      lower(derive(load_scene(std::string(SPACEARM_SOURCE_DIR) + "/models/paper_flexible.yaml")));
+  PrintOptions three;
+  three.c_units = 3;
+  three.statements_per_part = 40;  // parts stay in their function's unit
+  const EmittedModel one = print_cpp(model, {}), units = print_cpp(model, three);
+  ASSERT_EQ(one.c_units.size(), 1u);
+  ASSERT_EQ(one.c_units[0], one.c_interface);
+  ASSERT_EQ(units.c_units.size(), 3u);
+  EXPECT_TRUE(units.c_interface.empty());
+  for (size_t u = 0; u < 3; ++u) {
+    EXPECT_EQ(units.c_units[u].find("spacearm_abi_version") != std::string::npos, u == 0) << u;
+    EXPECT_NE(units.c_units[u].find("void spacearm_"), std::string::npos) << u;
+    fs::create_directories(dir);
+    std::ofstream(dir / "unit.cpp") << units.c_units[u];
+    const auto [ok, out] =
+        run(std::string(SPACEARM_CXX) + " -std=c++17 -Wall -Wextra -Werror -fsyntax-only '" +
+            (dir / "unit.cpp").string() + "'");
+    EXPECT_TRUE(ok) << "unit " << u << " does not compile:\n" << out;
+  }
+  const auto want = call_every_function(model, one.c_interface, dir / "one");
+  const auto got = call_every_function(model, units.c_units, dir / "three");
+  ASSERT_EQ(got.size(), model.functions.size());
+  for (const auto& [name, values] : want) {
+    ASSERT_EQ(got.at(name).size(), values.size()) << name;
+    for (size_t i = 0; i < values.size(); ++i)
+      EXPECT_EQ(got.at(name)[i], values[i]) << name << " entry " << i;
+  }
   fs::remove_all(dir);
 }
 
