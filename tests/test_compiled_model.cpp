@@ -283,6 +283,43 @@ outputs: [mass_matrix, bias_forces, kinetic_energy, momentum, forward_dynamics,
   fs::remove_all(cache);
 }
 
+// The cache builds for the host's widest vector instruction set (compile_flags): with
+// -ffp-contract=off its results are SSE2's to the last bit, in every output (with contraction
+// into FMA, 42 entries differ).
+TEST(CompiledModel, TheHostInstructionSetGivesTheBitsOfSse2) {
+  const fs::path cache = fresh_cache("isa");
+  const ModelRecipe recipe =
+      ModelRecipe::load(std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/spatial_arm2.yaml");
+  CompileOptions host, sse2;
+  host.cache_dir = sse2.cache_dir = cache.string();
+  sse2.flags = std::string(kDefaultOptimization) + " -ffp-contract=off -std=c++17 -fPIC -shared" +
+               kVectorTrigFlag;
+  const CompiledModel a = CompiledModel::load(recipe, host), b = CompiledModel::load(recipe, sse2);
+  Eigen::VectorXd q(9), qd(8), qdd(8);
+  q << 0.1, -0.2, 0.3, 0.5, 0.5, -0.5, 0.5, 0.7, -1.1;
+  qd << 0.2, 0.1, -0.3, 0.4, -0.2, 0.3, 5.0, -8.0;
+  qdd << 0.3, -0.1, 0.2, 0.1, 0.2, -0.3, 1.0, 2.0;
+  int outputs = 0;
+  for (Output o : recipe.facts().outputs) {
+    std::vector<Eigen::VectorXd> inputs;
+    for (Input in : info(o).inputs)
+      inputs.push_back(in == Input::q                     ? q
+                       : in == Input::qd                  ? qd
+                       : in == Input::joint_accelerations ? Eigen::VectorXd(qdd.tail(2))
+                                                          : qdd);
+    const auto x = a.evaluate(o, inputs, Eigen::VectorXd()),
+               y = b.evaluate(o, inputs, Eigen::VectorXd());
+    ASSERT_EQ(x.size(), y.size());
+    for (size_t r = 0; r < x.size(); ++r)
+      for (Eigen::Index i = 0; i < x[r].size(); ++i)
+        EXPECT_EQ(x[r].data()[i], y[r].data()[i])
+            << info(o).name << " result " << r << " entry " << i;
+    ++outputs;
+  }
+  EXPECT_GE(outputs, 8);
+  fs::remove_all(cache);
+}
+
 // Two models loaded at once are two libraries: dlopen matches the name it is given
 // (/proc/self/fd/N), so a second model opened under the first one's number would silently be
 // the first one.
