@@ -47,6 +47,7 @@ inline constexpr const char* kDefaultOptimization = "-O1 -fexpensive-optimizatio
 // The flags are part of the cache key, so a CPU without them never loads such a library.
 inline std::string host_instruction_set_flags() {
 #if defined(__x86_64__) && defined(__GNUC__)
+  __builtin_cpu_init();  // also safe before the constructors have run (a static's initializer)
   if (__builtin_cpu_supports("avx512f")) return " -mavx512f -ffp-contract=off";
   if (__builtin_cpu_supports("avx2")) return " -mavx2 -ffp-contract=off";
 #endif
