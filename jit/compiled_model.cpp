@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <optional>
 
 #include <Eigen/Cholesky>
 
@@ -27,6 +28,7 @@
 #include "cpp_emitter.hpp"
 #include "outputs.hpp"
 #include "symbolic_model.hpp"
+#include "text_numbers.hpp"
 
 namespace spacearm {
 
@@ -177,7 +179,7 @@ int run_compilers(const std::vector<std::vector<std::string>>& commands, int dir
   int failed = 0;
   for (size_t k = 0; k < runs.size(); ++k) {
     if (runs[k].interrupted) throw CompileError("compiling model '" + model + "' was interrupted");
-    if (runs[k].status == 0) continue;
+    if (runs[k].status == 0 || runs[k].stopped) continue;
     log_text +=
         runs[k].status < 0 ? cannot_run(compiler, runs[k].start_error) + "\n" : read_log(logs[k]);
     if (failed == 0) failed = runs[k].status;
@@ -230,7 +232,9 @@ WorkFolder build_entry(const ModelRecipe& recipe, const CacheFolder& cache,
     const auto t1 = std::chrono::steady_clock::now();
     const auto argv = [&](const std::vector<std::string>& middle, bool link) {
       std::vector<std::string> a{compiler};
-      for (const auto& f : split_flags(options.flags)) a.push_back(f);
+      for (const auto& f :
+           split_flags(options.flags + instruction_set_flags(options.instruction_set)))
+        a.push_back(f);
       a.insert(a.end(), middle.begin(), middle.end());
       if (link)
         for (const auto& l : split_flags(options.libraries)) a.push_back(l);
@@ -283,7 +287,9 @@ WorkFolder build_entry(const ModelRecipe& recipe, const CacheFolder& cache,
     write_new_file_at(dir, "COMPLETE",
                       "sha256 " + sha256_hex(read_all(library.get(), shown + "/libmodel.so")) +
                           "\ngenerator " + kGeneratorVersion + "\ncompiler " + compiler_id +
-                          "\nflags " + options.flags + "\nlibraries " + options.libraries + "\n",
+                          "\nflags " + options.flags +
+                          instruction_set_flags(options.instruction_set) + "\nlibraries " +
+                          options.libraries + "\n",
                       shown + "/COMPLETE");
     return work;
   } catch (const FolderError& e) {
@@ -297,6 +303,32 @@ WorkFolder build_entry(const ModelRecipe& recipe, const CacheFolder& cache,
 
 }  // namespace
 
+std::string host_instruction_set() {
+#if defined(__x86_64__) && defined(__GNUC__)
+  __builtin_cpu_init();  // also safe before the constructors have run (a static's initializer)
+  if (__builtin_cpu_supports("avx512f")) return "avx512f";
+  if (__builtin_cpu_supports("avx2")) return "avx2";
+#endif
+  return "sse2";
+}
+
+bool cpu_runs(const std::string& instruction_set) {
+  if (instruction_set == "sse2") return true;
+#if defined(__x86_64__) && defined(__GNUC__)
+  __builtin_cpu_init();
+  if (instruction_set == "avx2") return __builtin_cpu_supports("avx2");
+  if (instruction_set == "avx512f") return __builtin_cpu_supports("avx512f");
+#endif
+  return false;
+}
+
+std::string instruction_set_flags(const std::string& instruction_set) {
+  if (instruction_set == "sse2") return "";
+  if (instruction_set == "avx2" || instruction_set == "avx512f") return " -m" + instruction_set;
+  throw CompileError("instruction set " + quoted_text(instruction_set) +
+                     " is not one of avx512f, avx2, sse2");
+}
+
 std::string cache_directory(const CompileOptions& options) {
   if (!options.cache_dir.empty()) return options.cache_dir;
   if (const char* d = std::getenv("SPACEARM_CACHE_DIR"); d && *d) return d;
@@ -307,9 +339,10 @@ std::string cache_directory(const CompileOptions& options) {
       "pass --cache-dir");
 }
 
-// Entries are named SCENE-SOURCE-COMPILER: the hash of what the code is made from (scene,
-// generator, flags, libraries), then of the compiler's identity. Without a compiler (a Dask
-// worker's image, a read-only cache), an entry of the same source built by any compiler loads.
+// Entries are named SCENE-SOURCE-SET-COMPILER: the hash of what the code is made from (scene,
+// generator, flags, libraries), the instruction set, then the hash of the compiler's identity.
+// Without a compiler (a Dask worker's image), or in a cache folder that cannot be written, an
+// entry of the same source built by any compiler for any set this CPU runs loads.
 CompiledModel CompiledModel::load(const ModelRecipe& recipe, const CompileOptions& options,
                                   StageReport* report) {
   StageReport local;
@@ -330,8 +363,10 @@ CompiledModel CompiledModel::load(const ModelRecipe& recipe, const CompileOption
       "-";
   std::string no_compiler;
   const std::string compiler_id = compiler_identity(compiler, cache.fd(), no_compiler);
-  if (compiler_id.empty()) return load_built(recipe, cache, source, no_compiler, rep);
-  const std::string entry = source + sha256_hex(compiler_id).substr(0, 8);
+  if (compiler_id.empty())
+    return load_built(recipe, cache, source, options.instruction_set, no_compiler, rep);
+  const std::string entry =
+      source + options.instruction_set + "-" + sha256_hex(compiler_id).substr(0, 8);
   rep.cache_entry = cache.path() + "/" + entry;
 
   // A verified entry is loaded; an incomplete or corrupted one is discarded and built
@@ -347,9 +382,15 @@ CompiledModel CompiledModel::load(const ModelRecipe& recipe, const CompileOption
         say("cache entry " + rep.cache_entry + " is " + problem + ": rebuilding");
         cache.discard(entry);
       }
-      const WorkFolder work =
-          build_entry(recipe, cache, entry, compiler, compiler_id, options, rep);
-      cache.install(work, entry);
+      std::optional<WorkFolder> work;
+      try {
+        work.emplace(build_entry(recipe, cache, entry, compiler, compiler_id, options, rep));
+      } catch (const CompileError& e) {
+        // Nothing generated: the folder cannot be written (a read-only cache); another entry?
+        if (rep.generated) throw;
+        return load_built(recipe, cache, source, options.instruction_set, e.what(), rep);
+      }
+      cache.install(*work, entry);
       continue;
     }
     std::string why;
@@ -362,12 +403,27 @@ CompiledModel CompiledModel::load(const ModelRecipe& recipe, const CompileOption
   }
 }
 
-// A complete, verified entry of `source` built before by any compiler; nothing is written.
+// A complete, verified entry of `source` built before by any compiler for an instruction set
+// this CPU runs (`preferred` first, then the others widest first); nothing is written.
 CompiledModel CompiledModel::load_built(const ModelRecipe& recipe, const CacheFolder& cache,
-                                        const std::string& source, const std::string& no_compiler,
-                                        StageReport& rep) {
+                                        const std::string& source, const std::string& preferred,
+                                        const std::string& no_compiler, StageReport& rep) {
   std::string last;
+  std::vector<std::string> entries;
+  for (const char* set : {preferred.c_str(), "avx512f", "avx2", "sse2"})
+    for (const auto& entry : cache.entries_starting_with(source + set + "-"))
+      if (std::find(entries.begin(), entries.end(), entry) == entries.end())
+        entries.push_back(entry);
   for (const auto& entry : cache.entries_starting_with(source)) {
+    const std::string set =
+        entry.substr(source.size(), entry.find('-', source.size()) - source.size());
+    if (!cpu_runs(set))
+      last = "; '" + cache.path() + "/" + entry + "' is built for " + quoted_text(set) +
+             ", which this CPU does not run";
+  }
+  for (const auto& entry : entries) {
+    if (!cpu_runs(entry.substr(source.size(), entry.find('-', source.size()) - source.size())))
+      continue;
     rep.cache_entry = cache.path() + "/" + entry;
     std::string problem;
     Fd library;

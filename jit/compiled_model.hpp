@@ -39,24 +39,20 @@ inline constexpr const char* kVectorTrigLibraries = "";
 // for 6 % more compile time.
 inline constexpr const char* kDefaultOptimization = "-O1 -fexpensive-optimizations";
 
-// The widest vector instruction set of the CPU that builds (and runs) the library. Its
-// three-operand encodings, and AVX-512's 32 registers, shrink the long straight-line programs,
-// which run from the instruction decoders (space_arm7's forward dynamics with armature: 37 KB
-// and 673 ns in SSE2, 26 KB and 557 ns with -mavx2, 27 KB and 500 ns with -mavx512f, and 20 %
-// less compile time). No contraction into FMA: every instruction set gives the bits SSE2 gives.
-// The flags are part of the cache key, so a CPU without them never loads such a library.
-inline std::string host_instruction_set_flags() {
-#if defined(__x86_64__) && defined(__GNUC__)
-  __builtin_cpu_init();  // also safe before the constructors have run (a static's initializer)
-  if (__builtin_cpu_supports("avx512f")) return " -mavx512f -ffp-contract=off";
-  if (__builtin_cpu_supports("avx2")) return " -mavx2 -ffp-contract=off";
-#endif
-  return " -ffp-contract=off";
-}
+// The vector instruction set a library is built for ("avx512f", "avx2" or "sse2", the x86-64
+// base; "sse2" stands for the base elsewhere). By default the widest one of the CPU that builds
+// (and runs) it: the three-operand encodings, and AVX-512's 32 registers, shrink the long
+// straight-line programs, which run at the speed their instructions are fetched (space_arm7's
+// forward dynamics with armature: 37 KB and 673 ns in SSE2, 26 KB and 557 ns with -mavx2, 27 KB
+// and 500 ns with -mavx512f, and 20 % less compile time). No contraction into FMA
+// (compile_flags: -ffp-contract=off): every instruction set gives the bits of SSE2, so an entry
+// built for any set this CPU runs may stand in for another (a read-only cache, no compiler).
+std::string host_instruction_set();
+bool cpu_runs(const std::string& instruction_set);
+std::string instruction_set_flags(const std::string& instruction_set);  // " -mavx2", or ""
 
 inline std::string compile_flags(const std::string& optimization = kDefaultOptimization) {
-  return optimization + host_instruction_set_flags() + " -std=c++17 -fPIC -shared" +
-         kVectorTrigFlag;
+  return optimization + " -ffp-contract=off -std=c++17 -fPIC -shared" + kVectorTrigFlag;
 }
 
 struct CompileOptions {
@@ -67,7 +63,8 @@ struct CompileOptions {
   // bench_spatial) and up to 40 % quicker to compile.
   // Split at spaces.
   std::string flags = compile_flags();
-  std::string libraries = kVectorTrigLibraries;  // after the source, split at spaces
+  std::string libraries = kVectorTrigLibraries;          // after the source, split at spaces
+  std::string instruction_set = host_instruction_set();  // added to the flags; cpu_runs it
   int jobs = 0;  // compilers at once (the library in as many units); 0: the CPUs we may use, <= 4
   std::function<void(const std::string&)> progress;  // stage messages (may be empty)
 };
@@ -183,8 +180,8 @@ class CompiledModel {
   static CompiledModel open_verified(const ModelRecipe& recipe, const Fd& library, StageReport& rep,
                                      std::string& why);
   static CompiledModel load_built(const ModelRecipe& recipe, const CacheFolder& cache,
-                                  const std::string& source, const std::string& no_compiler,
-                                  StageReport& rep);
+                                  const std::string& source, const std::string& preferred,
+                                  const std::string& no_compiler, StageReport& rep);
   std::string mismatch_with(const ModelFacts& expected) const;
   void check(const char* what, Eigen::Ref<const Eigen::VectorXd> v, int size) const;
   std::vector<Eigen::MatrixXd> call(const std::string& function,

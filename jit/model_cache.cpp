@@ -261,15 +261,22 @@ std::vector<RunResult> run_all_interruptible(const std::vector<std::vector<std::
   std::vector<int> status(n, 0);
   std::vector<bool> done(n);
   for (size_t k = 0; k < n; ++k) done[k] = pids[k] <= 0;
+  bool one_failed = false;
   for (int waited_after_signal = 0;;) {
     bool all_done = true;
     for (size_t k = 0; k < n; ++k) {
       if (done[k]) continue;
       const pid_t r = ::waitpid(pids[k], &status[k], WNOHANG);
       if (r == pids[k] || (r < 0 && errno != EINTR)) done[k] = true;
+      one_failed =
+          one_failed || (done[k] && !(WIFEXITED(status[k]) && WEXITSTATUS(status[k]) == 0));
       all_done = all_done && done[k];
     }
     if (all_done) break;
+    // One failed: the others' work is of no use; stop them (SIGTERM, their watchers pass it on).
+    if (one_failed && !g_signal)
+      for (size_t k = 0; k < n; ++k)
+        if (!done[k] && !results[k].stopped) ::kill(-pids[k], SIGTERM), results[k].stopped = true;
     if (g_signal) {
       ++waited_after_signal;
       for (size_t k = 0; k < n; ++k)

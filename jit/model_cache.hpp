@@ -79,6 +79,7 @@ struct RunResult {
   int status = -1;      // exit status; 128 + signal if killed; -1 if it did not start
   int start_error = 0;  // errno when it did not start (ENOENT: no such program)
   bool interrupted = false;
+  bool stopped = false;  // stopped by run_all_interruptible because another program failed
 };
 
 // Runs argv[0] with argv (no shell) in the folder `work_dir` (a descriptor), its standard
@@ -90,7 +91,8 @@ struct RunResult {
 RunResult run_interruptible(const std::vector<std::string>& argv, int work_dir, int log,
                             const std::function<void()>& on_interrupt);
 
-// The same for several programs at once, each with its own log; a signal stops them all.
+// The same for several programs at once, each with its own log; a signal stops them all, and
+// so does one's failure (the others are then `stopped`).
 std::vector<RunResult> run_all_interruptible(const std::vector<std::vector<std::string>>& argvs,
                                              int work_dir, const std::vector<int>& logs,
                                              const std::function<void()>& on_interrupt);

@@ -245,6 +245,23 @@ TEST(ModelCache, EveryStepAfterOpeningWorksInTheFolderThatWasChecked) {
   fs::remove_all(dir);
 }
 
+// The library's units compile at once; when one fails, the others are stopped at once (their
+// work is of no use) and the error is the failing one's message.
+TEST(ModelCache, OneUnitFailingStopsTheOthers) {
+  const fs::path dir = scratch("one-fails");
+  const fs::path cc = fake_compiler(
+      dir, "half",
+      "case \"$*\" in *libmodel_0.cpp*) exec sleep 30;; esac; echo 'unit broke'; exit 1");
+  int status = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string out = test::run_command(eval_command(dir / "cache", cc) + " 2>&1", &status);
+  EXPECT_NE(status, 0) << out;
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(15)) << out;
+  EXPECT_NE(out.find("compiling model 'paper_reference' failed:\nunit broke"), std::string::npos)
+      << out;
+  fs::remove_all(dir);
+}
+
 // Issue 28, item 6: a complete entry loads without a compiler (a Dask worker's image), also
 // from a cache folder that cannot be written; without an entry the message says both things.
 TEST(ModelCache, ACompleteEntryLoadsWithoutACompilerFromAReadOnlyCache) {
@@ -404,6 +421,15 @@ pid_t spawn_shell(const std::string& command) {
   return pid;
 }
 
+// The process ids a fake compiler of each unit appended, one per line.
+std::vector<pid_t> pids_in(const fs::path& file) {
+  std::istringstream lines(slurp(file));
+  std::vector<pid_t> pids;
+  for (std::string line; std::getline(lines, line);)
+    if (!line.empty()) pids.push_back(std::stoi(line));
+  return pids;
+}
+
 // Running, and not a zombie waiting for a parent (in a container, PID 1 may never reap it).
 bool alive(pid_t pid) {
   if (::kill(pid, 0) != 0) return false;
@@ -416,7 +442,7 @@ TEST(ModelCache, InterruptDuringCompileStopsTheCompilerAndRemovesItsWorkFolder) 
   const fs::path dir = scratch("interrupt");
   const fs::path pid_file = dir / "compiler.pid";
   const fs::path cc =
-      fake_compiler(dir, "slow", "echo $$ > '" + pid_file.string() + "'; exec sleep 60");
+      fake_compiler(dir, "slow", "echo $$ >> '" + pid_file.string() + "'; exec sleep 60");
   const fs::path cache = dir / "cache";
   // A work folder that no process holds locked, untouched for a minute, is cleaned by the next
   // run; one that another process (another container's) holds locked is not.
@@ -435,8 +461,8 @@ TEST(ModelCache, InterruptDuringCompileStopsTheCompilerAndRemovesItsWorkFolder) 
   for (int i = 0; i < 1500 && !fs::exists(pid_file); ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   ASSERT_TRUE(fs::exists(pid_file)) << "the fake compiler never started";
-  std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  const pid_t compiler = std::stoi(slurp(pid_file));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // every unit's compiler started
+  const std::vector<pid_t> compilers = pids_in(pid_file);
   EXPECT_FALSE(fs::exists(cache / ".tmp-999999999-paper_reference-stale"));
   EXPECT_TRUE(fs::exists(cache / ".tmp-1-paper_reference-in-use")) << "a locked build was removed";
   ::close(in_use);
@@ -450,9 +476,12 @@ TEST(ModelCache, InterruptDuringCompileStopsTheCompilerAndRemovesItsWorkFolder) 
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGINT) << "status " << status;
-  for (int i = 0; i < 100 && alive(compiler); ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  EXPECT_FALSE(alive(compiler)) << "the compiler " << compiler << " was left running";
+  ASSERT_FALSE(compilers.empty());
+  for (pid_t compiler : compilers) {  // one per unit of the library, each stopped
+    for (int i = 0; i < 100 && alive(compiler); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_FALSE(alive(compiler)) << "the compiler " << compiler << " was left running";
+  }
   for (const auto& e : fs::directory_iterator(cache))
     EXPECT_EQ(e.path().filename().string().rfind(".tmp-", 0), std::string::npos)
         << "left behind: " << e.path();
@@ -462,20 +491,23 @@ TEST(ModelCache, InterruptDuringCompileStopsTheCompilerAndRemovesItsWorkFolder) 
   // leaves is removed by a later run once it is a minute old.
   fs::remove(pid_file);
   const fs::path driver = fake_compiler(
-      dir, "driver", "sh -c 'echo $$ > \"" + pid_file.string() + "\"; exec sleep 60' & wait");
+      dir, "driver", "sh -c 'echo $$ >> \"" + pid_file.string() + "\"; exec sleep 60' & wait");
   const pid_t killed =
       spawn_shell("CXX='" + driver.string() + "' exec " + SPACEARM_CLI + " eval --cache-dir '" +
                   cache.string() + "' " + kScene + " --q 0,0,0,0,0,0 > /dev/null 2>&1");
   for (int i = 0; i < 1500 && !fs::exists(pid_file); ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   ASSERT_TRUE(fs::exists(pid_file));
-  std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  const pid_t orphan = std::stoi(slurp(pid_file));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const std::vector<pid_t> orphans = pids_in(pid_file);
   ASSERT_EQ(::kill(killed, SIGKILL), 0);
   ::waitpid(killed, &status, 0);
-  for (int i = 0; i < 100 && alive(orphan); ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  EXPECT_FALSE(alive(orphan)) << "the compiler " << orphan << " outlived a killed spacearm";
+  ASSERT_FALSE(orphans.empty());
+  for (pid_t orphan : orphans) {
+    for (int i = 0; i < 100 && alive(orphan); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_FALSE(alive(orphan)) << "the compiler " << orphan << " outlived a killed spacearm";
+  }
   for (const auto& e : fs::directory_iterator(cache))
     fs::last_write_time(e.path(), fs::file_time_type::clock::now() - std::chrono::hours(1));
   const fs::path fast = fake_compiler(dir, "copy", "cp '" + real_library().string() + "' \"$out\"");
