@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -123,6 +124,12 @@ inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool f
     };
     plan.torques.samples.push_back(take(num_joints));
     plan.base.push_back(take(pose));
+    if (spatial && free_floating) {  // the model takes any quaternion whose norm squares safely
+      const double norm = plan.base.back().segment<4>(3).norm();
+      if (!(norm >= 1e-6 && norm <= 1e6))
+        throw fail(number, "columns qw0..qz0, the base's orientation quaternion, have norm " +
+                               std::to_string(norm) + ": expected a unit quaternion");
+    }
     plan.base_rate.push_back(take(rate));
     plan.angles.push_back(take(num_joints));
     plan.rates.push_back(take(num_joints));
@@ -131,6 +138,11 @@ inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool f
     throw fail(0, "needs at least two rows of samples, got " + std::to_string(times.size()));
   detail::set_uniform_grid(
       plan.torques, times, [&](size_t k) { return lines[k + 1].first; }, fail);
+  // The replay starts at t = 0 in the plan's first state: a plan that starts later would pair
+  // that state with torques from another time.
+  if (!(std::abs(times.front()) <= 1e-9 * std::max(1.0, std::abs(times.back()))))
+    throw fail(lines[1].first, "column 't' starts at " + std::to_string(times.front()) +
+                                   " s; a plan starts at t = 0 (its first row is the start)");
   return plan;
 }
 
@@ -167,9 +179,10 @@ inline SampledJointTrajectory joint_target(const PlanSamples& plan) {
 inline std::vector<Eigen::VectorXd> friction_along(const DynamicModel& model,
                                                    const PlanSamples& plan) {
   if (!model.friction_forces)
-    throw std::invalid_argument("model " + model.name +
-                                " does not emit friction_forces (add it to the scene's field "
-                                "'outputs')");
+    throw std::invalid_argument(
+        "model " + model.name +
+        (model.spatial ? " is a spatial arm, which has no joint friction yet"
+                       : " does not emit friction_forces (add it to the scene's field 'outputs')"));
   std::vector<Eigen::VectorXd> tau_f;
   for (size_t k = 0; k < plan.rates.size(); ++k) {
     const Eigen::VectorXd f =

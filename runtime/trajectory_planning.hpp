@@ -438,7 +438,8 @@ inline Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& ta
     std::ostringstream msg;
     msg << "planner, model " << m.name << ": cannot follow the line beyond t = " << e.t()
         << " s: the generalized Jacobian becomes singular there (rcond " << rcond
-        << "; the arm is stretched or folded, or the line leaves the workspace). " << e.what();
+        << "; the arm is stretched or folded, or the line leaves the workspace): the planner's "
+        << "steps shrank to nothing there. Shorten the line or move its start.";
     throw std::runtime_error(msg.str());
   }
 

@@ -133,6 +133,32 @@ TEST_F(Replay, BadPlanFilesAreNamedErrors) {
   bad.replace(line2, 1, "nan");
   EXPECT_NE(error_of(bad, 3, true).find("line 2, column 't'"), std::string::npos)
       << error_of(bad, 3, true);
+  // A plan that starts later than t = 0 would pair its start with other torques.
+  std::string later;
+  std::istringstream rows(text);
+  for (std::string row; std::getline(rows, row);) {
+    const size_t comma = row.find(',');
+    if (later.empty() || row.empty()) {
+      later += row + "\n";
+      continue;
+    }
+    later += std::to_string(std::stod(row.substr(0, comma)) + 1) + row.substr(comma) + "\n";
+  }
+  EXPECT_NE(error_of(later, 3, true).find("line 2: column 't' starts at 1.000000 s"),
+            std::string::npos)
+      << error_of(later, 3, true);
+  // In 3D, a quaternion the model cannot take is named by its line.
+  const std::string spatial =
+      "t,tau1,x0,y0,z0,qw0,qx0,qy0,qz0,vx0,vy0,vz0,wx0,wy0,wz0,q1,q1d\n"
+      "0,0,0,0,0,1,0,0,0,0,0,0,0,0,0,0,0\n"
+      "0.1,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0\n";
+  try {
+    read_plan_csv(spatial, 1, true, "arm.csv", true);
+    ADD_FAILURE() << "a zero quaternion was read";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("arm.csv' line 3: columns qw0..qz0"), std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace
