@@ -187,13 +187,28 @@ int run_compilers(const std::vector<std::vector<std::string>>& commands, int dir
   return failed;
 }
 
-// How many compilers a library is built by at once: the CPUs this process may run on, at
-// most 4 (each unit costs a compiler start and <cmath>, about 0.1 s).
+// The CPUs a cgroup v2 quota grants (cpu.max: "QUOTA PERIOD", or "max"), rounded up; 0: no
+// quota (docker --cpus sets one without changing the affinity).
+int cgroup_cpus() {
+  std::ifstream in("/sys/fs/cgroup/cpu.max");
+  std::string quota;
+  double period = 0;
+  if (!(in >> quota >> period) || quota == "max" || !(period > 0)) return 0;
+  char* end = nullptr;
+  const double q = std::strtod(quota.c_str(), &end);
+  if (end == quota.c_str() || !(q > 0) || !(q / period < 1e6)) return 0;
+  return static_cast<int>(std::ceil(q / period));
+}
+
+// How many compilers a library is built by at once: the CPUs this process may run on (its
+// affinity, and a cgroup quota), at most 4 (each unit costs a compiler start and <cmath>, about
+// 0.1 s, and a compiler's memory).
 int compile_jobs(const CompileOptions& options) {
   if (options.jobs > 0) return options.jobs;
   cpu_set_t set;
   CPU_ZERO(&set);
-  const int cpus = ::sched_getaffinity(0, sizeof set, &set) == 0 ? CPU_COUNT(&set) : 1;
+  int cpus = ::sched_getaffinity(0, sizeof set, &set) == 0 ? CPU_COUNT(&set) : 1;
+  if (const int quota = cgroup_cpus(); quota > 0) cpus = std::min(cpus, quota);
   return std::clamp(cpus, 1, 4);
 }
 
