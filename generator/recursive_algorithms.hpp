@@ -177,6 +177,14 @@ template <class C>
 struct has_kinematics<C, std::void_t<decltype(std::declval<const C&>().end_effector_pose())>>
     : std::true_type {};
 
+// Whether a chain gives its friction alone (the spatial chain: its only passive forces); the
+// planar chain's come from its closed forms.
+template <class C, class = void>
+struct has_friction_forces : std::false_type {};
+template <class C>
+struct has_friction_forces<C, std::void_t<decltype(std::declval<const C&>().friction_forces())>>
+    : std::true_type {};
+
 // The results of output o (the registry's, each row by row; a symmetric one in full).
 template <template <class> class Chain, class T, class Description>
 std::vector<std::vector<T>> compute(const Description& d, const Values<T>& values, Output o) {
@@ -201,6 +209,9 @@ std::vector<std::vector<T>> compute(const Description& d, const Values<T>& value
       return {{chain.kinetic_energy()}};
     case Output::momentum:
       return {chain.momentum()};
+    case Output::friction_forces:
+      if constexpr (has_friction_forces<Chain<T>>::value) return {chain.friction_forces()};
+      throw std::logic_error("recursive dynamics: no recursive form of friction_forces");
     case Output::end_effector_pose:
     case Output::end_effector_jacobian:
     case Output::generalized_jacobian:

@@ -439,6 +439,33 @@ void Chain<T>::add_rotor(int i, ArticulatedInertia<T>& Ia, Force<T>& U, T& D, Fo
   for (int k = 0; k < 9; ++k) Ia.A[k] += Ir[k];
 }
 
+template <class T>
+std::vector<T> Chain<T>::friction_forces() const {
+  using std::exp;
+  using std::tanh;
+  std::vector<T> f(nv(), T{});
+  for (int i = 1; i <= n_; ++i) {
+    const Friction& fr = d_.links[i - 1].friction;
+    if (!fr.present) continue;
+    const T w = qd_[i];
+    std::vector<T> terms;  // only the terms present: no recorded 0 * w
+    if (fr.viscous != 0) terms.push_back(num(fr.viscous) * w);
+    if (fr.has_coulomb) {
+      const T sign = tanh(w * num(1 / fr.velocity_scale));
+      if (fr.coulomb != 0) terms.push_back(num(fr.coulomb) * sign);
+      if (fr.has_stribeck) {
+        const T r = w * num(1 / fr.stribeck_velocity);
+        terms.push_back(num(fr.stribeck_static - fr.coulomb) * exp(-(r * r)) * sign);
+      }
+    }
+    if (terms.empty()) continue;
+    T force = terms[0];
+    for (size_t k = 1; k < terms.size(); ++k) force = force + terms[k];
+    f[d_.num_base() + i - 1] = force;
+  }
+  return f;
+}
+
 // The articulated-body algorithm (Featherstone, Algorithm 7.1) with the free base's 6 x 6 solve
 // (his Table 9.6): from the tip, each joint's U = I^A S, D = S^T U and u, the reduced inertia
 // and bias passed to the parent; the base's acceleration from I^A_0 a_0 = f_0 - p^A_0; then each

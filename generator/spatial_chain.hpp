@@ -47,6 +47,15 @@ struct Gear {
   int ratio_param = kLiteral, axial_param = kLiteral, transverse_param = kLiteral;
 };
 
+// Friction on a joint's coordinate rate w (the motor's, qd_m, for a geared joint), opposing
+// motion, as in the plane (scene.hpp's Friction): f(w) = b w + Fc tanh(w/vs)
+// + (Fs - Fc) exp(-(w/vst)^2) tanh(w/vs). Numbers only in 3D (no run-time parameters yet).
+struct Friction {
+  bool present = false;
+  double viscous = 0, coulomb = 0, velocity_scale = 1, stribeck_static = 0, stribeck_velocity = 1;
+  bool has_coulomb = false, has_stribeck = false;  // terms present (not 0)
+};
+
 // A body's mass, centre of mass and inertia about it (ixx, ixy, ixz, iyy, iyz, izz), in its
 // frame, each a literal or a run-time parameter.
 struct Inertial {
@@ -73,6 +82,7 @@ struct Link : Inertial {
   std::array<double, 3> axis{1, 0, 0};               // unit, in the joint frame
   std::vector<Part> parts;
   Gear gear;
+  Friction friction;
 };
 
 // The base (the root link, the satellite) and the links after it, each the child of the one
@@ -425,8 +435,11 @@ class Chain {
   // qdd = M^-1 (Q - b) by the articulated-body algorithm, with the pivots D_i of M factored from
   // the tip inward (the base's last, in its own frame) and D_i / M_ii.
   std::vector<std::vector<T>> forward_dynamics(const std::vector<T>& Q) const;
-  // Springs, dampers and friction: none in space yet (zeros).
-  std::vector<T> passive_forces() const { return std::vector<T>(nv(), T{}); }
+  // The joints' friction on their coordinates' rates (Friction), nv; f enters as
+  // M qdd + b + f = Q.
+  std::vector<T> friction_forces() const;
+  // Springs, dampers and friction: friction alone in space (no flexible joints yet).
+  std::vector<T> passive_forces() const { return friction_forces(); }
   // M v: the momentum conjugate to each velocity (recursive_algorithms.hpp's P = d(M v)/dq).
   std::vector<T> generalized_momentum() const;
   // The Hamel coupling of the quasi-velocities as a matrix H(M) (nv x nv, row-major) with

@@ -103,6 +103,7 @@ const char* spatial_algorithm(Output o) {
     return "forward kinematics";
   if (o == Output::generalized_jacobian) return "CRBA, forward kinematics, base solve";
   if (o == Output::free_base_inverse_dynamics) return "CRBA, RNEA, base solve";
+  if (o == Output::friction_forces) return "friction law on the joint rates";
   return recursive_algorithm(o);
 }
 

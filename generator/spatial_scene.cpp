@@ -76,7 +76,7 @@ class SpatialReader {
                     const UrdfFileReader& read_file) {
     r_.check_keys(root, "",
                   {"name", "description", "space", "base", "links", "urdf", "end_effector_link",
-                   "gears", "end_effector", "outputs", "parameters", "inertials"});
+                   "gears", "friction", "end_effector", "outputs", "parameters", "inertials"});
     SpatialScene s;
     s.content = text;
     s.parameters = read_scene_parameters(r_, root["parameters"]);  // first: fields refer to them
@@ -99,13 +99,14 @@ class SpatialReader {
         s.chain.links.push_back(read_link(links[i], "links[" + std::to_string(i) + "]"));
     }
     if (root["gears"]) read_gears(root["gears"], s.chain);
+    if (root["friction"]) read_friction(root["friction"], s.chain);
     if (root["end_effector"]) {  // a point in the end-effector frame (URDF: its link's)
       const std::array<double, 3> point = vec3(root["end_effector"], "end_effector");
       const spatial::Mat3<double> R = spatial::rpy_rotation(s.chain.tip_rpy);
       for (int k = 0; k < 3; ++k)
         s.chain.tip[k] += R[3 * k] * point[0] + R[3 * k + 1] * point[1] + R[3 * k + 2] * point[2];
     }
-    if (root["outputs"]) s.outputs = read_outputs(root["outputs"], s.chain.free_base);
+    if (root["outputs"]) s.outputs = read_outputs(root["outputs"], s.chain);
     for (const Parameter& p : s.parameters)
       if (!used_.count(p.name))
         r_.fail("parameters." + p.name, "parameter '" + p.name + "' is declared but never used",
@@ -327,8 +328,85 @@ class SpatialReader {
     return g;
   }
 
+  // Friction for every joint (a mapping) or per joint (a list; null: none), as in the plane:
+  // f(w) = b w + Fc tanh(w/vs) + (Fs - Fc) exp(-(w/vst)^2) tanh(w/vs) on the coordinate's rate.
+  void read_friction(const YAML::Node& n, spatial::ChainDescription& c) {
+    const size_t N = c.links.size();
+    if (n.IsMap()) {
+      const spatial::Friction f = read_joint_friction(n, "friction");
+      for (auto& l : c.links) l.friction = f;
+      return;
+    }
+    if (!n.IsSequence() || n.size() != N)
+      r_.fail("friction", "expected one mapping for all joints or a list of " + std::to_string(N),
+              n);
+    bool any = false;
+    for (size_t i = 0; i < N; ++i) {
+      if (n[i].IsNull()) continue;
+      c.links[i].friction = read_joint_friction(n[i], "friction[" + std::to_string(i) + "]");
+      any = true;
+    }
+    if (!any) r_.fail("friction", "every entry is null: leave 'friction' out for no friction", n);
+  }
+
+  // One joint's friction: numbers only in 3D; a field not given is 0, stribeck_static defaults
+  // to coulomb; a tanh term needs velocity_scale, a Stribeck hump stribeck_velocity (each at
+  // least kMinFrictionVelocity).
+  spatial::Friction read_joint_friction(const YAML::Node& n, const std::string& field) {
+    if (!n.IsMap()) r_.fail(field, "expected a mapping of friction coefficients", n);
+    r_.check_keys(n, field,
+                  {"viscous", "coulomb", "velocity_scale", "stribeck_static", "stribeck_velocity"});
+    auto number = [&](const char* key, double otherwise) {
+      if (!n[key]) return otherwise;
+      const std::string f = field + "." + key;
+      const Quantity q = r_.quantity(n[key], f);
+      if (q.is_parameter())
+        r_.fail(f,
+                "'" + q.parameter + "': friction in 3D takes numbers (no run-time parameter yet)",
+                n[key]);
+      if (!(q.value >= 0))
+        r_.fail(f, "must not be negative, got " + std::to_string(q.value), n[key]);
+      return q.value;
+    };
+    spatial::Friction fr;
+    fr.present = true;
+    fr.viscous = number("viscous", 0);
+    fr.coulomb = number("coulomb", 0);
+    fr.stribeck_static = number("stribeck_static", fr.coulomb);
+    fr.has_coulomb = fr.coulomb != 0 || fr.stribeck_static != 0;
+    fr.has_stribeck = fr.stribeck_static != fr.coulomb;
+    if (fr.stribeck_static < fr.coulomb)
+      r_.fail(field + ".stribeck_static",
+              "the breakaway level Fs (" + std::to_string(fr.stribeck_static) +
+                  ") must not be below the Coulomb level Fc (" + std::to_string(fr.coulomb) + ")",
+              n["stribeck_static"]);
+    auto velocity = [&](const char* key, bool needed, const std::string& why) {
+      if (!n[key]) {
+        if (needed) r_.fail(field + "." + key, why, n);
+        return 1.0;
+      }
+      const double v = number(key, 0);
+      if (!(v >= kMinFrictionVelocity))
+        r_.fail(field + "." + key,
+                "must be at least 1e-9 rad/s (tanh(w/vs) becomes a step that no integrator "
+                "follows), got " +
+                    std::to_string(v),
+                n[key]);
+      return v;
+    };
+    fr.velocity_scale = velocity("velocity_scale", fr.has_coulomb,
+                                 "Coulomb or static friction needs a positive velocity_scale vs "
+                                 "[rad/s] (tanh(w/vs) smooths sign(w))");
+    fr.stribeck_velocity = velocity("stribeck_velocity", fr.has_stribeck,
+                                    "a Stribeck hump (stribeck_static differs from coulomb) needs "
+                                    "a positive stribeck_velocity [rad/s]");
+    return fr;
+  }
+
   // A list of registry outputs that a spatial arm gives, each once, kept in the registry's order.
-  std::vector<Output> read_outputs(const YAML::Node& n, bool free_base) const {
+  std::vector<Output> read_outputs(const YAML::Node& n,
+                                   const spatial::ChainDescription& chain) const {
+    const bool free_base = chain.free_base;
     if (!n.IsSequence() || n.size() == 0) r_.fail("outputs", "expected a list of outputs", n);
     std::vector<Output> listed;
     for (size_t i = 0; i < n.size(); ++i) {
@@ -342,6 +420,8 @@ class SpatialReader {
                 "'" + name + "' is not given for spatial arms yet" +
                     (*o == Output::momentum ? " (momentum needs a free base)" : ""),
                 n[i]);
+      if (*o == Output::friction_forces && !has_friction(chain))
+        r_.fail(field, "'friction_forces' needs joint friction (friction:)", n[i]);
       if (std::count(listed.begin(), listed.end(), *o))
         r_.fail(field, "'" + name + "' is listed twice", n[i]);
       listed.push_back(*o);
@@ -380,6 +460,7 @@ bool spatial_output(Output o, bool free_base) {
     case Output::coriolis_matrix:
     case Output::end_effector_pose:
     case Output::end_effector_jacobian:
+    case Output::friction_forces:  // where the scene has friction (spatial_features)
       return true;
     case Output::momentum:
     case Output::generalized_jacobian:
@@ -394,13 +475,20 @@ std::vector<Output> spatial_outputs(const SpatialScene& scene) {
   if (!scene.outputs.empty()) return scene.outputs;
   std::vector<Output> outputs;
   for (const OutputInfo& o : output_registry())
-    if (spatial_output(o.id, scene.chain.free_base) && emitted_by_default(o, false))
+    if (spatial_output(o.id, scene.chain.free_base) && emitted_by_default(o, false) &&
+        missing_feature(o.needs, spatial_features(scene)).empty())
       outputs.push_back(o.id);  // recursive forms only: no closed form in 3D
   return outputs;
 }
 
+bool has_friction(const spatial::ChainDescription& chain) {
+  return std::any_of(chain.links.begin(), chain.links.end(),
+                     [](const spatial::Link& l) { return l.friction.present; });
+}
+
 unsigned spatial_features(const SpatialScene& scene) {
-  return (scene.chain.free_base ? needs::free_base : 0u) | needs::rigid_joints;
+  return (scene.chain.free_base ? needs::free_base : 0u) | needs::rigid_joints |
+         (has_friction(scene.chain) ? needs::friction : 0u);
 }
 
 bool is_spatial_scene(const std::string& yaml_text) {

@@ -179,10 +179,9 @@ inline SampledJointTrajectory joint_target(const PlanSamples& plan) {
 inline std::vector<Eigen::VectorXd> friction_along(const DynamicModel& model,
                                                    const PlanSamples& plan) {
   if (!model.friction_forces)
-    throw std::invalid_argument(
-        "model " + model.name +
-        (model.spatial ? " is a spatial arm, which has no joint friction yet"
-                       : " does not emit friction_forces (add it to the scene's field 'outputs')"));
+    throw std::invalid_argument("model " + model.name +
+                                " does not emit friction_forces (its scene needs 'friction:', and "
+                                "friction_forces in 'outputs' where it lists them)");
   std::vector<Eigen::VectorXd> tau_f;
   for (size_t k = 0; k < plan.rates.size(); ++k) {
     const Eigen::VectorXd f =

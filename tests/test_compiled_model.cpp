@@ -283,6 +283,43 @@ outputs: [mass_matrix, bias_forces, kinetic_energy, momentum, forward_dynamics,
   fs::remove_all(cache);
 }
 
+// Joint friction in 3D through the cache: the library's friction, forward and inverse dynamics
+// are the chain's in double, and the runtime's model sees the passive forces.
+TEST(CompiledModel, ASpatialArmWithFrictionGivesTheChainsValues) {
+  const fs::path cache = fresh_cache("spatial-friction");
+  CompileOptions options;
+  options.cache_dir = cache.string();
+  std::string text =
+      test::read_text_file(std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/spatial_arm2.yaml");
+  text +=
+      "friction: [{viscous: 0.002, coulomb: 0.05, velocity_scale: 0.1, stribeck_static: 0.08, "
+      "stribeck_velocity: 0.5}, {viscous: 0.001}]\n";
+  const ModelRecipe recipe = ModelRecipe::parse(text, "spatial_arm2.yaml");
+  const CompiledModel m = CompiledModel::load(recipe, options);
+  ASSERT_TRUE(m.has(Output::friction_forces));
+  const DerivedModel derived = spatial_derived_model(*recipe.spatial());
+  Eigen::VectorXd q(9), qd(8), qdd(8);
+  q << 0.1, -0.2, 0.3, 0.5, 0.5, -0.5, 0.5, 0.7, -1.1;
+  qd << 0.2, 0.1, -0.3, 0.4, -0.2, 0.3, 0.4, -8.0;
+  qdd << 0.3, -0.1, 0.2, 0.1, 0.2, -0.3, 1.0, 2.0;
+  for (Output o : {Output::friction_forces, Output::forward_dynamics, Output::inverse_dynamics}) {
+    SCOPED_TRACE(info(o).name);
+    std::vector<Eigen::VectorXd> inputs;
+    for (Input in : info(o).inputs)
+      inputs.push_back(in == Input::q ? q : in == Input::qd ? qd : qdd);
+    const auto got = m.evaluate(o, inputs, Eigen::VectorXd());
+    const auto want = derived.reference(o, inputs, Eigen::VectorXd());
+    for (size_t r = 0; r < got.size(); ++r)
+      EXPECT_LT((got[r] - want[r]).norm(), 1e-12 * (1 + want[r].norm())) << r;
+  }
+  const DynamicModel dm = dynamic_model(m, Eigen::VectorXd());
+  EXPECT_TRUE(dm.passive_forces);
+  const Eigen::VectorXd f = dm.friction_forces(qd);
+  EXPECT_GT(f[6] * qd[6], 0);
+  EXPECT_GT(f[7] * qd[7], 0);
+  fs::remove_all(cache);
+}
+
 // The cache builds for the host's widest vector instruction set: with -ffp-contract=off its
 // results are SSE2's to the last bit, in every output a spatial arm gives (with contraction into
 // FMA, 42 entries of the default outputs differ).

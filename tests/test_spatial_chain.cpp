@@ -650,6 +650,57 @@ TEST(SpatialChain, GeneralizedJacobianKeepsTheWorldMomentumZero) {
   }
 }
 
+// Joint friction (as in the plane, on each coordinate's rate: the motor's where geared) opposes
+// every joint's motion and takes the kinetic energy out at its power: along free motion
+// (Q = 0, forward dynamics with friction) dT/dt = -v^T f, T the world computation's, dT/dt by
+// central differences along (qdot, qdd).
+TEST(SpatialChain, FrictionOpposesEachJointAndTakesEnergyOutAtItsPower) {
+  std::mt19937 rng(61);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (const Case& c : kCases) {
+    SCOPED_TRACE(name(c));
+    ChainDescription d = random_chain(rng, c);
+    for (size_t j = 0; j < d.links.size(); ++j) {
+      Friction& f = d.links[j].friction;
+      f.present = j != 1;  // one joint without
+      f.viscous = 0.01 * u(rng);
+      f.coulomb = j % 3 == 0 ? 0.0 : 0.1 * u(rng);
+      f.stribeck_static = f.coulomb * (j % 2 == 0 ? 1.0 : 1.5);
+      f.velocity_scale = 0.05 + u(rng);
+      f.stribeck_velocity = 0.1 + u(rng);
+      f.has_coulomb = f.coulomb != 0;
+      f.has_stribeck = f.stribeck_static != f.coulomb;
+    }
+    const State s = random_state(rng, d);
+    const int n = d.nv(), nb = d.num_base();
+    const Chain<double> chain = chain_at(d, s);
+    const Eigen::VectorXd f = as_eigen(chain.friction_forces());
+    EXPECT_EQ(f.head(nb).norm(), 0.0);
+    for (size_t j = 0; j < d.links.size(); ++j) {
+      const Friction& fr = d.links[j].friction;
+      const double w = s.v[nb + j], sign = std::tanh(w / fr.velocity_scale);
+      const double want = !fr.present
+                              ? 0.0
+                              : fr.viscous * w + fr.coulomb * sign +
+                                    (fr.stribeck_static - fr.coulomb) *
+                                        std::exp(-std::pow(w / fr.stribeck_velocity, 2)) * sign;
+      EXPECT_NEAR(f[nb + j], want, 1e-15) << "joint " << j + 1;
+      if (fr.present) EXPECT_GT(f[nb + j] * w, 0) << "joint " << j + 1 << " does not oppose";
+    }
+    const Eigen::VectorXd qdd = as_eigen(chain.forward_dynamics(std::vector<double>(n, 0.0))[0]);
+    const Eigen::VectorXd b = as_eigen(chain.inverse_dynamics(std::vector<double>(n, 0.0)));
+    EXPECT_LT((mass_matrix(d, s) * qdd + b + f).norm(), 1e-10 * (1 + b.norm()));
+    const Eigen::VectorXd qdot = configuration_rate(d, s);
+    const double h = 1e-5;
+    const double dT = (kinetic_energy(d, s.q + h * qdot, s.v + h * qdd) -
+                       kinetic_energy(d, s.q - h * qdot, s.v - h * qdd)) /
+                      (2 * h);
+    const double power = -s.v.dot(f);
+    EXPECT_LT(power, 0);
+    EXPECT_NEAR(dT, power, 1e-7 * (1 + std::abs(power))) << "friction's power " << power;
+  }
+}
+
 // C in 3D is the Boltzmann-Hamel factorization: C = Mdot - (P G)^T / 2 + H with qdot = G v,
 // P = d(M v)/dq and H v = [0, omega x (M v)_omega, 0]. C v is the bias (RNEA) to rounding, and
 // each part is rebuilt here by central differences along qdot and along each velocity's

@@ -2,6 +2,8 @@
 // description, and every malformed or unphysical field is an error naming the field.
 #include "spatial_scene.hpp"
 
+#include <algorithm>
+
 #include "scene.hpp"
 #include "support.hpp"
 
@@ -101,6 +103,50 @@ TEST(SpatialScene, NamesEveryBadField) {
   gears.replace(gears.find("armature}"), 9, "armature}]");
   EXPECT_THROW_MESSAGE(parse_spatial_scene(gears, "arm2.yaml"), SceneError,
                        "field 'gears': expected one mapping for all joints or a list of 2");
+}
+
+// Friction as in the plane, per joint or for all; numbers only in 3D. It adds friction_forces
+// to the default outputs, and needs to be there for friction_forces to be listed.
+TEST(SpatialScene, ReadsFrictionAndNamesItsBadFields) {
+  const std::string all = kArm + "friction: {viscous: 0.01, coulomb: 0.2, velocity_scale: 0.05}\n";
+  const SpatialScene s = parse_spatial_scene(all, "arm2.yaml");
+  for (const auto& l : s.chain.links) {
+    EXPECT_TRUE(l.friction.present);
+    EXPECT_EQ(l.friction.coulomb, 0.2);
+    EXPECT_EQ(l.friction.stribeck_static, 0.2);  // Fs defaults to Fc: no hump
+    EXPECT_TRUE(l.friction.has_coulomb);
+    EXPECT_FALSE(l.friction.has_stribeck);
+  }
+  const std::vector<Output> outputs = spatial_outputs(s);
+  EXPECT_EQ(std::count(outputs.begin(), outputs.end(), Output::friction_forces), 1);
+  const std::vector<Output> plain = spatial_outputs(parse_spatial_scene(kArm, "arm2.yaml"));
+  EXPECT_EQ(std::count(plain.begin(), plain.end(), Output::friction_forces), 0);
+  const SpatialScene one =
+      parse_spatial_scene(kArm + "friction: [null, {viscous: 0.5}]\n", "arm2.yaml");
+  EXPECT_FALSE(one.chain.links[0].friction.present);
+  EXPECT_EQ(one.chain.links[1].friction.viscous, 0.5);
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"friction: {viscous: -1}", "field 'friction.viscous': must not be negative"},
+      {"friction: {coulomb: 0.2}",
+       "field 'friction.velocity_scale': Coulomb or static friction "
+       "needs a positive velocity_scale"},
+      {"friction: {coulomb: 0.2, velocity_scale: 1e-12}",
+       "field 'friction.velocity_scale': must be at least 1e-9 rad/s"},
+      {"friction: {coulomb: 0.2, stribeck_static: 0.1, velocity_scale: 1}",
+       "field 'friction.stribeck_static': the breakaway level Fs (0.100000) must not be below"},
+      {"friction: {coulomb: 0.2, stribeck_static: 0.3, velocity_scale: 1}",
+       "field 'friction.stribeck_velocity': a Stribeck hump"},
+      {"friction: {viscous: b}\nparameters: {b: 1}",
+       "field 'friction.viscous': 'b': friction in 3D takes numbers"},
+      {"friction: [null, null]", "field 'friction': every entry is null"},
+      {"friction: [{viscous: 1}]",
+       "field 'friction': expected one mapping for all joints or a "
+       "list of 2"},
+      {"friction: {viscous: 1, drag: 2}", "field 'friction.drag': unknown field"},
+      {"outputs: [friction_forces]", "field 'outputs[0]': 'friction_forces' needs joint friction"},
+  };
+  for (const auto& [add, message] : bad)
+    EXPECT_THROW_MESSAGE(parse_spatial_scene(kArm + add + "\n", "arm2.yaml"), SceneError, message);
 }
 
 }  // namespace
