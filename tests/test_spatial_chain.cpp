@@ -393,7 +393,12 @@ TEST(SpatialChain, ThePlaneIsASpecialCase) {
       l.gear = {true, ratio[i], rotor[i], 0.3 * rotor[i], true};
       d.links.push_back(l);
     }
-    const Scene scene = parse_scene(yaml + gears, "plane.yaml");
+    // Friction on the motor rates, as the plane's (the same law, one field for all joints).
+    const std::string friction =
+        "friction: {viscous: 0.01, coulomb: 0.2, velocity_scale: 0.05, stribeck_static: 0.3, "
+        "stribeck_velocity: 0.4}\n";
+    for (Link& l : d.links) l.friction = {true, 0.01, 0.2, 0.05, 0.3, 0.4, true, true};
+    const Scene scene = parse_scene(yaml + gears + friction, "plane.yaml");
     // A planar state, and the spatial one it is.
     const Eigen::VectorXd q2 = Eigen::VectorXd::Random(scene.num_coordinates()),
                           v2 = Eigen::VectorXd::Random(scene.num_velocities());
@@ -425,8 +430,12 @@ TEST(SpatialChain, ThePlaneIsASpecialCase) {
     const Eigen::MatrixXd M3 = mass_matrix(d, s3);
     const Eigen::VectorXd b3 =
         as_eigen(chain_at(d, s3).inverse_dynamics(std::vector<double>(d.nv(), 0.0)));
+    const Eigen::VectorXd qdd2 = planar(Output::forward_dynamics),
+                          qdd3 = as_eigen(chain_at(d, s3).forward_dynamics(
+                              std::vector<double>(d.nv(), 0.0))[0]);
     for (int r = 0; r < n; ++r) {
       EXPECT_NEAR(b3[planar_rows[r]], b2[r], 1e-12 * (1 + b2.norm())) << r;
+      EXPECT_NEAR(qdd3[planar_rows[r]], qdd2[r], 1e-10 * (1 + qdd2.norm())) << r;
       for (int c = 0; c < n; ++c)
         EXPECT_NEAR(M3(planar_rows[r], planar_rows[c]), M2(r, c), 1e-12 * M2.norm()) << r << c;
     }
