@@ -3,10 +3,12 @@
 // Lagrangian (runtime/numeric_lagrangian.hpp, no generator code): the end-effector follows
 // the line, momentum stays zero, qd and qdd are the derivatives of q and qd, and the torques
 // satisfy eq. 5 with no force on the base. The torques replayed by `spacearm simulate`
-// reproduce the line. Cost: about 25 s, mostly compiling three models once.
+// reproduce the line; a spatial plan flies into a twin with joint friction. Cost: about 27 s,
+// mostly compiling four models once.
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <sstream>
 
@@ -355,6 +357,32 @@ TEST_F(PlanCommand, SpatialArmPlansAPoseAndSimulateFliesIt) {
                       "got 1e+300"),
             std::string::npos)
       << huge;
+
+  // Replayed into a twin with joint friction (the same URDF and gears): the arm stalls without
+  // feed-forward, and reaches the goal with the scene's own friction fed forward along the plan.
+  const fs::path twin = dir() / "arm7_friction.yaml";
+  {
+    std::string text = test::read_text_file(scene);
+    text.replace(text.find("name: space_arm7"), 16, "name: space_arm7_friction");
+    std::ofstream(twin) << text
+                        << "friction: {viscous: 0.02, coulomb: 0.05, velocity_scale: 0.5}\n";
+  }
+  const std::string fly =
+      cli() + "simulate " + twin.string() + " --plan " + csv + " -o " + flown + cache();
+  std::string fed = test::run_command(fly + " --feedforward friction 2>&1", &status);
+  ASSERT_EQ(status, 0) << fed;
+  const Eigen::Vector3d goal(1.6, 0.15, 1.15);
+  auto end_point = [&] {
+    const Csv r = read_csv(flown);
+    return Eigen::Vector3d(r.values(r.rows.size() - 1, {"ee_x", "ee_y", "ee_z"}));
+  };
+  EXPECT_LT((end_point() - goal).norm(), 1e-3) << end_point().transpose();
+  const std::string stalled = test::run_command(fly + " 2>&1", &status);
+  ASSERT_EQ(status, 0) << stalled;
+  EXPECT_NE(stalled.find("friction (p f(p q')) reaches the planned torque's peak at joint"),
+            std::string::npos)
+      << stalled;
+  EXPECT_GT((end_point() - goal).norm(), 1e-2) << end_point().transpose();
 }
 
 }  // namespace
