@@ -448,14 +448,23 @@ std::vector<T> Chain<T>::friction_forces() const {
     const Friction& fr = d_.links[i - 1].friction;
     if (!fr.present) continue;
     const T w = qd_[i];
+    // 1 / x of a value: one number for a literal.
+    auto inverse = [this](double x, int param) {
+      return param == kLiteral ? num(1 / x) : num(1.0) / value(x, param);
+    };
     std::vector<T> terms;  // only the terms present: no recorded 0 * w
-    if (fr.viscous != 0) terms.push_back(num(fr.viscous) * w);
+    if (fr.viscous != 0 || fr.viscous_param != kLiteral)
+      terms.push_back(value(fr.viscous, fr.viscous_param) * w);
     if (fr.has_coulomb) {
-      const T sign = tanh(w * num(1 / fr.velocity_scale));
-      if (fr.coulomb != 0) terms.push_back(num(fr.coulomb) * sign);
+      const T sign = tanh(w * inverse(fr.velocity_scale, fr.velocity_scale_param));
+      const T Fc = value(fr.coulomb, fr.coulomb_param);
+      if (fr.coulomb != 0 || fr.coulomb_param != kLiteral) terms.push_back(Fc * sign);
       if (fr.has_stribeck) {
-        const T r = w * num(1 / fr.stribeck_velocity);
-        terms.push_back(num(fr.stribeck_static - fr.coulomb) * exp(-(r * r)) * sign);
+        const T r = w * inverse(fr.stribeck_velocity, fr.stribeck_velocity_param);
+        const T hump = fr.stribeck_static_param == kLiteral && fr.coulomb_param == kLiteral
+                           ? num(fr.stribeck_static - fr.coulomb)
+                           : value(fr.stribeck_static, fr.stribeck_static_param) - Fc;
+        terms.push_back(hump * exp(-(r * r)) * sign);
       }
     }
     if (terms.empty()) continue;

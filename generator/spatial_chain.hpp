@@ -49,11 +49,13 @@ struct Gear {
 
 // Friction on a joint's coordinate rate w (the motor's, qd_m, for a geared joint), opposing
 // motion, as in the plane (scene.hpp's Friction): f(w) = b w + Fc tanh(w/vs)
-// + (Fs - Fc) exp(-(w/vst)^2) tanh(w/vs). Numbers only in 3D (no run-time parameters yet).
+// + (Fs - Fc) exp(-(w/vst)^2) tanh(w/vs). Each value a literal or a run-time parameter.
 struct Friction {
   bool present = false;
   double viscous = 0, coulomb = 0, velocity_scale = 1, stribeck_static = 0, stribeck_velocity = 1;
-  bool has_coulomb = false, has_stribeck = false;  // terms present (not 0)
+  bool has_coulomb = false, has_stribeck = false;  // terms present (a parameter, or not 0)
+  int viscous_param = kLiteral, coulomb_param = kLiteral, velocity_scale_param = kLiteral,
+      stribeck_static_param = kLiteral, stribeck_velocity_param = kLiteral;
 };
 
 // A body's mass, centre of mass and inertia about it (ixx, ixy, ixz, iyy, iyz, izz), in its

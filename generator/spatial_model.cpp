@@ -50,6 +50,11 @@ void parameter_checks(const SpatialScene& scene, ModelFacts& f) {
   };
   using Kind = SpatialRangeRule::Kind;
   for (const SpatialRangeRule& rule : scene.run_time_rules) {
+    if (rule.kind == Kind::not_below) {
+      f.checks.push_back({(value(rule.values.at(0)) - value(rule.values.at(1))).ref(), false,
+                          rule.field + " " + rule.message});
+      continue;
+    }
     if (rule.kind != Kind::physical_inertia) {
       const bool strict = rule.kind == Kind::positive;
       f.checks.push_back({value(rule.values.at(0)).ref(), strict,

@@ -349,57 +349,76 @@ class SpatialReader {
     if (!any) r_.fail("friction", "every entry is null: leave 'friction' out for no friction", n);
   }
 
-  // One joint's friction: numbers only in 3D; a field not given is 0, stribeck_static defaults
-  // to coulomb; a tanh term needs velocity_scale, a Stribeck hump stribeck_velocity (each at
-  // least kMinFrictionVelocity).
+  // One joint's friction: a field not given is 0, stribeck_static defaults to coulomb; a tanh
+  // term needs velocity_scale, a Stribeck hump stribeck_velocity (each at least
+  // kMinFrictionVelocity). A run-time parameter's value is checked again at run time.
   spatial::Friction read_joint_friction(const YAML::Node& n, const std::string& field) {
     if (!n.IsMap()) r_.fail(field, "expected a mapping of friction coefficients", n);
     r_.check_keys(n, field,
                   {"viscous", "coulomb", "velocity_scale", "stribeck_static", "stribeck_velocity"});
-    auto number = [&](const char* key, double otherwise) {
+    auto number = [&](const char* key, double otherwise, int& param) {
+      param = spatial::kLiteral;
       if (!n[key]) return otherwise;
       const std::string f = field + "." + key;
-      const Quantity q = r_.quantity(n[key], f);
-      if (q.is_parameter())
-        r_.fail(f,
-                "'" + q.parameter + "': friction in 3D takes numbers (no run-time parameter yet)",
-                n[key]);
-      if (!(q.value >= 0))
-        r_.fail(f, "must not be negative, got " + std::to_string(q.value), n[key]);
-      return q.value;
+      const double v = quantity(n[key], f, param);
+      if (!(v >= 0)) r_.fail(f, "must not be negative, got " + std::to_string(v), n[key]);
+      rule(SpatialRangeRule::Kind::non_negative, f, v, param);
+      return v;
     };
+    auto given = [](double v, int param) { return v != 0 || param != spatial::kLiteral; };
     spatial::Friction fr;
     fr.present = true;
-    fr.viscous = number("viscous", 0);
-    fr.coulomb = number("coulomb", 0);
-    fr.stribeck_static = number("stribeck_static", fr.coulomb);
-    fr.has_coulomb = fr.coulomb != 0 || fr.stribeck_static != 0;
-    fr.has_stribeck = fr.stribeck_static != fr.coulomb;
+    fr.viscous = number("viscous", 0, fr.viscous_param);
+    fr.coulomb = number("coulomb", 0, fr.coulomb_param);
+    fr.stribeck_static = number("stribeck_static", fr.coulomb, fr.stribeck_static_param);
+    if (!n["stribeck_static"]) fr.stribeck_static_param = fr.coulomb_param;
+    fr.has_coulomb =
+        given(fr.coulomb, fr.coulomb_param) || given(fr.stribeck_static, fr.stribeck_static_param);
+    fr.has_stribeck = n["stribeck_static"] &&
+                      (fr.stribeck_static_param != spatial::kLiteral ||
+                       fr.coulomb_param != spatial::kLiteral || fr.stribeck_static != fr.coulomb);
+    const std::string fs = field + ".stribeck_static";
     if (fr.stribeck_static < fr.coulomb)
-      r_.fail(field + ".stribeck_static",
+      r_.fail(fs,
               "the breakaway level Fs (" + std::to_string(fr.stribeck_static) +
                   ") must not be below the Coulomb level Fc (" + std::to_string(fr.coulomb) + ")",
               n["stribeck_static"]);
-    auto velocity = [&](const char* key, bool needed, const std::string& why) {
+    if (fr.has_stribeck &&
+        (fr.stribeck_static_param != spatial::kLiteral || fr.coulomb_param != spatial::kLiteral))
+      rules_->push_back(
+          {SpatialRangeRule::Kind::not_below,
+           fs,
+           {{fr.stribeck_static, fr.stribeck_static_param}, {fr.coulomb, fr.coulomb_param}},
+           "must not be below coulomb"});
+    auto velocity = [&](const char* key, bool needed, const std::string& why, int& param) {
+      param = spatial::kLiteral;
       if (!n[key]) {
         if (needed) r_.fail(field + "." + key, why, n);
         return 1.0;
       }
-      const double v = number(key, 0);
+      const std::string f = field + "." + key;
+      const double v = quantity(n[key], f, param);
       if (!(v >= kMinFrictionVelocity))
-        r_.fail(field + "." + key,
+        r_.fail(f,
                 "must be at least 1e-9 rad/s (tanh(w/vs) becomes a step that no integrator "
                 "follows), got " +
                     std::to_string(v),
                 n[key]);
+      if (param != spatial::kLiteral)
+        rules_->push_back({SpatialRangeRule::Kind::not_below,
+                           f,
+                           {{v, param}, {kMinFrictionVelocity, spatial::kLiteral}},
+                           "must be at least 1e-9 rad/s"});
       return v;
     };
     fr.velocity_scale = velocity("velocity_scale", fr.has_coulomb,
                                  "Coulomb or static friction needs a positive velocity_scale vs "
-                                 "[rad/s] (tanh(w/vs) smooths sign(w))");
+                                 "[rad/s] (tanh(w/vs) smooths sign(w))",
+                                 fr.velocity_scale_param);
     fr.stribeck_velocity = velocity("stribeck_velocity", fr.has_stribeck,
                                     "a Stribeck hump (stribeck_static differs from coulomb) needs "
-                                    "a positive stribeck_velocity [rad/s]");
+                                    "a positive stribeck_velocity [rad/s]",
+                                    fr.stribeck_velocity_param);
     return fr;
   }
 

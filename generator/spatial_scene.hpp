@@ -32,9 +32,11 @@ namespace spacearm {
 // must be positive, a rotor inertia not negative, an inertia tensor physical (values: its six
 // entries).
 struct SpatialRangeRule {
-  enum class Kind { positive, non_negative, physical_inertia } kind;
+  // not_below: values[0] >= values[1], `message` saying what the field must be.
+  enum class Kind { positive, non_negative, physical_inertia, not_below } kind;
   std::string field;  // the scene's field, e.g. "links[2].mass" or "inertials.link7.inertia"
   std::vector<std::pair<double, int>> values;  // (literal, parameter index or spatial::kLiteral)
+  std::string message;                         // not_below's
 };
 
 struct SpatialScene {

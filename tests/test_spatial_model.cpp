@@ -157,20 +157,25 @@ gears:
   - {ratio: p1, rotor_inertia: [Ia1, It1], rotor_coupling: exact}
   - {ratio: p2, rotor_inertia: [Ia2, 1.0e-4], rotor_coupling: armature}
   - {ratio: 1, rotor_inertia: [0, 0]}
+friction:
+  - {viscous: fv1, coulomb: fc1, velocity_scale: vs1, stribeck_static: fs1, stribeck_velocity: vst1}
+  - null
+  - {viscous: 0.01, coulomb: 0.02, velocity_scale: 0.3}
 parameters: {mb: 500, cb: 0.1, izb: 150, m2: 3, ixy2: 0.001, cy3: 0.01, p1: 100, Ia1: 1.0e-4,
-             It1: 6.0e-5, p2: 50, Ia2: 2.0e-4}
+             It1: 6.0e-5, p2: 50, Ia2: 2.0e-4, fv1: 0.01, fc1: 0.1, vs1: 0.2, fs1: 0.15, vst1: 0.5}
 outputs: [forward_dynamics_derivatives, mass_matrix, coriolis_matrix, bias_forces, kinetic_energy,
           momentum, inverse_dynamics, forward_dynamics, end_effector_pose, end_effector_jacobian,
-          generalized_jacobian, free_base_inverse_dynamics]
+          generalized_jacobian, free_base_inverse_dynamics, friction_forces]
 )";
 
 // The parametric model at parameter values P is the model with P written in as numbers: every
 // output's lowered program at random states (so no nominal value is baked into the code).
 TEST(SpatialModel, RunTimeParametersGiveTheModelWithTheirValuesWrittenIn) {
   const std::vector<std::pair<std::string, std::string>> P = {
-      {"mb", "420"},     {"cb", "-0.07"}, {"izb", "170"},   {"m2", "4.5"},
-      {"ixy2", "-0.02"}, {"cy3", "0.03"}, {"p1", "37"},     {"Ia1", "3.0e-4"},
-      {"It1", "1.0e-5"}, {"p2", "8"},     {"Ia2", "5.0e-4"}};
+      {"mb", "420"},     {"cb", "-0.07"}, {"izb", "170"},    {"m2", "4.5"},
+      {"ixy2", "-0.02"}, {"cy3", "0.03"}, {"p1", "37"},      {"Ia1", "3.0e-4"},
+      {"It1", "1.0e-5"}, {"p2", "8"},     {"Ia2", "5.0e-4"}, {"fv1", "0.03"},
+      {"fc1", "0.2"},    {"vs1", "0.7"},  {"fs1", "0.25"},   {"vst1", "0.3"}};
   std::string literal = kParametric;
   literal.erase(literal.find("parameters:"),
                 literal.find("outputs:") - literal.find("parameters:"));
@@ -237,6 +242,13 @@ TEST(SpatialModel, RunTimeParametersAreCheckedByTheScenesRules) {
   const std::string physical =
       " must be a physical inertia (positive definite, principal "
       "moments within the triangle inequality)";
+  EXPECT_EQ(first_failure({{"fv1", -1e-9}}), "friction[0].viscous must not be negative");
+  EXPECT_EQ(first_failure({{"vs1", 1e-10}}),
+            "friction[0].velocity_scale must be at least 1e-9 rad/s");
+  EXPECT_EQ(first_failure({{"fs1", 0.05}}),
+            "friction[0].stribeck_static must not be below coulomb");
+  EXPECT_EQ(first_failure({{"vst1", 0}}),
+            "friction[0].stribeck_velocity must be at least 1e-9 rad/s");
   EXPECT_EQ(first_failure({{"izb", 221}}), "base.inertia" + physical);  // 100 + 120 < 221
   EXPECT_EQ(first_failure({{"izb", 220}}), "");                         // a flat plate
   EXPECT_EQ(first_failure({{"izb", -1}}), "base.inertia" + physical);

@@ -136,8 +136,8 @@ TEST(SpatialScene, ReadsFrictionAndNamesItsBadFields) {
        "field 'friction.stribeck_static': the breakaway level Fs (0.100000) must not be below"},
       {"friction: {coulomb: 0.2, stribeck_static: 0.3, velocity_scale: 1}",
        "field 'friction.stribeck_velocity': a Stribeck hump"},
-      {"friction: {viscous: b}\nparameters: {b: 1}",
-       "field 'friction.viscous': 'b': friction in 3D takes numbers"},
+      {"friction: {viscous: b}",
+       "field 'friction.viscous': refers to parameter 'b', which is not declared"},
       {"friction: [null, null]", "field 'friction': every entry is null"},
       {"friction: [{viscous: 1}]",
        "field 'friction': expected one mapping for all joints or a "
