@@ -68,6 +68,15 @@ std::string inertials_field(const std::string& link, size_t index) {
                                                   : "inertials[" + std::to_string(index) + "]";
 }
 
+// A chain's needs:: bits (outputs.hpp): a free base; rigid joints (no springs in 3D yet);
+// friction where a joint has some.
+unsigned chain_features(const spatial::ChainDescription& chain) {
+  const bool friction = std::any_of(chain.links.begin(), chain.links.end(),
+                                    [](const spatial::Link& l) { return l.friction.present; });
+  return (chain.free_base ? needs::free_base : 0u) | needs::rigid_joints |
+         (friction ? needs::friction : 0u);
+}
+
 class SpatialReader {
  public:
   explicit SpatialReader(const YamlReader& r) : r_(r) {}
@@ -439,8 +448,9 @@ class SpatialReader {
                 "'" + name + "' is not given for spatial arms yet" +
                     (*o == Output::momentum ? " (momentum needs a free base)" : ""),
                 n[i]);
-      if (*o == Output::friction_forces && !has_friction(chain))
-        r_.fail(field, "'friction_forces' needs joint friction (friction:)", n[i]);
+      if (const std::string why = missing_feature(info(*o).needs, chain_features(chain));
+          !why.empty())
+        r_.fail(field, "'" + name + "' " + why, n[i]);
       if (std::count(listed.begin(), listed.end(), *o))
         r_.fail(field, "'" + name + "' is listed twice", n[i]);
       listed.push_back(*o);
@@ -479,7 +489,7 @@ bool spatial_output(Output o, bool free_base) {
     case Output::coriolis_matrix:
     case Output::end_effector_pose:
     case Output::end_effector_jacobian:
-    case Output::friction_forces:  // where the scene has friction (spatial_features)
+    case Output::friction_forces:  // where the scene has friction (its needs)
       return true;
     case Output::momentum:
     case Output::generalized_jacobian:
@@ -500,15 +510,7 @@ std::vector<Output> spatial_outputs(const SpatialScene& scene) {
   return outputs;
 }
 
-bool has_friction(const spatial::ChainDescription& chain) {
-  return std::any_of(chain.links.begin(), chain.links.end(),
-                     [](const spatial::Link& l) { return l.friction.present; });
-}
-
-unsigned spatial_features(const SpatialScene& scene) {
-  return (scene.chain.free_base ? needs::free_base : 0u) | needs::rigid_joints |
-         (has_friction(scene.chain) ? needs::friction : 0u);
-}
+unsigned spatial_features(const SpatialScene& scene) { return chain_features(scene.chain); }
 
 bool is_spatial_scene(const std::string& yaml_text) {
   const YamlReader r("scene", "", [](const std::string& m) { throw SceneError(m); });

@@ -62,7 +62,6 @@ std::vector<Output> spatial_outputs(const SpatialScene& scene);
 // The scene's needs:: bits (outputs.hpp): a free base; rigid joints (no springs in 3D yet);
 // friction where a joint has some.
 unsigned spatial_features(const SpatialScene& scene);
-bool has_friction(const spatial::ChainDescription& chain);
 
 // A URDF file's text by the path the scene gives (`urdf:`); throws SceneError.
 using UrdfFileReader = std::function<std::string(const std::string& path)>;

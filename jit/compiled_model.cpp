@@ -245,11 +245,10 @@ WorkFolder build_entry(const ModelRecipe& recipe, const CacheFolder& cache,
     say("compiling with " + compiler +
         (units > 1 ? " (" + std::to_string(units) + " at once)" : ""));
     const auto t1 = std::chrono::steady_clock::now();
+    const std::string flags = options.flags + instruction_set_flags(options.instruction_set);
     const auto argv = [&](const std::vector<std::string>& middle, bool link) {
       std::vector<std::string> a{compiler};
-      for (const auto& f :
-           split_flags(options.flags + instruction_set_flags(options.instruction_set)))
-        a.push_back(f);
+      for (const auto& f : split_flags(flags)) a.push_back(f);
       a.insert(a.end(), middle.begin(), middle.end());
       if (link)
         for (const auto& l : split_flags(options.libraries)) a.push_back(l);
@@ -258,17 +257,17 @@ WorkFolder build_entry(const ModelRecipe& recipe, const CacheFolder& cache,
     // One unit: compiled and linked by one command; several: each to an object at once, then
     // linked.
     std::vector<std::vector<std::string>> compiles;
-    std::vector<std::string> link{};
+    std::vector<std::string> objects;
     if (units == 1) {
       compiles.push_back(argv({"libmodel.cpp", "-o", "libmodel.so"}, true));
     } else {
       for (const auto& src : sources) {
-        const std::string object = src.substr(0, src.size() - 3) + "o";
-        compiles.push_back(argv({"-c", src, "-o", object}, false));
-        link.push_back(object);
+        objects.push_back(src.substr(0, src.size() - 3) + "o");
+        compiles.push_back(argv({"-c", src, "-o", objects.back()}, false));
       }
-      link.insert(link.end(), {"-o", "libmodel.so"});
     }
+    std::vector<std::string> link = objects;
+    link.insert(link.end(), {"-o", "libmodel.so"});
     std::string command;
     for (const auto& c : compiles) command += "\n" + shown_command(c) + (units > 1 ? " &" : "");
     if (units > 1) command += "\nwait\n" + shown_command(argv(link, true));
@@ -292,8 +291,8 @@ WorkFolder build_entry(const ModelRecipe& recipe, const CacheFolder& cache,
                               : "") +
                          ":\n" + log_text + "sources and command: " + kept);
     }
-    for (const auto& object : link)  // the objects are in the library now
-      if (object != "-o" && object != "libmodel.so") ::unlinkat(dir, object.c_str(), 0);
+    for (const auto& object : objects)  // in the library now
+      ::unlinkat(dir, object.c_str(), 0);
     rep.compiled = true;
     // The marker, written last, records the library's SHA-256 on its first line.
     const Fd library =
@@ -302,9 +301,7 @@ WorkFolder build_entry(const ModelRecipe& recipe, const CacheFolder& cache,
     write_new_file_at(dir, "COMPLETE",
                       "sha256 " + sha256_hex(read_all(library.get(), shown + "/libmodel.so")) +
                           "\ngenerator " + kGeneratorVersion + "\ncompiler " + compiler_id +
-                          "\nflags " + options.flags +
-                          instruction_set_flags(options.instruction_set) + "\nlibraries " +
-                          options.libraries + "\n",
+                          "\nflags " + flags + "\nlibraries " + options.libraries + "\n",
                       shown + "/COMPLETE");
     return work;
   } catch (const FolderError& e) {
@@ -424,21 +421,25 @@ CompiledModel CompiledModel::load_built(const ModelRecipe& recipe, const CacheFo
                                         const std::string& source, const std::string& preferred,
                                         const std::string& no_compiler, StageReport& rep) {
   std::string last;
+  // The entries for a set this CPU runs, `preferred` first, then the widest set.
+  auto set_of = [&](const std::string& entry) {
+    return entry.substr(source.size(), entry.find('-', source.size()) - source.size());
+  };
+  const std::vector<std::string> order = {preferred, "avx512f", "avx2", "sse2"};
+  auto rank = [&](const std::string& entry) {
+    return std::find(order.begin(), order.end(), set_of(entry)) - order.begin();
+  };
   std::vector<std::string> entries;
-  for (const char* set : {preferred.c_str(), "avx512f", "avx2", "sse2"})
-    for (const auto& entry : cache.entries_starting_with(source + set + "-"))
-      if (std::find(entries.begin(), entries.end(), entry) == entries.end())
-        entries.push_back(entry);
   for (const auto& entry : cache.entries_starting_with(source)) {
-    const std::string set =
-        entry.substr(source.size(), entry.find('-', source.size()) - source.size());
-    if (!cpu_runs(set))
-      last = "; '" + cache.path() + "/" + entry + "' is built for " + quoted_text(set) +
+    if (cpu_runs(set_of(entry)))
+      entries.push_back(entry);
+    else
+      last = "; '" + cache.path() + "/" + entry + "' is built for " + quoted_text(set_of(entry)) +
              ", which this CPU does not run";
   }
+  std::stable_sort(entries.begin(), entries.end(),
+                   [&](const std::string& a, const std::string& b) { return rank(a) < rank(b); });
   for (const auto& entry : entries) {
-    if (!cpu_runs(entry.substr(source.size(), entry.find('-', source.size()) - source.size())))
-      continue;
     rep.cache_entry = cache.path() + "/" + entry;
     std::string problem;
     Fd library;

@@ -276,7 +276,10 @@ std::vector<RunResult> run_all_interruptible(const std::vector<std::vector<std::
     // One failed: the others' work is of no use; stop them (SIGTERM, their watchers pass it on).
     if (one_failed && !g_signal)
       for (size_t k = 0; k < n; ++k)
-        if (!done[k] && !results[k].stopped) ::kill(-pids[k], SIGTERM), results[k].stopped = true;
+        if (!done[k] && !results[k].stopped) {
+          ::kill(-pids[k], SIGTERM);
+          results[k].stopped = true;
+        }
     if (g_signal) {
       ++waited_after_signal;
       for (size_t k = 0; k < n; ++k)
