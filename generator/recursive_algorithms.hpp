@@ -177,12 +177,12 @@ template <class C>
 struct has_kinematics<C, std::void_t<decltype(std::declval<const C&>().end_effector_pose())>>
     : std::true_type {};
 
-// Whether a chain gives its friction alone (the spatial chain: its only passive forces); the
-// planar chain's come from its closed forms.
+// Whether a chain gives its passive forces' parts alone (the spatial chain: friction, springs and
+// dampers, the springs' potential energy); the planar chain's come from its closed forms.
 template <class C, class = void>
-struct has_friction_forces : std::false_type {};
+struct has_passive_parts : std::false_type {};
 template <class C>
-struct has_friction_forces<C, std::void_t<decltype(std::declval<const C&>().friction_forces())>>
+struct has_passive_parts<C, std::void_t<decltype(std::declval<const C&>().friction_forces())>>
     : std::true_type {};
 
 // The results of output o (the registry's, each row by row; a symmetric one in full).
@@ -210,8 +210,14 @@ std::vector<std::vector<T>> compute(const Description& d, const Values<T>& value
     case Output::momentum:
       return {chain.momentum()};
     case Output::friction_forces:
-      if constexpr (has_friction_forces<Chain<T>>::value) return {chain.friction_forces()};
-      throw std::logic_error("recursive dynamics: no recursive form of friction_forces");
+    case Output::spring_damper_forces:
+    case Output::potential_energy:
+      if constexpr (has_passive_parts<Chain<T>>::value) {
+        if (o == Output::friction_forces) return {chain.friction_forces()};
+        if (o == Output::spring_damper_forces) return {chain.spring_damper_forces()};
+        return {{chain.potential_energy()}};
+      }
+      throw std::logic_error("recursive dynamics: no recursive form of " + to_string(o));
     case Output::end_effector_pose:
     case Output::end_effector_jacobian:
     case Output::generalized_jacobian:

@@ -113,6 +113,8 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
   }
   axis_.push_back(zero3());
   qd_.push_back(T{});
+  motor_.push_back(-1);
+  motor_qd_.push_back(T{});
   // Each link: the joint frame from its origin, turned by q_i = qm_i / p_i about the axis
   // (Rodrigues); an exact rotor in the joint frame at q = 0, turning at qd_m about the axis.
   S_.push_back(zero_motion());
@@ -133,6 +135,8 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
     p_.push_back(p_[i - 1] + times(R_[i - 1], X_[i].r));
     axis_.push_back(num(a));
     qd_.push_back(v(jv + i - 1));
+    motor_.push_back(d.motor_coordinate(i - 1));
+    motor_qd_.push_back(flexible(i) ? v(motor_[i]) : qd_[i]);
     S_.push_back(
         {literal_ratio(i) ? num(scaled(a, 1 / ratio_value(i))) : scaled(num(a), over_ratio(i, 1.0)),
          zero3()});
@@ -145,7 +149,7 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
       rotor_X_[i] = {num(transposed(R_origin)), num(l.origin_xyz)};
       rotor_I_[i] = {T{}, zero3(), rotor_inertia(i, a)};
       rotor_V_[i] = rotor_X_[i].apply(V_[i - 1]);
-      rotor_V_[i].w = rotor_V_[i].w + scaled(axis_[i], qd_[i]);
+      rotor_V_[i].w = rotor_V_[i].w + scaled(axis_[i], motor_qd_[i]);
     }
   }
 }
@@ -241,28 +245,45 @@ std::vector<T> Chain<T>::mass_matrix() const {
   const std::vector<RigidInertia<T>> Ic = composite_inertias();
   for (int i = n_; i >= 1; --i) {
     const int col = nb + i - 1;
-    // Column i: link i's composite at S_i, and an exact rotor at its axis (on the parent).
+    // Column i: link i's composite at S_i, and an exact rotor at its axis (on the parent) where
+    // it turns on the slot; a flexible joint's rotor has a column of its own.
     Force<T> F = Ic[i] * S_[i];
     T Mii = power(F, S_[i]) + armature(i);
     Force<T> up = X_[i].apply_transpose(F);
-    if (exact_rotor(i)) {
-      const Motion<T> Sr = {axis_[i], zero3()};
+    const Motion<T> Sr = {axis_[i], zero3()};
+    if (exact_rotor(i) && !flexible(i)) {
       const Force<T> Fr = rotor_I_[i] * Sr;
       Mii += power(Fr, Sr);
       up = up + rotor_X_[i].apply_transpose(Fr);
     }
     M[col * nv + col] = Mii;
-    for (int j = i - 1; j >= 1; --j) {
-      set(nb + j - 1, col, power(up, S_[j]));
-      up = X_[j].apply_transpose(up);
+    fill_column(M, col, i, up);
+    if (!flexible(i)) continue;
+    const int m = motor_[i];
+    if (!exact_rotor(i)) {
+      M[m * nv + m] = motor_armature(i);
+      continue;
     }
-    for (int k = 0; k < nb; ++k) set(k, col, power(up, base_unit(k)));
+    const Force<T> Fr = rotor_I_[i] * Sr;
+    M[m * nv + m] = power(Fr, Sr);
+    fill_column(M, m, i, rotor_X_[i].apply_transpose(Fr));
   }
   for (int k = 0; k < nb; ++k) {
     const Force<T> F = Ic[0] * base_unit(k);
     for (int l = k; l < nb; ++l) set(k, l, power(F, base_unit(l)));
   }
   return M;
+}
+
+template <class T>
+void Chain<T>::fill_column(std::vector<T>& M, int col, int i, Force<T> up) const {
+  const int nv = d_.nv(), nb = d_.num_base();
+  auto set = [&](int a, int b, const T& x) { M[a * nv + b] = M[b * nv + a] = x; };
+  for (int j = i - 1; j >= 1; --j) {
+    set(nb + j - 1, col, power(up, S_[j]));
+    up = X_[j].apply_transpose(up);
+  }
+  for (int k = 0; k < nb; ++k) set(k, col, power(up, base_unit(k)));
 }
 
 namespace {
@@ -303,10 +324,11 @@ std::vector<T> Chain<T>::inverse_dynamics(const std::vector<T>& vdot) const {
     A[i] = joint_acceleration(X_[i], A[i - 1], V_[i], S_[i], vdot[col], qd_[i]);
     F[i] = I_[i] * A[i] + cross_force(V_[i], I_[i] * V_[i]);
     Q[col] = vdot[col] * armature(i);
+    if (flexible(i) && !exact_rotor(i)) Q[motor_[i]] = vdot[motor_[i]] * motor_armature(i);
     if (exact_rotor(i)) {
       const Motion<T> S = {axis_[i], zero3()};
       const Motion<T> Ar =
-          joint_acceleration(rotor_X_[i], A[i - 1], rotor_V_[i], S, vdot[col], qd_[i]);
+          joint_acceleration(rotor_X_[i], A[i - 1], rotor_V_[i], S, vdot[motor_[i]], motor_qd_[i]);
       rotor_F[i] = rotor_I_[i] * Ar + cross_force(rotor_V_[i], rotor_I_[i] * rotor_V_[i]);
     }
   }
@@ -316,7 +338,7 @@ std::vector<T> Chain<T>::inverse_dynamics(const std::vector<T>& vdot) const {
     Q[col] += power(F[i], S_[i]);
     F[i - 1] = F[i - 1] + X_[i].apply_transpose(F[i]);
     if (exact_rotor(i)) {
-      Q[col] += dot(axis_[i], rotor_F[i].n);
+      Q[motor_[i]] += dot(axis_[i], rotor_F[i].n);
       F[i - 1] = F[i - 1] + rotor_X_[i].apply_transpose(rotor_F[i]);
     }
   }
@@ -352,7 +374,9 @@ std::vector<T> Chain<T>::mass_matrix_diagonal() const {
   std::vector<T> diagonal(d_.nv());
   for (int k = 0; k < nb; ++k) diagonal[k] = k < 3 ? Ic[0].m : Ic[0].I[4 * (k - 3)];
   for (int i = 1; i <= n_; ++i) {
-    diagonal[nb + i - 1] = power(Ic[i] * S_[i], S_[i]) + (exact_rotor(i) ? axial(i) : armature(i));
+    diagonal[nb + i - 1] =
+        power(Ic[i] * S_[i], S_[i]) + (exact_rotor(i) && !flexible(i) ? axial(i) : armature(i));
+    if (flexible(i)) diagonal[motor_[i]] = axial(i);
   }
   return diagonal;
 }
@@ -428,15 +452,38 @@ template <class T>
 void Chain<T>::add_rotor(int i, ArticulatedInertia<T>& Ia, Force<T>& U, T& D, Force<T>& pa) const {
   const Mat3<T>& Ir = rotor_I_[i].I;
   const Vec3<T>& a = axis_[i];
-  const Vec3<T>& w_parent = parent_w_[i];
   U.n = U.n + scaled(a, ratio_times_axial(i, 1));  // I_r a = axial a, per unit link rate p a
   D += ratio_times_axial(i, 2);
-  // With I_r = t (1 - a a^T) + J a a^T and omega_r = omega' + a qd_m, the bias's
-  // omega_r x I_r omega_r + I_r (omega' x a) qd_m is (omega' x a) ((J - t) a . omega' + J qd_m).
+  pa.n = pa.n + rotor_bias(i);
+  for (int k = 0; k < 9; ++k) Ia.A[k] += Ir[k];
+}
+
+// With I_r = t (1 - a a^T) + J a a^T and omega_r = omega' + a qd_m, the bias's
+// omega_r x I_r omega_r + I_r (omega' x a) qd_m is (omega' x a) ((J - t) a . omega' + J qd_m).
+template <class T>
+Vec3<T> Chain<T>::rotor_bias(int i) const {
+  const Vec3<T>& a = axis_[i];
+  const Vec3<T>& w_parent = parent_w_[i];
   const Gear& g = d_.links[i - 1].gear;
   const T J = axial(i), t = value(g.transverse, g.transverse_param);
-  pa.n = pa.n + scaled(cross(w_parent, a), (J - t) * dot(a, w_parent) + J * qd_[i]);
-  for (int k = 0; k < 9; ++k) Ia.A[k] += Ir[k];
+  return scaled(cross(w_parent, a), (J - t) * dot(a, w_parent) + J * motor_qd_[i]);
+}
+
+// A flexible joint's rotor is a body of its own on the parent, on its own coordinate (S_r =
+// (a, 0), U_r = (J a, 0), D_r = J): eliminated, it passes on I_r - U_r U_r^T / D_r = t (1 - a a^T)
+// and p_r + I^a_r c_r + U_r u_r / D_r = rotor_bias + a Q_m, with u_r = Q_m (a . p_r and U_r . c_r
+// vanish for a rotor symmetric about a). Both are unchanged by the joint's turn about a, so they
+// are written in link i's frame and carried to the parent with the link's.
+template <class T>
+void Chain<T>::add_leaf_rotor(int i, const T& Q_m, ArticulatedInertia<T>& reduced,
+                              Force<T>& pa) const {
+  const Gear& g = d_.links[i - 1].gear;
+  const Vec3<double> a = unit_axis(d_.links[i - 1], i);
+  const Mat3<T> transverse = g.transverse_param == kLiteral
+                                 ? num(rotor_tensor(g.transverse, 0.0, a))
+                                 : rotor_tensor(value(g.transverse, g.transverse_param), T{}, a);
+  for (int k = 0; k < 9; ++k) reduced.A[k] += transverse[k];
+  pa.n = pa.n + rotor_bias(i) + scaled(axis_[i], Q_m);
 }
 
 template <class T>
@@ -447,7 +494,7 @@ std::vector<T> Chain<T>::friction_forces() const {
   for (int i = 1; i <= n_; ++i) {
     const Friction& fr = d_.links[i - 1].friction;
     if (!fr.present) continue;
-    const T w = qd_[i];
+    const T w = motor_qd_[i];
     // 1 / x of a value: one number for a literal.
     auto inverse = [this](double x, int param) {
       return param == kLiteral ? num(1 / x) : num(1.0) / value(x, param);
@@ -470,7 +517,58 @@ std::vector<T> Chain<T>::friction_forces() const {
     if (terms.empty()) continue;
     T force = terms[0];
     for (size_t k = 1; k < terms.size(); ++k) force = force + terms[k];
-    f[d_.num_base() + i - 1] = force;
+    f[motor_[i]] = force;
+  }
+  return f;
+}
+
+template <class T>
+T Chain<T>::deflection(int i, const std::string& array) const {
+  const Gear& g = d_.links[i - 1].gear;
+  auto at = [&](int v) { return values_.input(array, array == "q" ? d_.q_index(v) : v); };
+  const T inverse_p =
+      g.ratio_param == kLiteral ? num(1 / g.ratio) : num(1.0) / value(g.ratio, g.ratio_param);
+  return at(motor_[i]) * inverse_p - at(d_.joint_coordinate(i - 1));
+}
+
+// The spring pulls the link towards the gear's output and the motor back (both on the link side,
+// so the motor's share is 1 / p of it), as in the plane (planar_chain.cpp).
+template <class T>
+std::vector<T> Chain<T>::spring_damper_forces() const {
+  std::vector<T> f(nv(), T{});
+  for (int i = 1; i <= n_; ++i) {
+    if (!flexible(i)) continue;
+    const Gear& g = d_.links[i - 1].gear;
+    T force = value(g.stiffness, g.stiffness_param) * deflection(i, "q");
+    if (g.has_damping) force = force + value(g.damping, g.damping_param) * deflection(i, "qd");
+    const T inverse_p =
+        g.ratio_param == kLiteral ? num(1 / g.ratio) : num(1.0) / value(g.ratio, g.ratio_param);
+    f[d_.joint_coordinate(i - 1)] = -force;
+    f[motor_[i]] = force * inverse_p;
+  }
+  return f;
+}
+
+template <class T>
+T Chain<T>::potential_energy() const {
+  T twice{};
+  for (int i = 1; i <= n_; ++i) {
+    if (!flexible(i)) continue;
+    const Gear& g = d_.links[i - 1].gear;
+    const T e = deflection(i, "q");
+    twice = twice + value(g.stiffness, g.stiffness_param) * e * e;
+  }
+  return twice * 0.5;
+}
+
+template <class T>
+std::vector<T> Chain<T>::passive_forces() const {
+  std::vector<T> f = friction_forces();
+  if (d_.num_flexible() == 0) return f;
+  const std::vector<T> springs = spring_damper_forces();
+  for (int i = 1; i <= n_; ++i) {
+    if (!flexible(i)) continue;
+    for (int k : {d_.joint_coordinate(i - 1), motor_[i]}) f[k] = f[k] + springs[k];
   }
   return f;
 }
@@ -488,7 +586,7 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
   std::vector<ArticulatedInertia<T>> IA;
   std::vector<Force<T>> pA, U(n_ + 1);
   std::vector<Motion<T>> c(n_ + 1);
-  std::vector<T> D(n_ + 1), inverse_D(n_ + 1), u(n_ + 1), qdd(nv), pivots(nv);
+  std::vector<T> D(n_ + 1), inverse_D(n_ + 1), u(n_ + 1), qdd(nv), pivots(nv), Q_motor(n_ + 1);
   for (int b = 0; b <= n_; ++b) {
     IA.emplace_back(I_[b]);
     pA.push_back(cross_force(V_[b], I_[b] * V_[b]));
@@ -505,20 +603,26 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
     u[i] = (Q[col] - passive[col]) * ratio(i) - power(pA[i], S) - power(U[i], c[i]);
     Force<T> pa = pA[i] + IA[i] * c[i];
     ArticulatedInertia<T> Ia = IA[i];
-    if (exact_rotor(i)) add_rotor(i, Ia, U[i], D[i], pa);
+    if (exact_rotor(i) && !flexible(i)) add_rotor(i, Ia, U[i], D[i], pa);
     pivots[col] = D[i] * over_ratio(i, 1.0, 2);
     inverse_D[i] = num(1.0) / D[i];
+    if (flexible(i)) {  // the rotor's coordinate: its net force and pivot J
+      Q_motor[i] = Q[motor_[i]] - passive[motor_[i]];
+      pivots[motor_[i]] = axial(i);
+    }
     if (i == 1 && !d_.free_base) break;
     const Force<T> W = scaled(U[i], inverse_D[i]);
     ArticulatedInertia<T> reduced = Ia.minus_outer(U[i], W);
-    // Without a gear, I^A - U U^T / D takes S to zero (U = I^A S, D = S^T U): row and column k
-    // of A and row k of B for an axis +-e_k are zero, not rounding left over.
+    // Without a gear on the slot, I^A - U U^T / D takes S to zero (U = I^A S, D = S^T U): row and
+    // column k of A and row k of B for an axis +-e_k are zero, not rounding left over.
     const int k = turns_[i].back().k;  // the joint's own turn (-1: not about a frame axis)
-    if (!d_.links[i - 1].gear.present && k >= 0)
+    if (!slot_gear(i) && k >= 0)
       for (int m = 0; m < 3; ++m)
         reduced.A[3 * k + m] = reduced.A[3 * m + k] = reduced.B[3 * k + m] = T{};
+    Force<T> passed = pa + scaled(W, u[i]);
+    if (flexible(i) && exact_rotor(i)) add_leaf_rotor(i, Q_motor[i], reduced, passed);
     IA[i - 1] = IA[i - 1] + in_parent_of(i, reduced);
-    pA[i - 1] = pA[i - 1] + X_[i].apply_transpose(pa + scaled(W, u[i]));
+    pA[i - 1] = pA[i - 1] + X_[i].apply_transpose(passed);
   }
   // The base: f_0 in its frame is (n, R^T f_world); a_0 = (omega_dot, R^T vdot - omega x v).
   Motion<T> a = zero_motion();
@@ -536,6 +640,13 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
     const Motion<T> ap = X_[i].apply(a);
     const T link = (u[i] - power(U[i], ap)) * inverse_D[i];
     qdd[nb + i - 1] = link * ratio(i);
+    if (flexible(i)) {  // the rotor's own equation J (a . alpha_parent + qdd_m) = Q_m (armature: J
+                        // qdd_m = Q_m)
+      const Gear& g = d_.links[i - 1].gear;
+      const T inverse_J = g.axial_param == kLiteral ? num(1 / g.axial) : num(1.0) / axial(i);
+      qdd[motor_[i]] = Q_motor[i] * inverse_J;
+      if (exact_rotor(i)) qdd[motor_[i]] = qdd[motor_[i]] - dot(axis_[i], ap.w);
+    }
     a = ap + c[i];
     a.w = a.w + scaled(axis_[i], link);
   }
@@ -550,6 +661,8 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
 template <class T>
 std::vector<T> Chain<T>::generalized_jacobian() const {
   if (!d_.free_base) throw std::logic_error("spatial chain: generalized Jacobian of a fixed base");
+  if (d_.num_flexible() > 0)
+    throw std::logic_error("spatial chain: generalized Jacobian with flexible joints");
   const int nv = d_.nv(), N = n_;
   const std::vector<T> M = mass_matrix(), J = end_effector_jacobian();
   const std::vector<T> X =
@@ -571,6 +684,8 @@ std::vector<std::vector<T>> Chain<T>::free_base_inverse_dynamics(
     const std::vector<T>& qdd_joints) const {
   if (!d_.free_base)
     throw std::logic_error("spatial chain: free-base inverse dynamics of a fixed base");
+  if (d_.num_flexible() > 0)
+    throw std::logic_error("spatial chain: free-base inverse dynamics with flexible joints");
   const int nv = d_.nv(), N = n_;
   const std::vector<T> M = mass_matrix(), b = inverse_dynamics(std::vector<T>(nv, T{}));
   std::vector<T> a(N), rhs(6);
@@ -598,6 +713,7 @@ T Chain<T>::kinetic_energy() const {
   for (int i = 1; i <= n_; ++i) {
     if (exact_rotor(i)) twice += power(rotor_I_[i] * rotor_V_[i], rotor_V_[i]);
     twice += qd_[i] * qd_[i] * armature(i);
+    if (flexible(i) && !exact_rotor(i)) twice += motor_qd_[i] * motor_qd_[i] * motor_armature(i);
   }
   return twice * 0.5;
 }
@@ -613,10 +729,11 @@ std::vector<T> Chain<T>::generalized_momentum() const {
     const int col = nb + i - 1;
     carried = carried + I_[i] * V_[i];
     p[col] = power(carried, S_[i]) + qd_[i] * armature(i);
+    if (flexible(i) && !exact_rotor(i)) p[motor_[i]] = motor_qd_[i] * motor_armature(i);
     carried = X_[i].apply_transpose(carried);
     if (exact_rotor(i)) {  // the rotor's momentum, in the parent's frame
       const Force<T> h = rotor_I_[i] * rotor_V_[i];
-      p[col] += dot(axis_[i], h.n);
+      p[motor_[i]] += dot(axis_[i], h.n);
       carried = carried + rotor_X_[i].apply_transpose(h);
     }
   }

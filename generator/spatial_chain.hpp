@@ -39,12 +39,18 @@ constexpr int kLiteral = -1;
 // it on the parent, turning at omega_parent + qd_m a (its gyroscopic torques and angular
 // momentum included); armature keeps only the axial inertia on the motor coordinate (MuJoCo's,
 // Drake's and Pinocchio's model).
+// A flexible joint (Spong's model, as in the plane) has a torsional spring of stiffness k and a
+// damper d between the gear's output qm / p and the link angle q: its slot then holds q, and the
+// motor angle qm a coordinate of its own after all the joints (ChainDescription::motor_coordinate).
 struct Gear {
   bool present = false;
   double ratio = 1;
   double axial = 0, transverse = 0;  // the rotor's inertia about its axis and across it
   bool exact = true;
   int ratio_param = kLiteral, axial_param = kLiteral, transverse_param = kLiteral;
+  bool flexible = false, has_damping = false;
+  double stiffness = 0, damping = 0;
+  int stiffness_param = kLiteral, damping_param = kLiteral;
 };
 
 // Friction on a joint's coordinate rate w (the motor's, qd_m, for a geared joint), opposing
@@ -96,8 +102,28 @@ struct ChainDescription {
   std::array<double, 3> tip{};      // the end effector's point, in the last link's frame
   std::array<double, 3> tip_rpy{};  // its frame's orientation there (a welded URDF link's)
   int num_base() const { return free_base ? 6 : 0; }
-  int nv() const { return num_base() + static_cast<int>(links.size()); }
+  // The one place that lays out the velocities: the base's, one slot per joint (its link angle's
+  // rate, or a rigid gear's motor rate), then the motor of each flexible joint; nq = nv + 1 with
+  // a free base's quaternion.
+  int num_flexible() const {
+    int count = 0;
+    for (const Link& l : links) count += l.gear.present && l.gear.flexible;
+    return count;
+  }
+  int nv() const { return num_base() + static_cast<int>(links.size()) + num_flexible(); }
   int nq() const { return nv() + (free_base ? 1 : 0); }
+  // The velocity index of joint j's slot (0-based j) and of the coordinate its torque drives
+  // (as tau / p) and friction brakes: the slot, or a flexible joint's motor coordinate.
+  int joint_coordinate(int j) const { return num_base() + j; }
+  int motor_coordinate(int j) const {
+    const Gear& g = links.at(j).gear;
+    if (!(g.present && g.flexible)) return joint_coordinate(j);
+    int before = 0;
+    for (int k = 0; k < j; ++k) before += links[k].gear.present && links[k].gear.flexible;
+    return num_base() + static_cast<int>(links.size()) + before;
+  }
+  // The index in q of velocity index v (past a free base's quaternion: v + 1).
+  int q_index(int v) const { return free_base && v >= 6 ? v + 1 : v; }
 };
 
 template <class T>
@@ -437,11 +463,15 @@ class Chain {
   // qdd = M^-1 (Q - b) by the articulated-body algorithm, with the pivots D_i of M factored from
   // the tip inward (the base's last, in its own frame) and D_i / M_ii.
   std::vector<std::vector<T>> forward_dynamics(const std::vector<T>& Q) const;
-  // The joints' friction on their coordinates' rates (Friction), nv; f enters as
+  // The joints' friction on their motor coordinates' rates (Friction), nv; f enters as
   // M qdd + b + f = Q.
   std::vector<T> friction_forces() const;
-  // Springs, dampers and friction: friction alone in space (no flexible joints yet).
-  std::vector<T> passive_forces() const { return friction_forces(); }
+  // The flexible joints' springs and dampers, dV/dq + dD/dqd (nv) with V = sum 1/2 k (qm/p - q)^2
+  // and the Rayleigh function D = sum 1/2 d (qmd/p - qd)^2; they enter as M qdd + b + f = Q.
+  std::vector<T> spring_damper_forces() const;
+  T potential_energy() const;
+  // Springs, dampers and friction.
+  std::vector<T> passive_forces() const;
   // M v: the momentum conjugate to each velocity (recursive_algorithms.hpp's P = d(M v)/dq).
   std::vector<T> generalized_momentum() const;
   // The Hamel coupling of the quasi-velocities as a matrix H(M) (nv x nv, row-major) with
@@ -483,54 +513,76 @@ class Chain {
   std::vector<Mat3<T>> R_;          // world orientations
   std::vector<Vec3<T>> axis_;       // each joint's unit axis, in its link's frame
   std::vector<T> qd_;               // joint (or motor) rates (qd_[0] unused)
+  // Per joint: the velocity index its torque drives (ChainDescription::motor_coordinate) and that
+  // coordinate's rate, at which its rotor turns relative to the parent.
+  std::vector<int> motor_;
+  std::vector<T> motor_qd_;
   // Per joint: the link's motion per unit rate (a / p, 0), and an exactly coupled rotor's
   // transform from the parent (the joint's origin, not turned), inertia and velocity.
   std::vector<Motion<T>> S_;
   std::vector<Transform<T>> rotor_X_;
   std::vector<RigidInertia<T>> rotor_I_;
   std::vector<Motion<T>> rotor_V_;
+  // Whether joint i has an exactly coupled rotor (a body on the parent), and whether it is
+  // flexible (its rotor on a coordinate of its own, a leaf of the tree).
   bool exact_rotor(int i) const {
     return d_.links[i - 1].gear.present && d_.links[i - 1].gear.exact;
+  }
+  bool flexible(int i) const {
+    return d_.links[i - 1].gear.present && d_.links[i - 1].gear.flexible;
+  }
+  // A rigid gear: its ratio scales joint i's slot (qm = p q), its rotor turns on that slot.
+  const Gear* slot_gear(int i) const {
+    const Gear& g = d_.links[i - 1].gear;
+    return g.present && !g.flexible ? &g : nullptr;
   }
   // A number of the description: the literal, or the run-time parameter params[param].
   T value(double literal, int param) const {
     return param == kLiteral ? num(literal) : values_.input("params", param);
   }
-  T ratio(int i) const {  // joint i's gear ratio (1 without a gear)
-    const Gear& g = d_.links[i - 1].gear;
-    return g.present ? value(g.ratio, g.ratio_param) : num(1.0);
+  T ratio(int i) const {  // joint i's slot's ratio (1 without a rigid gear)
+    const Gear* g = slot_gear(i);
+    return g ? value(g->ratio, g->ratio_param) : num(1.0);
   }
-  // k / p_i^power, power 1 or 2 (a literal ratio's folded to one number).
+  // k / p_i^power, power 1 or 2 (a literal ratio's folded to one number), for the slot.
   T over_ratio(int i, double k, int power = 1) const {
-    const Gear& g = d_.links[i - 1].gear;
-    if (!g.present) return num(k);
-    if (g.ratio_param == kLiteral) return num(power == 1 ? k / g.ratio : k / (g.ratio * g.ratio));
+    const Gear* g = slot_gear(i);
+    if (!g) return num(k);
+    if (g->ratio_param == kLiteral)
+      return num(power == 1 ? k / g->ratio : k / (g->ratio * g->ratio));
     const T r = num(1.0) / ratio(i);
     return power == 1 ? r * k : r * r * k;
   }
-  // The armature inertia on joint i's coordinate (0 without an armature-coupled gear).
+  // The armature inertia on joint i's slot (0 without a rigid armature-coupled gear).
   T armature(int i) const {
-    const Gear& g = d_.links[i - 1].gear;
-    return g.present && !g.exact ? value(g.axial, g.axial_param) : T{};
+    const Gear* g = slot_gear(i);
+    return g && !g->exact ? value(g->axial, g->axial_param) : T{};
   }
+  // The armature inertia on a flexible joint's motor coordinate (0 otherwise).
+  T motor_armature(int i) const {
+    const Gear& g = d_.links[i - 1].gear;
+    return flexible(i) && !g.exact ? axial(i) : T{};
+  }
+  // A flexible joint's spring deflection qm / p - q, from q (of nq) or its rate from v.
+  T deflection(int i, const std::string& array) const;
   T axial(int i) const {  // the rotor's axial inertia
     const Gear& g = d_.links[i - 1].gear;
     return value(g.axial, g.axial_param);
   }
   bool literal_ratio(int i) const {
-    const Gear& g = d_.links[i - 1].gear;
-    return !g.present || g.ratio_param == kLiteral;
+    const Gear* g = slot_gear(i);
+    return !g || g->ratio_param == kLiteral;
   }
-  double ratio_value(int i) const {  // a literal ratio
-    const Gear& g = d_.links[i - 1].gear;
-    return g.present ? g.ratio : 1.0;
+  double ratio_value(int i) const {  // a literal slot ratio
+    const Gear* g = slot_gear(i);
+    return g ? g->ratio : 1.0;
   }
   // p_i^power (1 or 2) times the rotor's axial inertia, one number where both are literals.
   T ratio_times_axial(int i, int power) const;
   // p^2 times the armature: joint i's armature per unit link rate.
   T armature_per_link_rate(int i) const {
-    const Gear& g = d_.links[i - 1].gear;
-    return g.present && !g.exact ? ratio_times_axial(i, 2) : T{};
+    const Gear* g = slot_gear(i);
+    return g && !g->exact ? ratio_times_axial(i, 2) : T{};
   }
   Mat3<T> rotor_inertia(int i, const Vec3<double>& a) const;
   // A body's inertia about its frame's origin: its own inertial and its welded parts'.
@@ -550,6 +602,15 @@ class Chain {
                                    const T& s) const;
   std::vector<T> mass_matrix_diagonal() const;
   void add_rotor(int i, ArticulatedInertia<T>& Ia, Force<T>& U, T& D, Force<T>& pa) const;
+  // An exact rotor's velocity-product force along what is left of it once its own coordinate is
+  // eliminated, in link i's frame: (omega' x a) ((J - t) a . omega' + J qd_m).
+  Vec3<T> rotor_bias(int i) const;
+  // A flexible joint's exact rotor, a leaf on the parent: what it passes to the parent in link
+  // i's frame once its coordinate (net force Q_m) is eliminated.
+  void add_leaf_rotor(int i, const T& Q_m, ArticulatedInertia<T>& reduced, Force<T>& pa) const;
+  // Column `col` of M above joint i: the force `up` (in link i - 1's frame) read along joints
+  // i - 1 .. 1 and the base's directions, carried inward.
+  void fill_column(std::vector<T>& M, int col, int i, Force<T> up) const;
   // Body b's contribution: the bodies that carry mass (a fixed base carries none that moves).
   int first_body() const { return d_.free_base ? 0 : 1; }
 };

@@ -172,7 +172,7 @@ class SpatialReader {
     return a;
   }
   void rule(SpatialRangeRule::Kind kind, const std::string& field, double value, int param) {
-    if (param != spatial::kLiteral) rules_->push_back({kind, field, {{value, param}}});
+    if (param != spatial::kLiteral) rules_->push_back({kind, field, {{value, param}}, ""});
   }
 
   // A body's mass (> 0) and its inertia about the centre of mass: a physical tensor, positive
@@ -191,7 +191,7 @@ class SpatialReader {
     if (std::any_of(l.inertia_param.begin(), l.inertia_param.end(),
                     [](int p) { return p != spatial::kLiteral; })) {
       SpatialRangeRule tensor{
-          SpatialRangeRule::Kind::physical_inertia, rule_field + ".inertia", {}};
+          SpatialRangeRule::Kind::physical_inertia, rule_field + ".inertia", {}, ""};
       for (int k = 0; k < 6; ++k) tensor.values.push_back({l.inertia[k], l.inertia_param[k]});
       rules_->push_back(tensor);
     }

@@ -49,8 +49,10 @@ void frame_axis_joint(std::mt19937& rng, Link& l, int i) {
 
 // geared: every joint has a motor (ratio 5 to 100), exactly coupled on the odd joints and as
 // armature on the even ones. frame_axes: every joint about a frame axis (frame_axis_joint).
+// flexible: joints 1, 3, 4, 6, 7 (i % 3 != 1) have a spring (k 50 to 550 N m/rad), every other
+// one of them a damper too; the others keep rigid gears.
 ChainDescription random_chain(std::mt19937& rng, int links, bool free_base, bool geared = false,
-                              bool frame_axes = false) {
+                              bool frame_axes = false, bool flexible = false) {
   std::uniform_real_distribution<double> u(0, 1);
   ChainDescription d;
   d.free_base = free_base;
@@ -62,23 +64,46 @@ ChainDescription random_chain(std::mt19937& rng, int links, bool free_base, bool
     if (!geared) continue;
     Gear& g = d.links.back().gear;
     g = {true, 5 + 95 * u(rng), 1e-4 * (1 + u(rng)), 0.6e-4 * (1 + u(rng)), i % 2 == 0};
+    if (!flexible || i % 3 == 1) continue;
+    g.flexible = true;
+    g.stiffness = 50 + 500 * u(rng);
+    g.has_damping = i % 2 == 1;
+    g.damping = g.has_damping ? 0.5 * u(rng) : 0.0;
   }
   return d;
 }
 
 struct Case {
   int links;
-  bool free, geared, frame_axes = false;
+  bool free, geared, frame_axes = false, flexible = false;
 };
-const Case kCases[] = {{7, true, false},       {6, false, false},      {7, true, true},
-                       {6, false, true},       {7, true, false, true}, {7, true, true, true},
-                       {6, false, false, true}};
+const Case kCases[] = {{7, true, false},
+                       {6, false, false},
+                       {7, true, true},
+                       {6, false, true},
+                       {7, true, false, true},
+                       {7, true, true, true},
+                       {6, false, false, true},
+                       {7, true, true, false, true},
+                       {6, false, true, true, true}};
 std::string name(const Case& c) {
   return std::to_string(c.links) + (c.free ? " on a free base" : " on a fixed base") +
-         (c.geared ? ", geared" : "") + (c.frame_axes ? ", about frame axes" : "");
+         (c.geared ? ", geared" : "") + (c.frame_axes ? ", about frame axes" : "") +
+         (c.flexible ? ", flexible" : "");
 }
 ChainDescription random_chain(std::mt19937& rng, const Case& c) {
-  return random_chain(rng, c.links, c.free, c.geared, c.frame_axes);
+  return random_chain(rng, c.links, c.free, c.geared, c.frame_axes, c.flexible);
+}
+
+// The velocity index of joint j's motor, counted here apart from the chain: its slot (past the
+// base), or for a flexible joint the next one after all the slots.
+int motor_index(const ChainDescription& d, int j) {
+  const int slots = d.num_base() + static_cast<int>(d.links.size());
+  auto flexible = [&d](int k) { return d.links[k].gear.present && d.links[k].gear.flexible; };
+  if (!flexible(j)) return d.num_base() + j;
+  int before = 0;
+  for (int k = 0; k < j; ++k) before += flexible(k);
+  return slots + before;
 }
 
 // The independent computation: world rotations by Eigen (URDF's rpy as Rz Ry Rx, the joint by
@@ -131,7 +156,10 @@ World world(const ChainDescription& d, const Eigen::VectorXd& q, const Eigen::Ve
                                  Eigen::AngleAxisd(l.origin_rpy[0], Eigen::Vector3d::UnitX()))
                                     .toRotationMatrix();
     const Eigen::Vector3d axis = Eigen::Vector3d(l.axis[0], l.axis[1], l.axis[2]).normalized();
-    const double ratio = l.gear.present ? l.gear.ratio : 1, qm_rate = v[jv + i];
+    // A rigid gear's slot holds the motor (qm = p q); a flexible joint's motor has its own.
+    const bool rigid_gear = l.gear.present && !l.gear.flexible;
+    const double ratio = rigid_gear ? l.gear.ratio : 1, link_rate = v[jv + i] / ratio;
+    const double qm_rate = v[motor_index(d, static_cast<int>(i))];
     pdot += omega.cross(R * origin);  // the joint's origin moves with the parent body
     p += R * origin;
     if (l.gear.present && l.gear.exact) {  // a massless rotor on the parent at qd_m
@@ -147,7 +175,7 @@ World world(const ChainDescription& d, const Eigen::VectorXd& q, const Eigen::Ve
       w.armature_energy += 0.5 * l.gear.axial * qm_rate * qm_rate;
     }
     R = R * rpy * Eigen::AngleAxisd(q[jq + i] / ratio, axis).toRotationMatrix();
-    omega += R * axis * (qm_rate / ratio);
+    omega += R * axis * link_rate;
     add_body(l);
     w.last_origin = p;
     w.last_origin_velocity = pdot;
@@ -233,10 +261,12 @@ Eigen::MatrixXd mass_matrix(const ChainDescription& d, const State& s) {
 TEST(SpatialChain, MassMatrixEnergyAndMomentumAreTheWorldComputations) {
   std::mt19937 rng(31);
   for (const Case& c : kCases) {
-    const auto [links, free, geared, frame_axes] = c;
+    const auto [links, free, geared, frame_axes, flexible] = c;
     const ChainDescription d = random_chain(rng, c);
     SCOPED_TRACE(name(c));
-    ASSERT_EQ(d.nv(), links + (free ? 6 : 0));
+    const auto springs = std::count_if(d.links.begin(), d.links.end(),
+                                       [](const Link& l) { return l.gear.stiffness > 0; });
+    ASSERT_EQ(d.nv(), links + (free ? 6 : 0) + springs);
     ASSERT_EQ(d.nq(), d.nv() + (free ? 1 : 0));
     for (int trial = 0; trial < 3; ++trial) {
       const State s = random_state(rng, d);
@@ -267,7 +297,7 @@ TEST(SpatialChain, MassMatrixEnergyAndMomentumAreTheWorldComputations) {
 TEST(SpatialChain, InverseDynamicsConservesMomentumAndEnergy) {
   std::mt19937 rng(32);
   for (const Case& c : kCases) {
-    const auto [links, free, geared, frame_axes] = c;
+    const auto [links, free, geared, frame_axes, flexible] = c;
     const ChainDescription d = random_chain(rng, c);
     SCOPED_TRACE(name(c));
     for (int trial = 0; trial < 3; ++trial) {
@@ -358,88 +388,98 @@ TEST(SpatialChain, ExactRotorsAddTheirAngularMomentumToArmature) {
 // The plane as a special case: a spatial arm whose axes are all z, its links along x, moving in
 // the plane, has the planar model's M and bias (planar_chain.cpp, the planar scene's
 // recursive forms) on the planar coordinates: base x0, y0, q0 (a free base turned by q0 about
-// z), then the motor angles of geared joints, rotors exactly coupled.
+// z), then the motor angles of geared joints, rotors exactly coupled; with flexible joints 1 and
+// 3 (springs and dampers), their link angles in the slots and the motor angles after them.
 TEST(SpatialChain, ThePlaneIsASpecialCase) {
   const std::array<double, 4> mass = {1.281, 3.917, 0.912, 2.736},
                               inertia = {0.0665, 0.0142, 0.0378, 0.0435},
                               length = {0.50, 0.45, 0.40, 0.30}, cx = {0.194, 0.122, 0.095, 0.066},
                               cy = {-0.0041, -0.0142, 0.0033, -0.0176}, ratio = {50, 3.5, 20, 1},
                               rotor = {2e-4, 1e-3, 5e-4, 0};
-  for (const bool free : {false, true}) {
-    SCOPED_TRACE(free ? "free base" : "fixed base");
-    std::string yaml =
-        std::string("name: plane\nbase: ") +
-        (free ? "{type: free_floating, mass: 30.5, inertia: 1.25, mount: [0.3, 0.02]}"
-              : "{type: fixed, mount: [0.3, 0.02]}") +
-        "\nlinks:\n";
-    ChainDescription d;
-    d.free_base = free;
-    d.base.mass = 30.5;
-    d.base.inertia = {0.9, 0, 0, 0.8, 0, 1.25};  // only izz acts in the plane
-    std::string gears = "gears:\n";
-    for (int i = 0; i < 4; ++i) {
-      yaml += "  - {mass: " + std::to_string(mass[i]) + ", inertia: " + std::to_string(inertia[i]) +
-              ", length: " + std::to_string(length[i]) + ", com: [" + std::to_string(cx[i]) + ", " +
-              std::to_string(cy[i]) + "]}\n";
-      gears += "  - {ratio: " + std::to_string(ratio[i]) +
-               ", motor_inertia: " + std::to_string(rotor[i]) +
-               ", compensate_link_inertia: false}\n";
-      Link l;
-      l.origin_xyz = {i == 0 ? 0.3 : length[i - 1], i == 0 ? 0.02 : 0.0, 0.0};
-      l.axis = {0, 0, 1};
-      l.mass = mass[i];
-      l.com = {cx[i], cy[i], 0};
-      l.inertia = {0.5 * inertia[i], 0, 0, 0.7 * inertia[i], 0, inertia[i]};
-      l.gear = {true, ratio[i], rotor[i], 0.3 * rotor[i], true};
-      d.links.push_back(l);
+  for (const bool free : {false, true})
+    for (const bool flexible : {false, true}) {
+      SCOPED_TRACE(std::string(free ? "free base" : "fixed base") + (flexible ? ", flexible" : ""));
+      std::string yaml =
+          std::string("name: plane\nbase: ") +
+          (free ? "{type: free_floating, mass: 30.5, inertia: 1.25, mount: [0.3, 0.02]}"
+                : "{type: fixed, mount: [0.3, 0.02]}") +
+          "\nlinks:\n";
+      ChainDescription d;
+      d.free_base = free;
+      d.base.mass = 30.5;
+      d.base.inertia = {0.9, 0, 0, 0.8, 0, 1.25};  // only izz acts in the plane
+      std::string gears = "gears:\n";
+      for (int i = 0; i < 4; ++i) {
+        yaml += "  - {mass: " + std::to_string(mass[i]) +
+                ", inertia: " + std::to_string(inertia[i]) +
+                ", length: " + std::to_string(length[i]) + ", com: [" + std::to_string(cx[i]) +
+                ", " + std::to_string(cy[i]) + "]}\n";
+        const bool spring = flexible && i % 2 == 0;
+        gears +=
+            "  - {ratio: " + std::to_string(ratio[i]) +
+            ", motor_inertia: " + std::to_string(rotor[i]) + ", compensate_link_inertia: false" +
+            (spring ? ", stiffness: " + std::to_string(300.0 + 100 * i) + ", damping: 0.2" : "") +
+            "}\n";
+        Link l;
+        l.origin_xyz = {i == 0 ? 0.3 : length[i - 1], i == 0 ? 0.02 : 0.0, 0.0};
+        l.axis = {0, 0, 1};
+        l.mass = mass[i];
+        l.com = {cx[i], cy[i], 0};
+        l.inertia = {0.5 * inertia[i], 0, 0, 0.7 * inertia[i], 0, inertia[i]};
+        l.gear = {true, ratio[i], rotor[i], 0.3 * rotor[i], true};
+        l.gear.flexible = l.gear.has_damping = spring;
+        l.gear.stiffness = spring ? 300.0 + 100 * i : 0.0;
+        l.gear.damping = spring ? 0.2 : 0.0;
+        d.links.push_back(l);
+      }
+      // Friction on the motor rates, as the plane's (the same law, one field for all joints).
+      const std::string friction =
+          "friction: {viscous: 0.01, coulomb: 0.2, velocity_scale: 0.05, stribeck_static: 0.3, "
+          "stribeck_velocity: 0.4}\n";
+      for (Link& l : d.links) l.friction = {true, 0.01, 0.2, 0.05, 0.3, 0.4, true, true};
+      const Scene scene = parse_scene(yaml + gears + friction, "plane.yaml");
+      // A planar state, and the spatial one it is.
+      const Eigen::VectorXd q2 = Eigen::VectorXd::Random(scene.num_coordinates()),
+                            v2 = Eigen::VectorXd::Random(scene.num_velocities());
+      State s3{Eigen::VectorXd::Zero(d.nq()), Eigen::VectorXd::Zero(d.nv())};
+      std::vector<int> planar_rows;  // the spatial velocity index of each planar one
+      if (free) {
+        s3.q.head<2>() = q2.head<2>();
+        s3.q.segment<4>(3) << std::cos(q2[2] / 2), 0, 0, std::sin(q2[2] / 2);
+        s3.v.head<2>() = v2.head<2>();
+        s3.v[5] = v2[2];
+        planar_rows = {0, 1, 5};
+      }
+      const int jq = free ? 7 : 0, jv = free ? 6 : 0, j2 = free ? 3 : 0;
+      for (int i = 0; i < scene.num_velocities() - j2; ++i) {  // the slots, then the motors
+        s3.q[jq + i] = q2[j2 + i];
+        s3.v[jv + i] = v2[j2 + i];
+        planar_rows.push_back(jv + i);
+      }
+      auto planar = [&](Output o) {
+        const std::vector<double> r =
+            evaluate_recursive(scene, o, [&](const std::string& a, int i) {
+              return a == "q" ? q2[i] : a == "qd" ? v2[i] : 0.0;
+            })[0];
+        return as_eigen(r);
+      };
+      const int n = scene.num_velocities();
+      const Eigen::MatrixXd M2 = Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(
+          planar(Output::mass_matrix).data(), n, n);
+      const Eigen::VectorXd b2 = planar(Output::bias_forces);
+      const Eigen::MatrixXd M3 = mass_matrix(d, s3);
+      const Eigen::VectorXd b3 =
+          as_eigen(chain_at(d, s3).inverse_dynamics(std::vector<double>(d.nv(), 0.0)));
+      const Eigen::VectorXd qdd2 = planar(Output::forward_dynamics),
+                            qdd3 = as_eigen(chain_at(d, s3).forward_dynamics(
+                                std::vector<double>(d.nv(), 0.0))[0]);
+      for (int r = 0; r < n; ++r) {
+        EXPECT_NEAR(b3[planar_rows[r]], b2[r], 1e-12 * (1 + b2.norm())) << r;
+        EXPECT_NEAR(qdd3[planar_rows[r]], qdd2[r], 1e-10 * (1 + qdd2.norm())) << r;
+        for (int c = 0; c < n; ++c)
+          EXPECT_NEAR(M3(planar_rows[r], planar_rows[c]), M2(r, c), 1e-12 * M2.norm()) << r << c;
+      }
     }
-    // Friction on the motor rates, as the plane's (the same law, one field for all joints).
-    const std::string friction =
-        "friction: {viscous: 0.01, coulomb: 0.2, velocity_scale: 0.05, stribeck_static: 0.3, "
-        "stribeck_velocity: 0.4}\n";
-    for (Link& l : d.links) l.friction = {true, 0.01, 0.2, 0.05, 0.3, 0.4, true, true};
-    const Scene scene = parse_scene(yaml + gears + friction, "plane.yaml");
-    // A planar state, and the spatial one it is.
-    const Eigen::VectorXd q2 = Eigen::VectorXd::Random(scene.num_coordinates()),
-                          v2 = Eigen::VectorXd::Random(scene.num_velocities());
-    State s3{Eigen::VectorXd::Zero(d.nq()), Eigen::VectorXd::Zero(d.nv())};
-    std::vector<int> planar_rows;  // the spatial velocity index of each planar one
-    if (free) {
-      s3.q.head<2>() = q2.head<2>();
-      s3.q.segment<4>(3) << std::cos(q2[2] / 2), 0, 0, std::sin(q2[2] / 2);
-      s3.v.head<2>() = v2.head<2>();
-      s3.v[5] = v2[2];
-      planar_rows = {0, 1, 5};
-    }
-    const int jq = free ? 7 : 0, jv = free ? 6 : 0, j2 = free ? 3 : 0;
-    for (int i = 0; i < 4; ++i) {
-      s3.q[jq + i] = q2[j2 + i];
-      s3.v[jv + i] = v2[j2 + i];
-      planar_rows.push_back(jv + i);
-    }
-    auto planar = [&](Output o) {
-      const std::vector<double> r = evaluate_recursive(scene, o, [&](const std::string& a, int i) {
-        return a == "q" ? q2[i] : a == "qd" ? v2[i] : 0.0;
-      })[0];
-      return as_eigen(r);
-    };
-    const int n = scene.num_velocities();
-    const Eigen::MatrixXd M2 = Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(
-        planar(Output::mass_matrix).data(), n, n);
-    const Eigen::VectorXd b2 = planar(Output::bias_forces);
-    const Eigen::MatrixXd M3 = mass_matrix(d, s3);
-    const Eigen::VectorXd b3 =
-        as_eigen(chain_at(d, s3).inverse_dynamics(std::vector<double>(d.nv(), 0.0)));
-    const Eigen::VectorXd qdd2 = planar(Output::forward_dynamics),
-                          qdd3 = as_eigen(chain_at(d, s3).forward_dynamics(
-                              std::vector<double>(d.nv(), 0.0))[0]);
-    for (int r = 0; r < n; ++r) {
-      EXPECT_NEAR(b3[planar_rows[r]], b2[r], 1e-12 * (1 + b2.norm())) << r;
-      EXPECT_NEAR(qdd3[planar_rows[r]], qdd2[r], 1e-10 * (1 + qdd2.norm())) << r;
-      for (int c = 0; c < n; ++c)
-        EXPECT_NEAR(M3(planar_rows[r], planar_rows[c]), M2(r, c), 1e-12 * M2.norm()) << r << c;
-    }
-  }
 }
 
 // A free base started in the plane (every axis along z, every mass in z = 0, no products of
@@ -515,9 +555,10 @@ TEST(SpatialChain, RecordedProgramsGiveTheDoubleValues) {
     EXPECT_NEAR(values_of[k], expected[k], 1e-12 * (1 + std::abs(expected[k]))) << k;
 }
 
-// The articulated-body algorithm eliminates from the tip inward (joints N to 1), then the free
-// base in its own frame, linear before angular: its pivots are those of Gaussian elimination of
-// T M T^T in that order, with T turning the base's world-linear rows into the base frame.
+// The articulated-body algorithm eliminates from the tip inward (joints N to 1, each with a
+// flexible joint's rotor, a leaf on the parent), then the free base in its own frame, linear
+// before angular: its pivots are those of Gaussian elimination of T M T^T in that order, with T
+// turning the base's world-linear rows into the base frame.
 Eigen::VectorXd tip_first_pivots(const ChainDescription& d, const State& s,
                                  const Eigen::MatrixXd& M) {
   const int n = d.nv(), nb = d.num_base();
@@ -526,7 +567,10 @@ Eigen::VectorXd tip_first_pivots(const ChainDescription& d, const State& s,
     T.topLeftCorner<3, 3>() =
         Eigen::Quaterniond(s.q[3], s.q[4], s.q[5], s.q[6]).toRotationMatrix().transpose();
   std::vector<int> order;
-  for (int i = n - 1; i >= nb; --i) order.push_back(i);
+  for (int j = static_cast<int>(d.links.size()) - 1; j >= 0; --j) {
+    order.push_back(nb + j);
+    if (motor_index(d, j) != nb + j) order.push_back(motor_index(d, j));
+  }
   for (int i = 0; i < nb; ++i) order.push_back(i);
   const Eigen::MatrixXd turned = T * M * T.transpose();
   Eigen::MatrixXd A(n, n);
@@ -542,7 +586,8 @@ Eigen::VectorXd tip_first_pivots(const ChainDescription& d, const State& s,
 }
 
 // Forward dynamics by the articulated-body algorithm (exact rotors as clusters with their links,
-// armature on the diagonal) solves M qdd + b = Q, and its pivots are the tip-first ones of M.
+// armature on the diagonal, a flexible joint's rotor a leaf) solves M qdd + b + f = Q (f: the
+// springs and dampers), and its pivots are the tip-first ones of M.
 TEST(SpatialChain, ForwardDynamicsIsTheArticulatedBodyAlgorithm) {
   std::mt19937 rng(43);
   for (const Case& c : kCases) {
@@ -556,7 +601,9 @@ TEST(SpatialChain, ForwardDynamicsIsTheArticulatedBodyAlgorithm) {
       const Eigen::MatrixXd M = mass_matrix(d, s);
       const Eigen::VectorXd b = as_eigen(chain.inverse_dynamics(std::vector<double>(d.nv(), 0)));
       const Eigen::VectorXd qdd = as_eigen(fd[0]), pivots = as_eigen(fd[1]);
-      const Eigen::VectorXd expected = M.ldlt().solve(Q - b);
+      const Eigen::VectorXd f = as_eigen(chain.spring_damper_forces());
+      EXPECT_EQ(f.norm() > 0, c.flexible);
+      const Eigen::VectorXd expected = M.ldlt().solve(Q - b - f);
       EXPECT_LT((qdd - expected).norm(), 1e-10 * (1 + expected.norm()));
       const Eigen::VectorXd D = tip_first_pivots(d, s, M);
       EXPECT_LT((pivots - D).norm(), 1e-10 * D.norm());
@@ -687,26 +734,133 @@ TEST(SpatialChain, FrictionOpposesEachJointAndTakesEnergyOutAtItsPower) {
     EXPECT_EQ(f.head(nb).norm(), 0.0);
     for (size_t j = 0; j < d.links.size(); ++j) {
       const Friction& fr = d.links[j].friction;
-      const double w = s.v[nb + j], sign = std::tanh(w / fr.velocity_scale);
+      const int m = motor_index(d, static_cast<int>(j));  // the motor's rate, as in the plane
+      const double w = s.v[m], sign = std::tanh(w / fr.velocity_scale);
       const double want = !fr.present
                               ? 0.0
                               : fr.viscous * w + fr.coulomb * sign +
                                     (fr.stribeck_static - fr.coulomb) *
                                         std::exp(-std::pow(w / fr.stribeck_velocity, 2)) * sign;
-      EXPECT_NEAR(f[nb + j], want, 1e-15) << "joint " << j + 1;
-      if (fr.present) EXPECT_GT(f[nb + j] * w, 0) << "joint " << j + 1 << " does not oppose";
+      EXPECT_NEAR(f[m], want, 1e-15) << "joint " << j + 1;
+      if (fr.present) {
+        EXPECT_GT(f[m] * w, 0) << "joint " << j + 1 << " does not oppose";
+      }
     }
+    // With flexible joints the springs and dampers act too (their own test checks them).
+    const Eigen::VectorXd springs = as_eigen(chain.spring_damper_forces());
     const Eigen::VectorXd qdd = as_eigen(chain.forward_dynamics(std::vector<double>(n, 0.0))[0]);
     const Eigen::VectorXd b = as_eigen(chain.inverse_dynamics(std::vector<double>(n, 0.0)));
-    EXPECT_LT((mass_matrix(d, s) * qdd + b + f).norm(), 1e-10 * (1 + b.norm()));
+    EXPECT_LT((mass_matrix(d, s) * qdd + b + f + springs).norm(), 1e-10 * (1 + b.norm()));
     const Eigen::VectorXd qdot = configuration_rate(d, s);
     const double h = 1e-5;
     const double dT = (kinetic_energy(d, s.q + h * qdot, s.v + h * qdd) -
                        kinetic_energy(d, s.q - h * qdot, s.v - h * qdd)) /
                       (2 * h);
-    const double power = -s.v.dot(f);
-    EXPECT_LT(power, 0);
+    EXPECT_LT(-s.v.dot(f), 0);
+    const double power = -s.v.dot(f + springs);
     EXPECT_NEAR(dT, power, 1e-7 * (1 + std::abs(power))) << "friction's power " << power;
+  }
+}
+
+// The flexible joints' springs and dampers, written here from their definition: V = sum 1/2 k
+// (qm/p - q)^2 and the Rayleigh function D = sum 1/2 d (qmd/p - qd)^2. The chain's potential
+// energy is V, its spring_damper_forces are dV/dq + dD/dqd (central differences); along free
+// motion (Q = 0) the world computation's T + V falls at the dampers' power 2 D, and a free base's
+// momentum stays (the springs are internal).
+TEST(SpatialChain, SpringsStoreEnergyAndDampersTakeItOut) {
+  std::mt19937 rng(67);
+  for (const Case& c : kCases) {
+    if (!c.flexible) continue;
+    SCOPED_TRACE(name(c));
+    const ChainDescription d = random_chain(rng, c);
+    const int n = d.nv(), jq = d.free_base ? 7 : 0, jv = d.num_base();
+    const int past_quaternion = d.free_base ? 1 : 0;
+    auto sum_over_springs = [&](const Eigen::VectorXd& x, int jx, int shift, bool damper) {
+      double sum = 0;
+      for (size_t j = 0; j < d.links.size(); ++j) {
+        const Gear& g = d.links[j].gear;
+        if (!g.flexible) continue;
+        const double e = x[motor_index(d, static_cast<int>(j)) + shift] / g.ratio - x[jx + j];
+        sum += 0.5 * (damper ? g.damping : g.stiffness) * e * e;
+      }
+      return sum;
+    };
+    auto V = [&](const Eigen::VectorXd& q) {
+      return sum_over_springs(q, jq, past_quaternion, false);
+    };
+    auto D = [&](const Eigen::VectorXd& v) { return sum_over_springs(v, jv, 0, true); };
+    const State s = random_state(rng, d);
+    const Chain<double> chain = chain_at(d, s);
+    EXPECT_NEAR(chain.potential_energy(), V(s.q), 1e-12 * V(s.q));
+    const Eigen::VectorXd f = as_eigen(chain.spring_damper_forces());
+    const double h = 1e-6;
+    for (int k = 0; k < n; ++k) {
+      const int kq = k >= jv ? k + past_quaternion : k;  // the base's entries have no spring
+      const Eigen::VectorXd eq = h * Eigen::VectorXd::Unit(d.nq(), kq),
+                            ev = h * Eigen::VectorXd::Unit(n, k);
+      const double expected =
+          k < jv ? 0.0 : (V(s.q + eq) - V(s.q - eq) + D(s.v + ev) - D(s.v - ev)) / (2 * h);
+      EXPECT_NEAR(f[k], expected, 1e-6 * (1 + f.norm())) << k;
+    }
+    const Eigen::VectorXd qdd = as_eigen(chain.forward_dynamics(std::vector<double>(n, 0.0))[0]);
+    const Eigen::VectorXd qdot = configuration_rate(d, s);
+    auto energy = [&](double t) {
+      const Eigen::VectorXd q = s.q + t * qdot, v = s.v + t * qdd;
+      return kinetic_energy(d, q, v) + V(q);
+    };
+    const double dE = (energy(h) - energy(-h)) / (2 * h), power = -2 * D(s.v);
+    EXPECT_LT(power, 0);
+    EXPECT_NEAR(dE, power, 1e-6 * (1 + std::abs(power)));
+    if (!d.free_base) continue;
+    const Eigen::VectorXd dh =
+        (momentum(d, s.q + h * qdot, s.v + h * qdd) - momentum(d, s.q - h * qdot, s.v - h * qdd)) /
+        (2 * h);
+    EXPECT_LT(dh.norm(), 1e-6 * (1 + momentum(d, s.q, s.v).norm()));
+  }
+}
+
+// A flexible joint held at the gear's output (qm = p q, qmd = p qd) is a rigid gear: with G the
+// map from the rigid model's velocities to the flexible one's (a motor rate w to w / p on the
+// slot and w on the motor), G^T M G and G^T b are the rigid model's M and bias (G is constant),
+// and T and the momentum are the same. The springs' limit k -> infinity, exactly.
+TEST(SpatialChain, AFlexibleJointHeldAtTheGearsOutputIsARigidGear) {
+  std::mt19937 rng(71);
+  for (const bool free : {true, false}) {
+    SCOPED_TRACE(free ? "free base" : "fixed base");
+    const ChainDescription flexible = random_chain(rng, 7, free, true, false, true);
+    ChainDescription rigid = flexible;
+    for (Link& l : rigid.links) l.gear.flexible = false;
+    const State r = random_state(rng, rigid);
+    State x{Eigen::VectorXd(flexible.nq()), Eigen::VectorXd(flexible.nv())};
+    Eigen::MatrixXd G = Eigen::MatrixXd::Zero(flexible.nv(), rigid.nv());
+    x.q.head(rigid.nq()) = r.q;
+    x.v.head(rigid.nv()) = r.v;
+    for (int k = 0; k < rigid.nv(); ++k) G(k, k) = 1;
+    const int jq = free ? 7 : 0, jv = rigid.num_base();
+    for (size_t j = 0; j < flexible.links.size(); ++j) {
+      const Gear& g = flexible.links[j].gear;
+      if (!g.flexible) continue;
+      const int m = motor_index(flexible, static_cast<int>(j)), slot = jv + static_cast<int>(j);
+      x.q[slot + jq - jv] = r.q[slot + jq - jv] / g.ratio;
+      x.q[m + jq - jv] = r.q[slot + jq - jv];
+      x.v[slot] = r.v[slot] / g.ratio;
+      x.v[m] = r.v[slot];
+      G(slot, slot) = 1 / g.ratio;
+      G(m, slot) = 1;
+    }
+    ASSERT_LT((G * r.v - x.v).norm(), 1e-15);
+    const Chain<double> cf = chain_at(flexible, x), cr = chain_at(rigid, r);
+    const Eigen::MatrixXd Mr = mass_matrix(rigid, r);
+    EXPECT_LT((G.transpose() * mass_matrix(flexible, x) * G - Mr).norm(), 1e-12 * Mr.norm());
+    const Eigen::VectorXd bf = as_eigen(cf.inverse_dynamics(std::vector<double>(flexible.nv(), 0))),
+                          br = as_eigen(cr.inverse_dynamics(std::vector<double>(rigid.nv(), 0)));
+    EXPECT_LT((G.transpose() * bf - br).norm(), 1e-12 * (1 + br.norm()));
+    EXPECT_NEAR(cf.kinetic_energy(), cr.kinetic_energy(), 1e-12 * cr.kinetic_energy());
+    EXPECT_NEAR(cf.potential_energy(), 0.0, 1e-20);
+    if (free) {
+      EXPECT_LT((as_eigen(cf.momentum()) - as_eigen(cr.momentum())).norm(),
+                1e-12 * as_eigen(cr.momentum()).norm());
+    }
   }
 }
 
