@@ -7,13 +7,20 @@ namespace spacearm {
 
 namespace {
 
+// A rigid gear: joint j's slot holds its motor angle qm = p q.
+bool motor_angle_slot(const spatial::Link& l) { return l.gear.present && !l.gear.flexible; }
+
 // The coordinate names: the base's origin and quaternion (MuJoCo's free joint), then per joint
-// its motor angle qm_i where it is geared (qm = p q), else q_i.
+// its motor angle qm_i where a rigid gear drives it (qm = p q), else q_i; then qm_i of each
+// flexible joint.
 std::vector<std::string> coordinate_names(const spatial::ChainDescription& c) {
   std::vector<std::string> names;
   if (c.free_base) names = {"x0", "y0", "z0", "qw0", "qx0", "qy0", "qz0"};
   for (size_t j = 0; j < c.links.size(); ++j)
-    names.push_back((c.links[j].gear.present ? "qm" : "q") + std::to_string(j + 1));
+    names.push_back((motor_angle_slot(c.links[j]) ? "qm" : "q") + std::to_string(j + 1));
+  for (size_t j = 0; j < c.links.size(); ++j)
+    if (c.links[j].gear.present && c.links[j].gear.flexible)
+      names.push_back("qm" + std::to_string(j + 1));
   return names;
 }
 
@@ -79,7 +86,11 @@ ModelFacts spatial_facts(const SpatialScene& scene) {
   ModelFacts f;
   f.name = scene.name;
   f.description = "spatial arm, " + std::to_string(c.links.size()) + " revolute joints";
-  f.coordinates_note = c.free_base ? " (MuJoCo's free joint: origin, quaternion w x y z)" : "";
+  f.coordinates_note =
+      std::string(c.free_base ? " (MuJoCo's free joint: origin, quaternion w x y z)" : "") +
+      (c.num_flexible() ? " (q: link angles; qm: motor angles, qm = p q for a "
+                          "rigid gear; a flexible joint's qm follows the joints)"
+                        : "");
   f.dims = spatial::Chain<double>::dimensions(c);
   f.free_floating = c.free_base;
   f.num_base = c.num_base();
@@ -87,8 +98,11 @@ ModelFacts spatial_facts(const SpatialScene& scene) {
   f.coordinate_names = coordinate_names(c);
   for (const auto& l : c.links) {
     f.geared = f.geared || l.gear.present;
-    f.motor_angle_slots.push_back(l.gear.present);
+    f.motor_angle_slots.push_back(motor_angle_slot(l));
   }
+  if (c.num_flexible())
+    for (size_t j = 0; j < c.links.size(); ++j)
+      f.actuated_coordinates.push_back(c.motor_coordinate(static_cast<int>(j)));
   f.scene_hash = "fnv1a64:" + content_hash(scene.content);
   f.formulation = "recursive";
   f.features = spatial_features(scene);
@@ -109,6 +123,8 @@ const char* spatial_algorithm(Output o) {
   if (o == Output::generalized_jacobian) return "CRBA, forward kinematics, base solve";
   if (o == Output::free_base_inverse_dynamics) return "CRBA, RNEA, base solve";
   if (o == Output::friction_forces) return "friction law on the joint rates";
+  if (o == Output::spring_damper_forces || o == Output::potential_energy)
+    return "joint springs and dampers";
   return recursive_algorithm(o);
 }
 

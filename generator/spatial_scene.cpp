@@ -68,12 +68,13 @@ std::string inertials_field(const std::string& link, size_t index) {
                                                   : "inertials[" + std::to_string(index) + "]";
 }
 
-// A chain's needs:: bits (outputs.hpp): a free base; rigid joints (no springs in 3D yet);
-// friction where a joint has some.
+// A chain's needs:: bits (outputs.hpp): a free base; springs where a joint is flexible, else
+// rigid joints; friction where a joint has some.
 unsigned chain_features(const spatial::ChainDescription& chain) {
   const bool friction = std::any_of(chain.links.begin(), chain.links.end(),
                                     [](const spatial::Link& l) { return l.friction.present; });
-  return (chain.free_base ? needs::free_base : 0u) | needs::rigid_joints |
+  return (chain.free_base ? needs::free_base : 0u) |
+         (chain.num_flexible() > 0 ? needs::springs : needs::rigid_joints) |
          (friction ? needs::friction : 0u);
 }
 
@@ -300,7 +301,7 @@ class SpatialReader {
   }
 
   spatial::Gear read_gear(const YAML::Node& n, const std::string& field) {
-    r_.check_keys(n, field, {"ratio", "rotor_inertia", "rotor_coupling"});
+    r_.check_keys(n, field, {"ratio", "rotor_inertia", "rotor_coupling", "stiffness", "damping"});
     spatial::Gear g;
     g.present = true;
     g.ratio = quantity(r_.require(n, "ratio", field), field + ".ratio", g.ratio_param);
@@ -334,7 +335,38 @@ class SpatialReader {
                   "': the transverse inertia acts only with rotor_coupling exact (armature keeps "
                   "the axial inertia alone)",
               n["rotor_inertia"]);
+    read_spring(n, field, g);
     return g;
+  }
+
+  // A flexible joint's spring (stiffness > 0) and damper (>= 0, only with a spring): its rotor
+  // then has a coordinate of its own, so its axial inertia must be positive (its own equation
+  // J (a . alpha' + qdd_m) = Q_m).
+  void read_spring(const YAML::Node& n, const std::string& field, spatial::Gear& g) {
+    if (n["damping"] && !n["stiffness"])
+      r_.fail(field + ".damping", "a damper needs a spring: give 'stiffness' too", n["damping"]);
+    if (!n["stiffness"]) return;
+    g.flexible = true;
+    const std::string k = field + ".stiffness";
+    g.stiffness = quantity(n["stiffness"], k, g.stiffness_param);
+    if (!(g.stiffness > 0))
+      r_.fail(k, "must be positive, got " + std::to_string(g.stiffness), n["stiffness"]);
+    rule(SpatialRangeRule::Kind::positive, k, g.stiffness, g.stiffness_param);
+    if (n["damping"]) {
+      const std::string d = field + ".damping";
+      g.has_damping = true;
+      g.damping = quantity(n["damping"], d, g.damping_param);
+      if (!(g.damping >= 0))
+        r_.fail(d, "must not be negative, got " + std::to_string(g.damping), n["damping"]);
+      rule(SpatialRangeRule::Kind::non_negative, d, g.damping, g.damping_param);
+    }
+    const std::string axial = field + ".rotor_inertia[0]";
+    if (!(g.axial > 0))
+      r_.fail(axial,
+              "a flexible joint (stiffness given) needs a rotor of positive axial inertia, got " +
+                  std::to_string(g.axial),
+              n["rotor_inertia"] ? n["rotor_inertia"] : n);
+    rule(SpatialRangeRule::Kind::positive, axial, g.axial, g.axial_param);
   }
 
   // Friction for every joint (a mapping) or per joint (a list; null: none), as in the plane:
@@ -489,7 +521,9 @@ bool spatial_output(Output o, bool free_base) {
     case Output::coriolis_matrix:
     case Output::end_effector_pose:
     case Output::end_effector_jacobian:
-    case Output::friction_forces:  // where the scene has friction (its needs)
+    case Output::friction_forces:  // where the scene has friction or springs (their needs)
+    case Output::potential_energy:
+    case Output::spring_damper_forces:
       return true;
     case Output::momentum:
     case Output::generalized_jacobian:

@@ -10,6 +10,9 @@
 //     - {origin: [x, y, z], rpy: [r, p, y], axis: [0, 0, 1], mass: 5, com: [...], inertia: [...]}
 //   gears:                                    # optional: one mapping for all joints, or a list
 //     {ratio: 100, rotor_inertia: [axial, transverse], rotor_coupling: exact}   # or armature
+//     # a flexible joint adds stiffness: k [N m/rad] (and damping: d [N m s/rad]) between the
+//     # gear's output qm / p and the link angle q; its motor angle qm follows all the joints
+//   friction: {viscous: b, coulomb: Fc, velocity_scale: vs}   # optional, as in the plane
 //   end_effector: [x, y, z]                   # the tip in the last link's frame (default 0)
 //   parameters: {m7: 1.0, p: 100}             # run-time parameters with their nominal values:
 //                                             # any mass, com, inertia entry, ratio, rotor inertia
@@ -59,8 +62,8 @@ bool spatial_output(Output o, bool free_base);
 // The outputs to emit, in the registry's order: the scene's list, else the registry's defaults
 // that a spatial arm gives (as in the plane: the state Jacobian and Mdot only where asked for).
 std::vector<Output> spatial_outputs(const SpatialScene& scene);
-// The scene's needs:: bits (outputs.hpp): a free base; rigid joints (no springs in 3D yet);
-// friction where a joint has some.
+// The scene's needs:: bits (outputs.hpp): a free base; springs where a joint is flexible, else
+// rigid joints; friction where a joint has some.
 unsigned spatial_features(const SpatialScene& scene);
 
 // A URDF file's text by the path the scene gives (`urdf:`); throws SceneError.

@@ -130,7 +130,7 @@ TEST(SpatialModel, ThirtyJointsLowerAndGiveTheChainsValues) {
   int checked = 0;
   for (const FunctionSpec& f : lowered.functions) {
     const std::optional<Output> o = output_from_string(f.name);
-    if (!o || !s.outputs.empty() && !std::count(s.outputs.begin(), s.outputs.end(), *o)) continue;
+    if (!o || (!s.outputs.empty() && !std::count(s.outputs.begin(), s.outputs.end(), *o))) continue;
     const std::vector<double> want = evaluate_chain<spatial::Chain>(s.chain, *o, input)[0];
     const std::vector<double> got = f.program.evaluate(f.entries[0], input);
     ASSERT_EQ(got.size(), want.size()) << f.name;
@@ -170,13 +170,9 @@ outputs: [forward_dynamics_derivatives, mass_matrix, coriolis_matrix, bias_force
 
 // The parametric model at parameter values P is the model with P written in as numbers: every
 // output's lowered program at random states (so no nominal value is baked into the code).
-TEST(SpatialModel, RunTimeParametersGiveTheModelWithTheirValuesWrittenIn) {
-  const std::vector<std::pair<std::string, std::string>> P = {
-      {"mb", "420"},     {"cb", "-0.07"}, {"izb", "170"},    {"m2", "4.5"},
-      {"ixy2", "-0.02"}, {"cy3", "0.03"}, {"p1", "37"},      {"Ia1", "3.0e-4"},
-      {"It1", "1.0e-5"}, {"p2", "8"},     {"Ia2", "5.0e-4"}, {"fv1", "0.03"},
-      {"fc1", "0.2"},    {"vs1", "0.7"},  {"fs1", "0.25"},   {"vst1", "0.3"}};
-  std::string literal = kParametric;
+void expect_parameters_written_in(const std::string& parametric,
+                                  const std::vector<std::pair<std::string, std::string>>& P) {
+  std::string literal = parametric;
   literal.erase(literal.find("parameters:"),
                 literal.find("outputs:") - literal.find("parameters:"));
   std::vector<double> params;
@@ -185,7 +181,7 @@ TEST(SpatialModel, RunTimeParametersGiveTheModelWithTheirValuesWrittenIn) {
     const std::regex word("\\b" + name + "\\b");
     literal = std::regex_replace(literal, word, value);
   }
-  const SpatialScene with_parameters = parse_spatial_scene(kParametric, "arm3p.yaml");
+  const SpatialScene with_parameters = parse_spatial_scene(parametric, "arm3p.yaml");
   const SpatialScene with_numbers = parse_spatial_scene(literal, "arm3.yaml");
   ASSERT_EQ(with_parameters.parameters.size(), P.size());
   const LoweredModel a = lower(spatial_derived_model(with_parameters), {});
@@ -194,7 +190,7 @@ TEST(SpatialModel, RunTimeParametersGiveTheModelWithTheirValuesWrittenIn) {
   std::mt19937 rng(41);
   std::uniform_real_distribution<double> u(-1, 1);
   for (int trial = 0; trial < 3; ++trial) {
-    std::vector<double> q(10), v(9);
+    std::vector<double> q(a.facts.dims.nq), v(a.facts.dims.nv);
     for (double& x : q) x = u(rng);
     for (double& x : v) x = u(rng);
     auto input = [&](const std::string& array, int i) {
@@ -215,6 +211,125 @@ TEST(SpatialModel, RunTimeParametersGiveTheModelWithTheirValuesWrittenIn) {
       }
     }
   }
+}
+
+TEST(SpatialModel, RunTimeParametersGiveTheModelWithTheirValuesWrittenIn) {
+  expect_parameters_written_in(kParametric, {{"mb", "420"},
+                                             {"cb", "-0.07"},
+                                             {"izb", "170"},
+                                             {"m2", "4.5"},
+                                             {"ixy2", "-0.02"},
+                                             {"cy3", "0.03"},
+                                             {"p1", "37"},
+                                             {"Ia1", "3.0e-4"},
+                                             {"It1", "1.0e-5"},
+                                             {"p2", "8"},
+                                             {"Ia2", "5.0e-4"},
+                                             {"fv1", "0.03"},
+                                             {"fc1", "0.2"},
+                                             {"vs1", "0.7"},
+                                             {"fs1", "0.25"},
+                                             {"vst1", "0.3"}});
+}
+
+// kArm with flexible joints 1 (exact rotor, a spring and a damper) and 2 (armature, a spring),
+// joint 3 a rigid gear; friction on joint 1's motor.
+std::string flexible_arm(const std::string& gear1, const std::string& stiffness2) {
+  std::string text = kArm;
+  text.replace(text.find("gears:"), text.find("outputs:") - text.find("gears:"),
+               "gears:\n  - " + gear1 +
+                   "\n  - {ratio: 50, rotor_inertia: [2.0e-4, 1.0e-4], rotor_coupling: armature, "
+                   "stiffness: " +
+                   stiffness2 +
+                   "}\n  - {ratio: 20, rotor_inertia: [1.0e-5, 1.0e-5]}\nfriction: [{viscous: "
+                   "0.01, coulomb: 0.02, velocity_scale: 0.3}, null, null]\n");
+  return text.substr(0, text.find("outputs:"));
+}
+
+// A flexible arm's model: the link angles in the joint slots and the motors after them (the
+// header's facts), the springs' outputs by default and the rigid-joint ones refused, and every
+// lowered program gives the chain's values at random states.
+TEST(SpatialModel, AFlexibleArmHasItsMotorsAfterTheJointsAndItsSprings) {
+  const SpatialScene scene = parse_spatial_scene(
+      flexible_arm("{ratio: 100, rotor_inertia: [1.0e-4, 6.0e-5], stiffness: 2000, damping: 0.5}",
+                   "800"),
+      "arm3f.yaml");
+  const LoweredModel lowered = lower(spatial_derived_model(scene), {});
+  EXPECT_EQ(lowered.facts.dims.nq, 12);
+  EXPECT_EQ(lowered.facts.dims.nv, 11);
+  const std::vector<std::string> names = {"x0",  "y0", "z0", "qw0", "qx0", "qy0",
+                                          "qz0", "q1", "q2", "qm3", "qm1", "qm2"};
+  EXPECT_EQ(lowered.facts.coordinate_names, names);
+  const EmittedModel e = print_cpp(lowered, {});
+  for (const char* fact :
+       {"kActuatedCoordinates = {9, 10, 8};", "kMotorAngleSlots = {false, false, true};"})
+    EXPECT_NE(e.header.find(fact), std::string::npos) << fact;
+  const std::vector<Output> outputs = spatial_outputs(scene);
+  for (Output o : {Output::potential_energy, Output::spring_damper_forces, Output::friction_forces})
+    EXPECT_EQ(std::count(outputs.begin(), outputs.end(), o), 1) << to_string(o);
+  for (Output o : {Output::generalized_jacobian, Output::free_base_inverse_dynamics})
+    EXPECT_EQ(std::count(outputs.begin(), outputs.end(), o), 0) << to_string(o);
+  EXPECT_THROW_MESSAGE(
+      parse_spatial_scene(
+          flexible_arm("{ratio: 100, rotor_inertia: [1.0e-4, 6.0e-5], stiffness: 2000}", "800") +
+              "outputs: [generalized_jacobian]\n",
+          "arm3f.yaml"),
+      SceneError, "'generalized_jacobian' is not defined for a scene with flexible joints");
+  std::mt19937 rng(44);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int checked = 0;
+  for (int trial = 0; trial < 3; ++trial) {
+    std::vector<double> q(12), v(11), a(11), Q(11);
+    for (auto* x : {&q, &v, &a, &Q})
+      for (double& y : *x) y = u(rng);
+    auto input = [&](const std::string& name, int i) {
+      return name == "q" ? q[i] : name == "qd" ? v[i] : name == "qdd" ? a[i] : Q[i];
+    };
+    for (const FunctionSpec& f : lowered.functions) {
+      const std::optional<Output> o = output_from_string(f.name);
+      if (!o) continue;  // mass_matrix_and_bias, gear_ratios
+      const auto want = evaluate_chain<spatial::Chain>(scene.chain, *o, input);
+      for (size_t r = 0; r < want.size(); ++r) {
+        const std::vector<double> got = f.program.evaluate(f.entries[r], input);
+        ASSERT_EQ(got.size(), want[r].size());
+        for (size_t k = 0; k < got.size(); ++k)
+          EXPECT_NEAR(got[k], want[r][k], 1e-12 * (1 + std::abs(want[r][k])))
+              << f.name << " " << r << " " << k;
+      }
+      ++checked;
+    }
+  }
+  EXPECT_GE(checked, 3 * 11);
+}
+
+// A flexible arm's springs, dampers and rotor as run-time parameters.
+TEST(SpatialModel, AFlexibleArmsRunTimeParametersGiveItsModelWithTheirValuesWrittenIn) {
+  const std::string parametric =
+      flexible_arm("{ratio: p1, rotor_inertia: [Ia1, It1], stiffness: k1, damping: d1}", "k2") +
+      "parameters: {p1: 100, Ia1: 1.0e-4, It1: 6.0e-5, k1: 2000, d1: 0.5, k2: 800}\n";
+  expect_parameters_written_in(parametric, {{"p1", "37"},
+                                            {"Ia1", "3.0e-4"},
+                                            {"It1", "1.0e-5"},
+                                            {"k1", "900"},
+                                            {"d1", "0.05"},
+                                            {"k2", "3000"}});
+  const ModelFacts facts = spatial_facts(parse_spatial_scene(parametric, "arm3f.yaml"));
+  auto first_failure = [&](const std::string& name, double value) -> std::string {
+    std::vector<double> params = facts.nominal_parameters;
+    const auto& names = facts.parameter_names;
+    params[std::find(names.begin(), names.end(), name) - names.begin()] = value;
+    for (const ParameterCheck& c : facts.checks) {
+      const double x = facts.checks_program.evaluate(
+          {c.value}, [&](const std::string&, int i) { return params.at(i); })[0];
+      if (!(c.strict ? x > 0 : x >= 0)) return c.message;
+    }
+    return "";
+  };
+  EXPECT_EQ(first_failure("k1", 1), "");
+  EXPECT_EQ(first_failure("k1", 0), "gears[0].stiffness must be positive");
+  EXPECT_EQ(first_failure("d1", -1e-9), "gears[0].damping must not be negative");
+  EXPECT_EQ(first_failure("k2", -5), "gears[1].stiffness must be positive");
+  EXPECT_EQ(first_failure("Ia1", 0), "gears[0].rotor_inertia[0] must be positive");
 }
 
 // The scene's range rules hold at the nominal values and are checked again at run time for the

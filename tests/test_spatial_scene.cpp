@@ -149,5 +149,53 @@ TEST(SpatialScene, ReadsFrictionAndNamesItsBadFields) {
     EXPECT_THROW_MESSAGE(parse_spatial_scene(kArm + add + "\n", "arm2.yaml"), SceneError, message);
 }
 
+// Flexible joints as in the plane: a spring (and a damper) between the gear's output and the
+// link, per joint or for all; the motor angles follow the joints, and the springs' outputs join
+// the defaults. A spring needs a rotor with axial inertia.
+TEST(SpatialScene, ReadsFlexibleJointsAndNamesTheirBadFields) {
+  std::string flexible = kArm;
+  flexible.replace(flexible.find("rotor_coupling: armature}"), 25,
+                   "rotor_coupling: armature, stiffness: 800, damping: 0.2}");
+  const SpatialScene s = parse_spatial_scene(flexible, "arm2.yaml");
+  for (const auto& l : s.chain.links) {
+    EXPECT_TRUE(l.gear.flexible);
+    EXPECT_EQ(l.gear.stiffness, 800);
+    EXPECT_TRUE(l.gear.has_damping);
+    EXPECT_EQ(l.gear.damping, 0.2);
+  }
+  EXPECT_EQ(s.chain.nv(), 10);
+  EXPECT_EQ(s.chain.motor_coordinate(1), 9);
+  const std::vector<Output> outputs = spatial_outputs(s);
+  for (Output o : {Output::potential_energy, Output::spring_damper_forces})
+    EXPECT_EQ(std::count(outputs.begin(), outputs.end(), o), 1) << to_string(o);
+  const std::vector<Output> rigid = spatial_outputs(parse_spatial_scene(kArm, "arm2.yaml"));
+  EXPECT_EQ(std::count(rigid.begin(), rigid.end(), Output::potential_energy), 0);
+  auto with_gear = [](const std::string& gear) {
+    std::string text = kArm;
+    const size_t at = text.find("gears: {");
+    text.replace(at, text.find('\n', at) - at, "gears: " + gear);
+    return text;
+  };
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"{ratio: 10, rotor_inertia: [1e-4, 0], stiffness: 0}",
+       "field 'gears.stiffness': must be positive, got 0"},
+      {"{ratio: 10, rotor_inertia: [1e-4, 0], stiffness: 10, damping: -1}",
+       "field 'gears.damping': must not be negative"},
+      {"{ratio: 10, rotor_inertia: [1e-4, 0], damping: 1}",
+       "field 'gears.damping': a damper needs a spring: give 'stiffness' too"},
+      {"{ratio: 10, stiffness: 100}",
+       "field 'gears.rotor_inertia[0]': a flexible joint (stiffness given) needs a rotor of "
+       "positive axial inertia, got 0"},
+      {"{ratio: 10, rotor_inertia: [1e-4, 0], stiffness: k}",
+       "field 'gears.stiffness': refers to parameter 'k', which is not declared"},
+      {"{ratio: 10, rotor_inertia: [1e-4, 0], stiffness: [1]}", "field 'gears.stiffness'"},
+  };
+  for (const auto& [gear, message] : bad)
+    EXPECT_THROW_MESSAGE(parse_spatial_scene(with_gear(gear), "arm2.yaml"), SceneError, message);
+  EXPECT_THROW_MESSAGE(
+      parse_spatial_scene(kArm + "outputs: [potential_energy]\n", "arm2.yaml"), SceneError,
+      "field 'outputs[0]': 'potential_energy' needs a flexible joint (gears: stiffness)");
+}
+
 }  // namespace
 }  // namespace spacearm
