@@ -800,6 +800,18 @@ std::vector<T> Chain<T>::end_effector_pose() const {
 }
 
 template <class T>
+std::vector<T> Chain<T>::joint_positions() const {
+  const int cols = n_ + 1;
+  std::vector<T> P(3 * cols);
+  const Vec3<T> tip = p_[n_] + times(R_[n_], num(d_.tip));
+  for (int k = 0; k < 3; ++k) {
+    for (int i = 1; i <= n_; ++i) P[k * cols + i - 1] = p_[i][k];
+    P[k * cols + n_] = tip[k];
+  }
+  return P;
+}
+
+template <class T>
 std::vector<T> Chain<T>::end_effector_jacobian() const {
   const int nv = d_.nv(), nb = d_.num_base();
   const Vec3<T> tip = p_[n_] + times(R_[n_], num(d_.tip));

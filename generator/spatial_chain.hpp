@@ -484,6 +484,9 @@ class Chain {
   // link's orientation as a quaternion, composed joint by joint (no branches: recordable); it has
   // the norm of the base's quaternion in q (1 for a unit one; a square root is not recordable).
   std::vector<T> end_effector_pose() const;
+  // The world positions of joints 1..N (each link frame's origin) and of the tip, for drawing:
+  // row-major 3 x (N + 1), one column per point.
+  std::vector<T> joint_positions() const;
   // Its geometric Jacobian, row-major 6 x nv: the tip's linear and the last link's angular
   // velocity in the world per unit velocity.
   std::vector<T> end_effector_jacobian() const;

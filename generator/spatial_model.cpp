@@ -118,7 +118,8 @@ namespace {
 // How the spatial chain gives output o (the banner's and --stats' words): as the planar chain
 // does, with its end effector from forward kinematics and the compositions with M_bb's solve.
 const char* spatial_algorithm(Output o) {
-  if (o == Output::end_effector_pose || o == Output::end_effector_jacobian)
+  if (o == Output::end_effector_pose || o == Output::end_effector_jacobian ||
+      o == Output::joint_positions)
     return "forward kinematics";
   if (o == Output::generalized_jacobian) return "CRBA, forward kinematics, base solve";
   if (o == Output::free_base_inverse_dynamics) return "CRBA, RNEA, base solve";

@@ -115,6 +115,7 @@ struct World {
   std::vector<Eigen::Matrix3d> inertia;               // about the com, in the body frame
   double armature_energy = 0;                         // 1/2 I qd_m^2 of the armature-coupled motors
   Eigen::Vector3d last_origin, last_origin_velocity;  // the last link frame's
+  std::vector<Eigen::Vector3d> joint_origins;         // each link frame's, in the world
 };
 
 Eigen::Matrix3d inertia_of(const Link& l) {
@@ -179,6 +180,7 @@ World world(const ChainDescription& d, const Eigen::VectorXd& q, const Eigen::Ve
     add_body(l);
     w.last_origin = p;
     w.last_origin_velocity = pdot;
+    w.joint_origins.push_back(p);
   }
   return w;
 }
@@ -938,6 +940,14 @@ TEST(SpatialChain, EndEffectorPoseAndJacobianAreTheWorldComputations) {
     EXPECT_LT((twist.head<3>() - (w.last_origin_velocity + w.omega.back().cross(R * tip))).norm(),
               1e-12 * (1 + twist.norm()));
     EXPECT_LT((twist.tail<3>() - w.omega.back()).norm(), 1e-12 * (1 + twist.norm()));
+    // The joints' world positions, then the tip's (3 x (N + 1), for drawing).
+    const std::vector<double> P = chain.joint_positions();
+    const int cols = static_cast<int>(d.links.size()) + 1;
+    ASSERT_EQ(P.size(), 3u * cols);
+    for (int i = 0; i < cols; ++i) {
+      const Eigen::Vector3d want = i + 1 < cols ? w.joint_origins[i] : w.last_origin + R * tip;
+      EXPECT_LT((Eigen::Vector3d(P[i], P[cols + i], P[2 * cols + i]) - want).norm(), 1e-12) << i;
+    }
   }
 }
 

@@ -53,8 +53,8 @@ TEST(SpatialModel, LowersAndPrintsFromTheDerivedModelAlone) {
   std::string defaults = kArm;
   defaults.erase(defaults.find("outputs:"));
   const std::vector<Output> by_default = spatial_outputs(parse_spatial_scene(defaults, "arm3"));
-  // M, b, T, momentum, ID, FD, the pose and its Jacobian, J*, free-base ID.
-  EXPECT_EQ(by_default.size(), 10u);
+  // M, b, T, momentum, ID, FD, the pose and its Jacobian, the joints' positions, J*, free-base ID.
+  EXPECT_EQ(by_default.size(), 11u);
   for (Output o : {Output::mass_matrix, Output::end_effector_jacobian, Output::generalized_jacobian,
                    Output::free_base_inverse_dynamics})
     EXPECT_EQ(std::count(by_default.begin(), by_default.end(), o), 1) << to_string(o);
