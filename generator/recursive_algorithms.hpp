@@ -221,12 +221,16 @@ std::vector<std::vector<T>> compute(const Description& d, const Values<T>& value
     case Output::end_effector_pose:
     case Output::end_effector_jacobian:
     case Output::joint_positions:
+    case Output::joint_angles:
+    case Output::joint_rates:
     case Output::generalized_jacobian:
     case Output::free_base_inverse_dynamics:
       if constexpr (has_kinematics<Chain<T>>::value) {
         if (o == Output::end_effector_pose) return {chain.end_effector_pose()};
         if (o == Output::end_effector_jacobian) return {chain.end_effector_jacobian()};
         if (o == Output::joint_positions) return {chain.joint_positions()};
+        if (o == Output::joint_angles) return {chain.joint_angles()};
+        if (o == Output::joint_rates) return {chain.joint_rates()};
         if (o == Output::generalized_jacobian) return {chain.generalized_jacobian()};
         return chain.free_base_inverse_dynamics(inputs(d, chain, Input::joint_accelerations));
       }

@@ -800,6 +800,22 @@ std::vector<T> Chain<T>::end_effector_pose() const {
 }
 
 template <class T>
+std::vector<T> Chain<T>::joint_angles() const {
+  std::vector<T> angles;
+  const int jq = d_.free_base ? 7 : 0;
+  for (int i = 1; i <= n_; ++i)
+    angles.push_back(values_.input("q", jq + i - 1) * over_ratio(i, 1.0));
+  return angles;
+}
+
+template <class T>
+std::vector<T> Chain<T>::joint_rates() const {
+  std::vector<T> rates;
+  for (int i = 1; i <= n_; ++i) rates.push_back(qd_[i] * over_ratio(i, 1.0));
+  return rates;
+}
+
+template <class T>
 std::vector<T> Chain<T>::joint_positions() const {
   const int cols = n_ + 1;
   std::vector<T> P(3 * cols);

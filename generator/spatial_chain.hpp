@@ -484,6 +484,10 @@ class Chain {
   // link's orientation as a quaternion, composed joint by joint (no branches: recordable); it has
   // the norm of the base's quaternion in q (1 for a unit one; a square root is not recordable).
   std::vector<T> end_effector_pose() const;
+  // The link-side joint angles and rates (N): a rigid gear's slot divided by its ratio (qm / p),
+  // any other slot as it is.
+  std::vector<T> joint_angles() const;
+  std::vector<T> joint_rates() const;
   // The world positions of joints 1..N (each link frame's origin) and of the tip, for drawing:
   // row-major 3 x (N + 1), one column per point.
   std::vector<T> joint_positions() const;

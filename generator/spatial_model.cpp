@@ -121,6 +121,7 @@ const char* spatial_algorithm(Output o) {
   if (o == Output::end_effector_pose || o == Output::end_effector_jacobian ||
       o == Output::joint_positions)
     return "forward kinematics";
+  if (o == Output::joint_angles || o == Output::joint_rates) return "gear ratios";
   if (o == Output::generalized_jacobian) return "CRBA, forward kinematics, base solve";
   if (o == Output::free_base_inverse_dynamics) return "CRBA, RNEA, base solve";
   if (o == Output::friction_forces) return "friction law on the joint rates";

@@ -522,6 +522,8 @@ bool spatial_output(Output o, bool free_base) {
     case Output::end_effector_pose:
     case Output::end_effector_jacobian:
     case Output::joint_positions:
+    case Output::joint_angles:
+    case Output::joint_rates:
     case Output::friction_forces:  // where the scene has friction or springs (their needs)
     case Output::potential_energy:
     case Output::spring_damper_forces:

@@ -53,8 +53,9 @@ TEST(SpatialModel, LowersAndPrintsFromTheDerivedModelAlone) {
   std::string defaults = kArm;
   defaults.erase(defaults.find("outputs:"));
   const std::vector<Output> by_default = spatial_outputs(parse_spatial_scene(defaults, "arm3"));
-  // M, b, T, momentum, ID, FD, the pose and its Jacobian, the joints' positions, J*, free-base ID.
-  EXPECT_EQ(by_default.size(), 11u);
+  // M, b, T, momentum, ID, FD, the pose and its Jacobian, the joints' positions, the link-side
+  // joint angles and rates, J*, free-base ID.
+  EXPECT_EQ(by_default.size(), 13u);
   for (Output o : {Output::mass_matrix, Output::end_effector_jacobian, Output::generalized_jacobian,
                    Output::free_base_inverse_dynamics})
     EXPECT_EQ(std::count(by_default.begin(), by_default.end(), o), 1) << to_string(o);
@@ -297,9 +298,17 @@ TEST(SpatialModel, AFlexibleArmHasItsMotorsAfterTheJointsAndItsSprings) {
               << f.name << " " << r << " " << k;
       }
       ++checked;
+      // The link-side joint angles and rates: the flexible joints' slots as they are, the rigid
+      // gear's (joint 3, p = 20) divided by its ratio.
+      if (*o == Output::joint_angles || *o == Output::joint_rates) {
+        const std::vector<double>& x = *o == Output::joint_angles ? q : v;
+        const int slot = *o == Output::joint_angles ? 7 : 6;
+        EXPECT_EQ(f.program.evaluate(f.entries[0], input),
+                  (std::vector<double>{x[slot], x[slot + 1], x[slot + 2] * (1 / 20.0)}));
+      }
     }
   }
-  EXPECT_GE(checked, 3 * 11);
+  EXPECT_GE(checked, 3 * 13);
 }
 
 // A flexible arm's springs, dampers and rotor as run-time parameters.
