@@ -123,9 +123,11 @@ Eigen::VectorXd generalized_forces(const ModelRecipe& recipe, const Eigen::Vecto
     };
     for (int j = 0; j < scene->num_links(); ++j)
       ratios.push_back(scene->has_gear(j) ? value(scene->gears[j]->ratio) : 1);
-  } else {
+  } else {  // a run-time ratio from params, as the planar branch reads it
     for (const auto& l : recipe.spatial()->chain.links)
-      ratios.push_back(l.gear.present ? l.gear.ratio : 1);
+      ratios.push_back(!l.gear.present                           ? 1
+                       : l.gear.ratio_param == spatial::kLiteral ? l.gear.ratio
+                                                                 : params[l.gear.ratio_param]);
   }
   Eigen::VectorXd Q = Eigen::VectorXd::Zero(facts.dims.nv);
   const std::vector<int> actuated = actuated_coordinates(facts);

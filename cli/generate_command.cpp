@@ -90,12 +90,7 @@ int run_generate(const GenerateArgs& a) {
 int run_inspect(const InspectArgs& a) {
   const ModelRecipe recipe = ModelRecipe::load(a.scene_path);
   if (recipe.spatial()) {
-    if (a.latex || a.decimal)
-      throw std::invalid_argument("inspect: --latex and --decimal need a closed form; model '" +
-                                  recipe.name() +
-                                  "' is a spatial arm, whose entries are printed "
-                                  "as the statements that compute them");
-    std::cout << recipe.entry_program(a.entry);
+    std::cout << recipe.inspect_entry(a.entry, a.latex, a.decimal);
     return 0;
   }
   DeriveOptions options;

@@ -223,7 +223,7 @@ int run_simulate(const SimulateArgs& args) {
                 : "simulate: the scene must emit forward_dynamics, or mass_matrix and bias_forces "
                   "(field 'outputs')");
   const int nq = facts.dims.nq, nv = facts.dims.nv, N = facts.dims.num_links;
-  if (a.consistent_start && !(scene.planar() && scene.planar()->num_flexible()))
+  if (a.consistent_start && !(facts.features & needs::springs))
     throw std::invalid_argument(
         "--consistent-start: the scene has no flexible joint (gears[i].stiffness)");
   // Default: at rest, the base's quaternion the identity.

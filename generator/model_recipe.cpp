@@ -1,11 +1,14 @@
 #include "model_recipe.hpp"
 
 #include <chrono>
+#include <map>
+#include <sstream>
 #include <stdexcept>
 
 #include "body_printer.hpp"
 #include "lowering.hpp"
 #include "planar_model.hpp"
+#include "program_expression.hpp"
 #include "spatial_model.hpp"
 
 namespace spacearm {
@@ -53,8 +56,41 @@ EmittedModel ModelRecipe::emit(const EmitOptions& options, double* derive_ms) co
   return emit_cpp(model, options);
 }
 
-std::string ModelRecipe::entry_program(const std::string& entry) const {
-  if (!spatial_) throw std::logic_error("entry_program: a spatial scene's");
+namespace {
+
+// The inputs of a spatial entry's program as GiNaC symbols named as the model names them: q by
+// its coordinates, qd by its velocities (vx0 .. wz0 for a free base, a coordinate's rate with d),
+// params by name, qdd with dd, Q and qdd_joints by index.
+class EntrySymbols {
+ public:
+  explicit EntrySymbols(const ModelFacts& f) : f_(f) {}
+  GiNaC::ex operator()(const std::string& array, int i) {
+    std::string name = array + std::to_string(i);
+    const int base = f_.quaternion_offset >= 0 ? 6 : 0, shift = f_.quaternion_offset >= 0 ? 1 : 0;
+    static const char* kBase[] = {"vx0", "vy0", "vz0", "wx0", "wy0", "wz0"};
+    auto velocity = [&](const std::string& suffix) {
+      return i < base ? kBase[i] + suffix.substr(1) : f_.coordinate_names.at(i + shift) + suffix;
+    };
+    if (array == "q") name = f_.coordinate_names.at(i);
+    if (array == "qd") name = velocity("d");
+    if (array == "qdd") name = velocity("dd");
+    if (array == "params") name = f_.parameter_names.at(i);
+    auto [at, added] = symbols_.try_emplace(name, GiNaC::symbol(name));
+    if (added && array != "q") velocities_.append(at->second);  // collected by
+    return at->second;
+  }
+  const GiNaC::lst& collected_by() const { return velocities_; }
+
+ private:
+  const ModelFacts& f_;
+  std::map<std::string, GiNaC::symbol> symbols_;
+  GiNaC::lst velocities_;
+};
+
+}  // namespace
+
+std::string ModelRecipe::inspect_entry(const std::string& entry, bool latex, bool decimal) const {
+  if (!spatial_) throw std::logic_error("inspect_entry: a spatial scene's");
   const EntryText e = parse_entry(entry);
   const std::string shown =
       "entry '" + (entry.size() > 40 ? entry.substr(0, 40) + "..." : entry) + "'";
@@ -81,13 +117,32 @@ std::string ModelRecipe::entry_program(const std::string& entry) const {
     if (f.name != output->name) continue;
     std::string target = shape.name;
     for (int i : e.indices) target += "[" + std::to_string(i) + "]";
-    const BodyPrinter body(f.program, {{target, f.entries[0].at(index), ""}}, false);
+    const SRef root = f.entries[0].at(index);
+    // The closed form where it stays small, collected by the velocities and parameters.
+    EntrySymbols symbols(facts_);
+    if (const std::optional<GiNaC::ex> x =
+            expanded_expression(f.program, root, std::ref(symbols), kSpatialClosedFormTerms)) {
+      const GiNaC::ex form =
+          GiNaC::collect(decimal ? GiNaC::evalf(*x) : *x, symbols.collected_by(), true);
+      std::ostringstream out;
+      if (latex) out << GiNaC::latex;
+      out << form << "\n";
+      return out.str();
+    }
+    if (latex || decimal)
+      throw std::invalid_argument(
+          shown + ": LaTeX and decimals need a closed form, and this entry's expands past " +
+          std::to_string(kSpatialClosedFormTerms) +
+          " terms; without them inspect prints the statements that compute it");
+    const BodyPrinter body(f.program, {{target, root, ""}}, false);
     std::string text = "// " + target + " of " + f.name + " (" + f.formulation + ") in model " +
-                       facts_.name + ": the statements it depends on\n";
+                       facts_.name +
+                       ": the statements it depends on (its closed form expands past " +
+                       std::to_string(kSpatialClosedFormTerms) + " terms)\n";
     for (int k = 0; k < body.num_parts(); ++k) text += body.part(k);
     return text;
   }
-  throw std::logic_error("entry_program: no function " + std::string(output->name));
+  throw std::logic_error("inspect_entry: no function " + std::string(output->name));
 }
 
 }  // namespace spacearm

@@ -15,6 +15,10 @@
 
 namespace spacearm {
 
+// The most terms a spatial entry's expanded closed form may have for inspect to print it (the
+// plane's closed forms are affordable to N = 8; a 3D entry's grows with the joints it spans).
+constexpr size_t kSpatialClosedFormTerms = 400;
+
 class ModelRecipe {
  public:
   explicit ModelRecipe(Scene scene);
@@ -33,10 +37,13 @@ class ModelRecipe {
   std::vector<std::string> read_files() const;
   // Derives and emits the model; derive_ms (when given) receives the derivation's time.
   EmittedModel emit(const EmitOptions& options, double* derive_ms = nullptr) const;
-  // One entry of a spatial model's output ("M[3][4]", inspect's syntax) as the statements of its
-  // lowered program that it depends on, ending in the entry's value: how the generated code
-  // computes it (a spatial model has no closed forms). std::invalid_argument naming the entry.
-  std::string entry_program(const std::string& entry) const;
+  // One entry of a spatial model's output ("M[3][4]", inspect's syntax): its closed form where it
+  // is affordable (the recorded program expanded, at most kSpatialClosedFormTerms terms; LaTeX
+  // or decimals on request), else the statements of its lowered program that it depends on,
+  // ending in the entry's value (how the generated code computes it). std::invalid_argument
+  // naming the entry, or saying that LaTeX and decimals need a closed form.
+  std::string inspect_entry(const std::string& entry, bool latex = false,
+                            bool decimal = false) const;
 
   // The scene, for the tools that read more than the facts (nullptr: the other kind).
   const Scene* planar() const { return planar_.get(); }

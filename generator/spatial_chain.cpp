@@ -84,8 +84,10 @@ Mat3<T> Chain<T>::rotor_inertia(int i, const Vec3<double>& a) const {
 template <class T>
 T Chain<T>::ratio_times_axial(int i, int power) const {
   const Gear& g = d_.links[i - 1].gear;
-  if (literal_ratio(i) && g.axial_param == kLiteral)
-    return num(power == 1 ? g.ratio * g.axial : g.ratio * g.ratio * g.axial);
+  if (literal_ratio(i) && g.axial_param == kLiteral) {
+    const double p = ratio_value(i);
+    return num(power == 1 ? p * g.axial : p * p * g.axial);
+  }
   return power == 1 ? ratio(i) * axial(i) : ratio(i) * ratio(i) * axial(i);
 }
 

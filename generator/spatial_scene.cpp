@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
+#include <cstdio>
 #include <optional>
 #include <set>
 
@@ -16,6 +17,13 @@ namespace spacearm {
 
 namespace {
 
+// A number for a message, as short as it reads ("%g": -1e-09, not -0.000000).
+std::string number_text(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", v);
+  return text;
+}
+
 constexpr int kMaxLinks = 30;  // as in the plane
 
 // Why a body's inertia about its centre is not physical ("" if it is): positive definite with
@@ -27,8 +35,8 @@ std::string inertia_problem(const spatial::Inertial& l) {
   const Eigen::Vector3d m = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I).eigenvalues();
   const double slack = 1e-12 * m.cwiseAbs().maxCoeff();
   if (m.minCoeff() > 0 && m[0] + m[1] >= m[2] - slack) return "";
-  return "not a physical inertia (principal moments " + std::to_string(m[0]) + ", " +
-         std::to_string(m[1]) + ", " + std::to_string(m[2]) +
+  return "not a physical inertia (principal moments " + number_text(m[0]) + ", " +
+         number_text(m[1]) + ", " + number_text(m[2]) +
          ": each must be positive and at most the sum of the other two)";
 }
 
@@ -182,8 +190,7 @@ class SpatialReader {
   void read_inertial(const YAML::Node& n, const std::string& field, spatial::Inertial& l,
                      const std::string& rule_field) {
     l.mass = quantity(r_.require(n, "mass", field), field + ".mass", l.mass_param);
-    if (!(l.mass > 0))
-      r_.fail(field + ".mass", "must be positive, got " + std::to_string(l.mass), n);
+    if (!(l.mass > 0)) r_.fail(field + ".mass", "must be positive, got " + number_text(l.mass), n);
     rule(SpatialRangeRule::Kind::positive, rule_field + ".mass", l.mass, l.mass_param);
     if (n["com"]) l.com = quantities<3>(n["com"], field + ".com", l.com_param);
     l.inertia = quantities<6>(r_.require(n, "inertia", field), field + ".inertia", l.inertia_param);
@@ -261,7 +268,7 @@ class SpatialReader {
     // A body's URDF inertial (what is lumped from its links), unless the scene gives them all.
     auto check = [&](const spatial::Link& body_link, const std::string& body) {
       const spatial::Inertial l = whole_body(body_link);
-      std::string why = !(l.mass > 0) ? "its mass, " + std::to_string(l.mass) + ", must be positive"
+      std::string why = !(l.mass > 0) ? "its mass, " + number_text(l.mass) + ", must be positive"
                                       : inertia_problem(l);
       if (!why.empty())
         r_.fail("urdf", "URDF '" + path + "', the body of " + body + ": " + why, root["urdf"]);
@@ -306,7 +313,7 @@ class SpatialReader {
     g.present = true;
     g.ratio = quantity(r_.require(n, "ratio", field), field + ".ratio", g.ratio_param);
     if (!(g.ratio > 0))
-      r_.fail(field + ".ratio", "must be positive, got " + std::to_string(g.ratio), n["ratio"]);
+      r_.fail(field + ".ratio", "must be positive, got " + number_text(g.ratio), n["ratio"]);
     rule(SpatialRangeRule::Kind::positive, field + ".ratio", g.ratio, g.ratio_param);
     if (n["rotor_inertia"]) {
       std::array<int, 2> params;
@@ -350,21 +357,21 @@ class SpatialReader {
     const std::string k = field + ".stiffness";
     g.stiffness = quantity(n["stiffness"], k, g.stiffness_param);
     if (!(g.stiffness > 0))
-      r_.fail(k, "must be positive, got " + std::to_string(g.stiffness), n["stiffness"]);
+      r_.fail(k, "must be positive, got " + number_text(g.stiffness), n["stiffness"]);
     rule(SpatialRangeRule::Kind::positive, k, g.stiffness, g.stiffness_param);
     if (n["damping"]) {
       const std::string d = field + ".damping";
       g.has_damping = true;
       g.damping = quantity(n["damping"], d, g.damping_param);
       if (!(g.damping >= 0))
-        r_.fail(d, "must not be negative, got " + std::to_string(g.damping), n["damping"]);
+        r_.fail(d, "must not be negative, got " + number_text(g.damping), n["damping"]);
       rule(SpatialRangeRule::Kind::non_negative, d, g.damping, g.damping_param);
     }
     const std::string axial = field + ".rotor_inertia[0]";
     if (!(g.axial > 0))
       r_.fail(axial,
               "a flexible joint (stiffness given) needs a rotor of positive axial inertia, got " +
-                  std::to_string(g.axial),
+                  number_text(g.axial),
               n["rotor_inertia"] ? n["rotor_inertia"] : n);
     rule(SpatialRangeRule::Kind::positive, axial, g.axial, g.axial_param);
   }
@@ -402,7 +409,7 @@ class SpatialReader {
       if (!n[key]) return otherwise;
       const std::string f = field + "." + key;
       const double v = quantity(n[key], f, param);
-      if (!(v >= 0)) r_.fail(f, "must not be negative, got " + std::to_string(v), n[key]);
+      if (!(v >= 0)) r_.fail(f, "must not be negative, got " + number_text(v), n[key]);
       rule(SpatialRangeRule::Kind::non_negative, f, v, param);
       return v;
     };
@@ -421,8 +428,8 @@ class SpatialReader {
     const std::string fs = field + ".stribeck_static";
     if (fr.stribeck_static < fr.coulomb)
       r_.fail(fs,
-              "the breakaway level Fs (" + std::to_string(fr.stribeck_static) +
-                  ") must not be below the Coulomb level Fc (" + std::to_string(fr.coulomb) + ")",
+              "the breakaway level Fs (" + number_text(fr.stribeck_static) +
+                  ") must not be below the Coulomb level Fc (" + number_text(fr.coulomb) + ")",
               n["stribeck_static"]);
     if (fr.has_stribeck &&
         (fr.stribeck_static_param != spatial::kLiteral || fr.coulomb_param != spatial::kLiteral))
@@ -443,7 +450,7 @@ class SpatialReader {
         r_.fail(f,
                 "must be at least 1e-9 rad/s (tanh(w/vs) becomes a step that no integrator "
                 "follows), got " +
-                    std::to_string(v),
+                    number_text(v),
                 n[key]);
       if (param != spatial::kLiteral)
         rules_->push_back({SpatialRangeRule::Kind::not_below,

@@ -117,14 +117,9 @@ class PyModel {
   // One symbolic entry ("M[3][4]", "T", ...) as `spacearm inspect` prints it; the scene is
   // derived on the first call (without the GIL) and kept.
   std::string inspect(const std::string& entry, bool latex, bool decimal) {
-    if (!recipe_.planar()) {  // a spatial arm: the statements that compute the entry
-      if (latex || decimal)
-        throw py::value_error("inspect: latex and decimal need a closed form; model '" +
-                              model_.name() +
-                              "' is a spatial arm, whose entries are printed as "
-                              "the statements that compute them");
+    if (!recipe_.planar()) {  // a spatial arm: the closed form where affordable, else statements
       py::gil_scoped_release release;
-      return recipe_.entry_program(entry);
+      return recipe_.inspect_entry(entry, latex, decimal);
     }
     if (!symbolic_) {
       py::gil_scoped_release release;
@@ -294,11 +289,12 @@ py::dict PyModel::plan(const Eigen::VectorXd& start, const Eigen::VectorXd& goal
   py::dict out, named;
   for (size_t c = 0; c < table.names.size(); ++c)
     named[table.names[c].c_str()] = table_columns(table, c, 1, false);
-  const size_t nq = static_cast<size_t>(model_.nq()), n = static_cast<size_t>(model_.num_links());
+  const size_t nq = static_cast<size_t>(model_.nq()), nv = static_cast<size_t>(model_.nv()),
+               n = static_cast<size_t>(model_.num_links());
   out["t"] = table_columns(table, 0, 1, false);
   size_t at = 1;
-  for (const char* group : {"q", "qd", "qdd"})
-    out[group] = table_columns(table, at, nq, true), at += nq;
+  for (const auto& [group, size] : {std::pair{"q", nq}, std::pair{"qd", nv}, std::pair{"qdd", nv}})
+    out[group] = table_columns(table, at, size, true), at += size;
   while (table.names[at] != "tau1") ++at;  // past a motor slot's link-side q_j, q_jd
   out["tau"] = table_columns(table, at, n, true), at += n;
   if (recipe_.facts().geared) out["tau_motor"] = table_columns(table, at, n, true), at += n;
@@ -387,7 +383,7 @@ py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& 
   const Eigen::VectorXd params = named_parameters(model_, params_, params_given);
   const DynamicModel m = dynamic_model(model_, params);
   m.require_forward_dynamics("simulate");
-  if (o.consistent_start && !(recipe_.planar() && recipe_.planar()->num_flexible()))
+  if (o.consistent_start && !(recipe_.facts().features & needs::springs))
     throw py::value_error("consistent_start: the scene has no flexible joint (gears[i].stiffness)");
   IntegratorOptions opt;
   const bool automatic = o.integrator == "auto";

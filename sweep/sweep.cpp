@@ -212,7 +212,7 @@ std::string StudyRunner::row(long run, std::string* series) const {
     if (series && s.series_every) {
       std::string head = "t";
       for (const auto& n : model.coordinate_names) head += "," + n;
-      for (const auto& n : model.coordinate_names) head += "," + n + "d";
+      for (const auto& n : model.velocity_names()) head += "," + n;
       *series = head + pose_columns(model.spatial) + "\n" + csv;
     }
     return r + ",ok" + values + "," + ratio + ",\n";

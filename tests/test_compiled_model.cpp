@@ -791,20 +791,25 @@ TEST_F(SimulateCli, SpatialArmEvaluatesAndMoves) {
   EXPECT_NE(symbolic.find("--symbolic: model 'spatial_arm2' is a spatial arm"), std::string::npos)
       << symbolic;
 
-  // inspect prints a spatial entry as the statements that compute it, ending in its value; a
-  // closed-form option is refused by name.
-  const std::string inspect =
-      run(std::string(SPACEARM_CLI) + " inspect " + scene + " 'M[6][7]' 2>&1", &status);
-  EXPECT_EQ(status, 0) << inspect;
-  EXPECT_EQ(inspect.rfind("// M[6][7] of mass_matrix (recursive (CRBA)) in model spatial_arm2", 0),
-            0u)
-      << inspect;
-  EXPECT_NE(inspect.find("cosines0[1]"), std::string::npos) << inspect;  // M[6][7] depends on q2
-  EXPECT_NE(inspect.find("\n  M[6][7] = "), std::string::npos) << inspect;
-  const std::string latex =
-      run(std::string(SPACEARM_CLI) + " inspect " + scene + " 'M[6][7]' --latex 2>&1", &status);
+  // inspect prints a spatial entry's closed form where it is affordable (M[6][7] depends on
+  // joint 2's motor angle), in LaTeX on request; else the statements that compute it, ending in
+  // its value, and LaTeX is refused by name.
+  const std::string inspect = std::string(SPACEARM_CLI) + " inspect " + scene;
+  const std::string closed = run(inspect + " 'M[6][7]' 2>&1", &status);
+  EXPECT_EQ(status, 0) << closed;
+  EXPECT_NE(closed.find("cos((0.05)*qm2)"), std::string::npos) << closed;
+  const std::string latex = run(inspect + " 'M[6][7]' --latex 2>&1", &status);
+  EXPECT_EQ(status, 0) << latex;
+  EXPECT_NE(latex.find("\\cos({(0.05)}  qm2)"), std::string::npos) << latex;
+  const std::string program = run(inspect + " 'qdd[0]' 2>&1", &status);
+  EXPECT_EQ(status, 0) << program;
+  EXPECT_EQ(
+      program.rfind("// qdd[0] of forward_dynamics (recursive (ABA)) in model spatial_arm2", 0), 0u)
+      << program;
+  EXPECT_NE(program.find("\n  qdd[0] = "), std::string::npos) << program;
+  const std::string refused = run(inspect + " 'qdd[0]' --latex 2>&1", &status);
   EXPECT_NE(status, 0);
-  EXPECT_NE(latex.find("--latex and --decimal need a closed form"), std::string::npos) << latex;
+  EXPECT_NE(refused.find("LaTeX and decimals need a closed form"), std::string::npos) << refused;
 
   const std::string simulate = std::string(SPACEARM_CLI) + " simulate --cache-dir " +
                                cache.string() + " " + scene +
@@ -825,6 +830,44 @@ TEST_F(SimulateCli, SpatialArmEvaluatesAndMoves) {
       EXPECT_NEAR(r[momentum + k], table[0][momentum + k],
                   1e-9 * (1 + std::abs(table[0][momentum + k])));
   }
+}
+
+// A spatial arm with a flexible joint whose ratio is a run-time parameter: eval's --tau puts
+// tau / p (the parameter's value, not its nominal one) on the motor coordinate after the joint
+// slots, and simulate --consistent-start sets the motor at p q. Cost: one compile, about 1.5 s.
+TEST_F(SimulateCli, ASpatialFlexibleJointTakesItsRatioFromTheParametersAndStartsConsistently) {
+  std::string text =
+      test::read_text_file(std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/spatial_arm2.yaml");
+  text.replace(text.find("name: spatial_arm2"), 18, "name: spatial_arm2_flexible");
+  const std::string gear = "{ratio: 50, rotor_inertia: [1.0e-4, 6.0e-5], rotor_coupling: exact}";
+  text.replace(text.find(gear), gear.size(),
+               "{ratio: p, rotor_inertia: [1.0e-4, 6.0e-5], rotor_coupling: exact, "
+               "stiffness: 300, damping: 0.1}");
+  text += "parameters: {p: 50}\n";
+  const fs::path scene = cache.parent_path() / ("flexible-" + std::to_string(getpid()) + ".yaml");
+  std::ofstream(scene) << text;
+  int status = 0;
+  const std::string q = "0.1,0.2,0.3,0.5,0.5,-0.5,0.5,0.06,-7,3";  // q1, qm2, then qm1
+  const std::string evaluated =
+      run(cli + scene.string() + " --q " + q + " --tau 2,-3 --param p=25 --json", &status);
+  ASSERT_EQ(status, 0) << evaluated;
+  const auto out = nlohmann::json::parse(evaluated);
+  EXPECT_EQ(out["coordinates"][9], "qm1");
+  Eigen::VectorXd Q = Eigen::VectorXd::Zero(9);
+  Q[8] = 2.0 / 25, Q[7] = -3.0 / 20;
+  EXPECT_EQ(vector_of(out["Q"]), Q);
+  const fs::path csv = scene.string() + ".csv";
+  const std::string simulated =
+      run(std::string(SPACEARM_CLI) + " simulate --cache-dir " + cache.string() + " " +
+              scene.string() + " --zero --t-end 0.02 --param p=25 --consistent-start --q0 " + q +
+              " -o " + csv.string() + " 2>&1",
+          &status);
+  ASSERT_EQ(status, 0) << simulated;
+  const auto table = rows(test::read_text_file(csv.string()));
+  ASSERT_FALSE(table.empty());
+  EXPECT_NEAR(table[0][10], 25 * 0.06, 1e-12);  // t, then q: qm1 at index 9
+  fs::remove(scene);
+  fs::remove(csv);
 }
 
 TEST_F(SimulateCli, ZeroTorqueFromRestStaysPutAndTorquesMoveTheArm) {

@@ -11,6 +11,8 @@
 
 #include "cpp_printer.hpp"
 #include "lowering.hpp"
+#include "model_recipe.hpp"
+#include "program_expression.hpp"
 #include "recursive_algorithms.hpp"
 #include "spatial_chain.hpp"
 #include "support.hpp"
@@ -140,6 +142,50 @@ TEST(SpatialModel, ThirtyJointsLowerAndGiveTheChainsValues) {
     ++checked;
   }
   EXPECT_EQ(checked, 4);
+}
+
+// inspect's closed forms in 3D: each entry's recorded program expanded into one expression
+// (program_expression.hpp) is, evaluated by GiNaC at a random state, the program's value; an
+// entry past the budget has none (nullopt), and inspect then prints its statements, and refuses
+// LaTeX by name.
+TEST(SpatialModel, ClosedFormsOfEntriesAreTheirPrograms) {
+  const SpatialScene scene = parse_spatial_scene(kArm, "arm3.yaml");
+  const LoweredModel lowered = lower(spatial_derived_model(scene), {});
+  std::mt19937 rng(45);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::map<std::pair<std::string, int>, double> at;
+  auto input = [&](const std::string& a, int i) {
+    return at.try_emplace({a, i}, u(rng)).first->second;
+  };
+  std::map<std::pair<std::string, int>, GiNaC::symbol> symbols;
+  auto symbol = [&](const std::string& a, int i) -> GiNaC::ex {
+    return symbols.try_emplace({a, i}, GiNaC::symbol(a + std::to_string(i))).first->second;
+  };
+  int closed = 0, open = 0;
+  for (const FunctionSpec& f : lowered.functions) {
+    if (f.name == "forward_dynamics_derivatives" || f.name == "mass_matrix_and_bias") continue;
+    for (const SRef& root : f.entries[0]) {
+      const double want = f.program.evaluate({root}, input)[0];
+      const std::optional<GiNaC::ex> x = expanded_expression(f.program, root, symbol, 400);
+      if (!x) {
+        ++open;
+        continue;
+      }
+      GiNaC::exmap values;
+      for (const auto& [key, s] : symbols) values[s] = input(key.first, key.second);
+      const double got = GiNaC::ex_to<GiNaC::numeric>(GiNaC::evalf(x->subs(values))).to_double();
+      EXPECT_NEAR(got, want, 1e-12 * (1 + std::abs(want))) << f.name;
+      ++closed;
+    }
+  }
+  EXPECT_GT(closed, 50);  // M, T, the momentum's entries of this 3-joint arm
+  EXPECT_GT(open, 0);     // forward dynamics' entries (a solve) pass the budget
+  const ModelRecipe recipe(scene);
+  EXPECT_NE(recipe.inspect_entry("M[6][7]").find("cos("), std::string::npos);
+  EXPECT_NE(recipe.inspect_entry("M[6][7]", true).find("\\cos"), std::string::npos);
+  EXPECT_EQ(recipe.inspect_entry("qdd[0]").rfind("// qdd[0] of forward_dynamics", 0), 0u);
+  EXPECT_THROW_MESSAGE(recipe.inspect_entry("qdd[0]", true), std::invalid_argument,
+                       "entry 'qdd[0]': LaTeX and decimals need a closed form");
 }
 
 // kArm with run-time parameters for a ratio of each coupling, the rotor inertias, the base's and

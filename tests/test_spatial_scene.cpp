@@ -133,7 +133,7 @@ TEST(SpatialScene, ReadsFrictionAndNamesItsBadFields) {
       {"friction: {coulomb: 0.2, velocity_scale: 1e-12}",
        "field 'friction.velocity_scale': must be at least 1e-9 rad/s"},
       {"friction: {coulomb: 0.2, stribeck_static: 0.1, velocity_scale: 1}",
-       "field 'friction.stribeck_static': the breakaway level Fs (0.100000) must not be below"},
+       "field 'friction.stribeck_static': the breakaway level Fs (0.1) must not be below"},
       {"friction: {coulomb: 0.2, stribeck_static: 0.3, velocity_scale: 1}",
        "field 'friction.stribeck_velocity': a Stribeck hump"},
       {"friction: {viscous: b}",

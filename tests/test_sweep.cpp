@@ -627,6 +627,26 @@ TEST(Sweep, SpatialArmSweepsAPayloadAndTheRatioWithOneModel) {
                                           "0, 0, 1"),
                                   "3d.yaml");
   EXPECT_EQ(still.q0.segment<4>(3), Eigen::Vector4d(1, 0, 0, 0));  // normalized
+  // A run's time series in 3D: a column per coordinate and per velocity (nq + nv: the base's
+  // configuration is seven numbers, its velocity six) in the header and in every row.
+  const StudyRunner series_runner(
+      parse_study(replace(replace(torque_study, "0, 0, 0, 0, 0, 0, 0, 1", "0, 0, 0, 1, 0, 0, 0, 1"),
+                          "integrator:", "time_series: {dt: 0.5}\nintegrator:"),
+                  "3d.yaml"),
+      cache());
+  std::string series;
+  series_runner.row(0, &series);
+  std::istringstream lines(series);
+  std::string head, line;
+  std::getline(lines, head);
+  const auto columns = std::count(head.begin(), head.end(), ',');
+  EXPECT_NE(head.find(",qm7,vx0,vy0,vz0,wx0,wy0,wz0,qm1d,"), std::string::npos) << head;
+  int count = 0;
+  while (std::getline(lines, line)) {
+    EXPECT_EQ(std::count(line.begin(), line.end(), ','), columns) << line;
+    ++count;
+  }
+  EXPECT_EQ(count, 3);  // t = 0, 0.5, 1
   fs::remove_all(dir);
 }
 

@@ -334,7 +334,7 @@ TEST(UrdfReader, SceneNamesTheUrdfAndChecksItsBodies) {
   EXPECT_THROW_MESSAGE(
       parse_spatial_scene(head + "urdf: r.urdf\n", "s.yaml", reader(massless_root)), SceneError,
       "field 'urdf': URDF 'r.urdf', the body of the root link 'a': its mass, "
-      "0.000000, must be positive");
+      "0, must be positive");
   EXPECT_THROW_MESSAGE(
       parse_spatial_scene(head + "urdf: r.urdf\nlinks: []\n", "s.yaml", reader(massless_root)),
       SceneError, "field 'links': comes from the URDF");

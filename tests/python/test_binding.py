@@ -359,8 +359,8 @@ def test_a_rebuilt_extension_gets_its_own_cache_entries(tmp_path):
 def test_a_spatial_arm_loads_evaluates_and_moves():
     """A spatial scene (space: spatial) through the same load: MuJoCo's free-joint layout
     (nq = nv + 1), M symmetric positive definite and unchanged by the quaternion's scale, free
-    motion on the unit sphere with momentum conserved; what is planar only (inspect, plan) is
-    refused by name. Cost: one compile, about 1 s."""
+    motion on the unit sphere with momentum conserved; inspect's closed form where affordable, else
+    the statements; a plan a 2-joint arm cannot follow is refused by name. Cost: one compile, about 1 s."""
     arm = spacearm.load(os.path.join(SOURCE, "tests", "scenes", "spatial_arm2.yaml"),
                         cache_dir=CACHE)
     assert (arm.nq, arm.nv) == (9, 8)
@@ -377,10 +377,30 @@ def test_a_spatial_arm_loads_evaluates_and_moves():
     assert np.allclose(np.linalg.norm(run["q"][:, 3:7], axis=1), 1, rtol=0, atol=1e-14)
     h = np.column_stack([run["columns"][c] for c in ("Px", "Py", "Pz", "Lx", "Ly", "Lz")])
     assert np.abs(h - h[0]).max() < 1e-9 * (1 + np.abs(h[0]).max())
-    program = arm.inspect("M[6][7]")  # a spatial entry: the statements that compute it
-    assert program.startswith("// M[6][7] of mass_matrix") and "\n  M[6][7] = " in program
-    with pytest.raises(ValueError, match="spatial arm"):
-        arm.inspect("M[6][7]", latex=True)
+    assert "cos((0.05)*qm2)" in arm.inspect("M[6][7]")  # a closed form where affordable
+    assert "\\cos" in arm.inspect("M[6][7]", latex=True)
+    program = arm.inspect("qdd[0]")  # else the statements that compute it
+    assert program.startswith("// qdd[0] of forward_dynamics") and "\n  qdd[0] = " in program
+    with pytest.raises(ValueError, match="LaTeX and decimals need a closed form"):
+        arm.inspect("qdd[0]", latex=True)
     # The 3D planner needs three joints for a position (six for a pose): it says so by name.
     with pytest.raises(ValueError, match="a 2-link arm cannot follow a position"):
         arm.plan([1, 0, 0], [1.1, 0, 0], 1)
+
+
+def test_a_spatial_plan_gives_its_arrays_by_size():
+    """A plan on a base floating in 3D: q has nq columns, qd and qdd nv (the base's velocity
+    is six numbers, its configuration seven), each array the CSV's named columns. Cost: one
+    compile of space_arm7, about 1.5 s."""
+    arm = spacearm.load(os.path.join(SOURCE, "models", "space_arm7.yaml"), cache_dir=CACHE)
+    start = [1.5199002392044572, 0.20122055952054133, 1.243704490684638, -0.6356536114580597,
+             0.14067478618696588, 0.6807863076312657, 0.3356860052390699]
+    q0 = [0, 0, 0, 1, 0, 0, 0, 30, 50, -20, -160, 40, 90, 10]  # motor angles qm = 100 q
+    plan = arm.plan(start, [1.6, 0.15, 1.15, -0.5, 0.2, 0.7, 0.4], 1, q0=q0)
+    assert plan["q"].shape[1] == arm.nq and plan["qd"].shape[1] == arm.nv
+    assert plan["qdd"].shape[1] == arm.nv and plan["tau"].shape[1] == 7
+    cols = plan["columns"]
+    assert np.array_equal(plan["qd"][:, 0], cols["vx0"])
+    assert np.array_equal(plan["qd"][:, 5], cols["wz0"])
+    assert np.array_equal(plan["qdd"][:, -1], cols["qm7dd"])
+    assert np.array_equal(plan["tau"][:, 0], cols["tau1"])
