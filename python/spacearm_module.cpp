@@ -616,7 +616,8 @@ PYBIND11_MODULE(_spacearm, module) {
            py::arg("dt") = 0.01, py::arg("time_law") = "quintic", py::arg("elbow") = 1,
            py::arg("q0") = py::none(), py::arg("params") = py::none(),
            "The zero-momentum straight line of the end-effector from start to goal (x, y or x, y, "
-           "phi) in `duration` s, as `spacearm plan`: a dict of t, q, qd, qdd, tau (link side), "
+           "phi; in 3D x, y, z or a pose x, y, z, qw, qx, qy, qz) in `duration` s, as `spacearm "
+           "plan`: a dict of t, q, qd, qdd, tau (link side), "
            "tau_motor (geared), base_residual (free base) and 'columns', the CSV's columns by "
            "name.")
       .def(
