@@ -497,10 +497,6 @@ std::vector<T> Chain<T>::friction_forces() const {
     const Friction& fr = d_.links[i - 1].friction;
     if (!fr.present) continue;
     const T w = motor_qd_[i];
-    // 1 / x of a value: one number for a literal.
-    auto inverse = [this](double x, int param) {
-      return param == kLiteral ? num(1 / x) : num(1.0) / value(x, param);
-    };
     std::vector<T> terms;  // only the terms present: no recorded 0 * w
     if (fr.viscous != 0 || fr.viscous_param != kLiteral)
       terms.push_back(value(fr.viscous, fr.viscous_param) * w);
@@ -528,9 +524,7 @@ template <class T>
 T Chain<T>::deflection(int i, const std::string& array) const {
   const Gear& g = d_.links[i - 1].gear;
   auto at = [&](int v) { return values_.input(array, array == "q" ? d_.q_index(v) : v); };
-  const T inverse_p =
-      g.ratio_param == kLiteral ? num(1 / g.ratio) : num(1.0) / value(g.ratio, g.ratio_param);
-  return at(motor_[i]) * inverse_p - at(d_.joint_coordinate(i - 1));
+  return at(motor_[i]) * inverse(g.ratio, g.ratio_param) - at(d_.joint_coordinate(i - 1));
 }
 
 // The spring pulls the link towards the gear's output and the motor back (both on the link side,
@@ -543,10 +537,8 @@ std::vector<T> Chain<T>::spring_damper_forces() const {
     const Gear& g = d_.links[i - 1].gear;
     T force = value(g.stiffness, g.stiffness_param) * deflection(i, "q");
     if (g.has_damping) force = force + value(g.damping, g.damping_param) * deflection(i, "qd");
-    const T inverse_p =
-        g.ratio_param == kLiteral ? num(1 / g.ratio) : num(1.0) / value(g.ratio, g.ratio_param);
     f[d_.joint_coordinate(i - 1)] = -force;
-    f[motor_[i]] = force * inverse_p;
+    f[motor_[i]] = force * inverse(g.ratio, g.ratio_param);
   }
   return f;
 }
@@ -568,10 +560,7 @@ std::vector<T> Chain<T>::passive_forces() const {
   std::vector<T> f = friction_forces();
   if (d_.num_flexible() == 0) return f;
   const std::vector<T> springs = spring_damper_forces();
-  for (int i = 1; i <= n_; ++i) {
-    if (!flexible(i)) continue;
-    for (int k : {d_.joint_coordinate(i - 1), motor_[i]}) f[k] = f[k] + springs[k];
-  }
+  for (int k = 0; k < nv(); ++k) f[k] = f[k] + springs[k];  // a recorded 0 folds away
   return f;
 }
 
@@ -642,11 +631,10 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
     const Motion<T> ap = X_[i].apply(a);
     const T link = (u[i] - power(U[i], ap)) * inverse_D[i];
     qdd[nb + i - 1] = link * ratio(i);
-    if (flexible(i)) {  // the rotor's own equation J (a . alpha_parent + qdd_m) = Q_m (armature: J
-                        // qdd_m = Q_m)
+    // A flexible joint's rotor: J (a . alpha_parent + qdd_m) = Q_m (armature: J qdd_m = Q_m).
+    if (flexible(i)) {
       const Gear& g = d_.links[i - 1].gear;
-      const T inverse_J = g.axial_param == kLiteral ? num(1 / g.axial) : num(1.0) / axial(i);
-      qdd[motor_[i]] = Q_motor[i] * inverse_J;
+      qdd[motor_[i]] = Q_motor[i] * inverse(g.axial, g.axial_param);
       if (exact_rotor(i)) qdd[motor_[i]] = qdd[motor_[i]] - dot(axis_[i], ap.w);
     }
     a = ap + c[i];

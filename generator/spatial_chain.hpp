@@ -547,6 +547,10 @@ class Chain {
   T value(double literal, int param) const {
     return param == kLiteral ? num(literal) : values_.input("params", param);
   }
+  // 1 / value(literal, param): one number for a literal.
+  T inverse(double literal, int param) const {
+    return param == kLiteral ? num(1 / literal) : num(1.0) / value(literal, param);
+  }
   T ratio(int i) const {  // joint i's slot's ratio (1 without a rigid gear)
     const Gear* g = slot_gear(i);
     return g ? value(g->ratio, g->ratio_param) : num(1.0);
