@@ -5,9 +5,10 @@
 //   spacearm simulate SCENE --torques F ...    integrate the dynamics, write CSV
 //   spacearm plan SCENE --from P --to P ...    zero-momentum straight-line plan, write CSV
 //   spacearm sweep STUDY -o DIR [--shard i/n]  the runs of a parameter study, one row each
+//   spacearm view RUN.csv --scene S -o F.html  one self-contained page: the arm moving, plots
 // Each subcommand's work is in its own file (generate_command, eval_command,
-// simulate_command, plan_command, sweep_command); this file declares the options and maps errors to
-// exit codes.
+// simulate_command, plan_command, sweep_command, view_command); this file declares the options and
+// maps errors to exit codes.
 #include <CLI/CLI.hpp>
 
 #include <chrono>
@@ -28,6 +29,7 @@
 #include "simulate_command.hpp"
 #include "spatial_scene.hpp"
 #include "sweep_command.hpp"
+#include "view_command.hpp"
 
 namespace {
 
@@ -303,6 +305,55 @@ CLI::App* add_sweep(CLI::App& app, spacearm::SweepArgs& a) {
   return command;
 }
 
+// The view subcommand's options.
+CLI::App* add_view(CLI::App& app, spacearm::ViewArgs& a) {
+  CLI::App* command = app.add_subcommand(
+      "view",
+      "Write one self-contained HTML page (no network, no server): a run's CSV drawn with its "
+      "scene (the arm moving, plots linked to a time slider), or a study's results.csv as a map");
+  command
+      ->add_option("file", a.file,
+                   "The CSV of simulate, plan, a sweep's series/run-*.csv or a table with the same "
+                   "columns; or a sweep's results.csv")
+      ->required();
+  command->add_option("--scene", a.scene_path,
+                      "The scene the run is of (required for a run: the arm is drawn from it)");
+  command->add_option("--compare", a.compare_file,
+                      "A second run of the same arm (e.g. the plan a replay follows), drawn as a "
+                      "ghost beside the first, with their end effectors' distance plotted");
+  command
+      ->add_option("--param", a.param_assignments,
+                   "Run-time parameter name=value the run used (repeatable, once per name)")
+      ->default_str("");
+  command->add_option("-o,--output", a.output_file, "The page (HTML)");
+  command
+      ->add_option("--max-frames", a.max_frames,
+                   "Rows drawn per run: a longer file is thinned evenly (every k-th row and the "
+                   "last) and the page says so")
+      ->check(CLI::Range(2L, 1000000L));
+  command->add_option("--cache-dir", a.cache_dir, "Cache folder for compiled models");
+  command->add_flag("--verbose", a.verbose, "Report the stages on stderr");
+  return command;
+}
+
+// The command line as one shell-quoted string (shown in the page).
+std::string command_line(int argc, char** argv) {
+  std::string line;
+  for (int i = 0; i < argc; ++i) {
+    std::string arg = argv[i];
+    const bool plain = !arg.empty() && arg.find_first_not_of(
+                                           "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                           "0123456789_-+=/.,:@%") == std::string::npos;
+    if (!plain) {
+      std::string quoted = "'";
+      for (char c : arg) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+      arg = quoted + "'";
+    }
+    line += (line.empty() ? "" : " ") + arg;
+  }
+  return line;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -317,20 +368,23 @@ int main(int argc, char** argv) {
   spacearm::SimulateArgs sim;
   spacearm::PlanArgs plan_args;
   spacearm::SweepArgs sweep_args;
+  spacearm::ViewArgs view_args;
   CLI::App* generate = add_generate(app, generate_args);
   add_inspect(app, inspect_args);
   CLI::App* eval = add_eval(app, eval_args);
   CLI::App* simulate = add_simulate(app, sim);
   CLI::App* plan = add_plan(app, plan_args);
   CLI::App* sweep = add_sweep(app, sweep_args);
+  CLI::App* view = add_view(app, view_args);
 
   // Parse errors get the same prefix and exit code (1) as every other error; --help exits 0.
   try {
     app.parse(argc, argv);
     if (*simulate) check_simulate_options(*simulate, sim);
-    for (const CLI::App* command : {eval, simulate, plan, sweep})
+    for (const CLI::App* command : {eval, simulate, plan, sweep, view})
       if (command->count("--cache-dir") && eval_args.cache_dir.empty() && sim.cache_dir.empty() &&
-          plan_args.cache_dir.empty() && sweep_args.cache_dir.empty())
+          plan_args.cache_dir.empty() && sweep_args.cache_dir.empty() &&
+          view_args.cache_dir.empty())
         throw CLI::ValidationError("--cache-dir", "empty path");
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) {  // --help: printed, and it must have arrived
@@ -349,6 +403,11 @@ int main(int argc, char** argv) {
     });
   if (*plan) return guarded([&] { return spacearm::run_plan(plan_args); });
   if (*sweep) return guarded([&] { return spacearm::run_sweep_command(sweep_args); });
+  if (*view)
+    return guarded([&] {
+      view_args.command_line = command_line(argc, argv);
+      return spacearm::run_view(view_args);
+    });
   if (*eval)
     return guarded([&] {
       const int status = spacearm::run_eval(eval_args);

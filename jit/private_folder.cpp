@@ -194,7 +194,7 @@ std::string read_all(int fd, const std::string& shown, size_t limit) {
   }
 }
 
-std::string read_regular_file(const std::string& path, const std::string& what, size_t limit) {
+Fd open_regular_file(const std::string& path, const std::string& what, size_t limit) {
   // O_PATH first: a device is never opened (opening one may act: a watchdog starts, a tape
   // rewinds), then the checked file itself through its descriptor.
   const Fd where(::open(path.c_str(), O_PATH | O_CLOEXEC));
@@ -203,8 +203,8 @@ std::string read_regular_file(const std::string& path, const std::string& what, 
   struct stat st;
   if (::fstat(where.get(), &st) != 0 || !S_ISREG(st.st_mode))
     throw FolderError(what + ": '" + path + "' is not a regular file");
-  const Fd fd(::open(("/proc/self/fd/" + std::to_string(where.get())).c_str(),
-                     O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC));
+  Fd fd(::open(("/proc/self/fd/" + std::to_string(where.get())).c_str(),
+               O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC));
   if (!fd.valid())
     throw FolderError(what + ": cannot open '" + path + "' (" + std::strerror(errno) + ")");
   struct stat opened;
@@ -213,6 +213,11 @@ std::string read_regular_file(const std::string& path, const std::string& what, 
   if (static_cast<std::uintmax_t>(st.st_size) > limit)
     throw FolderError(what + ": '" + path + "' is larger than " + std::to_string(limit >> 20) +
                       " MB");
+  return fd;
+}
+
+std::string read_regular_file(const std::string& path, const std::string& what, size_t limit) {
+  const Fd fd = open_regular_file(path, what, limit);
   // read_all stops at the limit too: a file that grows after the check is refused, not read.
   try {
     return read_all(fd.get(), path, limit);

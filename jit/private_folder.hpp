@@ -65,6 +65,10 @@ Fd open_private_at(int dir, const std::string& name, bool folder, const std::str
 // naming `shown`).
 std::string read_all(int fd, const std::string& shown, size_t limit = size_t(1) << 30);
 
+// Opens a regular file of at most `limit` bytes for reading (O_NONBLOCK), checked on the open
+// descriptor: a FIFO or a device put in its place cannot block. Errors name `what` and the path.
+Fd open_regular_file(const std::string& path, const std::string& what, size_t limit);
+
 // A regular file of at most `limit` bytes, checked on the open descriptor (O_NONBLOCK): a FIFO
 // or a device put in its place cannot block or fill memory. Errors name `what` and the path.
 std::string read_regular_file(const std::string& path, const std::string& what, size_t limit);

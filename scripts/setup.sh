@@ -11,6 +11,9 @@ packages=(g++ cmake ninja-build pkg-config libginac-dev libeigen3-dev libyaml-cp
           libgtest-dev libboost-dev gnuplot-nox nlohmann-json3-dev libmujoco-dev
           libssl-dev pybind11-dev python3-dev python3-numpy python3-pytest python3-distributed
           python3-venv python3-pip)
+# Node.js and npm bundle the viewer's script (web/); a machine may have them from elsewhere.
+command -v node >/dev/null || packages+=(nodejs)
+command -v npm >/dev/null || packages+=(npm)
 scripts/install-packages.sh "${packages[@]}"
 
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null

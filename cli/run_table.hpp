@@ -1,0 +1,33 @@
+// A run's CSV (spacearm simulate or plan, a sweep's series/run-*.csv, a table written from
+// Python) read for drawing: columns by header name, every row checked (a finite number in each
+// field, t increasing), and only up to `max_rows` rows kept, evenly spaced with the last one
+// included, so that a file of 10^7 rows is read in bounded memory.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace spacearm::cli {
+
+struct RunTable {
+  std::string path;
+  std::vector<std::string> names;
+  std::vector<std::vector<double>> rows;  // the rows kept, in order
+  long total_rows = 0;                    // rows in the file
+  long stride = 1;                        // rows kept: every stride-th, and the last
+  // The column's index, or -1.
+  int column(const std::string& name) const;
+  std::vector<double> values(int column) const;
+  bool thinned() const { return static_cast<long>(rows.size()) < total_rows; }
+};
+
+// Calls line(number, text) for each line of an open file, read in 1 MB chunks, without the \r of
+// CRLF and a leading byte-order mark; errors name `where`.
+void for_each_line(int fd, const std::string& where,
+                   const std::function<void(long, std::string&)>& line);
+
+// Errors name `what` (an argument or option), the file, the line and the column.
+RunTable read_run_table(const std::string& path, const std::string& what, long max_rows);
+
+}  // namespace spacearm::cli

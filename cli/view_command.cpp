@@ -1,0 +1,78 @@
+#include "view_command.hpp"
+
+#include <fcntl.h>
+
+#include <cstdio>
+#include <filesystem>
+
+#include "cpp_printer.hpp"
+#include "private_folder.hpp"
+#include "row_writer.hpp"
+#include "view_page.hpp"
+
+namespace spacearm {
+
+namespace cli {
+
+bool is_study_results(const std::string& path) {
+  std::string head;
+  try {
+    const Fd fd = open_regular_file(path, "view", ~size_t(0));
+    char buf[64];
+    const ssize_t n = ::read(fd.get(), buf, sizeof buf);
+    if (n > 0) head.assign(buf, static_cast<size_t>(n));
+  } catch (const FolderError& e) {
+    throw std::invalid_argument(e.what());
+  }
+  if (head.compare(0, 3, "\xEF\xBB\xBF") == 0) head.erase(0, 3);
+  return head.compare(0, 11, "run,status,") == 0;
+}
+
+}  // namespace cli
+
+namespace {
+
+// The page replaces the output whole (a temporary renamed into place): a failed write leaves
+// the old file or none, never half a page, and a link planted at the name is not written through.
+void write_page(const std::string& output, const std::string& page) {
+  const std::filesystem::path path(output);
+  const std::string folder = path.has_parent_path() ? path.parent_path().string() : ".";
+  const Fd dir(::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+  if (!dir.valid())
+    throw std::invalid_argument("-o '" + output + "': cannot open its folder '" + folder +
+                                "': " + std::strerror(errno));
+  try {
+    replace_file_at(dir.get(), path.filename().string(), page, output, 0644);
+  } catch (const FolderError& e) {
+    throw std::invalid_argument(std::string("-o: ") + e.what());
+  }
+}
+
+}  // namespace
+
+int run_view(const ViewArgs& a) {
+  if (!cli::viewer_built())
+    throw std::invalid_argument(
+        "view: this spacearm was built without the viewer (SPACEARM_BUILD_VIEWER=OFF: it needs "
+        "Node.js and npm at build time)");
+  if (a.output_file.empty() || a.output_file == "-")
+    throw std::invalid_argument("-o: give a file name for the page (it is one HTML file)");
+  std::vector<std::pair<std::string, std::string>> inputs;
+  const bool study = cli::is_study_results(a.file);
+  if (study && (!a.scene_path.empty() || !a.compare_file.empty() || !a.param_assignments.empty()))
+    throw std::invalid_argument("view: '" + a.file +
+                                "' is a study's results.csv: --scene, --compare and --param apply "
+                                "to a run's CSV (the study names its scene)");
+  nlohmann::json data = study ? cli::study_view_data(a, inputs) : cli::run_view_data(a, inputs);
+  data["format"] = "spacearm-view";
+  data["version"] = 1;
+  data["info"].push_back({"this page", a.command_line});
+  data["info"].push_back({"made by", std::string("spacearm ") + kGeneratorVersion});
+  refuse_input_as_output(a.output_file, inputs);
+  write_page(a.output_file, cli::view_page(data));
+  std::fprintf(stderr, "spacearm: wrote %s (open it in a browser; it needs no network)\n",
+               a.output_file.c_str());
+  return 0;
+}
+
+}  // namespace spacearm

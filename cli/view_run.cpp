@@ -1,0 +1,376 @@
+// The page's data for a run: per kept row, the joints' world positions from the scene's compiled
+// model (joint_positions), the base pose, the joint axes and the rotors' angles, and the plots.
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+
+#include "cli_input.hpp"
+#include "compiled_model.hpp"
+#include "dynamic_model.hpp"
+#include "model_recipe.hpp"
+#include "run_table.hpp"
+#include "spatial_scene.hpp"
+#include "view_command.hpp"
+
+namespace spacearm::cli {
+
+using nlohmann::json;
+
+namespace {
+
+// The scene's model at the chosen parameters. The DynamicModel refers to the CompiledModel.
+struct LoadedScene {
+  std::unique_ptr<ModelRecipe> recipe;
+  std::unique_ptr<CompiledModel> model;
+  Eigen::VectorXd params;
+  DynamicModel dyn;
+};
+
+LoadedScene load_scene(const ViewArgs& a) {
+  LoadedScene s;
+  s.recipe = std::make_unique<ModelRecipe>(ModelRecipe::load(a.scene_path));
+  CompileOptions options;
+  options.cache_dir = a.cache_dir;
+  options.progress = [&](const std::string& m) {
+    if (a.verbose || m.rfind("compiling", 0) == 0)
+      std::fprintf(stderr, "spacearm: %s\n", m.c_str());
+  };
+  s.model = std::make_unique<CompiledModel>(CompiledModel::load(*s.recipe, options));
+  if (!s.model->has(Output::joint_positions))
+    throw std::invalid_argument("--scene '" + a.scene_path +
+                                "': the scene must emit joint_positions to be drawn (field "
+                                "'outputs')");
+  s.params = parse_parameters(a.param_assignments, s.recipe->facts());
+  s.dyn = dynamic_model(*s.model, s.params);
+  return s;
+}
+
+// How a table's rows give q and qd: the model's own columns by name, else the base's and the
+// link-side joint angles q1..qN (and rates q1d..qNd), motors placed at p q.
+struct StateReader {
+  const DynamicModel* m;
+  std::vector<int> q_cols, qd_cols;  // the model's names, all found, or empty
+  std::vector<int> base_q, joint_q;  // the link-side form
+  std::vector<int> base_qd, joint_qd;
+  bool has_velocity = false;
+
+  static std::vector<int> find(const RunTable& t, const std::vector<std::string>& names) {
+    std::vector<int> cols;
+    for (const auto& n : names) {
+      const int c = t.column(n);
+      if (c < 0) return {};
+      cols.push_back(c);
+    }
+    return cols;
+  }
+  static std::vector<std::string> numbered(const std::string& suffix, int n) {
+    std::vector<std::string> names;
+    for (int i = 1; i <= n; ++i) names.push_back("q" + std::to_string(i) + suffix);
+    return names;
+  }
+
+  StateReader(const RunTable& t, const DynamicModel& model, const std::string& what) : m(&model) {
+    const auto& names = model.coordinate_names;
+    const int nb = model.base_coordinates();
+    q_cols = find(t, names);
+    if (q_cols.empty()) {
+      base_q = find(t, {names.begin(), names.begin() + nb});
+      joint_q = find(t, numbered("", model.num_links));
+      if ((nb > 0 && base_q.empty()) || joint_q.empty()) {
+        std::string list;
+        for (const auto& n : names) list += (list.empty() ? "" : ",") + n;
+        throw std::invalid_argument(
+            what + " '" + t.path + "' has neither the scene's coordinates (" + list +
+            ") nor its base's and the link-side joint angles q1..q" +
+            std::to_string(model.num_links) + ": is it a run of scene '" + model.name + "'?");
+      }
+    }
+    const auto vnames = model.velocity_names();
+    qd_cols = find(t, vnames);
+    if (qd_cols.empty()) {
+      base_qd = find(t, {vnames.begin(), vnames.begin() + model.num_base()});
+      joint_qd = find(t, numbered("d", model.num_links));
+    }
+    has_velocity =
+        !qd_cols.empty() || ((model.num_base() == 0 || !base_qd.empty()) && !joint_qd.empty());
+  }
+
+  static Eigen::VectorXd pick(const std::vector<double>& row, const std::vector<int>& cols) {
+    Eigen::VectorXd v(cols.size());
+    for (size_t i = 0; i < cols.size(); ++i) v[i] = row[cols[i]];
+    return v;
+  }
+  Eigen::VectorXd q(const std::vector<double>& row) const {
+    if (!q_cols.empty()) return pick(row, q_cols);
+    return m->from_joint_angles(pick(row, base_q), pick(row, joint_q));
+  }
+  Eigen::VectorXd qd(const std::vector<double>& row) const {
+    if (!qd_cols.empty()) return pick(row, qd_cols);
+    return m->from_joint_rates(pick(row, base_qd), pick(row, joint_qd));
+  }
+};
+
+// The base pose [x, y, z, qw, qx, qy, qz] in q (a fixed base: the origin, unturned).
+std::vector<double> base_pose(const DynamicModel& m, const Eigen::VectorXd& q) {
+  if (m.num_base() == 0) return {0, 0, 0, 1, 0, 0, 0};
+  if (m.spatial) {
+    const Eigen::Vector4d r = q.segment<4>(m.quaternion_offset).normalized();
+    return {q[0], q[1], q[2], r[0], r[1], r[2], r[3]};
+  }
+  return {q[0], q[1], 0, std::cos(q[2] / 2), 0, 0, std::sin(q[2] / 2)};
+}
+
+// One run's frames: t, joint and tip positions, base pose, joint axes (3D), rotor angles.
+struct Frames {
+  json run;
+  std::vector<Eigen::Vector3d> tips;
+  std::vector<double> t;
+};
+
+Frames frames_of(const LoadedScene& s, const RunTable& table, const StateReader& reader,
+                 const std::string& label) {
+  const DynamicModel& m = s.dyn;
+  const int n = m.num_links, t_col = table.column("t");
+  const bool axes = m.spatial && s.model->has(Output::end_effector_jacobian);
+  bool rotors = false;
+  for (int i = 0; i < n; ++i)
+    rotors |= m.motor_angle_slots[i] || m.actuated_coordinates[i] != m.num_base() + i;
+  Frames f;
+  json points = json::array(), base = json::array(), axis_rows = json::array(),
+       rotor_rows = json::array();
+  for (const auto& row : table.rows) {
+    const Eigen::VectorXd q = reader.q(row);
+    const Eigen::MatrixXd P = s.model->evaluate(Output::joint_positions, {q}, s.params).at(0);
+    json p = json::array();
+    for (int c = 0; c < P.cols(); ++c)
+      for (int r = 0; r < 3; ++r) p.push_back(r < P.rows() ? P(r, c) : 0.0);
+    f.tips.push_back({P(0, n), P(1, n), P.rows() > 2 ? P(2, n) : 0.0});
+    f.t.push_back(row[t_col]);
+    points.push_back(std::move(p));
+    base.push_back(base_pose(m, q));
+    const Eigen::VectorXd link = m.joint_angles(q);
+    if (axes) {
+      const Eigen::MatrixXd J = s.model->end_effector_jacobian(q, s.params);
+      json a = json::array();
+      for (int i = 0; i < n; ++i) {
+        const Eigen::Vector3d w = J.block<3, 1>(3, m.num_base() + i);
+        const Eigen::Vector3d u =
+            w.norm() > 0 ? Eigen::Vector3d(w.normalized()) : Eigen::Vector3d::UnitZ();
+        a.insert(a.end(), {u[0], u[1], u[2]});
+      }
+      axis_rows.push_back(std::move(a));
+    }
+    if (rotors) {  // the motor's angle relative to its link: qm - q
+      json r = json::array();
+      for (int i = 0; i < n; ++i) {
+        const int v = m.motor_angle_slots[i] ? m.num_base() + i : m.actuated_coordinates[i];
+        r.push_back(q[m.q_index(v)] - link[i]);
+      }
+      rotor_rows.push_back(std::move(r));
+    }
+  }
+  f.run = {{"label", label},
+           {"file", table.path},
+           {"t", f.t},
+           {"points", points},
+           {"base", base},
+           {"axes", axes ? axis_rows : json(nullptr)},
+           {"rotor", rotors ? rotor_rows : json(nullptr)}};
+  return f;
+}
+
+// Drawing sizes from the scene: the base as the box of its inertia (a uniform box with the same
+// principal moments; the plane's square from m a^2 / 6 = I), joints and rods scaled to the reach.
+json geometry(const LoadedScene& s, const Frames& f) {
+  const DynamicModel& m = s.dyn;
+  double reach = 0;
+  const auto& p0 = f.run["points"][0];
+  for (int i = 0; i < m.num_links; ++i) {
+    Eigen::Vector3d a, b;
+    for (int r = 0; r < 3; ++r) a[r] = p0[3 * i + r], b[r] = p0[3 * i + 3 + r];
+    reach += (b - a).norm();
+  }
+  reach = std::max(reach, 1e-3);
+  std::array<double, 3> box{0.15 * reach, 0.15 * reach, 0.05 * reach}, center{0, 0, 0};
+  if (const Scene* scene = s.recipe->planar(); scene && m.num_base() > 0) {
+    const double mass = scene->base.mass.value, inertia = scene->base.inertia.value;
+    const double a = mass > 0 && inertia > 0 ? std::sqrt(6 * inertia / mass) : 0.15 * reach;
+    box = {a, a, 0.3 * a};
+  } else if (const SpatialScene* spatial = s.recipe->spatial(); spatial && m.num_base() > 0) {
+    const auto& b = spatial->chain.base;  // inertia: ixx, ixy, ixz, iyy, iyz, izz
+    const double I[3] = {b.inertia[0], b.inertia[3], b.inertia[5]};
+    for (int k = 0; k < 3; ++k) {
+      const double s2 = 6 * (I[(k + 1) % 3] + I[(k + 2) % 3] - I[k]) / std::max(b.mass, 1e-12);
+      box[k] = std::sqrt(std::max(s2, 1e-4 * reach * reach));
+    }
+    center = b.com;
+  }
+  const double radius = 0.025 * reach;
+  std::vector<bool> rotors;
+  for (int i = 0; i < m.num_links; ++i)
+    rotors.push_back(m.motor_angle_slots[i] || m.actuated_coordinates[i] != m.num_base() + i);
+  return {{"base_box", box},
+          {"base_center", center},
+          {"link_radius", std::vector<double>(m.num_links, radius)},
+          {"joint_radius", 1.6 * radius},
+          {"rotor_radius", 2.2 * radius},
+          {"rotors", rotors},
+          {"free_base", m.num_base() > 0}};
+}
+
+json plot(const std::string& title, const std::string& unit, const std::vector<std::string>& labels,
+          const std::vector<std::vector<double>>& series) {
+  return {{"title", title}, {"unit", unit}, {"labels", labels}, {"series", series}};
+}
+
+// The tip of run `other` at time t, interpolated between its kept rows; false outside them.
+bool tip_at(const Frames& other, double t, Eigen::Vector3d& tip) {
+  const auto& ts = other.t;
+  if (ts.empty() || t < ts.front() || t > ts.back()) return false;
+  const size_t k = std::upper_bound(ts.begin(), ts.end(), t) - ts.begin();
+  if (k >= ts.size()) {
+    tip = other.tips.back();
+    return true;
+  }
+  const double w = (t - ts[k - 1]) / (ts[k] - ts[k - 1]);
+  tip = other.tips[k - 1] + w * (other.tips[k] - other.tips[k - 1]);
+  return true;
+}
+
+// Joint angles, link-side torques, energy, momentum drift and the end effector's distance from
+// the compared run, at the main run's kept rows; notes say what is missing and why.
+json plots(const LoadedScene& s, const RunTable& table, const StateReader& reader,
+           const Frames& main, const Frames* compare, std::vector<std::string>& notes) {
+  const DynamicModel& m = s.dyn;
+  const int n = m.num_links;
+  json out = json::array();
+  std::vector<std::string> q_labels, tau_labels;
+  std::vector<std::vector<double>> angles(n), torques;
+  for (int i = 0; i < n; ++i) q_labels.push_back("q" + std::to_string(i + 1));
+  for (const auto& row : table.rows) {
+    const Eigen::VectorXd a = m.joint_angles(reader.q(row));
+    for (int i = 0; i < n; ++i) angles[i].push_back(a[i]);
+  }
+  out.push_back(plot("joint angles (link side)", "rad", q_labels, angles));
+  std::vector<int> tau_cols;
+  for (int i = 1; i <= n; ++i) tau_cols.push_back(table.column("tau" + std::to_string(i)));
+  if (std::find(tau_cols.begin(), tau_cols.end(), -1) == tau_cols.end()) {
+    for (int i = 0; i < n; ++i) {
+      tau_labels.push_back("tau" + std::to_string(i + 1));
+      torques.push_back(table.values(tau_cols[i]));
+    }
+    out.push_back(plot("joint torques (link side)", "N m", tau_labels, torques));
+  } else {
+    notes.push_back("no torque plot: the file has no columns tau1..tau" + std::to_string(n));
+  }
+  const bool energy = reader.has_velocity && m.kinetic_energy;
+  const bool momentum = reader.has_velocity && m.momentum && m.num_base() > 0;
+  std::vector<std::vector<double>> T(m.potential_energy ? 3 : 1), h;
+  Eigen::VectorXd h0;
+  for (const auto& row : table.rows) {
+    if (!energy && !momentum) break;
+    const Eigen::VectorXd q = reader.q(row), qd = reader.qd(row);
+    if (energy) {
+      T[0].push_back(m.kinetic_energy(q, qd));
+      if (m.potential_energy) {
+        T[1].push_back(m.potential_energy(q));
+        T[2].push_back(T[0].back() + T[1].back());
+      }
+    }
+    if (momentum) {
+      const Eigen::VectorXd hk = m.momentum(q, qd);
+      if (h0.size() == 0) h0 = hk, h.resize(hk.size());
+      for (int c = 0; c < hk.size(); ++c) h[c].push_back(hk[c] - h0[c]);
+    }
+  }
+  if (energy)
+    out.push_back(plot("energy", "J",
+                       m.potential_energy ? std::vector<std::string>{"T", "V", "T + V"}
+                                          : std::vector<std::string>{"T"},
+                       T));
+  else
+    notes.push_back(reader.has_velocity
+                        ? "no energy plot: the scene does not emit kinetic_energy"
+                        : "no energy or momentum plots: the file has no velocities");
+  if (momentum)
+    out.push_back(plot("momentum drift h(t) - h(0)", "N s, N m s",
+                       m.spatial ? std::vector<std::string>{"Px", "Py", "Pz", "Lx", "Ly", "Lz"}
+                                 : std::vector<std::string>{"Px", "Py", "L"},
+                       h));
+  else if (reader.has_velocity && m.num_base() > 0)
+    notes.push_back("no momentum plot: the scene does not emit momentum");
+  if (compare) {
+    std::vector<json> error;
+    for (size_t k = 0; k < main.t.size(); ++k) {
+      Eigen::Vector3d tip;
+      error.push_back(tip_at(*compare, main.t[k], tip) ? json((main.tips[k] - tip).norm())
+                                                       : json(nullptr));
+    }
+    out.push_back({{"title", "end-effector distance from the compared run"},
+                   {"unit", "m"},
+                   {"labels", {"|x - x_compare|"}},
+                   {"series", {error}}});
+  }
+  return out;
+}
+
+std::string number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+std::string thinning_note(const RunTable& t) {
+  return "'" + t.path + "': " + std::to_string(t.total_rows) + " rows, " +
+         (t.thinned() ? "thinned for drawing to " + std::to_string(t.rows.size()) + " (every " +
+                            std::to_string(t.stride) + "th and the last)"
+                      : "all drawn") +
+         "; between rows the drawing is interpolated linearly";
+}
+
+}  // namespace
+
+json run_view_data(const ViewArgs& a, std::vector<std::pair<std::string, std::string>>& inputs) {
+  if (a.scene_path.empty())
+    throw std::invalid_argument("view: give --scene SCENE, the scene '" + a.file +
+                                "' is a run of (it draws the arm from the scene)");
+  const LoadedScene s = load_scene(a);
+  for (const auto& input : scene_inputs(a.scene_path, *s.recipe)) inputs.push_back(input);
+  inputs.push_back({"the run", a.file});
+  const RunTable table = read_run_table(a.file, "view", a.max_frames);
+  const StateReader reader(table, s.dyn, "view");
+  std::vector<std::string> notes{thinning_note(table)};
+  const Frames main = frames_of(s, table, reader, "run");
+  json runs = json::array({main.run});
+  std::unique_ptr<Frames> compare;
+  if (!a.compare_file.empty()) {
+    inputs.push_back({"the compared run", a.compare_file});
+    const RunTable other = read_run_table(a.compare_file, "--compare", a.max_frames);
+    compare = std::make_unique<Frames>(
+        frames_of(s, other, StateReader(other, s.dyn, "--compare"), "compared"));
+    runs.push_back(compare->run);
+    notes.push_back(thinning_note(other) + " (the ghost)");
+  }
+  std::vector<std::string> plot_notes;
+  json data = {{"kind", "run"},
+               {"title", s.recipe->name()},
+               {"space", s.dyn.spatial ? "spatial" : "planar"},
+               {"geometry", geometry(s, main)},
+               {"runs", runs}};
+  data["plots"] = plots(s, table, reader, main, compare.get(), plot_notes);
+  data["plot_notes"] = plot_notes;
+  json info = json::array();
+  info.push_back({"scene", s.recipe->name() + " ('" + a.scene_path + "')"});
+  if (!s.recipe->facts().description.empty())
+    info.push_back({"description", s.recipe->facts().description});
+  const auto& names = s.recipe->facts().parameter_names;
+  for (size_t i = 0; i < names.size(); ++i)
+    info.push_back({"parameter " + names[i], number(s.params[static_cast<Eigen::Index>(i)])});
+  data["info"] = info;
+  data["notes"] = notes;
+  return data;
+}
+
+}  // namespace spacearm::cli

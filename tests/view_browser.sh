@@ -1,0 +1,89 @@
+#!/usr/bin/env bash
+# CTest: spacearm view's pages in a real browser (web/test/view_test.mjs: Debian's Chromium,
+# headless, driven by playwright-core, offline). Makes the paper's plan and its p = 10 replay, a
+# spatial arm's free motion, a scene with a hostile name and a small study with time series,
+# checks what the CLI says (thinning, errors), then runs the browser checks. Screenshots are left
+# in $SPACEARM_VIEW_OUT if set. About 40 s (four models compiled). Skipped (77) without Chromium.
+# Usage: view_browser.sh SPACEARM SOURCE_DIR NODE_MODULES
+set -euo pipefail
+cli=$1 source_dir=$2 modules=$3
+[[ -x ${SPACEARM_CHROMIUM:-/usr/bin/chromium} ]] || { echo "chromium missing: skipped"; exit 77; }
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+cache=(--cache-dir "$work/cache")
+fail() { echo "FAIL: $*"; exit 1; }
+run() { "$@" > "$work/log" 2>&1 || { cat "$work/log"; fail "$*"; }; }
+
+# The paper's plan (reference model) and its replay into the geared model at p = 10.
+run "$cli" plan "$source_dir/models/paper_reference.yaml" --from 0.9,0.3,0.3 --to 0.8,0.5,0.6 \
+  --duration 4 -o "$work/plan.csv" "${cache[@]}"
+run "$cli" simulate "$source_dir/models/paper_geared.yaml" --plan "$work/plan.csv" --param p=10 \
+  -o "$work/replay.csv" "${cache[@]}"
+run "$cli" view "$work/replay.csv" --scene "$source_dir/models/paper_geared.yaml" --param p=10 \
+  --compare "$work/plan.csv" -o "$work/paper.html" "${cache[@]}"
+
+# Thinning: at most --max-frames rows drawn, and the page says so.
+run "$cli" view "$work/replay.csv" --scene "$source_dir/models/paper_geared.yaml" --max-frames 50 \
+  -o "$work/thin.html" "${cache[@]}"
+grep -Eq "401 rows, thinned for drawing to (4[0-9]|50) \(every [0-9]+th and the last\)" "$work/thin.html" ||
+  fail "the thinned page does not say so"
+
+# Bad input: the CLI's errors, naming the file or option; nothing written.
+expect_error() {  # pattern, then the command
+  local pattern=$1
+  shift
+  if "$@" > "$work/log" 2>&1; then fail "accepted: $*"; fi
+  grep -q "$pattern" "$work/log" || { cat "$work/log"; fail "no message '$pattern' for: $*"; }
+}
+printf 't,x0\n0,1\n' > "$work/short.csv"
+expect_error "has neither the scene's coordinates" "$cli" view "$work/short.csv" \
+  --scene "$source_dir/models/paper_geared.yaml" -o "$work/bad.html" "${cache[@]}"
+sed '3s/^[^,]*,/0.5x,/' "$work/replay.csv" > "$work/garbled.csv"
+expect_error "line 3 column 't'" "$cli" view "$work/garbled.csv" \
+  --scene "$source_dir/models/paper_geared.yaml" -o "$work/bad.html" "${cache[@]}"
+mkfifo "$work/fifo"
+expect_error "is not a regular file" timeout 20 "$cli" view "$work/fifo" \
+  --scene "$source_dir/models/paper_geared.yaml" -o "$work/bad.html" "${cache[@]}"
+expect_error "give --scene" "$cli" view "$work/replay.csv" -o "$work/bad.html"
+expect_error "is the run file" "$cli" view "$work/replay.csv" \
+  --scene "$source_dir/models/paper_geared.yaml" -o "$work/replay.csv" "${cache[@]}"
+[[ ! -e $work/bad.html ]] || fail "a page was written for bad input"
+
+# A spatial arm turning its joints from rest, the base reacting.
+run "$cli" simulate "$source_dir/tests/scenes/spatial_arm2.yaml" --zero --t-end 1 --dt 0.01 \
+  --qd0 0,0,0,0,0,0.2,60,-30 -o "$work/spatial.csv" "${cache[@]}"
+run "$cli" view "$work/spatial.csv" --scene "$source_dir/tests/scenes/spatial_arm2.yaml" \
+  -o "$work/spatial.html" "${cache[@]}"
+
+# Markup in the scene's description and in the run's file name: it must show as text.
+sed -e 's|^description: .*|description: "</script><script>window.pwned=1</script>"|' \
+    "$source_dir/models/paper_geared.yaml" > "$work/hostile.yaml"
+hostile_csv="$work/<img src=x onerror=window.pwned=2>.csv"
+run "$cli" simulate "$work/hostile.yaml" --zero --t-end 0.2 --dt 0.01 --qd0 0,0,0,1,1,1 \
+  -o "$hostile_csv" "${cache[@]}"
+run "$cli" view "$hostile_csv" --scene "$work/hostile.yaml" -o "$work/hostile.html" "${cache[@]}"
+if grep -q "<script>window.pwned\|<img src" "$work/hostile.html"; then
+  fail "the hostile text is in the page as markup"
+fi
+
+# A study over p and Im with time series.
+cat > "$work/study.yaml" <<YAML
+scene: $source_dir/models/paper_geared.yaml
+manoeuvre:
+  plan: {from: [1.5, 0.0, 0.5235987755982988], to: [1.45, 0.02, 0.55], duration: 1}
+integrator: {method: rk4, dt: 0.01}
+grid:
+  p: [1, 2, 4]
+  Im: [1.0e-6, 1.0e-5, 1.0e-4]
+time_series: {dt: 0.05}
+YAML
+run "$cli" sweep "$work/study.yaml" -o "$work/study" "${cache[@]}"
+run "$cli" view "$work/study/results.csv" -o "$work/study.html"
+
+status=0
+node "$source_dir/web/test/view_test.mjs" "$modules" "$work" || status=$?
+if [[ -n ${SPACEARM_VIEW_OUT:-} ]]; then
+  mkdir -p "$SPACEARM_VIEW_OUT"
+  cp "$work"/*.png "$work"/paper.html "$work"/spatial.html "$work"/study.html "$SPACEARM_VIEW_OUT"/
+fi
+exit $status

@@ -1,0 +1,232 @@
+// The arm in three.js, to scale: the base as the box of its inertia, links as rods between the
+// joints, joints as spheres, each geared joint's rotor as a disc about the joint axis with a
+// stripe that turns with the motor, and the end effector's path. A second run (--compare) is
+// drawn as a ghost. In the plane the camera looks down z (pan and zoom); in 3D it orbits.
+import * as THREE from 'three';
+import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
+import { el } from './dom.js';
+
+const COLORS = {
+  base: 0x8a9bb0,
+  link: [0x3b7dd8, 0xe07b39],
+  joint: 0x222222,
+  rotor: 0xc9a227,
+  tip: 0xd62728,
+  path: [0xd62728, 0x7f7f7f],
+};
+
+// Index k and weight w with t between times[k] and times[k + 1]; null outside [first, last].
+export function bracket(times, t) {
+  const n = times.length;
+  if (!(t >= times[0] && t <= times[n - 1])) return null;
+  let lo = 0, hi = n - 1;
+  while (hi - lo > 1) {
+    const mid = (lo + hi) >> 1;
+    if (times[mid] <= t) lo = mid;
+    else hi = mid;
+  }
+  if (lo === hi) return { k: lo, w: 0 };
+  const span = times[hi] - times[lo];
+  return { k: lo, w: span > 0 ? (t - times[lo]) / span : 0 };
+}
+
+// Row k of a frame array blended with row k + 1.
+function blend(rows, at) {
+  const a = rows[at.k];
+  if (at.w === 0 || at.k + 1 >= rows.length) return a.slice();
+  const b = rows[at.k + 1];
+  return a.map((v, i) => v + (b[i] - v) * at.w);
+}
+
+function rod(radius, color, opacity) {
+  const material = new THREE.MeshStandardMaterial({ color, transparent: opacity < 1, opacity });
+  const mesh = new THREE.Mesh(new THREE.CylinderGeometry(1, 1, 1, 20), material);
+  mesh.userData.radius = radius;
+  return mesh;
+}
+
+// Places a unit cylinder (axis y) from point a to point b.
+function placeRod(mesh, a, b) {
+  const d = new THREE.Vector3().subVectors(b, a);
+  const length = d.length();
+  mesh.visible = length > 0;
+  if (!mesh.visible) return;
+  mesh.position.copy(a).addScaledVector(d, 0.5);
+  mesh.quaternion.setFromUnitVectors(new THREE.Vector3(0, 1, 0), d.normalize());
+  const r = mesh.userData.radius;
+  mesh.scale.set(r, length, r);
+}
+
+// One run's meshes: base, mount strut, links, joints, rotors and tip.
+class ArmMeshes {
+  constructor(scene, geometry, run, ghost) {
+    this.run = run;
+    this.n = run.points[0].length / 3 - 1;
+    const opacity = ghost ? 0.35 : 1;
+    const material = (color) =>
+      new THREE.MeshStandardMaterial({ color, transparent: ghost, opacity });
+    const [a, b, c] = geometry.base_box;
+    this.base = new THREE.Mesh(new THREE.BoxGeometry(a, b, c), material(COLORS.base));
+    this.baseCenter = new THREE.Vector3(...geometry.base_center);
+    this.strut = rod(geometry.joint_radius * 0.6, COLORS.base, opacity);
+    this.links = geometry.link_radius.map((r, i) =>
+      rod(r, COLORS.link[ghost ? 1 : 0] + (i % 2) * 0x101010, opacity));
+    const sphere = new THREE.SphereGeometry(geometry.joint_radius, 20, 14);
+    this.joints = this.links.map(() => new THREE.Mesh(sphere, material(COLORS.joint)));
+    this.tip = new THREE.Mesh(new THREE.SphereGeometry(geometry.joint_radius * 0.9, 20, 14),
+                              material(COLORS.tip));
+    this.rotors = geometry.rotors.map((present) =>
+      present && !ghost && run.rotor ? this.rotorMesh(geometry.rotor_radius) : null);
+    this.group = new THREE.Group();
+    this.group.add(this.base, this.strut, ...this.links, ...this.joints, this.tip);
+    for (const r of this.rotors) if (r) this.group.add(r);
+    scene.add(this.group);
+  }
+
+  rotorMesh(radius) {
+    const group = new THREE.Group();
+    const disc = new THREE.Mesh(new THREE.CylinderGeometry(radius, radius, radius * 0.35, 32),
+                                new THREE.MeshStandardMaterial({ color: COLORS.rotor }));
+    const stripe = new THREE.Mesh(new THREE.BoxGeometry(radius * 1.9, radius * 0.4, radius * 0.25),
+                                  new THREE.MeshStandardMaterial({ color: 0x222222 }));
+    stripe.position.y = 0.0;
+    group.add(disc, stripe);
+    return group;
+  }
+
+  // Draws the run at time t; hidden outside its time range.
+  show(t) {
+    const at = bracket(this.run.t, t);
+    this.group.visible = at !== null;
+    if (!at) return;
+    const p = blend(this.run.points, at);
+    const point = (i) => new THREE.Vector3(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+    const pose = blend(this.run.base, at);
+    const q = new THREE.Quaternion(pose[4], pose[5], pose[6], pose[3]).normalize();
+    const origin = new THREE.Vector3(pose[0], pose[1], pose[2]);
+    this.base.quaternion.copy(q);
+    this.base.position.copy(this.baseCenter).applyQuaternion(q).add(origin);
+    placeRod(this.strut, this.base.position, point(0));
+    for (let i = 0; i < this.n; ++i) {
+      placeRod(this.links[i], point(i), point(i + 1));
+      this.joints[i].position.copy(point(i));
+    }
+    this.tip.position.copy(point(this.n));
+    const axes = this.run.axes ? blend(this.run.axes, at) : null;
+    const angles = this.run.rotor ? blend(this.run.rotor, at) : null;
+    this.rotors.forEach((rotor, i) => {
+      if (!rotor) return;
+      const axis = axes ? new THREE.Vector3(axes[3 * i], axes[3 * i + 1], axes[3 * i + 2])
+                        : new THREE.Vector3(0, 0, 1);
+      placeRotor(rotor, point(i), axis.normalize(), point(i + 1), angles[i]);
+    });
+  }
+}
+
+// A rotor at joint point a, about axis, its stripe turned by angle (the motor's angle relative
+// to the link) from the link's direction towards the next joint b.
+function placeRotor(rotor, a, axis, b, angle) {
+  const u = new THREE.Vector3().subVectors(b, a);
+  u.addScaledVector(axis, -u.dot(axis));
+  if (u.lengthSq() < 1e-18) u.set(1, 0, 0).addScaledVector(axis, -axis.x);
+  u.normalize();
+  const v = new THREE.Vector3().crossVectors(axis, u);
+  const d = u.clone().multiplyScalar(Math.cos(angle)).addScaledVector(v, Math.sin(angle));
+  const z = new THREE.Vector3().crossVectors(d, axis);
+  rotor.quaternion.setFromRotationMatrix(new THREE.Matrix4().makeBasis(d, axis, z));
+  rotor.position.copy(a);
+}
+
+// The end effector's path over the whole run.
+function pathLine(run, color) {
+  const n = run.points[0].length / 3 - 1;
+  const positions = new Float32Array(run.points.length * 3);
+  run.points.forEach((p, k) => positions.set(p.slice(3 * n, 3 * n + 3), 3 * k));
+  const geometry = new THREE.BufferGeometry();
+  geometry.setAttribute('position', new THREE.BufferAttribute(positions, 3));
+  return new THREE.Line(geometry, new THREE.LineBasicMaterial({ color }));
+}
+
+export class ArmScene {
+  constructor(parent, data) {
+    this.planar = data.space === 'planar';
+    this.box = el('div', 'scene3d');
+    parent.append(this.box);
+    this.renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+    this.renderer.setPixelRatio(window.devicePixelRatio || 1);
+    this.box.append(this.renderer.domElement);
+    this.scene = new THREE.Scene();
+    this.scene.background = new THREE.Color(0xf7f7f4);
+    this.scene.add(new THREE.AmbientLight(0xffffff, 1.2));
+    const sun = new THREE.DirectionalLight(0xffffff, 2.0);
+    sun.position.set(2, -3, 5);
+    this.scene.add(sun);
+    this.arms = data.runs.map((run, i) => new ArmMeshes(this.scene, data.geometry, run, i > 0));
+    data.runs.forEach((run, i) => this.scene.add(pathLine(run, COLORS.path[Math.min(i, 1)])));
+    this.setCamera(data);
+    new ResizeObserver(() => this.resize()).observe(this.box);
+    this.resize();
+  }
+
+  // Frames every run's points and base; the plane seen from above, 3D from an oblique corner.
+  setCamera(data) {
+    const bounds = new THREE.Box3();
+    for (const run of data.runs)
+      for (let k = 0; k < run.points.length; ++k) {
+        const p = run.points[k];
+        for (let i = 0; i < p.length; i += 3) bounds.expandByPoint(new THREE.Vector3(p[i], p[i + 1], p[i + 2]));
+        bounds.expandByPoint(new THREE.Vector3(run.base[k][0], run.base[k][1], run.base[k][2]));
+      }
+    bounds.expandByScalar(Math.max(...data.geometry.base_box) * 0.75);
+    const center = bounds.getCenter(new THREE.Vector3());
+    const size = bounds.getSize(new THREE.Vector3()).length();
+    this.extent = size;
+    if (this.planar) {
+      this.camera = new THREE.OrthographicCamera(-1, 1, 1, -1, -100 * size, 100 * size);
+      this.camera.position.set(center.x, center.y, size);
+    } else {
+      this.camera = new THREE.PerspectiveCamera(40, 1, size / 1000, size * 100);
+      this.camera.up.set(0, 0, 1);
+      this.camera.position.copy(center).add(new THREE.Vector3(0.9, -1.3, 0.8).multiplyScalar(size));
+      const grid = new THREE.GridHelper(size * 2, 20, 0xbbbbbb, 0xdddddd);
+      grid.rotation.x = Math.PI / 2;
+      grid.position.set(center.x, center.y, bounds.min.z);
+      this.scene.add(grid);
+    }
+    this.controls = new OrbitControls(this.camera, this.renderer.domElement);
+    this.controls.target.copy(center);
+    this.controls.enableRotate = !this.planar;
+    if (this.planar) this.controls.screenSpacePanning = true;
+    this.controls.addEventListener('change', () => this.render());
+    this.controls.update();
+  }
+
+  resize() {
+    const w = Math.max(1, this.box.clientWidth), h = Math.max(1, this.box.clientHeight);
+    this.renderer.setSize(w, h);
+    if (this.planar) {
+      const half = this.extent / 2, aspect = w / h;
+      Object.assign(this.camera, { left: -half * aspect, right: half * aspect, top: half, bottom: -half });
+    } else {
+      this.camera.aspect = w / h;
+    }
+    this.camera.updateProjectionMatrix();
+    this.render();
+  }
+
+  show(t) {
+    for (const arm of this.arms) arm.show(t);
+    this.render();
+  }
+
+  render() {
+    this.renderer.render(this.scene, this.camera);
+  }
+
+  // The drawn end effector of run i: [x, y, z], or null where the run is hidden.
+  endEffector(i) {
+    const arm = this.arms[i];
+    if (!arm || !arm.group.visible) return null;
+    return arm.tip.position.toArray();
+  }
+}

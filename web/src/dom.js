@@ -1,0 +1,19 @@
+// DOM helpers: text always goes in through textContent (the data is untrusted).
+export function el(tag, className) {
+  const node = document.createElement(tag);
+  if (className) node.className = className;
+  return node;
+}
+
+export function text(tag, value, className) {
+  const node = el(tag, className);
+  node.textContent = value == null ? '' : String(value);
+  return node;
+}
+
+// A number for display: 4 significant digits, or an exponent where that hides it.
+export function fmt(v) {
+  if (v == null || !Number.isFinite(v)) return String(v);
+  const a = Math.abs(v);
+  return a !== 0 && (a < 1e-3 || a >= 1e5) ? v.toExponential(3) : String(+v.toPrecision(4));
+}
