@@ -399,9 +399,14 @@ int main(int argc, char** argv) {
     return guarded([&] {
       if (!sim.zero_torque && sim.torque_file.empty() && sim.plan_file.empty())
         throw std::invalid_argument("simulate: give --torques FILE, --plan FILE or --zero");
+      sim.command_line = command_line(argc, argv);
       return spacearm::run_simulate(sim);
     });
-  if (*plan) return guarded([&] { return spacearm::run_plan(plan_args); });
+  if (*plan)
+    return guarded([&] {
+      plan_args.command_line = command_line(argc, argv);
+      return spacearm::run_plan(plan_args);
+    });
   if (*sweep) return guarded([&] { return spacearm::run_sweep_command(sweep_args); });
   if (*view)
     return guarded([&] {

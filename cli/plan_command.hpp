@@ -16,6 +16,7 @@ struct PlanArgs {
   double duration = 0, dt = 0.01;
   std::vector<std::string> param_assignments;
   bool verbose = false;
+  std::string command_line;  // recorded beside the CSV (provenance.hpp)
 };
 
 // Exit status: 0, or 1 on an error (message on stderr).

@@ -19,6 +19,7 @@
 #include "integrators.hpp"
 #include "plan_replay.hpp"
 #include "private_folder.hpp"
+#include "provenance.hpp"
 #include "row_writer.hpp"
 #include "simulation.hpp"
 #include "simulation_table.hpp"
@@ -286,22 +287,32 @@ int run_simulate(const SimulateArgs& args) {
     check_stop();
     progress.at(t);
   };
+  // What made the CSV, beside it, once it is closed (whole, or cut short by a stop).
+  const auto close = [&] {
+    out.close();
+    cli::Provenance p;
+    p.command = a.command_line;
+    p.scene = a.scene_path;
+    for (size_t i = 0; i < facts.parameter_names.size(); ++i)
+      p.parameters.push_back({facts.parameter_names[i], params[static_cast<Eigen::Index>(i)]});
+    cli::write_provenance(a.output_file, p);
+  };
   const cli::StopOnSignals signals;
   try {
     const auto stats = integrate_motion(model, q0, qd0, torque, a.t_end, dt_out, opt, observe);
-    out.close();
+    close();
     if (a.verbose)
       std::fprintf(stderr,
                    "spacearm: run %.1f ms, %ld right-hand-side evaluations, %llu bytes written\n",
                    1e3 * progress.seconds(), stats.rhs_evaluations, out.bytes());
     return 0;
   } catch (const Interrupted& i) {
-    out.close();
+    close();
     report_stop(out, t_written,
                 std::string("interrupted by ") + (i.signal == SIGINT ? "SIGINT" : "SIGTERM"));
     return 128 + i.signal;
   } catch (const IntegrationError& e) {
-    out.close();  // what was computed so far stays in the CSV
+    close();  // what was computed so far stays in the CSV
     report_stop(out, t_written, "the integration stopped");
     throw IntegrationError(failure_advice(e, opt, mode), e.t(), e.state());
   }

@@ -23,6 +23,7 @@ struct SimulateArgs {
   // along the planned rates to the torques.
   std::string plan_file, feedforward = "none";
   std::vector<std::string> param_assignments;
+  std::string command_line;  // recorded beside the CSV (provenance.hpp)
 };
 
 // Exit status: 0, 1 on an error (message on stderr), 128 + signal when interrupted.

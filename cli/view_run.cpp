@@ -10,6 +10,7 @@
 #include "compiled_model.hpp"
 #include "dynamic_model.hpp"
 #include "model_recipe.hpp"
+#include "provenance.hpp"
 #include "run_table.hpp"
 #include "spatial_scene.hpp"
 #include "view_command.hpp"
@@ -19,6 +20,14 @@ namespace spacearm::cli {
 using nlohmann::json;
 
 namespace {
+
+// A value as drawn and plotted: 9 significant digits (the page's JSON prints the shortest
+// text that reads back the same double, so this keeps the page about half as large).
+double shown(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.9g", v);
+  return std::strtod(text, nullptr);
+}
 
 // The scene's model at the chosen parameters. The DynamicModel refers to the CompiledModel.
 struct LoadedScene {
@@ -145,11 +154,13 @@ Frames frames_of(const LoadedScene& s, const RunTable& table, const StateReader&
     const Eigen::MatrixXd P = s.model->evaluate(Output::joint_positions, {q}, s.params).at(0);
     json p = json::array();
     for (int c = 0; c < P.cols(); ++c)
-      for (int r = 0; r < 3; ++r) p.push_back(r < P.rows() ? P(r, c) : 0.0);
+      for (int r = 0; r < 3; ++r) p.push_back(shown(r < P.rows() ? P(r, c) : 0.0));
     f.tips.push_back({P(0, n), P(1, n), P.rows() > 2 ? P(2, n) : 0.0});
     f.t.push_back(row[t_col]);
     points.push_back(std::move(p));
-    base.push_back(base_pose(m, q));
+    std::vector<double> pose = base_pose(m, q);
+    for (double& v : pose) v = shown(v);
+    base.push_back(pose);
     const Eigen::VectorXd link = m.joint_angles(q);
     if (axes) {
       const Eigen::MatrixXd J = s.model->end_effector_jacobian(q, s.params);
@@ -158,7 +169,7 @@ Frames frames_of(const LoadedScene& s, const RunTable& table, const StateReader&
         const Eigen::Vector3d w = J.block<3, 1>(3, m.num_base() + i);
         const Eigen::Vector3d u =
             w.norm() > 0 ? Eigen::Vector3d(w.normalized()) : Eigen::Vector3d::UnitZ();
-        a.insert(a.end(), {u[0], u[1], u[2]});
+        a.insert(a.end(), {shown(u[0]), shown(u[1]), shown(u[2])});
       }
       axis_rows.push_back(std::move(a));
     }
@@ -166,7 +177,7 @@ Frames frames_of(const LoadedScene& s, const RunTable& table, const StateReader&
       json r = json::array();
       for (int i = 0; i < n; ++i) {
         const int v = m.motor_angle_slots[i] ? m.num_base() + i : m.actuated_coordinates[i];
-        r.push_back(q[m.q_index(v)] - link[i]);
+        r.push_back(shown(q[m.q_index(v)] - link[i]));
       }
       rotor_rows.push_back(std::move(r));
     }
@@ -221,7 +232,9 @@ json geometry(const LoadedScene& s, const Frames& f) {
 }
 
 json plot(const std::string& title, const std::string& unit, const std::vector<std::string>& labels,
-          const std::vector<std::vector<double>>& series) {
+          std::vector<std::vector<double>> series) {
+  for (auto& line : series)
+    for (double& v : line) v = shown(v);
   return {{"title", title}, {"unit", unit}, {"labels", labels}, {"series", series}};
 }
 
@@ -305,7 +318,7 @@ json plots(const LoadedScene& s, const RunTable& table, const StateReader& reade
     std::vector<json> error;
     for (size_t k = 0; k < main.t.size(); ++k) {
       Eigen::Vector3d tip;
-      error.push_back(tip_at(*compare, main.t[k], tip) ? json((main.tips[k] - tip).norm())
+      error.push_back(tip_at(*compare, main.t[k], tip) ? json(shown((main.tips[k] - tip).norm()))
                                                        : json(nullptr));
     }
     out.push_back({{"title", "end-effector distance from the compared run"},
@@ -330,18 +343,49 @@ std::string thinning_note(const RunTable& t) {
          "; between rows the drawing is interpolated linearly";
 }
 
-}  // namespace
-
-json run_view_data(const ViewArgs& a, std::vector<std::pair<std::string, std::string>>& inputs) {
+// The run's provenance (provenance.hpp) fills in --scene and --param where they are not given;
+// what it says goes into the page's info, a stale one into its notes.
+ViewArgs with_provenance(const ViewArgs& given, json& info, std::vector<std::string>& notes) {
+  ViewArgs a = given;
+  bool stale = false;
+  const auto made = read_provenance(a.file, &stale);
+  if (stale)
+    notes.push_back("'" + provenance_path(a.file) +
+                    "' is stale (the run's file changed since): not used");
+  if (made) {
+    info.push_back({"run made by", made->command});
+    info.push_back({"in the folder", made->folder});
+    if (a.scene_path.empty()) a.scene_path = made->scene;
+    if (a.param_assignments.empty() && a.scene_path == made->scene)
+      for (const auto& [name, value] : made->parameters) {
+        char text[40];
+        std::snprintf(text, sizeof text, "%.17g", value);
+        a.param_assignments.push_back(name + "=" + text);
+      }
+  }
+  if (!a.compare_file.empty())
+    if (const auto other = read_provenance(a.compare_file))
+      info.push_back({"compared run made by", other->command});
   if (a.scene_path.empty())
     throw std::invalid_argument("view: give --scene SCENE, the scene '" + a.file +
-                                "' is a run of (it draws the arm from the scene)");
+                                "' is a run of (it draws the arm from the scene; the run has no "
+                                "provenance file that names it)");
+  return a;
+}
+
+}  // namespace
+
+json run_view_data(const ViewArgs& given,
+                   std::vector<std::pair<std::string, std::string>>& inputs) {
+  json info = json::array();
+  std::vector<std::string> notes;
+  const ViewArgs a = with_provenance(given, info, notes);
   const LoadedScene s = load_scene(a);
   for (const auto& input : scene_inputs(a.scene_path, *s.recipe)) inputs.push_back(input);
   inputs.push_back({"the run", a.file});
   const RunTable table = read_run_table(a.file, "view", a.max_frames);
   const StateReader reader(table, s.dyn, "view");
-  std::vector<std::string> notes{thinning_note(table)};
+  notes.insert(notes.begin(), thinning_note(table));
   const Frames main = frames_of(s, table, reader, "run");
   json runs = json::array({main.run});
   std::unique_ptr<Frames> compare;
@@ -361,7 +405,6 @@ json run_view_data(const ViewArgs& a, std::vector<std::pair<std::string, std::st
                {"runs", runs}};
   data["plots"] = plots(s, table, reader, main, compare.get(), plot_notes);
   data["plot_notes"] = plot_notes;
-  json info = json::array();
   info.push_back({"scene", s.recipe->name() + " ('" + a.scene_path + "')"});
   if (!s.recipe->facts().description.empty())
     info.push_back({"description", s.recipe->facts().description});

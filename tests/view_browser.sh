@@ -19,8 +19,11 @@ run "$cli" plan "$source_dir/models/paper_reference.yaml" --from 0.9,0.3,0.3 --t
   --duration 4 -o "$work/plan.csv" "${cache[@]}"
 run "$cli" simulate "$source_dir/models/paper_geared.yaml" --plan "$work/plan.csv" --param p=10 \
   -o "$work/replay.csv" "${cache[@]}"
-run "$cli" view "$work/replay.csv" --scene "$source_dir/models/paper_geared.yaml" --param p=10 \
-  --compare "$work/plan.csv" -o "$work/paper.html" "${cache[@]}"
+# The scene and p = 10 come from the replay's provenance (replay.csv.provenance.json).
+run "$cli" view "$work/replay.csv" --compare "$work/plan.csv" -o "$work/paper.html" "${cache[@]}"
+grep -q '"run made by","[^"]*spacearm simulate [^"]*paper_geared.yaml --plan [^"]*--param p=10' \
+  "$work/paper.html" || fail "the page does not show the command that made the run"
+grep -q '"parameter p","10"' "$work/paper.html" || fail "the run's p = 10 is not the page's"
 
 # Thinning: at most --max-frames rows drawn, and the page says so.
 run "$cli" view "$work/replay.csv" --scene "$source_dir/models/paper_geared.yaml" --max-frames 50 \
@@ -44,7 +47,12 @@ expect_error "line 3 column 't'" "$cli" view "$work/garbled.csv" \
 mkfifo "$work/fifo"
 expect_error "is not a regular file" timeout 20 "$cli" view "$work/fifo" \
   --scene "$source_dir/models/paper_geared.yaml" -o "$work/bad.html" "${cache[@]}"
-expect_error "give --scene" "$cli" view "$work/replay.csv" -o "$work/bad.html"
+cp "$work/replay.csv" "$work/copy.csv"  # a new file: its provenance no longer matches
+cp "$work/replay.csv.provenance.json" "$work/copy.csv.provenance.json"
+expect_error "give --scene" "$cli" view "$work/copy.csv" -o "$work/bad.html"
+echo '{"command": 1}' > "$work/copy.csv.provenance.json"
+expect_error "copy.csv.provenance.json': not spacearm's provenance" "$cli" view "$work/copy.csv" \
+  -o "$work/bad.html"
 expect_error "is the run file" "$cli" view "$work/replay.csv" \
   --scene "$source_dir/models/paper_geared.yaml" -o "$work/replay.csv" "${cache[@]}"
 [[ ! -e $work/bad.html ]] || fail "a page was written for bad input"

@@ -1,0 +1,97 @@
+#include "provenance.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "cpp_printer.hpp"
+#include "private_folder.hpp"
+
+namespace spacearm::cli {
+
+namespace {
+
+// The file's size and modification time in ns; false if it cannot be seen.
+bool stamp(const std::string& path, long long& size, long long& mtime_ns) {
+  struct stat st;
+  if (::stat(path.c_str(), &st) != 0) return false;
+  size = static_cast<long long>(st.st_size);
+  mtime_ns = static_cast<long long>(st.st_mtim.tv_sec) * 1000000000LL + st.st_mtim.tv_nsec;
+  return true;
+}
+
+}  // namespace
+
+std::string provenance_path(const std::string& csv) { return csv + ".provenance.json"; }
+
+void write_provenance(const std::string& csv, Provenance p) {
+  if (csv.empty() || csv == "-" || csv == "none") return;
+  try {
+    std::error_code ec;
+    p.folder = std::filesystem::current_path(ec).string();
+    p.scene = std::filesystem::absolute(p.scene, ec).string();
+    p.version = kGeneratorVersion;
+    if (!stamp(csv, p.csv_size, p.csv_mtime_ns)) return;  // not a file (a pipe's name is fine)
+    struct stat st;
+    if (::stat(csv.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return;
+    nlohmann::json parameters = nlohmann::json::object();
+    for (const auto& [name, value] : p.parameters) parameters[name] = value;
+    const nlohmann::json j = {
+        {"command", p.command},          {"folder", p.folder},    {"scene", p.scene},
+        {"parameters", parameters},      {"spacearm", p.version}, {"csv_size", p.csv_size},
+        {"csv_mtime_ns", p.csv_mtime_ns}};
+    const std::filesystem::path path(provenance_path(csv));
+    const std::string folder = path.has_parent_path() ? path.parent_path().string() : ".";
+    const Fd dir(::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+    if (!dir.valid()) throw FolderError("cannot open '" + folder + "': " + std::strerror(errno));
+    replace_file_at(dir.get(), path.filename().string(),
+                    j.dump(2, ' ', true, nlohmann::json::error_handler_t::replace) + "\n",
+                    path.string(), 0644);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "spacearm: warning: the run's provenance was not written: %s\n", e.what());
+  }
+}
+
+std::optional<Provenance> read_provenance(const std::string& csv, bool* stale) {
+  if (stale) *stale = false;
+  const std::string path = provenance_path(csv);
+  struct stat st;
+  if (::lstat(path.c_str(), &st) != 0) return std::nullopt;
+  const std::string what = "the run's provenance '" + path + "'";
+  std::string text;
+  try {
+    text = read_regular_file(path, "view", size_t(1) << 20);
+  } catch (const FolderError& e) {
+    throw std::invalid_argument(e.what());
+  }
+  Provenance p;
+  try {
+    const auto j = nlohmann::json::parse(text);
+    p.command = j.at("command").get<std::string>();
+    p.folder = j.at("folder").get<std::string>();
+    p.scene = j.at("scene").get<std::string>();
+    p.version = j.at("spacearm").get<std::string>();
+    for (const auto& [name, value] : j.at("parameters").items())
+      p.parameters.push_back({name, value.get<double>()});
+    p.csv_size = j.at("csv_size").get<long long>();
+    p.csv_mtime_ns = j.at("csv_mtime_ns").get<long long>();
+  } catch (const nlohmann::json::exception& e) {
+    throw std::invalid_argument(what + ": not spacearm's provenance (" + e.what() +
+                                "); remove it or fix it");
+  }
+  long long size = -2, mtime = -2;
+  if (!stamp(csv, size, mtime) || size != p.csv_size || mtime != p.csv_mtime_ns) {
+    if (stale) *stale = true;
+    return std::nullopt;
+  }
+  return p;
+}
+
+}  // namespace spacearm::cli
