@@ -22,7 +22,20 @@ except ImportError as e:  # the first python3 on PATH may not be Debian's
 
 from ._spacearm import CompileError, DynamicsError, Model, Study, StudyError, load
 
-__all__ = ["load", "Model", "Study", "DynamicsError", "CompileError", "StudyError"]
+__all__ = ["load", "Model", "Study", "DynamicsError", "CompileError", "StudyError", "write_csv"]
+
+
+def write_csv(run, path):
+    """Writes the table of a run or plan (the dict Model.simulate, closed_loop and plan return:
+    its 'columns', in order) as the CSV `spacearm simulate` and `spacearm plan` write, the same
+    bytes (17 significant digits), for `spacearm view PATH --scene SCENE` and any CSV reader."""
+    columns = run["columns"]
+    names = list(columns)
+    table = _np.column_stack([_np.asarray(columns[n], dtype=float) for n in names])
+    with open(path, "w", encoding="ascii", newline="\n") as f:
+        f.write(",".join(names) + "\n")
+        for row in table:
+            f.write(",".join("%.17g" % v for v in row) + "\n")
 
 
 def _table(self, runs=None, threads=1):

@@ -214,6 +214,15 @@ def test_simulate_is_the_cli_simulate(geared, tmp_path):
     assert list(run["columns"]) == names and len(run["t"]) == 21
     for c, name in enumerate(names):
         assert np.array_equal(run["columns"][name], table[:, c]), name
+    # write_csv gives the CLI's bytes, and spacearm view draws them (issue 32).
+    mine = tmp_path / "python.csv"
+    spacearm.write_csv(run, mine)
+    assert mine.read_bytes() == out.read_bytes()
+    if os.path.exists(os.path.join(os.path.dirname(cli), "..", "web", "viewer.js")):
+        subprocess.run([cli, "view", str(mine), "--scene", scene, "--param", "p=3", "-o",
+                        str(tmp_path / "view.html"), "--cache-dir", CACHE], check=True,
+                       capture_output=True)
+        assert "python.csv': 21 rows, all drawn" in (tmp_path / "view.html").read_text()
     # The replay follows the plan's line (the open-loop torques of the same model).
     assert np.abs(run["columns"]["ee_x"][-1] - 1.4) < 1e-4
     rest = geared.simulate(0.5)  # no torque, from rest: nothing moves

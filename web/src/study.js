@@ -63,7 +63,7 @@ export class StudyView {
   // Geometry of the plot area in canvas pixels.
   layout() {
     const nx = this.study.x.values.length, ny = this.study.y ? this.study.y.values.length : 1;
-    return { left: 70, top: 10, width: 560, height: this.study.y ? 420 : 60, nx, ny };
+    return { left: 80, top: 10, width: 560, height: this.study.y ? 420 : 60, nx, ny };
   }
 
   draw() {
@@ -86,19 +86,29 @@ export class StudyView {
         ctx.fillStyle = v == null || !Number.isFinite(v) ? '#ccc' : color(scale.f(v));
         ctx.fillRect(g.left + i * w, g.top + (g.ny - 1 - j) * h, Math.ceil(w), Math.ceil(h));
       }
+    // Tick labels at about eight cells per axis, and the parameters' names.
     ctx.fillStyle = '#000';
-    ctx.font = '12px sans-serif';
-    const label = (axis) => axis.name;
-    ctx.fillText(label(this.study.x) + ': ' + fmt(this.study.x.values[0]) + ' ... ' +
-                 fmt(this.study.x.values[g.nx - 1]), g.left, g.top + g.height + 20);
+    ctx.font = '11px sans-serif';
+    const every = (n) => Math.max(1, Math.ceil(n / 8));
+    ctx.textAlign = 'center';
+    for (let i = 0; i < g.nx; i += every(g.nx))
+      ctx.fillText(fmt(this.study.x.values[i]), g.left + (i + 0.5) * w, g.top + g.height + 14);
+    ctx.font = '13px sans-serif';
+    ctx.fillText(this.study.x.name, g.left + g.width / 2, g.top + g.height + 34);
     if (this.study.y) {
+      ctx.font = '11px sans-serif';
+      ctx.textAlign = 'right';
+      for (let j = 0; j < g.ny; j += every(g.ny))
+        ctx.fillText(fmt(this.study.y.values[j]), g.left - 4, g.top + (g.ny - 1 - j + 0.5) * h + 4);
       ctx.save();
-      ctx.translate(14, g.top + g.height);
+      ctx.translate(14, g.top + g.height / 2);
       ctx.rotate(-Math.PI / 2);
-      ctx.fillText(label(this.study.y) + ': ' + fmt(this.study.y.values[0]) + ' ... ' +
-                   fmt(this.study.y.values[g.ny - 1]), 0, 0);
+      ctx.textAlign = 'center';
+      ctx.font = '13px sans-serif';
+      ctx.fillText(this.study.y.name, 0, 0);
       ctx.restore();
     }
+    ctx.textAlign = 'left';
     this.legend.textContent = this.metric().name + ': ' + fmt(scale.lo) + ' (dark) to ' +
       fmt(scale.hi) + ' (light)' + (scale.log ? ', logarithmic colours' : '') +
       '; grey: no value (a failed run)';
