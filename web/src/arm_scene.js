@@ -187,7 +187,7 @@ export class ArmScene {
     } else {
       this.camera = new THREE.PerspectiveCamera(40, 1, size / 1000, size * 100);
       this.camera.up.set(0, 0, 1);
-      this.camera.position.copy(center).add(new THREE.Vector3(0.9, -1.3, 0.8).multiplyScalar(size));
+      this.camera.position.copy(center).add(new THREE.Vector3(0.55, -0.8, 0.5).multiplyScalar(size));
       const grid = new THREE.GridHelper(size * 2, 20, 0xbbbbbb, 0xdddddd);
       grid.rotation.x = Math.PI / 2;
       grid.position.set(center.x, center.y, bounds.min.z);

@@ -21,9 +21,9 @@ export class RunPlots {
         series.push({ label, stroke: PALETTE[i % PALETTE.length], width: 1.5,
                       value: (u, v) => (v == null ? '-' : fmt(v)) }));
       const options = {
-        width: 420, height: 170, series,
+        width: 420, height: 170, series, pxAlign: 0,
         scales: { x: { time: false } },
-        axes: [{ values: (u, vs) => vs.map(fmt) }, { size: 60, values: (u, vs) => vs.map(fmt) }],
+        axes: [{ values: (u, vs) => vs.map(fmt) }, { size: 64, space: 18, values: (u, vs) => vs.map(fmt) }],
         cursor: { sync: { key: sync.key } },
         hooks: { draw: [(u) => this.drawMarker(u)] },
       };

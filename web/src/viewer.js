@@ -73,6 +73,7 @@ function main() {
       pause: () => timeline.pause(),
       endEffector: (run = 0) => scene.endEffector(run),
       render: () => scene.render(),
+      plotRanges: () => plots.plots.map((u) => [u.scales.y.min, u.scales.y.max]),
     });
   }
   hook.ready = true;
