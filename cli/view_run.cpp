@@ -10,6 +10,7 @@
 #include "compiled_model.hpp"
 #include "dynamic_model.hpp"
 #include "model_recipe.hpp"
+#include "outputs.hpp"
 #include "provenance.hpp"
 #include "run_table.hpp"
 #include "spatial_scene.hpp"
@@ -37,9 +38,46 @@ struct LoadedScene {
   DynamicModel dyn;
 };
 
+// What the page draws and plots from: joint positions, energies, momentum and, in 3D, the joint
+// axes (the end-effector Jacobian's angular rows), where the scene can have them.
+constexpr Output kViewOutputs[] = {Output::joint_positions, Output::kinetic_energy,
+                                   Output::potential_energy, Output::momentum,
+                                   Output::end_effector_jacobian};
+
+// The scene as given if it emits all of kViewOutputs it can, else a variant that adds them.
+// The variant's text (what names it in the cache) is the scene's with a comment saying so.
+std::unique_ptr<ModelRecipe> view_recipe(ModelRecipe recipe) {
+  const ModelFacts& facts = recipe.facts();
+  std::vector<Output> missing;
+  std::string note = "\n# spacearm view adds the outputs:";
+  for (Output o : kViewOutputs) {
+    const auto& info = *std::find_if(output_registry().begin(), output_registry().end(),
+                                     [o](const OutputInfo& i) { return i.id == o; });
+    const bool possible = (info.needs & ~facts.features) == 0 &&
+                          (!facts.dims.spatial || spatial_output(o, facts.free_floating));
+    if (possible &&
+        std::find(facts.outputs.begin(), facts.outputs.end(), o) == facts.outputs.end()) {
+      missing.push_back(o);
+      note += std::string(" ") + info.name;
+    }
+  }
+  if (missing.empty()) return std::make_unique<ModelRecipe>(std::move(recipe));
+  if (const Scene* planar = recipe.planar()) {
+    Scene scene = *planar;
+    scene.outputs.insert(missing.begin(), missing.end());
+    scene.content += note + "\n";
+    return std::make_unique<ModelRecipe>(std::move(scene));
+  }
+  SpatialScene scene = *recipe.spatial();
+  scene.outputs = facts.outputs;  // the defaults, where the scene lists none
+  scene.outputs.insert(scene.outputs.end(), missing.begin(), missing.end());
+  scene.content += note + "\n";
+  return std::make_unique<ModelRecipe>(std::move(scene));
+}
+
 LoadedScene load_scene(const ViewArgs& a) {
   LoadedScene s;
-  s.recipe = std::make_unique<ModelRecipe>(ModelRecipe::load(a.scene_path));
+  s.recipe = view_recipe(ModelRecipe::load(a.scene_path));
   CompileOptions options;
   options.cache_dir = a.cache_dir;
   options.progress = [&](const std::string& m) {
@@ -47,10 +85,6 @@ LoadedScene load_scene(const ViewArgs& a) {
       std::fprintf(stderr, "spacearm: %s\n", m.c_str());
   };
   s.model = std::make_unique<CompiledModel>(CompiledModel::load(*s.recipe, options));
-  if (!s.model->has(Output::joint_positions))
-    throw std::invalid_argument("--scene '" + a.scene_path +
-                                "': the scene must emit joint_positions to be drawn (field "
-                                "'outputs')");
   s.params = parse_parameters(a.param_assignments, s.recipe->facts());
   s.dyn = dynamic_model(*s.model, s.params);
   return s;

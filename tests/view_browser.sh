@@ -63,6 +63,12 @@ run "$cli" simulate "$source_dir/tests/scenes/spatial_arm2.yaml" --zero --t-end 
 run "$cli" view "$work/spatial.csv" --scene "$source_dir/tests/scenes/spatial_arm2.yaml" \
   -o "$work/spatial.html" "${cache[@]}"
 
+# A scene that emits neither joint positions nor energy: the view compiles a variant with them.
+{ cat "$source_dir/tests/scenes/fixed_n1.yaml"; echo "outputs: [forward_dynamics]"; } > "$work/bare.yaml"
+run "$cli" simulate "$work/bare.yaml" --zero --t-end 0.5 --qd0 1 -o "$work/bare.csv" "${cache[@]}"
+run "$cli" view "$work/bare.csv" -o "$work/bare.html" "${cache[@]}"
+grep -q '"title":"energy"' "$work/bare.html" || fail "no energy plot for a scene without kinetic_energy"
+
 # Markup in the scene's description and in the run's file name: it must show as text.
 sed -e 's|^description: .*|description: "</script><script>window.pwned=1</script>"|' \
     "$source_dir/models/paper_geared.yaml" > "$work/hostile.yaml"
