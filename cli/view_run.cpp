@@ -98,6 +98,8 @@ struct StateReader {
   std::vector<int> base_q, joint_q;  // the link-side form
   std::vector<int> base_qd, joint_qd;
   bool has_velocity = false;
+  int t_col = 0;
+  std::string where;  // the option and file, for messages
 
   static std::vector<int> find(const RunTable& t, const std::vector<std::string>& names) {
     std::vector<int> cols;
@@ -114,7 +116,8 @@ struct StateReader {
     return names;
   }
 
-  StateReader(const RunTable& t, const DynamicModel& model, const std::string& what) : m(&model) {
+  StateReader(const RunTable& t, const DynamicModel& model, const std::string& what)
+      : m(&model), t_col(t.column("t")), where(what + " '" + t.path + "'") {
     const auto& names = model.coordinate_names;
     const int nb = model.base_coordinates();
     q_cols = find(t, names);
@@ -145,9 +148,19 @@ struct StateReader {
     for (size_t i = 0; i < cols.size(); ++i) v[i] = row[cols[i]];
     return v;
   }
+  // A base quaternion is normalized; one far from unit length is not a rotation: an error.
   Eigen::VectorXd q(const std::vector<double>& row) const {
-    if (!q_cols.empty()) return pick(row, q_cols);
-    return m->from_joint_angles(pick(row, base_q), pick(row, joint_q));
+    Eigen::VectorXd q = q_cols.empty() ? m->from_joint_angles(pick(row, base_q), pick(row, joint_q))
+                                       : pick(row, q_cols);
+    if (m->quaternion_offset >= 0) {
+      auto r = q.segment<4>(m->quaternion_offset);
+      if (!(r.norm() > 0.5 && r.norm() < 2))
+        throw std::invalid_argument(where + " at t = " + std::to_string(row.at(t_col)) +
+                                    ": the base quaternion's norm is " + std::to_string(r.norm()) +
+                                    ", not 1");
+      r.normalize();
+    }
+    return q;
   }
   Eigen::VectorXd qd(const std::vector<double>& row) const {
     if (!qd_cols.empty()) return pick(row, qd_cols);
@@ -186,6 +199,10 @@ Frames frames_of(const LoadedScene& s, const RunTable& table, const StateReader&
   for (const auto& row : table.rows) {
     const Eigen::VectorXd q = reader.q(row);
     const Eigen::MatrixXd P = s.model->evaluate(Output::joint_positions, {q}, s.params).at(0);
+    if (!P.allFinite())  // a zero quaternion, say: nothing to draw
+      throw std::invalid_argument("'" + table.path + "' at t = " + std::to_string(row[t_col]) +
+                                  ": the joint positions are not finite (are the coordinates a "
+                                  "state of this scene?)");
     json p = json::array();
     for (int c = 0; c < P.cols(); ++c)
       for (int r = 0; r < 3; ++r) p.push_back(shown(r < P.rows() ? P(r, c) : 0.0));

@@ -101,7 +101,11 @@ Results read_results(const std::string& path) {
     if (fields.size() != r.names.size())
       throw std::invalid_argument(at + ": " + std::to_string(fields.size()) +
                                   " fields, the header has " + std::to_string(r.names.size()));
-    r.runs.push_back(static_cast<long>(parse_number(fields[0], at + " column 'run'")));
+    const double run = parse_number(fields[0], at + " column 'run'");
+    if (!(run >= 0 && run <= 1e15 && run == std::floor(run)))
+      throw std::invalid_argument(at + " column 'run': " + quoted_text(fields[0]) +
+                                  " is not a run number");
+    r.runs.push_back(static_cast<long>(run));
     const bool ok = fields[1] == "ok";
     if (!ok && fields[1] != "failed")
       throw std::invalid_argument(at + ": status " + quoted_text(fields[1]) +

@@ -63,6 +63,14 @@ run "$cli" simulate "$source_dir/tests/scenes/spatial_arm2.yaml" --zero --t-end 
 run "$cli" view "$work/spatial.csv" --scene "$source_dir/tests/scenes/spatial_arm2.yaml" \
   -o "$work/spatial.html" "${cache[@]}"
 
+# A row whose base quaternion is zero is not a rotation.
+awk -F, -v OFS=, 'NR == 1 { for (i = 1; i <= NF; ++i) if ($i == "qw0") c = i }
+                 NR == 4 { $c = 0; $(c + 1) = 0; $(c + 2) = 0; $(c + 3) = 0 } { print }' \
+  "$work/spatial.csv" > "$work/zero_quaternion.csv"
+expect_error "zero_quaternion.csv' at t = 0.02.*quaternion's norm is 0" "$cli" view \
+  "$work/zero_quaternion.csv" --scene "$source_dir/tests/scenes/spatial_arm2.yaml" \
+  -o "$work/bad.html" "${cache[@]}"
+
 # A scene that emits neither joint positions nor energy: the view compiles a variant with them.
 { cat "$source_dir/tests/scenes/fixed_n1.yaml"; echo "outputs: [forward_dynamics]"; } > "$work/bare.yaml"
 run "$cli" simulate "$work/bare.yaml" --zero --t-end 0.5 --qd0 1 -o "$work/bare.csv" "${cache[@]}"
