@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -33,6 +34,12 @@ void for_each_line(int fd, const std::string& where,
                    const std::function<void(long, std::string&)>& line) {
   std::string pending, chunk(1 << 20, '\0');
   long number = 0;
+  size_t scanned = 0;  // pending holds no newline before this
+  const auto emit = [&](std::string text) {
+    if (!text.empty() && text.back() == '\r') text.pop_back();
+    if (number == 0 && text.compare(0, 3, "\xEF\xBB\xBF") == 0) text.erase(0, 3);
+    line(++number, text);
+  };
   for (;;) {
     const ssize_t n = ::read(fd, chunk.data(), chunk.size());
     if (n < 0 && errno == EINTR) continue;
@@ -40,18 +47,17 @@ void for_each_line(int fd, const std::string& where,
     if (n == 0) break;
     pending.append(chunk.data(), static_cast<size_t>(n));
     size_t start = 0;
-    for (size_t end; (end = pending.find('\n', start)) != std::string::npos; start = end + 1) {
-      std::string text = pending.substr(start, end - start);
-      if (!text.empty() && text.back() == '\r') text.pop_back();
-      if (number == 0 && text.compare(0, 3, "\xEF\xBB\xBF") == 0) text.erase(0, 3);
-      line(++number, text);
-    }
+    for (size_t end; (end = pending.find('\n', std::max(start, scanned))) != std::string::npos;
+         start = end + 1)
+      emit(pending.substr(start, end - start));
     pending.erase(0, start);
+    scanned = pending.size();
+    // A line this long is no table's: refused before it fills memory.
+    if (pending.size() > kMaxLineBytes)
+      throw std::invalid_argument(where + " line " + std::to_string(number + 1) + ": longer than " +
+                                  std::to_string(kMaxLineBytes >> 20) + " MB");
   }
-  if (!pending.empty()) {
-    if (pending.back() == '\r') pending.pop_back();
-    line(++number, pending);
-  }
+  if (!pending.empty()) emit(pending);
 }
 
 namespace {
@@ -106,8 +112,12 @@ RunTable read_run_table(const std::string& path, const std::string& what, long m
   auto next_report = std::chrono::seconds(2);
   for_each_line(fd.get(), where, [&](long number, std::string& text) {
     if (text.find_first_not_of(" \t") == std::string::npos) return;
-    const auto fields = detail::split_csv_line(text);
     const std::string at = where + " line " + std::to_string(number);
+    const size_t count = 1 + static_cast<size_t>(std::count(text.begin(), text.end(), ','));
+    if (!table.names.empty() && count != table.names.size())
+      throw std::invalid_argument(at + ": " + std::to_string(count) + " fields, the header has " +
+                                  std::to_string(table.names.size()));
+    const auto fields = detail::split_csv_line(text);
     if (table.names.empty()) {  // the header
       std::set<std::string> seen;
       for (const auto& name : fields)
@@ -119,12 +129,9 @@ RunTable read_run_table(const std::string& path, const std::string& what, long m
       if (t_column < 0) throw std::invalid_argument(at + ": the header has no column 't'");
       return;
     }
-    if (fields.size() != table.names.size())
-      throw std::invalid_argument(at + ": " + std::to_string(fields.size()) +
-                                  " fields, the header has " + std::to_string(table.names.size()));
     std::vector<double> row(fields.size());
     for (size_t i = 0; i < fields.size(); ++i)
-      row[i] = parse_number(fields[i], at + " column '" + table.names[i] + "'");
+      row[i] = parse_number(fields[i], at + " column " + quoted_text(table.names[i]));
     if (table.total_rows > 0 && !(row[t_column] > t_before))
       throw std::invalid_argument(at + ": t = " + fields[t_column] +
                                   " does not increase (the row before has " +

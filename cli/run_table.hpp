@@ -4,6 +4,7 @@
 // included, so that a file of 10^7 rows is read in bounded memory.
 #pragma once
 
+#include <cstddef>
 #include <functional>
 #include <string>
 #include <vector>
@@ -21,6 +22,10 @@ struct RunTable {
   std::vector<double> values(int column) const;
   bool thinned() const { return static_cast<long>(rows.size()) < total_rows; }
 };
+
+// The longest line a table may have (about 40 000 numbers): a longer one is an error, so that a
+// file without newlines cannot fill memory.
+constexpr size_t kMaxLineBytes = size_t(1) << 20;
 
 // Calls line(number, text) for each line of an open file, read in 1 MB chunks, without the \r of
 // CRLF and a leading byte-order mark; errors name `where`.

@@ -1,6 +1,9 @@
 // The page's data for a run: per kept row, the joints' world positions from the scene's compiled
 // model (joint_positions), the base pose, the joint axes and the rotors' angles, and the plots.
 #include <Eigen/Geometry>
+#include <sys/stat.h>
+
+#include <filesystem>
 
 #include <cmath>
 #include <cstdio>
@@ -178,6 +181,26 @@ std::vector<double> base_pose(const DynamicModel& m, const Eigen::VectorXd& q) {
   return {q[0], q[1], 0, std::cos(q[2] / 2), 0, 0, std::sin(q[2] / 2)};
 }
 
+// Where the file has the end effector's position (ee_x, ee_y, ee_z in 3D: simulate's and a
+// sweep's series), the drawn tip must be there: else the scene or its parameters are not the
+// run's, and the drawing would be silently wrong.
+void check_tip(const RunTable& table, const std::vector<double>& row, const Eigen::Vector3d& tip,
+               bool spatial) {
+  const int dims = spatial ? 3 : 2;
+  double gap = 0;
+  for (int k = 0; k < dims; ++k) {
+    const int c = table.column(std::string("ee_") + "xyz"[k]);
+    if (c < 0) return;
+    gap = std::max(gap, std::abs(row[c] - tip[k]));
+  }
+  if (gap > 1e-6 * (1 + tip.norm()))
+    throw std::invalid_argument(
+        "'" + table.path + "' at t = " + std::to_string(row.at(table.column("t"))) +
+        ": the scene puts the end effector " + std::to_string(gap) +
+        " m from the file's ee_ columns: the run is not of this scene at these parameters (give "
+        "--scene and --param as the run had them)");
+}
+
 // One run's frames: t, joint and tip positions, base pose, joint axes (3D), rotor angles.
 struct Frames {
   json run;
@@ -207,6 +230,7 @@ Frames frames_of(const LoadedScene& s, const RunTable& table, const StateReader&
     for (int c = 0; c < P.cols(); ++c)
       for (int r = 0; r < 3; ++r) p.push_back(shown(r < P.rows() ? P(r, c) : 0.0));
     f.tips.push_back({P(0, n), P(1, n), P.rows() > 2 ? P(2, n) : 0.0});
+    check_tip(table, row, f.tips.back(), m.spatial);
     f.t.push_back(row[t_col]);
     points.push_back(std::move(p));
     std::vector<double> pose = base_pose(m, q);
@@ -406,8 +430,17 @@ ViewArgs with_provenance(const ViewArgs& given, json& info, std::vector<std::str
   if (made) {
     info.push_back({"run made by", made->command});
     info.push_back({"in the folder", made->folder});
+    // The record is untrusted: its scene must be an absolute path to a regular file (a FIFO
+    // would block the reader).
+    struct stat st;
+    if (a.scene_path.empty() && (made->scene.empty() || made->scene[0] != '/' ||
+                                 ::stat(made->scene.c_str(), &st) != 0 || !S_ISREG(st.st_mode)))
+      throw std::invalid_argument("'" + provenance_path(a.file) + "' names the scene " +
+                                  quoted_text(made->scene) +
+                                  ", not a regular file by its absolute path: give --scene");
     if (a.scene_path.empty()) a.scene_path = made->scene;
-    if (a.param_assignments.empty() && a.scene_path == made->scene)
+    std::error_code ec;
+    if (a.param_assignments.empty() && std::filesystem::equivalent(a.scene_path, made->scene, ec))
       for (const auto& [name, value] : made->parameters) {
         char text[40];
         std::snprintf(text, sizeof text, "%.17g", value);
@@ -434,6 +467,7 @@ json run_view_data(const ViewArgs& given,
   const LoadedScene s = load_scene(a);
   for (const auto& input : scene_inputs(a.scene_path, *s.recipe)) inputs.push_back(input);
   inputs.push_back({"the run", a.file});
+  inputs.push_back({"the run's provenance", provenance_path(a.file)});
   const RunTable table = read_run_table(a.file, "view", a.max_frames);
   const StateReader reader(table, s.dyn, "view");
   notes.insert(notes.begin(), thinning_note(table));
@@ -442,6 +476,7 @@ json run_view_data(const ViewArgs& given,
   std::unique_ptr<Frames> compare;
   if (!a.compare_file.empty()) {
     inputs.push_back({"the compared run", a.compare_file});
+    inputs.push_back({"the compared run's provenance", provenance_path(a.compare_file)});
     const RunTable other = read_run_table(a.compare_file, "--compare", a.max_frames);
     compare = std::make_unique<Frames>(
         frames_of(s, other, StateReader(other, s.dyn, "--compare"), "compared"));

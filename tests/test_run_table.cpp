@@ -92,6 +92,16 @@ TEST_F(RunTableTest, BadFilesAreErrorsNamingLineAndColumn) {
   EXPECT_NE(error(10).find("line 503 column 'x'"), std::string::npos) << error(10);
 }
 
+// A file without newlines or with a line of commas fails fast, without filling memory.
+TEST_F(RunTableTest, LongLinesAreRefusedBeforeTheyFillMemory) {
+  write("t,x\n0,1\n" + std::string(3 << 20, '7'));
+  EXPECT_NE(error().find("line 3: longer than 1 MB"), std::string::npos) << error();
+  write("t,x\n0,1\n" + std::string(1 << 19, ','));
+  EXPECT_NE(error().find("line 3: 524289 fields, the header has 2"), std::string::npos) << error();
+  write("t,\x1b[31mred\n0,x\n");
+  EXPECT_NE(error().find("column '?[31mred'"), std::string::npos) << error();
+}
+
 TEST_F(RunTableTest, RefusesWhatIsNotARegularFile) {
   const std::string fifo = ::testing::TempDir() + "run_table_test.fifo";
   std::remove(fifo.c_str());

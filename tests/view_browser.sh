@@ -6,7 +6,7 @@
 # in $SPACEARM_VIEW_OUT if set. About 40 s (four models compiled). Skipped (77) without Chromium.
 # Usage: view_browser.sh SPACEARM SOURCE_DIR NODE_MODULES
 set -euo pipefail
-cli=$1 source_dir=$2 modules=$3
+cli=$(realpath "$1") source_dir=$(realpath "$2") modules=$(realpath "$3")
 [[ -x ${SPACEARM_CHROMIUM:-/usr/bin/chromium} ]] || { echo "chromium missing: skipped"; exit 77; }
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
@@ -24,6 +24,10 @@ run "$cli" view "$work/replay.csv" --compare "$work/plan.csv" -o "$work/paper.ht
 grep -q '"run made by","[^"]*spacearm simulate [^"]*paper_geared.yaml --plan [^"]*--param p=10' \
   "$work/paper.html" || fail "the page does not show the command that made the run"
 grep -q '"parameter p","10"' "$work/paper.html" || fail "the run's p = 10 is not the page's"
+# The same scene named by another path still takes the record's parameters.
+(cd "$source_dir/models" && "$cli" view "$work/replay.csv" --scene ./paper_geared.yaml \
+  -o "$work/relative.html" "${cache[@]}") > "$work/log" 2>&1 || { cat "$work/log"; fail "relative"; }
+grep -q '"parameter p","10"' "$work/relative.html" || fail "a relative --scene lost the record's p"
 
 # Thinning: at most --max-frames rows drawn, and the page says so.
 run "$cli" view "$work/replay.csv" --scene "$source_dir/models/paper_geared.yaml" --max-frames 50 \
@@ -55,6 +59,20 @@ expect_error "copy.csv.provenance.json': not spacearm's provenance" "$cli" view 
   -o "$work/bad.html"
 expect_error "is the run file" "$cli" view "$work/replay.csv" \
   --scene "$source_dir/models/paper_geared.yaml" -o "$work/replay.csv" "${cache[@]}"
+# Another p than the run's: the drawn end effector would not be the file's ee_x, ee_y.
+expect_error "the scene puts the end effector .* m from the file's ee_ columns" "$cli" view \
+  "$work/replay.csv" --param p=3 -o "$work/bad.html" "${cache[@]}"
+# A record naming a FIFO, or a relative path, as the scene; -o naming a record.
+mkfifo "$work/scene.fifo"
+sed "s|\"scene\": \"[^\"]*\"|\"scene\": \"$work/scene.fifo\"|" "$work/replay.csv.provenance.json" \
+  > "$work/fifo_record.json"
+cp "$work/replay.csv" "$work/fifo_run.csv"
+touch -r "$work/replay.csv" "$work/fifo_run.csv"
+mv "$work/fifo_record.json" "$work/fifo_run.csv.provenance.json"
+expect_error "names the scene '.*scene.fifo', not a regular file" timeout 20 "$cli" view \
+  "$work/fifo_run.csv" -o "$work/bad.html"
+expect_error "is the run's provenance file" "$cli" view "$work/replay.csv" \
+  -o "$work/replay.csv.provenance.json" "${cache[@]}"
 [[ ! -e $work/bad.html ]] || fail "a page was written for bad input"
 
 # A spatial arm turning its joints from rest, the base reacting.
@@ -101,6 +119,14 @@ time_series: {dt: 0.05}
 YAML
 run "$cli" sweep "$work/study.yaml" -o "$work/study" "${cache[@]}"
 run "$cli" view "$work/study/results.csv" -o "$work/study.html"
+# A bad time series is skipped with a note, not the whole page; -o may not name a series.
+cp -r "$work/study" "$work/study2"
+echo "garbage" > "$work/study2/series/run-00000004.csv"
+run "$cli" view "$work/study2/results.csv" -o "$work/study2.html"
+grep -q "1 time series skipped, the first: .*run-00000004.csv" "$work/study2.html" ||
+  fail "the bad series is not named in the page"
+expect_error "is a study's time series file" "$cli" view "$work/study/results.csv" \
+  -o "$work/study/series/run-00000000.csv"
 
 status=0
 node "$source_dir/web/test/view_test.mjs" "$modules" "$work" || status=$?

@@ -30,11 +30,17 @@ export function bracket(times, t) {
   return { k: lo, w: span > 0 ? (t - times[lo]) / span : 0 };
 }
 
-// Row k of a frame array blended with row k + 1.
-function blend(rows, at) {
+// Row k of a frame array blended with row k + 1; with `quaternion` (its index), the second
+// row's quaternion is taken on the first one's side (q and -q are the same turn).
+function blend(rows, at, quaternion = -1) {
   const a = rows[at.k];
   if (at.w === 0 || at.k + 1 >= rows.length) return a.slice();
-  const b = rows[at.k + 1];
+  let b = rows[at.k + 1];
+  if (quaternion >= 0) {
+    let dot = 0;
+    for (let i = quaternion; i < quaternion + 4; ++i) dot += a[i] * b[i];
+    if (dot < 0) b = b.map((v, i) => (i >= quaternion && i < quaternion + 4 ? -v : v));
+  }
   return a.map((v, i) => v + (b[i] - v) * at.w);
 }
 
@@ -101,7 +107,7 @@ class ArmMeshes {
     if (!at) return;
     const p = blend(this.run.points, at);
     const point = (i) => new THREE.Vector3(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
-    const pose = blend(this.run.base, at);
+    const pose = blend(this.run.base, at, 3);
     const q = new THREE.Quaternion(pose[4], pose[5], pose[6], pose[3]).normalize();
     const origin = new THREE.Vector3(pose[0], pose[1], pose[2]);
     this.base.quaternion.copy(q);
@@ -128,7 +134,10 @@ class ArmMeshes {
 function placeRotor(rotor, a, axis, b, angle) {
   const u = new THREE.Vector3().subVectors(b, a);
   u.addScaledVector(axis, -u.dot(axis));
-  if (u.lengthSq() < 1e-18) u.set(1, 0, 0).addScaledVector(axis, -axis.x);
+  if (u.lengthSq() < 1e-18) {  // the next joint on the axis: any direction across it
+    u.set(Math.abs(axis.x) < 0.9 ? 1 : 0, Math.abs(axis.x) < 0.9 ? 0 : 1, 0);
+    u.addScaledVector(axis, -u.dot(axis));
+  }
   u.normalize();
   const v = new THREE.Vector3().crossVectors(axis, u);
   const d = u.clone().multiplyScalar(Math.cos(angle)).addScaledVector(v, Math.sin(angle));

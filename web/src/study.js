@@ -142,6 +142,7 @@ export class StudyView {
   // Shows run's time series below the map (the study's series/run-*.csv, thinned).
   open(cell) {
     if (!cell) return;
+    this.openedRun = null;
     const s = this.study, run = s.runs[cell.j * s.x.values.length + cell.i];
     const series = s.series && s.series[String(run)];
     this.seriesBox.replaceChildren(text('h2', 'run ' + run + ': ' + this.describe(cell)));

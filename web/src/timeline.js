@@ -87,9 +87,9 @@ export class Timeline {
   }
 
   key(e) {
-    if (e.target && (e.target.tagName === 'INPUT' || e.target.tagName === 'SELECT')) {
-      if (e.key !== ' ') return;
-    }
+    const tag = e.target && e.target.tagName;
+    if ((tag === 'INPUT' || tag === 'SELECT') && e.key !== ' ') return;
+    if (tag === 'BUTTON' && e.key === ' ') return;  // the button's own click plays or pauses
     const index = SPEEDS.indexOf(this.speed);
     const actions = {
       ' ': () => (this.playing ? this.pause() : this.play()),
