@@ -129,6 +129,16 @@ expect_error "is a study's time series file" "$cli" view "$work/study/results.cs
   -o "$work/study/series/run-00000000.csv"
 
 status=0
+# A parameter over +-1e308, drawn (not a grid): 40 bins that do not overflow.
+mkdir -p "$work/wide"
+awk 'BEGIN { print "run,status,p,ee_x,ee_error,message"
+             for (i = 0; i <= 60; ++i) printf "%d,ok,%.17g,1,%g,\n", i, (-1 + i / 30) * 1e308, i }' \
+  > "$work/wide/results.csv"
+run "$cli" view "$work/wide/results.csv" -o "$work/wide.html"
+counts=$(grep -o '"counts":\[[^]]*\]' "$work/wide.html")
+[[ $(tr -c '0-9\n' ' ' <<< "$counts" | tr ' ' '\n' | sort -n | tail -1) -le 3 ]] ||
+  fail "the runs over +-1e308 are not spread over the bins: $counts"
+
 node "$source_dir/web/test/view_test.mjs" "$modules" "$work" || status=$?
 if [[ -n ${SPACEARM_VIEW_OUT:-} ]]; then
   mkdir -p "$SPACEARM_VIEW_OUT"
