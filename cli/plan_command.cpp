@@ -124,12 +124,8 @@ int run_plan(const PlanArgs& a) {
   refuse_input_as_output(a.output_file, inputs);
   refuse_input_as_output(a.torque_file, inputs, "--torque-file");
   write_plan(plan_table(plan, dynamic, facts.geared), a.output_file);
-  cli::Provenance made;
-  made.command = a.command_line;
-  made.scene = a.scene_path;
-  for (size_t i = 0; i < facts.parameter_names.size(); ++i)
-    made.parameters.push_back({facts.parameter_names[i], params[static_cast<Eigen::Index>(i)]});
-  cli::write_provenance(a.output_file, made);
+  cli::write_provenance(a.output_file, cli::run_provenance(a.command_line, a.scene_path,
+                                                           facts.parameter_names, params));
   if (!a.torque_file.empty()) write_torques(plan, a.torque_file);
   std::fprintf(stderr,
                "spacearm: plan of %zu samples: max path error %.2e, max |qdd - central differences "

@@ -18,6 +18,17 @@ struct Provenance {
   long long csv_size = -1, csv_mtime_ns = -1;
 };
 
+// The record of a run of `command` on the scene at `scene` with these parameter values.
+template <class Values>
+Provenance run_provenance(const std::string& command, const std::string& scene,
+                          const std::vector<std::string>& names, const Values& values) {
+  Provenance p;
+  p.command = command;
+  p.scene = scene;
+  for (size_t i = 0; i < names.size(); ++i) p.parameters.push_back({names[i], values[i]});
+  return p;
+}
+
 // FILE.provenance.json for FILE.
 std::string provenance_path(const std::string& csv);
 

@@ -290,12 +290,8 @@ int run_simulate(const SimulateArgs& args) {
   // What made the CSV, beside it, once it is closed (whole, or cut short by a stop).
   const auto close = [&] {
     out.close();
-    cli::Provenance p;
-    p.command = a.command_line;
-    p.scene = a.scene_path;
-    for (size_t i = 0; i < facts.parameter_names.size(); ++i)
-      p.parameters.push_back({facts.parameter_names[i], params[static_cast<Eigen::Index>(i)]});
-    cli::write_provenance(a.output_file, p);
+    cli::write_provenance(a.output_file, cli::run_provenance(a.command_line, a.scene_path,
+                                                             facts.parameter_names, params));
   };
   const cli::StopOnSignals signals;
   try {
