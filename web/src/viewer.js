@@ -58,6 +58,11 @@ function main() {
     app.append(layout);
     const scene = new ArmScene(left, data);
     const timeline = new Timeline(left, data.runs[0].t);
+    const legend = data.runs.map((run, i) =>
+      (i ? 'translucent, grey path: ' : 'solid, red path: ') + run.file);
+    left.append(text('p', legend.join('; ') + '. Drag to ' +
+                     (data.space === 'planar' ? 'pan' : 'orbit (right drag: pan)') +
+                     ', wheel to zoom.', 'note'));
     const plots = new RunPlots(right, data, (t) => timeline.seek(t));
     timeline.onChange((t) => {
       scene.show(t);
