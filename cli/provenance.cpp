@@ -1,12 +1,8 @@
 #include "provenance.hpp"
 
-#include <fcntl.h>
 #include <sys/stat.h>
-#include <unistd.h>
 
-#include <cerrno>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
@@ -18,10 +14,10 @@ namespace spacearm::cli {
 
 namespace {
 
-// The file's size and modification time in ns; false if it cannot be seen.
+// The file's size and modification time in ns; false if it is not a regular file.
 bool stamp(const std::string& path, long long& size, long long& mtime_ns) {
   struct stat st;
-  if (::stat(path.c_str(), &st) != 0) return false;
+  if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return false;
   size = static_cast<long long>(st.st_size);
   mtime_ns = static_cast<long long>(st.st_mtim.tv_sec) * 1000000000LL + st.st_mtim.tv_nsec;
   return true;
@@ -39,21 +35,14 @@ void write_provenance(const std::string& csv, Provenance p) {
     p.scene = std::filesystem::absolute(p.scene, ec).string();
     p.version = kGeneratorVersion;
     if (!stamp(csv, p.csv_size, p.csv_mtime_ns)) return;  // not a file (a pipe's name is fine)
-    struct stat st;
-    if (::stat(csv.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return;
     nlohmann::json parameters = nlohmann::json::object();
     for (const auto& [name, value] : p.parameters) parameters[name] = value;
     const nlohmann::json j = {
         {"command", p.command},          {"folder", p.folder},    {"scene", p.scene},
         {"parameters", parameters},      {"spacearm", p.version}, {"csv_size", p.csv_size},
         {"csv_mtime_ns", p.csv_mtime_ns}};
-    const std::filesystem::path path(provenance_path(csv));
-    const std::string folder = path.has_parent_path() ? path.parent_path().string() : ".";
-    const Fd dir(::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
-    if (!dir.valid()) throw FolderError("cannot open '" + folder + "': " + std::strerror(errno));
-    replace_file_at(dir.get(), path.filename().string(),
-                    j.dump(2, ' ', true, nlohmann::json::error_handler_t::replace) + "\n",
-                    path.string(), 0644);
+    replace_file(provenance_path(csv),
+                 j.dump(2, ' ', true, nlohmann::json::error_handler_t::replace) + "\n", 0644);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "spacearm: warning: the run's provenance was not written: %s\n", e.what());
   }

@@ -30,8 +30,18 @@ std::vector<double> RunTable::values(int column) const {
   return v;
 }
 
-void for_each_line(int fd, const std::string& where,
+Fd open_table(const std::string& path, const std::string& what) {
+  try {
+    return open_regular_file(path, what, ~size_t(0));
+  } catch (const FolderError& e) {
+    throw std::invalid_argument(e.what());
+  }
+}
+
+void for_each_line(const std::string& path, const std::string& what,
                    const std::function<void(long, std::string&)>& line) {
+  const Fd fd = open_table(path, what);
+  const std::string where = what + " '" + path + "'";
   std::string pending, chunk(1 << 20, '\0');
   long number = 0;
   size_t scanned = 0;  // pending holds no newline before this
@@ -41,7 +51,7 @@ void for_each_line(int fd, const std::string& where,
     line(++number, text);
   };
   for (;;) {
-    const ssize_t n = ::read(fd, chunk.data(), chunk.size());
+    const ssize_t n = ::read(fd.get(), chunk.data(), chunk.size());
     if (n < 0 && errno == EINTR) continue;
     if (n < 0) throw std::invalid_argument(where + ": read failed: " + std::strerror(errno));
     if (n == 0) break;
@@ -98,19 +108,13 @@ RunTable read_run_table(const std::string& path, const std::string& what, long m
   RunTable table;
   table.path = path;
   const std::string where = what + " '" + path + "'";
-  Fd fd;
-  try {
-    fd = open_regular_file(path, what, ~size_t(0));
-  } catch (const FolderError& e) {
-    throw std::invalid_argument(e.what());
-  }
   Thinner thin;
   thin.max_rows = std::max(2L, max_rows);
   int t_column = -1;
   double t_before = 0;
   const auto wall0 = std::chrono::steady_clock::now();
   auto next_report = std::chrono::seconds(2);
-  for_each_line(fd.get(), where, [&](long number, std::string& text) {
+  for_each_line(path, what, [&](long number, std::string& text) {
     if (text.find_first_not_of(" \t") == std::string::npos) return;
     const std::string at = where + " line " + std::to_string(number);
     const size_t count = 1 + static_cast<size_t>(std::count(text.begin(), text.end(), ','));

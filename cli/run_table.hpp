@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "private_folder.hpp"
+
 namespace spacearm::cli {
 
 struct RunTable {
@@ -27,9 +29,13 @@ struct RunTable {
 // file without newlines cannot fill memory.
 constexpr size_t kMaxLineBytes = size_t(1) << 20;
 
-// Calls line(number, text) for each line of an open file, read in 1 MB chunks, without the \r of
-// CRLF and a leading byte-order mark; errors name `where`.
-void for_each_line(int fd, const std::string& where,
+// A table file opened for reading, checked to be a regular file (private_folder.hpp: a FIFO or a
+// device cannot block); errors are std::invalid_argument naming `what` and the path.
+Fd open_table(const std::string& path, const std::string& what);
+
+// Calls line(number, text) for each line of the table at `path` (open_table), read in 1 MB
+// chunks, without the \r of CRLF and a leading byte-order mark; errors name `what` and the path.
+void for_each_line(const std::string& path, const std::string& what,
                    const std::function<void(long, std::string&)>& line);
 
 // Errors name `what` (an argument or option), the file, the line and the column.

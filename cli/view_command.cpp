@@ -1,13 +1,13 @@
 #include "view_command.hpp"
 
-#include <fcntl.h>
+#include <unistd.h>
 
 #include <cstdio>
-#include <filesystem>
 
 #include "cpp_printer.hpp"
 #include "private_folder.hpp"
 #include "row_writer.hpp"
+#include "run_table.hpp"
 #include "view_page.hpp"
 
 namespace spacearm {
@@ -16,14 +16,10 @@ namespace cli {
 
 bool is_study_results(const std::string& path) {
   std::string head;
-  try {
-    const Fd fd = open_regular_file(path, "view", ~size_t(0));
-    char buf[64];
-    const ssize_t n = ::read(fd.get(), buf, sizeof buf);
-    if (n > 0) head.assign(buf, static_cast<size_t>(n));
-  } catch (const FolderError& e) {
-    throw std::invalid_argument(e.what());
-  }
+  const Fd fd = open_table(path, "view");
+  char buf[64];
+  const ssize_t n = ::read(fd.get(), buf, sizeof buf);
+  if (n > 0) head.assign(buf, static_cast<size_t>(n));
   if (head.compare(0, 3, "\xEF\xBB\xBF") == 0) head.erase(0, 3);
   return head.compare(0, 11, "run,status,") == 0;
 }
@@ -35,14 +31,8 @@ namespace {
 // The page replaces the output whole (a temporary renamed into place): a failed write leaves
 // the old file or none, never half a page, and a link planted at the name is not written through.
 void write_page(const std::string& output, const std::string& page) {
-  const std::filesystem::path path(output);
-  const std::string folder = path.has_parent_path() ? path.parent_path().string() : ".";
-  const Fd dir(::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
-  if (!dir.valid())
-    throw std::invalid_argument("-o '" + output + "': cannot open its folder '" + folder +
-                                "': " + std::strerror(errno));
   try {
-    replace_file_at(dir.get(), path.filename().string(), page, output, 0644);
+    replace_file(output, page, 0644);
   } catch (const FolderError& e) {
     throw std::invalid_argument(std::string("-o: ") + e.what());
   }

@@ -54,14 +54,12 @@ std::unique_ptr<ModelRecipe> view_recipe(ModelRecipe recipe) {
   std::vector<Output> missing;
   std::string note = "\n# spacearm view adds the outputs:";
   for (Output o : kViewOutputs) {
-    const auto& info = *std::find_if(output_registry().begin(), output_registry().end(),
-                                     [o](const OutputInfo& i) { return i.id == o; });
-    const bool possible = (info.needs & ~facts.features) == 0 &&
+    const bool possible = missing_feature(info(o).needs, facts.features).empty() &&
                           (!facts.dims.spatial || spatial_output(o, facts.free_floating));
     if (possible &&
         std::find(facts.outputs.begin(), facts.outputs.end(), o) == facts.outputs.end()) {
       missing.push_back(o);
-      note += std::string(" ") + info.name;
+      note += " " + to_string(o);
     }
   }
   if (missing.empty()) return std::make_unique<ModelRecipe>(std::move(recipe));
@@ -130,10 +128,10 @@ struct StateReader {
       if ((nb > 0 && base_q.empty()) || joint_q.empty()) {
         std::string list;
         for (const auto& n : names) list += (list.empty() ? "" : ",") + n;
-        throw std::invalid_argument(
-            what + " '" + t.path + "' has neither the scene's coordinates (" + list +
-            ") nor its base's and the link-side joint angles q1..q" +
-            std::to_string(model.num_links) + ": is it a run of scene '" + model.name + "'?");
+        throw std::invalid_argument(where + " has neither the scene's coordinates (" + list +
+                                    ") nor its base's and the link-side joint angles q1..q" +
+                                    std::to_string(model.num_links) + ": is it a run of scene '" +
+                                    model.name + "'?");
       }
     }
     const auto vnames = model.velocity_names();
@@ -171,11 +169,18 @@ struct StateReader {
   }
 };
 
-// The base pose [x, y, z, qw, qx, qy, qz] in q (a fixed base: the origin, unturned).
+// Whether joint j has a rotor to draw: a rigid gear's slot holds its motor angle, a flexible
+// joint's motor has a coordinate of its own; either way its torque drives that coordinate.
+bool has_rotor(const DynamicModel& m, int j) {
+  return m.motor_angle_slots[j] || m.actuated_coordinates[j] != m.joint_v_offsets[j];
+}
+
+// The base pose [x, y, z, qw, qx, qy, qz] in q from StateReader::q (its quaternion normalized;
+// a fixed base: the origin, unturned).
 std::vector<double> base_pose(const DynamicModel& m, const Eigen::VectorXd& q) {
   if (m.num_base() == 0) return {0, 0, 0, 1, 0, 0, 0};
   if (m.spatial) {
-    const Eigen::Vector4d r = q.segment<4>(m.quaternion_offset).normalized();
+    const auto r = q.segment<4>(m.quaternion_offset);
     return {q[0], q[1], q[2], r[0], r[1], r[2], r[3]};
   }
   return {q[0], q[1], 0, std::cos(q[2] / 2), 0, 0, std::sin(q[2] / 2)};
@@ -206,6 +211,7 @@ struct Frames {
   json run;
   std::vector<Eigen::Vector3d> tips;
   std::vector<double> t;
+  std::vector<Eigen::VectorXd> q;  // per kept row, as StateReader::q gave it
 };
 
 Frames frames_of(const LoadedScene& s, const RunTable& table, const StateReader& reader,
@@ -214,13 +220,12 @@ Frames frames_of(const LoadedScene& s, const RunTable& table, const StateReader&
   const int n = m.num_links, t_col = table.column("t");
   const bool axes = m.spatial && s.model->has(Output::end_effector_jacobian);
   bool rotors = false;
-  for (int i = 0; i < n; ++i)
-    rotors |= m.motor_angle_slots[i] || m.actuated_coordinates[i] != m.num_base() + i;
+  for (int i = 0; i < n; ++i) rotors |= has_rotor(m, i);
   Frames f;
   json points = json::array(), base = json::array(), axis_rows = json::array(),
        rotor_rows = json::array();
   for (const auto& row : table.rows) {
-    const Eigen::VectorXd q = reader.q(row);
+    const Eigen::VectorXd& q = f.q.emplace_back(reader.q(row));
     const Eigen::MatrixXd P = s.model->evaluate(Output::joint_positions, {q}, s.params).at(0);
     if (!P.allFinite())  // a zero quaternion, say: nothing to draw
       throw std::invalid_argument("'" + table.path + "' at t = " + std::to_string(row[t_col]) +
@@ -250,10 +255,8 @@ Frames frames_of(const LoadedScene& s, const RunTable& table, const StateReader&
     }
     if (rotors) {  // the motor's angle relative to its link: qm - q
       json r = json::array();
-      for (int i = 0; i < n; ++i) {
-        const int v = m.motor_angle_slots[i] ? m.num_base() + i : m.actuated_coordinates[i];
-        r.push_back(shown(q[m.q_index(v)] - link[i]));
-      }
+      for (int i = 0; i < n; ++i)
+        r.push_back(shown(q[m.q_index(m.actuated_coordinates[i])] - link[i]));
       rotor_rows.push_back(std::move(r));
     }
   }
@@ -295,8 +298,7 @@ json geometry(const LoadedScene& s, const Frames& f) {
   }
   const double radius = 0.025 * reach;
   std::vector<bool> rotors;
-  for (int i = 0; i < m.num_links; ++i)
-    rotors.push_back(m.motor_angle_slots[i] || m.actuated_coordinates[i] != m.num_base() + i);
+  for (int i = 0; i < m.num_links; ++i) rotors.push_back(has_rotor(m, i));
   return {{"base_box", box},
           {"base_center", center},
           {"link_radius", std::vector<double>(m.num_links, radius)},
@@ -337,8 +339,8 @@ json plots(const LoadedScene& s, const RunTable& table, const StateReader& reade
   std::vector<std::string> q_labels, tau_labels;
   std::vector<std::vector<double>> angles(n), torques;
   for (int i = 0; i < n; ++i) q_labels.push_back("q" + std::to_string(i + 1));
-  for (const auto& row : table.rows) {
-    const Eigen::VectorXd a = m.joint_angles(reader.q(row));
+  for (const Eigen::VectorXd& q : main.q) {
+    const Eigen::VectorXd a = m.joint_angles(q);
     for (int i = 0; i < n; ++i) angles[i].push_back(a[i]);
   }
   out.push_back(plot("joint angles (link side)", "rad", q_labels, angles));
@@ -357,9 +359,9 @@ json plots(const LoadedScene& s, const RunTable& table, const StateReader& reade
   const bool momentum = reader.has_velocity && m.momentum && m.num_base() > 0;
   std::vector<std::vector<double>> T(m.potential_energy ? 3 : 1), h;
   Eigen::VectorXd h0;
-  for (const auto& row : table.rows) {
-    if (!energy && !momentum) break;
-    const Eigen::VectorXd q = reader.q(row), qd = reader.qd(row);
+  for (size_t k = 0; k < table.rows.size() && (energy || momentum); ++k) {
+    const Eigen::VectorXd& q = main.q[k];
+    const Eigen::VectorXd qd = reader.qd(table.rows[k]);
     if (energy) {
       T[0].push_back(m.kinetic_energy(q, qd));
       if (m.potential_energy) {

@@ -85,16 +85,10 @@ struct Layout {
 void for_each_result(const std::string& path, Layout& layout,
                      const std::function<void(long, bool, const std::vector<double>&,
                                               const std::vector<double>&)>& row) {
-  Fd fd;
-  try {
-    fd = open_regular_file(path, "view", ~size_t(0));
-  } catch (const FolderError& e) {
-    throw std::invalid_argument(e.what());
-  }
   const std::string where = "view '" + path + "'";
   layout = Layout{};
   std::vector<double> params, metrics;
-  for_each_line(fd.get(), where, [&](long number, std::string& text) {
+  for_each_line(path, "view", [&](long number, std::string& text) {
     if (text.empty()) return;
     const auto fields = split_quoted(text);
     const std::string at = where + " line " + std::to_string(number);

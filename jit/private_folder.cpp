@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cstring>
 #include <deque>
+#include <filesystem>
 #include <vector>
 
 namespace spacearm {
@@ -245,6 +246,15 @@ void write_new_file_at(int dir, const std::string& name, const std::string& text
     ::unlinkat(dir, name.c_str(), 0);
     throw FolderError("cannot write '" + shown + "': " + why);
   }
+}
+
+void replace_file(const std::string& path, const std::string& text, mode_t mode) {
+  const std::filesystem::path p(path);
+  const std::string folder = p.has_parent_path() ? p.parent_path().string() : ".";
+  const Fd dir(::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+  if (!dir.valid())
+    throw FolderError("cannot open the folder '" + folder + "' of '" + path + "': " + errno_text());
+  replace_file_at(dir.get(), p.filename().string(), text, path, mode);
 }
 
 void replace_file_at(int dir, const std::string& name, const std::string& text,

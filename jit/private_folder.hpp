@@ -78,6 +78,9 @@ std::string read_regular_file(const std::string& path, const std::string& what, 
 void write_new_file_at(int dir, const std::string& name, const std::string& text,
                        const std::string& shown, mode_t mode = 0600);
 
+// replace_file_at in the folder of `path` (opened once; "." for a bare name).
+void replace_file(const std::string& path, const std::string& text, mode_t mode = 0644);
+
 // Writes `text` to a new temporary in `dir` and renames it over `name`: the file is whole or not
 // there at all. Throws FolderError naming `shown`.
 void replace_file_at(int dir, const std::string& name, const std::string& text,

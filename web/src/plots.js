@@ -1,10 +1,7 @@
 // The run's plots (uPlot) over its time: hovering one shows every plot's values at that time,
 // a click moves the timeline there, and a vertical line marks the timeline's time.
 import uPlot from 'uplot';
-import { el, text, fmt } from './dom.js';
-
-const PALETTE = ['#1f77b4', '#d62728', '#2ca02c', '#ff7f0e', '#9467bd', '#8c564b', '#e377c2',
-                 '#7f7f7f', '#bcbd22', '#17becf'];
+import { el, text, fmt, PALETTE } from './dom.js';
 
 export class RunPlots {
   constructor(parent, data, seek) {

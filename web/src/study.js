@@ -2,7 +2,7 @@
 // paper's Figures 9-10), or over one as a line; hovering shows a cell's values, a click opens
 // the run's time series where the study wrote them (time_series).
 import uPlot from 'uplot';
-import { el, text, fmt } from './dom.js';
+import { el, text, fmt, PALETTE } from './dom.js';
 
 // Viridis at five stops, interpolated.
 const STOPS = [[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]];
@@ -151,7 +151,7 @@ export class StudyView {
       return;
     }
     const columns = [{ label: 't [s]' }, ...series.labels.map((label, i) =>
-      ({ label, stroke: ['#1f77b4', '#d62728', '#2ca02c', '#ff7f0e', '#9467bd'][i % 5] }))];
+      ({ label, stroke: PALETTE[i % PALETTE.length] }))];
     new uPlot({ width: 600, height: 220, series: columns, scales: { x: { time: false } } },
               [series.t, ...series.values], this.seriesBox);
     this.openedRun = run;
