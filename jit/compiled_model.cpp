@@ -547,6 +547,9 @@ CompiledModel CompiledModel::open_verified(const ModelRecipe& recipe, const Fd& 
       why = "the library lacks the symbol spacearm_" + f;
       return m;
     }
+    // The 4-lane version beside it (cpp_printer.hpp), where the printer emitted one.
+    if (auto lanes = reinterpret_cast<Function>(sym("spacearm_" + f + kLanesSuffix)))
+      m.lanes_functions_[f] = lanes;
   }
   rep.load_ms = ms_since(t0);
   return m;
@@ -581,6 +584,7 @@ CompiledModel& CompiledModel::operator=(CompiledModel&& o) noexcept {
   name_ = std::move(o.name_);
   outputs_ = o.outputs_;
   functions_ = std::move(o.functions_);
+  lanes_functions_ = std::move(o.lanes_functions_);
   parameter_error_ = o.parameter_error_;
   coordinate_names_ = std::move(o.coordinate_names_);
   parameter_names_ = std::move(o.parameter_names_);

@@ -162,6 +162,10 @@ class CompiledModel {
   Function function(Output o) const;
   // By its exported name without the prefix: an output's, or mass_matrix_and_bias.
   Function function(const std::string& name) const;
+  // The output's 4-lane version (four states per call, lanes interleaved: entry i of lane l at
+  // [4 i + l] of every input, parameter and result), or nullptr where the library has none.
+  Function lanes_function(Output o) const;
+  static constexpr const char* kLanesSuffix = "_x4";
 
  private:
   CompiledModel() = default;
@@ -169,7 +173,8 @@ class CompiledModel {
   Dimensions dims_;
   std::string name_;
   unsigned long outputs_ = 0;
-  std::map<std::string, Function> functions_;  // by name, without the "spacearm_" prefix
+  std::map<std::string, Function> functions_;        // by name, without the "spacearm_" prefix
+  std::map<std::string, Function> lanes_functions_;  // the 4-lane versions, where emitted
   const char* (*parameter_error_)(const double*) = nullptr;
   std::vector<std::string> coordinate_names_, parameter_names_;
   std::vector<double> nominal_;

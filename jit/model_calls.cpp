@@ -22,6 +22,11 @@ CompiledModel::Function CompiledModel::function(Output o) const {
   return functions_.at(info(o).name);
 }
 
+CompiledModel::Function CompiledModel::lanes_function(Output o) const {
+  const auto f = lanes_functions_.find(info(o).name);
+  return has(o) && f != lanes_functions_.end() ? f->second : nullptr;
+}
+
 CompiledModel::Function CompiledModel::function(const std::string& name) const {
   const auto f = functions_.find(name);
   if (f == functions_.end())

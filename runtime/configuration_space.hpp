@@ -19,14 +19,22 @@ struct ConfigurationSpace {
   // dq/dt at (q, v).
   Eigen::VectorXd rate(const Eigen::Ref<const Eigen::VectorXd>& q,
                        const Eigen::Ref<const Eigen::VectorXd>& v) const {
-    const int k = quaternion_offset;
-    if (k < 0) return v;
     Eigen::VectorXd qdot(nq);
+    rate(q, v, qdot);
+    return qdot;
+  }
+  // The same into qdot (nq entries): no allocation.
+  void rate(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& v,
+            Eigen::Ref<Eigen::VectorXd> qdot) const {
+    const int k = quaternion_offset;
+    if (k < 0) {
+      qdot = v;
+      return;
+    }
     qdot.head(k) = v.head(k);
     const Eigen::Vector4d dquat = quaternion_matrix(q.segment<4>(k)) * v.segment<3>(k);
     qdot.segment<4>(k) = dquat;
     qdot.tail(nq - k - 4) = v.tail(nv - k - 3);
-    return qdot;
   }
 
   // d(dq/dt)/dq (nq x nq) and d(dq/dt)/dv (nq x nv) at (q, v), for an implicit method's Jacobian.

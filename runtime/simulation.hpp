@@ -199,8 +199,15 @@ class TorqueReplay {
 
   // Inside a step: the step's sample (hold) or the value at t; at an output time: tau(t).
   Joint operator()(double t) const {
-    if (hold_ && t >= step_a_ && t <= step_b_) return tau_.held_over(step_a_, step_b_);
-    return tau_(t);
+    Joint value = Joint::Zero(tau_.size());
+    evaluate(t, value);
+    return value;
+  }
+  // The same into `value` (a joint vector): no allocation.
+  template <class Out>
+  void evaluate(double t, Out& value) const {
+    // held_over(a, b) is the value at the step's midpoint.
+    tau_.evaluate(hold_ && t >= step_a_ && t <= step_b_ ? 0.5 * (step_a_ + step_b_) : t, value);
   }
 
  private:

@@ -48,15 +48,29 @@ class TorqueSignal {
 
   // The signal at t (hold: right-continuous, the sample that starts at or before t).
   Joint operator()(double t) const {
+    Joint value = Joint::Zero(size());
+    evaluate(t, value);
+    return value;
+  }
+  // The same into `value` (sized as a sample): no allocation, for the integrators' hot path.
+  template <class Out>
+  void evaluate(double t, Out& value) const {
     const double s = (t - t0_) / dt_;
     const long last = static_cast<long>(samples_.size()) - 1;
-    if (const Joint* outside = beyond(s, t)) return *outside;
+    if (const Joint* outside = beyond(s, t)) {
+      value = *outside;
+      return;
+    }
     // Tolerate rounding of t at the sample times.
     const long k = std::clamp(static_cast<long>(std::floor(s + 1e-9)), 0L, last);
-    if (mode_ == Interpolation::hold || k == last) return samples_[k];
+    if (mode_ == Interpolation::hold || k == last) {
+      value = samples_[k];
+      return;
+    }
     const double w = std::clamp(s - k, 0.0, 1.0);
-    return (1 - w) * samples_[k] + w * samples_[k + 1];
+    value = (1 - w) * samples_[k] + w * samples_[k + 1];
   }
+  int size() const { return static_cast<int>(samples_.front().size()); }
 
   // The held value for a whole step [t_a, t_b] that lies in one sample interval: that
   // interval's sample, for every stage of the step, including one at t_b = t_{k+1}.

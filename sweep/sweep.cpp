@@ -10,17 +10,12 @@
 #include "model_recipe.hpp"
 #include "plan_replay.hpp"
 #include "simulation.hpp"
+#include "study_run.hpp"
 #include "text_numbers.hpp"
 
 namespace spacearm {
 
 namespace {
-
-void append(std::string& row, double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, ",%.17g", v);
-  row += buf;
-}
 
 // A CSV field that holds any text: quoted, quotes doubled, line breaks as spaces.
 std::string csv_text(std::string s) {
@@ -52,13 +47,6 @@ ModelRecipe recipe(const StudyScene& s) {
   return s.spatial ? ModelRecipe(*s.spatial) : ModelRecipe(*s.planar);
 }
 
-// The metrics of one run, observed at every integrator step.
-struct Metrics {
-  Eigen::VectorXd base0, h0, pose;
-  double base_drift = 0, base_rotation = 0, momentum_drift = 0, tau_squares = 0;
-  long samples = 0;
-};
-
 // The end effector's pose columns: [x, y, phi], in 3D [x, y, z, w, qx, qy, qz] (the output's).
 std::string pose_columns(bool spatial) {
   return spatial ? ",ee_x,ee_y,ee_z,ee_qw,ee_qx,ee_qy,ee_qz" : ",ee_x,ee_y,ee_phi";
@@ -72,18 +60,91 @@ double angle_between(const Eigen::Vector4d& a, const Eigen::Vector4d& b) {
 
 }  // namespace
 
-struct StudyRunner::Loaded {
-  CompiledModel model;
-  std::unique_ptr<TorqueSignal<Eigen::Dynamic>> tau;
-  Eigen::VectorXd base, angles, base_rate, rates;  // the start, link side
-  Eigen::VectorXd nominal_ratios;                  // p at the scene's nominal parameters
-};
+void append_number(std::string& row, double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, ",%.17g", v);
+  row += buf;
+}
+
+RunSetup::RunSetup(const Study& s, const LoadedStudy& loaded, long r)
+    : run(r), params(s.parameters(r)), model(dynamic_model(loaded.model, params)) {
+  q0 = model.from_joint_angles(loaded.base, loaded.angles);
+  qd0 = model.from_joint_rates(loaded.base_rate, loaded.rates);
+  scale = s.command_ratio == Study::CommandRatio::run
+              ? Eigen::VectorXd(Eigen::VectorXd::Ones(model.num_links))
+              : Eigen::VectorXd(model.gear_ratios.cwiseQuotient(loaded.nominal_ratios));
+  if (s.scene.features & needs::springs)
+    consistent_start(model, q0, qd0, scale.cwiseProduct((*loaded.tau)(0.0)));
+}
+
+void RunMetrics::observe(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                         const Eigen::VectorXd& pose, const Eigen::VectorXd& h,
+                         const Eigen::VectorXd& tau) {
+  pose_ = pose;
+  if (model_.num_base()) {  // the base's drift (its origin) and turn (angle, or 3D the rotation's)
+    const bool spatial = model_.spatial;
+    const int moves = spatial ? 3 : 2;
+    if (samples_ == 0) base0_ = q.head(moves + (spatial ? 4 : 1)), h0_ = h;
+    base_drift_ = std::max(base_drift_, (q.head(moves) - base0_.head(moves)).norm());
+    base_rotation_ =
+        std::max(base_rotation_, spatial ? angle_between(q.segment<4>(3), base0_.segment<4>(3))
+                                         : std::abs(q[2] - base0_[2]));
+    momentum_drift_ = std::max(momentum_drift_, (h - h0_).cwiseAbs().maxCoeff());
+  }
+  tau_squares_ += tau.squaredNorm();
+  if (series_ && samples_ % s_.series_every == 0) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.17g", t);
+    csv_ += buf;
+    for (double v : q) append_number(csv_, v);
+    for (double v : qd) append_number(csv_, v);
+    for (double v : pose) append_number(csv_, v);
+    csv_ += "\n";
+  }
+  ++samples_;
+}
+
+std::string RunMetrics::measured() const {
+  std::vector<double> measures(pose_.data(), pose_.data() + pose_.size());
+  const bool spatial = model_.spatial;
+  const int position = spatial ? 3 : 2;
+  if (s_.target.size())
+    measures.push_back((pose_.head(position) - s_.target.head(position)).norm());
+  if (spatial && s_.target.size() == 7)
+    measures.push_back(angle_between(pose_.tail<4>(), s_.target.tail<4>()));
+  if (model_.num_base())
+    measures.insert(measures.end(), {base_drift_, base_rotation_, momentum_drift_});
+  measures.push_back(std::sqrt(tau_squares_ / static_cast<double>(samples_ * model_.num_links)));
+  std::string measured;
+  for (double v : measures) append_number(measured, v);
+  for (double v : measures)  // nan or inf: no metric to trust
+    if (!std::isfinite(v))
+      throw DynamicsError("a metric is not finite (" + measured.substr(1) + ")");
+  return measured;
+}
+
+std::string RunMetrics::series() const {
+  if (!series_) return "";
+  std::string head = "t";
+  for (const auto& n : model_.coordinate_names) head += "," + n;
+  for (const auto& n : model_.velocity_names()) head += "," + n;
+  return head + pose_columns(model_.spatial) + "\n" + csv_;
+}
+
+std::string ok_row(long run, const Eigen::VectorXd& params, const std::string& measured,
+                   const std::string& ratio) {
+  std::string values;
+  for (double v : params) append_number(values, v);
+  return std::to_string(run) + ",ok" + values + measured + "," + ratio + ",\n";
+}
+
+struct StudyRunner::Loaded : LoadedStudy {};
 
 StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(std::move(study)) {
   const Study& s = study_;
   check_outputs(s);
   loaded_ = std::make_unique<Loaded>(
-      Loaded{CompiledModel::load(recipe(s.scene), options), {}, {}, {}, {}, {}, {}});
+      Loaded{{CompiledModel::load(recipe(s.scene), options), {}, {}, {}, {}, {}, {}}});
   // The run scene at its nominal parameters: what a controller believes (its p, its friction).
   const std::vector<double>& nominal = loaded_->model.nominal_parameters();
   const DynamicModel believed = dynamic_model(
@@ -142,83 +203,62 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
 StudyRunner::~StudyRunner() = default;
 
 std::string StudyRunner::row(long run, std::string* series) const {
+  std::vector<std::string> out;
+  std::vector<std::string> one_series(1);
+  out = rows({run}, series ? &one_series : nullptr);
+  if (series) *series = std::move(one_series[0]);
+  return out[0];
+}
+
+std::vector<std::string> StudyRunner::rows(const std::vector<long>& runs,
+                                           std::vector<std::string>* series) const {
+  std::vector<std::string> out(runs.size());
+  if (series) series->assign(runs.size(), "");
+  const std::string ratio = command_ratio_text();
+  if (lanes_ > 0 && lockstep_applies(study_, loaded_->model))
+    run_lockstep({study_, *loaded_, runs, ratio, out, series, lanes_});
+  for (size_t k = 0; k < runs.size(); ++k)
+    if (out[k].empty()) out[k] = reference_row(runs[k], series ? &(*series)[k] : nullptr);
+  return out;
+}
+
+void StudyRunner::set_lanes(int lanes) {
+  if (lanes != 0 && lanes != 1 && lanes != 4)
+    throw std::invalid_argument("lanes: 0, 1 or 4, got " + std::to_string(lanes));
+  lanes_ = lanes;
+}
+
+std::string StudyRunner::reference_row(long run, std::string* series) const {
   const Study& s = study_;
   const Eigen::VectorXd params = s.parameters(run);
-  std::string r = std::to_string(run);
   std::string values;
-  for (double v : params) append(values, v);
+  for (double v : params) append_number(values, v);
   const long metrics = std::count(header_.begin(), header_.end(), ',') - 3 - params.size();
   const std::string ratio = command_ratio_text();
   try {
-    const DynamicModel model = dynamic_model(loaded_->model, params);
-    Eigen::VectorXd q0 = model.from_joint_angles(loaded_->base, loaded_->angles);
-    Eigen::VectorXd qd0 = model.from_joint_rates(loaded_->base_rate, loaded_->rates);
+    const RunSetup run_setup(s, *loaded_, run);
+    const DynamicModel& model = run_setup.model;
     IntegratorOptions opt = s.integrator;
     const TorqueSignal<Eigen::Dynamic>& signal = *loaded_->tau;
     const TorqueReplay<Eigen::Dynamic> replay(signal, opt, "integrator.dt");
-    // The link-side torque the run's joints get: tau, or tau p_run / p_nominal when the motors
-    // are commanded with the nominal ratio (model.generalized_forces divides by p_run).
-    const Eigen::VectorXd scale =
-        s.command_ratio == Study::CommandRatio::run
-            ? Eigen::VectorXd(Eigen::VectorXd::Ones(model.num_links))
-            : Eigen::VectorXd(model.gear_ratios.cwiseQuotient(loaded_->nominal_ratios));
-    auto tau = [&](double t) -> Eigen::VectorXd { return scale.cwiseProduct(signal(t)); };
-    if (s.scene.features & needs::springs) consistent_start(model, q0, qd0, tau(0.0));
-    // Metrics at every step; the time series every series_every steps.
-    Metrics m;
-    const int nb = model.num_base();
-    std::string csv;
+    const Eigen::VectorXd& scale = run_setup.scale;
+    RunMetrics record(s, model, series != nullptr);
+    const Eigen::VectorXd none;
     auto observe = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
-      m.pose = model.end_effector_pose(q);
-      if (nb) {  // the base's drift (its origin) and turn (angle, or 3D the rotation's angle)
-        const Eigen::VectorXd h = model.momentum(q, qd);
-        const int moves = model.spatial ? 3 : 2;
-        if (m.samples == 0) m.base0 = q.head(moves + (model.spatial ? 4 : 1)), m.h0 = h;
-        m.base_drift = std::max(m.base_drift, (q.head(moves) - m.base0.head(moves)).norm());
-        m.base_rotation = std::max(
-            m.base_rotation, model.spatial ? angle_between(q.segment<4>(3), m.base0.segment<4>(3))
-                                           : std::abs(q[2] - m.base0[2]));
-        m.momentum_drift = std::max(m.momentum_drift, (h - m.h0).cwiseAbs().maxCoeff());
-      }
-      m.tau_squares += tau(t).squaredNorm();
-      if (series && s.series_every && m.samples % s.series_every == 0) {
-        char buf[32];
-        std::snprintf(buf, sizeof buf, "%.17g", t);
-        csv += buf;
-        for (double v : q) append(csv, v);
-        for (double v : qd) append(csv, v);
-        for (double v : m.pose) append(csv, v);
-        csv += "\n";
-      }
-      ++m.samples;
+      record.observe(t, q, qd, model.end_effector_pose(q),
+                     model.num_base() ? model.momentum(q, qd) : none,
+                     scale.cwiseProduct(signal(t)));
     };
     integrate_motion(
-        model, q0, qd0, [&](double t) -> Eigen::VectorXd { return scale.cwiseProduct(replay(t)); },
-        s.t_end, s.integrator.dt, opt, observe);
-    std::vector<double> measures(m.pose.data(), m.pose.data() + m.pose.size());
-    const int position = model.spatial ? 3 : 2;
-    if (s.target.size())
-      measures.push_back((m.pose.head(position) - s.target.head(position)).norm());
-    if (model.spatial && s.target.size() == 7)
-      measures.push_back(angle_between(m.pose.tail<4>(), s.target.tail<4>()));
-    if (nb) measures.insert(measures.end(), {m.base_drift, m.base_rotation, m.momentum_drift});
-    measures.push_back(std::sqrt(m.tau_squares / static_cast<double>(m.samples * model.num_links)));
-    std::string measured;
-    for (double v : measures) append(measured, v);
-    for (double v : measures)  // nan or inf: no metric to trust
-      if (!std::isfinite(v))
-        throw DynamicsError("a metric is not finite (" + measured.substr(1) + ")");
-    values += measured;
-    if (series && s.series_every) {
-      std::string head = "t";
-      for (const auto& n : model.coordinate_names) head += "," + n;
-      for (const auto& n : model.velocity_names()) head += "," + n;
-      *series = head + pose_columns(model.spatial) + "\n" + csv;
-    }
-    return r + ",ok" + values + "," + ratio + ",\n";
+        model, run_setup.q0, run_setup.qd0,
+        [&](double t) -> Eigen::VectorXd { return scale.cwiseProduct(replay(t)); }, s.t_end,
+        s.integrator.dt, opt, observe);
+    const std::string row = ok_row(run, params, record.measured(), ratio);
+    if (series) *series = record.series();
+    return row;
   } catch (const std::exception& e) {
-    return r + ",failed" + values + std::string(metrics, ',') + "," + ratio + "," +
-           csv_text(e.what()) + "\n";
+    return std::to_string(run) + ",failed" + values + std::string(metrics, ',') + "," + ratio +
+           "," + csv_text(e.what()) + "\n";
   }
 }
 

@@ -38,6 +38,17 @@ class StudyRunner {
   // singular mass matrix, a diverging integration) is a row with status 'failed', empty
   // metrics and the message. series: receives the run's time series CSV if the study asks.
   std::string row(long run, std::string* series = nullptr) const;
+  // The rows of several runs (the same bytes as row() gives each), integrated lanes() at a time
+  // in lockstep where the study allows (fixed-step RK4); series: sized as runs where asked.
+  std::vector<std::string> rows(const std::vector<long>& runs,
+                                std::vector<std::string>* series = nullptr) const;
+  // How the runs are integrated: 0 the reference path (integrate_motion on the run's
+  // DynamicModel, every check on every call); 1 in lockstep one run at a time, on caller-owned
+  // workspaces; 4 four runs at a time through the generated 4-lane functions (four scalar
+  // calls where the library has none). By default 4 where the model has 4-lane functions, else
+  // 1. Every setting writes the same bytes (test_sweep).
+  int lanes() const { return lanes_; }
+  void set_lanes(int lanes);
   // Why `row` (with its newline) is not a row that row() writes for this study: a run of the
   // study; the header's fields; status ok with numbers, or failed with empty metrics and a
   // quoted message. Empty if it is one; *run receives its run.
@@ -48,6 +59,8 @@ class StudyRunner {
   Study study_;
   std::unique_ptr<Loaded> loaded_;
   std::string header_;
+  int lanes_ = 1;
+  std::string reference_row(long run, std::string* series) const;
 };
 
 // Part i of n (1-based) of a study's runs: run r belongs to part (r mod n) + 1.

@@ -530,6 +530,48 @@ TEST(Study, ErrorsNameTheField) {
 // 7-joint arm on its free base (exact rotors, run-time parameters, one compiled model). The
 // nominal run replays the plan to its goal; every run keeps the momentum; the columns are the
 // 3D pose, its errors and the base's. Cost: about 3 s (compiling the arm, 8 runs of 400 steps).
+// Every path writes the same bytes: the reference path (every check on every call), lockstep
+// one run at a time, and four runs per call; with runs that fail to set up, runs that diverge,
+// a held torque, friction, springs, the nominal command ratio, a quaternion, time series and
+// groups that do not fill four lanes.
+TEST(Sweep, EveryPathWritesTheSameRowsAndSeries) {
+  const std::string models = std::string(SPACEARM_SOURCE_DIR) + "/models/";
+  const std::string flexible = "scene: " + models + R"(paper_flexible.yaml
+manoeuvre:
+  plan: {from: [1.5, 0.0, 0.5235987755982988], to: [1.45, 0.02, 0.55], duration: 0.5,
+         scene: )" + models + R"(paper_geared.yaml}
+  command_ratio: nominal
+integrator: {method: rk4, dt: 0.002, interpolation: hold}
+grid: {p: [-1, 1, 3], k: [3, 1.0e6], Im: [1.0e-3], fv: [0, 0.5], fc: [0.1], vs: [5], fs: [0.2]}
+time_series: {dt: 0.1}
+)";
+  std::string spatial = read(fs::path(SPACEARM_SOURCE_DIR) / "studies/space_arm7_payload.yaml");
+  spatial = replace(replace(spatial, "scene: ../models/", "scene: " + models), "duration: 4",
+                    "duration: 0.5") +
+            "time_series: {dt: 0.1}\n";
+  const std::vector<Study> studies = {study("[-1, 2, 4]"), parse_study(flexible, "flexible.yaml"),
+                                      parse_study(spatial, "spatial.yaml")};
+  for (const Study& s : studies) {
+    StudyRunner runner(s, cache());
+    std::vector<long> runs;
+    for (long r = s.num_runs() - 1; r >= 0; r -= 2) runs.push_back(r);  // any order, any subset
+    for (long r = 0; r < s.num_runs(); r += 2) runs.push_back(r);
+    std::vector<std::string> reference_series, series;
+    runner.set_lanes(0);
+    const std::vector<std::string> reference = runner.rows(runs, &reference_series);
+    long ok = 0;
+    for (const std::string& row : reference) ok += row.find(",ok,") != std::string::npos;
+    EXPECT_GT(ok, 0) << s.source_path;
+    if (s.scene.planar) EXPECT_LT(ok, s.num_runs()) << s.source_path << ": no run fails";
+    for (int lanes : {1, 4}) {
+      runner.set_lanes(lanes);
+      EXPECT_EQ(runner.rows(runs, &series), reference) << s.source_path << ", lanes " << lanes;
+      EXPECT_EQ(series, reference_series) << s.source_path << ", lanes " << lanes;
+      EXPECT_EQ(runner.row(runs[1]), reference[1]);
+    }
+  }
+}
+
 TEST(Sweep, SpatialArmSweepsAPayloadAndTheRatioWithOneModel) {
   const Study s = load_study(std::string(SPACEARM_SOURCE_DIR) + "/studies/space_arm7_payload.yaml");
   ASSERT_TRUE(s.scene.is_spatial());
