@@ -32,8 +32,13 @@ void BM_MonteCarloRuns(benchmark::State& state) {
   long first = 0;
   for (auto _ : state) {
     std::atomic<long> next{first};
+    const long group = std::max(1, r.lanes());  // as spacearm sweep takes them
     auto work = [&] {
-      for (long k; (k = next++) < first + batch;) benchmark::DoNotOptimize(r.row(k % n).size());
+      for (long k; (k = next.fetch_add(group)) < first + batch;) {
+        std::vector<long> runs;
+        for (long j = k; j < std::min(first + batch, k + group); ++j) runs.push_back(j % n);
+        benchmark::DoNotOptimize(r.rows(runs).size());
+      }
     };
     std::vector<std::thread> pool;
     for (int t = 1; t < threads; ++t) pool.emplace_back(work);

@@ -75,13 +75,33 @@ std::string target(const ArraySpec& r, size_t k, int rows, int cols, int i, int 
   return r.name + "(" + std::to_string(i) + ", " + std::to_string(j) + ")";
 }
 
-// The C interface's names for a function's inputs: q = in[0], ...
-std::string c_input_aliases(const FunctionSpec& f) {
+// The suffix of a function's 4-lane version in the C interface (spacearm_<name>_x4).
+constexpr const char* kLanesSuffix = "_x4";
+
+// The C interface's names for a function's inputs: q = in[0], ...; in a 4-lane function, the
+// inputs' entries as lane values (entry i of every lane at [4 i .. 4 i + 3]).
+std::string c_input_aliases(const FunctionSpec& f, bool lanes = false) {
   std::string s;
   for (size_t i = 0; i < f.inputs.size(); ++i)
-    s += "  [[maybe_unused]] const double* " + f.inputs[i].name + " = in[" + std::to_string(i) +
-         "];\n";
+    s += "  [[maybe_unused]] const " + std::string(lanes ? "T" : "double") + "* " +
+         f.inputs[i].name + " = " +
+         (lanes ? "reinterpret_cast<const T*>(in[" + std::to_string(i) + "])"
+                : "in[" + std::to_string(i) + "]") +
+         ";\n";
   return s;
+}
+
+// A 4-lane function's first lines: the lane type as T, so that the scalar body runs unchanged,
+// and its parameters and results as lane values.
+std::string lanes_prologue(const FunctionSpec& f) {
+  std::string s =
+      "  using T = spacearm_lanes4;\n"
+      "  [[maybe_unused]] const T* params = reinterpret_cast<const T*>(lane_params);\n"
+      "  T* const out[] = {";
+  for (size_t k = 0; k < f.results.size(); ++k)
+    s += (k ? ", " : "") + std::string("reinterpret_cast<T*>(lane_results[") + std::to_string(k) +
+         "])";
+  return s + "};\n";
 }
 
 // A function's body, and the functions of its parts where it is split (BodyPrinter).
@@ -94,7 +114,7 @@ struct Body {
 // C arrays: a 1 x 1 result is written to its array like any other, not returned. Eigen: a
 // function that returns its value is not split.
 Body function_body(const FunctionSpec& f, const Dimensions& dims, int per_part,
-                   Spelling spelling = Spelling::eigen) {
+                   Spelling spelling = Spelling::eigen, bool lanes = false) {
   const bool returns = returns_scalar(f) && spelling == Spelling::eigen;
   std::vector<Assignment> assignments;
   for (size_t k = 0; k < f.results.size() && !returns; ++k) {
@@ -128,12 +148,16 @@ Body function_body(const FunctionSpec& f, const Dimensions& dims, int per_part,
   }
   Body b{"", usings + "  T w[" + std::to_string(std::max(1, printer.work_size())) + "];\n",
          printer.has_trig_batches()};
+  // A 4-lane part takes the lanes' parameters and results as the lane type (lanes_prologue).
+  const std::string scalar = lanes ? "spacearm_lanes4" : "double";
   for (int k = 0; k < printer.num_parts(); ++k) {
-    const std::string suffix = "_part" + std::to_string(k);
+    const std::string suffix =
+        (lanes ? kLanesSuffix : "") + std::string("_part") + std::to_string(k);
     b.parts += (c ? "[[gnu::noinline]] static void spacearm_" + f.name + suffix +
-                        "([[maybe_unused]] const double* const* in, [[maybe_unused]] const double* "
-                        "params, [[maybe_unused]] double* const* out, [[maybe_unused]] T* w) {\n" +
-                        c_input_aliases(f)
+                        "([[maybe_unused]] const double* const* in, [[maybe_unused]] const " +
+                        scalar + "* params, [[maybe_unused]] " + scalar +
+                        "* const* out, [[maybe_unused]] " + scalar + "* w) {\n" +
+                        (lanes ? "  using T = spacearm_lanes4;\n" : "") + c_input_aliases(f, lanes)
                   : "template <typename T>\n[[gnu::noinline]] static " +
                         signature(f, dims, "T", true, true, suffix) + " {\n") +
                usings + printer.part(k) + "}\n\n";
@@ -186,6 +210,59 @@ inline void sincos_batch(const double (&angle)[K], double (&s)[K], double (&c)[K
   }
 }
 #endif
+)";
+
+// The lane type of the 4-lane functions (spacearm_<name>_x4): four doubles in one vector (an AVX
+// register where the library is built for AVX2 or AVX-512, two SSE2 halves elsewhere) with the
+// scalar operators, so that the scalar body runs unchanged on it and each lane computes the
+// scalar function's operations in its order, bit for bit (no contraction into FMA:
+// compile_flags). Unaligned (aligned(8)): the lanes' arrays are the caller's doubles. tanh, exp
+// and pow go lane by lane through libm, as the scalar body's calls.
+constexpr const char* kLanesHelper = R"(
+typedef double spacearm_lane_vector __attribute__((vector_size(32), aligned(8)));
+struct spacearm_lanes4 {
+  spacearm_lane_vector v;
+  spacearm_lanes4() = default;
+  [[gnu::always_inline]] spacearm_lanes4(double x) : v{x, x, x, x} {}
+  [[gnu::always_inline]] explicit spacearm_lanes4(spacearm_lane_vector x) : v(x) {}
+};
+using L4 = spacearm_lanes4;
+[[gnu::always_inline]] inline L4 operator+(L4 a, L4 b) { return L4(a.v + b.v); }
+[[gnu::always_inline]] inline L4 operator-(L4 a, L4 b) { return L4(a.v - b.v); }
+[[gnu::always_inline]] inline L4 operator*(L4 a, L4 b) { return L4(a.v * b.v); }
+[[gnu::always_inline]] inline L4 operator/(L4 a, L4 b) { return L4(a.v / b.v); }
+[[gnu::always_inline]] inline L4 operator-(L4 a) { return L4(-a.v); }
+template <class F>
+inline L4 each_lane(L4 x, F f) {
+  L4 r;
+  for (int l = 0; l < 4; ++l) r.v[l] = f(x.v[l]);
+  return r;
+}
+inline L4 sin(L4 x) { return each_lane(x, [](double a) { return std::sin(a); }); }
+inline L4 cos(L4 x) { return each_lane(x, [](double a) { return std::cos(a); }); }
+inline L4 tanh(L4 x) { return each_lane(x, [](double a) { return std::tanh(a); }); }
+inline L4 exp(L4 x) { return each_lane(x, [](double a) { return std::exp(a); }); }
+template <class E>
+inline L4 pow(L4 x, E e) {
+  return each_lane(x, [e](double a) { return std::pow(a, e); });
+}
+)";
+
+// sin and cos of lane values as the scalar sincos_batch takes them (kTrigBatchHelper): through
+// libmvec, four angles per call, where the CPU has AVX2 and FMA; else libm's, lane by lane.
+constexpr const char* kLanesTrigHelper = R"(
+template <int K>
+inline void sincos_batch(const L4 (&angle)[K], L4 (&s)[K], L4 (&c)[K]) {
+#if defined(SPACEARM_VECTOR_TRIG) && defined(__x86_64__) && defined(__GLIBC__)
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
+    for (int i = 0; i < K; ++i)
+      sincos4(reinterpret_cast<const double*>(&angle[i]), reinterpret_cast<double*>(&s[i]),
+              reinterpret_cast<double*>(&c[i]));
+    return;
+  }
+#endif
+  for (int i = 0; i < K; ++i) s[i] = sin(angle[i]), c[i] = cos(angle[i]);
+}
 )";
 
 // Which formulation each function was derived by (scene.hpp: Formulation), one line each.
@@ -376,6 +453,15 @@ std::vector<std::string> c_interface(const LoweredModel& model, int per_part, in
                     "([[maybe_unused]] const double* const* in, [[maybe_unused]] const double* "
                     "params, double* const* out) {\n" +
                     (b.parts.empty() ? c_input_aliases(f) : "") + b.body + "}\n");
+    // Its 4-lane version: four states per call, every input, parameter and result interleaved.
+    const Body l = function_body(f, facts.dims, per_part, Spelling::c_arrays, true);
+    batches.push_back(l.trig_batches);
+    texts.push_back("\n// " + f.name + " of four states at once (kLanesHelper).\n" + l.parts +
+                    "void spacearm_" + f.name + kLanesSuffix +
+                    "([[maybe_unused]] const double* const* in, const double* lane_params, "
+                    "double* const* lane_results) {\n" +
+                    lanes_prologue(f) + (l.parts.empty() ? c_input_aliases(f, true) : "") + l.body +
+                    "}\n");
   }
   units = std::max(1, std::min<int>(units, texts.size()));
   std::vector<int> unit_of(texts.size());
@@ -401,7 +487,8 @@ std::vector<std::string> c_interface(const LoweredModel& model, int per_part, in
       << "// Arrays are column-major; spacearm's cpp_printer.hpp gives the calling convention.\n"
       << "#include <cmath>\n"
       << (trig_batches ? kTrigBatchIncludes : "") << "\nnamespace {\nusing T = double;\n"
-      << (trig_batches ? kTrigBatchHelper : "");
+      << (trig_batches ? kTrigBatchHelper : "") << kLanesHelper
+      << (trig_batches ? kLanesTrigHelper : "");
     if (u > 0) {
       s << "}  // namespace\n\nextern \"C\" {" << functions << "}\n";
       result.push_back(s.str());

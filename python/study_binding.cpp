@@ -44,8 +44,14 @@ std::vector<std::string> rows(const StudyRunner& runner, const py::iterable& run
   std::vector<std::string> out(runs.size());
   py::gil_scoped_release release;
   std::atomic<size_t> next{0};
+  const size_t group = std::max(1, runner.lanes());  // runs integrated at once
   auto work = [&] {
-    for (size_t k; (k = next++) < runs.size();) out[k] = runner.row(runs[k]);
+    for (size_t k; (k = next.fetch_add(group)) < runs.size();) {
+      const std::vector<long> some(runs.begin() + k,
+                                   runs.begin() + std::min(runs.size(), k + group));
+      const std::vector<std::string> rows = runner.rows(some);
+      std::copy(rows.begin(), rows.end(), out.begin() + k);
+    }
   };
   std::vector<std::thread> pool;
   try {

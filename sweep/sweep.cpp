@@ -190,6 +190,8 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
       !gap.empty())
     throw StudyError("study '" + s.source_path + "', field 'integrator.t_end': the torques cover " +
                      gap);
+  // Four runs per call where the library has the 4-lane functions.
+  lanes_ = loaded_->model.lanes_function(Output::forward_dynamics) ? 4 : 1;
   // The header: one place names the columns, row() follows it.
   header_ = "run,status";
   for (const auto& n : s.parameter_names()) header_ += "," + n;

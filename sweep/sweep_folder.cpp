@@ -249,19 +249,26 @@ long run_pool(const StudyRunner& runner, const std::vector<long>& todo, const Fo
   auto stopping = [&] { return broken.load() || (o.stop && o.stop->load()); };
   auto work = [&] {
     try {
-      for (long k; !stopping() && (k = next++) < total;) {
-        std::string series;
-        const std::string row = runner.row(todo[k], s.series_every ? &series : nullptr);
-        if (!series.empty()) {  // before the row: a recorded run has its series
-          char name[40];
-          std::snprintf(name, sizeof name, "run-%08ld.csv", todo[k]);
-          as_study_error(
-              [&] { replace_file_at(series_dir.fd.get(), name, series, series_dir.shown(name)); });
+      // The next group of runs the runner integrates at once (StudyRunner::lanes()).
+      const long group = std::max(1, runner.lanes());
+      for (long k; !stopping() && (k = next.fetch_add(group)) < total;) {
+        const std::vector<long> runs(todo.begin() + k, todo.begin() + std::min(total, k + group));
+        std::vector<std::string> series;
+        const std::vector<std::string> rows = runner.rows(runs, s.series_every ? &series : nullptr);
+        for (size_t i = 0; i < runs.size(); ++i) {
+          if (s.series_every &&
+              !series[i].empty()) {  // before the row: a recorded run has its series
+            char name[40];
+            std::snprintf(name, sizeof name, "run-%08ld.csv", runs[i]);
+            as_study_error([&] {
+              replace_file_at(series_dir.fd.get(), name, series[i], series_dir.shown(name));
+            });
+          }
+          const std::string line = signed_row(key, runner, rows[i]);
+          const std::lock_guard<std::mutex> lock(write_mutex);
+          write_all(fd, line, own);
+          ++finished;
         }
-        const std::string line = signed_row(key, runner, row);
-        const std::lock_guard<std::mutex> lock(write_mutex);
-        write_all(fd, line, own);
-        ++finished;
       }
     } catch (...) {
       const std::lock_guard<std::mutex> lock(write_mutex);
