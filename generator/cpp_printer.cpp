@@ -454,6 +454,7 @@ std::vector<std::string> c_interface(const LoweredModel& model, int per_part, in
                     "params, double* const* out) {\n" +
                     (b.parts.empty() ? c_input_aliases(f) : "") + b.body + "}\n");
     // Its 4-lane version: four states per call, every input, parameter and result interleaved.
+    if (!f.lanes) continue;
     const Body l = function_body(f, facts.dims, per_part, Spelling::c_arrays, true);
     batches.push_back(l.trig_batches);
     texts.push_back("\n// " + f.name + " of four states at once (kLanesHelper).\n" + l.parts +

@@ -33,6 +33,7 @@ struct FunctionSpec {
   std::string formulation;
   bool plain = false;               // the benchmark baseline: every expression printed inline
   bool model_constant = false;      // a constant of the model (the gear ratios): no formulation
+  bool lanes = false;               // the C interface has a 4-lane version too (spacearm_<name>_x4)
   std::vector<SRef> roots() const;  // every entry, each once
 };
 

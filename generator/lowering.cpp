@@ -126,6 +126,7 @@ void describe(FunctionSpec& f, const OutputInfo& o) {
   f.name = o.name;
   f.doc = o.doc;
   f.equation = o.equation;
+  f.lanes = has_lanes_version(o.id);
   for (Input i : o.inputs) f.inputs.push_back({info(i).name, info(i).size, Size::one});
   for (const auto& r : o.results) f.results.push_back({r.name, r.rows, r.cols, r.symmetric});
 }

@@ -179,6 +179,11 @@ bool emitted_by_default(const OutputInfo& o, bool closed_form_affordable) {
 
 std::string to_string(Output output) { return info(output).name; }
 
+bool has_lanes_version(Output output) {
+  return output == Output::forward_dynamics || output == Output::end_effector_pose ||
+         output == Output::momentum || output == Output::kinetic_energy;
+}
+
 std::optional<Output> output_from_string(const std::string& name) {
   for (const auto& o : output_registry())
     if (name == o.name) return o.id;
