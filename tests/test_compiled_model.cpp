@@ -361,6 +361,82 @@ TEST(CompiledModel, TheHostInstructionSetGivesTheBitsOfSse2) {
   fs::remove_all(cache);
 }
 
+// The 4-lane functions (spacearm_<name>_x4) compute, in each lane, what the scalar function
+// computes for that lane's state and parameters, bit for bit: four different states and
+// parameter sets at once, through libmvec's sin and cos (the build's vector trig), friction's
+// tanh and exp, springs, and a base floating in 3D; built for this CPU and for SSE2 (where the
+// four lanes are two halves). Only the outputs of has_lanes_version have them.
+TEST(CompiledModel, FourLanesComputeWhatTheScalarFunctionComputes) {
+  const fs::path cache = fresh_cache("lanes");
+  const std::string spatial =
+      test::read_text_file(std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/spatial_arm2.yaml") +
+      "outputs: [mass_matrix, forward_dynamics, end_effector_pose, momentum, kinetic_energy]\n";
+  const std::vector<ModelRecipe> recipes = {
+      ModelRecipe::load(std::string(SPACEARM_SOURCE_DIR) + "/models/paper_flexible.yaml"),
+      ModelRecipe::parse(spatial, "spatial_arm2.yaml")};
+  for (const std::string isa : {host_instruction_set(), std::string("sse2")})
+    for (const ModelRecipe& recipe : recipes) {
+      SCOPED_TRACE(recipe.name() + " built for " + isa);
+      CompileOptions options;
+      options.cache_dir = cache.string();
+      options.instruction_set = isa;
+      const CompiledModel m = CompiledModel::load(recipe, options);
+      ASSERT_NE(m.lanes_function(Output::forward_dynamics), nullptr);
+      EXPECT_EQ(m.has(Output::mass_matrix) ? m.lanes_function(Output::mass_matrix) : nullptr,
+                nullptr);
+      const Dimensions& d = m.dimensions();
+      const size_t np = m.nominal_parameters().size();
+      for (Output o : recipe.facts().outputs) {
+        if (!m.lanes_function(o)) continue;
+        // Lane l: inputs 0.3 + 0.1 i + 0.07 l (a unit quaternion in q), parameters p (1 + l / 8).
+        std::vector<std::vector<double>> in, in4, out4;
+        for (Input i : info(o).inputs) {
+          in4.emplace_back(4 * d(info(i).size));
+          for (size_t k = 0; k < in4.back().size(); ++k)
+            in4.back()[k] = 0.3 + 0.1 * static_cast<double>(k / 4) + 0.07 * (k % 4);
+          if (i == Input::q && m.quaternion_offset() >= 0)
+            for (int l = 0; l < 4; ++l) {
+              const int k = m.quaternion_offset();
+              const Eigen::Vector4d quat = Eigen::Vector4d(1, 0.2 * l, -0.1, 0.3).normalized();
+              for (int j = 0; j < 4; ++j) in4.back()[4 * (k + j) + l] = quat[j];
+            }
+        }
+        std::vector<double> params4;
+        for (double p : m.nominal_parameters())
+          for (int l = 0; l < 4; ++l) params4.push_back(p * (1 + l / 8.0));
+        for (const ResultInfo& r : info(o).results)
+          out4.emplace_back(4 * d(r.rows) * d(r.cols), -1.0);
+        std::vector<const double*> in_ptr;
+        std::vector<double*> out_ptr;
+        for (const auto& v : in4) in_ptr.push_back(v.data());
+        for (auto& v : out4) out_ptr.push_back(v.data());
+        m.lanes_function(o)(in_ptr.data(), params4.data(), out_ptr.data());
+        for (int l = 0; l < 4; ++l) {
+          std::vector<std::vector<double>> lane_in, lane_out;
+          for (const auto& v : in4) {
+            lane_in.emplace_back();
+            for (size_t k = l; k < v.size(); k += 4) lane_in.back().push_back(v[k]);
+          }
+          std::vector<double> lane_params;
+          for (size_t j = 0; j < np; ++j) lane_params.push_back(params4[4 * j + l]);
+          for (const auto& v : out4) lane_out.emplace_back(v.size() / 4);
+          in_ptr.clear(), out_ptr.clear();
+          for (const auto& v : lane_in) in_ptr.push_back(v.data());
+          for (auto& v : lane_out) out_ptr.push_back(v.data());
+          m.function(o)(in_ptr.data(), lane_params.data(), out_ptr.data());
+          for (size_t r = 0; r < lane_out.size(); ++r)
+            for (size_t i = 0; i < lane_out[r].size(); ++i) {
+              ASSERT_TRUE(std::isfinite(lane_out[r][i])) << info(o).name;
+              EXPECT_EQ(std::memcmp(&lane_out[r][i], &out4[r][4 * i + l], sizeof(double)), 0)
+                  << info(o).name << " result " << r << " entry " << i << " lane " << l << ": "
+                  << lane_out[r][i] << " vs " << out4[r][4 * i + l];
+            }
+        }
+      }
+    }
+  fs::remove_all(cache);
+}
+
 // An entry built for another instruction set this CPU runs stands in where none can be built
 // (no compiler, a folder that cannot be written); one for a set it does not run is named, never
 // loaded.

@@ -13,6 +13,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <fstream>
@@ -300,6 +301,28 @@ std::map<std::string, std::vector<double>> call_every_function(
     for (auto& v : out) out_ptr.push_back(v.data());
     fn(in_ptr.data(), params.data(), out_ptr.data());
     for (const auto& v : out) values[f.name].insert(values[f.name].end(), v.begin(), v.end());
+    // Its 4-lane version, where it has one, with the state in every lane: each lane's results
+    // are the scalar function's, bit for bit.
+    auto lanes = reinterpret_cast<Function>(dlsym(lib, ("spacearm_" + f.name + "_x4").c_str()));
+    EXPECT_EQ(lanes != nullptr, f.lanes) << f.name;
+    if (!lanes) continue;
+    std::vector<std::vector<double>> in4, out4;
+    std::vector<double> params4;
+    for (double p : params) params4.insert(params4.end(), 4, p);
+    for (const auto& v : in) {
+      in4.emplace_back();
+      for (double x : v) in4.back().insert(in4.back().end(), 4, x);
+    }
+    for (const auto& v : out) out4.emplace_back(4 * v.size(), -1.0);
+    in_ptr.clear(), out_ptr.clear();
+    for (const auto& v : in4) in_ptr.push_back(v.data());
+    for (auto& v : out4) out_ptr.push_back(v.data());
+    lanes(in_ptr.data(), params4.data(), out_ptr.data());
+    for (size_t r = 0; r < out.size(); ++r)
+      for (size_t i = 0; i < out4[r].size(); ++i)
+        EXPECT_EQ(std::memcmp(&out4[r][i], &out[r][i / 4], sizeof(double)), 0)
+            << f.name << "_x4 result " << r << " entry " << i / 4 << " lane " << i % 4 << ": "
+            << out4[r][i] << " vs " << out[r][i / 4];
   }
   dlclose(lib);
   return values;
@@ -410,9 +433,10 @@ TEST(EmittedText, SplitBodiesComputeWhatWholeBodiesCompute) {
     split.statements_per_part = 40;
     const EmittedModel whole = print_cpp(model, {}), parts = print_cpp(model, split);
     ASSERT_EQ(whole.c_interface.find("_part"), std::string::npos);
-    ASSERT_NE(parts.c_interface.find("_part3("), std::string::npos);    // split, several times
-    ASSERT_NE(parts.c_interface.find("  w[0] = "), std::string::npos);  // values passed on
-    ASSERT_NE(parts.source.find("_part3("), std::string::npos);         // the Eigen spelling too
+    ASSERT_NE(parts.c_interface.find("_part3("), std::string::npos);     // split, several times
+    ASSERT_NE(parts.c_interface.find("_x4_part3("), std::string::npos);  // 4-lane versions too
+    ASSERT_NE(parts.c_interface.find("  w[0] = "), std::string::npos);   // values passed on
+    ASSERT_NE(parts.source.find("_part3("), std::string::npos);          // the Eigen spelling too
     const auto want = call_every_function(model, whole.c_interface, dir / "whole");
     const auto got = call_every_function(model, parts.c_interface, dir / "parts");
     ASSERT_EQ(got.size(), model.functions.size());
