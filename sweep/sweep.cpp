@@ -204,6 +204,14 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
 
 StudyRunner::~StudyRunner() = default;
 
+const CompiledModel& StudyRunner::model() const { return loaded_->model; }
+const TorqueSignal<Eigen::Dynamic>& StudyRunner::torques() const { return *loaded_->tau; }
+Eigen::VectorXd StudyRunner::start_link_side() const {
+  Eigen::VectorXd x(loaded_->base.size() + loaded_->angles.size());
+  x << loaded_->base, loaded_->angles;
+  return x;
+}
+
 std::string StudyRunner::row(long run, std::string* series) const {
   std::vector<std::string> out;
   std::vector<std::string> one_series(1);

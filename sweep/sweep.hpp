@@ -16,6 +16,7 @@
 
 #include "compiled_model.hpp"
 #include "study.hpp"
+#include "torque_signal.hpp"
 
 namespace spacearm {
 
@@ -27,6 +28,12 @@ class StudyRunner {
   ~StudyRunner();
 
   const Study& study() const { return study_; }
+  // The run scene's compiled model, the torques every run replays (planned once, or the
+  // study's) and the start on the link side, [base pose; joint angles]: for peers that replay
+  // the same study (bench_sweep's MuJoCo) and for timing the model's functions alone.
+  const CompiledModel& model() const;
+  const TorqueSignal<Eigen::Dynamic>& torques() const;
+  Eigen::VectorXd start_link_side() const;
   // The CSV header of the rows: run, status, every parameter, the metrics, command_ratio,
   // message.
   const std::string& header() const { return header_; }
