@@ -120,9 +120,11 @@ class CompiledModel {
   // for k consecutive results r, each rows x cols in row-major order. The parameters are checked
   // once; each state's inputs as evaluate() does, forward_dynamics' results by
   // check_forward_dynamics and every result for overflow (DynamicsError). With k > 1 an error
-  // names its state ("state s: ...").
+  // names its state ("state s: ..."). lanes = 4: four states per call where the output has a
+  // 4-lane function (the same bits); 1: one state per call.
   void evaluate_batch(Output o, long k, const std::vector<const double*>& inputs,
-                      const Eigen::VectorXd& params, const std::vector<double*>& results) const;
+                      const Eigen::VectorXd& params, const std::vector<double*>& results,
+                      int lanes = 4) const;
   // Shorthands of evaluate() for the outputs the simulate command reads.
   Eigen::MatrixXd mass_matrix(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const;
   Eigen::VectorXd bias_forces(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
@@ -169,6 +171,7 @@ class CompiledModel {
 
  private:
   CompiledModel() = default;
+  class BatchCall;
   void* handle_ = nullptr;
   Dimensions dims_;
   std::string name_;

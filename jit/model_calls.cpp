@@ -110,9 +110,180 @@ void for_state(long s, bool batch, F&& f) {
 
 }  // namespace
 
+// Whether n doubles are all finite: x * 0 is 0 for a finite x and NaN for inf or NaN. Four
+// partial sums, so that the additions do not wait for each other (one sum of x - x, all_finite's,
+// is a chain of dependent additions that cost the batches a third of their time per state).
+[[gnu::always_inline]] inline bool finite_array(const double* v, long n) {
+  double a[4] = {0, 0, 0, 0};
+  long i = 0;
+  for (; i + 4 <= n; i += 4)
+    for (int k = 0; k < 4; ++k) a[k] += v[i + k] * 0.0;
+  for (; i < n; ++i) a[0] += v[i] * 0.0;
+  return (a[0] + a[1]) + (a[2] + a[3]) == 0;
+}
+
+// One batched evaluation's states on workspaces allocated once: the scalar path and the 4-lane
+// path, both writing straight into the caller's arrays (a vector's row-major layout is its own;
+// a matrix is transposed from the generated code's column-major). The checks are evaluate()'s on
+// the inputs and eval's on the results, as one pass/fail test per state; a state that fails is
+// checked again by the code that names what failed.
+class CompiledModel::BatchCall {
+ public:
+  BatchCall(const CompiledModel& m, Output o, Function f, const Eigen::VectorXd& params,
+            const std::vector<const double*>& inputs, const std::vector<double*>& results,
+            bool batch)
+      : m_(m),
+        o_(o),
+        out_(info(o)),
+        f_(f),
+        params_(params),
+        inputs_(inputs),
+        results_(results),
+        batch_(batch),
+        in_(inputs.size()),
+        out_ptr_(results.size()) {
+    for (Input i : out_.inputs) {
+      sizes_.push_back(m.dims_(info(i).size));
+      quaternion_.push_back(i == Input::q && m.quaternion_offset_ >= 0);
+      has_quaternion_ = has_quaternion_ || quaternion_.back();
+    }
+    for (const auto& r : out_.results) {
+      rows_.push_back(m.dims_(r.rows));
+      cols_.push_back(m.dims_(r.cols));
+      scratch_.emplace_back(cols_.back() > 1 ? rows_.back() * cols_.back() : 0);
+    }
+  }
+
+  // State s by the scalar function; std::invalid_argument or DynamicsError naming it.
+  void one(long s) {
+    bool finite = true;
+    for (size_t i = 0; i < in_.size(); ++i) {
+      in_[i] = inputs_[i] + s * sizes_[i];
+      finite = finite && finite_array(in_[i], sizes_[i]);
+    }
+    if (!finite || (has_quaternion_ && !quaternion_ok(s))) check_inputs(s);  // throws, naming it
+    for (size_t r = 0; r < out_ptr_.size(); ++r)
+      out_ptr_[r] = cols_[r] > 1 ? scratch_[r].data() : at(r, s);
+    f_(in_.data(), params_.data(), out_ptr_.data());
+    for (size_t r = 0; r < out_ptr_.size(); ++r)
+      if (cols_[r] > 1)  // column-major to row-major
+        for (int i = 0; i < rows_[r]; ++i)
+          for (int j = 0; j < cols_[r]; ++j)
+            at(r, s)[i * cols_[r] + j] = scratch_[r][j * rows_[r] + i];
+    if (!results_ok(s)) check_results(s);  // throws, naming what
+  }
+
+  // States s .. s + 3 by the 4-lane function; false where a check fails (the caller takes them
+  // again one by one, which names the first that fails).
+  bool four(Function lanes, long s) {
+    if (lane_in_.empty()) {
+      for (int n : sizes_) lane_in_.emplace_back(4 * n);
+      for (size_t r = 0; r < rows_.size(); ++r) lane_out_.emplace_back(4 * rows_[r] * cols_[r]);
+      for (double v : params_) lane_params_.insert(lane_params_.end(), 4, v);
+      for (auto& v : lane_in_) lane_in_ptr_.push_back(v.data());
+      for (auto& v : lane_out_) lane_out_ptr_.push_back(v.data());
+    }
+    for (size_t i = 0; i < in_.size(); ++i) {
+      const int n = sizes_[i];
+      const double* x = inputs_[i] + s * n;
+      if (!finite_array(x, 4 * n)) return false;
+      double* lane = lane_in_[i].data();
+      for (int j = 0; j < n; ++j)
+        for (int l = 0; l < 4; ++l) lane[4 * j + l] = x[l * n + j];
+    }
+    for (int l = 0; l < 4 && has_quaternion_; ++l)
+      if (!quaternion_ok(s + l)) return false;
+    lanes(lane_in_ptr_.data(), lane_params_.data(), lane_out_ptr_.data());
+    for (size_t r = 0; r < rows_.size(); ++r) {
+      const int rows = rows_[r], cols = cols_[r];
+      const double* lane = lane_out_[r].data();
+      double* to = at(r, s);  // the four states' results follow each other
+      const int size = rows * cols;
+      if (cols == 1) {
+        for (int i = 0; i < rows; ++i)
+          for (int l = 0; l < 4; ++l) to[l * size + i] = lane[4 * i + l];
+      } else {
+        for (int l = 0; l < 4; ++l)
+          for (int i = 0; i < rows; ++i)
+            for (int j = 0; j < cols; ++j)
+              to[l * size + i * cols + j] = lane[4 * (j * rows + i) + l];
+      }
+    }
+    return results_ok(s, 4);
+  }
+
+ private:
+  double* at(size_t r, long s) const { return results_[r] + s * rows_[r] * cols_[r]; }
+  // As CompiledModel::check: a base quaternion of a norm the model takes.
+  bool quaternion_ok(long s) const {
+    for (size_t i = 0; i < in_.size(); ++i) {
+      if (!quaternion_[i]) continue;
+      const double norm =
+          Eigen::Map<const Eigen::Vector4d>(inputs_[i] + s * sizes_[i] + m_.quaternion_offset_)
+              .norm();
+      if (!(norm >= 1e-6 && norm <= 1e6)) return false;
+    }
+    return true;
+  }
+  // check_forward_dynamics' test and eval's (every result finite), on the results of states
+  // s .. s + count - 1 (each result's states follow each other).
+  bool results_ok(long s, int count = 1) const {
+    bool ok = true;
+    for (size_t r = 0; r < rows_.size(); ++r)
+      ok = ok && finite_array(at(r, s), count * rows_[r] * cols_[r]);
+    if (o_ == Output::forward_dynamics) {  // finite: the pivots' upper bounds hold
+      const double *d = at(1, s), *scaled = at(2, s);
+      bool positive = true;
+      for (int i = 0; i < count * rows_[1]; ++i)
+        positive &= (d[i] > 0) & (scaled[i] > 1 / kMaxScaledCondition);
+      ok = ok && positive;
+    }
+    return ok;
+  }
+  // The checks that name what failed (evaluate()'s and eval's); they throw.
+  void check_inputs(long s) const {
+    for_state(s, batch_, [&] {
+      for (size_t i = 0; i < in_.size(); ++i)
+        m_.check(info(out_.inputs[i]).name,
+                 Eigen::Map<const Eigen::VectorXd>(inputs_[i] + s * sizes_[i], sizes_[i]),
+                 sizes_[i]);
+    });
+  }
+  void check_results(long s) const {
+    for_state(s, batch_, [&] {
+      using Map = Eigen::Map<const Eigen::VectorXd>;
+      if (o_ == Output::forward_dynamics)
+        check_forward_dynamics(Map(at(1, s), rows_[1]), Map(at(2, s), rows_[2]),
+                               Map(at(0, s), rows_[0]), m_.name_);
+      for (size_t r = 0; r < rows_.size(); ++r)
+        if (!all_finite(Map(at(r, s), rows_[r] * cols_[r])))
+          throw DynamicsError(std::string(out_.results[r].name) +
+                              " is not finite: the state or parameters overflow");
+    });
+  }
+
+  const CompiledModel& m_;
+  Output o_;
+  const OutputInfo& out_;
+  Function f_;
+  const Eigen::VectorXd& params_;
+  const std::vector<const double*>& inputs_;
+  const std::vector<double*>& results_;
+  bool batch_;
+  std::vector<const double*> in_;
+  std::vector<double*> out_ptr_;
+  std::vector<int> sizes_, rows_, cols_;
+  std::vector<bool> quaternion_;
+  bool has_quaternion_ = false;
+  std::vector<std::vector<double>> scratch_, lane_in_, lane_out_;
+  std::vector<double> lane_params_;
+  std::vector<const double*> lane_in_ptr_;
+  std::vector<double*> lane_out_ptr_;
+};
+
 void CompiledModel::evaluate_batch(Output o, long k, const std::vector<const double*>& inputs,
                                    const Eigen::VectorXd& params,
-                                   const std::vector<double*>& results) const {
+                                   const std::vector<double*>& results, int lanes) const {
   const OutputInfo& out = info(o);
   const Function f = function(o);
   if (inputs.size() != out.inputs.size() || results.size() != out.results.size())
@@ -120,30 +291,16 @@ void CompiledModel::evaluate_batch(Output o, long k, const std::vector<const dou
   check("params", params, static_cast<int>(nominal_.size()));
   if (const char* error = parameter_error_(params.data()))
     throw std::invalid_argument(std::string("parameters: ") + error);
-  // One state's results in the generated code's layout (column-major), then row-major.
-  std::vector<Eigen::MatrixXd> state;
-  std::vector<double*> state_out;
-  for (const auto& r : out.results) state.emplace_back(dims_(r.rows), dims_(r.cols));
-  for (auto& r : state) state_out.push_back(r.data());
-  std::vector<const double*> in(inputs.size());
-  for (long s = 0; s < k; ++s)
-    for_state(s, k > 1, [&] {
-      for (size_t i = 0; i < in.size(); ++i) {
-        const int n = dims_(info(out.inputs[i]).size);
-        in[i] = inputs[i] + s * n;
-        check(info(out.inputs[i]).name, Eigen::Map<const Eigen::VectorXd>(in[i], n), n);
-      }
-      f(in.data(), params.data(), state_out.data());
-      if (o == Output::forward_dynamics) check_forward_dynamics(state, name_);
-      for (size_t r = 0; r < state.size(); ++r) {
-        if (!all_finite(state[r]))  // as eval's: no overflow passes as a number
-          throw DynamicsError(std::string(out.results[r].name) +
-                              " is not finite: the state or parameters overflow");
-        const Eigen::Index size = state[r].size();
-        Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-            results[r] + s * size, state[r].rows(), state[r].cols()) = state[r];
-      }
-    });
+  BatchCall call(*this, o, f, params, inputs, results, k > 1);
+  long s = 0;
+  // Four states per call where the model has the 4-lane function: each lane's bits are the
+  // scalar function's, so a group that fails a check is taken again state by state, which
+  // names the first failing state as the scalar path does.
+  if (const Function four = lanes == 4 ? lanes_function(o) : nullptr)
+    for (; s + 4 <= k; s += 4)
+      if (!call.four(four, s))
+        for (long j = s; j < s + 4; ++j) call.one(j);
+  for (; s < k; ++s) call.one(s);
 }
 
 Eigen::MatrixXd CompiledModel::mass_matrix(const Eigen::VectorXd& q,

@@ -83,6 +83,14 @@ class PyModel {
 
   const CompiledModel& model() const { return model_; }
   const Eigen::VectorXd& params() const { return params_; }
+  // States per call of the generated code in a batch: 4 (its 4-lane functions, where the
+  // output has one; the same bits) or 1.
+  int lanes() const { return lanes_; }
+  void set_lanes(int lanes) {
+    if (lanes != 1 && lanes != 4)
+      throw py::value_error("lanes: 1 or 4, got " + std::to_string(lanes));
+    lanes_ = lanes;
+  }
 
   // Output o at the inputs (arrays, in the registry's order), one state or a batch.
   // all_results: every result array (forward_dynamics: also its LDL^T pivots), as a dict.
@@ -141,6 +149,7 @@ class PyModel {
  private:
   CompiledModel model_;
   Eigen::VectorXd params_;
+  int lanes_ = 4;
   ModelRecipe recipe_;
   std::shared_ptr<const SymbolicModel> symbolic_;
 };
@@ -241,7 +250,7 @@ py::object PyModel::call(Output o, const py::args& args, const py::object& param
   }
   {
     py::gil_scoped_release release;
-    model_.evaluate_batch(o, k, in_ptrs, params, out_ptrs);
+    model_.evaluate_batch(o, k, in_ptrs, params, out_ptrs, lanes_);
   }
   // forward_dynamics returns qdd alone unless asked for its pivots (they served the checks).
   if (o == Output::forward_dynamics && !all_results) results.resize(1);
@@ -612,6 +621,10 @@ PYBIND11_MODULE(_spacearm, module) {
                                return d;
                              })
       .def_property_readonly("outputs", &PyModel::outputs)
+      .def_property("lanes", &PyModel::lanes, &PyModel::set_lanes,
+                    "States per call of the generated code in a batch: 4 (the 4-lane "
+                    "functions of forward_dynamics, end_effector_pose, momentum and "
+                    "kinetic_energy; the same bits) or 1")
       .def("plan", &PyModel::plan, py::arg("start"), py::arg("goal"), py::arg("duration"),
            py::arg("dt") = 0.01, py::arg("time_law") = "quintic", py::arg("elbow") = 1,
            py::arg("q0") = py::none(), py::arg("params") = py::none(),

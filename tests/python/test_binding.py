@@ -103,6 +103,39 @@ def test_errors_name_what_is_wrong(geared):
         spacearm.load("no_such_scene.yaml", cache_dir=CACHE)
 
 
+def test_batches_on_four_lanes_are_the_bits_of_one_state_per_call(geared):
+    """model.lanes = 4 (the default) evaluates four states per call of the generated code where
+    the output has a 4-lane function; 1 calls it once per state: the same arrays, bit for bit,
+    and an error names the same state."""
+    q, qd = states(geared, 11)  # two groups of four and three states alone
+    Q = np.random.default_rng(2).uniform(-5, 5, (11, geared.nv))
+    assert geared.lanes == 4
+    four = {o: getattr(geared, o) for o in ("forward_dynamics", "end_effector_pose", "momentum",
+                                            "kinetic_energy", "mass_matrix")}
+    results = {"forward_dynamics": four["forward_dynamics"](q, qd, Q),
+               "end_effector_pose": four["end_effector_pose"](q),
+               "momentum": four["momentum"](q, qd),
+               "kinetic_energy": four["kinetic_energy"](q, qd)}
+    geared.lanes = 1
+    try:
+        assert np.array_equal(results["forward_dynamics"], geared.forward_dynamics(q, qd, Q))
+        assert np.array_equal(results["end_effector_pose"], geared.end_effector_pose(q))
+        assert np.array_equal(results["momentum"], geared.momentum(q, qd))
+        assert np.array_equal(results["kinetic_energy"], geared.kinetic_energy(q, qd))
+        assert results["forward_dynamics"].shape == (11, geared.nv)
+    finally:
+        geared.lanes = 4
+    bad = Q.copy()
+    bad[6, :] = 1e308  # in the second group of four: accelerations overflow there
+    for lanes in (4, 1):
+        geared.lanes = lanes
+        with pytest.raises(spacearm.DynamicsError, match="state 6: .*accelerations not finite"):
+            geared.forward_dynamics(q, qd, bad)
+    geared.lanes = 4
+    with pytest.raises(ValueError, match="lanes: 1 or 4, got 2"):
+        geared.lanes = 2
+
+
 def test_two_models_at_once_are_their_own():
     with open(os.path.join(SOURCE, "models", "paper_reference.yaml")) as f:
         text = f.read()
