@@ -6,6 +6,7 @@
 // here instead of throwing: a flagged run (or one that fails to set up, or whose metrics are not
 // finite) is left to the reference path, which writes its failure's message.
 #include <array>
+#include <limits>
 #include <optional>
 
 #include "integrators.hpp"
@@ -113,6 +114,7 @@ class Lockstep {
   std::optional<LaneFunction<L>> momentum_;
   std::vector<double> x_, params_, Q_, qdd_, pivots_, scaled_, pose_out_, h_out_;
   Eigen::VectorXd signal_;
+  double forces_at_ = std::numeric_limits<double>::quiet_NaN();  // the time Q_ holds
   std::array<Eigen::VectorXd, L> q_, qd_, rate_, tau_, pose_l_, h_l_;
   std::vector<RunMetrics> metrics_;
 };
@@ -167,13 +169,18 @@ bool Lockstep<L>::quaternion_ok(const Eigen::VectorXd& q) const {
 // forces of the run's torques scale .* tau(t) (eq. 14).
 template <int L>
 void Lockstep<L>::rhs(const double* x, double* dxdt, double t) {
-  replay_->evaluate(t, signal_);
-  for (int l = 0; l < L; ++l) {
-    const DynamicModel& m = lane_[l]->model;
-    tau_[l] = lane_[l]->scale.cwiseProduct(signal_);
-    for (int i = 0; i < nv_; ++i) Q_[i * L + l] = 0;
-    for (int i = 0; i < num_links_; ++i)
-      Q_[m.actuated_coordinates[i] * L + l] = tau_[l][i] / m.gear_ratios[i];
+  // Q at t: the same for a step's two stages at its midpoint (the step's hold does not change
+  // within it: step() clears forces_at_).
+  if (!(t == forces_at_)) {
+    replay_->evaluate(t, signal_);
+    for (int l = 0; l < L; ++l) {
+      const DynamicModel& m = lane_[l]->model;
+      const double* scale = lane_[l]->scale.data();
+      for (int i = 0; i < nv_; ++i) Q_[i * L + l] = 0;
+      for (int i = 0; i < num_links_; ++i)  // tau = scale .* signal, Q = tau / p (eq. 14)
+        Q_[m.actuated_coordinates[i] * L + l] = (scale[i] * signal_[i]) / m.gear_ratios[i];
+    }
+    forces_at_ = t;
   }
   if (quaternion_ < 0) {
     for (int i = 0; i < nq_ * L; ++i) dxdt[i] = x[nq_ * L + i];
@@ -257,6 +264,7 @@ void Lockstep<L>::run() {
       for (long s = 0; s < per; ++s) {
         const double t = t0 + (k * per + s) * opt_.dt;
         if (opt_.step_begin) opt_.step_begin(t, t + opt_.dt);
+        forces_at_ = std::numeric_limits<double>::quiet_NaN();
         rk4.step(slope, x_.data(), t, opt_.dt);
         project_and_accept();
       }
