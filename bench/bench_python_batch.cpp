@@ -76,16 +76,22 @@ void BM_Checked_CppBatch(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * k);
 }
 
-void BM_Checked_PythonBatch(benchmark::State& state) {
-  const long k = state.range(0);
-  py::module_ spacearm = py::module_::import("spacearm");
+// The model through the binding (spacearm.load, p = 10), and k states as a (k, n) array.
+py::object python_model() {
   py::dict given;
   given["p"] = 10.0;
-  py::object m = spacearm.attr("load")(kScene, given, cache_dir());
-  const std::vector<double> q = states(k);
-  py::array_t<double> Q({k, static_cast<long>(kNq)});
-  std::copy(q.begin(), q.end(), Q.mutable_data());
-  py::object mass_matrix = m.attr("mass_matrix");
+  return py::module_::import("spacearm").attr("load")(kScene, given, cache_dir());
+}
+py::array_t<double> python_states(const std::vector<double>& v, long k) {
+  py::array_t<double> a({k, static_cast<long>(kNq)});
+  std::copy(v.begin(), v.end(), a.mutable_data());
+  return a;
+}
+
+void BM_Checked_PythonBatch(benchmark::State& state) {
+  const long k = state.range(0);
+  const py::array_t<double> Q = python_states(states(k), k);
+  py::object mass_matrix = python_model().attr("mass_matrix");
   for (auto _ : state) benchmark::DoNotOptimize(mass_matrix(Q).ptr());
   state.SetItemsProcessed(state.iterations() * k);
 }
@@ -115,17 +121,10 @@ void BM_ForwardDynamics_Unchecked_CppLoop(benchmark::State& state) {
 
 void BM_ForwardDynamics_Checked_PythonBatch(benchmark::State& state) {
   const long k = state.range(0);
-  py::module_ spacearm = py::module_::import("spacearm");
-  py::dict given;
-  given["p"] = 10.0;
-  py::object m = spacearm.attr("load")(kScene, given, cache_dir());
+  py::object m = python_model();
   m.attr("lanes") = state.range(1);
-  auto array = [k](const std::vector<double>& v) {
-    py::array_t<double> a({k, static_cast<long>(kNq)});
-    std::copy(v.begin(), v.end(), a.mutable_data());
-    return a;
-  };
-  const py::array_t<double> q = array(states(k)), qd = array(states(k)), Q = array(states(k));
+  const py::array_t<double> q = python_states(states(k), k), qd = python_states(states(k), k),
+                            Q = python_states(states(k), k);
   py::object forward_dynamics = m.attr("forward_dynamics");
   for (auto _ : state) benchmark::DoNotOptimize(forward_dynamics(q, qd, Q).ptr());
   state.SetItemsProcessed(state.iterations() * k);

@@ -2,6 +2,7 @@
 // finiteness, the parameters' ranges) and of its results, and the model as a source of the
 // runtime's one adapter (LoadedSource). Loading it is compiled_model.cpp's.
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <string_view>
@@ -226,19 +227,22 @@ class CompiledModel::BatchCall {
     return true;
   }
   // check_forward_dynamics' test and eval's (every result finite), on the results of states
-  // s .. s + count - 1 (each result's states follow each other).
+  // s .. s + count - 1 (each result's states follow each other). Forward dynamics: qdd finite
+  // and each pivot within its bounds, which no inf or NaN is.
   bool results_ok(long s, int count = 1) const {
-    bool ok = true;
-    for (size_t r = 0; r < rows_.size(); ++r)
-      ok = ok && finite_array(at(r, s), count * rows_[r] * cols_[r]);
-    if (o_ == Output::forward_dynamics) {  // finite: the pivots' upper bounds hold
-      const double *d = at(1, s), *scaled = at(2, s);
-      bool positive = true;
-      for (int i = 0; i < count * rows_[1]; ++i)
-        positive &= (d[i] > 0) & (scaled[i] > 1 / kMaxScaledCondition);
-      ok = ok && positive;
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    if (o_ != Output::forward_dynamics) {
+      bool ok = true;
+      for (size_t r = 0; r < rows_.size(); ++r)
+        ok = ok && finite_array(at(r, s), count * rows_[r] * cols_[r]);
+      return ok;
     }
-    return ok;
+    const double *d = at(1, s), *scaled = at(2, s);
+    bool within = true;
+    for (int i = 0; i < count * rows_[1]; ++i)
+      within &=
+          (d[i] > 0) & (d[i] < inf) & (scaled[i] > 1 / kMaxScaledCondition) & (scaled[i] < inf);
+    return within && finite_array(at(0, s), count * rows_[0]);
   }
   // The checks that name what failed (evaluate()'s and eval's); they throw.
   void check_inputs(long s) const {
