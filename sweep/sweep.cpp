@@ -232,6 +232,14 @@ std::vector<std::string> StudyRunner::rows(const std::vector<long>& runs,
   return out;
 }
 
+std::string StudyRunner::integration_text() const {
+  if (lanes_ == 0 || !lockstep_applies(study_, loaded_->model))
+    return "runs integrated one at a time (" + to_string(study_.integrator.method) +
+           (lanes_ == 0 ? ")" : "; runs in lockstep need rk4 and the output forward_dynamics)");
+  return lanes_ == 4 ? "runs integrated four at a time in lockstep (rk4, the 4-lane functions)"
+                     : "runs integrated one at a time in lockstep (rk4)";
+}
+
 void StudyRunner::set_lanes(int lanes) {
   if (lanes != 0 && lanes != 1 && lanes != 4)
     throw std::invalid_argument("lanes: 0, 1 or 4, got " + std::to_string(lanes));

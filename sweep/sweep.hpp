@@ -55,6 +55,8 @@ class StudyRunner {
   // calls where the library has none). By default 4 where the model has 4-lane functions, else
   // 1. Every setting writes the same bytes (test_sweep).
   int lanes() const { return lanes_; }
+  // How the runs are integrated, in words (spacearm sweep --verbose says it).
+  std::string integration_text() const;
   void set_lanes(int lanes);
   // Why `row` (with its newline) is not a row that row() writes for this study: a run of the
   // study; the header's fields; status ok with numbers, or failed with empty metrics and a
