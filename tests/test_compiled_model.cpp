@@ -374,7 +374,7 @@ TEST(CompiledModel, FourLanesComputeWhatTheScalarFunctionComputes) {
   const std::vector<ModelRecipe> recipes = {
       ModelRecipe::load(std::string(SPACEARM_SOURCE_DIR) + "/models/paper_flexible.yaml"),
       ModelRecipe::parse(spatial, "spatial_arm2.yaml")};
-  for (const std::string isa : {host_instruction_set(), std::string("sse2")})
+  for (const std::string& isa : {host_instruction_set(), std::string("sse2")})
     for (const ModelRecipe& recipe : recipes) {
       SCOPED_TRACE(recipe.name() + " built for " + isa);
       CompileOptions options;

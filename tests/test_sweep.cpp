@@ -562,7 +562,9 @@ time_series: {dt: 0.1}
     long ok = 0;
     for (const std::string& row : reference) ok += row.find(",ok,") != std::string::npos;
     EXPECT_GT(ok, 0) << s.source_path;
-    if (s.scene.planar) EXPECT_LT(ok, s.num_runs()) << s.source_path << ": no run fails";
+    if (s.scene.planar) {
+      EXPECT_LT(ok, s.num_runs()) << s.source_path << ": no run fails";
+    }
     for (int lanes : {1, 4}) {
       runner.set_lanes(lanes);
       EXPECT_EQ(runner.rows(runs, &series), reference) << s.source_path << ", lanes " << lanes;
