@@ -75,9 +75,6 @@ std::string target(const ArraySpec& r, size_t k, int rows, int cols, int i, int 
   return r.name + "(" + std::to_string(i) + ", " + std::to_string(j) + ")";
 }
 
-// The suffix of a function's 4-lane version in the C interface (spacearm_<name>_x4).
-constexpr const char* kLanesSuffix = "_x4";
-
 // The C interface's names for a function's inputs: q = in[0], ...; in a 4-lane function, the
 // inputs' entries as lane values (entry i of every lane at [4 i .. 4 i + 3]).
 std::string c_input_aliases(const FunctionSpec& f, bool lanes = false) {

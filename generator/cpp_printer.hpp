@@ -18,6 +18,10 @@ inline constexpr const char* kGeneratorVersion = "0.3.0";
 // _passive_forces, _configuration_layout, _outputs, ...), so a loader needs no scene. 7: the
 // self-description. 8: per joint, whether its slot holds a motor angle (_slot_holds_motor).
 inline constexpr int kCInterfaceVersion = 8;
+// Beside some of them (FunctionSpec::lanes), spacearm_<name>_x4 of the same signature takes four
+// states per call: entry i of lane l of every input, parameter and result at [4 i + l]. A
+// library without them still loads (the caller takes one state per call).
+inline constexpr const char* kLanesSuffix = "_x4";
 
 struct PrintOptions {
   std::string scene_path;  // as shown in the banner (keep it relative for reproducibility)

@@ -167,7 +167,6 @@ class CompiledModel {
   // The output's 4-lane version (four states per call, lanes interleaved: entry i of lane l at
   // [4 i + l] of every input, parameter and result), or nullptr where the library has none.
   Function lanes_function(Output o) const;
-  static constexpr const char* kLanesSuffix = "_x4";
 
  private:
   CompiledModel() = default;

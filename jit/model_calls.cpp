@@ -2,7 +2,6 @@
 // finiteness, the parameters' ranges) and of its results, and the model as a source of the
 // runtime's one adapter (LoadedSource). Loading it is compiled_model.cpp's.
 #include <cmath>
-#include <limits>
 #include <sstream>
 #include <string>
 #include <string_view>
@@ -43,12 +42,11 @@ void CompiledModel::check(const char* what, Eigen::Ref<const Eigen::VectorXd> v,
     if (!std::isfinite(v[i]))
       throw std::invalid_argument(std::string(what) + "[" + std::to_string(i) +
                                   "] is not finite: " + std::to_string(v[i]));
-  // The base's orientation is normalized by the model (spatial_chain.hpp): any quaternion of a
-  // norm that squares without under- or overflow is a rotation.
+  // The base's orientation is normalized by the model: ConfigurationSpace says which norms.
   const int k = quaternion_offset_;
   if (k >= 0 && std::string_view(what) == "q") {
     const double norm = v.segment(k, 4).norm();
-    if (!(norm >= 1e-6 && norm <= 1e6)) {
+    if (!ConfigurationSpace::takes_quaternion_norm(norm)) {
       std::ostringstream m;
       m << "q[" << k << ".." << k + 3 << "], the base's orientation quaternion (w, x, y, z), has "
         << "norm " << norm << ": expected a unit quaternion";
@@ -111,18 +109,6 @@ void for_state(long s, bool batch, F&& f) {
 
 }  // namespace
 
-// Whether n doubles are all finite: x * 0 is 0 for a finite x and NaN for inf or NaN. Four
-// partial sums, so that the additions do not wait for each other (one sum of x - x, all_finite's,
-// is a chain of dependent additions that cost the batches a third of their time per state).
-[[gnu::always_inline]] inline bool finite_array(const double* v, long n) {
-  double a[4] = {0, 0, 0, 0};
-  long i = 0;
-  for (; i + 4 <= n; i += 4)
-    for (int k = 0; k < 4; ++k) a[k] += v[i + k] * 0.0;
-  for (; i < n; ++i) a[0] += v[i] * 0.0;
-  return (a[0] + a[1]) + (a[2] + a[3]) == 0;
-}
-
 // One batched evaluation's states on workspaces allocated once: the scalar path and the 4-lane
 // path, both writing straight into the caller's arrays (a vector's row-major layout is its own;
 // a matrix is transposed from the generated code's column-major). The checks are evaluate()'s on
@@ -160,7 +146,7 @@ class CompiledModel::BatchCall {
     bool finite = true;
     for (size_t i = 0; i < in_.size(); ++i) {
       in_[i] = inputs_[i] + s * sizes_[i];
-      finite = finite && finite_array(in_[i], sizes_[i]);
+      finite = finite && all_finite_array(in_[i], sizes_[i]);
     }
     if (!finite || (has_quaternion_ && !quaternion_ok(s))) check_inputs(s);  // throws, naming it
     for (size_t r = 0; r < out_ptr_.size(); ++r)
@@ -187,7 +173,7 @@ class CompiledModel::BatchCall {
     for (size_t i = 0; i < in_.size(); ++i) {
       const int n = sizes_[i];
       const double* x = inputs_[i] + s * n;
-      if (!finite_array(x, 4 * n)) return false;
+      if (!all_finite_array(x, 4 * n)) return false;
       double* lane = lane_in_[i].data();
       for (int j = 0; j < n; ++j)
         for (int l = 0; l < 4; ++l) lane[4 * j + l] = x[l * n + j];
@@ -222,7 +208,7 @@ class CompiledModel::BatchCall {
       const double norm =
           Eigen::Map<const Eigen::Vector4d>(inputs_[i] + s * sizes_[i] + m_.quaternion_offset_)
               .norm();
-      if (!(norm >= 1e-6 && norm <= 1e6)) return false;
+      if (!ConfigurationSpace::takes_quaternion_norm(norm)) return false;
     }
     return true;
   }
@@ -230,19 +216,16 @@ class CompiledModel::BatchCall {
   // s .. s + count - 1 (each result's states follow each other). Forward dynamics: qdd finite
   // and each pivot within its bounds, which no inf or NaN is.
   bool results_ok(long s, int count = 1) const {
-    constexpr double inf = std::numeric_limits<double>::infinity();
     if (o_ != Output::forward_dynamics) {
       bool ok = true;
       for (size_t r = 0; r < rows_.size(); ++r)
-        ok = ok && finite_array(at(r, s), count * rows_[r] * cols_[r]);
+        ok = ok && all_finite_array(at(r, s), count * rows_[r] * cols_[r]);
       return ok;
     }
     const double *d = at(1, s), *scaled = at(2, s);
     bool within = true;
-    for (int i = 0; i < count * rows_[1]; ++i)
-      within &=
-          (d[i] > 0) & (d[i] < inf) & (scaled[i] > 1 / kMaxScaledCondition) & (scaled[i] < inf);
-    return within && finite_array(at(0, s), count * rows_[0]);
+    for (int i = 0; i < count * rows_[1]; ++i) within &= pivot_within_bounds(d[i], scaled[i]);
+    return within && all_finite_array(at(0, s), count * rows_[0]);
   }
   // The checks that name what failed (evaluate()'s and eval's); they throw.
   void check_inputs(long s) const {

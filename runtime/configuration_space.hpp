@@ -68,6 +68,10 @@ struct ConfigurationSpace {
     return q;
   }
 
+  // Whether the model takes a base quaternion of this norm: it normalizes the quaternion
+  // (spatial_chain.hpp), so any norm that squares without under- or overflow is a rotation.
+  static bool takes_quaternion_norm(double norm) { return norm >= 1e-6 && norm <= 1e6; }
+
   // The configuration on the manifold: the quaternion scaled to unit norm (nothing else moves).
   void project(Eigen::Ref<Eigen::VectorXd> q) const {
     if (quaternion_offset < 0) return;

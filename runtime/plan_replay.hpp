@@ -126,7 +126,7 @@ inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool f
     plan.base.push_back(take(pose));
     if (spatial && free_floating) {  // the model takes any quaternion whose norm squares safely
       const double norm = plan.base.back().segment<4>(3).norm();
-      if (!(norm >= 1e-6 && norm <= 1e6))
+      if (!ConfigurationSpace::takes_quaternion_norm(norm))
         throw fail(number, "columns qw0..qz0, the base's orientation quaternion, have norm " +
                                std::to_string(norm) + ": expected a unit quaternion");
     }

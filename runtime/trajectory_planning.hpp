@@ -158,7 +158,7 @@ inline int check_task(const DynamicModel& m, const StraightLineTask& task,
   if (task.q0.size() != 0 && m.quaternion_offset >= 0) {
     const int k = m.quaternion_offset;
     const double norm = task.q0.segment<4>(k).stableNorm();  // no overflow for 1e300
-    if (!(norm >= 1e-6 && norm <= 1e6))
+    if (!ConfigurationSpace::takes_quaternion_norm(norm))
       fail(names.q0 + " values " + std::to_string(k + 1) + " to " + std::to_string(k + 4) +
            ", the base's quaternion, must have a norm in [1e-6, 1e6], got " + text(norm));
   }

@@ -78,14 +78,13 @@ void lane_in(const Eigen::VectorXd& v, int l, double* a) {
 template <int L>
 bool lane_passes(const double* x, const double* Q, const double* qdd, const double* pivots,
                  const double* scaled, int nq, int nv, int l) {
-  constexpr double inf = std::numeric_limits<double>::infinity();
   double sum = 0;
   for (int i = 0; i < nq + nv; ++i) sum += x[i * L + l] - x[i * L + l];
   bool ok = true;
   for (int i = 0; i < nv; ++i) {
-    const double q = Q[i * L + l], a = qdd[i * L + l], d = pivots[i * L + l], s = scaled[i * L + l];
+    const double q = Q[i * L + l], a = qdd[i * L + l];
     sum += (q - q) + (a - a);
-    ok = ok && d > 0 && d < inf && s > 1 / kMaxScaledCondition && s < inf;
+    ok &= pivot_within_bounds(pivots[i * L + l], scaled[i * L + l]);
   }
   return ok && sum == 0;
 }
@@ -161,8 +160,7 @@ Lockstep<L>::Lockstep(const LockstepRequest& r, const std::vector<long>& runs, s
 template <int L>
 bool Lockstep<L>::quaternion_ok(const Eigen::VectorXd& q) const {
   if (quaternion_ < 0) return true;
-  const double norm = q.segment(quaternion_, 4).norm();
-  return norm >= 1e-6 && norm <= 1e6;
+  return ConfigurationSpace::takes_quaternion_norm(q.segment(quaternion_, 4).norm());
 }
 
 // dx/dt of every lane (integrate_motion's right-hand side): dq/dt, and qdd from the generalized

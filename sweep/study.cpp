@@ -14,6 +14,7 @@
 #include <set>
 #include <sstream>
 
+#include "configuration_space.hpp"
 #include "cpp_printer.hpp"
 #include "private_folder.hpp"
 #include "yaml_reader.hpp"
@@ -41,7 +42,7 @@ std::string read_file(const std::string& path, const std::string& what, std::uin
 // 1e6, as everywhere a quaternion is read. what: how the message names it.
 std::string quaternion_problem(const Eigen::VectorXd& v, int k, const std::string& what) {
   const double norm = v.segment(k, 4).norm();
-  if (norm >= 1e-6 && norm <= 1e6) return "";
+  if (ConfigurationSpace::takes_quaternion_norm(norm)) return "";
   return what + " (entries " + std::to_string(k) + " to " + std::to_string(k + 3) +
          ") needs a norm from 1e-6 to 1e6, got " + text_of(norm);
 }

@@ -213,9 +213,8 @@ Eigen::VectorXd StudyRunner::start_link_side() const {
 }
 
 std::string StudyRunner::row(long run, std::string* series) const {
-  std::vector<std::string> out;
-  std::vector<std::string> one_series(1);
-  out = rows({run}, series ? &one_series : nullptr);
+  std::vector<std::string> one_series;
+  const std::vector<std::string> out = rows({run}, series ? &one_series : nullptr);
   if (series) *series = std::move(one_series[0]);
   return out[0];
 }
