@@ -273,10 +273,18 @@ int run_simulate(const SimulateArgs& args) {
   out.row(head);
 
   // The library's integrate_motion; a stop request is seen at every evaluation and sample.
-  auto torque = [&](double t) -> Eigen::VectorXd {
-    check_stop();
-    return replay ? (*replay)(t) : (*tau)(t);
-  };
+  struct StoppableTorque {
+    const TorqueReplay<Eigen::Dynamic>* replay;
+    const TorqueSignal<Eigen::Dynamic>* signal;
+    Eigen::VectorXd operator()(double t) const {
+      check_stop();
+      return replay ? (*replay)(t) : (*signal)(t);
+    }
+    void evaluate(double t, Eigen::VectorXd& value) const {  // into value: no allocation
+      check_stop();
+      replay ? replay->evaluate(t, value) : signal->evaluate(t, value);
+    }
+  } torque{replay.get(), tau.get()};
   Progress progress(a.t_end);
   double t_written = 0;
   std::vector<double> values;

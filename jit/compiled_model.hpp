@@ -125,6 +125,9 @@ class CompiledModel {
   void evaluate_batch(Output o, long k, const std::vector<const double*>& inputs,
                       const Eigen::VectorXd& params, const std::vector<double*>& results,
                       int lanes = 4) const;
+  // The checks every call makes of the parameters (size, finiteness, the scene's ranges):
+  // std::invalid_argument naming the one that fails.
+  void check_parameters(const Eigen::VectorXd& params) const;
   // Shorthands of evaluate() for the outputs the simulate command reads.
   Eigen::MatrixXd mass_matrix(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const;
   Eigen::VectorXd bias_forces(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
@@ -149,6 +152,25 @@ class CompiledModel {
   // factorization of M; with the checks of runtime/dynamics_checks.hpp (DynamicsError).
   Eigen::VectorXd forward_dynamics(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                                    const Eigen::VectorXd& Q, const Eigen::VectorXd& params) const;
+  // forward_dynamics() for a caller that calls it many times at one parameter set (an
+  // integration): the emitted function called directly on storage of its own, the checks of
+  // inputs and results as one pass/fail test. A call that fails it is made again by
+  // forward_dynamics(), which throws the error that names what failed. So results and errors are
+  // forward_dynamics()'s, and nothing is allocated per call (where the scene emits
+  // forward_dynamics; the Cholesky path allocates). The parameters are checked once, here. Not
+  // reentrant: one per thread. Refers to this model: keep it alive and in place.
+  class ForwardDynamicsCall {
+   public:
+    ForwardDynamicsCall(const CompiledModel& m, Eigen::VectorXd params);
+    // q: nq entries; qd, Q and qdd: nv.
+    void operator()(const double* q, const double* qd, const double* Q, double* qdd);
+
+   private:
+    const CompiledModel* m_;
+    Eigen::VectorXd params_, pivots_, scaled_pivots_;
+    // The emitted function (Function below); nullptr: the Cholesky path.
+    void (*emitted_)(const double* const*, const double*, double* const*) = nullptr;
+  };
   // The state Jacobian dqdd/dq, dqdd/dqd at constant Q; returns qdd. DynamicsError where a
   // result is not finite (as Model<G>'s).
   Eigen::VectorXd forward_dynamics_derivatives(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
@@ -218,6 +240,12 @@ class LoadedSource {
   }
   V forward_dynamics_derivatives(const V& q, const V& qd, const V& Q, Mx& dq, Mx& dqd) const {
     return m_->forward_dynamics_derivatives(q, qd, Q, params_, dq, dqd);
+  }
+  DynamicModel::ForwardDynamicsCall forward_dynamics_call() const {
+    return [call = CompiledModel::ForwardDynamicsCall(*m_, params_)](
+               const double* q, const double* qd, const double* Q, double* qdd) mutable {
+      call(q, qd, Q, qdd);
+    };
   }
   double kinetic_energy(const V& q, const V& qd) const {
     return m_->kinetic_energy(q, qd, params_);

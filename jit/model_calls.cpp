@@ -55,14 +55,18 @@ void CompiledModel::check(const char* what, Eigen::Ref<const Eigen::VectorXd> v,
   }
 }
 
+void CompiledModel::check_parameters(const Eigen::VectorXd& params) const {
+  check("params", params, static_cast<int>(nominal_.size()));
+  if (const char* error = parameter_error_(params.data()))
+    throw std::invalid_argument(std::string("parameters: ") + error);
+}
+
 // Calls an exported function with checked parameters; results sized by `shapes`.
 std::vector<Eigen::MatrixXd> CompiledModel::call(const std::string& function,
                                                  const std::vector<std::pair<Size, Size>>& shapes,
                                                  const std::vector<const double*>& inputs,
                                                  const Eigen::VectorXd& params) const {
-  check("params", params, static_cast<int>(nominal_.size()));
-  if (const char* error = parameter_error_(params.data()))
-    throw std::invalid_argument(std::string("parameters: ") + error);
+  check_parameters(params);
   std::vector<Eigen::MatrixXd> results;
   std::vector<double*> out;
   for (const auto& [rows, cols] : shapes) results.emplace_back(dims_(rows), dims_(cols));
@@ -275,9 +279,7 @@ void CompiledModel::evaluate_batch(Output o, long k, const std::vector<const dou
   const Function f = function(o);
   if (inputs.size() != out.inputs.size() || results.size() != out.results.size())
     throw std::invalid_argument(std::string(out.name) + ": wrong number of inputs or results");
-  check("params", params, static_cast<int>(nominal_.size()));
-  if (const char* error = parameter_error_(params.data()))
-    throw std::invalid_argument(std::string("parameters: ") + error);
+  check_parameters(params);
   BatchCall call(*this, o, f, params, inputs, results, k > 1);
   long s = 0;
   // Four states per call where the model has the 4-lane function: each lane's bits are the
@@ -379,6 +381,35 @@ Eigen::VectorXd CompiledModel::forward_dynamics(const Eigen::VectorXd& q, const 
   }
   check_forward_dynamics(pivots, scaled_pivots, qdd, name_);
   return qdd;
+}
+
+CompiledModel::ForwardDynamicsCall::ForwardDynamicsCall(const CompiledModel& m,
+                                                        Eigen::VectorXd params)
+    : m_(&m), params_(std::move(params)), pivots_(m.nv()), scaled_pivots_(m.nv()) {
+  m.check_parameters(params_);
+  if (m.has(Output::forward_dynamics)) emitted_ = m.function(Output::forward_dynamics);
+}
+
+void CompiledModel::ForwardDynamicsCall::operator()(const double* q, const double* qd,
+                                                    const double* Q, double* qdd) {
+  const int nq = m_->nq(), nv = m_->nv(), k = m_->quaternion_offset_;
+  using Map = Eigen::Map<const Eigen::VectorXd>;
+  if (emitted_) {
+    const double* in[3] = {q, qd, Q};
+    double* out[3] = {qdd, pivots_.data(), scaled_pivots_.data()};
+    emitted_(in, params_.data(), out);
+    // forward_dynamics()'s checks, in one test: finite inputs, a quaternion of a norm the
+    // model takes (the same expression as check()'s), finite accelerations, pivots in bounds.
+    bool ok = all_finite_array(q, nq) & all_finite_array(qd, nv) & all_finite_array(Q, nv) &
+              all_finite_array(qdd, nv);
+    for (int i = 0; i < nv; ++i) ok &= pivot_within_bounds(pivots_[i], scaled_pivots_[i]);
+    if (k >= 0)
+      ok = ok && ConfigurationSpace::takes_quaternion_norm(Map(q, nq).segment(k, 4).norm());
+    if (ok) return;
+  }
+  // The checked call: it throws the error that names what failed.
+  Eigen::Map<Eigen::VectorXd> out(qdd, nv);
+  out = m_->forward_dynamics(Map(q, nq), Map(qd, nv), Map(Q, nv), params_);
 }
 
 Eigen::VectorXd CompiledModel::gear_ratios(const Eigen::VectorXd& params) const {

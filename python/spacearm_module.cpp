@@ -474,12 +474,11 @@ py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& 
   std::vector<std::vector<double>> rows;
   {
     py::gil_scoped_release release;
-    integrate_motion(
-        m, x0, v0, [&](double t) { return replay(t); }, t_end, o.dt_out > 0 ? o.dt_out : o.dt, opt,
-        [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
-          rows.emplace_back();
-          columns.row(t, q, qd, tau(t), rows.back());
-        });
+    integrate_motion(m, x0, v0, replay, t_end, o.dt_out > 0 ? o.dt_out : o.dt, opt,
+                     [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+                       rows.emplace_back();
+                       columns.row(t, q, qd, tau(t), rows.back());
+                     });
   }
   return run_result(columns, std::move(rows), m, why);
 }

@@ -69,6 +69,14 @@ struct DynamicModel : DynamicModelFacts {
       mass_matrix_and_bias;
   // qdd = M^-1 (Q - b), eq. 8, with check_forward_dynamics (DynamicsError).
   std::function<Velocity(const Vector& q, const Velocity& qd, const Velocity& Q)> forward_dynamics;
+  // forward_dynamics into caller storage (q: nq entries; qd, Q, qdd: nv), for a caller that
+  // calls it many times (an integration): the same results and errors, on a workspace of its
+  // own, allocating nothing per call where the source can (a loaded model that emits
+  // forward_dynamics; a linked one). make_forward_dynamics_call() makes one: not reentrant, so
+  // one per integration and thread.
+  using ForwardDynamicsCall =
+      std::function<void(const double* q, const double* qd, const double* Q, double* qdd)>;
+  std::function<ForwardDynamicsCall()> make_forward_dynamics_call;
   // The state Jacobian dqdd/dq (nv x nq), dqdd/dqd (nv x nv) at constant Q; returns qdd.
   std::function<Velocity(const Vector& q, const Velocity& qd, const Velocity& Q,
                          ConfigurationJacobian& dqdd_dq, Matrix& dqdd_dqd)>
@@ -163,9 +171,14 @@ struct DynamicModel : DynamicModelFacts {
 
   // Joint (or motor) torques as generalized forces, Q = tau / p on the joints, eq. 14.
   Velocity generalized_forces(const JointVector& tau) const {
-    Velocity Q = Velocity::Zero(nv);
-    for (int i = 0; i < num_links; ++i) Q[actuated_coordinates.at(i)] = tau[i] / gear_ratios[i];
+    Velocity Q(nv);
+    generalized_forces(tau, Q);
     return Q;
+  }
+  // The same into Q (nv entries): no allocation.
+  void generalized_forces(const JointVector& tau, Eigen::Ref<Velocity> Q) const {
+    Q.setZero();
+    for (int i = 0; i < num_links; ++i) Q[actuated_coordinates.at(i)] = tau[i] / gear_ratios[i];
   }
 
  private:
@@ -232,10 +245,12 @@ DynamicModel dynamic_model_of(const Source& s) {
     d.mass_matrix_and_bias = [s](const V& q, const V& qd, Mx& M, V& b) {
       s.mass_matrix_and_bias(q, qd, M, b);
     };
-  if (s.has(F::forward_dynamics))
+  if (s.has(F::forward_dynamics)) {
     d.forward_dynamics = [s](const V& q, const V& qd, const V& Q) {
       return s.forward_dynamics(q, qd, Q);
     };
+    d.make_forward_dynamics_call = [s] { return s.forward_dynamics_call(); };
+  }
   if (s.has(F::forward_dynamics_derivatives))
     d.forward_dynamics_derivatives = [s](const V& q, const V& qd, const V& Q, Mx& dq, Mx& dqd) {
       return s.forward_dynamics_derivatives(q, qd, Q, dq, dqd);
@@ -326,6 +341,19 @@ class LinkedSource {
   }
   V forward_dynamics(const V& q, const V& qd, const V& Q) const {
     if constexpr (has(F::forward_dynamics)) return V(m_->forward_dynamics(q, qd, Q));
+    absent();
+  }
+  // At fixed size: nothing allocated.
+  DynamicModel::ForwardDynamicsCall forward_dynamics_call() const {
+    if constexpr (has(F::forward_dynamics)) {
+      return [m = m_](const double* q, const double* qd, const double* Q, double* qdd) {
+        using Vq = typename M::Vector;
+        using Vv = typename M::Velocity;
+        Eigen::Map<Vv> out(qdd);
+        out = m->forward_dynamics(Eigen::Map<const Vq>(q), Eigen::Map<const Vv>(qd),
+                                  Eigen::Map<const Vv>(Q));
+      };
+    }
     absent();
   }
   V forward_dynamics_derivatives(const V& q, const V& qd, const V& Q, Mx& dqdd_dq,

@@ -203,7 +203,13 @@ IntegrationStats integrate_closed_loop(const DynamicModel& plant, const Eigen::V
                                 " must be a positive multiple of the control period " +
                                 std::to_string(period));
   Eigen::VectorXd held = Eigen::VectorXd::Zero(plant.num_links);
-  auto torque = [&held](double) { return held; };
+  // The held torque, for every stage of the steps up to the next sample (evaluate copies it
+  // into the integrator's workspace: nothing allocated per step).
+  struct Held {
+    const Eigen::VectorXd& value;
+    Eigen::VectorXd operator()(double) const { return value; }
+    void evaluate(double, Eigen::VectorXd& out) const { out = value; }
+  } torque{held};
   auto sample = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
     held = control(t, q, qd);
     if (held.size() != plant.num_links || !held.allFinite())

@@ -171,6 +171,9 @@ class Model {
     for (int i = 0; i < kNumLinks; ++i) Q[actuated_[i]] = tau[i] / ratios_[i];
     return Q;
   }
+  void generalized_forces(const JointVector& tau, Velocity& Q) const {
+    Q = generalized_forces(tau);
+  }
 
   // qdd = M^-1 (Q - C qd), eq. 8 (eq. 15 with the sign corrected): the emitted unrolled
   // LDL^T solve where the model has one, else a fixed-size Cholesky factorization. Throws

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "dynamic_model.hpp"
 #include "integrators.hpp"
 #include "model.hpp"
 #include "torque_signal.hpp"
@@ -91,6 +92,87 @@ decltype(IntegratorOptions::jacobian) motion_jacobian(const Mdl&, const Torque&,
                                                       Eigen::Index, long) {
   return {};  // the model has no state Jacobian: integrate() refuses rosenbrock4
 }
+
+// The torques at t into tau: by the signal's evaluate(t, tau) where it has one (TorqueSignal,
+// TorqueReplay: nothing allocated), else by its value.
+template <class Torque, class Joint>
+auto torque_into(const Torque& signal, double t, Joint& tau, int)
+    -> decltype(signal.evaluate(t, tau), void()) {
+  signal.evaluate(t, tau);
+}
+template <class Torque, class Joint>
+void torque_into(const Torque& signal, double t, Joint& tau, long) {
+  tau = signal(t);
+}
+
+// qdd = model.forward_dynamics(q, qd, Q) into qdd, allocating nothing: a linked Model<G> at
+// fixed size; a DynamicModel through a call on a workspace of its own where its source makes
+// one (dynamic_model.hpp), else through its forward_dynamics.
+template <class G>
+auto forward_dynamics_call(const Model<G>& model) {
+  return [&model](const auto& q, const auto& qd, const auto& Q, auto& qdd) {
+    qdd = model.forward_dynamics(q, qd, Q);
+  };
+}
+inline auto forward_dynamics_call(const DynamicModel& model) {
+  DynamicModel::ForwardDynamicsCall call;
+  if (model.make_forward_dynamics_call) call = model.make_forward_dynamics_call();
+  return [&model, call](const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                        const Eigen::VectorXd& Q, Eigen::VectorXd& qdd) {
+    if (call)
+      call(q.data(), qd.data(), Q.data(), qdd.data());
+    else
+      qdd = model.forward_dynamics(q, qd, Q);
+  };
+}
+
+template <class G>
+Eigen::Index num_links_of(const Model<G>&) {
+  return Model<G>::kNumLinks;
+}
+inline Eigen::Index num_links_of(const DynamicModel& model) { return model.num_links; }
+
+// integrate_motion's right-hand side f(q, qd, t) = (dq/dt, qdd(q, qd, Q(t))) on workspaces
+// sized once: nothing is allocated per evaluation.
+template <class Mdl, class Torque>
+class MotionRhs {
+ public:
+  MotionRhs(const Mdl& model, const Torque& tau, Eigen::Index nq, Eigen::Index nv)
+      : model_(model),
+        tau_(tau),
+        space_(model.configuration_space()),
+        fd_(forward_dynamics_call(model)),
+        q_(nq),
+        qd_(nv),
+        Q_(nv),
+        qdd_(nv),
+        joint_(num_links_of(model)) {}
+  template <class State>
+  void operator()(const State& s, State& dsdt, double t) {
+    const Eigen::Index nq = q_.size(), nv = qd_.size();
+    q_ = s.head(nq);
+    qd_ = s.tail(nv);
+    dsdt.resize(nq + nv);  // a no-op at fixed size
+    space_.rate(q_, qd_, dsdt.head(nq));
+    torque_into(tau_, t, joint_, 0);
+    model_.generalized_forces(joint_, Q_);
+    try {
+      fd_(q_, qd_, Q_, qdd_);
+    } catch (const DynamicsError& e) {
+      throw DynamicsError(std::string(e.what()) + " at t = " + std::to_string(t));
+    }
+    dsdt.tail(nv) = qdd_;
+  }
+
+ private:
+  const Mdl& model_;
+  const Torque& tau_;
+  ConfigurationSpace space_;
+  decltype(forward_dynamics_call(std::declval<const Mdl&>())) fd_;
+  typename Mdl::Vector q_;
+  typename Mdl::Velocity qd_, Q_, qdd_;
+  typename Mdl::JointVector joint_;
+};
 }  // namespace detail
 
 // Integrates the forward dynamics of any runtime model, a linked Model<G> or a DynamicModel
@@ -109,19 +191,13 @@ IntegrationStats integrate_motion(const Mdl& model, const typename Mdl::Vector& 
   const Eigen::Index nq = q0.size(), nv = qd0.size();
   State x(nq + nv);
   x << q0, qd0;
-  auto f = [&](const State& s, State& dsdt, double t) {
-    const Vector q = s.head(nq);
-    const Velocity qd = s.tail(nv);
-    dsdt.resize(nq + nv);  // a no-op at fixed size
-    dsdt.head(nq) = model.configuration_rate(q, qd);
-    try {
-      dsdt.tail(nv) = model.forward_dynamics(q, qd, model.generalized_forces(tau(t)));
-    } catch (const DynamicsError& e) {
-      throw DynamicsError(std::string(e.what()) + " at t = " + std::to_string(t));
-    }
-  };
+  detail::MotionRhs<Mdl, Torque> f(model, tau, nq, nv);
+  Vector q(nq);
+  Velocity qd(nv);
   auto on_sample = [&](const State& s, double t) {
-    observe(t, Vector(s.head(nq)), Velocity(s.tail(nv)));
+    q = s.head(nq);
+    qd = s.tail(nv);
+    observe(t, q, qd);
   };
   IntegratorOptions opt = options;
   const ConfigurationSpace space = model.configuration_space();

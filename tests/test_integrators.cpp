@@ -1,5 +1,7 @@
 // runtime/integrators.hpp on the generated geared model: order of convergence, tolerance
 // control, and conservation of momentum and energy without torques.
+#include <random>
+
 #include "integrators.hpp"
 
 #include "paper_geared.hpp"
@@ -50,6 +52,38 @@ double observed_order(Rollout& s, Method m, double dt) {
   EXPECT_GT(e2, 1e-13)
       << "error at the finer step is at rounding level: the order would be meaningless";
   return std::log2(e1 / e2);
+}
+
+// The error checker of dopri5 and rkf78 (without odeint's copies) gives odeint's default
+// checker's error and scaled errors to the bit, at fixed and at dynamic size.
+template <class State>
+void expect_odeints_error(const State& x_old, const State& dxdt, const State& x_err, double dt) {
+  namespace odeint = boost::numeric::odeint;
+  odeint::vector_space_algebra algebra;
+  const odeint::default_error_checker<double, odeint::vector_space_algebra,
+                                      odeint::default_operations>
+      odeints(1e-10, 1e-8);
+  State theirs = x_err, ours = x_err;
+  const double e_theirs = odeints.error(algebra, x_old, dxdt, theirs, dt);
+  const double e_ours = detail::ErrorChecker(1e-10, 1e-8).error(algebra, x_old, dxdt, ours, dt);
+  EXPECT_EQ(e_ours, e_theirs);
+  EXPECT_EQ(ours, theirs);
+}
+TEST(Integrators, ErrorCheckerIsOdeintsToTheBit) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-3, 3);
+  for (int trial = 0; trial < 50; ++trial) {
+    Eigen::VectorXd x(13), d(13), e(13);
+    for (int i = 0; i < 13; ++i) {
+      x[i] = u(rng) * std::pow(10.0, u(rng));
+      d[i] = u(rng) * std::pow(10.0, u(rng));
+      e[i] = u(rng) * 1e-9;
+    }
+    const double dt = std::abs(u(rng)) * 1e-2 * (trial % 2 ? 1 : -1);
+    expect_odeints_error(x, d, e, dt);
+    expect_odeints_error(Eigen::Matrix<double, 13, 1>(x), Eigen::Matrix<double, 13, 1>(d),
+                         Eigen::Matrix<double, 13, 1>(e), dt);
+  }
 }
 
 TEST(Integrators, RK4IsFourthOrder) {

@@ -5,65 +5,10 @@
 // the paths are test_sweep's.
 #include <gtest/gtest.h>
 
-#include <atomic>
-#include <cerrno>
-#include <cstdlib>
 #include <string>
 
+#include "counting_malloc.hpp"
 #include "sweep.hpp"
-
-// AddressSanitizer brings its own malloc, which this one would hide: the count is the release
-// build's (the sanitizer build skips the test).
-#if defined(__SANITIZE_ADDRESS__)
-#define SPACEARM_COUNTING_MALLOC 0
-#else
-#define SPACEARM_COUNTING_MALLOC 1
-#endif
-
-namespace {
-std::atomic<bool> counting{false};
-std::atomic<long> allocations{0};
-[[maybe_unused]] void count() {
-  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
-}
-}  // namespace
-
-#if SPACEARM_COUNTING_MALLOC
-// glibc's allocator under its own names: the counting malloc below forwards to it.
-extern "C" void* __libc_malloc(size_t);
-extern "C" void* __libc_calloc(size_t, size_t);
-extern "C" void* __libc_realloc(void*, size_t);
-extern "C" void* __libc_memalign(size_t, size_t);
-
-extern "C" {
-void* malloc(size_t n) {
-  count();
-  return __libc_malloc(n);
-}
-void* calloc(size_t k, size_t n) {
-  count();
-  return __libc_calloc(k, n);
-}
-void* realloc(void* p, size_t n) {
-  count();
-  return __libc_realloc(p, n);
-}
-void* aligned_alloc(size_t alignment, size_t n) {
-  count();
-  return __libc_memalign(alignment, n);
-}
-void* memalign(size_t alignment, size_t n) {
-  count();
-  return __libc_memalign(alignment, n);
-}
-int posix_memalign(void** p, size_t alignment, size_t n) {
-  count();
-  *p = __libc_memalign(alignment, n);
-  return *p ? 0 : ENOMEM;
-}
-}
-
-#endif  // SPACEARM_COUNTING_MALLOC
 
 namespace spacearm {
 namespace {
@@ -86,16 +31,15 @@ long allocations_of(const StudyRunner& runner, int lanes) {
   const_cast<StudyRunner&>(runner).set_lanes(lanes);
   const std::vector<long> runs = {0, 1, 2, 3};
   runner.rows(runs);
-  allocations = 0;
-  counting = true;
+  counting_malloc::start();
   const std::vector<std::string> rows = runner.rows(runs);
-  counting = false;
+  const long allocations = counting_malloc::stop();
   for (const std::string& row : rows) EXPECT_NE(row.find(",ok,"), std::string::npos) << row;
   return allocations;
 }
 
 TEST(LockstepRuns, AllocateNothingPerStep) {
-  if (!SPACEARM_COUNTING_MALLOC) GTEST_SKIP() << "AddressSanitizer replaces malloc";
+  if (!counting_malloc::enabled()) GTEST_SKIP() << "AddressSanitizer replaces malloc";
   CompileOptions options;
   options.cache_dir = SPACEARM_TEST_CACHE_DIR;
   const StudyRunner short_runs(study("1"), options), long_runs(study("3"), options);
