@@ -9,6 +9,7 @@
 
 #include "compiled_model.hpp"
 #include "dynamics_checks.hpp"
+#include "lane_layout.hpp"
 #include "outputs.hpp"
 
 namespace spacearm {
@@ -174,37 +175,45 @@ class CompiledModel::BatchCall {
       for (auto& v : lane_in_) lane_in_ptr_.push_back(v.data());
       for (auto& v : lane_out_) lane_out_ptr_.push_back(v.data());
     }
-    for (size_t i = 0; i < in_.size(); ++i) {
-      const int n = sizes_[i];
-      const double* x = inputs_[i] + s * n;
-      if (!all_finite_array(x, 4 * n)) return false;
-      double* lane = lane_in_[i].data();
-      for (int j = 0; j < n; ++j)
-        for (int l = 0; l < 4; ++l) lane[4 * j + l] = x[l * n + j];
-    }
+    for (size_t i = 0; i < in_.size(); ++i)
+      if (!lanes::interleave(inputs_[i] + s * sizes_[i], sizes_[i], lane_in_[i].data()))
+        return false;
     for (int l = 0; l < 4 && has_quaternion_; ++l)
       if (!quaternion_ok(s + l)) return false;
+    prefetch_group(s + 4);  // while the function computes: a batch streams through memory
     lanes(lane_in_ptr_.data(), lane_params_.data(), lane_out_ptr_.data());
+    // results_ok's test: every result finite (seen as it moves) and, for forward dynamics, the
+    // pivots within bounds.
+    bool finite = true;
     for (size_t r = 0; r < rows_.size(); ++r) {
       const int rows = rows_[r], cols = cols_[r];
       const double* lane = lane_out_[r].data();
       double* to = at(r, s);  // the four states' results follow each other
       const int size = rows * cols;
       if (cols == 1) {
-        for (int i = 0; i < rows; ++i)
-          for (int l = 0; l < 4; ++l) to[l * size + i] = lane[4 * i + l];
+        finite &= lanes::deinterleave(lane, rows, to);
       } else {
         for (int l = 0; l < 4; ++l)
           for (int i = 0; i < rows; ++i)
             for (int j = 0; j < cols; ++j)
               to[l * size + i * cols + j] = lane[4 * (j * rows + i) + l];
+        finite &= all_finite_array(to, 4L * size);
       }
     }
-    return results_ok(s, 4);
+    return finite && (o_ != Output::forward_dynamics ||
+                      all_pivots_within_bounds(at(1, s), at(2, s), 4L * rows_[1]));
   }
 
  private:
   double* at(size_t r, long s) const { return results_[r] + s * rows_[r] * cols_[r]; }
+  // The cache lines of states s .. s + 3, inputs to read and results to write.
+  void prefetch_group(long s) const {
+    for (size_t i = 0; i < in_.size(); ++i)
+      for (long b = 0; b < 4L * sizes_[i]; b += 8)
+        __builtin_prefetch(inputs_[i] + s * sizes_[i] + b);
+    for (size_t r = 0; r < rows_.size(); ++r)
+      for (long b = 0; b < 4L * rows_[r] * cols_[r]; b += 8) __builtin_prefetch(at(r, s) + b, 1);
+  }
   // As CompiledModel::check: a base quaternion of a norm the model takes.
   bool quaternion_ok(long s) const {
     for (size_t i = 0; i < in_.size(); ++i) {
@@ -216,20 +225,18 @@ class CompiledModel::BatchCall {
     }
     return true;
   }
-  // check_forward_dynamics' test and eval's (every result finite), on the results of states
-  // s .. s + count - 1 (each result's states follow each other). Forward dynamics: qdd finite
-  // and each pivot within its bounds, which no inf or NaN is.
-  bool results_ok(long s, int count = 1) const {
+  // check_forward_dynamics' test and eval's (every result finite), on the results of state s.
+  // Forward dynamics: qdd finite and each pivot within its bounds, which no inf or NaN is. (four()
+  // makes the same test.)
+  bool results_ok(long s) const {
     if (o_ != Output::forward_dynamics) {
       bool ok = true;
       for (size_t r = 0; r < rows_.size(); ++r)
-        ok = ok && all_finite_array(at(r, s), count * rows_[r] * cols_[r]);
+        ok = ok && all_finite_array(at(r, s), rows_[r] * cols_[r]);
       return ok;
     }
-    const double *d = at(1, s), *scaled = at(2, s);
-    bool within = true;
-    for (int i = 0; i < count * rows_[1]; ++i) within &= pivot_within_bounds(d[i], scaled[i]);
-    return within && all_finite_array(at(0, s), count * rows_[0]);
+    return all_pivots_within_bounds(at(1, s), at(2, s), rows_[1]) &&
+           all_finite_array(at(0, s), rows_[0]);
   }
   // The checks that name what failed (evaluate()'s and eval's); they throw.
   void check_inputs(long s) const {
@@ -402,7 +409,7 @@ void CompiledModel::ForwardDynamicsCall::operator()(const double* q, const doubl
     // model takes (the same expression as check()'s), finite accelerations, pivots in bounds.
     bool ok = all_finite_array(q, nq) & all_finite_array(qd, nv) & all_finite_array(Q, nv) &
               all_finite_array(qdd, nv);
-    for (int i = 0; i < nv; ++i) ok &= pivot_within_bounds(pivots_[i], scaled_pivots_[i]);
+    ok &= all_pivots_within_bounds(pivots_.data(), scaled_pivots_.data(), nv);
     if (k >= 0)
       ok = ok && ConfigurationSpace::takes_quaternion_norm(Map(q, nq).segment(k, 4).norm());
     if (ok) return;

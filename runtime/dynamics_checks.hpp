@@ -6,6 +6,10 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -79,6 +83,27 @@ inline constexpr double kMaxScaledCondition = 1e14;
 inline bool pivot_within_bounds(double d, double scaled) {
   constexpr double inf = std::numeric_limits<double>::infinity();
   return (d > 0) & (d < inf) & (scaled > 1 / kMaxScaledCondition) & (scaled < inf);
+}
+
+// The same test on n pairs (d[i], scaled[i]). Two at a time in SSE2 registers (every x86-64
+// has them): one comparison each and no branch per entry, where the scalar loop's four
+// comparisons and flags per entry took a tenth of a checked 4-lane batch's time.
+inline bool all_pivots_within_bounds(const double* d, const double* scaled, long n) {
+  long i = 0;
+  bool ok = true;
+#if defined(__SSE2__)
+  const __m128d zero = _mm_setzero_pd(), inf = _mm_set1_pd(std::numeric_limits<double>::infinity()),
+                floor = _mm_set1_pd(1 / kMaxScaledCondition);
+  __m128d all = _mm_castsi128_pd(_mm_set1_epi64x(-1));
+  for (; i + 2 <= n; i += 2) {
+    const __m128d a = _mm_loadu_pd(d + i), b = _mm_loadu_pd(scaled + i);
+    all = _mm_and_pd(all, _mm_and_pd(_mm_and_pd(_mm_cmpgt_pd(a, zero), _mm_cmplt_pd(a, inf)),
+                                     _mm_and_pd(_mm_cmpgt_pd(b, floor), _mm_cmplt_pd(b, inf))));
+  }
+  ok = _mm_movemask_pd(all) == 3;
+#endif
+  for (; i < n; ++i) ok &= pivot_within_bounds(d[i], scaled[i]);
+  return ok;
 }
 
 // pivots: D_i of M = L D L^T; all positive exactly when M is positive definite.

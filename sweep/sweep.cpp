@@ -266,10 +266,19 @@ std::string StudyRunner::reference_row(long run, std::string* series) const {
                      model.num_base() ? model.momentum(q, qd) : none,
                      scale.cwiseProduct(signal(t)));
     };
-    integrate_motion(
-        model, run_setup.q0, run_setup.qd0,
-        [&](double t) -> Eigen::VectorXd { return scale.cwiseProduct(replay(t)); }, s.t_end,
-        s.integrator.dt, opt, observe);
+    // The replayed torques times the run's scale (into the integrator's workspace: nothing
+    // allocated per evaluation).
+    struct ScaledTorque {
+      const TorqueReplay<Eigen::Dynamic>& replay;
+      const Eigen::VectorXd& scale;
+      Eigen::VectorXd operator()(double t) const { return scale.cwiseProduct(replay(t)); }
+      void evaluate(double t, Eigen::VectorXd& tau) const {
+        replay.evaluate(t, tau);
+        tau.array() *= scale.array();
+      }
+    } torque{replay, scale};
+    integrate_motion(model, run_setup.q0, run_setup.qd0, torque, s.t_end, s.integrator.dt, opt,
+                     observe);
     const std::string row = ok_row(run, params, record.measured(), ratio);
     if (series) *series = record.series();
     return row;

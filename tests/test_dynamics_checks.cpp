@@ -6,7 +6,9 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
 #include <limits>
+#include <vector>
 
 #include "support.hpp"
 
@@ -26,6 +28,26 @@ TEST(DynamicsChecks, AllFiniteFindsEveryNonFiniteEntry) {
       v[i] = bad;
       EXPECT_FALSE(all_finite(ok, v)) << "entry " << i << " = " << bad;
     }
+}
+
+// The test on many pairs at once (two per SSE2 register) is the test on each pair: every value
+// at either side of each bound, at every position of arrays of odd and even length.
+TEST(DynamicsChecks, AllPivotsWithinBoundsIsEachPairsTest) {
+  const double floor = 1 / kMaxScaledCondition;
+  const std::array<double, 11> values{0.0,   -0.0, -1.0,  1.0,  floor, std::nextafter(floor, 1.0),
+                                      1e308, kInf, -kInf, kNaN, 5e-324};
+  for (int n = 1; n <= 7; ++n)
+    for (int at = 0; at < n; ++at)
+      for (double v : values)
+        for (bool in_scaled : {false, true}) {
+          std::vector<double> d(n, 2.0), scaled(n, 0.5);
+          (in_scaled ? scaled : d)[at] = v;
+          bool each = true;
+          for (int i = 0; i < n; ++i) each &= pivot_within_bounds(d[i], scaled[i]);
+          EXPECT_EQ(all_pivots_within_bounds(d.data(), scaled.data(), n), each)
+              << "n " << n << ", " << (in_scaled ? "scaled" : "d") << "[" << at << "] = " << v;
+        }
+  EXPECT_TRUE(all_pivots_within_bounds(nullptr, nullptr, 0));
 }
 
 TEST(DynamicsChecks, InputsNameTheNonFiniteEntry) {

@@ -1,7 +1,7 @@
 // sweep/lockstep_runs.cpp: after its set-up a run allocates nothing per step. Every allocation
 // of the process is counted (malloc itself, which Eigen and operator new both call), and a run
 // three times as long must allocate no more than the short one; the reference path, which
-// allocates on every call, shows that the count sees a step's allocations. The rows' bytes across
+// allocates at every sample, shows that the count sees a step's allocations. The rows' bytes across
 // the paths are test_sweep's.
 #include <gtest/gtest.h>
 
@@ -52,7 +52,8 @@ TEST(LockstepRuns, AllocateNothingPerStep) {
     RecordProperty("allocations_lanes_" + std::to_string(lanes),
                    std::to_string(once) + " then " + std::to_string(thrice));
   }
-  // The reference path allocates on every call: the count sees it.
+  // The reference path allocates at every sample (the metrics through DynamicModel's functions,
+  // which return vectors): the count sees it.
   const long once = allocations_of(short_runs, 0), thrice = allocations_of(long_runs, 0);
   EXPECT_GT(thrice, once + 4 * 200 * 4) << once << " then " << thrice;
   RecordProperty("allocations_reference", std::to_string(once) + " then " + std::to_string(thrice));
