@@ -180,7 +180,7 @@ class CompiledModel::BatchCall {
         return false;
     for (int l = 0; l < 4 && has_quaternion_; ++l)
       if (!quaternion_ok(s + l)) return false;
-    prefetch_group(s + 4);  // while the function computes: a batch streams through memory
+    prefetch(s + 4, 4);  // while the function computes: a batch streams through memory
     lanes(lane_in_ptr_.data(), lane_params_.data(), lane_out_ptr_.data());
     // results_ok's test: every result finite (seen as it moves) and, for forward dynamics, the
     // pivots within bounds.
@@ -206,13 +206,13 @@ class CompiledModel::BatchCall {
 
  private:
   double* at(size_t r, long s) const { return results_[r] + s * rows_[r] * cols_[r]; }
-  // The cache lines of states s .. s + 3, inputs to read and results to write.
-  void prefetch_group(long s) const {
+  // The cache lines of states s .. s + count - 1, inputs to read and results to write.
+  void prefetch(long s, int count) const {
     for (size_t i = 0; i < in_.size(); ++i)
-      for (long b = 0; b < 4L * sizes_[i]; b += 8)
+      for (long b = 0; b < count * sizes_[i]; b += 8)
         __builtin_prefetch(inputs_[i] + s * sizes_[i] + b);
     for (size_t r = 0; r < rows_.size(); ++r)
-      for (long b = 0; b < 4L * rows_[r] * cols_[r]; b += 8) __builtin_prefetch(at(r, s) + b, 1);
+      for (long b = 0; b < count * rows_[r] * cols_[r]; b += 8) __builtin_prefetch(at(r, s) + b, 1);
   }
   // As CompiledModel::check: a base quaternion of a norm the model takes.
   bool quaternion_ok(long s) const {
