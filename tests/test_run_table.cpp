@@ -2,6 +2,7 @@
 // to a bound with the last row kept; bad files are errors naming the line and column.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <fstream>
@@ -15,7 +16,11 @@ using spacearm::cli::read_run_table;
 
 class RunTableTest : public ::testing::Test {
  protected:
-  std::string path = ::testing::TempDir() + "run_table_test.csv";
+  // A file per test and process: ctest runs the tests of this fixture at once, in processes of
+  // their own, and one's TearDown would remove another's file.
+  std::string path = ::testing::TempDir() + "run_table_test_" +
+                     ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_" +
+                     std::to_string(::getpid()) + ".csv";
   void write(const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
   void TearDown() override { std::remove(path.c_str()); }
   std::string error(long max_rows = 100) {
@@ -103,7 +108,8 @@ TEST_F(RunTableTest, LongLinesAreRefusedBeforeTheyFillMemory) {
 }
 
 TEST_F(RunTableTest, RefusesWhatIsNotARegularFile) {
-  const std::string fifo = ::testing::TempDir() + "run_table_test.fifo";
+  const std::string fifo =
+      ::testing::TempDir() + "run_table_test_" + std::to_string(::getpid()) + ".fifo";
   std::remove(fifo.c_str());
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
   try {
