@@ -8,7 +8,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -41,30 +40,31 @@ TorqueSignal<Eigen::Dynamic> torques(int N) {
 }
 
 // An integration to t_end from (q0, qd0), sampled every 0.01 s: the samples of q end to end,
-// and the allocations it made. With replay the torque samples are breakpoints (dopri5 takes
-// controlled steps), else dopri5 takes dense output.
+// and the allocations it made. With breakpoints at the torque samples dopri5 takes controlled
+// steps, without them dense output. (One integrate_motion per model type: each instantiates
+// every method, the test's compile time.)
 struct Integration {
   std::vector<double> q;
   long allocations = 0;
 };
 template <class Mdl, class Vector, class Velocity>
 Integration run(const Mdl& model, const Vector& q0, const Velocity& qd0, int num_links,
-                Method method, bool replay, double t_end) {
+                Method method, bool breakpoints, double t_end) {
   const TorqueSignal<Eigen::Dynamic> tau = torques(num_links);
   IntegratorOptions opt;
   opt.method = method;
-  std::optional<TorqueReplay<Eigen::Dynamic>> replayed;
-  if (replay) replayed.emplace(tau, opt, "dt");
+  const TorqueReplay<Eigen::Dynamic> replay(tau, opt, "dt");
+  if (!breakpoints) {  // linear interpolation: the replay is then the signal itself
+    opt.breakpoint_interval = 0;
+    opt.step_begin = nullptr;
+  }
   Integration r;
   r.q.reserve(400 * q0.size());  // the observer allocates nothing either
   auto observe = [&r](double, const auto& q, const auto&) {
     r.q.insert(r.q.end(), q.data(), q.data() + q.size());
   };
   counting_malloc::start();
-  if (replay)
-    integrate_motion(model, q0, qd0, *replayed, t_end, 0.01, opt, observe);
-  else
-    integrate_motion(model, q0, qd0, tau, t_end, 0.01, opt, observe);
+  integrate_motion(model, q0, qd0, replay, t_end, 0.01, opt, observe);
   r.allocations = counting_malloc::stop();
   EXPECT_EQ(r.q.size(), (std::lround(t_end / 0.01) + 1) * q0.size());
   return r;
@@ -78,18 +78,18 @@ DynamicModel without_workspace(DynamicModel d) {
 
 void expect_no_allocation_per_step(const DynamicModel& d, const Eigen::VectorXd& q0) {
   const Eigen::VectorXd qd0 = Eigen::VectorXd::Constant(d.nv, 0.01);
-  for (const auto& [method, replay] : {std::pair{Method::rk4, true},
-                                       {Method::dopri5, true},
-                                       {Method::dopri5, false},
-                                       {Method::rkf78, true}}) {
-    SCOPED_TRACE(to_string(method) + (replay ? " replayed" : " dense"));
-    const Integration once = run(d, q0, qd0, d.num_links, method, replay, 1.0);
-    const Integration thrice = run(d, q0, qd0, d.num_links, method, replay, 3.0);
+  for (const auto& [method, breakpoints] : {std::pair{Method::rk4, true},
+                                            {Method::dopri5, true},
+                                            {Method::dopri5, false},
+                                            {Method::rkf78, true}}) {
+    SCOPED_TRACE(to_string(method) + (breakpoints ? " with breakpoints" : " dense"));
+    const Integration once = run(d, q0, qd0, d.num_links, method, breakpoints, 1.0);
+    const Integration thrice = run(d, q0, qd0, d.num_links, method, breakpoints, 3.0);
     EXPECT_EQ(thrice.allocations, once.allocations);
     EXPECT_GT(once.allocations, 0);  // the count sees the set-up's
     // Without the workspace: an allocation on every evaluation, and the same samples.
     const Integration checked =
-        run(without_workspace(d), q0, qd0, d.num_links, method, replay, 3.0);
+        run(without_workspace(d), q0, qd0, d.num_links, method, breakpoints, 3.0);
     EXPECT_GT(checked.allocations, thrice.allocations + 300);
     EXPECT_EQ(checked.q, thrice.q);
   }
