@@ -25,7 +25,16 @@ __attribute__((target("avx2"))) inline void transpose(__m256d& a, __m256d& b, __
   d = _mm256_permute2f128_pd(t1, t3, 0x31);
 }
 
-// x * 0 is 0 for a finite x and NaN otherwise (all_finite_array's test), on whole registers.
+// sum + a * 0 + b * 0 + c * 0 + d * 0: x * 0 is 0 for a finite x and NaN otherwise
+// (all_finite_array's test), on whole registers.
+__attribute__((target("avx2"))) inline __m256d plus_times_zero(__m256d sum, __m256d a, __m256d b,
+                                                               __m256d c, __m256d d) {
+  const __m256d zero = _mm256_setzero_pd();
+  return _mm256_add_pd(
+      sum, _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a, zero), _mm256_mul_pd(b, zero)),
+                         _mm256_add_pd(_mm256_mul_pd(c, zero), _mm256_mul_pd(d, zero))));
+}
+
 __attribute__((target("avx2"))) bool interleave_avx2(const double* x, int n, double* lane) {
   const __m256d zero = _mm256_setzero_pd();
   __m256d sum = zero;
@@ -33,9 +42,7 @@ __attribute__((target("avx2"))) bool interleave_avx2(const double* x, int n, dou
   for (; j + 4 <= n; j += 4) {
     __m256d a = _mm256_loadu_pd(x + j), b = _mm256_loadu_pd(x + n + j);
     __m256d c = _mm256_loadu_pd(x + 2 * n + j), d = _mm256_loadu_pd(x + 3 * n + j);
-    sum = _mm256_add_pd(
-        sum, _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a, zero), _mm256_mul_pd(b, zero)),
-                           _mm256_add_pd(_mm256_mul_pd(c, zero), _mm256_mul_pd(d, zero))));
+    sum = plus_times_zero(sum, a, b, c, d);
     transpose(a, b, c, d);
     _mm256_storeu_pd(lane + 4 * j, a);
     _mm256_storeu_pd(lane + 4 * j + 4, b);
@@ -57,9 +64,7 @@ __attribute__((target("avx2"))) bool deinterleave_avx2(const double* lane, int n
   for (; j + 4 <= n; j += 4) {
     __m256d a = _mm256_loadu_pd(lane + 4 * j), b = _mm256_loadu_pd(lane + 4 * j + 4);
     __m256d c = _mm256_loadu_pd(lane + 4 * j + 8), d = _mm256_loadu_pd(lane + 4 * j + 12);
-    sum = _mm256_add_pd(
-        sum, _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a, zero), _mm256_mul_pd(b, zero)),
-                           _mm256_add_pd(_mm256_mul_pd(c, zero), _mm256_mul_pd(d, zero))));
+    sum = plus_times_zero(sum, a, b, c, d);
     transpose(a, b, c, d);
     _mm256_storeu_pd(x + j, a);
     _mm256_storeu_pd(x + n + j, b);

@@ -214,13 +214,14 @@ class CompiledModel::BatchCall {
     for (size_t r = 0; r < rows_.size(); ++r)
       for (long b = 0; b < count * rows_[r] * cols_[r]; b += 8) __builtin_prefetch(at(r, s) + b, 1);
   }
-  // As CompiledModel::check: a base quaternion of a norm the model takes.
+  // As CompiledModel::check, in its expression (a fixed-size norm may round differently): a
+  // base quaternion of a norm the model takes.
   bool quaternion_ok(long s) const {
     for (size_t i = 0; i < in_.size(); ++i) {
       if (!quaternion_[i]) continue;
-      const double norm =
-          Eigen::Map<const Eigen::Vector4d>(inputs_[i] + s * sizes_[i] + m_.quaternion_offset_)
-              .norm();
+      const double norm = Eigen::Map<const Eigen::VectorXd>(inputs_[i] + s * sizes_[i], sizes_[i])
+                              .segment(m_.quaternion_offset_, 4)
+                              .norm();
       if (!ConfigurationSpace::takes_quaternion_norm(norm)) return false;
     }
     return true;
