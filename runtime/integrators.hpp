@@ -437,13 +437,11 @@ class RosenbrockStepper {
   IntegrationStats& stats_;
 };
 
-}  // namespace detail
-
-// Integrates dx/dt = f(x, t) from t0 to t1, calling observe(x, t) at t0 + k * dt_out
-// (and at t1). The fixed-step methods need dt_out to be a multiple of opt.dt.
+// integrate() for any state type; integrate() below sends run-time-sized states to
+// integrate_dynamic.
 template <class State, class System, class Observer>
-IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, double t0, double t1,
-                           double dt_out, Observer&& observe) {
+IntegrationStats integrate_states(const IntegratorOptions& opt, System&& f, State& x, double t0,
+                                  double t1, double dt_out, Observer&& observe) {
   namespace odeint = boost::numeric::odeint;
   using Algebra = odeint::vector_space_algebra;
   IntegrationStats stats;
@@ -499,6 +497,34 @@ IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, d
     throw detail::integration_error(opt.method, e.what(), run.t_ok, run.x_ok);
   }
   return stats;
+}
+
+}  // namespace detail
+
+using DynamicSystem =
+    std::function<void(const Eigen::VectorXd& x, Eigen::VectorXd& dxdt, double t)>;
+using DynamicObserver = std::function<void(const Eigen::VectorXd& x, double t)>;
+
+// integrate() on run-time-sized states (every DynamicModel), compiled once in the runtime
+// library (integrators.cpp) rather than in every file that integrates: the methods' code is
+// most of such a file's compile time. f and observe are called through std::function, an
+// indirect call per evaluation next to the hundreds of operations of the dynamics.
+IntegrationStats integrate_dynamic(const IntegratorOptions& opt, const DynamicSystem& f,
+                                   Eigen::VectorXd& x, double t0, double t1, double dt_out,
+                                   const DynamicObserver& observe);
+
+// Integrates dx/dt = f(x, t) from t0 to t1, calling observe(x, t) at t0 + k * dt_out
+// (and at t1). The fixed-step methods need dt_out to be a multiple of opt.dt.
+template <class State, class System, class Observer>
+IntegrationStats integrate(const IntegratorOptions& opt, System&& f, State& x, double t0, double t1,
+                           double dt_out, Observer&& observe) {
+  if constexpr (std::is_same_v<State, Eigen::VectorXd>) {
+    // std::ref: the std::functions refer to f and observe, never copying (or allocating).
+    return integrate_dynamic(opt, DynamicSystem(std::ref(f)), x, t0, t1, dt_out,
+                             DynamicObserver(std::ref(observe)));
+  } else {
+    return detail::integrate_states(opt, f, x, t0, t1, dt_out, observe);
+  }
 }
 
 // One step of the implicit midpoint rule x1 = x0 + h f((x0 + x1)/2, t + h/2), solved by
