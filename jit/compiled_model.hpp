@@ -121,7 +121,8 @@ class CompiledModel {
   // once; each state's inputs as evaluate() does, forward_dynamics' results by
   // check_forward_dynamics and every result for overflow (DynamicsError). With k > 1 an error
   // names its state ("state s: ..."). lanes = 4: four states per call where the output has a
-  // 4-lane function (the same bits); 1: one state per call.
+  // 4-lane function (the same bits); 1: one state per call. A null results[r]: result r is
+  // computed and checked but not kept (forward_dynamics' pivots, which serve the checks).
   void evaluate_batch(Output o, long k, const std::vector<const double*>& inputs,
                       const Eigen::VectorXd& params, const std::vector<double*>& results,
                       int lanes = 4) const;

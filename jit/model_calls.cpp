@@ -139,10 +139,12 @@ class CompiledModel::BatchCall {
       quaternion_.push_back(i == Input::q && m.quaternion_offset_ >= 0);
       has_quaternion_ = has_quaternion_ || quaternion_.back();
     }
-    for (const auto& r : out_.results) {
-      rows_.push_back(m.dims_(r.rows));
-      cols_.push_back(m.dims_(r.cols));
+    for (size_t r = 0; r < out_.results.size(); ++r) {
+      rows_.push_back(m.dims_(out_.results[r].rows));
+      cols_.push_back(m.dims_(out_.results[r].cols));
       scratch_.emplace_back(cols_.back() > 1 ? rows_.back() * cols_.back() : 0);
+      // A result not kept goes to room for one group of four states, in cache.
+      discard_.emplace_back(results_[r] ? 0 : 4 * rows_.back() * cols_.back());
     }
   }
 
@@ -183,9 +185,13 @@ class CompiledModel::BatchCall {
     prefetch(s + 4, 4);  // while the function computes: a batch streams through memory
     lanes(lane_in_ptr_.data(), lane_params_.data(), lane_out_ptr_.data());
     // results_ok's test: every result finite (seen as it moves) and, for forward dynamics, the
-    // pivots within bounds.
+    // pivots within bounds (which no inf or NaN is). Pivots not kept are tested where they are,
+    // in the lanes' layout: the test pairs entries, in any one layout.
+    const bool fd = o_ == Output::forward_dynamics;
+    const bool pivots_in_lanes = fd && !results_[1] && !results_[2];
     bool finite = true;
     for (size_t r = 0; r < rows_.size(); ++r) {
+      if (pivots_in_lanes && r > 0) continue;
       const int rows = rows_[r], cols = cols_[r];
       const double* lane = lane_out_[r].data();
       double* to = at(r, s);  // the four states' results follow each other
@@ -200,19 +206,29 @@ class CompiledModel::BatchCall {
         finite &= all_finite_array(to, 4L * size);
       }
     }
-    return finite && (o_ != Output::forward_dynamics ||
-                      all_pivots_within_bounds(at(1, s), at(2, s), 4L * rows_[1]));
+    if (!fd) return finite;
+    if (pivots_in_lanes)
+      return finite &&
+             all_pivots_within_bounds(lane_out_[1].data(), lane_out_[2].data(), 4L * rows_[1]);
+    return finite && all_pivots_within_bounds(at(1, s), at(2, s), 4L * rows_[1]);
   }
 
  private:
-  double* at(size_t r, long s) const { return results_[r] + s * rows_[r] * cols_[r]; }
+  // Where state s's result r goes: the caller's array, or the room of a result not kept (the
+  // checks read it before the next state of the same lane is written).
+  double* at(size_t r, long s) {
+    return results_[r] ? results_[r] + s * rows_[r] * cols_[r]
+                       : discard_[r].data() + (s & 3) * rows_[r] * cols_[r];
+  }
   // The cache lines of states s .. s + count - 1, inputs to read and results to write.
-  void prefetch(long s, int count) const {
+  void prefetch(long s, int count) {
     for (size_t i = 0; i < in_.size(); ++i)
       for (long b = 0; b < count * sizes_[i]; b += 8)
         __builtin_prefetch(inputs_[i] + s * sizes_[i] + b);
     for (size_t r = 0; r < rows_.size(); ++r)
-      for (long b = 0; b < count * rows_[r] * cols_[r]; b += 8) __builtin_prefetch(at(r, s) + b, 1);
+      if (results_[r])
+        for (long b = 0; b < count * rows_[r] * cols_[r]; b += 8)
+          __builtin_prefetch(at(r, s) + b, 1);
   }
   // As CompiledModel::check, in its expression (a fixed-size norm may round differently): a
   // base quaternion of a norm the model takes.
@@ -229,7 +245,7 @@ class CompiledModel::BatchCall {
   // check_forward_dynamics' test and eval's (every result finite), on the results of state s.
   // Forward dynamics: qdd finite and each pivot within its bounds, which no inf or NaN is. (four()
   // makes the same test.)
-  bool results_ok(long s) const {
+  bool results_ok(long s) {
     if (o_ != Output::forward_dynamics) {
       bool ok = true;
       for (size_t r = 0; r < rows_.size(); ++r)
@@ -248,7 +264,7 @@ class CompiledModel::BatchCall {
                  sizes_[i]);
     });
   }
-  void check_results(long s) const {
+  void check_results(long s) {
     for_state(s, batch_, [&] {
       using Map = Eigen::Map<const Eigen::VectorXd>;
       if (o_ == Output::forward_dynamics)
@@ -274,7 +290,7 @@ class CompiledModel::BatchCall {
   std::vector<int> sizes_, rows_, cols_;
   std::vector<bool> quaternion_;
   bool has_quaternion_ = false;
-  std::vector<std::vector<double>> scratch_, lane_in_, lane_out_;
+  std::vector<std::vector<double>> scratch_, discard_, lane_in_, lane_out_;
   std::vector<double> lane_params_;
   std::vector<const double*> lane_in_ptr_;
   std::vector<double*> lane_out_ptr_;

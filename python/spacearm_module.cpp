@@ -244,7 +244,14 @@ py::object PyModel::call(Output o, const py::args& args, const py::object& param
   std::vector<const double*> in_ptrs;
   std::vector<double*> out_ptrs;
   for (const Array& a : arrays) in_ptrs.push_back(a.data());
+  // forward_dynamics returns qdd alone unless asked for its pivots, which otherwise only serve
+  // the checks and are not kept (null results).
+  const bool qdd_alone = o == Output::forward_dynamics && !all_results;
   for (const auto& spec : out.results) {
+    if (qdd_alone && !results.empty()) {
+      out_ptrs.push_back(nullptr);
+      continue;
+    }
     results.push_back(result_array(spec, dims, k, batch));
     out_ptrs.push_back(results.back().mutable_data());
   }
@@ -252,8 +259,6 @@ py::object PyModel::call(Output o, const py::args& args, const py::object& param
     py::gil_scoped_release release;
     model_.evaluate_batch(o, k, in_ptrs, params, out_ptrs, lanes_);
   }
-  // forward_dynamics returns qdd alone unless asked for its pivots (they served the checks).
-  if (o == Output::forward_dynamics && !all_results) results.resize(1);
   if (results.size() == 1) {
     if (!batch && results[0].ndim() == 0) return py::float_(*results[0].data());
     return std::move(results[0]);

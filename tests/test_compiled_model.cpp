@@ -437,6 +437,46 @@ TEST(CompiledModel, FourLanesComputeWhatTheScalarFunctionComputes) {
   fs::remove_all(cache);
 }
 
+// evaluate_batch with null results (forward_dynamics' pivots, which the Python binding does not
+// return): qdd is the same bits as with every result kept, on one lane and four, and a state
+// whose results fail the checks is still named.
+TEST(CompiledModel, BatchResultsNotKeptAreStillComputedAndChecked) {
+  const fs::path cache = fresh_cache("batch_null");
+  CompileOptions options;
+  options.cache_dir = cache.string();
+  const CompiledModel m = CompiledModel::load(
+      ModelRecipe::load(std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml"), options);
+  const int n = m.dimensions().nv;
+  const long k = 11;  // two groups of four and three states alone
+  std::vector<double> q(k * n), qd(k * n), Q(k * n);
+  for (size_t i = 0; i < q.size(); ++i) {
+    q[i] = std::sin(0.7 * i), qd[i] = std::cos(1.3 * i), Q[i] = 5 * std::sin(2.1 * i + 1);
+  }
+  const auto& nominal = m.nominal_parameters();
+  const Eigen::VectorXd params = Eigen::Map<const Eigen::VectorXd>(nominal.data(), nominal.size());
+  for (int lanes : {4, 1}) {
+    SCOPED_TRACE("lanes = " + std::to_string(lanes));
+    std::vector<double> qdd(k * n), pivots(k * n), scaled(k * n), qdd_alone(k * n, -1.0);
+    m.evaluate_batch(Output::forward_dynamics, k, {q.data(), qd.data(), Q.data()}, params,
+                     {qdd.data(), pivots.data(), scaled.data()}, lanes);
+    m.evaluate_batch(Output::forward_dynamics, k, {q.data(), qd.data(), Q.data()}, params,
+                     {qdd_alone.data(), nullptr, nullptr}, lanes);
+    EXPECT_EQ(std::memcmp(qdd.data(), qdd_alone.data(), qdd.size() * sizeof(double)), 0);
+    std::vector<double> bad = Q;
+    for (int i = 0; i < n; ++i) bad[6 * n + i] = 1e308;  // accelerations overflow in state 6
+    try {
+      m.evaluate_batch(Output::forward_dynamics, k, {q.data(), qd.data(), bad.data()}, params,
+                       {qdd_alone.data(), nullptr, nullptr}, lanes);
+      ADD_FAILURE() << "no error";
+    } catch (const DynamicsError& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(what.rfind("state 6: ", 0), 0u) << what;
+      EXPECT_NE(what.find("accelerations not finite"), std::string::npos) << what;
+    }
+  }
+  fs::remove_all(cache);
+}
+
 // An entry built for another instruction set this CPU runs stands in where none can be built
 // (no compiler, a folder that cannot be written); one for a set it does not run is named, never
 // loaded.

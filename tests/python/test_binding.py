@@ -129,8 +129,12 @@ def test_batches_on_four_lanes_are_the_bits_of_one_state_per_call(geared):
     bad[6, :] = 1e308  # in the second group of four: accelerations overflow there
     for lanes in (4, 1):
         geared.lanes = lanes
-        with pytest.raises(spacearm.DynamicsError, match="state 6: .*accelerations not finite"):
-            geared.forward_dynamics(q, qd, bad)
+        # qdd alone (its pivots computed and checked but not kept) is qdd with them
+        full = geared.forward_dynamics(q, qd, Q, pivots=True)
+        assert np.array_equal(full["qdd"], results["forward_dynamics"])
+        for pivots in (False, True):
+            with pytest.raises(spacearm.DynamicsError, match="state 6: .*accelerations not finite"):
+                geared.forward_dynamics(q, qd, bad, pivots=pivots)
     geared.lanes = 4
     with pytest.raises(ValueError, match="lanes: 1 or 4, got 2"):
         geared.lanes = 2
