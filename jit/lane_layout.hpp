@@ -12,6 +12,9 @@ bool interleave(const double* x, int n, double* lane);
 // The four lanes at lane (n entries each) back into four states one after the other at x;
 // false where an entry is not finite.
 bool deinterleave(const double* lane, int n, double* x);
+// all_pivots_within_bounds (dynamics_checks.hpp) on n pairs, four at a time with AVX2: the
+// test of a group's forward-dynamics pivots, in any one layout.
+bool pivots_within_bounds(const double* d, const double* scaled, long n);
 // Whether the AVX2 versions are in use (the CPU has AVX2).
 bool uses_avx2();
 // The portable versions, which the two above are without AVX2.

@@ -209,8 +209,8 @@ class CompiledModel::BatchCall {
     if (!fd) return finite;
     if (pivots_in_lanes)
       return finite &&
-             all_pivots_within_bounds(lane_out_[1].data(), lane_out_[2].data(), 4L * rows_[1]);
-    return finite && all_pivots_within_bounds(at(1, s), at(2, s), 4L * rows_[1]);
+             lanes::pivots_within_bounds(lane_out_[1].data(), lane_out_[2].data(), 4L * rows_[1]);
+    return finite && lanes::pivots_within_bounds(at(1, s), at(2, s), 4L * rows_[1]);
   }
 
  private:

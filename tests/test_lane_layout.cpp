@@ -9,6 +9,7 @@
 #include <random>
 #include <vector>
 
+#include "dynamics_checks.hpp"
 #include "lane_layout.hpp"
 
 namespace spacearm::lanes {
@@ -59,6 +60,33 @@ TEST(LaneLayout, SeesEveryEntryThatIsNotFinite) {
   std::vector<double> x(4 * 4, 1.7e308), lane(16);
   EXPECT_TRUE(interleave(x.data(), 4, lane.data()));
   EXPECT_TRUE(deinterleave(lane.data(), 4, x.data()));
+}
+
+// The pivot test four pairs at a time says what all_pivots_within_bounds says, for every n up to
+// seven registers and a remainder, with a pivot or a scaled pivot out of bounds anywhere.
+TEST(LaneLayout, PivotTestIsAllPivotsWithinBounds) {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(0.01, 1.0);
+  const double inf = std::numeric_limits<double>::infinity();
+  const double bad[] = {0.0, -1.0, inf, std::numeric_limits<double>::quiet_NaN(),
+                        0.5 / kMaxScaledCondition};
+  for (long n = 1; n <= 30; ++n) {
+    std::vector<double> d(n), scaled(n);
+    for (long i = 0; i < n; ++i) d[i] = 1e3 * u(rng), scaled[i] = u(rng);
+    EXPECT_TRUE(pivots_within_bounds(d.data(), scaled.data(), n)) << n;
+    for (long at = 0; at < n; ++at)
+      for (double b : bad)
+        for (std::vector<double>* v : {&d, &scaled}) {
+          const double kept = (*v)[at];
+          (*v)[at] = b;
+          const bool expected = all_pivots_within_bounds(d.data(), scaled.data(), n);
+          EXPECT_EQ(pivots_within_bounds(d.data(), scaled.data(), n), expected)
+              << "n " << n << " at " << at << " value " << b;
+          // Every bad value fails one of the two tests, but a small pivot is a good pivot.
+          EXPECT_EQ(expected, v == &d && b == 0.5 / kMaxScaledCondition);
+          (*v)[at] = kept;
+        }
+  }
 }
 
 }  // namespace
