@@ -1,6 +1,7 @@
 // Calling a loaded model: each exported function behind checks of its inputs (sizes,
 // finiteness, the parameters' ranges) and of its results, and the model as a source of the
 // runtime's one adapter (LoadedSource). Loading it is compiled_model.cpp's.
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <string>
@@ -148,23 +149,29 @@ class CompiledModel::BatchCall {
     }
   }
 
-  // State s by the scalar function; std::invalid_argument or DynamicsError naming it.
-  void one(long s) {
-    bool finite = true;
-    for (size_t i = 0; i < in_.size(); ++i) {
-      in_[i] = inputs_[i] + s * sizes_[i];
-      finite = finite && all_finite_array(in_[i], sizes_[i]);
+  // States from .. to - 1 by the scalar function; std::invalid_argument or DynamicsError naming
+  // the first that fails. The inputs are tested a run of states at a time (one sum each), and
+  // state by state only in a run that fails. State s's results are checked after state s + 1 is
+  // evaluated: the generated code has just stored them one by one, and the checks' paired loads
+  // would wait for those stores to reach the cache. A state's results are still checked before
+  // the next state's inputs, so the first failing state is the one named.
+  void scalar(long from, long to) {
+    constexpr long kRun = 16;
+    long pending = -1;  // evaluated, its results not yet checked
+    for (long run = from; run < to; run += kRun) {
+      const long end = std::min(to, run + kRun);
+      const bool run_ok = inputs_ok(run, end);
+      for (long s = run; s < end; ++s) {
+        if (!run_ok && !inputs_ok(s, s + 1)) {
+          if (pending >= 0) finish(pending);
+          check_inputs(s);  // throws, naming it
+        }
+        evaluate(s);
+        if (pending >= 0) finish(pending);
+        pending = s;
+      }
     }
-    if (!finite || (has_quaternion_ && !quaternion_ok(s))) check_inputs(s);  // throws, naming it
-    for (size_t r = 0; r < out_ptr_.size(); ++r)
-      out_ptr_[r] = cols_[r] > 1 ? scratch_[r].data() : at(r, s);
-    f_(in_.data(), params_.data(), out_ptr_.data());
-    for (size_t r = 0; r < out_ptr_.size(); ++r)
-      if (cols_[r] > 1)  // column-major to row-major
-        for (int i = 0; i < rows_[r]; ++i)
-          for (int j = 0; j < cols_[r]; ++j)
-            at(r, s)[i * cols_[r] + j] = scratch_[r][j * rows_[r] + i];
-    if (!results_ok(s)) check_results(s);  // throws, naming what
+    if (pending >= 0) finish(pending);
   }
 
   // States s .. s + 3 by the 4-lane function; false where a check fails (the caller takes them
@@ -214,8 +221,31 @@ class CompiledModel::BatchCall {
   }
 
  private:
+  // evaluate()'s input test on states from .. to - 1, pass or fail.
+  bool inputs_ok(long from, long to) {
+    bool finite = true;
+    for (size_t i = 0; i < in_.size(); ++i)
+      finite = finite && all_finite_array(inputs_[i] + from * sizes_[i], (to - from) * sizes_[i]);
+    for (long s = from; s < to && finite && has_quaternion_; ++s) finite = quaternion_ok(s);
+    return finite;
+  }
+  // State s by the scalar function, into at(r, s).
+  void evaluate(long s) {
+    for (size_t i = 0; i < in_.size(); ++i) in_[i] = inputs_[i] + s * sizes_[i];
+    for (size_t r = 0; r < out_ptr_.size(); ++r)
+      out_ptr_[r] = cols_[r] > 1 ? scratch_[r].data() : at(r, s);
+    f_(in_.data(), params_.data(), out_ptr_.data());
+    for (size_t r = 0; r < out_ptr_.size(); ++r)
+      if (cols_[r] > 1)  // column-major to row-major
+        for (int i = 0; i < rows_[r]; ++i)
+          for (int j = 0; j < cols_[r]; ++j)
+            at(r, s)[i * cols_[r] + j] = scratch_[r][j * rows_[r] + i];
+  }
+  void finish(long s) {
+    if (!results_ok(s)) check_results(s);  // throws, naming what
+  }
   // Where state s's result r goes: the caller's array, or the room of a result not kept (the
-  // checks read it before the next state of the same lane is written).
+  // checks read it before the same room is written again, four states later).
   double* at(size_t r, long s) {
     return results_[r] ? results_[r] + s * rows_[r] * cols_[r]
                        : discard_[r].data() + (s & 3) * rows_[r] * cols_[r];
@@ -311,9 +341,8 @@ void CompiledModel::evaluate_batch(Output o, long k, const std::vector<const dou
   // names the first failing state as the scalar path does.
   if (const Function four = lanes == 4 ? lanes_function(o) : nullptr)
     for (; s + 4 <= k; s += 4)
-      if (!call.four(four, s))
-        for (long j = s; j < s + 4; ++j) call.one(j);
-  for (; s < k; ++s) call.one(s);
+      if (!call.four(four, s)) call.scalar(s, s + 4);
+  call.scalar(s, k);
 }
 
 Eigen::MatrixXd CompiledModel::mass_matrix(const Eigen::VectorXd& q,

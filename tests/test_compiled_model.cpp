@@ -438,22 +438,38 @@ TEST(CompiledModel, FourLanesComputeWhatTheScalarFunctionComputes) {
 }
 
 // evaluate_batch with null results (forward_dynamics' pivots, which the Python binding does not
-// return): qdd is the same bits as with every result kept, on one lane and four, and a state
-// whose results fail the checks is still named.
-TEST(CompiledModel, BatchResultsNotKeptAreStillComputedAndChecked) {
+// return): qdd is the same bits as with every result kept, on one lane and four. Whatever fails
+// first names its state, inputs or results, across the scalar path's runs of 16 states (its
+// inputs tested a run at a time, a state's results after the next state is evaluated).
+TEST(CompiledModel, BatchesNameTheFirstFailingStateAndResultsNotKeptAreStillChecked) {
   const fs::path cache = fresh_cache("batch_null");
   CompileOptions options;
   options.cache_dir = cache.string();
   const CompiledModel m = CompiledModel::load(
       ModelRecipe::load(std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml"), options);
   const int n = m.dimensions().nv;
-  const long k = 11;  // two groups of four and three states alone
+  const long k = 37;  // nine groups of four and one state alone; two runs of 16 and five
   std::vector<double> q(k * n), qd(k * n), Q(k * n);
   for (size_t i = 0; i < q.size(); ++i) {
     q[i] = std::sin(0.7 * i), qd[i] = std::cos(1.3 * i), Q[i] = 5 * std::sin(2.1 * i + 1);
   }
   const auto& nominal = m.nominal_parameters();
   const Eigen::VectorXd params = Eigen::Map<const Eigen::VectorXd>(nominal.data(), nominal.size());
+  // The message of the error of a batch where q and Q are changed by `edit`, qdd alone kept.
+  auto error = [&](int lanes,
+                   const std::function<void(std::vector<double>&, std::vector<double>&)>& edit)
+      -> std::string {
+    std::vector<double> q1 = q, Q1 = Q, qdd(k * n);
+    edit(q1, Q1);
+    try {
+      m.evaluate_batch(Output::forward_dynamics, k, {q1.data(), qd.data(), Q1.data()}, params,
+                       {qdd.data(), nullptr, nullptr}, lanes);
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
   for (int lanes : {4, 1}) {
     SCOPED_TRACE("lanes = " + std::to_string(lanes));
     std::vector<double> qdd(k * n), pivots(k * n), scaled(k * n), qdd_alone(k * n, -1.0);
@@ -462,17 +478,23 @@ TEST(CompiledModel, BatchResultsNotKeptAreStillComputedAndChecked) {
     m.evaluate_batch(Output::forward_dynamics, k, {q.data(), qd.data(), Q.data()}, params,
                      {qdd_alone.data(), nullptr, nullptr}, lanes);
     EXPECT_EQ(std::memcmp(qdd.data(), qdd_alone.data(), qdd.size() * sizeof(double)), 0);
-    std::vector<double> bad = Q;
-    for (int i = 0; i < n; ++i) bad[6 * n + i] = 1e308;  // accelerations overflow in state 6
-    try {
-      m.evaluate_batch(Output::forward_dynamics, k, {q.data(), qd.data(), bad.data()}, params,
-                       {qdd_alone.data(), nullptr, nullptr}, lanes);
-      ADD_FAILURE() << "no error";
-    } catch (const DynamicsError& e) {
-      const std::string what = e.what();
-      EXPECT_EQ(what.rfind("state 6: ", 0), 0u) << what;
-      EXPECT_NE(what.find("accelerations not finite"), std::string::npos) << what;
-    }
+    // Accelerations overflow in state 6 (torques of 1e308); q not finite in state 20.
+    auto overflow = [n](std::vector<double>& Q1, long s) {
+      for (int i = 0; i < n; ++i) Q1[s * n + i] = 1e308;
+    };
+    std::string what = error(lanes, [&](auto&, auto& Q1) { overflow(Q1, 6); });
+    EXPECT_EQ(what.rfind("state 6: ", 0), 0u) << what;
+    EXPECT_NE(what.find("accelerations not finite"), std::string::npos) << what;
+    what = error(lanes, [&](auto& q1, auto&) { q1[20 * n + 2] = nan; });
+    EXPECT_EQ(what.rfind("state 20: q[2] is not finite", 0), 0u) << what;
+    // Results failing in state 5 come before inputs failing in state 6, and the other way round.
+    what = error(lanes, [&](auto& q1, auto& Q1) { overflow(Q1, 5), q1[6 * n] = nan; });
+    EXPECT_EQ(what.rfind("state 5: ", 0), 0u) << what;
+    what = error(lanes, [&](auto& q1, auto& Q1) { q1[5 * n] = nan, overflow(Q1, 6); });
+    EXPECT_EQ(what.rfind("state 5: q[0] is not finite", 0), 0u) << what;
+    what = error(lanes, [&](auto& q1, auto& Q1) { overflow(Q1, 15), q1[16 * n] = nan; });
+    EXPECT_EQ(what.rfind("state 15: ", 0), 0u) << what;
+    EXPECT_NE(what.find("accelerations not finite"), std::string::npos) << what;
   }
   fs::remove_all(cache);
 }
