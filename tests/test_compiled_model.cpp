@@ -478,6 +478,22 @@ TEST(CompiledModel, BatchesNameTheFirstFailingStateAndResultsNotKeptAreStillChec
     m.evaluate_batch(Output::forward_dynamics, k, {q.data(), qd.data(), Q.data()}, params,
                      {qdd_alone.data(), nullptr, nullptr}, lanes);
     EXPECT_EQ(std::memcmp(qdd.data(), qdd_alone.data(), qdd.size() * sizeof(double)), 0);
+    // One pivot array kept, the other not (the scaled ones go to the room of results not kept).
+    std::vector<double> qdd2(k * n), pivots2(k * n);
+    m.evaluate_batch(Output::forward_dynamics, k, {q.data(), qd.data(), Q.data()}, params,
+                     {qdd2.data(), pivots2.data(), nullptr}, lanes);
+    EXPECT_EQ(qdd2, qdd);
+    EXPECT_EQ(pivots2, pivots);
+    // A matrix result not kept (transposed into that room), and a state named all the same.
+    std::vector<double> bad_q = q;
+    bad_q[3 * n + 1] = std::numeric_limits<double>::infinity();
+    m.evaluate_batch(Output::mass_matrix, k, {q.data()}, params, {nullptr}, lanes);
+    try {
+      m.evaluate_batch(Output::mass_matrix, k, {bad_q.data()}, params, {nullptr}, lanes);
+      ADD_FAILURE() << "no error";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("state 3: q[1] is not finite", 0), 0u) << e.what();
+    }
     // Accelerations overflow in state 6 (torques of 1e308); q not finite in state 20.
     auto overflow = [n](std::vector<double>& Q1, long s) {
       for (int i = 0; i < n; ++i) Q1[s * n + i] = 1e308;
