@@ -214,10 +214,9 @@ class CompiledModel::BatchCall {
       }
     }
     if (!fd) return finite;
-    if (pivots_in_lanes)
-      return finite &&
-             lanes::pivots_within_bounds(lane_out_[1].data(), lane_out_[2].data(), 4L * rows_[1]);
-    return finite && lanes::pivots_within_bounds(at(1, s), at(2, s), 4L * rows_[1]);
+    const double* d = pivots_in_lanes ? lane_out_[1].data() : at(1, s);
+    const double* scaled = pivots_in_lanes ? lane_out_[2].data() : at(2, s);
+    return finite && lanes::pivots_within_bounds(d, scaled, 4L * rows_[1]);
   }
 
  private:

@@ -247,12 +247,12 @@ py::object PyModel::call(Output o, const py::args& args, const py::object& param
   // forward_dynamics returns qdd alone unless asked for its pivots, which otherwise only serve
   // the checks and are not kept (null results).
   const bool qdd_alone = o == Output::forward_dynamics && !all_results;
-  for (const auto& spec : out.results) {
-    if (qdd_alone && !results.empty()) {
+  for (size_t r = 0; r < out.results.size(); ++r) {
+    if (qdd_alone && r > 0) {
       out_ptrs.push_back(nullptr);
       continue;
     }
-    results.push_back(result_array(spec, dims, k, batch));
+    results.push_back(result_array(out.results[r], dims, k, batch));
     out_ptrs.push_back(results.back().mutable_data());
   }
   {
