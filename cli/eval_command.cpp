@@ -91,7 +91,7 @@ void evaluate_compiled(const ModelRecipe& scene, const EvalArgs& a, const EvalIn
   CompileOptions options;
   options.cache_dir = a.cache_dir;
   options.progress = [verbose = a.verbose](const std::string& m) {
-    if (verbose || m.rfind("compiling", 0) == 0 || m.rfind("deriving", 0) == 0)
+    if (verbose || m.find("compiling") != std::string::npos || m.rfind("deriving", 0) == 0)
       std::fprintf(stderr, "spacearm: %s%s\n", m.c_str(), verbose ? "" : " ...");
   };
   StageReport rep;
@@ -149,19 +149,11 @@ int run_eval(const EvalArgs& a) {
   };
   EvalInputs in;
   in.values[Input::q] = cli::parse_vector(a.q_text, "--q", nq);
-  // Angles as the planner bounds them: beyond 1e6 rad sin and cos keep few digits (none at
-  // 1e16 in double, none at 1e100 in --symbolic's 40 digits, which then printed the stretched
-  // arm).
-  const std::vector<std::string>& names = facts.coordinate_names;
   const int first_angle = !facts.free_floating ? 0 : facts.dims.spatial ? 7 : 2;
-  for (int i = first_angle; i < nq; ++i)
-    if (!(std::abs(in.values[Input::q][i]) <= 1e6)) {
-      char value[32];
-      std::snprintf(value, sizeof value, "%g", in.values[Input::q][i]);
-      throw std::invalid_argument("--q[" + std::to_string(i) + "] (" + names[i] + ") = " + value +
-                                  " rad: angles must lie within +-1e6 rad (beyond, sin and cos "
-                                  "of them keep no digits)");
-    }
+  if (const std::string e = ConfigurationSpace::angle_error(in.values[Input::q], first_angle, "--q",
+                                                            facts.coordinate_names);
+      !e.empty())
+    throw std::invalid_argument(e);
   in.values[Input::qd] = vector(a.qd_text, "--qd", nv);
   in.values[Input::qdd] = vector(a.qdd_text, "--qdd", nv);
   in.values[Input::generalized_forces] = vector(a.forces_text, "--forces", nv);

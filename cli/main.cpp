@@ -61,6 +61,19 @@ void check_simulate_options(const CLI::App& command, const spacearm::SimulateArg
       throw CLI::ValidationError(option, "has no effect with --zero (no torque file)");
 }
 
+// An option given with an empty value (--q0 '', -o '') is an error, not its default: a script
+// whose variable came out empty must not run something other than what it meant.
+void refuse_empty_values(const CLI::App& command) {
+  for (const CLI::Option* option : command.get_options()) {
+    if (option->get_type_size() == 0 || option->count() == 0) continue;  // flags, absent
+    for (const std::string& value : option->results())
+      if (value.empty())
+        throw CLI::ValidationError(option->get_name(),
+                                   "an empty value; give one, or leave the option out for its "
+                                   "default");
+  }
+}
+
 // A CLI11 check: the option's text is one finite positive (or, allow_zero, non-negative)
 // number, parsed strictly.
 CLI::Validator positive_number(bool allow_zero = false) {
@@ -183,6 +196,12 @@ CLI::App* add_simulate(CLI::App& app, spacearm::SimulateArgs& a) {
                        "(motors at p q, springs pre-deflected for the first torque), its link-side "
                        "torques (a motor gets tau_i/p_i); --t-end defaults to its end")
           ->excludes(torques_opt);
+  command
+      ->add_flag("--other-arm", a.other_arm,
+                 "With --plan: replay it even where this scene's end effector, from the plan's "
+                 "joint angles, is not where the plan's was (another arm's kinematics): a "
+                 "warning instead of the error")
+      ->needs(plan_opt);
   command->add_flag("--zero", a.zero_torque, "No torques (free motion)")
       ->excludes(torques_opt)
       ->excludes(plan_opt);
@@ -207,8 +226,15 @@ CLI::App* add_simulate(CLI::App& app, spacearm::SimulateArgs& a) {
   command->add_option("--dt-out", a.dt_out, "Output interval [s] (default: --dt)")
       ->check(positive_number())
       ->default_str("");
-  command->add_option("--rtol", a.rtol, "Relative tolerance of the adaptive methods")
-      ->check(positive_number());
+  command->add_option("--rtol", a.rtol, "Relative tolerance of the adaptive methods (at most 0.1)")
+      ->check(positive_number())
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            return std::strtod(text.c_str(), nullptr) <= 0.1
+                       ? ""
+                       : "must be at most 0.1 (a relative error of 10 %), got " + text;
+          },
+          "<= 0.1"));
   command->add_option("--atol", a.atol, "Absolute tolerance of the adaptive methods (>= 0)")
       ->check(positive_number(true));
   command
@@ -238,6 +264,11 @@ CLI::App* add_simulate(CLI::App& app, spacearm::SimulateArgs& a) {
       "-o,--output", a.output_file,
       "CSV output; - or none: standard output. Geared scenes get link-side columns q_i = qm_i/p_i "
       "and q_id, and the torque both as tau_i (link side) and tau_motor_i = tau_i/p_i");
+  command
+      ->add_option("--max-wall", a.max_wall,
+                   "Wall-clock bound [s]: after 5 s, a run whose pace projects past it is "
+                   "stopped (its rows kept) naming the stiffest mode")
+      ->check(positive_number());
   command->add_option("--cache-dir", a.cache_dir, "Cache folder for compiled models");
   command->add_flag("--verbose", a.verbose, "Report the time of each stage on stderr");
   return command;
@@ -380,6 +411,7 @@ int main(int argc, char** argv) {
   // Parse errors get the same prefix and exit code (1) as every other error; --help exits 0.
   try {
     app.parse(argc, argv);
+    for (const CLI::App* command : app.get_subcommands()) refuse_empty_values(*command);
     if (*simulate) check_simulate_options(*simulate, sim);
     for (const CLI::App* command : {eval, simulate, plan, sweep, view})
       if (command->count("--cache-dir") && eval_args.cache_dir.empty() && sim.cache_dir.empty() &&

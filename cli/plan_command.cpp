@@ -113,7 +113,7 @@ int run_plan(const PlanArgs& a) {
   CompileOptions options;
   options.cache_dir = a.cache_dir;
   options.progress = [&](const std::string& msg) {
-    if (a.verbose || msg.rfind("compiling", 0) == 0)
+    if (a.verbose || msg.find("compiling") != std::string::npos)
       std::fprintf(stderr, "spacearm: %s\n", msg.c_str());
   };
   const auto model = CompiledModel::load(recipe, options);

@@ -38,10 +38,26 @@ class RowWriter {
       fd_ = 1;
       owned_ = false;
     } else {
-      fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+      // Written in place, never renamed over: a FIFO, /dev/null or /dev/stdout is written
+      // through, a regular file truncated only once it is known to be one, and a block
+      // device (a disk) refused.
+      fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | O_NOCTTY, 0666);
       if (fd_ < 0)
         throw OutputError(option + ": cannot open '" + path +
                           "' for writing: " + std::strerror(errno));
+      struct stat st {};
+      if (::fstat(fd_, &st) != 0 || S_ISBLK(st.st_mode)) {
+        ::close(fd_);
+        fd_ = -1;
+        throw OutputError(option + ": '" + path +
+                          "' is a block device: a CSV is not written onto a disk");
+      }
+      if (S_ISREG(st.st_mode) && ::ftruncate(fd_, 0) != 0) {
+        const std::string why = std::strerror(errno);
+        ::close(fd_);
+        fd_ = -1;
+        throw OutputError(option + ": cannot truncate '" + path + "': " + why);
+      }
     }
   }
   ~RowWriter() {

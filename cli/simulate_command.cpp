@@ -1,6 +1,8 @@
 #include "simulate_command.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <tuple>
 
 #include <chrono>
 #include <csignal>
@@ -41,6 +43,33 @@ void check_stop() {
   if (const int sig = cli::stop_signal()) throw Interrupted{sig};
 }
 
+// Thrown when the run's pace says it would take longer than --max-wall; like Interrupted, not a
+// runtime_error, so that integrate() passes it on.
+struct TooSlow {
+  double projected_s, elapsed_s, t;
+};
+
+// The run's pace from the times the right-hand side is evaluated at: after 5 s of wall time, a
+// run whose projected total passes --max-wall is stopped (a stiff mode forcing tiny steps would
+// otherwise go quiet for hours; counting steps says nothing about their size).
+class Pace {
+ public:
+  Pace(double t_end, double max_wall) : t_end_(t_end), max_wall_(max_wall) {}
+  void at(double t) {
+    if (++calls_ % 64 != 0) return;
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0_).count();
+    if (elapsed < 5) return;
+    const double projected = t > 0 ? elapsed * t_end_ / t : HUGE_VAL;
+    if (projected > max_wall_ && (t > 0 || elapsed > 30)) throw TooSlow{projected, elapsed, t};
+  }
+
+ private:
+  double t_end_, max_wall_;
+  long calls_ = 0;
+  std::chrono::steady_clock::time_point wall0_ = std::chrono::steady_clock::now();
+};
+
 // A torque or plan file: a regular file of at most 1 GB (read_regular_file).
 std::string read_text_file(const std::string& path, const std::string& option) {
   try {
@@ -72,6 +101,33 @@ std::unique_ptr<TorqueSignal<Eigen::Dynamic>> torque_signal(const SimulateArgs& 
                                                         outside);
 }
 
+// A plan made for another arm is refused (or, with --other-arm, replayed with a warning):
+// the scene's end effector from the plan's joint angles must be where the plan's was. The
+// plan's provenance names the scene it was made on.
+void check_same_arm(const SimulateArgs& a, const DynamicModel& model, const PlanSamples& plan) {
+  bool compared = false;
+  const std::string mismatch = plan_kinematics_mismatch(model, plan, &compared);
+  if (!compared)
+    std::fprintf(stderr,
+                 "spacearm: note: --plan '%s' has no end-effector columns (or the scene emits no "
+                 "end_effector_pose): whether it was made for this arm is not checked\n",
+                 a.plan_file.c_str());
+  if (mismatch.empty()) return;
+  std::string made_on = "another scene";
+  try {
+    if (const auto p = cli::read_provenance(a.plan_file)) made_on = "'" + p->scene + "'";
+  } catch (const std::exception&) {  // an unreadable record names nothing: the error still holds
+  }
+  const std::string what = "--plan '" + a.plan_file + "' was made on " + made_on +
+                           ", whose kinematics differ from the scene '" + a.scene_path +
+                           "': " + mismatch;
+  if (!a.other_arm)
+    throw std::invalid_argument(what +
+                                "; replan on this scene, or add --other-arm to replay it "
+                                "anyway");
+  std::fprintf(stderr, "spacearm: warning: %s (replayed as --other-arm asks)\n", what.c_str());
+}
+
 // A plan's replay into this model: friction fed forward if asked, a warning where friction
 // outweighs the planned torque, and the start mapped to the model's coordinates.
 void prepare_replay(const SimulateArgs& a, const DynamicModel& model, PlanSamples& plan,
@@ -91,6 +147,7 @@ void prepare_replay(const SimulateArgs& a, const DynamicModel& model, PlanSample
                    joints.c_str());
     }
   }
+  check_same_arm(a, model, plan);
   const Eigen::VectorXd e = replay_start(model, plan, plan.torques.samples.front(), q0, qd0);
   if (e.size() && e.cwiseAbs().maxCoeff() > 1e-9)
     std::fprintf(stderr,
@@ -116,6 +173,29 @@ std::string row(const std::vector<double>& values) {
   return r + "\n";
 }
 
+// The output grid in the options' own names: rows every --dt-out, or every --dt when it is not
+// given; --t-end a whole multiple of it, and a fixed step dividing it.
+void check_output_grid(const SimulateArgs& a, double dt_out, const IntegratorOptions& opt) {
+  const char* every = a.dt_out > 0 ? "--dt-out" : "--dt";
+  char buf[300];
+  const double rows = a.t_end / dt_out;
+  if (!(rows >= 0.5) || rows > 1e12 ||
+      std::abs(std::round(rows) * dt_out - a.t_end) > 1e-9 * std::max(1.0, a.t_end)) {
+    std::snprintf(buf, sizeof buf,
+                  "--t-end %.10g s must be a whole multiple of %s %.10g s (a row every %s)",
+                  a.t_end, every, dt_out, every);
+    throw std::invalid_argument(buf);
+  }
+  if (adaptive(opt.method) || a.dt_out == 0) return;
+  const double per = dt_out / opt.dt;
+  if (!(per >= 0.5) || std::abs(std::round(per) * opt.dt - dt_out) > 1e-9 * dt_out) {
+    std::snprintf(buf, sizeof buf,
+                  "--dt-out %.10g s must be a whole multiple of the step --dt %.10g s", dt_out,
+                  opt.dt);
+    throw std::invalid_argument(buf);
+  }
+}
+
 // Says so before a run whose CSV would pass 1 GB.
 void warn_if_large(const SimulateArgs& a, double dt_out, int columns) {
   const double rows = a.t_end / dt_out + 1, bytes = rows * columns * 24.0;
@@ -128,7 +208,7 @@ void warn_if_large(const SimulateArgs& a, double dt_out, int columns) {
 
 // What was written when the run stopped early, on stderr.
 void report_stop(const RowWriter& out, double t_reached, const std::string& why) {
-  std::fprintf(stderr, "spacearm: %s; %s holds every row up to t = %.17g s\n", why.c_str(),
+  std::fprintf(stderr, "spacearm: %s; %s holds every row up to t = %.10g s\n", why.c_str(),
                out.where().c_str(), t_reached);
 }
 
@@ -142,6 +222,17 @@ IntegratorOptions integrator_options(const SimulateArgs& a, const StiffestMode& 
   opt.atol = a.atol;
   if (a.integrator != "auto") {
     opt.method = method_from_string(a.integrator);
+    // As asked, but not in silence: a step that does not resolve the stiffest mode drifts
+    // momentum and energy (|lambda| dt > 1), or diverges (beyond about 2.8).
+    if (opt.method == Method::rk4 && mode.rate * opt.dt > 1)
+      std::fprintf(
+          stderr,
+          "spacearm: warning: rk4 at dt = %g s does not resolve the stiffest mode at the "
+          "start, %s (|lambda| dt = %.3g; %s): expect momentum and energy to drift; "
+          "--integrator auto would take dt = %.3g s\n",
+          opt.dt, describe(mode).c_str(), mode.rate * opt.dt,
+          unstable_for_rk4(mode, opt.dt) ? "unstable beyond about 2.8" : "accurate below 1",
+          1 / mode.rate);
     return opt;
   }
   const IntegratorChoice choice = choose_integrator(mode, a.dt, dt_out, has_state_jacobian);
@@ -155,9 +246,20 @@ IntegratorOptions integrator_options(const SimulateArgs& a, const StiffestMode& 
 std::string failure_advice(const IntegrationError& e, const IntegratorOptions& opt,
                            const StiffestMode& mode) {
   std::string what = e.what();
-  if (opt.method != Method::rk4 || !unstable_for_rk4(mode, opt.dt)) return what;
+  if (opt.method != Method::rk4) return what;
+  const bool diverged = what.find("the state left the model's domain") != std::string::npos;
+  if (!unstable_for_rk4(mode, opt.dt) && !diverged) return what;
   what = what.substr(0, what.find("; last accepted state"));
   char buf[600];
+  if (!unstable_for_rk4(mode, opt.dt)) {  // resolved at the start: a faster mode came later
+    std::snprintf(buf, sizeof buf,
+                  " (last accepted t = %.6g s): rk4 at dt = %g s diverged; the stiffest mode at "
+                  "the start, %s, was stable at this step (|lambda| dt = %.3g), so a faster one "
+                  "the motion reached later was not; run with a smaller --dt, or --integrator "
+                  "dopri5 (adaptive)",
+                  e.t(), opt.dt, describe(mode).c_str(), mode.rate * opt.dt);
+    return what + buf;
+  }
   std::snprintf(buf, sizeof buf,
                 " (last accepted t = %.6g s): rk4 at dt = %g s is unstable for the stiffest mode "
                 "at the start, %s (|lambda| dt = %.3g, stable below about 2.8); run with "
@@ -171,7 +273,7 @@ CompiledModel load_model(const SimulateArgs& a, const ModelRecipe& scene) {
   CompileOptions options;
   options.cache_dir = a.cache_dir;
   options.progress = [&](const std::string& m) {
-    if (a.verbose || m.rfind("compiling", 0) == 0)
+    if (a.verbose || m.find("compiling") != std::string::npos)
       std::fprintf(stderr, "spacearm: %s\n", m.c_str());
   };
   StageReport rep;
@@ -184,6 +286,73 @@ CompiledModel load_model(const SimulateArgs& a, const ModelRecipe& scene) {
         rep.compile_ms, rep.load_ms);
   return model;
 }
+
+// Momentum of a free-floating run (no external force: conserved whatever the joint torques)
+// and, where nothing drives or dissipates, energy: how far they drifted, said at the end.
+class Invariants {
+ public:
+  Invariants(const std::vector<std::string>& names, bool free_floating, bool conservative) {
+    for (size_t c = 0; c < names.size(); ++c) {
+      const std::string& n = names[c];
+      if (free_floating &&
+          (n == "Px" || n == "Py" || n == "Pz" || n == "L" || n == "Lx" || n == "Ly" || n == "Lz"))
+        (n[0] == 'P' ? linear_ : angular_).push_back(c);
+      if (conservative && (n == "kinetic_energy" || n == "potential_energy")) energy_.push_back(c);
+    }
+  }
+  void row(const std::vector<double>& v) {
+    if (first_.empty()) first_ = v;
+    for (const auto& [columns, drift, scale] :
+         {std::tuple{&linear_, &linear_drift_, &linear_scale_},
+          std::tuple{&angular_, &angular_drift_, &angular_scale_}}) {
+      double d = 0, n = 0;
+      for (size_t c : *columns) {
+        d += (v[c] - first_[c]) * (v[c] - first_[c]);
+        n += v[c] * v[c];
+      }
+      *drift = std::max(*drift, std::sqrt(d));
+      *scale = std::max(*scale, std::sqrt(n));
+    }
+    if (!energy_.empty()) {
+      double e = 0, e0 = 0;
+      for (size_t c : energy_) e += v[c], e0 += first_[c];
+      energy_drift_ = std::max(energy_drift_, std::abs(e - e0));
+      energy_scale_ = std::max(energy_scale_, std::abs(e));
+    }
+  }
+  // The line for stderr; empty when there is nothing to say.
+  std::string report() const {
+    if (first_.empty() || (linear_.empty() && energy_.empty())) return "";
+    std::string out = "spacearm: invariants over the run:";
+    auto relative = [](double drift, double scale) {
+      if (!(scale > 1e-12)) return std::string();
+      char text[100];
+      std::snprintf(text, sizeof text, " (%.3g %% of its largest, %.3g)", 100 * drift / scale,
+                    scale);
+      return std::string(text);
+    };
+    auto part = [&](const char* format, double drift, double scale) {
+      char text[100];
+      std::snprintf(text, sizeof text, format, drift);
+      out += text + relative(drift, scale);
+    };
+    if (!linear_.empty()) {
+      part(" momentum drift |P - P(0)| <= %.3g kg m/s", linear_drift_, linear_scale_);
+      part(", |L - L(0)| <= %.3g kg m^2/s", angular_drift_, angular_scale_);
+    }
+    if (!energy_.empty())
+      part(linear_.empty() ? " energy drift |E - E(0)| <= %.3g J"
+                           : "; energy drift |E - E(0)| <= %.3g J",
+           energy_drift_, energy_scale_);
+    return out + "\n";
+  }
+
+ private:
+  std::vector<size_t> linear_, angular_, energy_;
+  std::vector<double> first_;
+  double linear_drift_ = 0, angular_drift_ = 0, energy_drift_ = 0;
+  double linear_scale_ = 0, angular_scale_ = 0, energy_scale_ = 0;
+};
 
 // Progress on long runs: after 2 s of wall time, every 10 %.
 class Progress {
@@ -231,6 +400,13 @@ int run_simulate(const SimulateArgs& args) {
   Eigen::VectorXd q0 = a.q0_text.empty()
                            ? ConfigurationSpace{nq, nv, facts.quaternion_offset}.neutral()
                            : cli::parse_vector(a.q0_text, "--q0", nq);
+  if (const std::string e = ConfigurationSpace::angle_error(q0,
+                                                            !facts.free_floating ? 0
+                                                            : facts.dims.spatial ? 7
+                                                                                 : 2,
+                                                            "--q0", facts.coordinate_names);
+      !e.empty())
+    throw std::invalid_argument(e);
   Eigen::VectorXd qd0 =
       a.qd0_text.empty() ? Eigen::VectorXd::Zero(nv) : cli::parse_vector(a.qd0_text, "--qd0", nv);
   const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, facts);
@@ -258,6 +434,7 @@ int run_simulate(const SimulateArgs& args) {
   // The integrator, from the stiffest mode at the start.
   const StiffestMode mode = stiffest_mode(model, q0, qd0, model.generalized_forces((*tau)(0.0)));
   IntegratorOptions opt = integrator_options(a, mode, model.has_state_jacobian(), dt_out);
+  check_output_grid(a, dt_out, opt);
   // From a file: steps land on the samples, and a held torque is a true zero-order hold.
   std::unique_ptr<TorqueReplay<Eigen::Dynamic>> replay;
   if (!a.zero_torque) replay = std::make_unique<TorqueReplay<Eigen::Dynamic>>(*tau, opt, "--dt");
@@ -273,24 +450,31 @@ int run_simulate(const SimulateArgs& args) {
   out.row(head);
 
   // The library's integrate_motion; a stop request is seen at every evaluation and sample.
+  Pace pace(a.t_end, a.max_wall);
   struct StoppableTorque {
     const TorqueReplay<Eigen::Dynamic>* replay;
     const TorqueSignal<Eigen::Dynamic>* signal;
+    Pace* pace;
     Eigen::VectorXd operator()(double t) const {
       check_stop();
+      pace->at(t);
       return replay ? (*replay)(t) : (*signal)(t);
     }
     void evaluate(double t, Eigen::VectorXd& value) const {  // into value: no allocation
       check_stop();
+      pace->at(t);
       replay ? replay->evaluate(t, value) : signal->evaluate(t, value);
     }
-  } torque{replay.get(), tau.get()};
+  } torque{replay.get(), tau.get(), &pace};
   Progress progress(a.t_end);
   double t_written = 0;
   std::vector<double> values;
+  // Energy is conserved only where nothing drives the arm and nothing dissipates.
+  Invariants invariants(table.names(), facts.free_floating, a.zero_torque && !passive);
   auto observe = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
     table.row(t, q, qd, (*tau)(t), values);
     out.row(row(values));
+    invariants.row(values);
     t_written = t;
     check_stop();
     progress.at(t);
@@ -305,6 +489,7 @@ int run_simulate(const SimulateArgs& args) {
   try {
     const auto stats = integrate_motion(model, q0, qd0, torque, a.t_end, dt_out, opt, observe);
     close();
+    std::fputs(invariants.report().c_str(), stderr);
     if (a.verbose)
       std::fprintf(stderr,
                    "spacearm: run %.1f ms, %ld right-hand-side evaluations, %llu bytes written\n",
@@ -312,13 +497,31 @@ int run_simulate(const SimulateArgs& args) {
     return 0;
   } catch (const Interrupted& i) {
     close();
-    report_stop(out, t_written,
-                std::string("interrupted by ") + (i.signal == SIGINT ? "SIGINT" : "SIGTERM"));
+    report_stop(out, t_written, "interrupted by " + cli::signal_name(i.signal));
     return 128 + i.signal;
+  } catch (const TooSlow& slow) {
+    close();
+    report_stop(out, t_written, "stopped: too slow for --max-wall");
+    char buf[700];
+    std::snprintf(buf, sizeof buf,
+                  "simulate: at its pace the run would take about %.3g s of wall time (t = %.4g "
+                  "of %.4g s after %.3g s), past --max-wall %g s; %s at the start: %s. Raise "
+                  "--max-wall, shorten --t-end, or soften that mode (a stiffer spring needs "
+                  "smaller steps)",
+                  slow.projected_s, slow.t, a.t_end, slow.elapsed_s, a.max_wall,
+                  to_string(opt.method).c_str(), describe(mode).c_str());
+    throw std::invalid_argument(buf);
   } catch (const IntegrationError& e) {
     close();  // what was computed so far stays in the CSV
     report_stop(out, t_written, "the integration stopped");
     throw IntegrationError(failure_advice(e, opt, mode), e.t(), e.state());
+  } catch (const OutputError&) {
+    throw;  // the CSV itself failed: nothing more can be written to it
+  } catch (const std::exception&) {
+    // Any other failure still keeps every row computed (the buffer flushed, the file closed).
+    close();
+    report_stop(out, t_written, "the run stopped");
+    throw;
   }
 }
 

@@ -22,6 +22,11 @@ struct SimulateArgs {
   // torques instead of --q0, --qd0 and --torques; feedforward "friction" adds the scene's friction
   // along the planned rates to the torques.
   std::string plan_file, feedforward = "none";
+  // Replay a plan whose end effector this scene puts elsewhere (another arm's kinematics): a
+  // warning naming both scenes instead of the error.
+  bool other_arm = false;
+  // Wall-clock bound [s]: a run whose pace projects past it is stopped, its rows kept.
+  double max_wall = 1800;
   std::vector<std::string> param_assignments;
   std::string command_line;  // recorded beside the CSV (provenance.hpp)
 };

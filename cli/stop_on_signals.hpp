@@ -1,9 +1,11 @@
-// SIGINT and SIGTERM as a stop request for the lifetime of a command (simulate, sweep): the
-// command finishes what is under way, keeps what it wrote and exits with 128 + the signal.
+// SIGINT, SIGTERM and SIGHUP (a closed terminal or SSH session) as a stop request for the
+// lifetime of a command (simulate, sweep): the command finishes what is under way, keeps what it
+// wrote and exits with 128 + the signal.
 #pragma once
 
 #include <atomic>
 #include <csignal>
+#include <string>
 
 namespace spacearm::cli {
 
@@ -14,8 +16,17 @@ inline std::atomic<int>& stop_signal() {
   return signal;
 }
 
-// Handlers while an object lives; a signal the caller ignores (a background job's SIGINT)
-// stays ignored.
+// The stop signals, and their names for messages.
+constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
+inline std::string signal_name(int sig) {
+  return sig == SIGINT    ? "SIGINT"
+         : sig == SIGTERM ? "SIGTERM"
+         : sig == SIGHUP  ? "SIGHUP"
+                          : "a signal";
+}
+
+// Handlers while an object lives; a signal the caller ignores (a background job's SIGINT,
+// nohup's SIGHUP) stays ignored.
 class StopOnSignals {
  public:
   StopOnSignals() {
@@ -23,21 +34,20 @@ class StopOnSignals {
     struct sigaction sa {};
     sa.sa_handler = [](int sig) { stop_signal() = sig; };
     sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, nullptr, &old_int_);
-    sigaction(SIGTERM, nullptr, &old_term_);
-    if (old_int_.sa_handler != SIG_IGN) sigaction(SIGINT, &sa, nullptr);
-    if (old_term_.sa_handler != SIG_IGN) sigaction(SIGTERM, &sa, nullptr);
+    for (int k = 0; k < kCount; ++k) {
+      sigaction(kStopSignals[k], nullptr, &old_[k]);
+      if (old_[k].sa_handler != SIG_IGN) sigaction(kStopSignals[k], &sa, nullptr);
+    }
   }
   ~StopOnSignals() {
-    sigaction(SIGINT, &old_int_, nullptr);
-    sigaction(SIGTERM, &old_term_, nullptr);
+    for (int k = 0; k < kCount; ++k) sigaction(kStopSignals[k], &old_[k], nullptr);
   }
   StopOnSignals(const StopOnSignals&) = delete;
   StopOnSignals& operator=(const StopOnSignals&) = delete;
 
  private:
-  struct sigaction old_int_ {
-  }, old_term_{};
+  static constexpr int kCount = sizeof kStopSignals / sizeof kStopSignals[0];
+  struct sigaction old_[kCount] {};
 };
 
 }  // namespace spacearm::cli

@@ -23,7 +23,7 @@ int run_sweep_command(const SweepArgs& a) {
   CompileOptions compile;
   compile.cache_dir = a.cache_dir;
   compile.progress = [&](const std::string& m) {
-    if (a.verbose || m.rfind("compiling", 0) == 0) say(m);
+    if (a.verbose || m.find("compiling") != std::string::npos) say(m);
   };
   const StudyRunner runner(std::move(study), compile);
   SweepOptions o;
@@ -50,9 +50,8 @@ int run_sweep_command(const SweepArgs& a) {
                 s.already_done, s.failed, s.shard_runs);
   say(line);
   if (s.interrupted) {
-    say(std::string("sweep: interrupted by ") +
-        (cli::stop_signal() == SIGINT ? "SIGINT" : "SIGTERM") + "; every finished run is in '" +
-        a.out_dir + "': the same command resumes");
+    say(std::string("sweep: interrupted by ") + cli::signal_name(cli::stop_signal()) +
+        "; every finished run is in '" + a.out_dir + "': the same command resumes");
     return 128 + cli::stop_signal();
   }
   if (!s.results.empty())

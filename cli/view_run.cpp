@@ -82,7 +82,7 @@ LoadedScene load_scene(const ViewArgs& a) {
   CompileOptions options;
   options.cache_dir = a.cache_dir;
   options.progress = [&](const std::string& m) {
-    if (a.verbose || m.rfind("compiling", 0) == 0)
+    if (a.verbose || m.find("compiling") != std::string::npos)
       std::fprintf(stderr, "spacearm: %s\n", m.c_str());
   };
   s.model = std::make_unique<CompiledModel>(CompiledModel::load(*s.recipe, options));

@@ -611,6 +611,9 @@ void write_files(const EmittedModel& emitted, const std::string& dir) {
   std::filesystem::create_directories(dir);
   const Fd folder(::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
   if (!folder.valid()) throw FolderError("cannot open '" + dir + "': " + std::strerror(errno));
+  // A device, FIFO or link at a file's name is refused before anything is written.
+  for (const std::string& name : {emitted.header_name, emitted.source_name})
+    refuse_replacing_special_at(folder.get(), name, dir + "/" + name);
   std::vector<std::pair<std::string, std::string>> staged;  // temporary, final name
   try {
     for (const auto& [name, text] : {std::make_pair(emitted.header_name, &emitted.header),

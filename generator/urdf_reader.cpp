@@ -4,7 +4,9 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <charconv>
+#include <cstring>
 #include <optional>
 #include <string_view>
 #include <cmath>
@@ -54,6 +56,87 @@ std::array<double, 3> matrix_rpy(const Eigen::Matrix3d& R) {
   const Eigen::Matrix3d M =
       R * Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()).toRotationMatrix().transpose();
   return {roll, std::atan2(-M(2, 0), M(2, 2)), std::atan2(-M(0, 1), M(1, 1))};
+}
+
+// Bounds on what tinyxml2 is given, checked on the bytes before it parses them: it compares each
+// new attribute with the element's earlier ones (60 000 attributes took 23 s; the 8 MB file
+// limit admits a million), and it recurses into nested elements. A URDF needs a handful of
+// attributes per element, a few levels and a few elements per link. This scan only counts: what
+// it does not understand is left to tinyxml2, whose error names the line. Hand-written because
+// the bound must hold before the parse, which no option of tinyxml2 offers.
+constexpr int kMaxAttributes = 64, kMaxDepth = 64;
+constexpr long kMaxElements = 100000;
+
+void bound_the_parse(const std::string& xml, const std::string& source) {
+  int line = 1, depth = 0;
+  long elements = 0;
+  auto fail = [&](const std::string& what) {
+    throw SceneError("URDF '" + source + "' line " + std::to_string(line) + ": " + what);
+  };
+  // Skips to the end of `close` from `at`, counting lines; false if it never comes.
+  auto skip_to = [&](size_t& at, const char* close) {
+    const size_t end = xml.find(close, at);
+    const size_t stop = end == std::string::npos ? xml.size() : end + std::strlen(close);
+    line += static_cast<int>(std::count(xml.begin() + at, xml.begin() + stop, '\n'));
+    at = stop;
+  };
+  for (size_t at = 0; at < xml.size();) {
+    const char c = xml[at];
+    if (c == '\0') fail("a NUL byte (at byte " + std::to_string(at) + "): not a text file");
+    if (c != '<') {
+      line += c == '\n';
+      ++at;
+      continue;
+    }
+    const std::string_view rest(xml.data() + at, xml.size() - at);
+    if (rest.rfind("<!--", 0) == 0) {
+      skip_to(at, "-->");
+    } else if (rest.rfind("<![CDATA[", 0) == 0) {
+      skip_to(at, "]]>");
+    } else if (rest.rfind("<?", 0) == 0) {
+      skip_to(at, "?>");
+    } else if (rest.rfind("<!", 0) == 0 || rest.rfind("</", 0) == 0) {
+      depth -= rest[1] == '/';
+      skip_to(at, ">");
+    } else {  // a start tag: its attributes counted by their '=' outside quotes
+      const size_t name_end = rest.find_first_of(" \t\r\n/>", 1);
+      const std::string name(rest.substr(1, std::min(name_end, rest.size()) - 1));
+      if (++elements > kMaxElements)
+        fail("more than " + std::to_string(kMaxElements) + " elements (the limit of a URDF here)");
+      int attributes = 0;
+      char quote = 0;
+      size_t end = at + 1;
+      for (; end < xml.size() && (quote || xml[end] != '>'); ++end) {
+        const char d = xml[end];
+        if (d == '\0') fail("a NUL byte (at byte " + std::to_string(end) + "): not a text file");
+        line += d == '\n';
+        if (quote) {
+          quote = d == quote ? 0 : quote;
+        } else if (d == '"' || d == '\'') {
+          quote = d;
+        } else if (d == '=' && ++attributes > kMaxAttributes) {
+          fail("the element " + quoted_text(name) + " has more than " +
+               std::to_string(kMaxAttributes) + " attributes (the limit of a URDF element here)");
+        }
+      }
+      if (end < xml.size() && xml[end - 1] != '/' && ++depth > kMaxDepth)
+        fail("elements nested more than " + std::to_string(kMaxDepth) +
+             " deep (the limit of a URDF here)");
+      at = end + 1;
+    }
+  }
+}
+
+// tinyxml2's reason, whole (its ErrorStr after "Line number=N: "), control characters shown as
+// '?' and at most 200 characters: the name of the error and what it was parsing.
+std::string parse_error(const tinyxml2::XMLDocument& doc) {
+  std::string why = doc.ErrorStr() ? doc.ErrorStr() : "";
+  if (const size_t colon = why.find(": "); colon != std::string::npos) why.erase(0, colon + 2);
+  std::string shown = doc.ErrorName();
+  if (!why.empty()) shown += ": ";
+  for (char c : why.substr(0, 200))
+    shown += (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) ? '?' : c;
+  return shown + (why.size() > 200 ? "..." : "");
 }
 
 class UrdfReader {
@@ -152,12 +235,17 @@ class UrdfReader {
   }
 
   UrdfChain read(const std::string& xml, bool free_base, const std::string& end_effector_link) {
+    bound_the_parse(xml, source_);
     tinyxml2::XMLDocument doc;
     if (doc.Parse(xml.data(), xml.size()) != tinyxml2::XML_SUCCESS)
       throw SceneError("URDF '" + source_ + "' line " + std::to_string(doc.ErrorLineNum()) +
-                       ": not XML (" + quoted_text(doc.ErrorStr() ? doc.ErrorStr() : "") + ")");
+                       ": not XML (" + parse_error(doc) + ")");
     const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
     if (!robot) fail(nullptr, "expected a <robot> element at the top");
+    if (doc.FirstChildElement() != robot || robot->NextSiblingElement())
+      fail(doc.FirstChildElement() != robot ? doc.FirstChildElement() : robot->NextSiblingElement(),
+           "a second element at the top: an XML document has one root, <robot>");
+    refuse_xacro(robot);
     read_elements(robot);
     return chain(free_base, end_effector_link);
   }
@@ -169,6 +257,26 @@ class UrdfReader {
   std::map<std::string, Joint> joints_;                   // by name
   std::map<std::string, std::string> parent_joint_;       // child link -> joint
   std::multimap<std::string, std::string> child_joints_;  // parent link -> joints
+
+  // xacro (ROS's macro language) is not URDF: its macros add joints and links that a URDF
+  // reader would silently drop. Any element or attribute in its namespace, and any ${...} or
+  // $(...) expression, is refused by name.
+  void refuse_xacro(const tinyxml2::XMLElement* e) const {
+    const std::string remedy =
+        ": this is xacro, not URDF; run 'xacro FILE.urdf.xacro > FILE.urdf' "
+        "first and give the URDF it prints";
+    if (std::string_view(e->Name()).rfind("xacro:", 0) == 0)
+      fail(e, "the element " + quoted_text(e->Name()) + remedy);
+    for (const auto* a = e->FirstAttribute(); a; a = a->Next()) {
+      const std::string_view name(a->Name()), value(a->Value());
+      if (name.rfind("xacro:", 0) == 0 || value.find("ros.org/wiki/xacro") != std::string::npos)
+        fail(e, "the attribute " + quoted_text(a->Name()) + remedy);
+      if (value.find("${") != std::string::npos || value.find("$(") != std::string::npos)
+        fail(e, "attribute " + quoted_text(a->Name()) + " = " + quoted_text(a->Value()) +
+                    " holds a xacro expression" + remedy);
+    }
+    for (const auto* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) refuse_xacro(c);
+  }
 
   void read_elements(const tinyxml2::XMLElement* robot) {
     for (auto* l = robot->FirstChildElement("link"); l; l = l->NextSiblingElement("link")) {

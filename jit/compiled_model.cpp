@@ -6,6 +6,9 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
 #include <cerrno>
 #include <cstdint>
 #include <chrono>
@@ -212,6 +215,64 @@ int compile_jobs(const CompileOptions& options) {
   return std::clamp(cpus, 1, 4);
 }
 
+}  // namespace
+
+double CompileOptions::default_max_code_mb() {
+  const char* text = std::getenv("SPACEARM_MAX_CODE_MB");
+  if (!text || !*text) return 8;
+  try {
+    const double v = parse_number(text, "SPACEARM_MAX_CODE_MB");
+    if (v > 0) return v;
+  } catch (const std::invalid_argument&) {
+  }
+  throw CompileError(std::string("SPACEARM_MAX_CODE_MB: expected a positive number of MB, got ") +
+                     quoted_text(text));
+}
+
+// Seconds and peak megabytes of one g++ 12 -O1 per MB of a unit, from the build of three
+// flexible chains with friction and every output (0.2 to 3.1 MB a unit: 7 to 10.5 s/MB and
+// 420 MB/MB, docs/performance.md); larger units grow faster than linearly, so this is a floor.
+constexpr double kCompileSecondsPerMb = 10.5, kCompileMemoryMbPerMb = 420;
+
+CompileEstimate compile_estimate(size_t largest_unit_bytes) {
+  const double mb = static_cast<double>(largest_unit_bytes) / 1e6;
+  return {kCompileSecondsPerMb * mb + 0.5, kCompileMemoryMbPerMb * mb + 60};
+}
+
+namespace {
+
+// Says "still compiling" every 30 s until destroyed: a long compile is not silent.
+class CompileHeartbeat {
+ public:
+  CompileHeartbeat(const std::function<void(const std::string&)>& say, const std::string& model,
+                   double expected_s)
+      : thread_([this, say, model, expected_s] {
+          std::unique_lock<std::mutex> lock(mutex_);
+          for (int elapsed = 30;
+               !cv_.wait_for(lock, std::chrono::seconds(30), [this] { return done_; });
+               elapsed += 30) {
+            char line[200];
+            std::snprintf(line, sizeof line, "still compiling %s: %d s (about %.0f s expected)",
+                          model.c_str(), elapsed, expected_s);
+            if (say) say(line);
+          }
+        }) {}
+  ~CompileHeartbeat() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      done_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  bool done_ = false;
+  std::thread thread_;
+};
+
 // Generates and compiles the scene into a new work folder; returns it, ready to install.
 // Every file is written and read relative to the folder's descriptor, and the compiler runs
 // inside it with relative names: nothing goes through the cache's path again.
@@ -242,8 +303,23 @@ WorkFolder build_entry(const ModelRecipe& recipe, const CacheFolder& cache,
     rep.emit_ms = ms_since(t0) - rep.derive_ms;
     rep.generated = true;
 
-    say("compiling with " + compiler +
-        (units > 1 ? " (" + std::to_string(units) + " at once)" : ""));
+    // The cost, said before the compiler starts; a model past the bound is refused.
+    size_t bytes = 0, largest = 0;
+    for (const auto& unit : emitted.c_units)
+      bytes += unit.size(), largest = std::max(largest, unit.size());
+    const CompileEstimate cost = compile_estimate(largest);
+    char line[400];
+    std::snprintf(line, sizeof line,
+                  "%.2f MB of C++: at least %.0f s and %.0f MB of memory (%zu compilers at once)",
+                  static_cast<double>(bytes) / 1e6, cost.seconds, cost.memory_mb, units);
+    char bound[32];
+    std::snprintf(bound, sizeof bound, "%g", options.max_code_mb);
+    if (static_cast<double>(bytes) > options.max_code_mb * 1e6)
+      throw CompileError("model '" + recipe.name() + "': " + line + ", past the bound of " + bound +
+                         " MB; raise it (SPACEARM_MAX_CODE_MB, or CompileOptions::max_code_mb), "
+                         "or emit fewer outputs (field 'outputs') or fewer joints");
+    say("compiling with " + compiler + ": " + line);
+    const CompileHeartbeat heartbeat(options.progress, recipe.name(), cost.seconds);
     const auto t1 = std::chrono::steady_clock::now();
     const std::string flags = options.flags + instruction_set_flags(options.instruction_set);
     const auto argv = [&](const std::vector<std::string>& middle, bool link) {

@@ -67,7 +67,19 @@ struct CompileOptions {
   std::string instruction_set = host_instruction_set();  // added to the flags; cpu_runs it
   int jobs = 0;  // compilers at once (the library in as many units); 0: the CPUs we may use, <= 4
   std::function<void(const std::string&)> progress;  // stage messages (may be empty)
+  // The largest emitted C++ compiled [MB] (compile_estimate): past it the load is refused
+  // before the compiler starts, naming the size, the estimated time and memory. Default: 8, or
+  // $SPACEARM_MAX_CODE_MB.
+  double max_code_mb = default_max_code_mb();
+  static double default_max_code_mb();
 };
+
+// What compiling emitted C++ at -O1 costs at least, from measurements (docs/performance.md):
+// the seconds and peak memory of the compiler of the largest unit.
+struct CompileEstimate {
+  double seconds = 0, memory_mb = 0;
+};
+CompileEstimate compile_estimate(size_t largest_unit_bytes);
 
 // What a load did, stage by stage (for --verbose and for the cache tests).
 struct StageReport {

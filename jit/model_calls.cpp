@@ -59,6 +59,16 @@ void CompiledModel::check(const char* what, Eigen::Ref<const Eigen::VectorXd> v,
 
 void CompiledModel::check_parameters(const Eigen::VectorXd& params) const {
   check("params", params, static_cast<int>(nominal_.size()));
+  // The scene's range for its numbers (yaml_reader.hpp) holds at run time too: beyond 1e30
+  // products overflow, below 1e-30 they run into subnormals, and either would surface later as
+  // an unnamed failure (a mass matrix not positive definite).
+  for (Eigen::Index i = 0; i < params.size(); ++i)
+    if (params[i] != 0 && !(std::abs(params[i]) >= 1e-30 && std::abs(params[i]) <= 1e30)) {
+      std::ostringstream m;
+      m << "parameters: '" << parameter_names().at(static_cast<size_t>(i)) << "' = " << params[i]
+        << " is outside the supported magnitude range 1e-30 .. 1e30 (or 0)";
+      throw std::invalid_argument(m.str());
+    }
   if (const char* error = parameter_error_(params.data()))
     throw std::invalid_argument(std::string("parameters: ") + error);
 }

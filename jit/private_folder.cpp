@@ -257,8 +257,29 @@ void replace_file(const std::string& path, const std::string& text, mode_t mode)
   replace_file_at(dir.get(), p.filename().string(), text, path, mode);
 }
 
+std::string file_kind(mode_t mode) {
+  if (S_ISREG(mode)) return "a regular file";
+  if (S_ISDIR(mode)) return "a folder";
+  if (S_ISLNK(mode)) return "a symbolic link";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISFIFO(mode)) return "a FIFO (named pipe)";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
+void refuse_replacing_special_at(int dir, const std::string& name, const std::string& shown) {
+  struct stat st;
+  // Not there, or not visible: the rename that follows creates it or says why.
+  if (::fstatat(dir, name.c_str(), &st, AT_SYMLINK_NOFOLLOW) != 0 || S_ISREG(st.st_mode)) return;
+  throw FolderError("'" + shown + "' exists and is " + file_kind(st.st_mode) +
+                    ", not a regular file: it is not replaced (name a new file, or remove it "
+                    "first)");
+}
+
 void replace_file_at(int dir, const std::string& name, const std::string& text,
                      const std::string& shown, mode_t mode) {
+  refuse_replacing_special_at(dir, name, shown);
   const std::string tmp = unique_name(name + ".tmp-");
   write_new_file_at(dir, tmp, text, shown + " (a temporary)", mode);
   if (::renameat(dir, tmp.c_str(), dir, name.c_str()) != 0) {

@@ -78,11 +78,20 @@ std::string read_regular_file(const std::string& path, const std::string& what, 
 void write_new_file_at(int dir, const std::string& name, const std::string& text,
                        const std::string& shown, mode_t mode = 0600);
 
+// What kind of file `mode` (st_mode) is, for messages: "a FIFO", "a character device", ...
+std::string file_kind(mode_t mode);
+
+// Refuses an existing `name` in `dir` that is not a regular file (a device, a FIFO, a socket, a
+// folder or a symbolic link): a rename would replace it (as root, /dev/null itself). Throws
+// FolderError naming `shown` and its kind; nothing there, or a regular file, passes.
+void refuse_replacing_special_at(int dir, const std::string& name, const std::string& shown);
+
 // replace_file_at in the folder of `path` (opened once; "." for a bare name).
 void replace_file(const std::string& path, const std::string& text, mode_t mode = 0644);
 
 // Writes `text` to a new temporary in `dir` and renames it over `name`: the file is whole or not
-// there at all. Throws FolderError naming `shown`.
+// there at all. An existing `name` that is not a regular file is refused, never replaced
+// (refuse_replacing_special_at). Throws FolderError naming `shown`.
 void replace_file_at(int dir, const std::string& name, const std::string& text,
                      const std::string& shown, mode_t mode = 0644);
 

@@ -73,6 +73,7 @@ struct SimulateOptions {
   bool consistent_start = false;
   py::object plan = py::none();  // a plan file's path, or the dict model.plan() returns
   std::string feedforward = "none";
+  bool other_arm = false;  // replay a plan made for other kinematics (a warning, not an error)
 };
 
 // A loaded model and the parameter values its methods use unless given others.
@@ -340,6 +341,22 @@ TorqueTable torque_table(const py::object& torques, int N) {
   return table;
 }
 
+// spacearm.IntegrationError (a RuntimeError): the integrator's message, the time reached as
+// `.t` and every row computed up to it as `.partial` (the dict simulate returns), so that a
+// failed run loses nothing that was computed, as the CLI's CSV keeps it.
+py::object& integration_error_type() {
+  static auto* type = new py::object();  // never destroyed: not after the interpreter ends
+  return *type;
+}
+
+[[noreturn]] void raise_integration_error(const IntegrationError& e, const py::dict& partial) {
+  const py::object error = integration_error_type()(std::string(e.what()));
+  error.attr("t") = e.t();
+  error.attr("partial") = partial;
+  PyErr_SetObject(integration_error_type().ptr(), error.ptr());
+  throw py::error_already_set();
+}
+
 // What simulate and closed_loop return: t, q, qd, the table's columns by name, and what the
 // integrator was and why.
 py::dict run_result(const SimulationTable& columns, std::vector<std::vector<double>> rows,
@@ -433,6 +450,18 @@ py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& 
     plan = read_plan_csv(plan_text(o.plan), N, m.free_floating,
                          py::isinstance<py::str>(o.plan) ? o.plan.cast<std::string>() : "plan",
                          m.spatial);
+    bool compared = false;
+    if (const std::string mismatch = plan_kinematics_mismatch(m, *plan, &compared);
+        !mismatch.empty()) {
+      if (!o.other_arm)
+        throw py::value_error(
+            "plan: made for another arm (its kinematics differ from this "
+            "model's): " +
+            mismatch +
+            "; replan on this model, or pass "
+            "other_arm=True");
+      PyErr_WarnEx(PyExc_UserWarning, ("plan: made for another arm: " + mismatch).c_str(), 1);
+    }
     if (o.feedforward == "friction") {
       feed_friction_forward(m, *plan);
     } else if (o.feedforward != "none") {
@@ -460,8 +489,19 @@ py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& 
                                          interpolation_from_string(o.interpolation), outside);
   Eigen::VectorXd x0 = q0.is_none() ? m.neutral_configuration() : vector_argument(q0, "q0");
   Eigen::VectorXd v0 = qd0.is_none() ? Eigen::VectorXd::Zero(m.nv) : vector_argument(qd0, "qd0");
-  if (x0.size() != m.nq || v0.size() != m.nv)
-    throw py::value_error("q0 and qd0: expected " + std::to_string(m.nq) + " values each");
+  if (x0.size() != m.nq)
+    throw py::value_error("q0: expected " + std::to_string(m.nq) + " values, got " +
+                          std::to_string(x0.size()));
+  if (v0.size() != m.nv)
+    throw py::value_error("qd0: expected " + std::to_string(m.nv) + " values, got " +
+                          std::to_string(v0.size()));
+  if (const std::string e = ConfigurationSpace::angle_error(x0,
+                                                            !m.free_floating ? 0
+                                                            : m.spatial      ? 7
+                                                                             : 2,
+                                                            "q0", m.coordinate_names);
+      !e.empty())
+    throw py::value_error(e);
   if (plan) replay_start(m, *plan, plan->torques.samples.front(), x0, v0);
   if (o.consistent_start) consistent_start(m, x0, v0, tau(0.0));
   // auto: rk4 at a step that resolves the stiffest mode at the start, or rosenbrock4.
@@ -477,15 +517,22 @@ py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& 
   // The run without the GIL, one row per sample of the table.
   const SimulationTable columns(m, recipe_.facts().geared);
   std::vector<std::vector<double>> rows;
+  std::optional<IntegrationError> failed;
   {
     py::gil_scoped_release release;
-    integrate_motion(m, x0, v0, replay, t_end, o.dt_out > 0 ? o.dt_out : o.dt, opt,
-                     [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
-                       rows.emplace_back();
-                       columns.row(t, q, qd, tau(t), rows.back());
-                     });
+    try {
+      integrate_motion(m, x0, v0, replay, t_end, o.dt_out > 0 ? o.dt_out : o.dt, opt,
+                       [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+                         rows.emplace_back();
+                         columns.row(t, q, qd, tau(t), rows.back());
+                       });
+    } catch (const IntegrationError& e) {
+      failed.emplace(e);
+    }
   }
-  return run_result(columns, std::move(rows), m, why);
+  py::dict run = run_result(columns, std::move(rows), m, why);
+  if (failed) raise_integration_error(*failed, run);
+  return run;
 }
 
 py::dict PyModel::closed_loop(const py::object& plan_given, const std::string& controller,
@@ -606,6 +653,8 @@ PYBIND11_MODULE(_spacearm, module) {
   module.doc() = "spacearm: exact dynamics of free-floating space manipulators, planar and spatial";
   py::register_exception<DynamicsError>(module, "DynamicsError", PyExc_ArithmeticError);
   py::register_exception<CompileError>(module, "CompileError", PyExc_RuntimeError);
+  integration_error_type() =
+      py::register_exception<IntegrationError>(module, "IntegrationError", PyExc_RuntimeError);
   bind_study(module);
   py::class_<PyModel> model(module, "Model");
   model.def_property_readonly("name", [](const PyModel& m) { return m.model().name(); })
@@ -643,9 +692,11 @@ PYBIND11_MODULE(_spacearm, module) {
              const py::object& q0, const py::object& qd0, const std::string& integrator, double dt,
              double dt_out, const std::string& interpolation, const std::string& extrapolate,
              const py::object& rtol, const py::object& atol, bool consistent_start,
-             const py::object& plan, const std::string& feedforward, const py::object& params) {
-            const SimulateOptions o{integrator, interpolation, extrapolate,      dt,   dt_out,
-                                    rtol,       atol,          consistent_start, plan, feedforward};
+             const py::object& plan, const std::string& feedforward, bool other_arm,
+             const py::object& params) {
+            const SimulateOptions o{integrator, interpolation, extrapolate, dt,
+                                    dt_out,     rtol,          atol,        consistent_start,
+                                    plan,       feedforward,   other_arm};
             // Without t_end, a plan's end.
             std::optional<double> end;
             if (!t_end.is_none()) {
@@ -663,14 +714,17 @@ PYBIND11_MODULE(_spacearm, module) {
           py::arg("extrapolate") = "error", py::arg("rtol") = py::none(),
           py::arg("atol") = py::none(), py::arg("consistent_start") = false,
           py::arg("plan") = py::none(), py::arg("feedforward") = "none",
-          py::arg("params") = py::none(),
+          py::arg("other_arm") = false, py::arg("params") = py::none(),
           "Integrate the dynamics from (q0, qd0) (zero by default) to t_end under joint torques "
           "sampled on a uniform grid (an array (k, 1 + N): t, tau1..N, link side; None: no "
           "torque), as `spacearm simulate`: a dict of t, q, qd, 'columns' (the CSV's columns "
           "by name) and 'integrator' (what auto chose, and why). plan= (a plan file or the dict "
           "of model.plan(), made on this model or its rigid twin) replays it: its start mapped "
           "to this model's coordinates, its torques, t_end its end by default; "
-          "feedforward='friction' adds this model's friction along the planned rates.")
+          "feedforward='friction' adds this model's friction along the planned rates. A plan whose "
+          "end effector this model puts elsewhere (another arm) raises ValueError unless "
+          "other_arm=True (then a warning). A run that fails raises IntegrationError: its .t is "
+          "the time reached, its .partial the dict of every row computed up to it.")
       .def("closed_loop", &PyModel::closed_loop, py::arg("plan"), py::arg("controller") = "pd",
            py::arg("omega") = 20.0, py::arg("period") = 1e-3,
            py::arg("control_model") = static_cast<const PyModel*>(nullptr),

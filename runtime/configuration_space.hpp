@@ -10,6 +10,11 @@
 
 #include <Eigen/Core>
 
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
 namespace spacearm {
 
 struct ConfigurationSpace {
@@ -71,6 +76,26 @@ struct ConfigurationSpace {
   // Whether the model takes a base quaternion of this norm: it normalizes the quaternion
   // (spatial_chain.hpp), so any norm that squares without under- or overflow is a rotation.
   static bool takes_quaternion_norm(double norm) { return norm >= 1e-6 && norm <= 1e6; }
+
+  // Angles beyond 1e6 rad keep few digits in sin and cos (none at 1e16 in double): the one
+  // rule for every input of angles (eval --q, simulate --q0, plan files, Python's q0), as the
+  // planner bounds its own. first_angle: the first coordinate that is an angle (the joints, and
+  // a planar free base's q0; positions and the quaternion are not). Empty when q keeps it, else
+  // "what[i] (name) = value rad: ...".
+  static constexpr double kMaxAngle = 1e6;
+  static std::string angle_error(const Eigen::Ref<const Eigen::VectorXd>& q, int first_angle,
+                                 const std::string& what, const std::vector<std::string>& names) {
+    for (Eigen::Index i = first_angle; i < q.size(); ++i) {
+      if (std::abs(q[i]) <= kMaxAngle) continue;
+      char value[32];
+      std::snprintf(value, sizeof value, "%g", q[i]);
+      const size_t k = static_cast<size_t>(i);
+      return what + "[" + std::to_string(i) + "]" +
+             (k < names.size() ? " (" + names[k] + ")" : "") + " = " + value +
+             " rad: angles must lie within +-1e6 rad (beyond, sin and cos of them keep no digits)";
+    }
+    return "";
+  }
 
   // The configuration on the manifold: the quaternion scaled to unit norm (nothing else moves).
   void project(Eigen::Ref<Eigen::VectorXd> q) const {

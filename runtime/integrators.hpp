@@ -111,9 +111,9 @@ class IntegrationError : public std::runtime_error {
 };
 
 namespace detail {
-inline std::string format(double v) {
+inline std::string format(double v, int digits = 3) {
   std::ostringstream s;
-  s.precision(3);
+  s.precision(digits);
   s << v;
   return s.str();
 }
@@ -150,9 +150,8 @@ namespace detail {
 inline long check_integration(const IntegratorOptions& opt, double t0, double t1, double dt_out) {
   const long outputs = std::lround((t1 - t0) / dt_out);
   if (outputs < 1 || std::abs(t0 + outputs * dt_out - t1) > 1e-9 * std::max(1.0, std::abs(t1)))
-    throw std::invalid_argument(
-        "integrate: (t1 - t0) = " + std::to_string(t1 - t0) +
-        " must be a positive multiple of dt_out = " + std::to_string(dt_out));
+    throw std::invalid_argument("integrate: (t1 - t0) = " + format(t1 - t0, 10) +
+                                " must be a positive multiple of dt_out = " + format(dt_out, 10));
   if (opt.method == Method::rosenbrock4 && !opt.jacobian)
     throw std::invalid_argument(
         "integrate: rosenbrock4 needs the Jacobian of the right-hand side (for a model: the "
@@ -162,15 +161,17 @@ inline long check_integration(const IntegratorOptions& opt, double t0, double t1
       throw std::invalid_argument("integrate: dt = " + format(opt.dt) + " must be positive");
     const long per = std::lround(dt_out / opt.dt);
     if (per < 1 || std::abs(per * opt.dt - dt_out) > 1e-9 * dt_out)
-      throw std::invalid_argument("integrate: dt_out = " + std::to_string(dt_out) +
-                                  " must be a multiple of the step dt = " + std::to_string(opt.dt));
+      throw std::invalid_argument("integrate: dt_out = " + format(dt_out, 10) +
+                                  " must be a multiple of the step dt = " + format(opt.dt, 10));
     return outputs;
   }
   // As ode45 does: a relative tolerance below 100 ulps cannot be met in double precision.
   const double rtol_min = 100 * std::numeric_limits<double>::epsilon();
-  if (!(opt.rtol >= rtol_min) || !std::isfinite(opt.rtol))
+  if (!(opt.rtol >= rtol_min && opt.rtol <= 0.1))
     throw std::invalid_argument("integrate: rtol = " + format(opt.rtol) + " must be at least " +
-                                format(rtol_min) + " (100 x machine epsilon)");
+                                format(rtol_min) +
+                                " (100 x machine epsilon) and at most 0.1 (a relative error of "
+                                "10 %)");
   if (!(opt.atol >= 0) || !std::isfinite(opt.atol))
     throw std::invalid_argument("integrate: atol = " + format(opt.atol) + " must be >= 0");
   if (!(opt.breakpoint_interval >= 0) || !std::isfinite(opt.breakpoint_interval) ||
@@ -495,6 +496,13 @@ IntegrationStats integrate_states(const IntegratorOptions& opt, System&& f, Stat
   } catch (const std::runtime_error& e) {  // the right-hand side's or odeint's
     x = run.x_ok;
     throw detail::integration_error(opt.method, e.what(), run.t_ok, run.x_ok);
+  } catch (const std::logic_error& e) {
+    // A model's input check (a quaternion of norm 1e11) on a state the steps made: the run
+    // diverged, and what it computed so far is kept like any failed step's.
+    x = run.x_ok;
+    throw detail::integration_error(
+        opt.method, std::string("the state left the model's domain (") + e.what() + ")", run.t_ok,
+        run.x_ok);
   }
   return stats;
 }
@@ -565,7 +573,7 @@ void implicit_midpoint_step(Rhs&& rhs, State& x, double t, double h) {
     previous = size;
   }
   throw std::runtime_error("implicit midpoint: Newton iteration did not converge at t = " +
-                           std::to_string(t) + " (step " + std::to_string(h) + ")");
+                           detail::format(t, 10) + " (step " + detail::format(h, 10) + ")");
 }
 
 }  // namespace spacearm

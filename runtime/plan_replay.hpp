@@ -14,6 +14,7 @@
 #include <cmath>
 #include <map>
 #include <stdexcept>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,9 @@ struct PlanSamples {
   TorqueTable torques;  // tau1..N, link side, on the plan's grid
   // Per sample: the base pose and its rates (empty for a fixed base), link-side angles, rates.
   std::vector<Eigen::VectorXd> base, base_rate, angles, rates;
+  // The end effector's pose the plan wrote at its first and last rows (its ee_ columns; empty
+  // for a plan without them): check_plan_kinematics compares them with the replaying scene.
+  std::vector<Eigen::VectorXd> end_effector;
 };
 
 namespace detail {
@@ -132,10 +136,33 @@ inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool f
     }
     plan.base_rate.push_back(take(rate));
     plan.angles.push_back(take(num_joints));
+    // Angles within ConfigurationSpace's bound: the joints', and a planar base's q0.
+    const Eigen::VectorXd& base_pose = plan.base.back();
+    std::vector<std::string> joint_names;
+    for (int j = 1; j <= num_joints; ++j) joint_names.push_back("q" + std::to_string(j));
+    std::string bad =
+        ConfigurationSpace::angle_error(plan.angles.back(), 0, "joint angle", joint_names);
+    if (bad.empty() && pose == 3)
+      bad = ConfigurationSpace::angle_error(base_pose, 2, "base pose", {"x0", "y0", "q0"});
+    if (!bad.empty()) throw fail(number, bad);
     plan.rates.push_back(take(num_joints));
   }
   if (times.size() < 2)
     throw fail(0, "needs at least two rows of samples, got " + std::to_string(times.size()));
+  // The end effector's pose at the first and last rows, where the plan has it.
+  const std::vector<std::string> ee =
+      spatial ? std::vector<std::string>{"ee_x", "ee_y", "ee_z", "ee_qw", "ee_qx", "ee_qy", "ee_qz"}
+              : std::vector<std::string>{"ee_x", "ee_y", "ee_phi"};
+  if (std::all_of(ee.begin(), ee.end(), [&](const auto& n) { return column.count(n); }))
+    for (const size_t r : {size_t(1), lines.size() - 1}) {
+      const auto fields = detail::split_csv_line(lines[r].second);
+      Eigen::VectorXd x(static_cast<Eigen::Index>(ee.size()));
+      for (size_t c = 0; c < ee.size(); ++c)
+        x[static_cast<Eigen::Index>(c)] = parse_number(
+            fields[column.at(ee[c])],
+            where + " line " + std::to_string(lines[r].first) + ", column '" + ee[c] + "'");
+      plan.end_effector.push_back(x);
+    }
   detail::set_uniform_grid(
       plan.torques, times, [&](size_t k) { return lines[k + 1].first; }, fail);
   // The replay starts at t = 0 in the plan's first state: a plan that starts later would pair
@@ -144,6 +171,46 @@ inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool f
     throw fail(lines[1].first, "column 't' starts at " + std::to_string(times.front()) +
                                    " s; a plan starts at t = 0 (its first row is the start)");
   return plan;
+}
+
+// Whether the plan was made for this arm (issue 49: a 7-joint plan replayed into another
+// 7-joint arm was accepted): the model's end effector from the plan's base and joint angles at
+// its first and last rows, against the pose the plan wrote there. Empty when they agree (1e-6 m
+// relative, 1e-6 rad), else what differs. *compared: false where either lacks the pose (a plan
+// without ee_ columns, a scene without end_effector_pose), and then nothing is said.
+inline std::string plan_kinematics_mismatch(const DynamicModel& model, const PlanSamples& plan,
+                                            bool* compared = nullptr) {
+  const bool can = model.end_effector_pose && plan.end_effector.size() == 2;
+  if (compared) *compared = can;
+  if (!can) return "";
+  const size_t rows[2] = {0, plan.base.size() - 1};
+  for (int k = 0; k < 2; ++k) {
+    const size_t r = rows[k];
+    const Eigen::VectorXd mine =
+        model.end_effector_pose(model.from_joint_angles(plan.base[r], plan.angles[r]));
+    const Eigen::VectorXd& theirs = plan.end_effector[static_cast<size_t>(k)];
+    if (mine.size() != theirs.size()) return "the plan's end-effector pose has another size";
+    const int np = model.spatial ? 3 : 2;
+    const double apart = (mine.head(np) - theirs.head(np)).norm();
+    double turn = 0;  // the angle between the two orientations
+    if (model.spatial) {
+      const double dot = std::abs(mine.tail(4).normalized().dot(theirs.tail(4).normalized()));
+      turn = 2 * std::acos(std::min(1.0, dot));
+    } else {
+      turn = std::abs(std::remainder(mine[2] - theirs[2], 2 * M_PI));
+    }
+    if (apart <= 1e-6 * std::max(1.0, theirs.head(np).norm()) && turn <= 1e-6) continue;
+    std::ostringstream m;
+    m.precision(6);
+    m << "at t = " << plan.torques.t0 + static_cast<double>(r) * plan.torques.dt
+      << " s the plan's end effector is at (";
+    for (int i = 0; i < np; ++i) m << (i ? ", " : "") << theirs[i];
+    m << ") and this scene's, from the same base pose and joint angles, at (";
+    for (int i = 0; i < np; ++i) m << (i ? ", " : "") << mine[i];
+    m << "): " << apart << " m apart, orientations " << turn << " rad apart";
+    return m.str();
+  }
+  return "";
 }
 
 // The plan's start in the model's coordinates: the base and link-side angles and rates of its

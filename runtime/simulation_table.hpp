@@ -30,10 +30,8 @@ class SimulationTable {
     for (int j = 1; j <= N; ++j) names_.push_back("tau" + std::to_string(j));
     if (geared_)
       for (int j = 1; j <= N; ++j) names_.push_back("tau_motor" + std::to_string(j));
-    if (m_.end_effector_pose && m_.spatial)
-      names_.insert(names_.end(), {"ee_x", "ee_y", "ee_z", "ee_qw", "ee_qx", "ee_qy", "ee_qz"});
-    else if (m_.end_effector_pose)
-      names_.insert(names_.end(), {"ee_x", "ee_y", "ee_phi"});
+    const std::vector<std::string> pose = end_effector_columns(m_);
+    names_.insert(names_.end(), pose.begin(), pose.end());
     if (m_.kinetic_energy) names_.push_back("kinetic_energy");
     if (m_.potential_energy) names_.push_back("potential_energy");
     if (m_.momentum && m_.spatial)

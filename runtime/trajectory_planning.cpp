@@ -403,6 +403,10 @@ PlanTable plan_table(const Plan& plan, const DynamicModel& m, bool geared) {
     for (int j = 1; j <= m.num_links; ++j) table.names.push_back("tau_motor" + std::to_string(j));
   const bool free_base = !plan.base_residual.empty();
   if (free_base) table.names.push_back("base_residual");
+  // The end effector's pose, so that a replay can tell whether its arm is this one
+  // (plan_replay.hpp: check_plan_kinematics).
+  const std::vector<std::string> pose = end_effector_columns(m);
+  table.names.insert(table.names.end(), pose.begin(), pose.end());
   for (size_t k = 0; k < plan.t.size(); ++k) {
     std::vector<double> row{plan.t[k]};
     for (const auto* v : {&plan.q[k], &plan.qd[k], &plan.qdd[k]})
@@ -414,6 +418,10 @@ PlanTable plan_table(const Plan& plan, const DynamicModel& m, bool geared) {
     if (geared)
       for (int j = 0; j < m.num_links; ++j) row.push_back(plan.tau[k][j] / m.gear_ratios[j]);
     if (free_base) row.push_back(plan.base_residual[k]);
+    if (!pose.empty()) {
+      const Eigen::VectorXd x = m.end_effector_pose(plan.q[k]);
+      row.insert(row.end(), x.data(), x.data() + x.size());
+    }
     table.rows.push_back(std::move(row));
   }
   return table;

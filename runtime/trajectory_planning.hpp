@@ -119,7 +119,8 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task);
 // The plan as a table, as `spacearm plan` writes it and Python returns it: t, q, qd, qdd (by
 // coordinate name, suffixes d and dd), a motor slot's link-side angle q_j and rate q_jd, the
 // link-side torques tau1..N, for a geared model the
-// motor torques tau_motor1..N = tau / p (eq. 14), for a free base base_residual.
+// motor torques tau_motor1..N = tau / p (eq. 14), for a free base base_residual, then the end
+// effector's pose (end_effector_columns).
 struct PlanTable {
   std::vector<std::string> names;
   std::vector<std::vector<double>> rows;

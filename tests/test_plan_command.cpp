@@ -6,6 +6,7 @@
 // reproduce the line; a spatial plan flies into a twin with joint friction. Cost: about 27 s,
 // mostly compiling four models once.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <filesystem>
 #include <fstream>
@@ -94,7 +95,7 @@ void check_plan(const Csv& csv, const Scene& scene, const std::map<std::string, 
   for (size_t j = 0; j < chain.gears.size(); ++j) p[static_cast<int>(j)] = chain.gears[j]->ratio;
   ASSERT_EQ(csv.rows.size(), static_cast<size_t>(std::lround(task.duration / task.dt)) + 1);
   double tau_peak = 0, qd_peak = 0, qdd_peak = 0, worst_path = 0, worst_momentum = 0,
-         worst_force = 0, worst_qd = 0, worst_qdd = 0;
+         worst_force = 0, worst_qd = 0, worst_qdd = 0, worst_ee = 0;
   for (size_t k = 0; k < csv.rows.size(); ++k) {
     const double t = csv.rows[k][0];
     const Eigen::VectorXd q = csv.values(k, q_names), qd = csv.values(k, suffixed(q_names, "d")),
@@ -109,6 +110,12 @@ void check_plan(const Csv& csv, const Scene& scene, const std::map<std::string, 
     const Eigen::VectorXd want = task.start + s[0] * (task.goal - task.start);
     const Eigen::VectorXd pose = oracle.end_effector_pose(q);
     worst_path = std::max(worst_path, (pose.head(rows) - want).cwiseAbs().maxCoeff());
+    // The plan's own end-effector columns (what a replay compares its arm with) are the oracle's.
+    for (int i = 0; i < 3; ++i)
+      worst_ee = std::max(
+          worst_ee,
+          std::abs(csv.rows[k][csv.column(std::vector<std::string>{"ee_x", "ee_y", "ee_phi"}[i])] -
+                   pose[i]));
     if (nb > 0)
       worst_momentum = std::max(worst_momentum, oracle.momentum(q, qd).cwiseAbs().maxCoeff());
     // Eq. 5: M qdd + b is no force on the base and tau / p at the joints (eq. 14).
@@ -131,6 +138,7 @@ void check_plan(const Csv& csv, const Scene& scene, const std::map<std::string, 
   }
   EXPECT_GT(tau_peak, 0.0);
   EXPECT_LT(worst_path, 1e-10);
+  EXPECT_LT(worst_ee, 1e-10);
   EXPECT_LT(worst_momentum, 1e-10);
   // The oracle's bias is a finite difference (h = 1e-6): about 1e-8 of the torques.
   EXPECT_LT(worst_force, 1e-6 * std::max(1.0, tau_peak));
@@ -155,7 +163,9 @@ TEST_F(PlanCommand, FreeFiveLinkArmFollowsTheLineWithZeroMomentum) {
   task.goal = Eigen::Vector3d(1.2, -0.2, 0.5);
   task.duration = 5;
   const Csv c = read_csv(csv);
-  EXPECT_EQ(c.names.back(), "base_residual");
+  // The base's residual, then the end effector's pose (checked against the oracle's below).
+  EXPECT_EQ(c.column("base_residual") + 1, c.column("ee_x"));
+  EXPECT_EQ(c.names.back(), "ee_phi");
   check_plan(c, load_scene("tests/scenes/free_n5.yaml"), {}, task);
 }
 
@@ -179,8 +189,8 @@ TEST_F(PlanCommand, FixedFourLinkGearedArmReplaysThroughSimulate) {
   task.duration = 4;
   task.law = TimeLaw::cubic;
   const Csv c = read_csv(csv);
-  ASSERT_EQ(c.column("tau_motor4"), static_cast<int>(c.names.size()) - 1);  // no base_residual
-  EXPECT_LT(c.rows[0][c.column("qm2")], 0.0);                               // the elbow branch
+  ASSERT_EQ(c.column("tau_motor4") + 1, c.column("ee_x"));  // no base_residual
+  EXPECT_LT(c.rows[0][c.column("qm2")], 0.0);               // the elbow branch
   check_plan(c, load_scene("tests/scenes/fixed_n4_geared.yaml"), {{"p", 5.0}, {"Im", 1e-4}}, task);
 
   std::string q0;
@@ -254,6 +264,47 @@ TEST_F(PlanCommand, RigidPlanReplaysIntoTheFlexibleTwinWithoutHandWork) {
       cli() + "simulate tests/scenes/fixed_n4_geared.yaml --plan " + csv + cache() + " 2>&1",
       &status);
   EXPECT_NE(out.find("planned on a free-floating base"), std::string::npos) << out;
+}
+
+// Issue 49: a named output never replaces what is not a regular file. view's page and
+// generate's sources are renamed into place, so a FIFO or a link at the name (as /dev/stdout
+// is) is refused by name and left as it was; nothing is written.
+TEST_F(PlanCommand, OutputsNeverReplaceAFifoOrALink) {
+  const std::string csv = (dir() / "special_plan.csv").string();
+  std::string out;
+  ASSERT_EQ(plan("free_n2_geared", "--from 0.9,0.3 --to 0.7,0.5 --duration 1", csv, &out), 0)
+      << out;
+  const fs::path fifo = dir() / "page_fifo.html", link = dir() / "page_link.html";
+  fs::remove(fifo);
+  fs::remove(link);
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  fs::create_symlink("/proc/self/fd/1", link);
+  const std::string scene = " --scene tests/scenes/free_n2_geared.yaml";
+  for (const auto& [target, kind] :
+       {std::pair{fifo, "a FIFO"}, std::pair{link, "a symbolic link"}}) {
+    int status = 0;
+    out = test::run_command(
+        cli() + "view " + csv + scene + " -o " + target.string() + cache() + " 2>&1", &status);
+    if (out.find("built without the viewer") != std::string::npos) break;
+    EXPECT_NE(status, 0) << out;
+    EXPECT_NE(out.find("'" + target.string() + "' exists and is " + kind), std::string::npos)
+        << out;
+    EXPECT_EQ(out.find("wrote"), std::string::npos) << out;
+  }
+  EXPECT_TRUE(fs::is_fifo(fs::symlink_status(fifo)));
+  EXPECT_TRUE(fs::is_symlink(fs::symlink_status(link)));
+  // generate -o DIR with a FIFO at DIR/NAME.hpp: refused before either file is written.
+  const fs::path gen = dir() / "generated_special";
+  fs::remove_all(gen);
+  fs::create_directories(gen);
+  ASSERT_EQ(::mkfifo((gen / "free_n2_geared.hpp").c_str(), 0600), 0);
+  int status = 0;
+  out = test::run_command(
+      cli() + "generate tests/scenes/free_n2_geared.yaml -o " + gen.string() + " 2>&1", &status);
+  EXPECT_NE(status, 0) << out;
+  EXPECT_NE(out.find("free_n2_geared.hpp' exists and is a FIFO"), std::string::npos) << out;
+  EXPECT_TRUE(fs::is_fifo(fs::symlink_status(gen / "free_n2_geared.hpp")));
+  EXPECT_FALSE(fs::exists(gen / "free_n2_geared.cpp"));
 }
 
 TEST_F(PlanCommand, BadRequestsNameTheOption) {

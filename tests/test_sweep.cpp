@@ -194,13 +194,25 @@ TEST(Sweep, PlantedLinksAreNeverWrittenThrough) {
     EXPECT_THROW(sweep(runner, dir, 1), StudyError) << name;
     EXPECT_EQ(read(victim), "precious\n") << name;
   }
-  // results.csv as a link: replaced by the new file, never written through; so are links at the
-  // names temporaries had (NAME.tmp-PID, this process's id: the sweep runs in it).
+  // results.csv as a link: refused by name, neither replaced nor written through (issue 49: a
+  // rename would replace a device or a link); links at the names temporaries had
+  // (NAME.tmp-PID, this process's id: the sweep runs in it) are never written through.
   fs::remove_all(dir);
   fs::create_directories(dir);
   fs::create_symlink(victim, dir / "results.csv");
   for (const char* name : {"results.csv", "study.id", "study.key"})
     fs::create_symlink(victim, dir / (std::string(name) + ".tmp-" + std::to_string(::getpid())));
+  try {
+    sweep(runner, dir, 1);
+    ADD_FAILURE() << "a link at results.csv was replaced";
+  } catch (const StudyError& e) {
+    EXPECT_NE(std::string(e.what()).find("results.csv' exists and is a symbolic link"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_TRUE(fs::is_symlink(dir / "results.csv"));
+  EXPECT_EQ(read(victim), "precious\n");
+  fs::remove(dir / "results.csv");
   sweep(runner, dir, 1);
   EXPECT_EQ(read(victim), "precious\n");
   EXPECT_FALSE(fs::is_symlink(dir / "results.csv"));

@@ -306,6 +306,73 @@ TEST(UrdfReader, AbsentAxisIsXAndErrorsNameTheElement) {
       SceneError, "end effector link 'a' is not welded to the last moving body");
 }
 
+// Issue 49: the work of a parse is bounded before tinyxml2 sees the bytes (it compares each
+// attribute with the element's earlier ones: 60 000 took 23 s), so a hostile file is refused
+// at once, naming the limit; the same file under the limit is read as before.
+TEST(UrdfReader, AttributesElementsAndDepthAreBoundedBeforeTheParse) {
+  std::string many = "<link name=\"c\"";
+  for (int k = 0; k < 200000; ++k) many += " a" + std::to_string(k) + "=\"1\"";
+  many += "/>\n";
+  EXPECT_THROW_MESSAGE(
+      read_urdf(robot(kTwoLinks + many + joint("j", "revolute", "a", "b")), "r.urdf", true, ""),
+      SceneError, "URDF 'r.urdf' line 4: the element 'link' has more than 64 attributes");
+  // A quoted '=' or '>' is a value, not an attribute or the tag's end.
+  std::string quoted = "<link name=\"c\" x=\"";
+  for (int k = 0; k < 100; ++k) quoted += "=>";
+  quoted += "\"/>\n";
+  EXPECT_THROW_MESSAGE(
+      read_urdf(robot(kTwoLinks + quoted + joint("j", "revolute", "a", "b")), "r.urdf", true, ""),
+      SceneError, "2 links have no parent joint");
+  std::string deep;
+  for (int k = 0; k < 100; ++k) deep += "<g>";
+  EXPECT_THROW_MESSAGE(read_urdf(robot(deep), "r.urdf", true, ""), SceneError,
+                       "elements nested more than 64 deep");
+  std::string wide;
+  for (int k = 0; k < 100001; ++k) wide += "<g/>";
+  EXPECT_THROW_MESSAGE(read_urdf(robot(wide), "r.urdf", true, ""), SceneError,
+                       "more than 100000 elements");
+  // Comments, CDATA and declarations are skipped whole, their '<' not counted.
+  const std::string skipped =
+      "<?xml version=\"1.0\"?>\n<!-- <a b=1 c=2> -->\n" +
+      robot(kTwoLinks + "<!-- " + many + " -->\n" + joint("j", "revolute", "a", "b"));
+  EXPECT_EQ(read_urdf(skipped, "r.urdf", true, "").chain.links.size(), 1u);
+}
+
+// xacro is not URDF: read as URDF, a joint its macro adds would be dropped without a word.
+// Its namespace, its elements and attributes and its ${...} expressions are refused by name.
+TEST(UrdfReader, XacroIsRefusedNamingWhatAndTheRemedy) {
+  const std::string arm = kTwoLinks + joint("j", "revolute", "a", "b");
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"<robot name=\"r\" xmlns:xacro=\"http://www.ros.org/wiki/xacro\">\n" + arm + "</robot>",
+       "line 1, <robot name='r'>: the attribute 'xmlns:xacro': this is xacro, not URDF; run "
+       "'xacro FILE.urdf.xacro > FILE.urdf' first"},
+      {robot(arm + "<xacro:arm_link name=\"c\" parent=\"b\"/>\n"),
+       "<xacro:arm_link name='c'>: the element 'xacro:arm_link': this is xacro"},
+      {robot(arm + "<xacro:include filename=\"more.xacro\"/>\n"), "'xacro:include'"},
+      {robot(kTwoLinks + joint("j", "revolute", "a", "b", "<origin xyz=\"0 0 ${length}\"/>")),
+       "<origin>: attribute 'xyz' = '0 0 ${length}' holds a xacro expression"},
+      {robot(kTwoLinks + joint("j", "revolute", "a", "b", "<origin xyz=\"$(arg x) 0 0\"/>")),
+       "holds a xacro expression"},
+  };
+  for (const auto& [xml, message] : cases) {
+    SCOPED_TRACE(message);
+    EXPECT_THROW_MESSAGE(read_urdf(xml, "r.urdf", true, ""), SceneError, message);
+  }
+}
+
+// One root element, no NUL byte, and tinyxml2's reason shown whole (it was cut at 40
+// characters, before the reason).
+TEST(UrdfReader, TwoRootsANulByteAndParseErrorsAreNamed) {
+  const std::string arm = robot(kTwoLinks + joint("j", "revolute", "a", "b"));
+  EXPECT_THROW_MESSAGE(read_urdf(arm + "<robot name=\"twin\"/>\n", "r.urdf", true, ""), SceneError,
+                       "<robot name='twin'>: a second element at the top: an XML document has "
+                       "one root, <robot>");
+  EXPECT_THROW_MESSAGE(read_urdf(std::string(arm) + '\0' + "<joint/>", "r.urdf", true, ""),
+                       SceneError, "line 6: a NUL byte (at byte " + std::to_string(arm.size()));
+  EXPECT_THROW_MESSAGE(read_urdf(robot("<link name=\"a\"></lnk>"), "r.urdf", true, ""), SceneError,
+                       "line 2: not XML (XML_ERROR_MISMATCHED_ELEMENT: XMLElement name=link");
+}
+
 // A welded end-effector frame near the gimbal lock (pitch pi/2 - 5e-7) composes back exactly:
 // the rotation the reader keeps (as roll-pitch-yaw) is the URDF's.
 TEST(UrdfReader, WeldedFramesNearTheGimbalLockAreExact) {

@@ -20,15 +20,43 @@ except ImportError as e:  # the first python3 on PATH may not be Debian's
         "create the virtual environment with '/usr/bin/python3 -m venv --system-site-packages'"
     ) from e
 
-from ._spacearm import CompileError, DynamicsError, Model, Study, StudyError, load
+from ._spacearm import (
+    CompileError,
+    DynamicsError,
+    IntegrationError,
+    Model,
+    Study,
+    StudyError,
+    load,
+)
 
-__all__ = ["load", "Model", "Study", "DynamicsError", "CompileError", "StudyError", "write_csv"]
+__all__ = [
+    "load",
+    "Model",
+    "Study",
+    "DynamicsError",
+    "CompileError",
+    "IntegrationError",
+    "StudyError",
+    "write_csv",
+]
 
 
 def write_csv(run, path):
     """Writes the table of a run or plan (the dict Model.simulate, closed_loop and plan return:
     its 'columns', in order) as the CSV `spacearm simulate` and `spacearm plan` write, the same
     bytes (17 significant digits), for `spacearm view PATH --scene SCENE` and any CSV reader."""
+    import os
+    import stat
+
+    # Written in place (a FIFO or /dev/stdout is written through), but never onto a disk.
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        mode = 0
+    if stat.S_ISBLK(mode) or stat.S_ISDIR(mode):
+        kind = "a block device" if stat.S_ISBLK(mode) else "a folder"
+        raise ValueError("write_csv: '%s' is %s, not a file to write a CSV into" % (path, kind))
     columns = run["columns"]
     names = list(columns)
     table = _np.column_stack([_np.asarray(columns[n], dtype=float) for n in names])
