@@ -206,10 +206,16 @@ void warn_if_large(const SimulateArgs& a, double dt_out, int columns) {
                  bytes / 1e9, rows, columns);
 }
 
-// What was written when the run stopped early, on stderr.
+// What was written when the run stopped early, on stderr: the last row's time in the fewest
+// digits that read back as it (51.2, not 51.200000000000003).
 void report_stop(const RowWriter& out, double t_reached, const std::string& why) {
-  std::fprintf(stderr, "spacearm: %s; %s holds every row up to t = %.10g s\n", why.c_str(),
-               out.where().c_str(), t_reached);
+  char t[32];
+  for (int digits = 6; digits <= 17; ++digits) {
+    std::snprintf(t, sizeof t, "%.*g", digits, t_reached);
+    if (std::strtod(t, nullptr) == t_reached) break;
+  }
+  std::fprintf(stderr, "spacearm: %s; %s holds every row up to t = %s s\n", why.c_str(),
+               out.where().c_str(), t);
 }
 
 // The integrator asked for; auto (the default) decides from the model's stiffest mode at the

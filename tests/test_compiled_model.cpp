@@ -1081,6 +1081,83 @@ TEST_F(SimulateCli, FailureMidRunKeepsTheSamplesComputedSoFar) {
   fs::remove(csv);
 }
 
+// Issue 49: an explicit rk4 step too large for a spatial arm spinning at 100 rad/s diverges
+// until the base's quaternion leaves the model's domain. Every row computed up to then stays in
+// the CSV (with its header; the domain error had escaped the integrator, and the rows were lost)
+// and the message names the cause and the remedy, not just the quaternion.
+TEST_F(SimulateCli, ADivergingRunKeepsEveryRowAndNamesTheCause) {
+  const std::string scene = std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/spatial_arm2.yaml";
+  const fs::path csv = cache.parent_path() / ("diverged-" + std::to_string(getpid()) + ".csv");
+  int status = 0;
+  const std::string err =
+      run(std::string(SPACEARM_CLI) + " simulate --cache-dir " + cache.string() + " " + scene +
+              " --zero --integrator rk4 --dt 1.5 --t-end 300 --qd0 "
+              "0,0,0,0,0,0,100,-100 -o " +
+              csv.string() + " 2>&1",
+          &status);
+  EXPECT_NE(status, 0) << err;
+  EXPECT_NE(err.find("holds every row up to t = 4.5 s"), std::string::npos) << err;
+  EXPECT_NE(err.find("rk4: the state left the model's domain (q[3..6], the base's orientation "
+                     "quaternion"),
+            std::string::npos)
+      << err;
+  EXPECT_NE(err.find("rk4 at dt = 1.5 s is unstable for the stiffest mode"), std::string::npos)
+      << err;
+  const std::string text = test::read_text_file(csv.string());
+  ASSERT_EQ(text.rfind("t,x0,", 0), 0u) << text;
+  const auto r = rows(text);
+  ASSERT_EQ(r.size(), 4u);  // t = 0, 1.5, 3, 4.5
+  EXPECT_EQ(r.back()[0], 4.5);
+  fs::remove(csv);
+}
+
+// An explicit step that does not resolve the stiffest mode at the start is warned, and a
+// free-floating run reports how far momentum (and, unforced, energy) drifted: here by half of
+// its size, where the resolved step keeps it to rounding.
+TEST_F(SimulateCli, AnUnresolvedStepIsWarnedAndTheDriftReported) {
+  const std::string scene = std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/spatial_arm2.yaml";
+  const std::string base = std::string(SPACEARM_CLI) + " simulate --cache-dir " + cache.string() +
+                           " " + scene + " --zero --t-end 100 --qd0 0,0,0,0,0,0,100,-100 -o none ";
+  auto drift = [](const std::string& err) {
+    const auto at = err.find("momentum drift |P - P(0)| <= ");
+    return at == std::string::npos ? -1.0 : std::stod(err.substr(at + 29));
+  };
+  int status = 0;
+  const std::string coarse = run(base + "--integrator rk4 --dt 1 2>&1", &status);
+  EXPECT_EQ(status, 0) << coarse;
+  EXPECT_NE(coarse.find("warning: rk4 at dt = 1 s does not resolve the stiffest mode at the "
+                        "start"),
+            std::string::npos)
+      << coarse;
+  EXPECT_GT(drift(coarse), 1.0) << coarse;
+  EXPECT_NE(coarse.find("energy drift |E - E(0)| <= "), std::string::npos) << coarse;
+  const std::string fine = run(base + "--integrator rk4 --dt 0.001 2>&1", &status);
+  EXPECT_EQ(status, 0) << fine;
+  EXPECT_EQ(fine.find("warning"), std::string::npos) << fine;
+  EXPECT_GE(drift(fine), 0.0) << fine;
+  EXPECT_LT(drift(fine), 1e-6) << fine;
+}
+
+// A stiff spring (k = 1e12) makes rosenbrock4 take steps of nanoseconds: the run's pace is
+// measured, and past --max-wall it stops after 5 s, its rows kept, naming the mode.
+TEST_F(SimulateCli, ARunTooSlowForMaxWallStopsNamingTheStiffMode) {
+  const std::string scene = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_flexible.yaml";
+  const fs::path csv = cache.parent_path() / ("slow-" + std::to_string(getpid()) + ".csv");
+  int status = 0;
+  const std::string err =
+      run(std::string(SPACEARM_CLI) + " simulate --cache-dir " + cache.string() + " " + scene +
+              " --param k=1e12 --zero --qd0 0,0,0,0.5,0.5,0.5,0,0,0 --t-end "
+              "0.2 --max-wall 2 -o " +
+              csv.string() + " 2>&1",
+          &status);
+  EXPECT_NE(status, 0) << err;
+  EXPECT_NE(err.find("past --max-wall 2 s; rosenbrock4 at the start: "), std::string::npos) << err;
+  EXPECT_NE(err.find("(a real mode, mostly qm"), std::string::npos) << err;
+  EXPECT_NE(err.find("holds every row up to t = 0 s"), std::string::npos) << err;
+  EXPECT_EQ(test::read_text_file(csv.string()).rfind("t,x0,", 0), 0u);
+  fs::remove(csv);
+}
+
 // One runtime interface: the CLI runs the loaded model through the library's integrate_motion,
 // so its samples are the library simulate() of the linked model (the same generated code,
 // compiled apart: equal to rounding), for a fixed-step and an adaptive method.
@@ -1150,6 +1227,20 @@ TEST_F(SimulateCli, BadInputsGetClearErrors) {
             "output forward_dynamics_derivatives)"},
            {"--t-end 1", "give --torques FILE, --plan FILE or --zero"},
            {"--zero --t-end 1 --rtol 1e-3 --integrator auto", "not to auto"},
+           // Issue 49: empty values are not defaults, tolerances are relative errors, one
+           // angle rule, run-time parameters in the scene's range, the grid in the options'
+           // own names.
+           {"--zero --t-end 1 --q0 ''", "--q0: an empty value; give one, or leave the option out"},
+           {"--zero --t-end 1 -o ''", "an empty value"},
+           {"--zero --t-end 1 --integrator dopri5 --rtol 10", "must be at most 0.1"},
+           {"--zero --t-end 1 --q0 0,0,1e100,0,0,0",
+            "--q0[2] (q0) = 1e+100 rad: angles must lie within +-1e6 rad"},
+           {"--zero --t-end 1 --param p=1e300",
+            "'p' = 1e+300 is outside the supported magnitude range 1e-30 .. 1e30 (or 0)"},
+           {"--zero --t-end 1 --dt 0.3 --integrator rk4",
+            "--t-end 1 s must be a whole multiple of --dt 0.3 s"},
+           {"--zero --t-end 1 --dt 0.1 --dt-out 0.25 --integrator rk4",
+            "--dt-out 0.25 s must be a whole multiple of the step --dt 0.1 s"},
        }) {
     int status = 0;
     const std::string out = run(sim + c.args + " 2>&1", &status);
@@ -1305,8 +1396,8 @@ TEST_F(SimulateCli, SignalsFinishTheRowAndReportTheTimeReached) {
   int status = 0;
   run(sim + "--zero --t-end 0.1 > /dev/null 2>&1", &status);  // compiled before the clock starts
   ASSERT_EQ(status, 0);
-  for (const auto& [signal, name] :
-       std::vector<std::pair<int, std::string>>{{SIGTERM, "SIGTERM"}, {SIGINT, "SIGINT"}}) {
+  for (const auto& [signal, name] : std::vector<std::pair<int, std::string>>{
+           {SIGTERM, "SIGTERM"}, {SIGINT, "SIGINT"}, {SIGHUP, "SIGHUP"}}) {
     fs::remove(csv);
     // Started directly (not as a shell's background job, whose SIGINT is ignored by design).
     const std::string command =

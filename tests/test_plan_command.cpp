@@ -307,6 +307,42 @@ TEST_F(PlanCommand, OutputsNeverReplaceAFifoOrALink) {
   EXPECT_FALSE(fs::exists(gen / "free_n2_geared.cpp"));
 }
 
+// Issue 49: a plan replayed into another arm with the same base and joint count (link 2 longer)
+// is refused, naming the scene it was made on (its provenance) and where the end effectors part;
+// --other-arm replays it with a warning; the plan's own arm and its geared twin pass.
+TEST_F(PlanCommand, APlanForAnotherArmIsRefusedNamingBothScenes) {
+  const std::string csv = (dir() / "two_link_plan.csv").string();
+  std::string out;
+  ASSERT_EQ(plan("free_n2_geared", "--from 0.9,0.3 --to 0.7,0.5 --duration 1", csv, &out), 0)
+      << out;
+  std::string twin = test::read_text_file("tests/scenes/free_n2_geared.yaml");
+  const std::string length = "length: 0.370";
+  ASSERT_NE(twin.find(length), std::string::npos);
+  twin.replace(twin.find(length), length.size(), "length: 0.420");
+  twin.replace(twin.find("name: free_n2_geared"), 20, "name: longer_n2");
+  const std::string longer = (dir() / "longer_n2.yaml").string();
+  std::ofstream(longer) << twin;
+  const std::string replay = cli() + "simulate " + longer + " --plan " + csv + " -o none" + cache();
+  int status = 0;
+  out = test::run_command(replay + " 2>&1", &status);
+  EXPECT_NE(status, 0) << out;
+  EXPECT_NE(out.find("--plan '" + csv + "' was made on '"), std::string::npos) << out;
+  EXPECT_NE(out.find("free_n2_geared.yaml', whose kinematics differ from the scene '" + longer),
+            std::string::npos)
+      << out;
+  EXPECT_NE(out.find("at t = 0 s the plan's end effector is at (0.9, 0.3)"), std::string::npos)
+      << out;
+  EXPECT_NE(out.find("add --other-arm"), std::string::npos) << out;
+  out = test::run_command(replay + " --other-arm 2>&1", &status);
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_NE(out.find("warning: --plan '" + csv + "' was made on"), std::string::npos) << out;
+  out = test::run_command(cli() + "simulate tests/scenes/free_n2_geared.yaml --plan " + csv +
+                              " -o none" + cache() + " 2>&1",
+                          &status);
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_EQ(out.find("kinematics differ"), std::string::npos) << out;
+}
+
 TEST_F(PlanCommand, BadRequestsNameTheOption) {
   const std::string csv = (dir() / "bad.csv").string();
   const std::string scene = (fs::path(SPACEARM_SOURCE_DIR) / "tests/scenes/free_n5.yaml").string();

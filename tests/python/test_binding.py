@@ -450,3 +450,39 @@ def test_a_spatial_plan_gives_its_arrays_by_size():
     assert np.array_equal(plan["qd"][:, 5], cols["wz0"])
     assert np.array_equal(plan["qdd"][:, -1], cols["qm7dd"])
     assert np.array_equal(plan["tau"][:, 0], cols["tau1"])
+
+
+def test_hostile_input_third_round(geared, tmp_path):
+    """Issue 49: a failed run keeps its rows (IntegrationError.partial), a plan for another arm
+    is refused, one angle rule, sizes named one by one, write_csv never onto a folder."""
+    arm = spacearm.load(os.path.join(SOURCE, "tests", "scenes", "spatial_arm2.yaml"),
+                        cache_dir=CACHE)
+    spin = np.zeros(arm.nv)
+    spin[-2:] = [100, -100]
+    with pytest.raises(spacearm.IntegrationError, match="left the model's domain") as failed:
+        arm.simulate(300, qd0=spin, integrator="rk4", dt=1.5)
+    assert isinstance(failed.value, RuntimeError)
+    assert failed.value.t == 4.5
+    assert list(failed.value.partial["t"]) == [0, 1.5, 3, 4.5]
+    assert failed.value.partial["q"].shape == (4, arm.nq)
+    # A plan made on the geared arm, replayed into the same arm with a longer link 3.
+    plan = geared.plan([1.5, 0, 0.5], [1.4, 0.05, 0.6], 1)
+    text = open(os.path.join(SOURCE, "models", "paper_geared.yaml")).read()
+    assert "length: 0.355" in text
+    longer = spacearm.load(text.replace("length: 0.355", "length: 0.4"), cache_dir=CACHE)
+    with pytest.raises(ValueError, match=r"plan: made for another arm .* the plan's end effector "
+                                         r"is at \(1\.5, "):
+        longer.simulate(plan=plan)
+    with pytest.warns(UserWarning, match="plan: made for another arm"):
+        longer.simulate(plan=plan, other_arm=True)
+    geared.simulate(plan=plan)  # its own arm: no complaint
+    q0 = np.zeros(geared.nq)
+    q0[2] = 1e100
+    with pytest.raises(ValueError, match=r"q0\[2\] \(q0\) = 1e\+100 rad: angles must lie within"):
+        geared.simulate(1, q0=q0)
+    with pytest.raises(ValueError, match="qd0: expected 6 values, got 7"):
+        geared.simulate(1, qd0=np.zeros(7))
+    with pytest.raises(ValueError, match="outside the supported magnitude range"):
+        geared.mass_matrix(np.zeros(geared.nq), params={"p": 1e300})
+    with pytest.raises(ValueError, match="is a folder, not a file to write a CSV into"):
+        spacearm.write_csv(plan, tmp_path)
