@@ -327,7 +327,15 @@ CLI::App* add_sweep(CLI::App& app, spacearm::SweepArgs& a) {
   command->add_option("study", a.study_path, "Study file (YAML)")->required();
   command->add_option("-o,--output", a.out_dir, "Results folder (created; a killed sweep resumes)")
       ->required();
-  command->add_option("--shard", a.shard, "Run part i of n of the runs, e.g. 3/8 (default 1/1)");
+  auto* shard = command->add_option("--shard", a.shard,
+                                    "Run part i of n of the runs, e.g. 3/8 (default 1/1)");
+  command
+      ->add_option("--merge", a.merge,
+                   "Folders of shards run apart (each copied whole: study.id, study.key, "
+                   "runs-*.csv): their rows checked under each folder's own key and merged into "
+                   "-o's results.csv, the same bytes as one sweep; nothing is run")
+      ->excludes(shard)
+      ->default_str("");
   command->add_option("--threads", a.threads, "Worker threads (default: one per hardware thread)")
       ->check(CLI::Range(1, 1024))
       ->default_str("");

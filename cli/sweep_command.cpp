@@ -26,6 +26,11 @@ int run_sweep_command(const SweepArgs& a) {
     if (a.verbose || m.find("compiling") != std::string::npos) say(m);
   };
   const StudyRunner runner(std::move(study), compile);
+  if (!a.merge.empty()) {
+    say("sweep: wrote " + merge_sweeps(runner, a.merge, a.out_dir) + " (" + std::to_string(runs) +
+        " runs from " + std::to_string(a.merge.size()) + " folders)");
+    return 0;
+  }
   SweepOptions o;
   o.out_dir = a.out_dir;
   o.shard = shard;

@@ -6,12 +6,15 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace spacearm {
 
 struct SweepArgs {
   std::string study_path, out_dir, shard = "1/1", cache_dir;
   int threads = 0;  // 0: one per hardware thread
+  // Folders of shards run apart (--merge): their rows checked and merged into -o's results.csv.
+  std::vector<std::string> merge;
   bool verbose = false;
 };
 

@@ -108,6 +108,12 @@ SweepSummary run_sweep(const StudyRunner& runner, const SweepOptions& options);
 // there ends with its HMAC-SHA-256 under the folder's study.key.
 std::string shard_header(const StudyRunner& runner);
 
+// Merges the rows of shards run in separate folders (on machines without a shared file system):
+// each folder's rows checked under its own study.key and study.id, every run present once; then
+// out_dir/results.csv, the same bytes as one sweep of the whole study. Returns its path.
+std::string merge_sweeps(const StudyRunner& runner, const std::vector<std::string>& dirs,
+                         const std::string& out_dir);
+
 // Checks out_dir as run_sweep does and claims it for the study (study.id).
 void claim_results_folder(const StudyRunner& runner, const std::string& out_dir);
 

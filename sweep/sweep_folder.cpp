@@ -389,6 +389,52 @@ SweepSummary run_sweep(const StudyRunner& runner, const SweepOptions& o) {
   return sum;
 }
 
+std::string merge_sweeps(const StudyRunner& runner, const std::vector<std::string>& dirs,
+                         const std::string& out_dir) {
+  const long n = runner.study().num_runs();
+  if (dirs.empty()) throw StudyError("sweep: --merge needs at least one folder");
+  // Each folder's rows under that folder's own key and study identity: a row another folder
+  // signed, an edited one or one of another study is refused, never merged.
+  std::map<long, std::string> rows;
+  for (const std::string& path : dirs) {
+    const Folder dir = open_folder(path);
+    bool has_id = false, has_key = false;
+    read_file_in(dir, "study.id", &has_id);
+    read_file_in(dir, "study.key", &has_key);
+    if (!has_id || !has_key)
+      throw StudyError("sweep: --merge '" + path + "' has no " +
+                       (has_id ? "study.key" : "study.id") +
+                       ": not a sweep's folder (copy the whole folder of each shard, study.id and "
+                       "study.key with its runs-*.csv)");
+    claim_folder(dir, runner);
+    const std::string key = folder_key(dir);
+    const std::vector<std::string> files = row_files(dir);
+    if (files.empty()) throw StudyError("sweep: --merge '" + path + "' holds no runs-*.csv");
+    for (const auto& f : files) {
+      long first = -1;
+      read_rows(dir, f, key, runner, rows, &first);
+      // As run_sweep: rows of another spacearm or machine would mix silently.
+      if (first >= 0 && runner.row(first) != rows.at(first))
+        throw StudyError("sweep: '" + dir.shown(f) + "': run " + std::to_string(first) +
+                         " differs from what this spacearm computes (rows of another version "
+                         "or machine, or edited)");
+    }
+  }
+  if (static_cast<long>(rows.size()) != n) {
+    std::string missing;
+    int shown = 0;
+    for (long run = 0; run < n && shown < 10; ++run)
+      if (!rows.count(run)) missing += (shown++ ? ", " : "") + std::to_string(run);
+    throw StudyError("sweep: --merge: the folders hold " + std::to_string(rows.size()) +
+                     " of the " + std::to_string(n) + " runs; missing runs " + missing +
+                     (static_cast<long>(rows.size()) + shown < n ? ", ..." : "") +
+                     " (run their shards, then merge again)");
+  }
+  std::vector<std::string> list;
+  for (auto& [run, row] : rows) list.push_back(std::move(row));
+  return write_results(runner, out_dir, list);
+}
+
 void claim_results_folder(const StudyRunner& runner, const std::string& out_dir) {
   claim_folder(open_folder(out_dir), runner);
 }

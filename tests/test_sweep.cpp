@@ -182,6 +182,38 @@ TEST(Sweep, RefusesAnotherStudysFolderASecondWriterAndDamagedRows) {
 
 // Files planted in the folder (issue 28, item 2): a link is never written through, whatever its
 // name; a folder others may write to is refused.
+// Issue 49: shards run in separate folders (machines without a shared file system) merge into
+// results.csv of the same bytes as one sweep, each folder's rows checked under its own key; a
+// row moved from one folder into another's file, or a missing run, is refused by name.
+TEST(Sweep, ShardsRunInSeparateFoldersMerge) {
+  const StudyRunner runner(study(), cache());
+  const fs::path one = scratch("merge-one"), a = scratch("merge-a"), b = scratch("merge-b"),
+                 out = scratch("merge-out");
+  auto refused = [&](const std::vector<std::string>& dirs, const std::string& text) {
+    try {
+      merge_sweeps(runner, dirs, out.string());
+      ADD_FAILURE() << "merged; expected: " << text;
+    } catch (const StudyError& e) {
+      EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
+    }
+  };
+  sweep(runner, one, 1);
+  EXPECT_TRUE(sweep(runner, a, 1, {1, 2}).results.empty());
+  EXPECT_TRUE(sweep(runner, b, 1, {2, 2}).results.empty());
+  refused({a.string()}, "the folders hold 3 of the 6 runs; missing runs 1, 3, 5");
+  const std::string merged = merge_sweeps(runner, {a.string(), b.string()}, out.string());
+  EXPECT_EQ(merged, (out / "results.csv").string());
+  EXPECT_EQ(read(out / "results.csv"), read(one / "results.csv"));
+  // A row signed by b's key, copied into a's file: refused, naming the file and line.
+  std::string b_rows = read(b / "runs-2of2.csv");
+  const std::string row = b_rows.substr(b_rows.find('\n') + 1);
+  std::ofstream(a / "runs-1of2.csv", std::ios::app) << row.substr(0, row.find('\n') + 1);
+  refused({a.string(), b.string()}, "runs-1of2.csv' line 5: its digest does not match");
+  const fs::path empty = scratch("merge-empty");
+  refused({empty.string()}, "has no study.id: not a sweep's folder");
+  for (const auto& d : {one, a, b, out, empty}) fs::remove_all(d);
+}
+
 TEST(Sweep, PlantedLinksAreNeverWrittenThrough) {
   const StudyRunner runner(study(), cache());
   const fs::path dir = scratch("planted"), victim = dir.parent_path() / "spacearm-test-victim";
