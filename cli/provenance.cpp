@@ -54,6 +54,12 @@ std::optional<Provenance> read_provenance(const std::string& csv, bool* stale) {
   struct stat st;
   if (::lstat(path.c_str(), &st) != 0) return std::nullopt;
   const std::string what = "the run's provenance '" + path + "'";
+  // spacearm writes the record as a file; a link could point at any file (/etc/shadow), whose
+  // text must not reach a message or the page.
+  if (S_ISLNK(st.st_mode))
+    throw std::invalid_argument(what +
+                                " is a symbolic link, not the record spacearm wrote; "
+                                "remove it");
   std::string text;
   try {
     text = read_regular_file(path, "view", size_t(1) << 20);
@@ -71,7 +77,10 @@ std::optional<Provenance> read_provenance(const std::string& csv, bool* stale) {
       p.parameters.push_back({name, value.get<double>()});
     p.csv_size = j.at("csv_size").get<long long>();
     p.csv_mtime_ns = j.at("csv_mtime_ns").get<long long>();
-  } catch (const nlohmann::json::exception& e) {
+  } catch (const nlohmann::json::parse_error& e) {  // its message quotes the text: not shown
+    throw std::invalid_argument(what + ": not spacearm's provenance (not JSON at byte " +
+                                std::to_string(e.byte) + "); remove it or fix it");
+  } catch (const nlohmann::json::exception& e) {  // a field missing or of another type
     throw std::invalid_argument(what + ": not spacearm's provenance (" + e.what() +
                                 "); remove it or fix it");
   }

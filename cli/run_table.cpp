@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <functional>
@@ -104,6 +105,18 @@ struct Thinner {
 
 }  // namespace
 
+namespace {
+
+constexpr double kMaxDrawnValue = 1e9;
+
+std::string number_text(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", v);
+  return text;
+}
+
+}  // namespace
+
 RunTable read_run_table(const std::string& path, const std::string& what, long max_rows) {
   RunTable table;
   table.path = path;
@@ -134,12 +147,26 @@ RunTable read_run_table(const std::string& path, const std::string& what, long m
       return;
     }
     std::vector<double> row(fields.size());
-    for (size_t i = 0; i < fields.size(); ++i)
+    for (size_t i = 0; i < fields.size(); ++i) {
       row[i] = parse_number(fields[i], at + " column " + quoted_text(table.names[i]));
+      // The page draws in double and in WebGL's float: beyond 1e9 the arm's geometry and the
+      // plots' scales lose every digit (x0 = 1e300 drew nothing), so such a row is refused.
+      if (!(std::abs(row[i]) <= kMaxDrawnValue))
+        throw std::invalid_argument(at + " column " + quoted_text(table.names[i]) + ": " +
+                                    number_text(row[i]) +
+                                    " is beyond +-1e9, which the page cannot draw");
+    }
     if (table.total_rows > 0 && !(row[t_column] > t_before))
       throw std::invalid_argument(at + ": t = " + fields[t_column] +
                                   " does not increase (the row before has " +
-                                  std::to_string(t_before) + ")");
+                                  number_text(t_before) + ")");
+    // Plots need times that a float axis tells apart: steps of at least 1e-9 of the time.
+    if (table.total_rows > 0 &&
+        !(row[t_column] - t_before >= 1e-9 * std::max(1.0, std::abs(row[t_column]))))
+      throw std::invalid_argument(at + ": t = " + fields[t_column] + " is " +
+                                  number_text(row[t_column] - t_before) +
+                                  " s after the row before: times closer than 1e-9 s (relative to "
+                                  "t, at least 1) cannot be plotted");
     t_before = row[t_column];
     ++table.total_rows;
     thin.add(std::move(row));

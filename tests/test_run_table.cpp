@@ -90,6 +90,17 @@ TEST_F(RunTableTest, BadFilesAreErrorsNamingLineAndColumn) {
   EXPECT_NE(error().find("line 3 column 'x'"), std::string::npos) << error();
   write("t,x\n0,1\n0,2\n");
   EXPECT_NE(error().find("line 3: t = 0 does not increase"), std::string::npos) << error();
+  // Issue 49: values the page cannot draw, and times a plot cannot tell apart, are refused with
+  // the line and column (x0 = 1e300 drew an empty 3D view; steps of 1e-300 s broke every plot).
+  write("t,x0\n0,1\n1,1e300\n");
+  EXPECT_NE(error().find("line 3 column 'x0': 1e+300 is beyond +-1e9, which the page cannot draw"),
+            std::string::npos)
+      << error();
+  write("t,x\n0,1\n1e-300,2\n2e-300,3\n");
+  EXPECT_NE(error().find("line 3: t = 1e-300 is 1e-300 s after the row before: times closer than "
+                         "1e-9 s"),
+            std::string::npos)
+      << error();
   // A thinned-away row is checked too.
   std::string text = "t,x\n";
   for (int k = 0; k < 1000; ++k) text += std::to_string(k) + (k == 501 ? ",x1\n" : ",1\n");

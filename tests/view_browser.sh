@@ -57,6 +57,18 @@ expect_error "give --scene" "$cli" view "$work/copy.csv" -o "$work/bad.html"
 echo '{"command": 1}' > "$work/copy.csv.provenance.json"
 expect_error "copy.csv.provenance.json': not spacearm's provenance" "$cli" view "$work/copy.csv" \
   -o "$work/bad.html"
+# Issue 49: a record that is a link, or not JSON, is named, never quoted (it could be any file).
+printf 'secret-text-1234\n' > "$work/secret"
+rm "$work/copy.csv.provenance.json"
+ln -s "$work/secret" "$work/copy.csv.provenance.json"
+expect_error "copy.csv.provenance.json' is a symbolic link" "$cli" view "$work/copy.csv" \
+  -o "$work/bad.html"
+! grep -q secret-text "$work/log" || fail "the linked record's text was shown"
+rm "$work/copy.csv.provenance.json"
+printf 'secret-text-5678 is no JSON\n' > "$work/copy.csv.provenance.json"
+expect_error "not spacearm's provenance (not JSON at byte" "$cli" view "$work/copy.csv" \
+  -o "$work/bad.html"
+! grep -q secret-text "$work/log" || fail "the record's text was shown"
 expect_error "is the run file" "$cli" view "$work/replay.csv" \
   --scene "$source_dir/models/paper_geared.yaml" -o "$work/replay.csv" "${cache[@]}"
 # Another p than the run's: the drawn end effector would not be the file's ee_x, ee_y.
