@@ -5,7 +5,9 @@
 #   text_fuzzer   torque CSV reader, CLI number lists, comment escaping of emitted files
 #                 (fuzz/text_seeds, fuzz/text_regressions), for half of that;
 #   study_fuzzer  study files and the torque files they name (fuzz/study_seeds,
-#                 fuzz/study_regressions), for half of that.
+#                 fuzz/study_regressions), for half of that;
+#   view_fuzzer   spacearm view's run CSVs and provenance records (fuzz/view_seeds,
+#                 fuzz/view_regressions), for half of that.
 #   scripts/fuzz.sh [seconds] [build-dir]     (default 60 s, build-fuzz)
 # A crash input is copied to the fuzzer's regressions folder (commit it: the replay tests
 # Scene.FuzzCorpusAndRegressionsReplay, TorqueCsv.FuzzSeedsAndRegressionsReplay and
@@ -15,7 +17,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
 build_dir=${2:-build-fuzz}
-scripts/install-packages.sh clang libclang-rt-14-dev libyaml-cpp-dev libeigen3-dev libboost-dev libtinyxml2-dev pkg-config cmake ninja-build
+scripts/install-packages.sh clang libclang-rt-14-dev libyaml-cpp-dev libeigen3-dev libboost-dev libtinyxml2-dev nlohmann-json3-dev pkg-config cmake ninja-build
 CC=clang CXX=clang++ cmake -S fuzz -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 cmake --build "$build_dir"
 
@@ -48,10 +50,13 @@ run_fuzzer() {
   echo "fuzz.sh: $name: no crash in ${time} s"
 }
 
-mkdir -p "$work/scene_fuzzer/corpus" "$work/text_fuzzer/corpus" "$work/study_fuzzer/corpus"
+mkdir -p "$work/scene_fuzzer/corpus" "$work/text_fuzzer/corpus" "$work/study_fuzzer/corpus" \
+  "$work/view_fuzzer/corpus"
 run_fuzzer scene_fuzzer "$seconds" fuzz/regressions -dict=fuzz/scene.dict \
   "$work/scene_fuzzer/corpus" models tests/scenes fuzz/seeds fuzz/regressions
 run_fuzzer text_fuzzer "$((seconds / 2))" fuzz/text_regressions \
   "$work/text_fuzzer/corpus" fuzz/text_seeds fuzz/text_regressions
 run_fuzzer study_fuzzer "$((seconds / 2))" fuzz/study_regressions -dict=fuzz/study.dict \
   "$work/study_fuzzer/corpus" fuzz/study_seeds fuzz/study_regressions
+run_fuzzer view_fuzzer "$((seconds / 2))" fuzz/view_regressions \
+  "$work/view_fuzzer/corpus" fuzz/view_seeds fuzz/view_regressions

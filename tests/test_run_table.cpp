@@ -5,10 +5,12 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <string>
 
 #include "run_table.hpp"
+#include "view_fuzz_target.hpp"
 
 namespace {
 
@@ -133,6 +135,23 @@ TEST_F(RunTableTest, RefusesWhatIsNotARegularFile) {
   EXPECT_THROW(read_run_table(::testing::TempDir(), "view", 10), std::invalid_argument);
   EXPECT_THROW(read_run_table(::testing::TempDir() + "no such file.csv", "view", 10),
                std::invalid_argument);
+}
+
+// Every input the view fuzzer recorded (fuzz/view_seeds, fuzz/view_regressions) replays
+// through its check (fuzz/view_fuzz_target.hpp) in every test run.
+TEST(RunTable, FuzzSeedsAndRegressionsReplay) {
+  namespace fs = std::filesystem;
+  int replayed = 0;
+  for (const char* folder : {"fuzz/view_seeds", "fuzz/view_regressions"})
+    for (const auto& entry : fs::directory_iterator(fs::path(SPACEARM_SOURCE_DIR) / folder)) {
+      std::ifstream in(entry.path(), std::ios::binary);
+      const std::string text((std::istreambuf_iterator<char>(in)),
+                             std::istreambuf_iterator<char>());
+      SCOPED_TRACE(entry.path().string());
+      EXPECT_NO_THROW(spacearm::fuzz::check_view_input(text));
+      ++replayed;
+    }
+  EXPECT_GE(replayed, 6);
 }
 
 }  // namespace
