@@ -421,11 +421,6 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
     for (const CLI::App* command : app.get_subcommands()) refuse_empty_values(*command);
     if (*simulate) check_simulate_options(*simulate, sim);
-    for (const CLI::App* command : {eval, simulate, plan, sweep, view})
-      if (command->count("--cache-dir") && eval_args.cache_dir.empty() && sim.cache_dir.empty() &&
-          plan_args.cache_dir.empty() && sweep_args.cache_dir.empty() &&
-          view_args.cache_dir.empty())
-        throw CLI::ValidationError("--cache-dir", "empty path");
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) {  // --help: printed, and it must have arrived
       app.exit(e);

@@ -69,8 +69,7 @@ inline void check_provenance(const std::string& text) {
     // but for the field names spacearm itself knows.
     for (size_t at = 0; at + 12 <= text.size(); at += 12) {
       const std::string piece = text.substr(at, 12);
-      if (piece.find_first_not_of("abcdefghijklmnopqrstuvwxyz_\" :") == std::string::npos)
-        continue;
+      if (piece.find_first_not_of("abcdefghijklmnopqrstuvwxyz_\" :") == std::string::npos) continue;
       if (what.find(piece) != std::string::npos)
         throw std::logic_error("provenance rejection quotes the record's text: " + what);
     }

@@ -896,7 +896,7 @@ TEST_F(EvalCli, LostOutputAndAnEmptyCacheFolderAreErrors) {
   out = run(std::string(SPACEARM_CLI) + " eval " + ref + " --q 0,0,0,0,0,0 --cache-dir '' 2>&1",
             &status);
   EXPECT_EQ(WEXITSTATUS(status), 1);
-  EXPECT_NE(out.find("--cache-dir: empty path"), std::string::npos) << out;
+  EXPECT_NE(out.find("--cache-dir: an empty value"), std::string::npos) << out;
 }
 
 class SimulateCli : public EvalCli {
