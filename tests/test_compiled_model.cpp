@@ -899,6 +899,33 @@ TEST_F(EvalCli, LostOutputAndAnEmptyCacheFolderAreErrors) {
   EXPECT_NE(out.find("--cache-dir: an empty value"), std::string::npos) << out;
 }
 
+// Issue 49: a model's C++ is measured before the compiler starts; past SPACEARM_MAX_CODE_MB it is
+// refused naming its size, time and memory (a 19 MB arm sat at "compiling" for 15 minutes), and
+// the cost is said before any compile.
+TEST_F(EvalCli, ModelsPastTheCodeBoundAreRefusedBeforeCompiling) {
+  const std::string scene = std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/free_n5.yaml";
+  const fs::path fresh = cache.parent_path() / ("bound-cache-" + std::to_string(getpid()));
+  const std::string eval = std::string(SPACEARM_CLI) + " eval " + scene +
+                           " --q 0,0,0,0,0,0,0,0 --cache-dir " + fresh.string();
+  int status = 0;
+  std::string out = run("SPACEARM_MAX_CODE_MB=0.001 " + eval + " 2>&1", &status);
+  EXPECT_EQ(WEXITSTATUS(status), 1) << out;
+  EXPECT_NE(out.find("MB of C++: at least"), std::string::npos) << out;
+  EXPECT_NE(out.find("past the bound of 0.001 MB; raise it (SPACEARM_MAX_CODE_MB"),
+            std::string::npos)
+      << out;
+  out = run("SPACEARM_MAX_CODE_MB=many " + eval + " 2>&1", &status);
+  EXPECT_EQ(WEXITSTATUS(status), 1) << out;
+  EXPECT_NE(out.find("SPACEARM_MAX_CODE_MB: expected a positive number of MB, got 'many'"),
+            std::string::npos)
+      << out;
+  out = run(eval + " 2>&1 >/dev/null", &status);
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_NE(out.find("compiling with"), std::string::npos) << out;
+  EXPECT_NE(out.find("MB of memory"), std::string::npos) << out;
+  fs::remove_all(fresh);
+}
+
 class SimulateCli : public EvalCli {
  protected:
   std::string sim = std::string(SPACEARM_CLI) + " simulate --cache-dir " + cache.string() + " " +
