@@ -15,6 +15,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <stdexcept>
 #include <string>
 
@@ -62,17 +63,20 @@ inline void check_provenance(const std::string& text) {
     bool stale = false;
     cli::read_provenance(csv, &stale);
   } catch (const std::invalid_argument& e) {
-    const std::string what = e.what();
-    if (what.rfind("the run's provenance '" + record + "'", 0) != 0)
+    const std::string what = e.what(), named = "the run's provenance '" + record + "'";
+    if (what.rfind(named, 0) != 0)
       throw std::logic_error("provenance rejection does not name the record: " + what);
-    // The record may be any file: none of its text (a run of 12 bytes) reaches the message,
-    // but for the field names spacearm itself knows.
-    for (size_t at = 0; at + 12 <= text.size(); at += 12) {
-      const std::string piece = text.substr(at, 12);
-      if (piece.find_first_not_of("abcdefghijklmnopqrstuvwxyz_\" :") == std::string::npos) continue;
-      if (what.find(piece) != std::string::npos)
-        throw std::logic_error("provenance rejection quotes the record's text: " + what);
-    }
+    // The record may be any file: after its name the message is one of spacearm's own
+    // sentences, with a byte offset or one of nlohmann's type or key errors (no input text; a
+    // key named is one of the record's fields).
+    static const std::regex own(
+        "(: not spacearm's provenance \\(not JSON at byte [0-9]+\\); remove it or fix it"
+        "|: not spacearm's provenance \\(\\[json\\.exception\\.(type_error\\.[0-9]+\\] [a-z_() "
+        ",]+|out_of_range\\.[0-9]+\\] key '(command|folder|scene|spacearm|"
+        "parameters|csv_size|csv_mtime_ns)' not found)\\); remove it or fix it"
+        "| is a symbolic link, not the record spacearm wrote; remove it)");
+    if (!std::regex_match(what.substr(named.size()), own))
+      throw std::logic_error("provenance rejection says more than spacearm's sentence: " + what);
   }
 }
 
