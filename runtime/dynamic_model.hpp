@@ -227,10 +227,12 @@ struct DynamicModel : DynamicModelFacts {
 
 // The end-effector pose's columns of a table (simulate's and plan's): ee_x, ee_y, ee_phi in
 // the plane, ee_x..ee_z and the quaternion ee_qw..ee_qz in 3D; none without the output.
-inline std::vector<std::string> end_effector_columns(const DynamicModel& m) {
-  if (!m.end_effector_pose) return {};
-  if (m.spatial) return {"ee_x", "ee_y", "ee_z", "ee_qw", "ee_qx", "ee_qy", "ee_qz"};
+inline std::vector<std::string> end_effector_columns(bool spatial) {
+  if (spatial) return {"ee_x", "ee_y", "ee_z", "ee_qw", "ee_qx", "ee_qy", "ee_qz"};
   return {"ee_x", "ee_y", "ee_phi"};
+}
+inline std::vector<std::string> end_effector_columns(const DynamicModel& m) {
+  return m.end_effector_pose ? end_effector_columns(m.spatial) : std::vector<std::string>{};
 }
 
 // The one adapter. A Source states the model's facts (facts()), whether it has each function

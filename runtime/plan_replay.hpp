@@ -150,9 +150,7 @@ inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool f
   if (times.size() < 2)
     throw fail(0, "needs at least two rows of samples, got " + std::to_string(times.size()));
   // The end effector's pose at the first and last rows, where the plan has it.
-  const std::vector<std::string> ee =
-      spatial ? std::vector<std::string>{"ee_x", "ee_y", "ee_z", "ee_qw", "ee_qx", "ee_qy", "ee_qz"}
-              : std::vector<std::string>{"ee_x", "ee_y", "ee_phi"};
+  const std::vector<std::string> ee = end_effector_columns(spatial);
   if (std::all_of(ee.begin(), ee.end(), [&](const auto& n) { return column.count(n); }))
     for (const size_t r : {size_t(1), lines.size() - 1}) {
       const auto fields = detail::split_csv_line(lines[r].second);
