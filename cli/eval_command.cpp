@@ -149,7 +149,7 @@ int run_eval(const EvalArgs& a) {
   };
   EvalInputs in;
   in.values[Input::q] = cli::parse_vector(a.q_text, "--q", nq);
-  const int first_angle = !facts.free_floating ? 0 : facts.dims.spatial ? 7 : 2;
+  const int first_angle = ConfigurationSpace::first_angle(facts.free_floating, facts.dims.spatial);
   if (const std::string e = ConfigurationSpace::angle_error(in.values[Input::q], first_angle, "--q",
                                                             facts.coordinate_names);
       !e.empty())

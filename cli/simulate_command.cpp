@@ -297,12 +297,15 @@ CompiledModel load_model(const SimulateArgs& a, const ModelRecipe& scene) {
 // and, where nothing drives or dissipates, energy: how far they drifted, said at the end.
 class Invariants {
  public:
-  Invariants(const std::vector<std::string>& names, bool free_floating, bool conservative) {
+  Invariants(const std::vector<std::string>& names, const DynamicModel& model, bool conservative) {
+    const std::vector<std::string> momentum =
+        model.free_floating ? momentum_columns(model) : std::vector<std::string>{};
+    const size_t linear = model.spatial ? 3 : 2;  // Px, Py (, Pz), then the angular part
     for (size_t c = 0; c < names.size(); ++c) {
       const std::string& n = names[c];
-      if (free_floating &&
-          (n == "Px" || n == "Py" || n == "Pz" || n == "L" || n == "Lx" || n == "Ly" || n == "Lz"))
-        (n[0] == 'P' ? linear_ : angular_).push_back(c);
+      const auto k = std::find(momentum.begin(), momentum.end(), n);
+      if (k != momentum.end())
+        (static_cast<size_t>(k - momentum.begin()) < linear ? linear_ : angular_).push_back(c);
       if (conservative && (n == "kinetic_energy" || n == "potential_energy")) energy_.push_back(c);
     }
   }
@@ -406,11 +409,9 @@ int run_simulate(const SimulateArgs& args) {
   Eigen::VectorXd q0 = a.q0_text.empty()
                            ? ConfigurationSpace{nq, nv, facts.quaternion_offset}.neutral()
                            : cli::parse_vector(a.q0_text, "--q0", nq);
-  if (const std::string e = ConfigurationSpace::angle_error(q0,
-                                                            !facts.free_floating ? 0
-                                                            : facts.dims.spatial ? 7
-                                                                                 : 2,
-                                                            "--q0", facts.coordinate_names);
+  if (const std::string e = ConfigurationSpace::angle_error(
+          q0, ConfigurationSpace::first_angle(facts.free_floating, facts.dims.spatial), "--q0",
+          facts.coordinate_names);
       !e.empty())
     throw std::invalid_argument(e);
   Eigen::VectorXd qd0 =
@@ -476,7 +477,7 @@ int run_simulate(const SimulateArgs& args) {
   double t_written = 0;
   std::vector<double> values;
   // Energy is conserved only where nothing drives the arm and nothing dissipates.
-  Invariants invariants(table.names(), facts.free_floating, a.zero_torque && !passive);
+  Invariants invariants(table.names(), model, a.zero_torque && !passive);
   auto observe = [&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
     table.row(t, q, qd, (*tau)(t), values);
     out.row(row(values));

@@ -312,9 +312,11 @@ WorkFolder build_entry(const ModelRecipe& recipe, const CacheFolder& cache,
     std::snprintf(line, sizeof line,
                   "%.2f MB of C++: at least %.0f s and %.0f MB of memory (%zu compilers at once)",
                   static_cast<double>(bytes) / 1e6, cost.seconds, cost.memory_mb, units);
+    const double max_mb =
+        options.max_code_mb > 0 ? options.max_code_mb : CompileOptions::default_max_code_mb();
     char bound[32];
-    std::snprintf(bound, sizeof bound, "%g", options.max_code_mb);
-    if (static_cast<double>(bytes) > options.max_code_mb * 1e6)
+    std::snprintf(bound, sizeof bound, "%g", max_mb);
+    if (static_cast<double>(bytes) > max_mb * 1e6)
       throw CompileError("model '" + recipe.name() + "': " + line + ", past the bound of " + bound +
                          " MB; raise it (SPACEARM_MAX_CODE_MB, or CompileOptions::max_code_mb), "
                          "or emit fewer outputs (field 'outputs') or fewer joints");

@@ -68,9 +68,9 @@ struct CompileOptions {
   int jobs = 0;  // compilers at once (the library in as many units); 0: the CPUs we may use, <= 4
   std::function<void(const std::string&)> progress;  // stage messages (may be empty)
   // The largest emitted C++ compiled [MB] (compile_estimate): past it the load is refused
-  // before the compiler starts, naming the size, the estimated time and memory. Default: 8, or
-  // $SPACEARM_MAX_CODE_MB.
-  double max_code_mb = default_max_code_mb();
+  // before the compiler starts, naming the size, the estimated time and memory. 0: read when a
+  // compile needs it, $SPACEARM_MAX_CODE_MB or else 8 (default_max_code_mb).
+  double max_code_mb = 0;
   static double default_max_code_mb();
 };
 

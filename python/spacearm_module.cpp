@@ -495,11 +495,9 @@ py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& 
   if (v0.size() != m.nv)
     throw py::value_error("qd0: expected " + std::to_string(m.nv) + " values, got " +
                           std::to_string(v0.size()));
-  if (const std::string e = ConfigurationSpace::angle_error(x0,
-                                                            !m.free_floating ? 0
-                                                            : m.spatial      ? 7
-                                                                             : 2,
-                                                            "q0", m.coordinate_names);
+  if (const std::string e = ConfigurationSpace::angle_error(
+          x0, ConfigurationSpace::first_angle(m.free_floating, m.spatial), "q0",
+          m.coordinate_names);
       !e.empty())
     throw py::value_error(e);
   if (plan) replay_start(m, *plan, plan->torques.samples.front(), x0, v0);

@@ -83,6 +83,12 @@ struct ConfigurationSpace {
   // a planar free base's q0; positions and the quaternion are not). Empty when q keeps it, else
   // "what[i] (name) = value rad: ...".
   static constexpr double kMaxAngle = 1e6;
+  // The first coordinate of q that is an angle: a fixed base's first joint, a planar free
+  // base's own angle q0 (after x0, y0), a spatial base's first joint (after the origin and the
+  // quaternion).
+  static int first_angle(bool free_floating, bool spatial) {
+    return !free_floating ? 0 : spatial ? 7 : 2;
+  }
   static std::string angle_error(const Eigen::Ref<const Eigen::VectorXd>& q, int first_angle,
                                  const std::string& what, const std::vector<std::string>& names) {
     for (Eigen::Index i = first_angle; i < q.size(); ++i) {

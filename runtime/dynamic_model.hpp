@@ -231,6 +231,13 @@ inline std::vector<std::string> end_effector_columns(bool spatial) {
   if (spatial) return {"ee_x", "ee_y", "ee_z", "ee_qw", "ee_qx", "ee_qy", "ee_qz"};
   return {"ee_x", "ee_y", "ee_phi"};
 }
+// The momentum's columns, linear then angular: Px, Py, L in the plane, Px..Pz, Lx..Lz in 3D;
+// none without the output.
+inline std::vector<std::string> momentum_columns(const DynamicModel& m) {
+  if (!m.momentum) return {};
+  if (m.spatial) return {"Px", "Py", "Pz", "Lx", "Ly", "Lz"};
+  return {"Px", "Py", "L"};
+}
 inline std::vector<std::string> end_effector_columns(const DynamicModel& m) {
   return m.end_effector_pose ? end_effector_columns(m.spatial) : std::vector<std::string>{};
 }

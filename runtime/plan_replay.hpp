@@ -142,8 +142,10 @@ inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool f
     for (int j = 1; j <= num_joints; ++j) joint_names.push_back("q" + std::to_string(j));
     std::string bad =
         ConfigurationSpace::angle_error(plan.angles.back(), 0, "joint angle", joint_names);
-    if (bad.empty() && pose == 3)
-      bad = ConfigurationSpace::angle_error(base_pose, 2, "base pose", {"x0", "y0", "q0"});
+    if (bad.empty())  // a planar base's q0 (a spatial base pose holds no angle)
+      bad = ConfigurationSpace::angle_error(base_pose,
+                                            ConfigurationSpace::first_angle(free_floating, spatial),
+                                            "base pose", {"x0", "y0", "q0"});
     if (!bad.empty()) throw fail(number, bad);
     plan.rates.push_back(take(num_joints));
   }

@@ -34,10 +34,8 @@ class SimulationTable {
     names_.insert(names_.end(), pose.begin(), pose.end());
     if (m_.kinetic_energy) names_.push_back("kinetic_energy");
     if (m_.potential_energy) names_.push_back("potential_energy");
-    if (m_.momentum && m_.spatial)
-      names_.insert(names_.end(), {"Px", "Py", "Pz", "Lx", "Ly", "Lz"});
-    else if (m_.momentum)
-      names_.insert(names_.end(), {"Px", "Py", "L"});
+    const std::vector<std::string> momentum = momentum_columns(m_);
+    names_.insert(names_.end(), momentum.begin(), momentum.end());
   }
 
   const std::vector<std::string>& names() const { return names_; }
