@@ -343,6 +343,35 @@ TEST_F(PlanCommand, APlanForAnotherArmIsRefusedNamingBothScenes) {
   EXPECT_EQ(out.find("kinematics differ"), std::string::npos) << out;
 }
 
+// Issue 49: a line passing 2 um from the shoulder of a folded arm (two equal links: the end
+// effector there folds the arm onto its shoulder, a singularity) is planned, but its joint rates
+// blow up; the warning says where and why instead of only "--dt is coarse". A line across the
+// workspace gets no such warning.
+TEST_F(PlanCommand, ALineNearASingularityIsNamed) {
+  const std::string scene = (dir() / "folding_n2.yaml").string();
+  std::ofstream(scene) << "name: folding_n2\nbase: {type: fixed, mount: [0, 0]}\nlinks:\n"
+                          "  - {mass: 1.0, inertia: 0.02, length: 0.5, com: [0.25, 0]}\n"
+                          "  - {mass: 1.0, inertia: 0.02, length: 0.5, com: [0.25, 0]}\n";
+  const std::string csv = (dir() / "folding.csv").string();
+  int status = 0;
+  std::string out = test::run_command(cli() + "plan " + scene +
+                                          " --from 0.3,2e-6 --to -0.3,2e-6 --duration 2 -o " + csv +
+                                          cache() + " 2>&1",
+                                      &status);
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_NE(out.find("warning: the line passes near a singularity of the arm at t = 1 s: the "
+                     "rates reach"),
+            std::string::npos)
+      << out;
+  EXPECT_NE(out.find("move the line away from it"), std::string::npos) << out;
+  out =
+      test::run_command(cli() + "plan " + scene + " --from 0.8,0.3 --to 0.3,0.6 --duration 2 -o " +
+                            csv + cache() + " 2>&1",
+                        &status);
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_EQ(out.find("near a singularity"), std::string::npos) << out;
+}
+
 TEST_F(PlanCommand, BadRequestsNameTheOption) {
   const std::string csv = (dir() / "bad.csv").string();
   const std::string scene = (fs::path(SPACEARM_SOURCE_DIR) / "tests/scenes/free_n5.yaml").string();
