@@ -42,10 +42,13 @@ struct Folder {
   std::string shown(const std::string& name) const { return path + "/" + name; }
 };
 
-Folder open_folder(const std::string& path) {
+// create: a missing folder is made (-o); a folder to read (--merge) must exist.
+Folder open_folder(const std::string& path, bool create = true) {
   return as_study_error([&] {
     return Folder{
-        open_private_folder(path, "sweep folder -o", true, "remove it or give another folder (-o)"),
+        open_private_folder(path, create ? "sweep folder -o" : "sweep folder --merge", create,
+                            create ? "remove it or give another folder (-o)"
+                                   : "give the folder a shard's sweep wrote"),
         path};
   });
 }
@@ -397,7 +400,7 @@ std::string merge_sweeps(const StudyRunner& runner, const std::vector<std::strin
   // signed, an edited one or one of another study is refused, never merged.
   std::map<long, std::string> rows;
   for (const std::string& path : dirs) {
-    const Folder dir = open_folder(path);
+    const Folder dir = open_folder(path, false);
     bool has_id = false, has_key = false;
     read_file_in(dir, "study.id", &has_id);
     read_file_in(dir, "study.key", &has_key);

@@ -211,6 +211,11 @@ TEST(Sweep, ShardsRunInSeparateFoldersMerge) {
   refused({a.string(), b.string()}, "runs-1of2.csv' line 5: its digest does not match");
   const fs::path empty = scratch("merge-empty");
   refused({empty.string()}, "has no study.id: not a sweep's folder");
+  // A folder to merge is read, never made: a mistyped one is refused, and not created.
+  const fs::path missing = empty / "mistyped";
+  refused({missing.string()}, "sweep folder --merge '" + missing.string() + "'");
+  refused({missing.string()}, "No such file or directory");
+  EXPECT_FALSE(fs::exists(missing));
   for (const auto& d : {one, a, b, out, empty}) fs::remove_all(d);
 }
 
