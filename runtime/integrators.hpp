@@ -496,9 +496,10 @@ IntegrationStats integrate_states(const IntegratorOptions& opt, System&& f, Stat
   } catch (const std::runtime_error& e) {  // the right-hand side's or odeint's
     x = run.x_ok;
     throw detail::integration_error(opt.method, e.what(), run.t_ok, run.x_ok);
-  } catch (const std::logic_error& e) {
+  } catch (const std::invalid_argument& e) {
     // A model's input check (a quaternion of norm 1e11) on a state the steps made: the run
-    // diverged, and what it computed so far is kept like any failed step's.
+    // diverged, and what it computed so far is kept like any failed step's. (Other logic
+    // errors, such as a library's own consistency check, pass on as they are.)
     x = run.x_ok;
     throw detail::integration_error(
         opt.method, std::string("the state left the model's domain (") + e.what() + ")", run.t_ok,

@@ -1144,7 +1144,8 @@ TEST_F(SimulateCli, ADivergingRunKeepsEveryRowAndNamesTheCause) {
 TEST_F(SimulateCli, AnUnresolvedStepIsWarnedAndTheDriftReported) {
   const std::string scene = std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/spatial_arm2.yaml";
   const std::string base = std::string(SPACEARM_CLI) + " simulate --cache-dir " + cache.string() +
-                           " " + scene + " --zero --t-end 100 --qd0 0,0,0,0,0,0,100,-100 -o none ";
+                           " " + scene +
+                           " --zero --t-end 100 --qd0 0,0,0,0,0,0,100,-100 -o /dev/null ";
   auto drift = [](const std::string& err) {
     const auto at = err.find("momentum drift |P - P(0)| <= ");
     return at == std::string::npos ? -1.0 : std::stod(err.substr(at + 29));

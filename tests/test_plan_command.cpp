@@ -322,7 +322,8 @@ TEST_F(PlanCommand, APlanForAnotherArmIsRefusedNamingBothScenes) {
   twin.replace(twin.find("name: free_n2_geared"), 20, "name: longer_n2");
   const std::string longer = (dir() / "longer_n2.yaml").string();
   std::ofstream(longer) << twin;
-  const std::string replay = cli() + "simulate " + longer + " --plan " + csv + " -o none" + cache();
+  const std::string replay =
+      cli() + "simulate " + longer + " --plan " + csv + " -o /dev/null" + cache();
   int status = 0;
   out = test::run_command(replay + " 2>&1", &status);
   EXPECT_NE(status, 0) << out;
@@ -337,7 +338,7 @@ TEST_F(PlanCommand, APlanForAnotherArmIsRefusedNamingBothScenes) {
   EXPECT_EQ(status, 0) << out;
   EXPECT_NE(out.find("warning: --plan '" + csv + "' was made on"), std::string::npos) << out;
   out = test::run_command(cli() + "simulate tests/scenes/free_n2_geared.yaml --plan " + csv +
-                              " -o none" + cache() + " 2>&1",
+                              " -o /dev/null" + cache() + " 2>&1",
                           &status);
   EXPECT_EQ(status, 0) << out;
   EXPECT_EQ(out.find("kinematics differ"), std::string::npos) << out;
