@@ -12,6 +12,7 @@
 
 #include "cli_input.hpp"
 #include "compiled_model.hpp"
+#include "span_note.hpp"
 #include "dynamics_checks.hpp"
 #include "numeric_outputs.hpp"
 #include "symbolic_model.hpp"
@@ -103,9 +104,11 @@ void evaluate_compiled(const ModelRecipe& scene, const EvalArgs& a, const EvalIn
                  rep.cache_entry.c_str(), rep.compiled ? "built" : "hit", rep.derive_ms,
                  rep.emit_ms, rep.compile_ms, rep.load_ms);
   const auto t0 = clock::now();
-  for (const auto& o : output_registry())
-    if (model.has(o.id))
-      out[o.name] = results_json(scene.name(), o, model.evaluate(o.id, in.of(o), in.params));
+  with_span_note(model.span_note(in.params), [&] {
+    for (const auto& o : output_registry())
+      if (model.has(o.id))
+        out[o.name] = results_json(scene.name(), o, model.evaluate(o.id, in.of(o), in.params));
+  });
   if (a.verbose) std::fprintf(stderr, "spacearm: run %.3f ms\n", ms_since(t0));
 }
 

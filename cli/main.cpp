@@ -262,7 +262,8 @@ CLI::App* add_simulate(CLI::App& app, spacearm::SimulateArgs& a) {
       "Torque outside the file's time range: error (default), hold (first/last sample) or zero");
   command->add_option(
       "-o,--output", a.output_file,
-      "CSV output; - or none: standard output. Geared scenes get link-side columns q_i = qm_i/p_i "
+      "CSV output (without -o, or -o -: standard output). Geared scenes get link-side columns q_i "
+      "= qm_i/p_i "
       "and q_id, and the torque both as tau_i (link side) and tau_motor_i = tau_i/p_i");
   command
       ->add_option("--max-wall", a.max_wall,
@@ -308,10 +309,11 @@ CLI::App* add_plan(CLI::App& app, spacearm::PlanArgs& a) {
       ->add_option("--param", a.param_assignments,
                    "Run-time parameter name=value (repeatable, once per name)")
       ->default_str("");
-  command->add_option("-o,--output", a.output_file,
-                      "CSV output; - or none: standard output. Torques tau_i are link-side (and "
-                      "tau_motor_i = tau_i/p_i "
-                      "if geared); base_residual is max |(M qdd + b)_base| per row (free base)");
+  command->add_option(
+      "-o,--output", a.output_file,
+      "CSV output (without -o, or -o -: standard output). Torques tau_i are link-side (and "
+      "tau_motor_i = tau_i/p_i "
+      "if geared); base_residual is max |(M qdd + b)_base| per row (free base)");
   command->add_option(
       "--torque-file", a.torque_file,
       "Also write t,tau1..N alone, the file simulate --torques reads (replay of the plan)");

@@ -28,7 +28,7 @@ bool stamp(const std::string& path, long long& size, long long& mtime_ns) {
 std::string provenance_path(const std::string& csv) { return csv + ".provenance.json"; }
 
 void write_provenance(const std::string& csv, Provenance p) {
-  if (csv.empty() || csv == "-" || csv == "none") return;
+  if (csv.empty() || csv == "-") return;  // standard output: no file to sit beside
   try {
     std::error_code ec;
     p.folder = std::filesystem::current_path(ec).string();

@@ -22,6 +22,7 @@
 #include "plan_replay.hpp"
 #include "private_folder.hpp"
 #include "provenance.hpp"
+#include "span_note.hpp"
 #include "row_writer.hpp"
 #include "simulation.hpp"
 #include "simulation_table.hpp"
@@ -186,8 +187,17 @@ void check_output_grid(const SimulateArgs& a, double dt_out, const IntegratorOpt
                   a.t_end, every, dt_out, every);
     throw std::invalid_argument(buf);
   }
-  if (adaptive(opt.method) || a.dt_out == 0) return;
+  if (adaptive(opt.method)) return;
   const double per = dt_out / opt.dt;
+  // A chosen step (integrator_choice.hpp) this small is no run: say so before the grid's check.
+  if (per > 1e9) {
+    std::snprintf(buf, sizeof buf,
+                  "simulate: rk4 would take %.3g steps of %.3g s for each row (%s %.10g s): the "
+                  "stiffest mode at the start is too fast for any run",
+                  per, opt.dt, every, dt_out);
+    throw std::invalid_argument(buf);
+  }
+  if (a.dt_out == 0) return;
   if (!(per >= 0.5) || std::abs(std::round(per) * opt.dt - dt_out) > 1e-9 * dt_out) {
     std::snprintf(buf, sizeof buf,
                   "--dt-out %.10g s must be a whole multiple of the step --dt %.10g s", dt_out,
@@ -384,59 +394,16 @@ class Progress {
   std::chrono::steady_clock::time_point wall0_ = std::chrono::steady_clock::now();
 };
 
-}  // namespace
-
-int run_simulate(const SimulateArgs& args) {
-  // Everything the run needs is checked before the output file is opened.
-  SimulateArgs a = args;
-  const ModelRecipe scene = ModelRecipe::load(a.scene_path);
+// The run itself, once the scene's model is loaded and the options are read.
+int simulate_loaded(const SimulateArgs& a, const ModelRecipe& scene, const CompiledModel& compiled,
+                    const Eigen::VectorXd& params, Eigen::VectorXd q0, Eigen::VectorXd qd0,
+                    PlanSamples* plan, const TorqueTable* torque_file, double dt_out) {
   const ModelFacts& facts = scene.facts();
   const bool passive = facts.has_passive_forces();
-  const auto wants = [&facts](Output o) {
-    return std::count(facts.outputs.begin(), facts.outputs.end(), o) != 0;
-  };
-  if (!has_forward_dynamics(wants, passive))
-    throw std::invalid_argument(
-        passive ? "simulate: a scene with springs, dampers or friction must emit forward_dynamics "
-                  "(field 'outputs')"
-                : "simulate: the scene must emit forward_dynamics, or mass_matrix and bias_forces "
-                  "(field 'outputs')");
-  const int nq = facts.dims.nq, nv = facts.dims.nv, N = facts.dims.num_links;
-  if (a.consistent_start && !(facts.features & needs::springs))
-    throw std::invalid_argument(
-        "--consistent-start: the scene has no flexible joint (gears[i].stiffness)");
-  // Default: at rest, the base's quaternion the identity.
-  Eigen::VectorXd q0 = a.q0_text.empty()
-                           ? ConfigurationSpace{nq, nv, facts.quaternion_offset}.neutral()
-                           : cli::parse_vector(a.q0_text, "--q0", nq);
-  if (const std::string e = ConfigurationSpace::angle_error(
-          q0, ConfigurationSpace::first_angle(facts.free_floating, facts.dims.spatial), "--q0",
-          facts.coordinate_names);
-      !e.empty())
-    throw std::invalid_argument(e);
-  Eigen::VectorXd qd0 =
-      a.qd0_text.empty() ? Eigen::VectorXd::Zero(nv) : cli::parse_vector(a.qd0_text, "--qd0", nv);
-  const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, facts);
-  // The samples: a plan's (its end is the default --t-end), a torque file's, or none.
-  std::optional<PlanSamples> plan;
-  std::optional<TorqueTable> torque_file;
-  if (!a.plan_file.empty()) {
-    plan = read_plan_csv(read_text_file(a.plan_file, "--plan"), N, facts.free_floating, a.plan_file,
-                         facts.dims.spatial);
-    if (a.t_end == 0) a.t_end = plan->torques.t_last();
-  } else if (!a.zero_torque) {
-    torque_file = read_torque_csv(read_text_file(a.torque_file, "--torques"), N, a.torque_file);
-  }
-  if (!(a.t_end > 0))
-    throw std::invalid_argument("--t-end: required without --plan (the end time, s)");
-  const double dt_out = a.dt_out > 0 ? a.dt_out : a.dt;
-  const CompiledModel compiled = load_model(a, scene);
+  const int N = facts.dims.num_links;
   const DynamicModel model = dynamic_model(compiled, params);
   if (plan) prepare_replay(a, model, *plan, q0, qd0);
-  const auto tau = torque_signal(a, N,
-                                 plan          ? &plan->torques
-                                 : torque_file ? &*torque_file
-                                               : nullptr);
+  const auto tau = torque_signal(a, N, plan ? &plan->torques : torque_file);
   if (a.consistent_start) consistent_start(model, q0, qd0, (*tau)(0.0));
   // The integrator, from the stiffest mode at the start.
   const StiffestMode mode = stiffest_mode(model, q0, qd0, model.generalized_forces((*tau)(0.0)));
@@ -530,6 +497,60 @@ int run_simulate(const SimulateArgs& args) {
     report_stop(out, t_written, "the run stopped");
     throw;
   }
+}
+
+}  // namespace
+
+int run_simulate(const SimulateArgs& args) {
+  // Everything the run needs is checked before the output file is opened.
+  SimulateArgs a = args;
+  const ModelRecipe scene = ModelRecipe::load(a.scene_path);
+  const ModelFacts& facts = scene.facts();
+  const bool passive = facts.has_passive_forces();
+  const auto wants = [&facts](Output o) {
+    return std::count(facts.outputs.begin(), facts.outputs.end(), o) != 0;
+  };
+  if (!has_forward_dynamics(wants, passive))
+    throw std::invalid_argument(
+        passive ? "simulate: a scene with springs, dampers or friction must emit forward_dynamics "
+                  "(field 'outputs')"
+                : "simulate: the scene must emit forward_dynamics, or mass_matrix and bias_forces "
+                  "(field 'outputs')");
+  const int nq = facts.dims.nq, nv = facts.dims.nv, N = facts.dims.num_links;
+  if (a.consistent_start && !(facts.features & needs::springs))
+    throw std::invalid_argument(
+        "--consistent-start: the scene has no flexible joint (gears[i].stiffness)");
+  // Default: at rest, the base's quaternion the identity.
+  Eigen::VectorXd q0 = a.q0_text.empty()
+                           ? ConfigurationSpace{nq, nv, facts.quaternion_offset}.neutral()
+                           : cli::parse_vector(a.q0_text, "--q0", nq);
+  if (const std::string e = ConfigurationSpace::angle_error(
+          q0, ConfigurationSpace::first_angle(facts.free_floating, facts.dims.spatial), "--q0",
+          facts.coordinate_names);
+      !e.empty())
+    throw std::invalid_argument(e);
+  Eigen::VectorXd qd0 =
+      a.qd0_text.empty() ? Eigen::VectorXd::Zero(nv) : cli::parse_vector(a.qd0_text, "--qd0", nv);
+  const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, facts);
+  // The samples: a plan's (its end is the default --t-end), a torque file's, or none.
+  std::optional<PlanSamples> plan;
+  std::optional<TorqueTable> torque_file;
+  if (!a.plan_file.empty()) {
+    plan = read_plan_csv(read_text_file(a.plan_file, "--plan"), N, facts.free_floating, a.plan_file,
+                         facts.dims.spatial);
+    if (a.t_end == 0) a.t_end = plan->torques.t_last();
+  } else if (!a.zero_torque) {
+    torque_file = read_torque_csv(read_text_file(a.torque_file, "--torques"), N, a.torque_file);
+  }
+  if (!(a.t_end > 0))
+    throw std::invalid_argument("--t-end: required without --plan (the end time, s)");
+  const double dt_out = a.dt_out > 0 ? a.dt_out : a.dt;
+  const CompiledModel compiled = load_model(a, scene);
+  // A failure at parameters beyond the span the generator checked names that span.
+  return with_span_note(compiled.span_note(params), [&] {
+    return simulate_loaded(a, scene, compiled, params, q0, qd0, plan ? &*plan : nullptr,
+                           torque_file ? &*torque_file : nullptr, dt_out);
+  });
 }
 
 }  // namespace spacearm

@@ -441,6 +441,12 @@ std::vector<std::string> c_interface(const LoweredModel& model, int per_part, in
   const ModelFacts& facts = model.facts;
   const std::string nominal = number_list(facts.nominal_parameters);
   const std::string actuated = comma_list(actuated_coordinates(facts));
+  std::vector<std::string> span_names;
+  std::vector<double> span_values;
+  std::vector<int> span_parameters;
+  for (const SpanField& f : facts.span_fields)
+    span_names.push_back(f.field), span_values.push_back(f.value),
+        span_parameters.push_back(f.parameter);
   std::vector<std::string> texts;
   std::vector<bool> batches;
   for (const auto& f : model.functions) {
@@ -497,8 +503,13 @@ std::vector<std::string> c_interface(const LoweredModel& model, int per_part, in
       << (nominal.empty() ? "\"\"" : quoted_list(facts.parameter_names)) << "};\n"
       << "const double kNominalParameters[] = {" << (nominal.empty() ? "0.0" : nominal) << "};\n"
       << "const int kActuatedCoordinates[] = {" << actuated << "};\n"
-      << "const bool kMotorAngleSlots[] = {" << comma_list(facts.motor_angle_slots)
-      << "};\n}  // namespace\n\n"
+      << "const bool kMotorAngleSlots[] = {" << comma_list(facts.motor_angle_slots) << "};\n"
+      << "const char* const kSpanFields[] = {"
+      << (span_names.empty() ? "\"\"" : quoted_list(span_names)) << "};\n"
+      << "const double kSpanValues[] = {"
+      << (span_values.empty() ? "0.0" : number_list(span_values)) << "};\n"
+      << "const int kSpanParameters[] = {"
+      << (span_parameters.empty() ? "-1" : comma_list(span_parameters)) << "};\n}  // namespace\n\n"
       << "extern \"C\" {\n"
       << "int spacearm_abi_version() { return " << kCInterfaceVersion << "; }\n"
       << "int spacearm_nq() { return " << facts.dims.nq << "; }\n"
@@ -521,6 +532,12 @@ std::vector<std::string> c_interface(const LoweredModel& model, int per_part, in
       << "int spacearm_slot_holds_motor(int joint) { return kMotorAngleSlots[joint]; }\n"
       << "unsigned long spacearm_outputs() { return " << output_mask(facts.outputs) << "ul; }\n"
       << "const char* spacearm_scene_hash() { return \"" << facts.scene_hash << "\"; }\n"
+      << "// The numbers a failure's message spans (spacearm's value_span.hpp): field, literal\n"
+      << "// or nominal value, the run-time parameter that gives it (-1: none).\n"
+      << "int spacearm_num_span_fields() { return " << span_names.size() << "; }\n"
+      << "const char* spacearm_span_field(int i) { return kSpanFields[i]; }\n"
+      << "double spacearm_span_value(int i) { return kSpanValues[i]; }\n"
+      << "int spacearm_span_parameter(int i) { return kSpanParameters[i]; }\n"
       << "const char* spacearm_parameter_error([[maybe_unused]] const double* params) {\n"
       << parameter_checks(facts, Spelling::c_arrays) << functions << "}\n";
     result.push_back(s.str());

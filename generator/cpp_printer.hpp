@@ -17,7 +17,9 @@ inline constexpr const char* kGeneratorVersion = "0.3.0";
 // itself (spacearm_name, _nq, _nv, _num_links, _num_base, _spatial, _free_floating,
 // _passive_forces, _configuration_layout, _outputs, ...), so a loader needs no scene. 7: the
 // self-description. 8: per joint, whether its slot holds a motor angle (_slot_holds_motor).
-inline constexpr int kCInterfaceVersion = 8;
+// 9: the numbers whose span a failure names (_num_span_fields, _span_field, _span_value,
+// _span_parameter).
+inline constexpr int kCInterfaceVersion = 9;
 // Beside some of them (FunctionSpec::lanes), spacearm_<name>_x4 of the same signature takes four
 // states per call: entry i of lane l of every input, parameter and result at [4 i + l]. A
 // library without them still loads (the caller takes one state per call).

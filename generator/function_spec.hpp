@@ -8,6 +8,7 @@
 
 #include "outputs.hpp"
 #include "straight_line.hpp"
+#include "value_span.hpp"
 
 namespace spacearm {
 
@@ -71,6 +72,8 @@ struct ModelFacts {
   std::vector<bool> motor_angle_slots;
   Program checks_program;  // inputs: params(i)
   std::vector<ParameterCheck> checks;
+  // The numbers whose span a failure names (value_span.hpp); the library lists them.
+  std::vector<SpanField> span_fields;
 };
 
 // Per joint, the velocity index its torque drives (as tau_i / p_i, eq. 14): the joint's own slot,

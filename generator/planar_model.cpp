@@ -13,13 +13,15 @@ namespace spacearm {
 
 namespace {
 
-// The smallest and largest non-zero magnitudes among the scene's masses, inertias, lengths,
-// gear ratios, motor inertias and stiffnesses (nominal values), by field; empty when they span
-// less than six decades. Double precision cannot hold a model whose numbers span too far.
-std::string value_span(const Scene& scene) {
-  std::vector<std::pair<std::string, double>> values;
+// The numbers double precision must hold together (value_span.hpp): masses, inertias, lengths,
+// gear ratios, motor inertias and stiffnesses, each a literal or a run-time parameter.
+std::vector<SpanField> span_fields(const Scene& scene) {
+  std::map<std::string, int> index;
+  for (size_t i = 0; i < scene.parameters.size(); ++i)
+    index[scene.parameters[i].name] = static_cast<int>(i);
+  std::vector<SpanField> fields;
   auto add = [&](const std::string& field, const Quantity& q) {
-    if (q.value != 0) values.push_back({field, std::abs(q.value)});
+    fields.push_back({field, q.value, q.is_parameter() ? index.at(q.parameter) : -1});
   };
   if (scene.free_floating())
     add("base.mass", scene.base.mass), add("base.inertia", scene.base.inertia);
@@ -34,16 +36,7 @@ std::string value_span(const Scene& scene) {
     add(g + ".motor_inertia", scene.gears[i]->motor_inertia);
     if (scene.gears[i]->stiffness) add(g + ".stiffness", *scene.gears[i]->stiffness);
   }
-  if (values.empty()) return "";
-  const auto [lo, hi] =
-      std::minmax_element(values.begin(), values.end(),
-                          [](const auto& a, const auto& b) { return a.second < b.second; });
-  if (hi->second / lo->second < 1e6) return "";
-  char text[200];
-  std::snprintf(text, sizeof text, "%.0f decades, from %s = %g to %s = %g",
-                std::floor(std::log10(hi->second / lo->second)), lo->first.c_str(), lo->second,
-                hi->first.c_str(), hi->second);
-  return text;
+  return fields;
 }
 
 // The range rules (parameter_rules.hpp) whose value depends on a run-time parameter, as
@@ -99,6 +92,7 @@ ModelFacts planar_facts(const Scene& scene) {
   for (const auto& o : output_registry())
     if (scene.wants(o.id)) facts.outputs.push_back(o.id);
   parameter_checks(scene, facts);
+  facts.span_fields = span_fields(scene);
   return facts;
 }
 
@@ -106,7 +100,8 @@ DerivedModel planar_derived_model(const SymbolicModel& model) {
   const Scene& scene = model.scene;
   DerivedModel derived;
   derived.facts = planar_facts(scene);
-  derived.value_span = value_span(scene);
+  derived.value_span =
+      value_span(derived.facts.span_fields, nullptr, derived.facts.parameter_names);
   derived.closed_forms = &model;
   derived.tries_recursive = scene.tries_recursive();
   for (const OutputInfo& o : output_registry()) {

@@ -1,5 +1,7 @@
 #include "spatial_model.hpp"
 
+#include <cmath>
+
 #include "recursive_algorithms.hpp"
 #include "scene.hpp"
 
@@ -79,6 +81,39 @@ void parameter_checks(const SpatialScene& scene, ModelFacts& f) {
   }
 }
 
+// The numbers double precision must hold together (value_span.hpp): every body's mass and
+// principal inertias, each joint's offset from its parent, gear ratios, rotor inertias and
+// stiffnesses. links[i] is the link the i-th moving joint carries (a URDF's too), parts[k] a
+// body welded to it.
+std::vector<SpanField> span_fields(const spatial::ChainDescription& c) {
+  std::vector<SpanField> fields;
+  auto add = [&fields](const std::string& field, double value, int parameter) {
+    fields.push_back({field, value, parameter});
+  };
+  auto body = [&add](const std::string& at, const spatial::Inertial& b) {
+    add(at + ".mass", b.mass, b.mass_param);
+    for (const auto& [k, name] : {std::pair{0, "ixx"}, {3, "iyy"}, {5, "izz"}})
+      add(at + ".inertia." + name, b.inertia[size_t(k)], b.inertia_param[size_t(k)]);
+  };
+  if (c.free_base) body("base", c.base);
+  for (size_t i = 0; i < c.links.size(); ++i) {
+    const spatial::Link& l = c.links[i];
+    const std::string at = "links[" + std::to_string(i) + "]";
+    body(at, l);
+    add(at + ".origin", std::sqrt(spatial::dot(l.origin_xyz, l.origin_xyz)), spatial::kLiteral);
+    for (size_t k = 0; k < l.parts.size(); ++k)
+      body(at + ".parts[" + std::to_string(k) + "]", l.parts[k].inertial);
+    const spatial::Gear& g = l.gear;
+    if (!g.present) continue;
+    const std::string gear = "gears[" + std::to_string(i) + "]";
+    add(gear + ".ratio", g.ratio, g.ratio_param);
+    add(gear + ".rotor_inertia.axial", g.axial, g.axial_param);
+    add(gear + ".rotor_inertia.transverse", g.transverse, g.transverse_param);
+    if (g.flexible) add(gear + ".stiffness", g.stiffness, g.stiffness_param);
+  }
+  return fields;
+}
+
 }  // namespace
 
 ModelFacts spatial_facts(const SpatialScene& scene) {
@@ -110,6 +145,7 @@ ModelFacts spatial_facts(const SpatialScene& scene) {
   f.parameter_names = parameter_names(scene.parameters);
   f.nominal_parameters = nominal_values(scene.parameters);
   parameter_checks(scene, f);
+  f.span_fields = span_fields(c);
   return f;
 }
 
@@ -135,6 +171,8 @@ const char* spatial_algorithm(Output o) {
 DerivedModel spatial_derived_model(const SpatialScene& scene) {
   DerivedModel derived;
   derived.facts = spatial_facts(scene);
+  derived.value_span =
+      value_span(derived.facts.span_fields, nullptr, derived.facts.parameter_names);
   derived.tries_recursive = true;
   const spatial::ChainDescription& chain = scene.chain;
   for (Output o : derived.facts.outputs)

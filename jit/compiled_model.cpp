@@ -145,7 +145,11 @@ const std::vector<std::string>& description_symbols() {
                                                  "spacearm_passive_forces",
                                                  "spacearm_configuration_layout",
                                                  "spacearm_spatial",
-                                                 "spacearm_slot_holds_motor"};
+                                                 "spacearm_slot_holds_motor",
+                                                 "spacearm_num_span_fields",
+                                                 "spacearm_span_field",
+                                                 "spacearm_span_value",
+                                                 "spacearm_span_parameter"};
   return names;
 }
 
@@ -614,6 +618,13 @@ CompiledModel CompiledModel::open_verified(const ModelRecipe& recipe, const Fd& 
     m.actuated_.push_back(actuated(j));
     m.motor_angle_slots_.push_back(motor_on_slot(j) != 0);
   }
+  auto span_field = reinterpret_cast<const char* (*)(int)>(sym("spacearm_span_field"));
+  auto span_value = reinterpret_cast<double (*)(int)>(sym("spacearm_span_value"));
+  auto span_parameter = reinterpret_cast<int (*)(int)>(sym("spacearm_span_parameter"));
+  for (int i = 0, n = number("spacearm_num_span_fields"); i < n; ++i) {
+    const int p = span_parameter(i);
+    m.span_fields_.push_back({span_field(i), span_value(i), p >= 0 && p < np ? p : -1});
+  }
   // A cross-check only: the hash already names the scene.
   why = m.mismatch_with(recipe.facts());
   if (!why.empty()) return m;
@@ -669,6 +680,7 @@ CompiledModel& CompiledModel::operator=(CompiledModel&& o) noexcept {
   nominal_ = std::move(o.nominal_);
   actuated_ = std::move(o.actuated_);
   motor_angle_slots_ = std::move(o.motor_angle_slots_);
+  span_fields_ = std::move(o.span_fields_);
   free_floating_ = o.free_floating_;
   passive_forces_ = o.passive_forces_;
   num_base_ = o.num_base_;

@@ -141,6 +141,14 @@ class CompiledModel {
   // The checks every call makes of the parameters (size, finiteness, the scene's ranges):
   // std::invalid_argument naming the one that fails.
   void check_parameters(const Eigen::VectorXd& params) const;
+  // "" or, where the model's numbers at these parameters span six decades or more, the span by
+  // field ("25 decades, from links[6].mass (mp) = 1e-25 to base.mass = 500"): what a failure of
+  // the dynamics at run time names, as the generator's self-check does (value_span.hpp).
+  std::string value_span(const Eigen::VectorXd& params) const;
+  // "" unless these parameters widen the span past the nominal one (which the generator's
+  // self-check passed) by a decade or more; else a sentence to append to a run's failure that
+  // names the new span.
+  std::string span_note(const Eigen::VectorXd& params) const;
   // Shorthands of evaluate() for the outputs the simulate command reads.
   Eigen::MatrixXd mass_matrix(const Eigen::VectorXd& q, const Eigen::VectorXd& params) const;
   Eigen::VectorXd bias_forces(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
@@ -217,6 +225,7 @@ class CompiledModel {
   std::vector<double> nominal_;
   std::vector<int> actuated_;
   std::vector<bool> motor_angle_slots_;
+  std::vector<SpanField> span_fields_;
   bool free_floating_ = false, passive_forces_ = false;
   int num_base_ = 0, quaternion_offset_ = -1;
   static CompiledModel open_verified(const ModelRecipe& recipe, const Fd& library, StageReport& rep,

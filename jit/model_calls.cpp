@@ -3,6 +3,7 @@
 // runtime's one adapter (LoadedSource). Loading it is compiled_model.cpp's.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 #include <string>
 #include <string_view>
@@ -71,6 +72,25 @@ void CompiledModel::check_parameters(const Eigen::VectorXd& params) const {
     }
   if (const char* error = parameter_error_(params.data()))
     throw std::invalid_argument(std::string("parameters: ") + error);
+}
+
+std::string CompiledModel::value_span(const Eigen::VectorXd& params) const {
+  const bool sized = params.size() == static_cast<Eigen::Index>(nominal_.size());
+  return spacearm::value_span(span_fields_, sized ? params.data() : nullptr, parameter_names_);
+}
+
+std::string CompiledModel::span_note(const Eigen::VectorXd& params) const {
+  if (params.size() != static_cast<Eigen::Index>(nominal_.size())) return "";
+  const double nominal = span_decades(span_fields_, nullptr),
+               now = span_decades(span_fields_, params.data());
+  if (now < std::log10(kNotableSpan) || now < nominal + 1) return "";
+  char widened[120];
+  std::snprintf(widened, sizeof widened, "from %.0f decades at the nominal values",
+                std::floor(nominal));
+  return ". The run-time parameters widen the model's span of values to " + value_span(params) +
+         " (" + widened +
+         "); double precision may not hold it: choose values that bring them "
+         "closer";
 }
 
 // Calls an exported function with checked parameters; results sized by `shapes`.

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "compiled_model.hpp"
+#include "span_note.hpp"
 #include "dynamics_checks.hpp"
 #include "scene.hpp"
 #include "symbolic_model.hpp"
@@ -258,7 +259,8 @@ py::object PyModel::call(Output o, const py::args& args, const py::object& param
   }
   {
     py::gil_scoped_release release;
-    model_.evaluate_batch(o, k, in_ptrs, params, out_ptrs, lanes_);
+    with_span_note(model_.span_note(params),
+                   [&] { model_.evaluate_batch(o, k, in_ptrs, params, out_ptrs, lanes_); });
   }
   if (results.size() == 1) {
     if (!batch && results[0].ndim() == 0) return py::float_(*results[0].data());
@@ -524,8 +526,8 @@ py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& 
                          rows.emplace_back();
                          columns.row(t, q, qd, tau(t), rows.back());
                        });
-    } catch (const IntegrationError& e) {
-      failed.emplace(e);
+    } catch (const IntegrationError& e) {  // with the span at these parameters, if wider
+      failed.emplace(e.what() + model_.span_note(params), e.t(), e.state());
     }
   }
   py::dict run = run_result(columns, std::move(rows), m, why);

@@ -17,6 +17,8 @@
 #include <string>
 #include <string_view>
 
+#include "text_numbers.hpp"
+
 namespace spacearm {
 
 // A failure of the dynamics at run time (bad input, mass matrix not positive definite);
@@ -135,7 +137,7 @@ void check_forward_dynamics(const Pivots& pivots, const Pivots& scaled_pivots,
     throw DynamicsError(
         "model " + std::string(model_name) +
         ": mass matrix numerically singular (condition number of the diagonally scaled matrix >= " +
-        std::to_string(hi / lo) + ")");
+        number_text(hi / lo, 3) + ")");
   throw DynamicsError("model " + std::string(model_name) + ": accelerations not finite (overflow)");
 }
 

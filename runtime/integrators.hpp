@@ -28,6 +28,8 @@
 #include <string>
 #include <type_traits>
 
+#include "text_numbers.hpp"
+
 namespace spacearm {
 
 enum class Method { rk4, dopri5, rkf78, implicit_midpoint, rosenbrock4 };
@@ -111,12 +113,7 @@ class IntegrationError : public std::runtime_error {
 };
 
 namespace detail {
-inline std::string format(double v, int digits = 3) {
-  std::ostringstream s;
-  s.precision(digits);
-  s << v;
-  return s.str();
-}
+inline std::string format(double v, int digits = 3) { return number_text(v, digits); }
 template <class State>
 IntegrationError integration_error(Method m, const std::string& why, double t, const State& x) {
   std::ostringstream msg;

@@ -199,9 +199,9 @@ IntegrationStats integrate_closed_loop(const DynamicModel& plant, const Eigen::V
                                        double t_end, IntegratorOptions options, Record&& record) {
   const long samples = std::isfinite(t_end / period) ? std::lround(t_end / period) : 0;
   if (!(period > 0) || samples < 1 || std::abs(samples * period - t_end) > 1e-9 * t_end)
-    throw std::invalid_argument("integrate_closed_loop: t_end = " + std::to_string(t_end) +
+    throw std::invalid_argument("integrate_closed_loop: t_end = " + number_text(t_end) +
                                 " must be a positive multiple of the control period " +
-                                std::to_string(period));
+                                number_text(period));
   Eigen::VectorXd held = Eigen::VectorXd::Zero(plant.num_links);
   // The held torque, for every stage of the steps up to the next sample (evaluate copies it
   // into the integrator's workspace: nothing allocated per step).
@@ -214,7 +214,7 @@ IntegrationStats integrate_closed_loop(const DynamicModel& plant, const Eigen::V
     held = control(t, q, qd);
     if (held.size() != plant.num_links || !held.allFinite())
       throw std::runtime_error("integrate_closed_loop: the controller's torque at t = " +
-                               std::to_string(t) + " is not finite or has the wrong size");
+                               number_text(t) + " is not finite or has the wrong size");
     record(t, q, qd, held);
   };
   if (adaptive(options.method)) {

@@ -70,7 +70,7 @@ class Model {
       if (name == Generated::parameter_names()[i]) {
         if (!std::isfinite(value))
           throw std::invalid_argument(std::string("model ") + Generated::kName + ": parameter '" +
-                                      name + "' must be finite, got " + std::to_string(value));
+                                      name + "' must be finite, got " + number_text(value));
         const double previous = params_[i];
         params_[i] = value;
         try {
@@ -78,7 +78,7 @@ class Model {
         } catch (const std::invalid_argument& e) {
           params_[i] = previous;  // the model stays valid
           throw std::invalid_argument(std::string(e.what()) + " (after setting " + name + " = " +
-                                      std::to_string(value) + ")");
+                                      number_text(value) + ")");
         }
         return;
       }

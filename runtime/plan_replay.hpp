@@ -168,7 +168,7 @@ inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool f
   // The replay starts at t = 0 in the plan's first state: a plan that starts later would pair
   // that state with torques from another time.
   if (!(std::abs(times.front()) <= 1e-9 * std::max(1.0, std::abs(times.back()))))
-    throw fail(lines[1].first, "column 't' starts at " + std::to_string(times.front()) +
+    throw fail(lines[1].first, "column 't' starts at " + number_text(times.front()) +
                                    " s; a plan starts at t = 0 (its first row is the start)");
   return plan;
 }

@@ -159,7 +159,7 @@ class MotionRhs {
     try {
       fd_(q_, qd_, Q_, qdd_);
     } catch (const DynamicsError& e) {
-      throw DynamicsError(std::string(e.what()) + " at t = " + std::to_string(t));
+      throw DynamicsError(std::string(e.what()) + " at t = " + number_text(t));
     }
     dsdt.tail(nv) = qdd_;
   }
@@ -259,8 +259,8 @@ class TorqueReplay {
     if (hold_ && fixed && !(multiple(tau.dt(), options.dt) && multiple(tau.t_first(), options.dt)))
       throw std::invalid_argument(
           "a held torque with " + to_string(options.method) +
-          " needs the torque samples' interval (" + std::to_string(tau.dt()) +
-          " s) to be a multiple of " + step_name + " (" + std::to_string(options.dt) +
+          " needs the torque samples' interval (" + number_text(tau.dt()) +
+          " s) to be a multiple of " + step_name + " (" + number_text(options.dt) +
           " s), and their first time too, so that no step straddles a sample");
     options.breakpoint_interval = tau.dt();
     options.breakpoint_origin = tau.t_first();

@@ -6,11 +6,21 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace spacearm {
+
+// A number in a message: `digits` significant digits, never printf's %f (which shows 1e-7 as
+// 0.000000 and 1e300 with 300 digits).
+inline std::string number_text(double v, int digits = 10) {
+  std::ostringstream s;
+  s.precision(digits);
+  s << v;
+  return s.str();
+}
 
 // Shown in messages: at most 40 characters, control characters as '?'.
 inline std::string quoted_text(const std::string& text) {

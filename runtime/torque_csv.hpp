@@ -56,8 +56,8 @@ inline std::vector<std::string> torque_csv_columns(int num_joints) {
 inline std::string coverage_gap(double first, double last, double t_end) {
   const double tol = 1e-9 * std::max(1.0, t_end);
   if (first <= tol && last >= t_end - tol) return "";
-  return "t = " + std::to_string(first) + " .. " + std::to_string(last) +
-         " s, the run needs 0 .. " + std::to_string(t_end) + " s";
+  return "t = " + number_text(first) + " .. " + number_text(last) + " s, the run needs 0 .. " +
+         number_text(t_end) + " s";
 }
 
 namespace detail {
@@ -134,22 +134,22 @@ void set_uniform_grid(TorqueTable& table, const std::vector<double>& times, Line
   table.dt = (times.back() - times.front()) / static_cast<double>(times.size() - 1);
   const double scale = std::max(std::abs(times.front()), std::abs(times.back()));
   if (!(table.dt > 16 * std::numeric_limits<double>::epsilon() * std::max(scale, 1e-300)))
-    throw fail(0, "time step " + std::to_string(table.dt) +
-                      " is not positive or too small to resolve at t = " + std::to_string(scale));
+    throw fail(0, "time step " + number_text(table.dt) +
+                      " is not positive or too small to resolve at t = " + number_text(scale));
   // Each step equal to the first, within what a decimal file with 7 digits can hold.
   const double first = times[1] - times[0];
   for (size_t k = 1; k < times.size(); ++k) {
     const double step = times[k] - times[k - 1];
     if (!(std::abs(step - first) <= 1e-6 * std::abs(first)))
-      throw fail(line_of(k), "time step " + std::to_string(step) + " differs from the first step " +
-                                 std::to_string(first) + " (the grid must be uniform)");
+      throw fail(line_of(k), "time step " + number_text(step) + " differs from the first step " +
+                                 number_text(first) + " (the grid must be uniform)");
   }
   // Small steps that each pass can still add up: every time must sit on t0 + k dt.
   for (size_t k = 1; k < times.size(); ++k) {
     const double off = times[k] - (table.t0 + table.dt * static_cast<double>(k));
     if (!(std::abs(off) <= 1e-6 * table.dt))
-      throw fail(line_of(k), "time " + quoted_text(std::to_string(times[k])) + " is " +
-                                 std::to_string(off / table.dt) +
+      throw fail(line_of(k), "time " + quoted_text(number_text(times[k])) + " is " +
+                                 number_text(off / table.dt, 3) +
                                  " steps off the uniform grid t0 + k dt (the steps drift)");
   }
 }

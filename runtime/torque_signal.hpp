@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "text_numbers.hpp"
+
 namespace spacearm {
 
 enum class Interpolation { hold, linear };
@@ -94,9 +96,9 @@ class TorqueSignal {
     if (outside_ == Extrapolation::zero) return &zero_;
     if (outside_ == Extrapolation::hold) return s < 0 ? &samples_.front() : &samples_.back();
     // A runtime_error, so that an integrator reports it with the last accepted state.
-    throw std::runtime_error("torque requested at t = " + std::to_string(t) +
-                             " s, outside the samples [" + std::to_string(t_first()) + ", " +
-                             std::to_string(t_last()) +
+    throw std::runtime_error("torque requested at t = " + number_text(t) +
+                             " s, outside the samples [" + number_text(t_first()) + ", " +
+                             number_text(t_last()) +
                              "] s (extrapolate with hold or zero to allow it)");
   }
 };

@@ -295,7 +295,7 @@ Eigen::VectorXd initial_configuration(const DynamicModel& m, const StraightLineT
   if (!(error(q).norm() < 1e-12) || !branch_ok) {
     std::string pose;
     for (Eigen::Index i = 0; i < task.start.size(); ++i)
-      pose += (i ? ", " : "") + std::to_string(task.start[i]);
+      pose += (i ? ", " : "") + number_text(task.start[i]);
     throw std::runtime_error("planner, model " + m.name + ": no start configuration " +
                              (task.q0.size() ? std::string("near the given q0")
                                              : "on elbow branch " + std::to_string(task.elbow)) +

@@ -198,6 +198,30 @@ TEST(CompiledModel, LibraryStatesTheModelsFacts) {
   fs::remove_all(cache);
 }
 
+// Issue 49, item 10: the library lists the numbers whose span a failure names; at the nominal
+// values (which the generator's self-check passed) nothing is said, and run-time parameters that
+// widen the span name it by field and parameter. Cost: one compile of paper_geared, about 1 s.
+TEST(CompiledModel, ParametersThatWidenTheSpanOfValuesAreNamed) {
+  const fs::path cache = fresh_cache("span");
+  CompileOptions options;
+  options.cache_dir = cache.string();
+  const Scene scene = load_scene(std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml");
+  const CompiledModel m = CompiledModel::load(scene, options);
+  Eigen::VectorXd params = Eigen::Map<const Eigen::VectorXd>(m.nominal_parameters().data(),
+                                                             m.nominal_parameters().size());
+  EXPECT_EQ(m.span_note(params), "");
+  EXPECT_NE(m.value_span(params).find("from gears[0].motor_inertia (Im) = 1e-05 to base.mass"),
+            std::string::npos)
+      << m.value_span(params);
+  params[0] = 1e-29;  // p
+  EXPECT_NE(m.span_note(params).find("widen the model's span of values to 30 decades, from "
+                                     "gears[0].ratio (p) = 1e-29 to base.mass = 64.86 (from 6 "
+                                     "decades at the nominal values)"),
+            std::string::npos)
+      << m.span_note(params);
+  fs::remove_all(cache);
+}
+
 // A spatial arm (space: spatial) loads through the same cache: the library states the free
 // joint's layout, its functions give the spatial chain's values (its reference in double), a
 // second load is a cache hit, and a base quaternion of norm 0 is refused by name while a
@@ -1238,7 +1262,7 @@ TEST_F(SimulateCli, BadInputsGetClearErrors) {
            {"--torques " + torques.string() + " --t-end 1",
             "line 1: missing column 'tau3' (expected t,tau1,tau2,tau3)"},
            {"--torques " + grid.string() + " --t-end 0.06 --dt 0.02 --interpolation hold",
-            "needs the torque samples' interval (0.030000 s) to be a multiple of --dt (0.020000 "
+            "needs the torque samples' interval (0.03 s) to be a multiple of --dt (0.02 "
             "s)"},
            {"--zero --t-end 1e999", "--t-end: value: '1e999' is not finite"},
            {"--zero --t-end 1 --dt 0.1 --dt 0.2", "--dt"},
@@ -1265,6 +1289,10 @@ TEST_F(SimulateCli, BadInputsGetClearErrors) {
             "--q0[2] (q0) = 1e+100 rad: angles must lie within +-1e6 rad"},
            {"--zero --t-end 1 --param p=1e300",
             "'p' = 1e+300 is outside the supported magnitude range 1e-30 .. 1e30 (or 0)"},
+           {"--zero --t-end 1 --qd0 0,0,0,1,1,1 --param p=1e-29",
+            "rk4 would take 8.76e+50 steps of 1.14e-53 s for each row (--dt 0.01 s): the stiffest "
+            "mode at the start is too fast for any run. The run-time parameters widen the "
+            "model's span of values to 30 decades, from gears[0].ratio (p) = 1e-29"},
            {"--zero --t-end 1 --dt 0.3 --integrator rk4",
             "--t-end 1 s must be a whole multiple of --dt 0.3 s"},
            {"--zero --t-end 1 --dt 0.1 --dt-out 0.25 --integrator rk4",
@@ -1376,9 +1404,9 @@ TEST_F(SimulateCli, TorqueColumnsAreFoundByNameAndBothSidesAreWritten) {
            {"t,tau1,tau2,tau3\n0,0,0,0\n0.5,0,x,0\n1,0,0,0\n",
             "line 3, column 'tau2': 'x' is not a number"},
            {"t,tau1,tau2,tau3\n0,0,0,0\n0.5,0,0,0\n",
-            "covers t = 0.000000 .. 0.500000 s, the run needs 0 .. 1.000000 s"},
+            "covers t = 0 .. 0.5 s, the run needs 0 .. 1 s"},
            {"t,tau1,tau2,tau3\n0,0,0,0\n0.5,0,0,0\n0.7,0,0,0\n",
-            "line 4: time step 0.200000 differs from the first step 0.500000"},
+            "line 4: time step 0.2 differs from the first step 0.5"},
        }) {
     std::ofstream(plain) << c.text;
     const std::string out = run(sim + "--torques " + plain.string() + " --t-end 1 2>&1", &status);
@@ -1414,6 +1442,14 @@ TEST_F(SimulateCli, WriteFailuresAreErrorsNamingTheFile) {
       << out;
   EXPECT_EQ(rows(run(sim + "--zero --t-end 1 --dt-out 0.5 -o -", &status)).size(), 3u);
   EXPECT_EQ(status, 0);
+  // Issue 49: "none" is a file's name like any other, with its provenance beside it.
+  const fs::path folder = cache.parent_path() / ("none-" + std::to_string(getpid()));
+  fs::create_directories(folder);
+  run("cd " + folder.string() + " && " + sim + "--zero --t-end 1 --dt-out 0.5 -o none", &status);
+  EXPECT_EQ(status, 0);
+  EXPECT_EQ(rows(slurp(folder / "none")).size(), 3u);
+  EXPECT_TRUE(fs::is_regular_file(folder / "none.provenance.json"));
+  fs::remove_all(folder);
 }
 
 // A signal mid-run finishes the row being written, flushes, says where it stopped and exits

@@ -467,5 +467,29 @@ links: [{mass: 1, inertia: [1, 0, 0, 1, 0, 1]}]
   EXPECT_LT(accepted, 240);
 }
 
+// Issue 49, item 10: the numbers whose span a failure names include a spatial arm's, a URDF's
+// `inertials:` with its run-time parameter among them; the payload's mass taken 26 decades
+// below its nominal value widens the span, by field and parameter.
+TEST(SpatialModel, TheSpanOfValuesCoversInertialsAndTheirParameters) {
+  const SpatialScene scene = parse_spatial_scene(
+      test::read_text_file(std::string(SPACEARM_SOURCE_DIR) + "/models/space_arm7_payload.yaml"),
+      std::string(SPACEARM_SOURCE_DIR) + "/models/space_arm7_payload.yaml");
+  const ModelFacts facts = spatial_facts(scene);
+  const auto mp = std::find(facts.parameter_names.begin(), facts.parameter_names.end(), "mp") -
+                  facts.parameter_names.begin();
+  ASSERT_LT(size_t(mp), facts.parameter_names.size());
+  const auto by_mp = std::count_if(facts.span_fields.begin(), facts.span_fields.end(),
+                                   [&](const SpanField& f) { return f.parameter == mp; });
+  EXPECT_EQ(by_mp, 1);  // the flange's mass; its com and inertia are literals
+  std::vector<double> params = facts.nominal_parameters;
+  EXPECT_LT(span_decades(facts.span_fields, params.data()), 7);
+  params[size_t(mp)] = 1e-26;
+  EXPECT_GE(span_decades(facts.span_fields, params.data()), 25);
+  const std::string text = value_span(facts.span_fields, params.data(), facts.parameter_names);
+  EXPECT_NE(text.find("(mp) = 1e-26 to "), std::string::npos) << text;
+  EXPECT_EQ(value_span(facts.span_fields, nullptr, facts.parameter_names).find("(mp)"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace spacearm

@@ -44,9 +44,10 @@ TEST(TorqueCsv, EveryMistakeIsAnErrorNamingLineAndColumn) {
            {"t,tau1,tau2\n0,0,0\n1,0,3,0\n", "expected 3 fields"},
            {"t,tau1,tau2\n0,0,0\n1,0,\"3\"\n", "line 3, column 'tau2': '\"3\"' is not a number"},
            {"t,tau1,tau2\n0,0,0\n1,2,0\n1.5,0,0\n",
-            "line 4: time step 0.500000 differs from the first step 1.000000"},
-           {"t,tau1,tau2\n1,0,0\n0,0,0\n", "time step -1.000000 is not positive"},
-           {"t,tau1,tau2\n1e6,0,0\n1000000.0000000001,0,0\n", "too small to resolve"},
+            "line 4: time step 0.5 differs from the first step 1"},
+           {"t,tau1,tau2\n1,0,0\n0,0,0\n", "time step -1 is not positive"},
+           {"t,tau1,tau2\n1e6,0,0\n1000000.0000000001,0,0\n",
+            "time step 1.164153218e-10 is not positive or too small to resolve at t = 1000000"},
            {std::string("t,tau1,tau2\n0,0,0\n1,7\0"
                         "5,0\n",
                         24),
