@@ -15,8 +15,8 @@
 namespace spacearm {
 
 struct SpanField {
-  std::string field;  // the scene's field, fixed text: "links[2].mass", "gears[0].ratio"
-  double value = 0;   // its literal value (its nominal value where a parameter gives it)
+  std::string field;   // the scene's field, fixed text: "links[2].mass", "gears[0].ratio"
+  double value = 0;    // its literal value (its nominal value where a parameter gives it)
   int parameter = -1;  // the run-time parameter that gives it (params[i]), or -1
 };
 
