@@ -14,8 +14,6 @@
 #include "compiled_model.hpp"
 #include "span_note.hpp"
 #include "dynamics_checks.hpp"
-#include "numeric_outputs.hpp"
-#include "symbolic_model.hpp"
 
 namespace spacearm {
 
@@ -74,16 +72,20 @@ struct EvalInputs {
 };
 
 // GiNaC's value of each output the scene emits (composed ones by Eigen's solves).
-void evaluate_symbolic(const Scene& scene, const EvalInputs& in, bool verbose,
+void evaluate_symbolic(const ModelRecipe& scene, const EvalInputs& in, bool verbose,
                        nlohmann::ordered_json& out) {
-  auto t0 = clock::now();
-  const SymbolicModel model = derive(scene);
-  if (verbose) std::fprintf(stderr, "spacearm: derive %.1f ms\n", ms_since(t0));
-  t0 = clock::now();
-  for (const auto& o : output_registry())
-    if (scene.wants(o.id))
-      out[o.name] = results_json(scene.name, o, evaluate_output(model, o.id, in.of(o), in.params));
-  if (verbose) std::fprintf(stderr, "spacearm: evaluate (GiNaC) %.1f ms\n", ms_since(t0));
+  const auto t0 = clock::now();
+  double derive_ms = -1;  // the first call's: it derives
+  for (Output o : scene.facts().outputs) {
+    const OutputInfo& info = spacearm::info(o);
+    double ms = 0;
+    out[info.name] =
+        results_json(scene.name(), info, scene.evaluate_symbolic(o, in.of(info), in.params, &ms));
+    if (derive_ms < 0 && verbose) std::fprintf(stderr, "spacearm: derive %.1f ms\n", ms);
+    if (derive_ms < 0) derive_ms = ms;
+  }
+  if (verbose)
+    std::fprintf(stderr, "spacearm: evaluate (GiNaC) %.1f ms\n", ms_since(t0) - derive_ms);
 }
 
 // The compiled model's value of each output the scene emits.
@@ -187,7 +189,7 @@ int run_eval(const EvalArgs& a) {
   for (size_t i = 0; i < facts.parameter_names.size(); ++i)
     out["parameters"][facts.parameter_names[i]] = in.params[i];
   if (a.symbolic)
-    evaluate_symbolic(*scene.planar(), in, a.verbose, out);
+    evaluate_symbolic(scene, in, a.verbose, out);
   else
     evaluate_compiled(scene, a, in, out);
   std::cout << (a.compact_json ? out.dump() : out.dump(2)) << "\n";

@@ -8,7 +8,6 @@
 #include "cpp_emitter.hpp"
 #include "scene.hpp"
 #include "model_recipe.hpp"
-#include "symbolic_model.hpp"
 
 namespace spacearm {
 
@@ -88,15 +87,7 @@ int run_generate(const GenerateArgs& a) {
 }
 
 int run_inspect(const InspectArgs& a) {
-  const ModelRecipe recipe = ModelRecipe::load(a.scene_path);
-  if (recipe.spatial()) {
-    std::cout << recipe.inspect_entry(a.entry, a.latex, a.decimal);
-    return 0;
-  }
-  DeriveOptions options;
-  options.all_outputs = true;
-  const SymbolicModel model = derive(*recipe.planar(), options);
-  std::cout << entry_text(model, a.entry, a.latex, a.decimal) << "\n";
+  std::cout << ModelRecipe::load(a.scene_path).inspect_entry(a.entry, a.latex, a.decimal);
   return 0;
 }
 

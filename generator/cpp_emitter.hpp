@@ -6,9 +6,10 @@
 
 #include "cpp_printer.hpp"
 #include "derived_model.hpp"
-#include "symbolic_model.hpp"
 
 namespace spacearm {
+
+struct SymbolicModel;  // symbolic_model.hpp (GiNaC), included only where a model is derived
 
 struct EmitOptions {
   std::string scene_path;  // as shown in the banner (keep it relative for reproducibility)

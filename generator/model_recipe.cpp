@@ -2,19 +2,54 @@
 
 #include <chrono>
 #include <map>
+#include <mutex>
 #include <sstream>
 #include <stdexcept>
 
 #include "body_printer.hpp"
+#include "cpp_emitter.hpp"
 #include "lowering.hpp"
+#include "numeric_outputs.hpp"
 #include "planar_model.hpp"
 #include "program_expression.hpp"
 #include "spatial_model.hpp"
 
 namespace spacearm {
 
+// A planar scene's derivations, each made once (GiNaC's, slow beyond a few links): of the scene's
+// outputs (eval --symbolic) and of every output (inspect).
+struct ClosedFormCache {
+  std::mutex mutex;
+  std::shared_ptr<const SymbolicModel> of_outputs, of_all;
+};
+
+namespace {
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// The scene's derivation, made on the first call (under the cache's lock) and kept.
+const SymbolicModel& derivation(const Scene& scene, ClosedFormCache& cache, bool all_outputs,
+                                double* derive_ms) {
+  const std::lock_guard lock(cache.mutex);
+  std::shared_ptr<const SymbolicModel>& kept = all_outputs ? cache.of_all : cache.of_outputs;
+  const auto t0 = std::chrono::steady_clock::now();
+  if (!kept) {
+    DeriveOptions options;
+    options.all_outputs = all_outputs;
+    kept = std::make_shared<const SymbolicModel>(derive(scene, options));
+  }
+  if (derive_ms) *derive_ms = ms_since(t0);
+  return *kept;
+}
+
+}  // namespace
+
 ModelRecipe::ModelRecipe(Scene scene)
-    : planar_(std::make_shared<const Scene>(std::move(scene))), facts_(planar_facts(*planar_)) {}
+    : planar_(std::make_shared<const Scene>(std::move(scene))),
+      facts_(planar_facts(*planar_)),
+      closed_forms_(std::make_shared<ClosedFormCache>()) {}
 
 ModelRecipe::ModelRecipe(SpatialScene scene)
     : spatial_(std::make_shared<const SpatialScene>(std::move(scene))),
@@ -37,12 +72,19 @@ std::vector<std::string> ModelRecipe::read_files() const {
   return spatial_ ? spatial_->read_files : std::vector<std::string>{};
 }
 
+std::vector<Eigen::MatrixXd> ModelRecipe::evaluate_symbolic(
+    Output o, const std::vector<Eigen::VectorXd>& inputs, const Eigen::VectorXd& params,
+    double* derive_ms) const {
+  if (!planar_)
+    throw std::invalid_argument("model '" + facts_.name +
+                                "' is a spatial arm, which has no symbolic derivation");
+  return evaluate_output(derivation(*planar_, *closed_forms_, false, derive_ms), o, inputs, params);
+}
+
 EmittedModel ModelRecipe::emit(const EmitOptions& options, double* derive_ms) const {
   const auto t0 = std::chrono::steady_clock::now();
   auto derived = [&] {
-    if (derive_ms)
-      *derive_ms =
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (derive_ms) *derive_ms = ms_since(t0);
   };
   // A planar scene through its Lagrangian derivation, a spatial one through the spatial chain
   // (recorded when lowered): both then share lowering and the printer.
@@ -90,7 +132,12 @@ class EntrySymbols {
 }  // namespace
 
 std::string ModelRecipe::inspect_entry(const std::string& entry, bool latex, bool decimal) const {
-  if (!spatial_) throw std::logic_error("inspect_entry: a spatial scene's");
+  if (spatial_) return spatial_entry(entry, latex, decimal);
+  return entry_text(derivation(*planar_, *closed_forms_, true, nullptr), entry, latex, decimal) +
+         "\n";
+}
+
+std::string ModelRecipe::spatial_entry(const std::string& entry, bool latex, bool decimal) const {
   const EntryText e = parse_entry(entry);
   const std::string shown =
       "entry '" + (entry.size() > 40 ? entry.substr(0, 40) + "..." : entry) + "'";

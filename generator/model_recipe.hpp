@@ -4,6 +4,8 @@
 // compile-and-load cache need, so neither asks which kind a scene is.
 #pragma once
 
+#include <Eigen/Core>
+
 #include <memory>
 #include <string>
 #include <vector>
@@ -14,6 +16,8 @@
 #include "spatial_scene.hpp"
 
 namespace spacearm {
+
+struct ClosedFormCache;  // model_recipe.cpp: the planar derivations, made on first use
 
 // The most terms a spatial entry's expanded closed form may have for inspect to print it (the
 // plane's closed forms are affordable to N = 8; a 3D entry's grows with the joints it spans).
@@ -37,13 +41,22 @@ class ModelRecipe {
   std::vector<std::string> read_files() const;
   // Derives and emits the model; derive_ms (when given) receives the derivation's time.
   EmittedModel emit(const EmitOptions& options, double* derive_ms = nullptr) const;
-  // One entry of a spatial model's output ("M[3][4]", inspect's syntax): its closed form where it
-  // is affordable (the recorded program expanded, at most kSpatialClosedFormTerms terms; LaTeX
-  // or decimals on request), else the statements of its lowered program that it depends on,
-  // ending in the entry's value (how the generated code computes it). std::invalid_argument
-  // naming the entry, or saying that LaTeX and decimals need a closed form.
+  // One entry of the model's output ("M[3][4]", inspect's syntax). Planar: its closed form from
+  // the derivation of every output (GiNaC; made on the first call and kept). Spatial: its closed
+  // form where it is affordable (the recorded program expanded, at most kSpatialClosedFormTerms
+  // terms; LaTeX or decimals on request), else the statements of its lowered program that it
+  // depends on, ending in the entry's value (how the generated code computes it).
+  // std::invalid_argument naming the entry, or saying that LaTeX and decimals need a closed form.
   std::string inspect_entry(const std::string& entry, bool latex = false,
                             bool decimal = false) const;
+  // The closed forms' value of output o (a planar scene's derivation of its outputs, in GiNaC;
+  // composed outputs by Eigen's solves) at inputs in the registry's order: the independent
+  // reference `eval --symbolic` prints. Derived on the first call and kept; derive_ms (when
+  // given) receives the derivation's time, 0 once kept. std::invalid_argument for a spatial arm.
+  std::vector<Eigen::MatrixXd> evaluate_symbolic(Output o,
+                                                 const std::vector<Eigen::VectorXd>& inputs,
+                                                 const Eigen::VectorXd& params,
+                                                 double* derive_ms = nullptr) const;
 
   // The scene, for the tools that read more than the facts (nullptr: the other kind).
   const Scene* planar() const { return planar_.get(); }
@@ -53,6 +66,8 @@ class ModelRecipe {
   std::shared_ptr<const Scene> planar_;
   std::shared_ptr<const SpatialScene> spatial_;
   ModelFacts facts_;
+  std::shared_ptr<ClosedFormCache> closed_forms_;  // shared by copies; thread-safe
+  std::string spatial_entry(const std::string& entry, bool latex, bool decimal) const;
 };
 
 }  // namespace spacearm

@@ -30,7 +30,6 @@
 
 #include "cpp_emitter.hpp"
 #include "outputs.hpp"
-#include "symbolic_model.hpp"
 #include "text_numbers.hpp"
 
 namespace spacearm {

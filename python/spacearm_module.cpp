@@ -20,7 +20,6 @@
 #include "span_note.hpp"
 #include "dynamics_checks.hpp"
 #include "scene.hpp"
-#include "symbolic_model.hpp"
 #include "consistent_start.hpp"
 #include "private_folder.hpp"
 #include "integrator_choice.hpp"
@@ -124,20 +123,11 @@ class PyModel {
                        double period, const PyModel* control_model, const std::string& feedforward,
                        double dt_out, const py::object& params) const;
 
-  // One symbolic entry ("M[3][4]", "T", ...) as `spacearm inspect` prints it; the scene is
-  // derived on the first call (without the GIL) and kept.
+  // One symbolic entry ("M[3][4]", "T", ...) as `spacearm inspect` prints it (a planar scene is
+  // derived on the first call, without the GIL, and kept).
   std::string inspect(const std::string& entry, bool latex, bool decimal) {
-    if (!recipe_.planar()) {  // a spatial arm: the closed form where affordable, else statements
-      py::gil_scoped_release release;
-      return recipe_.inspect_entry(entry, latex, decimal);
-    }
-    if (!symbolic_) {
-      py::gil_scoped_release release;
-      DeriveOptions options;
-      options.all_outputs = true;
-      symbolic_ = std::make_shared<const SymbolicModel>(derive(*recipe_.planar(), options));
-    }
-    return entry_text(*symbolic_, entry, latex, decimal);
+    py::gil_scoped_release release;
+    return recipe_.inspect_entry(entry, latex, decimal);
   }
 
   std::string repr() const {
@@ -153,7 +143,6 @@ class PyModel {
   Eigen::VectorXd params_;
   int lanes_ = 4;
   ModelRecipe recipe_;
-  std::shared_ptr<const SymbolicModel> symbolic_;
 };
 
 // The values of named parameters: `values`, with those of `given` (None or a dict) replaced.
