@@ -1,4 +1,4 @@
-// jit/private_folder: a file written whole is renamed into place only over a regular file or
+// files/private_folder: a file written whole is renamed into place only over a regular file or
 // nothing. A FIFO, a socket, a folder, a symbolic link (/dev/stdout is one) or a device at the
 // name is refused by name and left as it was (issue 49: `view -o /dev/null` as root replaced
 // the system's device node). The CLI's writers (view, generate) through it: test_plan_command.
