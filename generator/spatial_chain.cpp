@@ -4,12 +4,6 @@
 
 namespace spacearm::spatial {
 
-bool Inertial::uses_parameter() const {
-  auto literal = [](int p) { return p == kLiteral; };
-  return !literal(mass_param) || !std::all_of(com_param.begin(), com_param.end(), literal) ||
-         !std::all_of(inertia_param.begin(), inertia_param.end(), literal);
-}
-
 namespace {
 
 // The joint's unit axis (URDF's may be of any length), or an error naming the joint.

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "recursive_algorithms.hpp"
+#include "spatial_chain.hpp"
 #include "scene.hpp"
 
 namespace spacearm {

@@ -26,7 +26,7 @@
 #include <vector>
 
 #include "scene.hpp"
-#include "spatial_chain.hpp"
+#include "spatial_description.hpp"
 
 namespace spacearm {
 

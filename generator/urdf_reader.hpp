@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "spatial_chain.hpp"
+#include "spatial_description.hpp"
 
 namespace spacearm {
 

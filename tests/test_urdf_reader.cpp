@@ -16,6 +16,7 @@
 
 #include "recursive_algorithms.hpp"
 #include "scene.hpp"
+#include "spatial_chain.hpp"
 #include "spatial_scene.hpp"
 #include "support.hpp"
 

@@ -1,0 +1,123 @@
+// What a spatial arm is made of, as the scene readers give it to the derivation: a free (or
+// fixed) base and a serial chain of revolute joints, each number a literal or a run-time
+// parameter (spatial_scene.hpp, urdf_reader.hpp read it; spatial_chain.hpp derives from it).
+// Plain data and the frames of welded parts: no algorithm, no GiNaC.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <vector>
+
+#include "spatial_algebra.hpp"
+
+namespace spacearm::spatial {
+
+// A number of the model may be a run-time parameter: its index in `params` beside it (-1: the
+// number itself, a literal); the number is then the parameter's nominal value (what the scene's
+// checks use). The chain reads the parameter, never the nominal value.
+constexpr int kLiteral = -1;
+
+// A joint's gear: a motor whose rotor turns at p times the joint's rate relative to the parent
+// link, so the joint's coordinate is the motor angle qm = p q (eq. 12 in the plane) and its
+// generalized force tau / p. The rotor is a body of revolution about the joint axis through
+// the joint's origin (its mass belongs to the parent link's inertial). Exact coupling carries
+// it on the parent, turning at omega_parent + qd_m a (its gyroscopic torques and angular
+// momentum included); armature keeps only the axial inertia on the motor coordinate (MuJoCo's,
+// Drake's and Pinocchio's model).
+// A flexible joint (Spong's model, as in the plane) has a torsional spring of stiffness k and a
+// damper d between the gear's output qm / p and the link angle q: its slot then holds q, and the
+// motor angle qm a coordinate of its own after all the joints (ChainDescription::motor_coordinate).
+struct Gear {
+  bool present = false;
+  double ratio = 1;
+  double axial = 0, transverse = 0;  // the rotor's inertia about its axis and across it
+  bool exact = true;
+  int ratio_param = kLiteral, axial_param = kLiteral, transverse_param = kLiteral;
+  bool flexible = false, has_damping = false;
+  double stiffness = 0, damping = 0;
+  int stiffness_param = kLiteral, damping_param = kLiteral;
+};
+
+// Friction on a joint's coordinate rate w (the motor's, qd_m, for a geared joint), opposing
+// motion, as in the plane (scene.hpp's Friction): f(w) = b w + Fc tanh(w/vs)
+// + (Fs - Fc) exp(-(w/vst)^2) tanh(w/vs). Each value a literal or a run-time parameter.
+struct Friction {
+  bool present = false;
+  double viscous = 0, coulomb = 0, velocity_scale = 1, stribeck_static = 0, stribeck_velocity = 1;
+  bool has_coulomb = false, has_stribeck = false;  // terms present (a parameter, or not 0)
+  int viscous_param = kLiteral, coulomb_param = kLiteral, velocity_scale_param = kLiteral,
+      stribeck_static_param = kLiteral, stribeck_velocity_param = kLiteral;
+};
+
+// A body's mass, centre of mass and inertia about it (ixx, ixy, ixz, iyy, iyz, izz), in its
+// frame, each a literal or a run-time parameter.
+struct Inertial {
+  double mass = 0;
+  std::array<double, 3> com{};
+  std::array<double, 6> inertia{};
+  int mass_param = kLiteral;
+  std::array<int, 3> com_param{kLiteral, kLiteral, kLiteral};
+  std::array<int, 6> inertia_param{kLiteral, kLiteral, kLiteral, kLiteral, kLiteral, kLiteral};
+  bool uses_parameter() const {
+    auto literal = [](int p) { return p == kLiteral; };
+    return !literal(mass_param) || !std::all_of(com_param.begin(), com_param.end(), literal) ||
+           !std::all_of(inertia_param.begin(), inertia_param.end(), literal);
+  }
+};
+
+// A body welded to a link at a fixed frame (its origin xyz and rpy in the link's frame): a
+// URDF link whose inertial a scene gives (a parameter cannot be lumped in numbers).
+struct Part {
+  std::array<double, 3> xyz{}, rpy{};
+  Inertial inertial;
+};
+
+// One link and the revolute joint that carries it (URDF's joint origin and axis; the link's
+// inertial about its centre of mass, in the link frame), with the parts welded to it.
+struct Link : Inertial {
+  std::array<double, 3> origin_xyz{}, origin_rpy{};  // the joint frame in the parent link's
+  std::array<double, 3> axis{1, 0, 0};               // unit, in the joint frame
+  std::vector<Part> parts;
+  Gear gear;
+  Friction friction;
+};
+
+// The base (the root link, the satellite) and the links after it, each the child of the one
+// before (a serial chain: branching is refused where chains are read).
+struct ChainDescription {
+  bool free_base = true;
+  Link base;  // its mass, com and inertia; its origin and axis are unused
+  std::vector<Link> links;
+  std::array<double, 3> tip{};      // the end effector's point, in the last link's frame
+  std::array<double, 3> tip_rpy{};  // its frame's orientation there (a welded URDF link's)
+  int num_base() const { return free_base ? 6 : 0; }
+  // The one place that lays out the velocities: the base's, one slot per joint (its link angle's
+  // rate, or a rigid gear's motor rate), then the motor of each flexible joint; nq = nv + 1 with
+  // a free base's quaternion.
+  int num_flexible() const {
+    int count = 0;
+    for (const Link& l : links) count += l.gear.present && l.gear.flexible;
+    return count;
+  }
+  int nv() const { return num_base() + static_cast<int>(links.size()) + num_flexible(); }
+  int nq() const { return nv() + (free_base ? 1 : 0); }
+  // The velocity index of joint j's slot (0-based j) and of the coordinate its torque drives
+  // (as tau / p) and friction brakes: the slot, or a flexible joint's motor coordinate.
+  int joint_coordinate(int j) const { return num_base() + j; }
+  int motor_coordinate(int j) const {
+    const Gear& g = links.at(j).gear;
+    if (!(g.present && g.flexible)) return joint_coordinate(j);
+    int before = 0;
+    for (int k = 0; k < j; ++k) before += links[k].gear.present && links[k].gear.flexible;
+    return num_base() + static_cast<int>(links.size()) + before;
+  }
+  // The index in q of velocity index v (past a free base's quaternion: v + 1).
+  int q_index(int v) const { return free_base && v >= 6 ? v + 1 : v; }
+};
+
+// A part's frame as the transform from the link's frame to the part's.
+inline Transform<double> part_frame(const Part& p) {
+  return {transposed(rpy_rotation(p.rpy)), {p.xyz[0], p.xyz[1], p.xyz[2]}};
+}
+
+}  // namespace spacearm::spatial
