@@ -21,7 +21,7 @@ ROOT = os.path.dirname(os.path.abspath(__file__))
 
 def version():
     """The generator's version, from the one place that names it."""
-    text = open(os.path.join(ROOT, "generator", "cpp_printer.hpp")).read()
+    text = open(os.path.join(ROOT, "generator", "version.hpp")).read()
     return re.search(r'kGeneratorVersion = "([^"]+)"', text).group(1)
 
 

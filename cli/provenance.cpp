@@ -7,7 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
-#include "cpp_printer.hpp"
+#include "version.hpp"
 #include "private_folder.hpp"
 
 namespace spacearm::cli {

@@ -1,4 +1,4 @@
-// libFuzzer target: scene parsing and validation (generator/scene.cpp) on arbitrary text.
+// libFuzzer target: scene parsing and validation (generator/scene/scene.cpp) on arbitrary text.
 // Build and run: scripts/fuzz.sh (clang, -fsanitize=fuzzer,address,undefined).
 #include <cstdint>
 #include <cstdio>

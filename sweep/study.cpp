@@ -15,8 +15,8 @@
 #include <sstream>
 
 #include "configuration_space.hpp"
-#include "cpp_printer.hpp"
 #include "private_folder.hpp"
+#include "version.hpp"
 #include "yaml_reader.hpp"
 
 namespace spacearm {

@@ -1,6 +1,6 @@
 // A study (issue 15): one scene, one manoeuvre (a straight-line plan or a torque file), one
 // integrator, and the runs' run-time parameters as a grid and/or random draws from named
-// distributions with a seed. Read from an untrusted YAML file (generator/yaml_reader.hpp):
+// distributions with a seed. Read from an untrusted YAML file (generator/scene/yaml_reader.hpp):
 // errors name the file, line and field. A run's parameters depend only on the study and the
 // run's index, so that any split of the runs (threads, shards, Dask) computes the same numbers.
 #pragma once

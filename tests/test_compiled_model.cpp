@@ -1,4 +1,4 @@
-// generator/compiled_model.hpp and `spacearm eval`: compile-and-load with a cache; the
+// jit/compiled_model.hpp and `spacearm eval`: compile-and-load with a cache; the
 // JSON of eval equals the checked-in generated code; --symbolic agrees with the compiled
 // path; the cache is reused for an unchanged scene and rebuilt for a changed one.
 #include "compiled_model.hpp"

@@ -1,4 +1,4 @@
-// generator/model_cache.hpp: the compile-and-load cache cannot be planted, races between
+// jit/model_cache.hpp: the compile-and-load cache cannot be planted, races between
 // first builds are harmless, a broken library is an error and not a crash, and an
 // interrupted build leaves neither a compiler nor a work folder behind.
 // Cost: one real compile (about 6 s), then fake compilers that copy or sleep.

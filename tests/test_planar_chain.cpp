@@ -1,7 +1,7 @@
-// The recursive forms (generator/planar_chain.hpp) against the closed forms, evaluated by
-// GiNaC and Eigen (numeric_outputs.hpp), on every model kind for N = 1..6, and against the
-// numeric Lagrangian oracle (no generator code) on long chains up to N = 30. Both the algorithms
-// run in double and their recorded, CSE'd programs are checked.
+// The recursive forms (generator/derive/planar/planar_chain.hpp) against the closed forms,
+// evaluated by GiNaC and Eigen (numeric_outputs.hpp), on every model kind for N = 1..6, and against
+// the numeric Lagrangian oracle (no generator code) on long chains up to N = 30. Both the
+// algorithms run in double and their recorded, CSE'd programs are checked.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>

@@ -1,5 +1,5 @@
-// generator/spatial_chain.hpp: the spatial chain's mass matrix, kinetic energy and momentum
-// against an independent computation in world coordinates with Eigen's rotations (no code
+// generator/derive/spatial/spatial_chain.hpp: the spatial chain's mass matrix, kinetic energy and
+// momentum against an independent computation in world coordinates with Eigen's rotations (no code
 // shared with the chain's body-frame spatial algebra), and its recursive Newton-Euler against
 // the invariants: M vdot + b = Q, and with no force the momentum and the energy stay constant.
 #include "spatial_chain.hpp"

@@ -1,6 +1,6 @@
-// generator/spatial_model.hpp: a spatial arm goes through the stages the plane uses (lowering
-// with its self-check, the printer, the C interface) from its derived model alone, and the
-// lowered programs give the spatial chain's values at any state.
+// generator/derive/spatial/spatial_model.hpp: a spatial arm goes through the stages the plane uses
+// (lowering with its self-check, the printer, the C interface) from its derived model alone, and
+// the lowered programs give the spatial chain's values at any state.
 #include "spatial_model.hpp"
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-// generator/spatial_scene.hpp: the native YAML form of a spatial arm is read into the chain's
+// generator/scene/spatial_scene.hpp: the native YAML form of a spatial arm is read into the chain's
 // description, and every malformed or unphysical field is an error naming the field.
 #include "spatial_scene.hpp"
 

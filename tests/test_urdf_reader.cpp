@@ -1,4 +1,4 @@
-// generator/urdf_reader.hpp and the spatial scene's `urdf:` field: models/space_arm7.urdf
+// generator/scene/urdf_reader.hpp and the spatial scene's `urdf:` field: models/space_arm7.urdf
 // against a forward kinematics written here with Eigen from the URDF's numbers (no code shared
 // with the reader or the chain): the end effector's pose at random joint angles, and the
 // lumped bodies (fixed joints) through the base block of M, which a rigid motion of the whole

@@ -7,10 +7,10 @@
 #include <vector>
 
 #include "function_spec.hpp"
+#include "version.hpp"
 
 namespace spacearm {
 
-inline constexpr const char* kGeneratorVersion = "0.3.0";
 // Version of the C interface (c_interface): each function is exported as
 //   void spacearm_<name>(const double* const* inputs, const double* params, double* const* results)
 // with arrays column-major in the order and shapes of its FunctionSpec; the model describes
