@@ -2,11 +2,12 @@
 // (a 7-joint arm on a free base from its URDF, 13 velocities) without gears, with armature gears
 // and with exact rotors, compiled through the compile-and-load cache with its default flags and
 // called through its C interface without checks, against MuJoCo 2.2's mj_forward and its M + bias
-// stages on the same MJCF (tests/mujoco_spatial.hpp), without gears and with armature. MuJoCo has
-// armature gears only; the exact rotors run on the same states for their cost against the ungeared
-// arm's. Forward dynamics is the articulated-body algorithm. Before anything is timed, the ungeared
-// and the armature model's forward dynamics must equal MuJoCo's to 1e-12. The first/ rows time
-// the URDF to a first result through an empty cache, with one compiler and with one per CPU.
+// stages on the same MJCF (tests/support/mujoco_spatial.hpp), without gears and with armature.
+// MuJoCo has armature gears only; the exact rotors run on the same states for their cost against
+// the ungeared arm's. Forward dynamics is the articulated-body algorithm. Before anything is timed,
+// the ungeared and the armature model's forward dynamics must equal MuJoCo's to 1e-12. The first/
+// rows time the URDF to a first result through an empty cache, with one compiler and with one per
+// CPU.
 //   scripts/bench.sh --spatial
 #include <benchmark/benchmark.h>
 

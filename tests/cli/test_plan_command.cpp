@@ -1,6 +1,6 @@
 // `spacearm plan` end to end: the CSV it writes for a redundant free-floating arm (5 links)
 // and a redundant geared fixed-base arm (4 links) is checked against the independent numeric
-// Lagrangian (runtime/numeric_lagrangian.hpp, no generator code): the end-effector follows
+// Lagrangian (tests/support/numeric_lagrangian.hpp, no generator code): the end-effector follows
 // the line, momentum stays zero, qd and qdd are the derivatives of q and qd, and the torques
 // satisfy eq. 5 with no force on the base. The torques replayed by `spacearm simulate`
 // reproduce the line; a spatial plan flies into a twin with joint friction. Cost: about 27 s,

@@ -1,5 +1,5 @@
-// The spatial chain against MuJoCo (tests/mujoco_spatial.hpp), a peer that shares no code with
-// it: models/space_arm7 (from its URDF: welded links lumped) on a free base, ungeared and with
+// The spatial chain against MuJoCo (tests/support/mujoco_spatial.hpp), a peer that shares no code
+// with it: models/space_arm7 (from its URDF: welded links lumped) on a free base, ungeared and with
 // armature gears, at random states: the mass matrix, the bias forces and the forward dynamics
 // under joint torques, each to 1e-12 relative. MuJoCo's joint coordinate is the link angle q,
 // the chain's the motor angle qm = p q: v = D v_mj with D = diag(1 (base), p), so
