@@ -1,0 +1,249 @@
+// `spacearm eval` end to end: its JSON equals the checked-in generated code, --symbolic agrees
+// with the compiled path, joint torques drive the motor coordinates, the cache is reused, and bad
+// input gets an error naming the option.
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+
+#include <sys/wait.h>
+
+#include "cli_fixtures.hpp"
+#include "compiled_model.hpp"
+#include "paper_flexible.hpp"
+#include "paper_geared.hpp"
+#include "support.hpp"
+
+namespace spacearm {
+namespace {
+
+namespace fs = std::filesystem;
+using test::EvalCli;
+using test::expect_json_near;
+using test::fresh_cache;
+using test::matrix_of;
+using test::run;
+using test::vector_of;
+
+TEST_F(EvalCli, JsonEqualsGeneratedCodeAndSymbolicAgrees) {
+  const std::string q = "0.1,-0.2,0.3,0.5,1.1,-0.7", qd = "0.01,0.02,-0.1,0.3,-0.2,0.4";
+  const std::string args = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml --q " + q +
+                           " --qd " + qd + " --param p=10 --param Im=2e-5 --json";
+  int status = 0;
+  const auto compiled = nlohmann::json::parse(run(cli + args, &status));
+  ASSERT_EQ(status, 0);
+  const auto symbolic = nlohmann::json::parse(run(cli + args + " --symbolic", &status));
+  ASSERT_EQ(status, 0);
+  // Every output the scene emits, from the registry, in both; and the state and parameters used.
+  const Scene scene = load_scene(SPACEARM_SOURCE_DIR "/models/paper_geared.yaml");
+  for (const OutputInfo& o : output_registry()) {
+    EXPECT_EQ(compiled.contains(o.name), scene.wants(o.id)) << o.name;
+    EXPECT_EQ(symbolic.contains(o.name), scene.wants(o.id)) << o.name;
+  }
+  EXPECT_EQ(compiled["coordinates"], nlohmann::json(scene.coordinate_names()));
+  EXPECT_EQ(compiled["parameters"]["p"].get<double>(), 10);
+  EXPECT_EQ(compiled["parameters"]["Im"].get<double>(), 2e-5);
+  EXPECT_EQ(compiled["qd"][2].get<double>(), -0.1);
+
+  namespace g = models::paper_geared;
+  const g::Coordinates<double> qv =
+      (g::Coordinates<double>() << 0.1, -0.2, 0.3, 0.5, 1.1, -0.7).finished();
+  const g::Coordinates<double> qdv =
+      (g::Coordinates<double>() << 0.01, 0.02, -0.1, 0.3, -0.2, 0.4).finished();
+  const g::Parameters<double> pv(10, 2e-5);
+  g::MassMatrix<double> M, C;
+  g::Coordinates<double> b;
+  g::Vector3<double> h, x;
+  g::mass_matrix(qv, pv, M);
+  g::coriolis_matrix(qv, qdv, pv, C);
+  g::bias_forces(qv, qdv, pv, b);
+  g::momentum(qv, qdv, pv, h);
+  g::end_effector_pose(qv, pv, x);
+  EXPECT_MATRIX_NEAR(matrix_of(compiled["mass_matrix"]), M, 1e-14);
+  EXPECT_MATRIX_NEAR(matrix_of(compiled["coriolis_matrix"]), C, 1e-13);
+  EXPECT_MATRIX_NEAR(vector_of(compiled["bias_forces"]), b, 1e-13);
+  EXPECT_MATRIX_NEAR(vector_of(compiled["momentum"]), h, 1e-14);
+  EXPECT_MATRIX_NEAR(vector_of(compiled["end_effector_pose"]), x, 1e-15);
+  EXPECT_NEAR(compiled["kinetic_energy"].get<double>(), g::kinetic_energy(qv, qdv, pv), 1e-14);
+
+  for (const OutputInfo& o : output_registry()) {
+    if (!scene.wants(o.id)) continue;
+    SCOPED_TRACE(o.name);
+    expect_json_near(symbolic[o.name], compiled[o.name]);
+  }
+  // Several results: each under its name.
+  for (const char* r : {"qdd", "pivots", "scaled_pivots"})
+    EXPECT_TRUE(compiled["forward_dynamics"].contains(r)) << r;
+  EXPECT_TRUE(compiled["free_base_inverse_dynamics"].contains("qdd_base"));
+}
+
+// Joint torques: --tau puts tau_i / p_i on the motor coordinate each joint drives (after the
+// joint slots in a flexible scene), as --forces would with those numbers there; the symbolic
+// path agrees, and potential_energy and qdd are in the JSON.
+TEST_F(EvalCli, JointTorquesDriveTheMotorCoordinates) {
+  const std::string scene = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_flexible.yaml";
+  const std::string state = " --q 0,0,0,0.6,1.1,-0.9,6.1,11,-9 --qd 0,0,0,0.1,0.2,0.3,1,2,3.5";
+  int status = 0;
+  const auto by_tau =
+      nlohmann::json::parse(run(cli + scene + state + " --tau 1,-2,3 --json", &status));
+  ASSERT_EQ(status, 0);
+  const auto by_forces = nlohmann::json::parse(
+      run(cli + scene + state + " --forces 0,0,0,0,0,0,0.1,-0.2,0.3 --json", &status));
+  ASSERT_EQ(status, 0);
+  EXPECT_EQ(by_tau["Q"], by_forces["Q"]);
+  EXPECT_EQ(by_tau["tau"], nlohmann::json::parse("[1.0, -2.0, 3.0]"));
+  EXPECT_EQ(by_tau["forward_dynamics"]["qdd"], by_forces["forward_dynamics"]["qdd"]);
+  EXPECT_GT(by_tau["potential_energy"].get<double>(), 0.0);
+  const auto symbolic =
+      nlohmann::json::parse(run(cli + scene + state + " --tau 1,-2,3 --json --symbolic", &status));
+  ASSERT_EQ(status, 0);
+  expect_json_near(symbolic["forward_dynamics"]["qdd"], by_tau["forward_dynamics"]["qdd"]);
+  // A run-time ratio divides too; and --tau excludes --forces.
+  const auto p20 = nlohmann::json::parse(
+      run(cli + scene + state + " --tau 1,-2,3 --param p=20 --json", &status));
+  ASSERT_EQ(status, 0);
+  EXPECT_DOUBLE_EQ(p20["Q"][6].get<double>(), 0.05);
+  const std::string both = run(cli + scene + state + " --tau 1,2,3 --forces 0 2>&1", &status);
+  EXPECT_NE(WEXITSTATUS(status), 0);
+  EXPECT_NE(both.find("excludes --tau"), std::string::npos) << both;
+  const std::string count = run(cli + scene + state + " --tau 1,2 2>&1", &status);
+  EXPECT_NE(count.find("--tau: expected 3 comma-separated values, got 2"), std::string::npos)
+      << count;
+}
+
+// rotor_coupling: c (issue 29): one scene answers "exact or armature?" at run time: c = 1 gives
+// paper_geared.yaml's numbers, c = 0 paper_geared_armature.yaml's (compiled, to rounding), and
+// c = 1.5 is refused by name. Compiles three models (about 5 s).
+TEST_F(EvalCli, RotorCouplingFactorComparesExactAndArmature) {
+  const std::string models = std::string(SPACEARM_SOURCE_DIR) + "/models/";
+  std::string text = test::read_text_file(models + "paper_geared.yaml");
+  text.replace(text.find("name: paper_geared"), 18, "name: paper_geared_coupling");
+  text.replace(text.find("  compensate_link_inertia: true"), 31,
+               "  compensate_link_inertia: true\n  rotor_coupling: c");
+  text.replace(text.find("parameters:"), 11, "parameters:\n  c: 1.0");
+  fs::create_directories(cache);
+  const fs::path scene = cache / "coupling.yaml";
+  std::ofstream(scene) << text;
+  const std::string state =
+      " --param p=10 --param Im=1e-3 --q 0,0,0.1,2,3,4 --qd 0.1,0.2,0.3,1,2,3 --json";
+  auto eval = [&](const std::string& args) {
+    int status = 0;
+    const std::string out = run(cli + args + state + " 2>/dev/null", &status);
+    EXPECT_EQ(status, 0) << args;
+    return nlohmann::json::parse(out);
+  };
+  for (const auto& [c, twin] :
+       {std::pair{"1", "paper_geared.yaml"}, std::pair{"0", "paper_geared_armature.yaml"}}) {
+    const auto factor = eval(scene.string() + " --param c=" + c), fixed = eval(models + twin);
+    for (const char* out : {"mass_matrix", "bias_forces", "kinetic_energy", "momentum"})
+      expect_json_near(factor[out], fixed[out]);
+  }
+  const auto exact = eval(models + "paper_geared.yaml"),
+             armature = eval(models + "paper_geared_armature.yaml");
+  EXPECT_NE(exact["mass_matrix"][2][3], armature["mass_matrix"][2][3]);  // they do differ
+  int status = 0;
+  const std::string bad = run(cli + scene.string() + " --param c=1.5" + state + " 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(bad.find("rotor_coupling must be in [0, 1]"), std::string::npos) << bad;
+}
+
+TEST_F(EvalCli, VerboseReportShowsTheCacheHit) {
+  const std::string args = std::string(SPACEARM_SOURCE_DIR) +
+                           "/models/paper_reference.yaml --q 0,0,0,0.1,0.2,0.3 --verbose 2>&1";
+  const std::string first = run(cli + args);
+  const std::string second = run(cli + args);
+  EXPECT_NE(first.find("(built)"), std::string::npos) << first;
+  EXPECT_NE(second.find("(hit)"), std::string::npos) << second;
+  EXPECT_NE(second.find("compile 0.0 ms"), std::string::npos) << second;
+}
+
+TEST_F(EvalCli, BadInputsGetClearErrors) {
+  struct Case {
+    std::string args, message;
+  };
+  const std::string ref = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_reference.yaml";
+  const std::string geared = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml";
+  for (const Case& c : std::vector<Case>{
+           {ref + " --q 1,2,3", "--q: expected 6 comma-separated values, got 3"},
+           {ref + " --q 1,2,3,4,5,nan", "--q[5]: 'nan' is not finite"},
+           {ref + " --q 1,2,3,4,5,x", "--q[5]: 'x' is not a number"},
+           {ref + " --q 1,2,3,4,5,6,",
+            "--q[6]: empty item in '1,2,3,4,5,6,' (a stray or trailing comma?)"},
+           {ref + " --q 1,2,3,4,5,1e999", "--q[5]: '1e999' is not finite"},
+           {ref + " --q 1,2,3,4,5,0x10", "--q[5]: '0x10' is not a number"},
+           {ref + " --q 1,2,3,4,5,1e-400",
+            "--q[5]: '1e-400' is out of the range of double precision"},
+           {ref + " --q 0,0,0,0,0,0 --qd 0,0,0,1e200,0,0", "): the state or parameters overflow"},
+           {ref + " --q 0,0,0,0,0,1e100 --symbolic",
+            "--q[5] (q3) = 1e+100 rad: angles must lie within +-1e6 rad"},
+           {ref + " --q 0,0,-2e6,0,0,0", "--q[2] (q0) = -2e+06 rad: angles must lie within"},
+           {geared + " --q 0,0,0,0,0,0 --param p=2 --param p=3",
+            "--param: 'p' given more than once"},
+           {ref, "spacearm: error: --q is required"},
+           {geared + " --q 0,0,0,0,0,0 --param k=3",
+            "--param: unknown parameter 'k' (known: p, Im)"},
+           {geared + " --q 0,0,0,0,0,0 --param p=inf", "--param p: 'inf' is not finite"},
+           {geared + " --q 0,0,0,0,0,0 --param Im=1",
+            "gears[0].motor_inertia must be smaller than the inertia"},
+           {unknown_field_scene() + " --q 0", "field 'links[0].colour': unknown field"},
+           {unknown_field_scene() + " --q 0 --qdd-joints 1",
+            "field 'links[0].colour': unknown field"},
+           {std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/fixed_n1.yaml --q 0 --qdd-joints 1",
+            "--qdd-joints: the scene emits no output that takes qdd_joints"},
+           {ref + " --q 0,0,0,0,0,0 --forces 1,2,3",
+            "--forces: expected 6 comma-separated values, got 3"},
+       }) {
+    int status = 0;
+    const std::string out = run(cli + c.args + " 2>&1", &status);
+    EXPECT_EQ(WEXITSTATUS(status), 1) << c.args;
+    EXPECT_NE(out.find(c.message), std::string::npos) << "args: " << c.args << "\noutput: " << out;
+  }
+}
+
+TEST_F(EvalCli, LostOutputAndAnEmptyCacheFolderAreErrors) {
+  const std::string ref = std::string(SPACEARM_SOURCE_DIR) + "/models/paper_reference.yaml";
+  int status = 0;
+  std::string out = run(cli + ref + " --q 0,0,0,0,0,0 2>&1 > /dev/full", &status);
+  EXPECT_EQ(WEXITSTATUS(status), 1);
+  EXPECT_NE(out.find("writing standard output failed"), std::string::npos) << out;
+  // Help lost to a full disk is a failure too (issue 28, item 7).
+  for (const char* help : {" --help", " simulate --help", " sweep --help"}) {
+    out = run(std::string(SPACEARM_CLI) + help + " 2>&1 > /dev/full", &status);
+    EXPECT_EQ(WEXITSTATUS(status), 1) << help;
+    EXPECT_NE(out.find("writing standard output failed"), std::string::npos) << help << out;
+  }
+  out = run(std::string(SPACEARM_CLI) + " eval " + ref + " --q 0,0,0,0,0,0 --cache-dir '' 2>&1",
+            &status);
+  EXPECT_EQ(WEXITSTATUS(status), 1);
+  EXPECT_NE(out.find("--cache-dir: an empty value"), std::string::npos) << out;
+}
+
+// Issue 49: a model's C++ is measured before the compiler starts; past SPACEARM_MAX_CODE_MB it is
+// refused naming its size, time and memory (a 19 MB arm sat at "compiling" for 15 minutes), and
+// the cost is said before any compile.
+TEST_F(EvalCli, ModelsPastTheCodeBoundAreRefusedBeforeCompiling) {
+  const std::string scene = std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/free_n5.yaml";
+  const fs::path fresh = cache.parent_path() / ("bound-cache-" + std::to_string(getpid()));
+  const std::string eval = std::string(SPACEARM_CLI) + " eval " + scene +
+                           " --q 0,0,0,0,0,0,0,0 --cache-dir " + fresh.string();
+  int status = 0;
+  std::string out = run("SPACEARM_MAX_CODE_MB=0.001 " + eval + " 2>&1", &status);
+  EXPECT_EQ(WEXITSTATUS(status), 1) << out;
+  EXPECT_NE(out.find("MB of C++: at least"), std::string::npos) << out;
+  EXPECT_NE(out.find("past the bound of 0.001 MB; raise it (SPACEARM_MAX_CODE_MB"),
+            std::string::npos)
+      << out;
+  out = run("SPACEARM_MAX_CODE_MB=many " + eval + " 2>&1", &status);
+  EXPECT_EQ(WEXITSTATUS(status), 1) << out;
+  EXPECT_NE(out.find("SPACEARM_MAX_CODE_MB: expected a positive number of MB, got 'many'"),
+            std::string::npos)
+      << out;
+  out = run(eval + " 2>&1 >/dev/null", &status);
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_NE(out.find("compiling with"), std::string::npos) << out;
+  EXPECT_NE(out.find("MB of memory"), std::string::npos) << out;
+  fs::remove_all(fresh);
+}
+
+}  // namespace
+}  // namespace spacearm
