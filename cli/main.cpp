@@ -21,7 +21,7 @@
 #include "cpp_printer.hpp"
 #include "cli_input.hpp"
 #include "generate_command.hpp"
-#include "integrators.hpp"
+#include "integrator_options.hpp"
 #include "outputs.hpp"
 #include "plan_command.hpp"
 #include "eval_command.hpp"

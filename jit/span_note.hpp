@@ -7,7 +7,7 @@
 #include <string>
 
 #include "dynamics_checks.hpp"
-#include "integrators.hpp"
+#include "integrator_options.hpp"
 
 namespace spacearm {
 

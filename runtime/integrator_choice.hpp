@@ -15,7 +15,7 @@
 #include <string>
 
 #include "dynamic_model.hpp"
-#include "integrators.hpp"
+#include "integrator_options.hpp"
 
 namespace spacearm {
 

@@ -28,7 +28,7 @@
 #include <vector>
 
 #include "dynamic_model.hpp"
-#include "integrators.hpp"
+#include "integrator_options.hpp"
 #include "model.hpp"
 
 namespace spacearm {

@@ -14,7 +14,7 @@
 #include <utility>
 #include <vector>
 
-#include "integrators.hpp"
+#include "integrator_options.hpp"
 #include <memory>
 
 #include "scene.hpp"

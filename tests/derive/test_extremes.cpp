@@ -7,7 +7,7 @@
 #include <limits>
 
 #include "free_n3_base_params.hpp"
-#include "integrators.hpp"
+#include "integrator_options.hpp"
 #include "model.hpp"
 #include "paper_geared.hpp"
 #include "paper_reference.hpp"
