@@ -49,7 +49,7 @@ class CMakeBuild(build_ext):
 setup(
     name="spacearm",
     version=version(),
-    description="Exact, inspectable and fast dynamics of planar free-floating space manipulators",
+    description="Exact, inspectable and fast dynamics of free-floating space manipulators, planar and spatial",
     packages=["spacearm"],
     package_dir={"": "python"},
     ext_modules=[Extension("spacearm._spacearm", sources=[])],
