@@ -106,11 +106,13 @@ void evaluate_compiled(const ModelRecipe& scene, const EvalArgs& a, const EvalIn
                  rep.cache_entry.c_str(), rep.compiled ? "built" : "hit", rep.derive_ms,
                  rep.emit_ms, rep.compile_ms, rep.load_ms);
   const auto t0 = clock::now();
-  with_span_note(model.span_note(in.params), [&] {
-    for (const auto& o : output_registry())
-      if (model.has(o.id))
-        out[o.name] = results_json(scene.name(), o, model.evaluate(o.id, in.of(o), in.params));
-  });
+  with_span_note([&] { return model.span_note(in.params); },
+                 [&] {
+                   for (const auto& o : output_registry())
+                     if (model.has(o.id))
+                       out[o.name] =
+                           results_json(scene.name(), o, model.evaluate(o.id, in.of(o), in.params));
+                 });
   if (a.verbose) std::fprintf(stderr, "spacearm: run %.3f ms\n", ms_since(t0));
 }
 

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <functional>
 #include <fstream>
 #include <iostream>
 #include <memory>
@@ -175,8 +176,10 @@ std::string row(const std::vector<double>& values) {
 }
 
 // The output grid in the options' own names: rows every --dt-out, or every --dt when it is not
-// given; --t-end a whole multiple of it, and a fixed step dividing it.
-void check_output_grid(const SimulateArgs& a, double dt_out, const IntegratorOptions& opt) {
+// given; --t-end a whole multiple of it, and a fixed step dividing it. note(): what a step chosen
+// too small for any run is put down to (the parameters' span of values), appended.
+void check_output_grid(const SimulateArgs& a, double dt_out, const IntegratorOptions& opt,
+                       const std::function<std::string()>& note) {
   const char* every = a.dt_out > 0 ? "--dt-out" : "--dt";
   char buf[300];
   const double rows = a.t_end / dt_out;
@@ -189,12 +192,18 @@ void check_output_grid(const SimulateArgs& a, double dt_out, const IntegratorOpt
   }
   if (adaptive(opt.method)) return;
   const double per = dt_out / opt.dt;
-  // A chosen step (integrator_choice.hpp) this small is no run: say so before the grid's check.
+  // A step this small is no run: say so before the grid's check (whose count would overflow).
+  if (per > 1e9 && a.integrator == "auto") {
+    std::snprintf(buf, sizeof buf,
+                  "simulate: %s would take %.3g steps of %.3g s for each row (%s %.10g s): the "
+                  "stiffest mode at the start is too fast for any run",
+                  to_string(opt.method).c_str(), per, opt.dt, every, dt_out);
+    throw std::invalid_argument(buf + note());
+  }
   if (per > 1e9) {
     std::snprintf(buf, sizeof buf,
-                  "simulate: rk4 would take %.3g steps of %.3g s for each row (%s %.10g s): the "
-                  "stiffest mode at the start is too fast for any run",
-                  per, opt.dt, every, dt_out);
+                  "--dt %.10g s is too small for a row every %s %.10g s (%.3g steps a row)", opt.dt,
+                  every, dt_out, per);
     throw std::invalid_argument(buf);
   }
   if (a.dt_out == 0) return;
@@ -408,7 +417,7 @@ int simulate_loaded(const SimulateArgs& a, const ModelRecipe& scene, const Compi
   // The integrator, from the stiffest mode at the start.
   const StiffestMode mode = stiffest_mode(model, q0, qd0, model.generalized_forces((*tau)(0.0)));
   IntegratorOptions opt = integrator_options(a, mode, model.has_state_jacobian(), dt_out);
-  check_output_grid(a, dt_out, opt);
+  check_output_grid(a, dt_out, opt, [&] { return compiled.span_note(params); });
   // From a file: steps land on the samples, and a held torque is a true zero-order hold.
   std::unique_ptr<TorqueReplay<Eigen::Dynamic>> replay;
   if (!a.zero_torque) replay = std::make_unique<TorqueReplay<Eigen::Dynamic>>(*tau, opt, "--dt");
@@ -547,10 +556,12 @@ int run_simulate(const SimulateArgs& args) {
   const double dt_out = a.dt_out > 0 ? a.dt_out : a.dt;
   const CompiledModel compiled = load_model(a, scene);
   // A failure at parameters beyond the span the generator checked names that span.
-  return with_span_note(compiled.span_note(params), [&] {
-    return simulate_loaded(a, scene, compiled, params, q0, qd0, plan ? &*plan : nullptr,
-                           torque_file ? &*torque_file : nullptr, dt_out);
-  });
+  return with_span_note([&] { return compiled.span_note(params); },
+                        [&] {
+                          return simulate_loaded(a, scene, compiled, params, q0, qd0,
+                                                 plan ? &*plan : nullptr,
+                                                 torque_file ? &*torque_file : nullptr, dt_out);
+                        });
 }
 
 }  // namespace spacearm

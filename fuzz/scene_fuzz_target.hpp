@@ -1,5 +1,5 @@
 // The check the scene fuzzer runs on every input, shared with the replay test
-// (Scene.FuzzCorpusAndRegressionsReplay in tests/test_scene.cpp) so that every recorded
+// (Scene.FuzzCorpusAndRegressionsReplay in tests/scene/test_scene.cpp) so that every recorded
 // crash stays a regression test.
 // A scene text must either be rejected with a SceneError that names its source, or be
 // accepted as a scene that keeps every documented rule; anything else (another exception,

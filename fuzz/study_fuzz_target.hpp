@@ -1,5 +1,5 @@
 // The check the study fuzzer runs on every input, shared with the replay test
-// (Study.FuzzSeedsAndRegressionsReplay in tests/test_sweep.cpp). An input is a study file's
+// (Study.FuzzSeedsAndRegressionsReplay in tests/sweep/test_sweep.cpp). An input is a study file's
 // text, optionally followed by a line "#torques" and a torque file's text. In the study, SCENE
 // stands for the paper's geared scene, SPATIAL_SCENE for the 3D arm beside it
 // (models/space_arm7_payload.yaml, its URDF read too) and TORQUES for a file holding the torque

@@ -1,5 +1,5 @@
 // The check the text fuzzer runs on every input, shared with the replay test
-// (TorqueCsv.FuzzSeedsAndRegressionsReplay in tests/test_torque_csv.cpp). The first byte
+// (TorqueCsv.FuzzSeedsAndRegressionsReplay in tests/runtime/test_torque_csv.cpp). The first byte
 // picks what is fuzzed, the rest is the text:
 //   torque CSV (runtime/torque_csv.hpp) for 1..4 joints: rejected with std::invalid_argument
 //     naming the file, or a table that keeps every rule (>= 2 samples, finite values, dt > 0);

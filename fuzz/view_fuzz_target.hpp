@@ -1,5 +1,5 @@
 // The check the view fuzzer runs on every input, shared with the replay test
-// (RunTableTest.FuzzSeedsAndRegressionsReplay in tests/test_run_table.cpp): spacearm view's
+// (RunTableTest.FuzzSeedsAndRegressionsReplay in tests/cli/test_run_table.cpp): spacearm view's
 // untrusted inputs. The first byte picks what is fuzzed, the rest is the file's text:
 //   even: a run's CSV (cli/run_table.hpp), read with at most 2..41 rows kept: an error naming
 //     the file, or a table that keeps every rule (a 't' column, t increasing by at least 1e-9

@@ -19,7 +19,6 @@ namespace spacearm {
 // A planar scene's derivations, each made once (GiNaC's, slow beyond a few links): of the scene's
 // outputs (eval --symbolic) and of every output (inspect).
 struct ClosedFormCache {
-  std::mutex mutex;
   std::shared_ptr<const SymbolicModel> of_outputs, of_all;
 };
 
@@ -29,10 +28,16 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// The scene's derivation, made on the first call (under the cache's lock) and kept.
+// GiNaC is not thread-safe (its reference counts and shared constants are plain integers): every
+// use of its expressions here, not only the derivation, holds this lock, whichever recipe it is.
+std::mutex& ginac_mutex() {
+  static std::mutex m;
+  return m;
+}
+
+// The scene's derivation, made on the first call and kept (the caller holds ginac_mutex()).
 const SymbolicModel& derivation(const Scene& scene, ClosedFormCache& cache, bool all_outputs,
                                 double* derive_ms) {
-  const std::lock_guard lock(cache.mutex);
   std::shared_ptr<const SymbolicModel>& kept = all_outputs ? cache.of_all : cache.of_outputs;
   const auto t0 = std::chrono::steady_clock::now();
   if (!kept) {
@@ -78,6 +83,7 @@ std::vector<Eigen::MatrixXd> ModelRecipe::evaluate_symbolic(
   if (!planar_)
     throw std::invalid_argument("model '" + facts_.name +
                                 "' is a spatial arm, which has no symbolic derivation");
+  const std::lock_guard lock(ginac_mutex());
   return evaluate_output(derivation(*planar_, *closed_forms_, false, derive_ms), o, inputs, params);
 }
 
@@ -132,6 +138,7 @@ class EntrySymbols {
 }  // namespace
 
 std::string ModelRecipe::inspect_entry(const std::string& entry, bool latex, bool decimal) const {
+  const std::lock_guard lock(ginac_mutex());
   if (spatial_) return spatial_entry(entry, latex, decimal);
   return entry_text(derivation(*planar_, *closed_forms_, true, nullptr), entry, latex, decimal) +
          "\n";

@@ -51,7 +51,8 @@ class ModelRecipe {
                             bool decimal = false) const;
   // The closed forms' value of output o (a planar scene's derivation of its outputs, in GiNaC;
   // composed outputs by Eigen's solves) at inputs in the registry's order: the independent
-  // reference `eval --symbolic` prints. Derived on the first call and kept; derive_ms (when
+  // reference `eval --symbolic` prints. Derived on the first call and kept; inspect_entry and this
+  // take one process-wide lock for GiNaC, which is not thread-safe. derive_ms (when
   // given) receives the derivation's time, 0 once kept. std::invalid_argument for a spatial arm.
   std::vector<Eigen::MatrixXd> evaluate_symbolic(Output o,
                                                  const std::vector<Eigen::VectorXd>& inputs,
@@ -66,7 +67,7 @@ class ModelRecipe {
   std::shared_ptr<const Scene> planar_;
   std::shared_ptr<const SpatialScene> spatial_;
   ModelFacts facts_;
-  std::shared_ptr<ClosedFormCache> closed_forms_;  // shared by copies; thread-safe
+  std::shared_ptr<ClosedFormCache> closed_forms_;  // shared by copies
   std::string spatial_entry(const std::string& entry, bool latex, bool decimal) const;
 };
 

@@ -11,19 +11,17 @@
 
 namespace spacearm {
 
-// Runs f; an IntegrationError, DynamicsError or std::invalid_argument is thrown again, of the
-// same kind, with `note` appended.
-template <class F>
-auto with_span_note(const std::string& note, F&& f) -> decltype(f()) {
-  if (note.empty()) return f();
+// Runs f; a failure of the dynamics (IntegrationError, DynamicsError) is thrown again, of the
+// same kind, with note() appended, computed only then. Errors of the options or input pass as
+// they are.
+template <class Note, class F>
+auto with_span_note(Note&& note, F&& f) -> decltype(f()) {
   try {
     return f();
   } catch (const IntegrationError& e) {
-    throw IntegrationError(e.what() + note, e.t(), e.state());
+    throw IntegrationError(e.what() + note(), e.t(), e.state());
   } catch (const DynamicsError& e) {
-    throw DynamicsError(e.what() + note);
-  } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument(e.what() + note);
+    throw DynamicsError(e.what() + note());
   }
 }
 

@@ -248,7 +248,7 @@ py::object PyModel::call(Output o, const py::args& args, const py::object& param
   }
   {
     py::gil_scoped_release release;
-    with_span_note(model_.span_note(params),
+    with_span_note([&] { return model_.span_note(params); },
                    [&] { model_.evaluate_batch(o, k, in_ptrs, params, out_ptrs, lanes_); });
   }
   if (results.size() == 1) {

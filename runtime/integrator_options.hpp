@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 
 #include <functional>
+#include <limits>
 #include <stdexcept>
 #include <string>
 

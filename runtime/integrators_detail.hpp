@@ -70,6 +70,11 @@ inline long check_integration(const IntegratorOptions& opt, double t0, double t1
   if (!adaptive(opt.method)) {
     if (!(opt.dt > 0) || !std::isfinite(opt.dt))
       throw std::invalid_argument("integrate: dt = " + format(opt.dt) + " must be positive");
+    // Past 1e9 steps an output no run ends (and lround would overflow further on).
+    if (!(dt_out / opt.dt <= 1e9))
+      throw std::invalid_argument(
+          "integrate: dt = " + format(opt.dt, 10) + " is " + format(dt_out / opt.dt) +
+          " steps for each dt_out = " + format(dt_out, 10) + ": more than any run can take");
     const long per = std::lround(dt_out / opt.dt);
     if (per < 1 || std::abs(per * opt.dt - dt_out) > 1e-9 * dt_out)
       throw std::invalid_argument("integrate: dt_out = " + format(dt_out, 10) +

@@ -353,6 +353,8 @@ TEST_F(SimulateCli, BadInputsGetClearErrors) {
             "rk4 would take 8.76e+50 steps of 1.14e-53 s for each row (--dt 0.01 s): the stiffest "
             "mode at the start is too fast for any run. The run-time parameters widen the "
             "model's span of values to 30 decades, from gears[0].ratio (p) = 1e-29"},
+           {"--zero --t-end 1 --integrator rk4 --dt 1e-10 --dt-out 1",
+            "--dt 1e-10 s is too small for a row every --dt-out 1 s (1e+10 steps a row)"},
            {"--zero --t-end 1 --dt 0.3 --integrator rk4",
             "--t-end 1 s must be a whole multiple of --dt 0.3 s"},
            {"--zero --t-end 1 --dt 0.1 --dt-out 0.25 --integrator rk4",
