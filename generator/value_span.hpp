@@ -23,16 +23,27 @@ struct SpanField {
 // The span below which nothing is said: six decades.
 constexpr double kNotableSpan = 1e6;
 
-// log10 of the largest non-zero magnitude over the smallest (0 where fewer than two).
-// params: the run-time values (nullptr: the nominal ones).
-inline double span_decades(const std::vector<SpanField>& fields, const double* params) {
-  double lo = 0, hi = 0;
+// The fields of the smallest and largest non-zero magnitude and those magnitudes (null where
+// none is). params: the run-time values (nullptr: the nominal ones).
+struct SpanEnds {
+  const SpanField *lo = nullptr, *hi = nullptr;
+  double lo_v = 0, hi_v = 0;
+};
+inline SpanEnds span_ends(const std::vector<SpanField>& fields, const double* params) {
+  SpanEnds e;
   for (const SpanField& f : fields) {
     const double v = std::abs(f.parameter >= 0 && params ? params[f.parameter] : f.value);
     if (v == 0 || !std::isfinite(v)) continue;
-    lo = lo == 0 ? v : std::min(lo, v), hi = std::max(hi, v);
+    if (!e.lo || v < e.lo_v) e.lo = &f, e.lo_v = v;
+    if (!e.hi || v > e.hi_v) e.hi = &f, e.hi_v = v;
   }
-  return lo == 0 ? 0 : std::log10(hi / lo);
+  return e;
+}
+
+// log10 of the largest non-zero magnitude over the smallest (0 where fewer than two).
+inline double span_decades(const std::vector<SpanField>& fields, const double* params) {
+  const SpanEnds e = span_ends(fields, params);
+  return e.lo ? std::log10(e.hi_v / e.lo_v) : 0;
 }
 
 // "" where the non-zero magnitudes span less than six decades, else "25 decades, from
@@ -40,15 +51,7 @@ inline double span_decades(const std::vector<SpanField>& fields, const double* p
 // nominal ones); names: the parameters' names.
 inline std::string value_span(const std::vector<SpanField>& fields, const double* params,
                               const std::vector<std::string>& names) {
-  const SpanField* lo = nullptr;
-  const SpanField* hi = nullptr;
-  double lo_v = 0, hi_v = 0;
-  for (const SpanField& f : fields) {
-    const double v = std::abs(f.parameter >= 0 && params ? params[f.parameter] : f.value);
-    if (v == 0 || !std::isfinite(v)) continue;
-    if (!lo || v < lo_v) lo = &f, lo_v = v;
-    if (!hi || v > hi_v) hi = &f, hi_v = v;
-  }
+  const auto [lo, hi, lo_v, hi_v] = span_ends(fields, params);
   if (!lo || hi_v / lo_v < kNotableSpan) return "";
   auto named = [&names](const SpanField& f) {
     const bool by_parameter = f.parameter >= 0 && size_t(f.parameter) < names.size();

@@ -33,9 +33,6 @@ struct RecordedForm {
 
 struct DerivedModel {
   ModelFacts facts;
-  // "" or where the nominal values span too many decades for double, by field ("12 decades,
-  // from links[0].mass = 1e-06 to ..."), for the self-check's message.
-  std::string value_span;
   // The closed forms derived (nullptr: none, a model given only by recursive algorithms).
   const ClosedForms* closed_forms = nullptr;
   // Whether the scene's formulation lets lowering try the recursive forms.

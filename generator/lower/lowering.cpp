@@ -45,6 +45,12 @@ struct CheckPoint {
   }
 };
 
+// "" or where the nominal values span too many decades for double, by field (value_span.hpp):
+// what a failing self-check names.
+std::string nominal_span(const DerivedModel& model) {
+  return value_span(model.facts.span_fields, nullptr, model.facts.parameter_names);
+}
+
 // The generator checks itself before it emits: the optimized straight-line program must
 // reproduce, at the check point, the values computed from the derivation alone (want: per
 // result, its entries row by row), else it names the entry that fails.
@@ -60,7 +66,7 @@ void self_check(const DerivedModel& model, const FunctionSpec& f,
     for (double w : want[k]) {
       // Not a generator bug but a scene whose numbers make the model degenerate in double.
       if (!std::isfinite(w)) {
-        const std::string& span = model.value_span;
+        const std::string span = nominal_span(model);
         throw std::runtime_error(
             "scene '" + model.facts.name + "': " + f.name +
             " is not finite at the generator's check point (nominal parameters): the masses, "
@@ -76,7 +82,7 @@ void self_check(const DerivedModel& model, const FunctionSpec& f,
       const std::string where =
           f.name + ", " + f.results[k].name + " entry " + std::to_string(i) + ": " + values;
       // Numbers too far apart for double are the scene's, named by field; else a generator bug.
-      if (const std::string& span = model.value_span; !span.empty())
+      if (const std::string span = nominal_span(model); !span.empty())
         throw std::runtime_error(
             "scene '" + model.facts.name +
             "': double precision cannot hold this model at its nominal values (" + where +

@@ -13,12 +13,18 @@ namespace spacearm {
 
 namespace {
 
-// The numbers double precision must hold together (value_span.hpp): masses, inertias, lengths,
-// gear ratios, motor inertias and stiffnesses, each a literal or a run-time parameter.
-std::vector<SpanField> span_fields(const Scene& scene) {
+// Each run-time parameter's index in params, by name.
+std::map<std::string, int> parameter_index(const Scene& scene) {
   std::map<std::string, int> index;
   for (size_t i = 0; i < scene.parameters.size(); ++i)
     index[scene.parameters[i].name] = static_cast<int>(i);
+  return index;
+}
+
+// The numbers double precision must hold together (value_span.hpp): masses, inertias, lengths,
+// gear ratios, motor inertias and stiffnesses, each a literal or a run-time parameter.
+std::vector<SpanField> span_fields(const Scene& scene) {
+  const std::map<std::string, int> index = parameter_index(scene);
   std::vector<SpanField> fields;
   auto add = [&](const std::string& field, const Quantity& q) {
     fields.push_back({field, q.value, q.is_parameter() ? index.at(q.parameter) : -1});
@@ -43,9 +49,7 @@ std::vector<SpanField> span_fields(const Scene& scene) {
 // programs: parameter_error() checks them for the parameters' values.
 void parameter_checks(const Scene& scene, ModelFacts& facts) {
   Program& p = facts.checks_program;
-  std::map<std::string, int> index;
-  for (size_t i = 0; i < scene.parameters.size(); ++i)
-    index[scene.parameters[i].name] = static_cast<int>(i);
+  const std::map<std::string, int> index = parameter_index(scene);
   auto value = [&](const Quantity& q) {
     if (q.is_parameter()) return p.input("params", index.at(q.parameter));
     return q.value == 0 ? p.zero() : p.constant(q.value);
@@ -100,8 +104,6 @@ DerivedModel planar_derived_model(const SymbolicModel& model) {
   const Scene& scene = model.scene;
   DerivedModel derived;
   derived.facts = planar_facts(scene);
-  derived.value_span =
-      value_span(derived.facts.span_fields, nullptr, derived.facts.parameter_names);
   derived.closed_forms = &model;
   derived.tries_recursive = scene.tries_recursive();
   for (const OutputInfo& o : output_registry()) {

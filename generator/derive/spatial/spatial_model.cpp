@@ -172,8 +172,6 @@ const char* spatial_algorithm(Output o) {
 DerivedModel spatial_derived_model(const SpatialScene& scene) {
   DerivedModel derived;
   derived.facts = spatial_facts(scene);
-  derived.value_span =
-      value_span(derived.facts.span_fields, nullptr, derived.facts.parameter_names);
   derived.tries_recursive = true;
   const spatial::ChainDescription& chain = scene.chain;
   for (Output o : derived.facts.outputs)
