@@ -66,24 +66,40 @@ std::optional<Provenance> read_provenance(const std::string& csv, bool* stale) {
   } catch (const FolderError& e) {
     throw std::invalid_argument(e.what());
   }
-  Provenance p;
+  // Every rejection is one of spacearm's own sentences: nlohmann's messages may quote the text
+  // (a number too large quotes its digits), and the record may be any file.
+  const auto reject = [&what](const std::string& why) {
+    return std::invalid_argument(what + ": not spacearm's provenance (" + why +
+                                 "); remove it or fix it");
+  };
+  nlohmann::json j;
   try {
-    const auto j = nlohmann::json::parse(text);
-    p.command = j.at("command").get<std::string>();
-    p.folder = j.at("folder").get<std::string>();
-    p.scene = j.at("scene").get<std::string>();
-    p.version = j.at("spacearm").get<std::string>();
-    for (const auto& [name, value] : j.at("parameters").items())
-      p.parameters.push_back({name, value.get<double>()});
-    p.csv_size = j.at("csv_size").get<long long>();
-    p.csv_mtime_ns = j.at("csv_mtime_ns").get<long long>();
-  } catch (const nlohmann::json::parse_error& e) {  // its message quotes the text: not shown
-    throw std::invalid_argument(what + ": not spacearm's provenance (not JSON at byte " +
-                                std::to_string(e.byte) + "); remove it or fix it");
-  } catch (const nlohmann::json::exception& e) {  // a field missing or of another type
-    throw std::invalid_argument(what + ": not spacearm's provenance (" + e.what() +
-                                "); remove it or fix it");
+    j = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw reject("not JSON at byte " + std::to_string(e.byte));
+  } catch (const nlohmann::json::exception&) {  // a number too large for a double
+    throw reject("a number out of range");
   }
+  if (!j.is_object()) throw reject("not a JSON object");
+  const auto field = [&](const char* name, bool (nlohmann::json::*is)() const noexcept,
+                         const char* kind) -> const nlohmann::json& {
+    const auto it = j.find(name);
+    if (it == j.end()) throw reject(std::string("field '") + name + "' missing");
+    if (!((*it).*is)()) throw reject(std::string("field '") + name + "' is not " + kind);
+    return *it;
+  };
+  using json = nlohmann::json;
+  Provenance p;
+  p.command = field("command", &json::is_string, "a string").get<std::string>();
+  p.folder = field("folder", &json::is_string, "a string").get<std::string>();
+  p.scene = field("scene", &json::is_string, "a string").get<std::string>();
+  p.version = field("spacearm", &json::is_string, "a string").get<std::string>();
+  for (const auto& [name, value] : field("parameters", &json::is_object, "an object").items()) {
+    if (!value.is_number()) throw reject("a parameter's value is not a number");
+    p.parameters.push_back({name, value.get<double>()});
+  }
+  p.csv_size = field("csv_size", &json::is_number_integer, "an integer").get<long long>();
+  p.csv_mtime_ns = field("csv_mtime_ns", &json::is_number_integer, "an integer").get<long long>();
   long long size = -2, mtime = -2;
   if (!stamp(csv, size, mtime) || size != p.csv_size || mtime != p.csv_mtime_ns) {
     if (stale) *stale = true;

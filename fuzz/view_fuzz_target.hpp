@@ -67,14 +67,13 @@ inline void check_provenance(const std::string& text) {
     if (what.rfind(named, 0) != 0)
       throw std::logic_error("provenance rejection does not name the record: " + what);
     // The record may be any file: after its name the message is one of spacearm's own
-    // sentences, with a byte offset or one of nlohmann's type or key errors (no input text; a
-    // key named is one of the record's fields).
+    // sentences, with a byte offset or one of the record's field names (no input text).
     static const std::regex own(
-        "(: not spacearm's provenance \\(not JSON at byte [0-9]+\\); remove it or fix it"
-        "|: not spacearm's provenance \\(\\[json\\.exception\\.(type_error\\.[0-9]+\\] [a-z_() "
-        ",]+|out_of_range\\.[0-9]+\\] key '(command|folder|scene|spacearm|"
-        "parameters|csv_size|csv_mtime_ns)' not found)\\); remove it or fix it"
-        "| is a symbolic link, not the record spacearm wrote; remove it)");
+        ": not spacearm's provenance \\((not JSON at byte [0-9]+|a number out of range"
+        "|not a JSON object|a parameter's value is not a number"
+        "|field '(command|folder|scene|spacearm|parameters|csv_size|csv_mtime_ns)' "
+        "(missing|is not (a string|an object|an integer)))\\); remove it or fix it"
+        "| is a symbolic link, not the record spacearm wrote; remove it");
     if (!std::regex_match(what.substr(named.size()), own))
       throw std::logic_error("provenance rejection says more than spacearm's sentence: " + what);
   }

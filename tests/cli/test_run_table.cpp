@@ -9,6 +9,7 @@
 #include <fstream>
 #include <string>
 
+#include "provenance.hpp"
 #include "run_table.hpp"
 #include "view_fuzz_target.hpp"
 
@@ -135,6 +136,38 @@ TEST_F(RunTableTest, RefusesWhatIsNotARegularFile) {
   EXPECT_THROW(read_run_table(::testing::TempDir(), "view", 10), std::invalid_argument);
   EXPECT_THROW(read_run_table(::testing::TempDir() + "no such file.csv", "view", 10),
                std::invalid_argument);
+}
+
+// A provenance record is any file: a rejection names the record and says what is wrong in
+// spacearm's words, never nlohmann's, which may quote the text (a number too large quotes it).
+TEST(RunTable, ProvenanceRejectionsNameTheFieldAndNeverQuoteTheRecord) {
+  const std::string csv =
+      ::testing::TempDir() + "provenance_test_" + std::to_string(::getpid()) + ".csv";
+  std::ofstream(csv) << "t,x\n0,1\n";
+  const auto error = [&](const std::string& record) {
+    std::ofstream(spacearm::cli::provenance_path(csv), std::ios::binary) << record;
+    try {
+      spacearm::cli::read_provenance(csv, nullptr);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string ok = R"("command":"c","folder":"/","scene":"s","spacearm":"v",)"
+                         R"("parameters":{},"csv_size":1,)";
+  EXPECT_NE(error("{" + ok + R"("csv_mtime_ns":10e5301})").find("(a number out of range)"),
+            std::string::npos);
+  EXPECT_EQ(error("{" + ok + R"("csv_mtime_ns":10e5301})").find("5301"), std::string::npos);
+  EXPECT_NE(error(R"({"command":"c"})").find("(field 'folder' missing)"), std::string::npos);
+  EXPECT_NE(error("{" + ok + R"("csv_mtime_ns":"secret"})")
+                .find("'csv_mtime_ns' is not an "
+                      "integer"),
+            std::string::npos);
+  EXPECT_EQ(error("{" + ok + R"("csv_mtime_ns":"secret"})").find("secret"), std::string::npos);
+  EXPECT_NE(error("[1,2]").find("(not a JSON object)"), std::string::npos);
+  EXPECT_NE(error("{oops").find("(not JSON at byte 2)"), std::string::npos);
+  std::remove(spacearm::cli::provenance_path(csv).c_str());
+  std::remove(csv.c_str());
 }
 
 // Every input the view fuzzer recorded (fuzz/view_seeds, fuzz/view_regressions) replays
