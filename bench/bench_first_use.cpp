@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "compiled_model.hpp"
+#include "cpp_emitter.hpp"
 #include "planar_model.hpp"
 #include "recording_reporter.hpp"
 #include "scene.hpp"

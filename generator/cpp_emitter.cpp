@@ -10,6 +10,10 @@ EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options) {
   return emit_cpp(planar_derived_model(model), options);
 }
 
+LoweredModel lower(const SymbolicModel& model, const LowerOptions& options) {
+  return lower(planar_derived_model(model), options);
+}
+
 EmittedModel emit_cpp(const DerivedModel& model, const EmitOptions& options) {
   if (options.plain && !model.closed_forms)
     throw std::invalid_argument("--plain: model " + model.facts.name +

@@ -1,11 +1,12 @@
-// The generator's pipeline from a derived model to C++: lowering (planar_lowering.hpp)
-// then printing (cpp_printer.hpp).
+// The generator's pipeline from a derived model to C++: lowering (lowering.hpp) then printing
+// (cpp_printer.hpp).
 #pragma once
 
 #include <string>
 
 #include "cpp_printer.hpp"
 #include "derived_model.hpp"
+#include "lowering.hpp"
 
 namespace spacearm {
 
@@ -20,6 +21,8 @@ struct EmitOptions {
 };
 
 EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options);
+// lower(planar_derived_model(model), options): a planar derivation's programs.
+LoweredModel lower(const SymbolicModel& model, const LowerOptions& options = {});
 // Any derived model (a spatial arm's: spatial_model.hpp). `plain` needs closed forms.
 EmittedModel emit_cpp(const DerivedModel& model, const EmitOptions& options);
 

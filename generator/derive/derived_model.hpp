@@ -10,6 +10,7 @@
 
 #include <functional>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -17,7 +18,8 @@
 
 namespace spacearm {
 
-struct ClosedForms;  // symbolic_model.hpp
+struct ClosedForms;       // closed_forms.hpp (GiNaC)
+class ExpressionBuilder;  // expression_builder.hpp (GiNaC)
 
 // Entry i of an input array by its name ("q", "qd", "qdd", "Q", "qdd_joints", "params").
 using InputValues = std::function<double(const std::string&, int)>;
@@ -35,6 +37,9 @@ struct DerivedModel {
   ModelFacts facts;
   // The closed forms derived (nullptr: none, a model given only by recursive algorithms).
   const ClosedForms* closed_forms = nullptr;
+  // A builder of the closed forms' nodes in the kind's variables (expression_builder.hpp), in
+  // the plain velocities qd or, where the kind has them, the absolute body rates.
+  std::function<std::unique_ptr<ExpressionBuilder>(bool body_rates)> closed_form_builder;
   // Whether the scene's formulation lets lowering try the recursive forms.
   bool tries_recursive = false;
   // The outputs a recursive algorithm can give.

@@ -3,7 +3,7 @@
 #include <stdexcept>
 
 #include "program_algebra.hpp"
-#include "symbolic_model.hpp"
+#include "closed_forms.hpp"
 
 namespace spacearm {
 

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "derived_model.hpp"
-#include "expression_lowering.hpp"
+#include "expression_builder.hpp"
 
 namespace spacearm {
 

@@ -9,8 +9,7 @@
 #include <Eigen/Dense>
 
 #include "composition.hpp"
-#include "expression_lowering.hpp"
-#include "symbolic_model.hpp"
+#include "closed_forms.hpp"
 
 namespace spacearm {
 
@@ -111,8 +110,7 @@ FunctionSpec cheapest_lowering(
   FunctionSpec best;
   int best_cost = -1;
   for (int basis = 0; basis < (uses_velocity ? 2 : 1); ++basis) {
-    const std::unique_ptr<ExpressionBuilder> fb = planar_builder(
-        *model.closed_forms, model.facts.dims, model.facts.free_floating, basis == 1);
+    const std::unique_ptr<ExpressionBuilder> fb = model.closed_form_builder(basis == 1);
     FunctionSpec candidate = f;
     candidate.entries = build(*fb);
     fb->program().extract_common_pairs(candidate.roots());
@@ -142,7 +140,8 @@ void describe(FunctionSpec& f, const OutputInfo& o) {
 FunctionSpec lower_closed_form(const DerivedModel& model, FunctionSpec f,
                                const std::vector<std::vector<ex>>& results, bool plain) {
   if (plain) {
-    const std::unique_ptr<ExpressionBuilder> pb = plain_builder(*model.closed_forms);
+    const std::unique_ptr<ExpressionBuilder> pb = plain_builder(
+        {model.closed_forms->q, model.closed_forms->qd, model.closed_forms->parameters});
     for (const auto& r : results) {
       f.entries.emplace_back();
       for (const ex& e : r) f.entries.back().push_back(pb->build(e.expand()));

@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 #include <map>
 
+#include "cpp_emitter.hpp"
 #include "numeric_outputs.hpp"
 #include "planar_model.hpp"
 #include "planar_chain.hpp"

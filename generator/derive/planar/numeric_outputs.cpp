@@ -4,7 +4,6 @@
 
 #include <stdexcept>
 
-#include "dynamics_checks.hpp"
 #include "planar_chain.hpp"
 
 namespace spacearm {
@@ -70,11 +69,14 @@ std::vector<Eigen::MatrixXd> composed(const SymbolicModel& model, Output o, cons
   }
   if (o == Output::inverse_dynamics) return {M * extra + b};
   if (o == Output::forward_dynamics) {
-    // Unpivoted pivots D_j = L_jj^2 of M = L L^T, and D_j / M_jj.
-    Eigen::VectorXd d, scaled;
-    const Eigen::VectorXd qdd =
-        cholesky_forward_dynamics(M, Eigen::VectorXd(extra - b), model.scene.name, d, scaled);
-    return {qdd, d, scaled};
+    // Unpivoted pivots D_j = L_jj^2 of M = L L^T, and D_j / M_jj (Eigen's Cholesky: the
+    // generated code's own LDL^T is what this checks).
+    const Eigen::LLT<Eigen::MatrixXd> llt(M);
+    if (llt.info() != Eigen::Success)
+      throw std::runtime_error("model " + model.scene.name +
+                               ": mass matrix is not positive definite");
+    const Eigen::VectorXd d = llt.matrixLLT().diagonal().array().square();
+    return {llt.solve(Eigen::VectorXd(extra - b)), d, d.cwiseQuotient(M.diagonal())};
   }
   if (o == Output::forward_dynamics_derivatives) {
     // dqdd/dx = -M^-1 dR/dx, dR/dx evaluated with GiNaC at the solved qdd.

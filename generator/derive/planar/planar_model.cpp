@@ -8,6 +8,7 @@
 #include "numeric_outputs.hpp"
 #include "parameter_rules.hpp"
 #include "planar_chain.hpp"
+#include "planar_expressions.hpp"
 
 namespace spacearm {
 
@@ -105,6 +106,10 @@ DerivedModel planar_derived_model(const SymbolicModel& model) {
   DerivedModel derived;
   derived.facts = planar_facts(scene);
   derived.closed_forms = &model;
+  derived.closed_form_builder = [&model, dims = derived.facts.dims,
+                                 free = derived.facts.free_floating](bool body_rates) {
+    return planar_builder(model, dims, free, body_rates);
+  };
   derived.tries_recursive = scene.tries_recursive();
   for (const OutputInfo& o : output_registry()) {
     if (!has_recursive_form(o.id)) continue;
@@ -120,10 +125,6 @@ DerivedModel planar_derived_model(const SymbolicModel& model) {
     return evaluate_output(model, o, inputs, params);
   };
   return derived;
-}
-
-LoweredModel lower(const SymbolicModel& model, const LowerOptions& options) {
-  return lower(planar_derived_model(model), options);
 }
 
 }  // namespace spacearm
