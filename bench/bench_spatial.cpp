@@ -90,7 +90,7 @@ double worst_disagreement(const Loaded& ours, test::MujocoModel& mj, const State
   for (int k = 0; k < kStates; ++k) {
     Eigen::VectorXd D = Eigen::VectorXd::Ones(c.nv());
     for (size_t j = 0; j < c.links.size(); ++j)
-      D[6 + j] = c.links[j].gear.present ? c.links[j].gear.ratio : 1;
+      D[6 + j] = c.links[j].gear.present ? c.links[j].gear.ratio.value : 1;
     for (int i = 0; i < c.nq(); ++i) mj.d->qpos[i] = i < 7 ? s.q[k][i] : s.q[k][i] / D[i - 1];
     for (int i = 0; i < c.nv(); ++i) {
       mj.d->qvel[i] = s.v[k][i] / D[i];

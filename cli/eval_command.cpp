@@ -116,29 +116,16 @@ void evaluate_compiled(const ModelRecipe& scene, const EvalArgs& a, const EvalIn
   if (a.verbose) std::fprintf(stderr, "spacearm: run %.3f ms\n", ms_since(t0));
 }
 
-// Generalized forces of joint torques tau (eq. 14): tau_j / p_j on the coordinate joint j
-// drives (its slot, or a flexible joint's motor coordinate), p_j at the parameters used.
+// Generalized forces of joint torques tau (eq. 14), the gear ratios at the parameters used.
 Eigen::VectorXd generalized_forces(const ModelRecipe& recipe, const Eigen::VectorXd& params,
                                    const Eigen::VectorXd& tau) {
   const ModelFacts& facts = recipe.facts();
-  std::vector<double> ratios;
-  if (const Scene* scene = recipe.planar()) {
-    auto value = [&](const Quantity& x) {
-      for (size_t i = 0; i < scene->parameters.size(); ++i)
-        if (x.is_parameter() && scene->parameters[i].name == x.parameter) return params[i];
-      return x.value;
-    };
-    for (int j = 0; j < scene->num_links(); ++j)
-      ratios.push_back(scene->has_gear(j) ? value(scene->gears[j]->ratio) : 1);
-  } else {  // a run-time ratio from params, as the planar branch reads it
-    for (const auto& l : recipe.spatial()->chain.links)
-      ratios.push_back(!l.gear.present                           ? 1
-                       : l.gear.ratio_param == spatial::kLiteral ? l.gear.ratio
-                                                                 : params[l.gear.ratio_param]);
-  }
-  Eigen::VectorXd Q = Eigen::VectorXd::Zero(facts.dims.nv);
-  const std::vector<int> actuated = actuated_coordinates(facts);
-  for (int j = 0; j < facts.dims.num_links; ++j) Q[actuated[j]] = tau[j] / ratios[j];
+  Eigen::VectorXd ratios(facts.dims.num_links);
+  const std::vector<Quantity> p = recipe.gear_ratios();
+  for (int j = 0; j < ratios.size(); ++j)
+    ratios[j] = p[j].is_parameter() ? params[p[j].index] : p[j].value;
+  Eigen::VectorXd Q(facts.dims.nv);
+  joint_torques_as_forces(tau, ratios, actuated_coordinates(facts), Q);
   return Q;
 }
 
@@ -148,7 +135,7 @@ int run_eval(const EvalArgs& a) {
   const ModelRecipe scene = ModelRecipe::load(a.scene_path);
   const ModelFacts& facts = scene.facts();
   const int nq = facts.dims.nq, nv = facts.dims.nv, N = facts.dims.num_links;
-  if (a.symbolic && !scene.planar())
+  if (a.symbolic && !scene.has_closed_forms())
     throw std::invalid_argument("--symbolic: model '" + facts.name +
                                 "' is a spatial arm, which has no symbolic derivation");
   auto vector = [](const std::string& text, const char* option, int size) {

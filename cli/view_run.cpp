@@ -63,17 +63,7 @@ std::unique_ptr<ModelRecipe> view_recipe(ModelRecipe recipe) {
     }
   }
   if (missing.empty()) return std::make_unique<ModelRecipe>(std::move(recipe));
-  if (const Scene* planar = recipe.planar()) {
-    Scene scene = *planar;
-    scene.outputs.insert(missing.begin(), missing.end());
-    scene.content += note + "\n";
-    return std::make_unique<ModelRecipe>(std::move(scene));
-  }
-  SpatialScene scene = *recipe.spatial();
-  scene.outputs = facts.outputs;  // the defaults, where the scene lists none
-  scene.outputs.insert(scene.outputs.end(), missing.begin(), missing.end());
-  scene.content += note + "\n";
-  return std::make_unique<ModelRecipe>(std::move(scene));
+  return std::make_unique<ModelRecipe>(recipe.with_outputs(missing, note + "\n"));
 }
 
 LoadedScene load_scene(const ViewArgs& a) {
@@ -283,12 +273,12 @@ json geometry(const LoadedScene& s, const Frames& f) {
   }
   reach = std::max(reach, 1e-3);
   std::array<double, 3> box{0.15 * reach, 0.15 * reach, 0.05 * reach}, center{0, 0, 0};
-  if (const Scene* scene = s.recipe->planar(); scene && m.num_base() > 0) {
-    const double mass = scene->base.mass.value, inertia = scene->base.inertia.value;
-    const double a = mass > 0 && inertia > 0 ? std::sqrt(6 * inertia / mass) : 0.15 * reach;
+  const ModelRecipe::BaseInertial b = s.recipe->base_inertial();
+  if (m.num_base() > 0 && !m.spatial) {  // the plane's square plate: m a^2 / 6 = izz
+    const double a =
+        b.mass > 0 && b.inertia[5] > 0 ? std::sqrt(6 * b.inertia[5] / b.mass) : 0.15 * reach;
     box = {a, a, 0.3 * a};
-  } else if (const SpatialScene* spatial = s.recipe->spatial(); spatial && m.num_base() > 0) {
-    const auto& b = spatial->chain.base;  // inertia: ixx, ixy, ixz, iyy, iyz, izz
+  } else if (m.num_base() > 0) {  // inertia: ixx, ixy, ixz, iyy, iyz, izz
     const double I[3] = {b.inertia[0], b.inertia[3], b.inertia[5]};
     for (int k = 0; k < 3; ++k) {
       const double s2 = 6 * (I[(k + 1) % 3] + I[(k + 2) % 3] - I[k]) / std::max(b.mass, 1e-12);

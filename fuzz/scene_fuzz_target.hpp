@@ -57,11 +57,15 @@ inline std::string broken_rule(const Scene& s) {
   return broken_comment_rule(comment_lines(s.description + "\n" + s.source_path));
 }
 
+// A number of the description: a plain double, or a Quantity's (nominal) value.
+inline double number_of(double x) { return x; }
+inline double number_of(const Quantity& q) { return q.value; }
+
 // Every number of a list is finite.
 template <class List>
 bool all_finite(const List& a) {
-  for (double x : a)
-    if (!std::isfinite(x)) return false;
+  for (const auto& x : a)
+    if (!std::isfinite(number_of(x))) return false;
   return true;
 }
 
@@ -70,9 +74,10 @@ inline std::string broken_spatial_rule(const SpatialScene& s) {
   const auto& c = s.chain;
   if (c.links.empty() || c.links.size() > 30) return "number of links out of range";
   auto body = [&](const spatial::Link& l) {
-    if (!(l.mass > 0) || !std::isfinite(l.mass) || !all_finite(l.com) || !all_finite(l.inertia))
+    if (!(l.mass.value > 0) || !std::isfinite(l.mass.value) || !all_finite(l.com) ||
+        !all_finite(l.inertia))
       return false;
-    const auto& i = l.inertia;
+    const auto i = l.inertia_values();
     return i[0] > 0 && i[3] > 0 && i[5] > 0;  // a positive definite tensor's diagonal
   };
   if (c.free_base && !body(c.base)) return "base mass/com/inertia";
@@ -82,7 +87,8 @@ inline std::string broken_spatial_rule(const SpatialScene& s) {
       return "link frame";
     if (!(l.axis[0] * l.axis[0] + l.axis[1] * l.axis[1] + l.axis[2] * l.axis[2] > 0))
       return "zero axis";
-    if (l.gear.present && !(l.gear.ratio > 0 && l.gear.axial >= 0 && l.gear.transverse >= 0))
+    if (l.gear.present &&
+        !(l.gear.ratio.value > 0 && l.gear.axial.value >= 0 && l.gear.transverse.value >= 0))
       return "gear";
   }
   if (!all_finite(c.tip)) return "end effector";
@@ -125,7 +131,7 @@ inline Verdict check_urdf_text(const std::string& text) {
       throw std::logic_error("URDF: number of joints out of range");
     for (const auto& l : c.links)
       if (!all_finite(l.origin_xyz) || !all_finite(l.origin_rpy) || !all_finite(l.com) ||
-          !all_finite(l.inertia) || !std::isfinite(l.mass) ||
+          !all_finite(l.inertia) || !std::isfinite(l.mass.value) ||
           !(l.axis[0] * l.axis[0] + l.axis[1] * l.axis[1] + l.axis[2] * l.axis[2] > 0))
         throw std::logic_error("URDF: a link's numbers");
     if (!all_finite(c.tip) || !all_finite(c.tip_rpy)) throw std::logic_error("URDF: end effector");

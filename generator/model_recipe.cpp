@@ -1,5 +1,6 @@
 #include "model_recipe.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <map>
 #include <mutex>
@@ -71,6 +72,48 @@ const std::string& ModelRecipe::content() const {
 
 const std::string& ModelRecipe::source_path() const {
   return planar_ ? planar_->source_path : spatial_->source_path;
+}
+
+ModelRecipe ModelRecipe::with_outputs(const std::vector<Output>& extra,
+                                      const std::string& note) const {
+  if (planar_) {
+    Scene scene = *planar_;
+    scene.outputs.insert(extra.begin(), extra.end());
+    scene.content += note;
+    return ModelRecipe(std::move(scene));
+  }
+  SpatialScene scene = *spatial_;
+  scene.outputs = facts_.outputs;  // the defaults, where the scene lists none
+  for (Output o : extra)
+    if (std::find(scene.outputs.begin(), scene.outputs.end(), o) == scene.outputs.end())
+      scene.outputs.push_back(o);
+  scene.content += note;
+  return ModelRecipe(std::move(scene));
+}
+
+std::vector<Quantity> ModelRecipe::gear_ratios() const {
+  std::vector<Quantity> ratios;
+  if (planar_)
+    for (int j = 0; j < planar_->num_links(); ++j)
+      ratios.push_back(planar_->has_gear(j) ? planar_->gears[j]->ratio : Quantity(1.0));
+  else
+    for (const spatial::Link& l : spatial_->chain.links)
+      ratios.push_back(l.gear.present ? l.gear.ratio : Quantity(1.0));
+  return ratios;
+}
+
+ModelRecipe::BaseInertial ModelRecipe::base_inertial() const {
+  BaseInertial b;
+  if (planar_) {
+    b.mass = planar_->base.mass.value;
+    b.inertia[5] = planar_->base.inertia.value;
+  } else {
+    const spatial::Link& base = spatial_->chain.base;
+    b.mass = base.mass.value;
+    b.com = base.com_values();
+    b.inertia = base.inertia_values();
+  }
+  return b;
 }
 
 std::vector<std::string> ModelRecipe::read_files() const {

@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -59,9 +60,22 @@ class ModelRecipe {
                                                  const Eigen::VectorXd& params,
                                                  double* derive_ms = nullptr) const;
 
-  // The scene, for the tools that read more than the facts (nullptr: the other kind).
-  const Scene* planar() const { return planar_.get(); }
-  const SpatialScene* spatial() const { return spatial_.get(); }
+  // Whether the model has closed forms (a planar derivation): what evaluate_symbolic needs.
+  bool has_closed_forms() const { return planar_ != nullptr; }
+  // The same scene with the outputs `extra` emitted too (those it already emits are kept once)
+  // and `note` appended to its content (so the cache tells the two apart).
+  ModelRecipe with_outputs(const std::vector<Output>& extra, const std::string& note) const;
+  // Per joint, its gear ratio p (1 without a gear), a literal or a run-time parameter
+  // (Quantity::index): joint torques act as tau / p (eq. 14).
+  std::vector<Quantity> gear_ratios() const;
+  // The base's mass, centre of mass and inertia about it at the nominal values (what the viewer
+  // draws): (ixx, ixy, ixz, iyy, iyz, izz), of which the plane has izz alone.
+  struct BaseInertial {
+    double mass = 0;
+    std::array<double, 3> com{};
+    std::array<double, 6> inertia{};
+  };
+  BaseInertial base_inertial() const;
 
  private:
   std::shared_ptr<const Scene> planar_;

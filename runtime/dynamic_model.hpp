@@ -19,6 +19,16 @@
 namespace spacearm {
 
 // What a model states about itself, whichever way it was built.
+// Joint (or motor) torques tau as generalized forces (eq. 14): Q = tau_i / p_i on the coordinate
+// joint i drives (its slot, or a flexible joint's motor coordinate), 0 elsewhere. The one place
+// that divides by the ratios: DynamicModel and `eval --tau` call it.
+inline void joint_torques_as_forces(const Eigen::VectorXd& tau, const Eigen::VectorXd& ratios,
+                                    const std::vector<int>& actuated,
+                                    Eigen::Ref<Eigen::VectorXd> Q) {
+  Q.setZero();
+  for (int i = 0; i < ratios.size(); ++i) Q[actuated.at(i)] = tau[i] / ratios[i];
+}
+
 struct DynamicModelFacts {
   std::string name;
   int nq = 0, nv = 0, num_links = 0;
@@ -177,8 +187,7 @@ struct DynamicModel : DynamicModelFacts {
   }
   // The same into Q (nv entries): no allocation.
   void generalized_forces(const JointVector& tau, Eigen::Ref<Velocity> Q) const {
-    Q.setZero();
-    for (int i = 0; i < num_links; ++i) Q[actuated_coordinates.at(i)] = tau[i] / gear_ratios[i];
+    joint_torques_as_forces(tau, gear_ratios, actuated_coordinates, Q);
   }
 
  private:

@@ -294,6 +294,7 @@ class SceneReader {
             "refers to parameter '" + q.parameter + "', which is not declared under 'parameters'",
             node);
       q.value = s.parameters[it->second].nominal.value;
+      q.index = it->second;
       used_parameters.insert(q.parameter);
     }
     return q;

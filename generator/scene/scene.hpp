@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "outputs.hpp"
+#include "quantity.hpp"
 
 namespace spacearm {
 
@@ -20,32 +21,6 @@ class SceneError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
-
-// A scalar of the scene: either a literal number (kept as its exact decimal text so the
-// generator can fold it as an exact rational) or a reference to a named run-time parameter.
-struct Quantity {
-  std::string parameter;  // non-empty: a run-time parameter of this name
-  std::string literal;    // decimal text of the number, e.g. "0.181" or "1e-5"
-  double value = 0.0;     // the literal's value, or the parameter's nominal value
-
-  bool is_parameter() const { return !parameter.empty(); }
-};
-
-struct Parameter {
-  std::string name;
-  Quantity nominal;  // always a literal: used for self-checks and as a default at run time
-};
-// The parameters' names and nominal values in their order (params[i] in the generated code).
-inline std::vector<std::string> parameter_names(const std::vector<Parameter>& parameters) {
-  std::vector<std::string> names;
-  for (const Parameter& p : parameters) names.push_back(p.name);
-  return names;
-}
-inline std::vector<double> nominal_values(const std::vector<Parameter>& parameters) {
-  std::vector<double> values;
-  for (const Parameter& p : parameters) values.push_back(p.nominal.value);
-  return values;
-}
 
 enum class BaseType { free_floating, fixed };
 

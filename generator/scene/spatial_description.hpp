@@ -8,14 +8,15 @@
 #include <array>
 #include <vector>
 
+#include "quantity.hpp"
 #include "spatial_algebra.hpp"
 
 namespace spacearm::spatial {
 
-// A number of the model may be a run-time parameter: its index in `params` beside it (-1: the
-// number itself, a literal); the number is then the parameter's nominal value (what the scene's
-// checks use). The chain reads the parameter, never the nominal value.
-constexpr int kLiteral = -1;
+// A number of the model may be a run-time parameter (quantity.hpp): the chain reads the
+// parameter, never its nominal value.
+using spacearm::kLiteral;
+using spacearm::Quantity;
 
 // A joint's gear: a motor whose rotor turns at p times the joint's rate relative to the parent
 // link, so the joint's coordinate is the motor angle qm = p q (eq. 12 in the plane) and its
@@ -29,13 +30,11 @@ constexpr int kLiteral = -1;
 // motor angle qm a coordinate of its own after all the joints (ChainDescription::motor_coordinate).
 struct Gear {
   bool present = false;
-  double ratio = 1;
-  double axial = 0, transverse = 0;  // the rotor's inertia about its axis and across it
+  Quantity ratio = 1;
+  Quantity axial = 0, transverse = 0;  // the rotor's inertia about its axis and across it
   bool exact = true;
-  int ratio_param = kLiteral, axial_param = kLiteral, transverse_param = kLiteral;
   bool flexible = false, has_damping = false;
-  double stiffness = 0, damping = 0;
-  int stiffness_param = kLiteral, damping_param = kLiteral;
+  Quantity stiffness = 0, damping = 0;
 };
 
 // Friction on a joint's coordinate rate w (the motor's, qd_m, for a geared joint), opposing
@@ -43,25 +42,26 @@ struct Gear {
 // + (Fs - Fc) exp(-(w/vst)^2) tanh(w/vs). Each value a literal or a run-time parameter.
 struct Friction {
   bool present = false;
-  double viscous = 0, coulomb = 0, velocity_scale = 1, stribeck_static = 0, stribeck_velocity = 1;
+  Quantity viscous = 0, coulomb = 0, velocity_scale = 1, stribeck_static = 0, stribeck_velocity = 1;
   bool has_coulomb = false, has_stribeck = false;  // terms present (a parameter, or not 0)
-  int viscous_param = kLiteral, coulomb_param = kLiteral, velocity_scale_param = kLiteral,
-      stribeck_static_param = kLiteral, stribeck_velocity_param = kLiteral;
 };
 
 // A body's mass, centre of mass and inertia about it (ixx, ixy, ixz, iyy, iyz, izz), in its
 // frame, each a literal or a run-time parameter.
 struct Inertial {
-  double mass = 0;
-  std::array<double, 3> com{};
-  std::array<double, 6> inertia{};
-  int mass_param = kLiteral;
-  std::array<int, 3> com_param{kLiteral, kLiteral, kLiteral};
-  std::array<int, 6> inertia_param{kLiteral, kLiteral, kLiteral, kLiteral, kLiteral, kLiteral};
+  Quantity mass = 0;
+  std::array<Quantity, 3> com{};
+  std::array<Quantity, 6> inertia{};
   bool uses_parameter() const {
-    auto literal = [](int p) { return p == kLiteral; };
-    return !literal(mass_param) || !std::all_of(com_param.begin(), com_param.end(), literal) ||
-           !std::all_of(inertia_param.begin(), inertia_param.end(), literal);
+    auto parameter = [](const Quantity& q) { return q.is_parameter(); };
+    return mass.is_parameter() || std::any_of(com.begin(), com.end(), parameter) ||
+           std::any_of(inertia.begin(), inertia.end(), parameter);
+  }
+  std::array<double, 3> com_values() const { return {com[0].value, com[1].value, com[2].value}; }
+  std::array<double, 6> inertia_values() const {
+    std::array<double, 6> v;
+    for (int k = 0; k < 6; ++k) v[k] = inertia[k].value;
+    return v;
   }
 };
 

@@ -29,7 +29,7 @@ constexpr int kMaxLinks = 30;  // as in the plane
 // Why a body's inertia about its centre is not physical ("" if it is): positive definite with
 // principal moments that satisfy the triangle inequality.
 std::string inertia_problem(const spatial::Inertial& l) {
-  const auto& i = l.inertia;
+  const auto i = l.inertia_values();
   Eigen::Matrix3d I;
   I << i[0], i[1], i[2], i[1], i[3], i[4], i[2], i[4], i[5];
   const Eigen::Vector3d m = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I).eigenvalues();
@@ -45,7 +45,8 @@ std::string inertia_problem(const spatial::Inertial& l) {
 spatial::Inertial whole_body(const spatial::Link& l) {
   if (l.parts.empty()) return l;
   auto rigid = [](const spatial::Inertial& b) {  // about the frame's origin
-    return spatial::about_origin(b.mass, {b.com[0], b.com[1], b.com[2]}, b.inertia,
+    const auto c = b.com_values();
+    return spatial::about_origin(b.mass.value, {c[0], c[1], c[2]}, b.inertia_values(),
                                  [](double x) { return x; });
   };
   spatial::RigidInertia<double> sum = rigid(l);
@@ -138,29 +139,27 @@ class SpatialReader {
   std::vector<SpatialRangeRule>* rules_ = nullptr;
   std::set<std::string> used_;
 
-  // A number or a declared parameter: its (nominal) value, and its index in param.
-  double quantity(const YAML::Node& n, const std::string& field, int& param) {
-    const Quantity q = r_.quantity(n, field);
-    param = spatial::kLiteral;
-    if (!q.is_parameter()) return q.value;
+  // A number or a declared parameter, resolved: its nominal value and its index in params.
+  Quantity quantity(const YAML::Node& n, const std::string& field) {
+    Quantity q = r_.quantity(n, field);
+    if (!q.is_parameter()) return q;
     for (size_t i = 0; i < parameters_->size(); ++i)
       if ((*parameters_)[i].name == q.parameter) {
         used_.insert(q.parameter);
-        param = static_cast<int>(i);
-        return (*parameters_)[i].nominal.value;
+        q.index = static_cast<int>(i);
+        q.value = (*parameters_)[i].nominal.value;
+        return q;
       }
     r_.fail(field,
             "refers to parameter '" + q.parameter + "', which is not declared under 'parameters'",
             n);
   }
   template <size_t K>
-  std::array<double, K> quantities(const YAML::Node& n, const std::string& field,
-                                   std::array<int, K>& params) {
+  std::array<Quantity, K> quantities(const YAML::Node& n, const std::string& field) {
     if (!n.IsSequence() || n.size() != K)
       r_.fail(field, "expected a list of " + std::to_string(K) + " numbers", n);
-    std::array<double, K> a;
-    for (size_t k = 0; k < K; ++k)
-      a[k] = quantity(n[k], field + "[" + std::to_string(k) + "]", params[k]);
+    std::array<Quantity, K> a;
+    for (size_t k = 0; k < K; ++k) a[k] = quantity(n[k], field + "[" + std::to_string(k) + "]");
     return a;
   }
   // Geometry: numbers only (a frame or an axis as a parameter would change the model's form).
@@ -180,8 +179,8 @@ class SpatialReader {
     }
     return a;
   }
-  void rule(SpatialRangeRule::Kind kind, const std::string& field, double value, int param) {
-    if (param != spatial::kLiteral) rules_->push_back({kind, field, {{value, param}}, ""});
+  void rule(SpatialRangeRule::Kind kind, const std::string& field, const Quantity& q) {
+    if (q.is_parameter()) rules_->push_back({kind, field, {q}, ""});
   }
 
   // A body's mass (> 0) and its inertia about the centre of mass: a physical tensor, positive
@@ -189,20 +188,20 @@ class SpatialReader {
   // field its run-time rules name (fixed text).
   void read_inertial(const YAML::Node& n, const std::string& field, spatial::Inertial& l,
                      const std::string& rule_field) {
-    l.mass = quantity(r_.require(n, "mass", field), field + ".mass", l.mass_param);
-    if (!(l.mass > 0)) r_.fail(field + ".mass", "must be positive, got " + number_text(l.mass), n);
-    rule(SpatialRangeRule::Kind::positive, rule_field + ".mass", l.mass, l.mass_param);
-    if (n["com"]) l.com = quantities<3>(n["com"], field + ".com", l.com_param);
-    l.inertia = quantities<6>(r_.require(n, "inertia", field), field + ".inertia", l.inertia_param);
+    l.mass = quantity(r_.require(n, "mass", field), field + ".mass");
+    if (!(l.mass.value > 0))
+      r_.fail(field + ".mass", "must be positive, got " + number_text(l.mass.value), n);
+    rule(SpatialRangeRule::Kind::positive, rule_field + ".mass", l.mass);
+    if (n["com"]) l.com = quantities<3>(n["com"], field + ".com");
+    l.inertia = quantities<6>(r_.require(n, "inertia", field), field + ".inertia");
     const std::string why = inertia_problem(l);
     if (!why.empty()) r_.fail(field + ".inertia", why, n["inertia"]);
-    if (std::any_of(l.inertia_param.begin(), l.inertia_param.end(),
-                    [](int p) { return p != spatial::kLiteral; })) {
-      SpatialRangeRule tensor{
-          SpatialRangeRule::Kind::physical_inertia, rule_field + ".inertia", {}, ""};
-      for (int k = 0; k < 6; ++k) tensor.values.push_back({l.inertia[k], l.inertia_param[k]});
-      rules_->push_back(tensor);
-    }
+    if (std::any_of(l.inertia.begin(), l.inertia.end(),
+                    [](const Quantity& q) { return q.is_parameter(); }))
+      rules_->push_back({SpatialRangeRule::Kind::physical_inertia,
+                         rule_field + ".inertia",
+                         {l.inertia.begin(), l.inertia.end()},
+                         ""});
   }
 
   // The chain of a URDF (urdf_reader.hpp) named by `urdf:`, its bodies checked as the YAML
@@ -268,8 +267,9 @@ class SpatialReader {
     // A body's URDF inertial (what is lumped from its links), unless the scene gives them all.
     auto check = [&](const spatial::Link& body_link, const std::string& body) {
       const spatial::Inertial l = whole_body(body_link);
-      std::string why = !(l.mass > 0) ? "its mass, " + number_text(l.mass) + ", must be positive"
-                                      : inertia_problem(l);
+      std::string why = !(l.mass.value > 0)
+                            ? "its mass, " + number_text(l.mass.value) + ", must be positive"
+                            : inertia_problem(l);
       if (!why.empty())
         r_.fail("urdf", "URDF '" + path + "', the body of " + body + ": " + why, root["urdf"]);
     };
@@ -311,23 +311,20 @@ class SpatialReader {
     r_.check_keys(n, field, {"ratio", "rotor_inertia", "rotor_coupling", "stiffness", "damping"});
     spatial::Gear g;
     g.present = true;
-    g.ratio = quantity(r_.require(n, "ratio", field), field + ".ratio", g.ratio_param);
-    if (!(g.ratio > 0))
-      r_.fail(field + ".ratio", "must be positive, got " + number_text(g.ratio), n["ratio"]);
-    rule(SpatialRangeRule::Kind::positive, field + ".ratio", g.ratio, g.ratio_param);
+    g.ratio = quantity(r_.require(n, "ratio", field), field + ".ratio");
+    if (!(g.ratio.value > 0))
+      r_.fail(field + ".ratio", "must be positive, got " + number_text(g.ratio.value), n["ratio"]);
+    rule(SpatialRangeRule::Kind::positive, field + ".ratio", g.ratio);
     if (n["rotor_inertia"]) {
-      std::array<int, 2> params;
-      const auto r = quantities<2>(n["rotor_inertia"], field + ".rotor_inertia", params);
-      if (!(r[0] >= 0 && r[1] >= 0))
+      const auto r = quantities<2>(n["rotor_inertia"], field + ".rotor_inertia");
+      if (!(r[0].value >= 0 && r[1].value >= 0))
         r_.fail(field + ".rotor_inertia", "axial and transverse inertia must not be negative",
                 n["rotor_inertia"]);
       g.axial = r[0];
       g.transverse = r[1];
-      g.axial_param = params[0];
-      g.transverse_param = params[1];
       for (int k = 0; k < 2; ++k)
         rule(SpatialRangeRule::Kind::non_negative,
-             field + ".rotor_inertia[" + std::to_string(k) + "]", r[k], params[k]);
+             field + ".rotor_inertia[" + std::to_string(k) + "]", r[k]);
     }
     if (n["rotor_coupling"]) {
       const std::string c = r_.bounded(n["rotor_coupling"], field + ".rotor_coupling").Scalar();
@@ -336,9 +333,9 @@ class SpatialReader {
                 n["rotor_coupling"]);
       g.exact = c == "exact";
     }
-    if (!g.exact && g.transverse_param != spatial::kLiteral)
+    if (!g.exact && g.transverse.is_parameter())
       r_.fail(field + ".rotor_inertia[1]",
-              "'" + (*parameters_)[g.transverse_param].name +
+              "'" + g.transverse.parameter +
                   "': the transverse inertia acts only with rotor_coupling exact (armature keeps "
                   "the axial inertia alone)",
               n["rotor_inertia"]);
@@ -355,25 +352,25 @@ class SpatialReader {
     if (!n["stiffness"]) return;
     g.flexible = true;
     const std::string k = field + ".stiffness";
-    g.stiffness = quantity(n["stiffness"], k, g.stiffness_param);
-    if (!(g.stiffness > 0))
-      r_.fail(k, "must be positive, got " + number_text(g.stiffness), n["stiffness"]);
-    rule(SpatialRangeRule::Kind::positive, k, g.stiffness, g.stiffness_param);
+    g.stiffness = quantity(n["stiffness"], k);
+    if (!(g.stiffness.value > 0))
+      r_.fail(k, "must be positive, got " + number_text(g.stiffness.value), n["stiffness"]);
+    rule(SpatialRangeRule::Kind::positive, k, g.stiffness);
     if (n["damping"]) {
       const std::string d = field + ".damping";
       g.has_damping = true;
-      g.damping = quantity(n["damping"], d, g.damping_param);
-      if (!(g.damping >= 0))
-        r_.fail(d, "must not be negative, got " + number_text(g.damping), n["damping"]);
-      rule(SpatialRangeRule::Kind::non_negative, d, g.damping, g.damping_param);
+      g.damping = quantity(n["damping"], d);
+      if (!(g.damping.value >= 0))
+        r_.fail(d, "must not be negative, got " + number_text(g.damping.value), n["damping"]);
+      rule(SpatialRangeRule::Kind::non_negative, d, g.damping);
     }
     const std::string axial = field + ".rotor_inertia[0]";
-    if (!(g.axial > 0))
+    if (!(g.axial.value > 0))
       r_.fail(axial,
               "a flexible joint (stiffness given) needs a rotor of positive axial inertia, got " +
-                  number_text(g.axial),
+                  number_text(g.axial.value),
               n["rotor_inertia"] ? n["rotor_inertia"] : n);
-    rule(SpatialRangeRule::Kind::positive, axial, g.axial, g.axial_param);
+    rule(SpatialRangeRule::Kind::positive, axial, g.axial);
   }
 
   // Friction for every joint (a mapping) or per joint (a list; null: none), as in the plane:
@@ -404,69 +401,62 @@ class SpatialReader {
     if (!n.IsMap()) r_.fail(field, "expected a mapping of friction coefficients", n);
     r_.check_keys(n, field,
                   {"viscous", "coulomb", "velocity_scale", "stribeck_static", "stribeck_velocity"});
-    auto number = [&](const char* key, double otherwise, int& param) {
-      param = spatial::kLiteral;
+    auto number = [&](const char* key, const Quantity& otherwise) {
       if (!n[key]) return otherwise;
       const std::string f = field + "." + key;
-      const double v = quantity(n[key], f, param);
-      if (!(v >= 0)) r_.fail(f, "must not be negative, got " + number_text(v), n[key]);
-      rule(SpatialRangeRule::Kind::non_negative, f, v, param);
+      const Quantity v = quantity(n[key], f);
+      if (!(v.value >= 0)) r_.fail(f, "must not be negative, got " + number_text(v.value), n[key]);
+      rule(SpatialRangeRule::Kind::non_negative, f, v);
       return v;
     };
-    auto given = [](double v, int param) { return v != 0 || param != spatial::kLiteral; };
+    auto given = [](const Quantity& q) { return q.value != 0 || q.is_parameter(); };
     spatial::Friction fr;
     fr.present = true;
-    fr.viscous = number("viscous", 0, fr.viscous_param);
-    fr.coulomb = number("coulomb", 0, fr.coulomb_param);
-    fr.stribeck_static = number("stribeck_static", fr.coulomb, fr.stribeck_static_param);
-    if (!n["stribeck_static"]) fr.stribeck_static_param = fr.coulomb_param;
-    fr.has_coulomb =
-        given(fr.coulomb, fr.coulomb_param) || given(fr.stribeck_static, fr.stribeck_static_param);
-    fr.has_stribeck = n["stribeck_static"] &&
-                      (fr.stribeck_static_param != spatial::kLiteral ||
-                       fr.coulomb_param != spatial::kLiteral || fr.stribeck_static != fr.coulomb);
+    fr.viscous = number("viscous", 0.0);
+    fr.coulomb = number("coulomb", 0.0);
+    fr.stribeck_static = number("stribeck_static", fr.coulomb);  // Fc's parameter where not given
+    fr.has_coulomb = given(fr.coulomb) || given(fr.stribeck_static);
+    fr.has_stribeck =
+        n["stribeck_static"] && (fr.stribeck_static.is_parameter() || fr.coulomb.is_parameter() ||
+                                 fr.stribeck_static.value != fr.coulomb.value);
     const std::string fs = field + ".stribeck_static";
-    if (fr.stribeck_static < fr.coulomb)
+    if (fr.stribeck_static.value < fr.coulomb.value)
       r_.fail(fs,
-              "the breakaway level Fs (" + number_text(fr.stribeck_static) +
-                  ") must not be below the Coulomb level Fc (" + number_text(fr.coulomb) + ")",
+              "the breakaway level Fs (" + number_text(fr.stribeck_static.value) +
+                  ") must not be below the Coulomb level Fc (" + number_text(fr.coulomb.value) +
+                  ")",
               n["stribeck_static"]);
-    if (fr.has_stribeck &&
-        (fr.stribeck_static_param != spatial::kLiteral || fr.coulomb_param != spatial::kLiteral))
-      rules_->push_back(
-          {SpatialRangeRule::Kind::not_below,
-           fs,
-           {{fr.stribeck_static, fr.stribeck_static_param}, {fr.coulomb, fr.coulomb_param}},
-           "must not be below coulomb"});
-    auto velocity = [&](const char* key, bool needed, const std::string& why, int& param) {
-      param = spatial::kLiteral;
+    if (fr.has_stribeck && (fr.stribeck_static.is_parameter() || fr.coulomb.is_parameter()))
+      rules_->push_back({SpatialRangeRule::Kind::not_below,
+                         fs,
+                         {fr.stribeck_static, fr.coulomb},
+                         "must not be below coulomb"});
+    auto velocity = [&](const char* key, bool needed, const std::string& why) {
       if (!n[key]) {
         if (needed) r_.fail(field + "." + key, why, n);
-        return 1.0;
+        return Quantity(1.0);
       }
       const std::string f = field + "." + key;
-      const double v = quantity(n[key], f, param);
-      if (!(v >= kMinFrictionVelocity))
+      const Quantity v = quantity(n[key], f);
+      if (!(v.value >= kMinFrictionVelocity))
         r_.fail(f,
                 "must be at least 1e-9 rad/s (tanh(w/vs) becomes a step that no integrator "
                 "follows), got " +
-                    number_text(v),
+                    number_text(v.value),
                 n[key]);
-      if (param != spatial::kLiteral)
+      if (v.is_parameter())
         rules_->push_back({SpatialRangeRule::Kind::not_below,
                            f,
-                           {{v, param}, {kMinFrictionVelocity, spatial::kLiteral}},
+                           {v, kMinFrictionVelocity},
                            "must be at least 1e-9 rad/s"});
       return v;
     };
     fr.velocity_scale = velocity("velocity_scale", fr.has_coulomb,
                                  "Coulomb or static friction needs a positive velocity_scale vs "
-                                 "[rad/s] (tanh(w/vs) smooths sign(w))",
-                                 fr.velocity_scale_param);
+                                 "[rad/s] (tanh(w/vs) smooths sign(w))");
     fr.stribeck_velocity = velocity("stribeck_velocity", fr.has_stribeck,
                                     "a Stribeck hump (stribeck_static differs from coulomb) needs "
-                                    "a positive stribeck_velocity [rad/s]",
-                                    fr.stribeck_velocity_param);
+                                    "a positive stribeck_velocity [rad/s]");
     return fr;
   }
 

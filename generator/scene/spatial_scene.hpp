@@ -38,8 +38,8 @@ struct SpatialRangeRule {
   // not_below: values[0] >= values[1], `message` saying what the field must be.
   enum class Kind { positive, non_negative, physical_inertia, not_below } kind;
   std::string field;  // the scene's field, e.g. "links[2].mass" or "inertials.link7.inertia"
-  std::vector<std::pair<double, int>> values;  // (literal, parameter index or spatial::kLiteral)
-  std::string message;                         // not_below's
+  std::vector<Quantity> values;
+  std::string message;  // not_below's
 };
 
 struct SpatialScene {

@@ -41,7 +41,8 @@ TEST(MujocoAgreement, SpatialArmOnAFreeBaseAtRandomStates) {
     ASSERT_EQ(mj.m->nq, nq);
     ASSERT_EQ(mj.m->nv, nv);
     Eigen::VectorXd D = Eigen::VectorXd::Ones(nv);
-    for (int j = 0; j < N; ++j) D[6 + j] = c.links[j].gear.present ? c.links[j].gear.ratio : 1;
+    for (int j = 0; j < N; ++j)
+      D[6 + j] = c.links[j].gear.present ? c.links[j].gear.ratio.value : 1;
     std::mt19937 rng(5);
     std::uniform_real_distribution<double> u(-1, 1);
     for (int trial = 0; trial < 5; ++trial) {

@@ -119,7 +119,7 @@ struct World {
 };
 
 Eigen::Matrix3d inertia_of(const Link& l) {
-  const auto& i = l.inertia;
+  const auto i = l.inertia_values();
   Eigen::Matrix3d I;
   I << i[0], i[1], i[2], i[1], i[3], i[4], i[2], i[4], i[5];
   return I;
@@ -140,12 +140,12 @@ World world(const ChainDescription& d, const Eigen::VectorXd& q, const Eigen::Ve
     jv = 6;
   }
   auto add_body = [&](const Link& l) {
-    const Eigen::Vector3d c = R * Eigen::Vector3d(l.com[0], l.com[1], l.com[2]);
+    const Eigen::Vector3d c = R * Eigen::Vector3d(l.com[0].value, l.com[1].value, l.com[2].value);
     w.R.push_back(R);
     w.com.push_back(p + c);
     w.com_velocity.push_back(pdot + omega.cross(c));
     w.omega.push_back(omega);
-    w.mass.push_back(l.mass);
+    w.mass.push_back(l.mass.value);
     w.inertia.push_back(inertia_of(l));
   };
   if (d.free_base) add_body(d.base);
@@ -159,7 +159,7 @@ World world(const ChainDescription& d, const Eigen::VectorXd& q, const Eigen::Ve
     const Eigen::Vector3d axis = Eigen::Vector3d(l.axis[0], l.axis[1], l.axis[2]).normalized();
     // A rigid gear's slot holds the motor (qm = p q); a flexible joint's motor has its own.
     const bool rigid_gear = l.gear.present && !l.gear.flexible;
-    const double ratio = rigid_gear ? l.gear.ratio : 1, link_rate = v[jv + i] / ratio;
+    const double ratio = rigid_gear ? l.gear.ratio.value : 1, link_rate = v[jv + i] / ratio;
     const double qm_rate = v[motor_index(d, static_cast<int>(i))];
     pdot += omega.cross(R * origin);  // the joint's origin moves with the parent body
     p += R * origin;
@@ -170,10 +170,10 @@ World world(const ChainDescription& d, const Eigen::VectorXd& q, const Eigen::Ve
       w.com_velocity.push_back(pdot);
       w.omega.push_back(omega + Rr * axis * qm_rate);
       w.mass.push_back(0);
-      w.inertia.push_back(l.gear.transverse * Eigen::Matrix3d::Identity() +
-                          (l.gear.axial - l.gear.transverse) * axis * axis.transpose());
+      w.inertia.push_back(l.gear.transverse.value * Eigen::Matrix3d::Identity() +
+                          (l.gear.axial.value - l.gear.transverse.value) * axis * axis.transpose());
     } else if (l.gear.present) {
-      w.armature_energy += 0.5 * l.gear.axial * qm_rate * qm_rate;
+      w.armature_energy += 0.5 * l.gear.axial.value * qm_rate * qm_rate;
     }
     R = R * rpy * Eigen::AngleAxisd(q[jq + i] / ratio, axis).toRotationMatrix();
     omega += R * axis * link_rate;
@@ -267,7 +267,7 @@ TEST(SpatialChain, MassMatrixEnergyAndMomentumAreTheWorldComputations) {
     const ChainDescription d = random_chain(rng, c);
     SCOPED_TRACE(name(c));
     const auto springs = std::count_if(d.links.begin(), d.links.end(),
-                                       [](const Link& l) { return l.gear.stiffness > 0; });
+                                       [](const Link& l) { return l.gear.stiffness.value > 0; });
     ASSERT_EQ(d.nv(), links + (free ? 6 : 0) + springs);
     ASSERT_EQ(d.nq(), d.nv() + (free ? 1 : 0));
     for (int trial = 0; trial < 3; ++trial) {
@@ -374,7 +374,7 @@ TEST(SpatialChain, ExactRotorsAddTheirAngularMomentumToArmature) {
                                Eigen::AngleAxisd(l.origin_rpy[1], Eigen::Vector3d::UnitY()) *
                                Eigen::AngleAxisd(l.origin_rpy[0], Eigen::Vector3d::UnitX()))
                                   .toRotationMatrix();
-  const Eigen::Vector3d expected = l.gear.axial * 50.0 * R_parent * rpy * axis;
+  const Eigen::Vector3d expected = l.gear.axial.value * 50.0 * R_parent * rpy * axis;
   EXPECT_LT((h_exact.head<3>() - h_armature.head<3>()).norm(), 1e-12 * h_exact.norm());
   EXPECT_LT((h_exact.tail<3>() - h_armature.tail<3>() - expected).norm(), 1e-12 * expected.norm());
   const Eigen::MatrixXd M_exact = mass_matrix(exact, s), M_armature = mass_matrix(armature, s);
@@ -703,13 +703,13 @@ TEST(SpatialChain, GeneralizedJacobianKeepsTheWorldMomentumZero) {
     Eigen::VectorXd vdot(d.nv());
     vdot.head(6) = as_eigen(out[1]);
     for (int j = 0; j < N; ++j) {
-      const double p = d.links[j].gear.present ? d.links[j].gear.ratio : 1;
+      const double p = d.links[j].gear.present ? d.links[j].gear.ratio.value : 1;
       vdot[6 + j] = p * joints[j];
     }
     const Eigen::VectorXd Q = as_eigen(chain_at(d, s).inverse_dynamics(as_std(vdot)));
     EXPECT_LT(Q.head(6).norm(), 1e-10 * (1 + Q.norm()));
     for (int j = 0; j < N; ++j) {
-      const double p = d.links[j].gear.present ? d.links[j].gear.ratio : 1;
+      const double p = d.links[j].gear.present ? d.links[j].gear.ratio.value : 1;
       EXPECT_NEAR(out[0][j], p * Q[6 + j], 1e-10 * (1 + std::abs(out[0][j])));
     }
   }
@@ -730,11 +730,11 @@ TEST(SpatialChain, FrictionOpposesEachJointAndTakesEnergyOutAtItsPower) {
       f.present = j != 1;  // one joint without
       f.viscous = 0.01 * u(rng);
       f.coulomb = j % 3 == 0 ? 0.0 : 0.1 * u(rng);
-      f.stribeck_static = f.coulomb * (j % 2 == 0 ? 1.0 : 1.5);
+      f.stribeck_static = f.coulomb.value * (j % 2 == 0 ? 1.0 : 1.5);
       f.velocity_scale = 0.05 + u(rng);
       f.stribeck_velocity = 0.1 + u(rng);
-      f.has_coulomb = f.coulomb != 0;
-      f.has_stribeck = f.stribeck_static != f.coulomb;
+      f.has_coulomb = f.coulomb.value != 0;
+      f.has_stribeck = f.stribeck_static.value != f.coulomb.value;
     }
     const State s = random_state(rng, d);
     const int n = d.nv(), nb = d.num_base();
@@ -744,12 +744,12 @@ TEST(SpatialChain, FrictionOpposesEachJointAndTakesEnergyOutAtItsPower) {
     for (size_t j = 0; j < d.links.size(); ++j) {
       const Friction& fr = d.links[j].friction;
       const int m = motor_index(d, static_cast<int>(j));  // the motor's rate, as in the plane
-      const double w = s.v[m], sign = std::tanh(w / fr.velocity_scale);
-      const double want = !fr.present
-                              ? 0.0
-                              : fr.viscous * w + fr.coulomb * sign +
-                                    (fr.stribeck_static - fr.coulomb) *
-                                        std::exp(-std::pow(w / fr.stribeck_velocity, 2)) * sign;
+      const double w = s.v[m], sign = std::tanh(w / fr.velocity_scale.value);
+      const double want =
+          !fr.present ? 0.0
+                      : fr.viscous.value * w + fr.coulomb.value * sign +
+                            (fr.stribeck_static.value - fr.coulomb.value) *
+                                std::exp(-std::pow(w / fr.stribeck_velocity.value, 2)) * sign;
       EXPECT_NEAR(f[m], want, 1e-15) << "joint " << j + 1;
       if (fr.present) {
         EXPECT_GT(f[m] * w, 0) << "joint " << j + 1 << " does not oppose";
@@ -792,8 +792,8 @@ TEST(SpatialChain, SpringsStoreEnergyAndDampersTakeItOut) {
       for (size_t j = 0; j < d.links.size(); ++j) {
         const Gear& g = d.links[j].gear;
         if (!g.flexible) continue;
-        const double e = x[motor_index(d, static_cast<int>(j)) + shift] / g.ratio - x[jx + j];
-        sum += 0.5 * (damper ? g.damping : g.stiffness) * e * e;
+        const double e = x[motor_index(d, static_cast<int>(j)) + shift] / g.ratio.value - x[jx + j];
+        sum += 0.5 * (damper ? g.damping.value : g.stiffness.value) * e * e;
       }
       return sum;
     };
@@ -853,11 +853,11 @@ TEST(SpatialChain, AFlexibleJointHeldAtTheGearsOutputIsARigidGear) {
       const Gear& g = flexible.links[j].gear;
       if (!g.flexible) continue;
       const int m = motor_index(flexible, static_cast<int>(j)), slot = jv + static_cast<int>(j);
-      x.q[slot + jq - jv] = r.q[slot + jq - jv] / g.ratio;
+      x.q[slot + jq - jv] = r.q[slot + jq - jv] / g.ratio.value;
       x.q[m + jq - jv] = r.q[slot + jq - jv];
-      x.v[slot] = r.v[slot] / g.ratio;
+      x.v[slot] = r.v[slot] / g.ratio.value;
       x.v[m] = r.v[slot];
-      G(slot, slot) = 1 / g.ratio;
+      G(slot, slot) = 1 / g.ratio.value;
       G(m, slot) = 1;
     }
     ASSERT_LT((G * r.v - x.v).norm(), 1e-15);

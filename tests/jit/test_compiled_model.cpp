@@ -231,7 +231,8 @@ outputs: [mass_matrix, bias_forces, kinetic_energy, momentum, forward_dynamics,
   EXPECT_TRUE(m.dimensions().spatial);
   EXPECT_EQ(m.coordinate_names()[3], "qw0");
 
-  const DerivedModel derived = spatial_derived_model(*recipe.spatial());
+  const SpatialScene scene = parse_spatial_scene(text, "arm2.yaml");
+  const DerivedModel derived = spatial_derived_model(scene);  // refers to scene
   Eigen::VectorXd q(9), qd(8), qdd(8);
   q << 0.1, -0.2, 0.3, 0.5, 0.5, -0.5, 0.5, 0.7, -1.1;
   qd << 0.2, 0.1, -0.3, 0.4, -0.2, 0.3, 5.0, -8.0;
@@ -297,7 +298,8 @@ TEST(CompiledModel, ASpatialArmWithFrictionGivesTheChainsValues) {
   const ModelRecipe recipe = ModelRecipe::parse(text, "spatial_arm2.yaml");
   const CompiledModel m = CompiledModel::load(recipe, options);
   ASSERT_TRUE(m.has(Output::friction_forces));
-  const DerivedModel derived = spatial_derived_model(*recipe.spatial());
+  const SpatialScene scene = parse_spatial_scene(text, "spatial_arm2.yaml");
+  const DerivedModel derived = spatial_derived_model(scene);  // refers to scene
   Eigen::VectorXd q(9), qd(8), qdd(8);
   q << 0.1, -0.2, 0.3, 0.5, 0.5, -0.5, 0.5, 0.7, -1.1;
   qd << 0.2, 0.1, -0.3, 0.4, -0.2, 0.3, 0.4, -8.0;

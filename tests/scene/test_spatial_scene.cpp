@@ -33,18 +33,18 @@ TEST(SpatialScene, ReadsTheChain) {
   EXPECT_TRUE(c.free_base);
   EXPECT_EQ(c.nv(), 8);
   EXPECT_EQ(c.nq(), 9);
-  EXPECT_EQ(c.base.mass, 500);
-  EXPECT_EQ(c.base.inertia[5], 150);
+  EXPECT_EQ(c.base.mass.value, 500);
+  EXPECT_EQ(c.base.inertia[5].value, 150);
   ASSERT_EQ(c.links.size(), 2u);
   EXPECT_EQ(c.links[0].origin_xyz[2], 0.2);
   EXPECT_EQ(c.links[0].axis[2], 1);
   EXPECT_EQ(c.links[1].axis[0], 1);  // URDF's default axis
-  EXPECT_EQ(c.links[1].inertia[1], 0.001);
+  EXPECT_EQ(c.links[1].inertia[1].value, 0.001);
   for (const auto& l : c.links) {
     EXPECT_TRUE(l.gear.present);
-    EXPECT_EQ(l.gear.ratio, 100);
+    EXPECT_EQ(l.gear.ratio.value, 100);
     EXPECT_FALSE(l.gear.exact);
-    EXPECT_EQ(l.gear.transverse, 6.0e-5);
+    EXPECT_EQ(l.gear.transverse.value, 6.0e-5);
   }
   EXPECT_EQ(c.tip[0], 0.3);
 }
@@ -112,8 +112,8 @@ TEST(SpatialScene, ReadsFrictionAndNamesItsBadFields) {
   const SpatialScene s = parse_spatial_scene(all, "arm2.yaml");
   for (const auto& l : s.chain.links) {
     EXPECT_TRUE(l.friction.present);
-    EXPECT_EQ(l.friction.coulomb, 0.2);
-    EXPECT_EQ(l.friction.stribeck_static, 0.2);  // Fs defaults to Fc: no hump
+    EXPECT_EQ(l.friction.coulomb.value, 0.2);
+    EXPECT_EQ(l.friction.stribeck_static.value, 0.2);  // Fs defaults to Fc: no hump
     EXPECT_TRUE(l.friction.has_coulomb);
     EXPECT_FALSE(l.friction.has_stribeck);
   }
@@ -124,7 +124,7 @@ TEST(SpatialScene, ReadsFrictionAndNamesItsBadFields) {
   const SpatialScene one =
       parse_spatial_scene(kArm + "friction: [null, {viscous: 0.5}]\n", "arm2.yaml");
   EXPECT_FALSE(one.chain.links[0].friction.present);
-  EXPECT_EQ(one.chain.links[1].friction.viscous, 0.5);
+  EXPECT_EQ(one.chain.links[1].friction.viscous.value, 0.5);
   const std::vector<std::pair<std::string, std::string>> bad = {
       {"friction: {viscous: -1}", "field 'friction.viscous': must not be negative"},
       {"friction: {coulomb: 0.2}",
@@ -159,9 +159,9 @@ TEST(SpatialScene, ReadsFlexibleJointsAndNamesTheirBadFields) {
   const SpatialScene s = parse_spatial_scene(flexible, "arm2.yaml");
   for (const auto& l : s.chain.links) {
     EXPECT_TRUE(l.gear.flexible);
-    EXPECT_EQ(l.gear.stiffness, 800);
+    EXPECT_EQ(l.gear.stiffness.value, 800);
     EXPECT_TRUE(l.gear.has_damping);
-    EXPECT_EQ(l.gear.damping, 0.2);
+    EXPECT_EQ(l.gear.damping.value, 0.2);
   }
   EXPECT_EQ(s.chain.nv(), 10);
   EXPECT_EQ(s.chain.motor_coordinate(1), 9);

@@ -176,7 +176,7 @@ TEST(UrdfReader, InertialsTheSceneGivesArePartsOfTheirBodies) {
                             "                 inertia: [0.01, 0, 0, 0.01, 0, 0.008]}\n";
   const SpatialScene parts = parse_spatial_scene(given, path, with_urdf(xml));
   EXPECT_EQ(parts.chain.links[6].parts.size(), 2u);  // link7 itself and the flange
-  EXPECT_EQ(parts.chain.links[6].mass, 0);
+  EXPECT_EQ(parts.chain.links[6].mass.value, 0);
   EXPECT_EQ(parts.chain.base.parts.size(), 1u);
   std::string heavier = xml;
   const std::string flange_mass = "<mass value=\"0.5\"/>";

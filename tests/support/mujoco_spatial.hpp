@@ -22,17 +22,17 @@ inline std::string mjcf_of(const spatial::ChainDescription& c) {
   // The principal axes by Eigen's exact symmetric solver: MuJoCo's own (fullinertia, an
   // iterative eig3) leaves about 1e-10 relative in M.
   auto inertial = [&x](const spatial::Link& l) {
-    const auto& i = l.inertia;  // ixx ixy ixz iyy iyz izz
+    const auto i = l.inertia_values();  // ixx ixy ixz iyy iyz izz
     Eigen::Matrix3d I;
     I << i[0], i[1], i[2], i[1], i[3], i[4], i[2], i[4], i[5];
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(I);
     Eigen::Matrix3d axes = eig.eigenvectors();
     if (axes.determinant() < 0) axes.col(2) *= -1;
     const Eigen::Quaterniond r(axes);
-    x << "<inertial pos=\"" << l.com[0] << " " << l.com[1] << " " << l.com[2] << "\" mass=\""
-      << l.mass << "\" quat=\"" << r.w() << " " << r.x() << " " << r.y() << " " << r.z()
-      << "\" diaginertia=\"" << eig.eigenvalues()[0] << " " << eig.eigenvalues()[1] << " "
-      << eig.eigenvalues()[2] << "\"/>\n";
+    x << "<inertial pos=\"" << l.com[0].value << " " << l.com[1].value << " " << l.com[2].value
+      << "\" mass=\"" << l.mass.value << "\" quat=\"" << r.w() << " " << r.x() << " " << r.y()
+      << " " << r.z() << "\" diaginertia=\"" << eig.eigenvalues()[0] << " " << eig.eigenvalues()[1]
+      << " " << eig.eigenvalues()[2] << "\"/>\n";
   };
   x << "<mujoco model=\"spatial\">\n"
     << "  <compiler angle=\"radian\" boundmass=\"0\" boundinertia=\"0\"/>\n"
@@ -46,8 +46,9 @@ inline std::string mjcf_of(const spatial::ChainDescription& c) {
   for (size_t j = 0; j < c.links.size(); ++j) {
     const spatial::Link& l = c.links[j];
     const auto q = spatial::rpy_quaternion(l.origin_rpy);
-    const double armature =
-        l.gear.present && !l.gear.exact ? l.gear.axial * l.gear.ratio * l.gear.ratio : 0;
+    const double armature = l.gear.present && !l.gear.exact
+                                ? l.gear.axial.value * l.gear.ratio.value * l.gear.ratio.value
+                                : 0;
     x << "<body name=\"link" << j + 1 << "\" pos=\"" << l.origin_xyz[0] << " " << l.origin_xyz[1]
       << " " << l.origin_xyz[2] << "\" quat=\"" << q[0] << " " << q[1] << " " << q[2] << " " << q[3]
       << "\">\n<joint type=\"hinge\" axis=\"" << l.axis[0] << " " << l.axis[1] << " " << l.axis[2]

@@ -30,15 +30,16 @@ Mat3<T> Chain<T>::num(const Mat3<double>& A) const {
 template <class T>
 RigidInertia<T> Chain<T>::rigid_inertia(const Inertial& b) const {
   if (!b.uses_parameter()) {
-    const RigidInertia<double> I = about_origin(b.mass, Vec3<double>{b.com[0], b.com[1], b.com[2]},
-                                                b.inertia, [](double x) { return x; });
+    const auto c = b.com_values();
+    const RigidInertia<double> I = about_origin(b.mass.value, Vec3<double>{c[0], c[1], c[2]},
+                                                b.inertia_values(), [](double x) { return x; });
     return {num(I.m), num(I.h), num(I.I)};
   }
   Vec3<T> c;
-  for (int k = 0; k < 3; ++k) c[k] = value(b.com[k], b.com_param[k]);
+  for (int k = 0; k < 3; ++k) c[k] = value(b.com[k]);
   std::array<T, 6> i;
-  for (int k = 0; k < 6; ++k) i[k] = value(b.inertia[k], b.inertia_param[k]);
-  return about_origin(value(b.mass, b.mass_param), c, i, [this](double x) { return num(x); });
+  for (int k = 0; k < 6; ++k) i[k] = value(b.inertia[k]);
+  return about_origin(value(b.mass), c, i, [this](double x) { return num(x); });
 }
 
 template <class T>
@@ -70,17 +71,17 @@ Mat3<T> rotor_tensor(const T& transverse, const T& axial, const Vec3<double>& a)
 template <class T>
 Mat3<T> Chain<T>::rotor_inertia(int i, const Vec3<double>& a) const {
   const Gear& g = d_.links[i - 1].gear;
-  if (g.axial_param == kLiteral && g.transverse_param == kLiteral)
-    return num(rotor_tensor(g.transverse, g.axial, a));
-  return rotor_tensor(value(g.transverse, g.transverse_param), axial(i), a);
+  if (!g.axial.is_parameter() && !g.transverse.is_parameter())
+    return num(rotor_tensor(g.transverse.value, g.axial.value, a));
+  return rotor_tensor(value(g.transverse), axial(i), a);
 }
 
 template <class T>
 T Chain<T>::ratio_times_axial(int i, int power) const {
   const Gear& g = d_.links[i - 1].gear;
-  if (literal_ratio(i) && g.axial_param == kLiteral) {
+  if (literal_ratio(i) && !g.axial.is_parameter()) {
     const double p = ratio_value(i);
-    return num(power == 1 ? p * g.axial : p * p * g.axial);
+    return num(power == 1 ? p * g.axial.value : p * p * g.axial.value);
   }
   return power == 1 ? ratio(i) * axial(i) : ratio(i) * ratio(i) * axial(i);
 }
@@ -461,7 +462,7 @@ Vec3<T> Chain<T>::rotor_bias(int i) const {
   const Vec3<T>& a = axis_[i];
   const Vec3<T>& w_parent = parent_w_[i];
   const Gear& g = d_.links[i - 1].gear;
-  const T J = axial(i), t = value(g.transverse, g.transverse_param);
+  const T J = axial(i), t = value(g.transverse);
   return scaled(cross(w_parent, a), (J - t) * dot(a, w_parent) + J * motor_qd_[i]);
 }
 
@@ -475,9 +476,9 @@ void Chain<T>::add_leaf_rotor(int i, const T& Q_m, ArticulatedInertia<T>& reduce
                               Force<T>& pa) const {
   const Gear& g = d_.links[i - 1].gear;
   const Vec3<double> a = unit_axis(d_.links[i - 1], i);
-  const Mat3<T> transverse = g.transverse_param == kLiteral
-                                 ? num(rotor_tensor(g.transverse, 0.0, a))
-                                 : rotor_tensor(value(g.transverse, g.transverse_param), T{}, a);
+  const Mat3<T> transverse = !g.transverse.is_parameter()
+                                 ? num(rotor_tensor(g.transverse.value, 0.0, a))
+                                 : rotor_tensor(value(g.transverse), T{}, a);
   for (int k = 0; k < 9; ++k) reduced.A[k] += transverse[k];
   pa.n = pa.n + rotor_bias(i) + scaled(axis_[i], Q_m);
 }
@@ -492,17 +493,16 @@ std::vector<T> Chain<T>::friction_forces() const {
     if (!fr.present) continue;
     const T w = motor_qd_[i];
     std::vector<T> terms;  // only the terms present: no recorded 0 * w
-    if (fr.viscous != 0 || fr.viscous_param != kLiteral)
-      terms.push_back(value(fr.viscous, fr.viscous_param) * w);
+    if (fr.viscous.value != 0 || fr.viscous.is_parameter()) terms.push_back(value(fr.viscous) * w);
     if (fr.has_coulomb) {
-      const T sign = tanh(w * inverse(fr.velocity_scale, fr.velocity_scale_param));
-      const T Fc = value(fr.coulomb, fr.coulomb_param);
-      if (fr.coulomb != 0 || fr.coulomb_param != kLiteral) terms.push_back(Fc * sign);
+      const T sign = tanh(w * inverse(fr.velocity_scale));
+      const T Fc = value(fr.coulomb);
+      if (fr.coulomb.value != 0 || fr.coulomb.is_parameter()) terms.push_back(Fc * sign);
       if (fr.has_stribeck) {
-        const T r = w * inverse(fr.stribeck_velocity, fr.stribeck_velocity_param);
-        const T hump = fr.stribeck_static_param == kLiteral && fr.coulomb_param == kLiteral
-                           ? num(fr.stribeck_static - fr.coulomb)
-                           : value(fr.stribeck_static, fr.stribeck_static_param) - Fc;
+        const T r = w * inverse(fr.stribeck_velocity);
+        const T hump = !fr.stribeck_static.is_parameter() && !fr.coulomb.is_parameter()
+                           ? num(fr.stribeck_static.value - fr.coulomb.value)
+                           : value(fr.stribeck_static) - Fc;
         terms.push_back(hump * exp(-(r * r)) * sign);
       }
     }
@@ -518,7 +518,7 @@ template <class T>
 T Chain<T>::deflection(int i, const std::string& array) const {
   const Gear& g = d_.links[i - 1].gear;
   auto at = [&](int v) { return values_.input(array, array == "q" ? d_.q_index(v) : v); };
-  return at(motor_[i]) * inverse(g.ratio, g.ratio_param) - at(d_.joint_coordinate(i - 1));
+  return at(motor_[i]) * inverse(g.ratio) - at(d_.joint_coordinate(i - 1));
 }
 
 // The spring pulls the link towards the gear's output and the motor back (both on the link side,
@@ -529,10 +529,10 @@ std::vector<T> Chain<T>::spring_damper_forces() const {
   for (int i = 1; i <= n_; ++i) {
     if (!flexible(i)) continue;
     const Gear& g = d_.links[i - 1].gear;
-    T force = value(g.stiffness, g.stiffness_param) * deflection(i, "q");
-    if (g.has_damping) force = force + value(g.damping, g.damping_param) * deflection(i, "qd");
+    T force = value(g.stiffness) * deflection(i, "q");
+    if (g.has_damping) force = force + value(g.damping) * deflection(i, "qd");
     f[d_.joint_coordinate(i - 1)] = -force;
-    f[motor_[i]] = force * inverse(g.ratio, g.ratio_param);
+    f[motor_[i]] = force * inverse(g.ratio);
   }
   return f;
 }
@@ -544,7 +544,7 @@ T Chain<T>::potential_energy() const {
     if (!flexible(i)) continue;
     const Gear& g = d_.links[i - 1].gear;
     const T e = deflection(i, "q");
-    twice = twice + value(g.stiffness, g.stiffness_param) * e * e;
+    twice = twice + value(g.stiffness) * e * e;
   }
   return twice * 0.5;
 }
@@ -628,7 +628,7 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
     // A flexible joint's rotor: J (a . alpha_parent + qdd_m) = Q_m (armature: J qdd_m = Q_m).
     if (flexible(i)) {
       const Gear& g = d_.links[i - 1].gear;
-      qdd[motor_[i]] = Q_motor[i] * inverse(g.axial, g.axial_param);
+      qdd[motor_[i]] = Q_motor[i] * inverse(g.axial);
       if (exact_rotor(i)) qdd[motor_[i]] = qdd[motor_[i]] - dot(axis_[i], ap.w);
     }
     a = ap + c[i];

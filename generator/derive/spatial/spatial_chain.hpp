@@ -134,31 +134,31 @@ class Chain {
     const Gear& g = d_.links[i - 1].gear;
     return g.present && !g.flexible ? &g : nullptr;
   }
-  // A number of the description: the literal, or the run-time parameter params[param].
-  T value(double literal, int param) const {
-    return param == kLiteral ? num(literal) : values_.input("params", param);
+  // A number of the description: the literal, or the run-time parameter params[q.index].
+  T value(const Quantity& q) const {
+    return q.is_parameter() ? values_.input("params", q.index) : num(q.value);
   }
-  // 1 / value(literal, param): one number for a literal.
-  T inverse(double literal, int param) const {
-    return param == kLiteral ? num(1 / literal) : num(1.0) / value(literal, param);
+  // 1 / value(q): one number for a literal.
+  T inverse(const Quantity& q) const {
+    return q.is_parameter() ? num(1.0) / value(q) : num(1 / q.value);
   }
   T ratio(int i) const {  // joint i's slot's ratio (1 without a rigid gear)
     const Gear* g = slot_gear(i);
-    return g ? value(g->ratio, g->ratio_param) : num(1.0);
+    return g ? value(g->ratio) : num(1.0);
   }
   // k / p_i^power, power 1 or 2 (a literal ratio's folded to one number), for the slot.
   T over_ratio(int i, double k, int power = 1) const {
     const Gear* g = slot_gear(i);
     if (!g) return num(k);
-    if (g->ratio_param == kLiteral)
-      return num(power == 1 ? k / g->ratio : k / (g->ratio * g->ratio));
+    if (!g->ratio.is_parameter())
+      return num(power == 1 ? k / g->ratio.value : k / (g->ratio.value * g->ratio.value));
     const T r = num(1.0) / ratio(i);
     return power == 1 ? r * k : r * r * k;
   }
   // The armature inertia on joint i's slot (0 without a rigid armature-coupled gear).
   T armature(int i) const {
     const Gear* g = slot_gear(i);
-    return g && !g->exact ? value(g->axial, g->axial_param) : T{};
+    return g && !g->exact ? value(g->axial) : T{};
   }
   // The armature inertia on a flexible joint's motor coordinate (0 otherwise).
   T motor_armature(int i) const {
@@ -169,15 +169,15 @@ class Chain {
   T deflection(int i, const std::string& array) const;
   T axial(int i) const {  // the rotor's axial inertia
     const Gear& g = d_.links[i - 1].gear;
-    return value(g.axial, g.axial_param);
+    return value(g.axial);
   }
   bool literal_ratio(int i) const {
     const Gear* g = slot_gear(i);
-    return !g || g->ratio_param == kLiteral;
+    return !g || !g->ratio.is_parameter();
   }
   double ratio_value(int i) const {  // a literal slot ratio
     const Gear* g = slot_gear(i);
-    return g ? g->ratio : 1.0;
+    return g ? g->ratio.value : 1.0;
   }
   // p_i^power (1 or 2) times the rotor's axial inertia, one number where both are literals.
   T ratio_times_axial(int i, int power) const;

@@ -54,9 +54,8 @@ std::vector<std::pair<Sym, bool>> physical_inertia(const std::array<Sym, 6>& i) 
 // parameter_error() checks them for the parameters' values.
 void parameter_checks(const SpatialScene& scene, ModelFacts& f) {
   Program& p = f.checks_program;
-  auto value = [&p](const std::pair<double, int>& v) {
-    return v.second == spatial::kLiteral ? Sym::number(&p, v.first)
-                                         : Sym(&p, p.input("params", v.second));
+  auto value = [&p](const Quantity& v) {
+    return v.is_parameter() ? Sym(&p, p.input("params", v.index)) : Sym::number(&p, v.value);
   };
   using Kind = SpatialRangeRule::Kind;
   for (const SpatialRangeRule& rule : scene.run_time_rules) {
@@ -88,29 +87,29 @@ void parameter_checks(const SpatialScene& scene, ModelFacts& f) {
 // body welded to it.
 std::vector<SpanField> span_fields(const spatial::ChainDescription& c) {
   std::vector<SpanField> fields;
-  auto add = [&fields](const std::string& field, double value, int parameter) {
-    fields.push_back({field, value, parameter});
+  auto add = [&fields](const std::string& field, const Quantity& q) {
+    fields.push_back({field, q.value, q.index});
   };
   auto body = [&add](const std::string& at, const spatial::Inertial& b) {
-    add(at + ".mass", b.mass, b.mass_param);
+    add(at + ".mass", b.mass);
     for (const auto& [k, name] : {std::pair{0, "ixx"}, {3, "iyy"}, {5, "izz"}})
-      add(at + ".inertia." + name, b.inertia[size_t(k)], b.inertia_param[size_t(k)]);
+      add(at + ".inertia." + name, b.inertia[size_t(k)]);
   };
   if (c.free_base) body("base", c.base);
   for (size_t i = 0; i < c.links.size(); ++i) {
     const spatial::Link& l = c.links[i];
     const std::string at = "links[" + std::to_string(i) + "]";
     body(at, l);
-    add(at + ".origin", std::sqrt(spatial::dot(l.origin_xyz, l.origin_xyz)), spatial::kLiteral);
+    add(at + ".origin", std::sqrt(spatial::dot(l.origin_xyz, l.origin_xyz)));
     for (size_t k = 0; k < l.parts.size(); ++k)
       body(at + ".parts[" + std::to_string(k) + "]", l.parts[k].inertial);
     const spatial::Gear& g = l.gear;
     if (!g.present) continue;
     const std::string gear = "gears[" + std::to_string(i) + "]";
-    add(gear + ".ratio", g.ratio, g.ratio_param);
-    add(gear + ".rotor_inertia.axial", g.axial, g.axial_param);
-    add(gear + ".rotor_inertia.transverse", g.transverse, g.transverse_param);
-    if (g.flexible) add(gear + ".stiffness", g.stiffness, g.stiffness_param);
+    add(gear + ".ratio", g.ratio);
+    add(gear + ".rotor_inertia.axial", g.axial);
+    add(gear + ".rotor_inertia.transverse", g.transverse);
+    if (g.flexible) add(gear + ".stiffness", g.stiffness);
   }
   return fields;
 }
@@ -186,9 +185,9 @@ DerivedModel spatial_derived_model(const SpatialScene& scene) {
   auto ratios = [&chain](const auto& number, const auto& parameter) {
     std::vector<std::decay_t<decltype(number(1.0))>> r;
     for (const auto& l : chain.links)
-      r.push_back(!l.gear.present                           ? number(1.0)
-                  : l.gear.ratio_param == spatial::kLiteral ? number(l.gear.ratio)
-                                                            : parameter(l.gear.ratio_param));
+      r.push_back(!l.gear.present                ? number(1.0)
+                  : !l.gear.ratio.is_parameter() ? number(l.gear.ratio.value)
+                                                 : parameter(l.gear.ratio.index));
     return std::vector<decltype(r)>{r};
   };
   derived.gear_ratios = {"constant",
