@@ -11,10 +11,20 @@ bool RangeRule::uses_parameter() const {
 }
 
 bool RangeRule::holds() const {
+  if (physical_inertia) return true;  // the spatial reader's own check (inertia_problem)
   double value = 0;
   for (const RangeTerm& t : terms)
     value += t.constant ? t.coefficient : t.coefficient * t.quantity.value;
   return strict ? value > 0 : value >= 0;
+}
+
+RangeRule sign_rule(const std::string& field, const Quantity& q, bool strict) {
+  RangeRule r;
+  r.field = field;
+  r.terms = {{1, false, q}};
+  r.strict = strict;
+  r.message = field + (strict ? " must be positive" : " must not be negative");
+  return r;
 }
 
 std::string shown(const Scene& scene, const Quantity& q) {
@@ -49,10 +59,11 @@ class RuleTable {
 
   // A single quantity > 0 (strict) or >= 0, with the usual messages.
   RangeRule& sign(const std::string& field, const Quantity& q, bool strict) {
-    return add(field, {{1, false, q}}, strict,
-               field + (strict ? " must be positive" : " must not be negative"),
-               std::string(strict ? "must be positive, got " : "must not be negative, got ") +
-                   shown(s_, q));
+    rules.push_back(sign_rule(field, q, strict));
+    rules.back().literal_message =
+        std::string(strict ? "must be positive, got " : "must not be negative, got ") +
+        shown(s_, q);
+    return rules.back();
   }
 
   void base() {

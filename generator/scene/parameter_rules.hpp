@@ -1,9 +1,10 @@
-// The range rules on a scene's quantities, in one table: positive masses, inertias, lengths,
-// ratios and stiffnesses, non-negative motor inertias, dampers and friction, a compensated link
-// inertia above its motor's, a coupling factor in [0, 1], friction velocities of at least 1e-9.
-// The scene's validation checks them for the literal (and nominal) values and names the field;
-// the generated parameter_error() checks the same rules again for run-time parameter values
-// (planar_model.cpp prints those whose value depends on a parameter).
+// The range rules on a scene's quantities, one kind of rule for both kinds of scene: positive
+// masses, inertias, lengths, ratios and stiffnesses, non-negative motor inertias, dampers and
+// friction, a compensated link inertia above its motor's, a coupling factor in [0, 1], friction
+// velocities of at least 1e-9, a spatial body's physical inertia tensor. The scene's validation
+// checks them for the literal (and nominal) values and names the field; the generated
+// parameter_error() checks the same rules again for run-time parameter values
+// (derive/parameter_checks.hpp prints those whose value depends on a parameter).
 #pragma once
 
 #include <functional>
@@ -30,10 +31,18 @@ struct RangeRule {
   std::string literal_message;   // at parse time, with the values: "must be positive, got 0"
   bool at_parse = true;          // the scene checks it
   bool at_run_time = true;       // parameter_error() checks it (where it uses a parameter)
+  // The terms are an inertia tensor's six entries (ixx, ixy, ixz, iyy, iyz, izz), which must be
+  // physical: positive definite, principal moments within the triangle inequality (the spatial
+  // reader checks the nominal tensor itself, so such a rule is never checked at parse).
+  bool physical_inertia = false;
 
   bool uses_parameter() const;
   bool holds() const;  // at the literal and nominal values
 };
+
+// A rule that a quantity is > 0 (strict) or >= 0, its run-time message "FIELD must be positive"
+// or "FIELD must not be negative".
+RangeRule sign_rule(const std::string& field, const Quantity& q, bool strict);
 
 // Every rule of the scene, in the order parameter_error() checks them: the base, then per joint
 // its link, gear and friction. given(field): whether the scene file gives an optional field (a

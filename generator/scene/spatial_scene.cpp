@@ -136,7 +136,7 @@ class SpatialReader {
  private:
   const YamlReader& r_;
   const std::vector<Parameter>* parameters_ = nullptr;
-  std::vector<SpatialRangeRule>* rules_ = nullptr;
+  std::vector<RangeRule>* rules_ = nullptr;
   std::set<std::string> used_;
 
   // A number or a declared parameter, resolved: its nominal value and its index in params.
@@ -179,8 +179,23 @@ class SpatialReader {
     }
     return a;
   }
-  void rule(SpatialRangeRule::Kind kind, const std::string& field, const Quantity& q) {
-    if (q.is_parameter()) rules_->push_back({kind, field, {q}, ""});
+  // Rules on quantities with a parameter, for parameter_error() (the literals are checked here).
+  void rule(bool strict, const std::string& field, const Quantity& q) {
+    if (q.is_parameter()) rules_->push_back(run_time_rule(sign_rule(field, q, strict)));
+  }
+  // a >= b, `message` saying what the field must be.
+  void not_below(const std::string& field, const Quantity& a, const Quantity& b,
+                 const std::string& message) {
+    RangeRule r;
+    r.field = field;
+    r.terms = {{1, false, a}, {-1, false, b}};
+    r.strict = false;
+    r.message = field + " " + message;
+    rules_->push_back(run_time_rule(std::move(r)));
+  }
+  static RangeRule run_time_rule(RangeRule r) {
+    r.at_parse = false;
+    return r;
   }
 
   // A body's mass (> 0) and its inertia about the centre of mass: a physical tensor, positive
@@ -191,17 +206,22 @@ class SpatialReader {
     l.mass = quantity(r_.require(n, "mass", field), field + ".mass");
     if (!(l.mass.value > 0))
       r_.fail(field + ".mass", "must be positive, got " + number_text(l.mass.value), n);
-    rule(SpatialRangeRule::Kind::positive, rule_field + ".mass", l.mass);
+    rule(true, rule_field + ".mass", l.mass);
     if (n["com"]) l.com = quantities<3>(n["com"], field + ".com");
     l.inertia = quantities<6>(r_.require(n, "inertia", field), field + ".inertia");
     const std::string why = inertia_problem(l);
     if (!why.empty()) r_.fail(field + ".inertia", why, n["inertia"]);
     if (std::any_of(l.inertia.begin(), l.inertia.end(),
-                    [](const Quantity& q) { return q.is_parameter(); }))
-      rules_->push_back({SpatialRangeRule::Kind::physical_inertia,
-                         rule_field + ".inertia",
-                         {l.inertia.begin(), l.inertia.end()},
-                         ""});
+                    [](const Quantity& q) { return q.is_parameter(); })) {
+      RangeRule tensor;
+      tensor.field = rule_field + ".inertia";
+      for (const Quantity& q : l.inertia) tensor.terms.push_back({1, false, q});
+      tensor.physical_inertia = true;
+      tensor.message = tensor.field +
+                       " must be a physical inertia (positive definite, principal moments within "
+                       "the triangle inequality)";
+      rules_->push_back(run_time_rule(std::move(tensor)));
+    }
   }
 
   // The chain of a URDF (urdf_reader.hpp) named by `urdf:`, its bodies checked as the YAML
@@ -314,7 +334,7 @@ class SpatialReader {
     g.ratio = quantity(r_.require(n, "ratio", field), field + ".ratio");
     if (!(g.ratio.value > 0))
       r_.fail(field + ".ratio", "must be positive, got " + number_text(g.ratio.value), n["ratio"]);
-    rule(SpatialRangeRule::Kind::positive, field + ".ratio", g.ratio);
+    rule(true, field + ".ratio", g.ratio);
     if (n["rotor_inertia"]) {
       const auto r = quantities<2>(n["rotor_inertia"], field + ".rotor_inertia");
       if (!(r[0].value >= 0 && r[1].value >= 0))
@@ -323,8 +343,7 @@ class SpatialReader {
       g.axial = r[0];
       g.transverse = r[1];
       for (int k = 0; k < 2; ++k)
-        rule(SpatialRangeRule::Kind::non_negative,
-             field + ".rotor_inertia[" + std::to_string(k) + "]", r[k]);
+        rule(false, field + ".rotor_inertia[" + std::to_string(k) + "]", r[k]);
     }
     if (n["rotor_coupling"]) {
       const std::string c = r_.bounded(n["rotor_coupling"], field + ".rotor_coupling").Scalar();
@@ -355,14 +374,14 @@ class SpatialReader {
     g.stiffness = quantity(n["stiffness"], k);
     if (!(g.stiffness.value > 0))
       r_.fail(k, "must be positive, got " + number_text(g.stiffness.value), n["stiffness"]);
-    rule(SpatialRangeRule::Kind::positive, k, g.stiffness);
+    rule(true, k, g.stiffness);
     if (n["damping"]) {
       const std::string d = field + ".damping";
       g.has_damping = true;
       g.damping = quantity(n["damping"], d);
       if (!(g.damping.value >= 0))
         r_.fail(d, "must not be negative, got " + number_text(g.damping.value), n["damping"]);
-      rule(SpatialRangeRule::Kind::non_negative, d, g.damping);
+      rule(false, d, g.damping);
     }
     const std::string axial = field + ".rotor_inertia[0]";
     if (!(g.axial.value > 0))
@@ -370,7 +389,7 @@ class SpatialReader {
               "a flexible joint (stiffness given) needs a rotor of positive axial inertia, got " +
                   number_text(g.axial.value),
               n["rotor_inertia"] ? n["rotor_inertia"] : n);
-    rule(SpatialRangeRule::Kind::positive, axial, g.axial);
+    rule(true, axial, g.axial);
   }
 
   // Friction for every joint (a mapping) or per joint (a list; null: none), as in the plane:
@@ -406,7 +425,7 @@ class SpatialReader {
       const std::string f = field + "." + key;
       const Quantity v = quantity(n[key], f);
       if (!(v.value >= 0)) r_.fail(f, "must not be negative, got " + number_text(v.value), n[key]);
-      rule(SpatialRangeRule::Kind::non_negative, f, v);
+      rule(false, f, v);
       return v;
     };
     auto given = [](const Quantity& q) { return q.value != 0 || q.is_parameter(); };
@@ -427,10 +446,7 @@ class SpatialReader {
                   ")",
               n["stribeck_static"]);
     if (fr.has_stribeck && (fr.stribeck_static.is_parameter() || fr.coulomb.is_parameter()))
-      rules_->push_back({SpatialRangeRule::Kind::not_below,
-                         fs,
-                         {fr.stribeck_static, fr.coulomb},
-                         "must not be below coulomb"});
+      not_below(fs, fr.stribeck_static, fr.coulomb, "must not be below coulomb");
     auto velocity = [&](const char* key, bool needed, const std::string& why) {
       if (!n[key]) {
         if (needed) r_.fail(field + "." + key, why, n);
@@ -444,11 +460,7 @@ class SpatialReader {
                 "follows), got " +
                     number_text(v.value),
                 n[key]);
-      if (v.is_parameter())
-        rules_->push_back({SpatialRangeRule::Kind::not_below,
-                           f,
-                           {v, kMinFrictionVelocity},
-                           "must be at least 1e-9 rad/s"});
+      if (v.is_parameter()) not_below(f, v, kMinFrictionVelocity, "must be at least 1e-9 rad/s");
       return v;
     };
     fr.velocity_scale = velocity("velocity_scale", fr.has_coulomb,

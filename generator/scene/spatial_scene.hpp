@@ -25,22 +25,11 @@
 #include <string>
 #include <vector>
 
+#include "parameter_rules.hpp"
 #include "scene.hpp"
 #include "spatial_description.hpp"
 
 namespace spacearm {
-
-// A range rule on a quantity that uses a run-time parameter: the generated parameter_error()
-// checks it for the parameters' values (the reader checks the nominal ones). A mass or a ratio
-// must be positive, a rotor inertia not negative, an inertia tensor physical (values: its six
-// entries).
-struct SpatialRangeRule {
-  // not_below: values[0] >= values[1], `message` saying what the field must be.
-  enum class Kind { positive, non_negative, physical_inertia, not_below } kind;
-  std::string field;  // the scene's field, e.g. "links[2].mass" or "inertials.link7.inertia"
-  std::vector<Quantity> values;
-  std::string message;  // not_below's
-};
 
 struct SpatialScene {
   std::string name;
@@ -50,7 +39,10 @@ struct SpatialScene {
   spatial::ChainDescription chain;
   std::vector<Output> outputs;  // as listed (`outputs:`); empty: the defaults (spatial_model.hpp)
   std::vector<Parameter> parameters;  // run-time parameters, params[i] in the generated code
-  std::vector<SpatialRangeRule> run_time_rules;
+  // The range rules on quantities that use a run-time parameter (parameter_rules.hpp): the
+  // generated parameter_error() checks them for the parameters' values (the reader checks the
+  // nominal ones as it reads).
+  std::vector<RangeRule> run_time_rules;
   // The files it was read from besides itself, as opened (the URDF's path beside the scene):
   // a command refuses to write over them.
   std::vector<std::string> read_files;

@@ -6,6 +6,7 @@
 #include <map>
 
 #include "numeric_outputs.hpp"
+#include "parameter_checks.hpp"
 #include "parameter_rules.hpp"
 #include "planar_chain.hpp"
 #include "planar_expressions.hpp"
@@ -46,28 +47,6 @@ std::vector<SpanField> span_fields(const Scene& scene) {
   return fields;
 }
 
-// The range rules (parameter_rules.hpp) whose value depends on a run-time parameter, as
-// programs: parameter_error() checks them for the parameters' values.
-void parameter_checks(const Scene& scene, ModelFacts& facts) {
-  Program& p = facts.checks_program;
-  const std::map<std::string, int> index = parameter_index(scene);
-  auto value = [&](const Quantity& q) {
-    if (q.is_parameter()) return p.input("params", index.at(q.parameter));
-    return q.value == 0 ? p.zero() : p.constant(q.value);
-  };
-  auto term = [&](const RangeTerm& t) {
-    if (t.constant) return p.constant(t.coefficient);
-    return t.coefficient < 0 ? -value(t.quantity) : value(t.quantity);
-  };
-  for (const RangeRule& rule : range_rules(scene)) {
-    if (!rule.at_run_time || !rule.uses_parameter()) continue;
-    std::vector<SRef> terms;
-    for (const RangeTerm& t : rule.terms) terms.push_back(term(t));
-    const SRef v = terms.size() == 1 ? terms[0] : p.add(terms);
-    facts.checks.push_back({v, rule.strict, rule.message});
-  }
-}
-
 }  // namespace
 
 ModelFacts planar_facts(const Scene& scene) {
@@ -96,7 +75,7 @@ ModelFacts planar_facts(const Scene& scene) {
   facts.formulation = to_string(scene.formulation);
   for (const auto& o : output_registry())
     if (scene.wants(o.id)) facts.outputs.push_back(o.id);
-  parameter_checks(scene, facts);
+  add_parameter_checks(range_rules(scene), facts);
   facts.span_fields = span_fields(scene);
   return facts;
 }

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "parameter_checks.hpp"
 #include "recursive_algorithms.hpp"
 #include "spatial_chain.hpp"
 #include "scene.hpp"
@@ -25,60 +26,6 @@ std::vector<std::string> coordinate_names(const spatial::ChainDescription& c) {
     if (c.links[j].gear.present && c.links[j].gear.flexible)
       names.push_back("qm" + std::to_string(j + 1));
   return names;
-}
-
-// A physical inertia (ixx, ixy, ixz, iyy, iyz, izz) as conditions value > 0 or >= 0: positive
-// definite (I's leading minors), and principal moments within the triangle inequality, which is
-// Sigma = tr(I) / 2 - I positive semidefinite (all its principal minors; Sigma is the body's
-// second moment of mass). A minor of degree k may fall short of 0 by 1e-12 tr^k: the reader's
-// slack, so that a flat plate or a thin rod at its nominal value passes.
-std::vector<std::pair<Sym, bool>> physical_inertia(const std::array<Sym, 6>& i) {
-  const Sym &a = i[0], &b = i[1], &c = i[2], &d = i[3], &e = i[4], &f = i[5];
-  const Sym tr = a + d + f, slack = tr * 1e-12;
-  const Sym sx = (d + f - a) * 0.5, sy = (a + f - d) * 0.5, sz = (a + d - f) * 0.5;
-  const Sym det_I = a * (d * f - e * e) - b * (b * f - e * c) + c * (b * e - d * c);
-  const Sym det_sigma = sx * sy * sz - sx * e * e - sy * c * c - sz * b * b - b * c * e * 2.0;
-  return {{a, true},
-          {a * d - b * b, true},
-          {det_I, true},
-          {sx + slack, false},
-          {sy + slack, false},
-          {sz + slack, false},
-          {sx * sy - b * b + slack * tr, false},
-          {sx * sz - c * c + slack * tr, false},
-          {sy * sz - e * e + slack * tr, false},
-          {det_sigma + slack * tr * tr, false}};
-}
-
-// The scene's range rules on quantities with a run-time parameter, as programs: the generated
-// parameter_error() checks them for the parameters' values.
-void parameter_checks(const SpatialScene& scene, ModelFacts& f) {
-  Program& p = f.checks_program;
-  auto value = [&p](const Quantity& v) {
-    return v.is_parameter() ? Sym(&p, p.input("params", v.index)) : Sym::number(&p, v.value);
-  };
-  using Kind = SpatialRangeRule::Kind;
-  for (const SpatialRangeRule& rule : scene.run_time_rules) {
-    if (rule.kind == Kind::not_below) {
-      f.checks.push_back({(value(rule.values.at(0)) - value(rule.values.at(1))).ref(), false,
-                          rule.field + " " + rule.message});
-      continue;
-    }
-    if (rule.kind != Kind::physical_inertia) {
-      const bool strict = rule.kind == Kind::positive;
-      f.checks.push_back({value(rule.values.at(0)).ref(), strict,
-                          rule.field + (strict ? " must be positive" : " must not be negative")});
-      continue;
-    }
-    std::array<Sym, 6> i;
-    for (int k = 0; k < 6; ++k) i[k] = value(rule.values.at(k));
-    for (const auto& [v, strict] : physical_inertia(i))
-      if (!v.is_zero())  // 0 >= 0 (a strict one cannot fold to 0: the reader checked it)
-        f.checks.push_back({v.ref(), strict,
-                            rule.field +
-                                " must be a physical inertia (positive definite, principal moments "
-                                "within the triangle inequality)"});
-  }
 }
 
 // The numbers double precision must hold together (value_span.hpp): every body's mass and
@@ -144,7 +91,7 @@ ModelFacts spatial_facts(const SpatialScene& scene) {
   f.outputs = spatial_outputs(scene);
   f.parameter_names = parameter_names(scene.parameters);
   f.nominal_parameters = nominal_values(scene.parameters);
-  parameter_checks(scene, f);
+  add_parameter_checks(scene.run_time_rules, f);
   f.span_fields = span_fields(c);
   return f;
 }
