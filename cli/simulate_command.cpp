@@ -403,6 +403,37 @@ class Progress {
   std::chrono::steady_clock::time_point wall0_ = std::chrono::steady_clock::now();
 };
 
+// The torque of a run that a stop request or --max-wall ends: checked at every evaluation.
+struct StoppableTorque {
+  const TorqueReplay<Eigen::Dynamic>* replay;
+  const TorqueSignal<Eigen::Dynamic>* signal;
+  Pace* pace;
+  Eigen::VectorXd operator()(double t) const {
+    check_stop();
+    pace->at(t);
+    return replay ? (*replay)(t) : (*signal)(t);
+  }
+  void evaluate(double t, Eigen::VectorXd& value) const {  // into value: no allocation
+    check_stop();
+    pace->at(t);
+    replay ? replay->evaluate(t, value) : signal->evaluate(t, value);
+  }
+};
+
+// Why a run past --max-wall was stopped, with the mode that sets its pace.
+std::string too_slow_message(const TooSlow& slow, const SimulateArgs& a,
+                             const IntegratorOptions& opt, const StiffestMode& mode) {
+  char buf[700];
+  std::snprintf(buf, sizeof buf,
+                "simulate: at its pace the run would take about %.3g s of wall time (t = %.4g "
+                "of %.4g s after %.3g s), past --max-wall %g s; %s at the start: %s. Raise "
+                "--max-wall, shorten --t-end, or soften that mode (a stiffer spring needs "
+                "smaller steps)",
+                slow.projected_s, slow.t, a.t_end, slow.elapsed_s, a.max_wall,
+                to_string(opt.method).c_str(), describe(mode).c_str());
+  return buf;
+}
+
 // The run itself, once the scene's model is loaded and the options are read.
 int simulate_loaded(const SimulateArgs& a, const ModelRecipe& scene, const CompiledModel& compiled,
                     const Eigen::VectorXd& params, Eigen::VectorXd q0, Eigen::VectorXd qd0,
@@ -434,21 +465,7 @@ int simulate_loaded(const SimulateArgs& a, const ModelRecipe& scene, const Compi
 
   // The library's integrate_motion; a stop request is seen at every evaluation and sample.
   Pace pace(a.t_end, a.max_wall);
-  struct StoppableTorque {
-    const TorqueReplay<Eigen::Dynamic>* replay;
-    const TorqueSignal<Eigen::Dynamic>* signal;
-    Pace* pace;
-    Eigen::VectorXd operator()(double t) const {
-      check_stop();
-      pace->at(t);
-      return replay ? (*replay)(t) : (*signal)(t);
-    }
-    void evaluate(double t, Eigen::VectorXd& value) const {  // into value: no allocation
-      check_stop();
-      pace->at(t);
-      replay ? replay->evaluate(t, value) : signal->evaluate(t, value);
-    }
-  } torque{replay.get(), tau.get(), &pace};
+  const StoppableTorque torque{replay.get(), tau.get(), &pace};
   Progress progress(a.t_end);
   double t_written = 0;
   std::vector<double> values;
@@ -485,15 +502,7 @@ int simulate_loaded(const SimulateArgs& a, const ModelRecipe& scene, const Compi
   } catch (const TooSlow& slow) {
     close();
     report_stop(out, t_written, "stopped: too slow for --max-wall");
-    char buf[700];
-    std::snprintf(buf, sizeof buf,
-                  "simulate: at its pace the run would take about %.3g s of wall time (t = %.4g "
-                  "of %.4g s after %.3g s), past --max-wall %g s; %s at the start: %s. Raise "
-                  "--max-wall, shorten --t-end, or soften that mode (a stiffer spring needs "
-                  "smaller steps)",
-                  slow.projected_s, slow.t, a.t_end, slow.elapsed_s, a.max_wall,
-                  to_string(opt.method).c_str(), describe(mode).c_str());
-    throw std::invalid_argument(buf);
+    throw std::invalid_argument(too_slow_message(slow, a, opt, mode));
   } catch (const IntegrationError& e) {
     close();  // what was computed so far stays in the CSV
     report_stop(out, t_written, "the integration stopped");

@@ -276,6 +276,69 @@ class CompileHeartbeat {
   std::thread thread_;
 };
 
+// The emitted code's size and compile cost as a line ("0.52 MB of C++: at least ..."); a
+// CompileError past the bound on the code's size.
+CompileEstimate checked_cost(const ModelRecipe& recipe, const EmittedModel& emitted,
+                             const CompileOptions& options, std::string& line) {
+  const size_t units = emitted.c_units.size();
+  size_t bytes = 0, largest = 0;
+  for (const auto& unit : emitted.c_units)
+    bytes += unit.size(), largest = std::max(largest, unit.size());
+  const CompileEstimate cost = compile_estimate(largest);
+  char text[400];
+  std::snprintf(text, sizeof text,
+                "%.2f MB of C++: at least %.0f s and %.0f MB of memory (%zu compilers at once)",
+                static_cast<double>(bytes) / 1e6, cost.seconds, cost.memory_mb, units);
+  line = text;
+  const double max_mb =
+      options.max_code_mb > 0 ? options.max_code_mb : CompileOptions::default_max_code_mb();
+  char bound[32];
+  std::snprintf(bound, sizeof bound, "%g", max_mb);
+  if (static_cast<double>(bytes) > max_mb * 1e6)
+    throw CompileError("model '" + recipe.name() + "': " + line + ", past the bound of " + bound +
+                       " MB; raise it (SPACEARM_MAX_CODE_MB, or CompileOptions::max_code_mb), "
+                       "or emit fewer outputs (field 'outputs') or fewer joints");
+  return cost;
+}
+
+// The compiler's commands: one unit compiled and linked by one command; several each to an
+// object at once (`compiles`), then linked (`link`).
+struct CompilePlan {
+  std::vector<std::vector<std::string>> compiles;
+  std::vector<std::string> objects, link;
+
+  CompilePlan(const std::vector<std::string>& sources, const std::string& compiler,
+              const std::string& flags, const std::string& libraries) {
+    const auto argv = [&](const std::vector<std::string>& middle, bool with_libraries) {
+      std::vector<std::string> a{compiler};
+      for (const auto& f : split_flags(flags)) a.push_back(f);
+      a.insert(a.end(), middle.begin(), middle.end());
+      if (with_libraries)
+        for (const auto& l : split_flags(libraries)) a.push_back(l);
+      return a;
+    };
+    if (sources.size() == 1) {
+      compiles.push_back(argv({"libmodel.cpp", "-o", "libmodel.so"}, true));
+    } else {
+      for (const auto& src : sources) {
+        objects.push_back(src.substr(0, src.size() - 3) + "o");
+        compiles.push_back(argv({"-c", src, "-o", objects.back()}, false));
+      }
+    }
+    std::vector<std::string> middle = objects;
+    middle.insert(middle.end(), {"-o", "libmodel.so"});
+    link = argv(middle, true);
+  }
+  // The commands as a shell would run them (compile_command.txt).
+  std::string shown() const {
+    const bool several = compiles.size() > 1;
+    std::string command;
+    for (const auto& c : compiles) command += "\n" + shown_command(c) + (several ? " &" : "");
+    if (several) command += "\nwait\n" + shown_command(link);
+    return command;
+  }
+};
+
 // Generates and compiles the scene into a new work folder; returns it, ready to install.
 // Every file is written and read relative to the folder's descriptor, and the compiler runs
 // inside it with relative names: nothing goes through the cache's path again.
@@ -307,58 +370,21 @@ WorkFolder build_entry(const ModelRecipe& recipe, const CacheFolder& cache,
     rep.generated = true;
 
     // The cost, said before the compiler starts; a model past the bound is refused.
-    size_t bytes = 0, largest = 0;
-    for (const auto& unit : emitted.c_units)
-      bytes += unit.size(), largest = std::max(largest, unit.size());
-    const CompileEstimate cost = compile_estimate(largest);
-    char line[400];
-    std::snprintf(line, sizeof line,
-                  "%.2f MB of C++: at least %.0f s and %.0f MB of memory (%zu compilers at once)",
-                  static_cast<double>(bytes) / 1e6, cost.seconds, cost.memory_mb, units);
-    const double max_mb =
-        options.max_code_mb > 0 ? options.max_code_mb : CompileOptions::default_max_code_mb();
-    char bound[32];
-    std::snprintf(bound, sizeof bound, "%g", max_mb);
-    if (static_cast<double>(bytes) > max_mb * 1e6)
-      throw CompileError("model '" + recipe.name() + "': " + line + ", past the bound of " + bound +
-                         " MB; raise it (SPACEARM_MAX_CODE_MB, or CompileOptions::max_code_mb), "
-                         "or emit fewer outputs (field 'outputs') or fewer joints");
+    std::string line;
+    const CompileEstimate cost = checked_cost(recipe, emitted, options, line);
     say("compiling with " + compiler + ": " + line);
     const CompileHeartbeat heartbeat(options.progress, recipe.name(), cost.seconds);
     const auto t1 = std::chrono::steady_clock::now();
     const std::string flags = options.flags + instruction_set_flags(options.instruction_set);
-    const auto argv = [&](const std::vector<std::string>& middle, bool link) {
-      std::vector<std::string> a{compiler};
-      for (const auto& f : split_flags(flags)) a.push_back(f);
-      a.insert(a.end(), middle.begin(), middle.end());
-      if (link)
-        for (const auto& l : split_flags(options.libraries)) a.push_back(l);
-      return a;
-    };
-    // One unit: compiled and linked by one command; several: each to an object at once, then
-    // linked.
-    std::vector<std::vector<std::string>> compiles;
-    std::vector<std::string> objects;
-    if (units == 1) {
-      compiles.push_back(argv({"libmodel.cpp", "-o", "libmodel.so"}, true));
-    } else {
-      for (const auto& src : sources) {
-        objects.push_back(src.substr(0, src.size() - 3) + "o");
-        compiles.push_back(argv({"-c", src, "-o", objects.back()}, false));
-      }
-    }
-    std::vector<std::string> link = objects;
-    link.insert(link.end(), {"-o", "libmodel.so"});
-    std::string command;
-    for (const auto& c : compiles) command += "\n" + shown_command(c) + (units > 1 ? " &" : "");
-    if (units > 1) command += "\nwait\n" + shown_command(argv(link, true));
-    write_new_file_at(dir, "compile_command.txt", "cd " + shown + command + "\n",
+    const CompilePlan plan(sources, compiler, flags, options.libraries);
+    const auto& [compiles, objects, link] = plan;
+    write_new_file_at(dir, "compile_command.txt", "cd " + shown + plan.shown() + "\n",
                       shown + "/compile_command.txt");
     std::string log_text;
     const auto remove = [&] { cache.remove(work); };
     int failed = run_compilers(compiles, dir, log_text, remove, compiler, recipe.name());
     if (failed == 0 && units > 1)
-      failed = run_compilers({argv(link, true)}, dir, log_text, remove, compiler, recipe.name());
+      failed = run_compilers({link}, dir, log_text, remove, compiler, recipe.name());
     rep.compile_ms = ms_since(t1);
     if (failed != 0) {
       try {

@@ -399,14 +399,11 @@ std::string plan_text(const py::object& plan) {
   return text;
 }
 
-py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& torques,
-                           const py::object& q0, const py::object& qd0, const SimulateOptions& o,
-                           const py::object& params_given) const {
-  const Eigen::VectorXd params = named_parameters(model_, params_, params_given);
-  const DynamicModel m = dynamic_model(model_, params);
-  m.require_forward_dynamics("simulate");
-  if (o.consistent_start && !(recipe_.facts().features & needs::springs))
-    throw py::value_error("consistent_start: the scene has no flexible joint (gears[i].stiffness)");
+namespace {
+
+// simulate's integrator, step and tolerances. As the CLI's: options that would do nothing are
+// errors, not silently ignored.
+IntegratorOptions integrator_options(const SimulateOptions& o) {
   IntegratorOptions opt;
   const bool automatic = o.integrator == "auto";
   if (!automatic) opt.method = method_from_string(o.integrator);
@@ -429,12 +426,18 @@ py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& 
   if (!(o.dt_out >= 0 && std::isfinite(o.dt_out)))
     throw py::value_error("dt_out: " + std::to_string(o.dt_out) +
                           " must be 0 (every step) or a positive multiple of dt");
-  // The torque signal: from the samples or a plan (covering [0, t_end] unless extrapolated),
-  // or zero.
+  return opt;
+}
+
+// The plan simulate replays (none without plan=), checked against the model's kinematics, with
+// this model's friction fed forward where asked; `replaced`: torques, q0, qd0 or
+// consistent_start were given too.
+std::optional<PlanSamples> replayed_plan(const DynamicModel& m, const SimulateOptions& o,
+                                         bool replaced) {
   const int N = m.num_links;
   std::optional<PlanSamples> plan;
   if (!o.plan.is_none()) {
-    if (!torques.is_none() || !q0.is_none() || !qd0.is_none() || o.consistent_start)
+    if (replaced)
       throw py::value_error(
           "plan: replaces torques, q0, qd0 and consistent_start (its start is mapped to this "
           "model's coordinates)");
@@ -461,6 +464,44 @@ py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& 
   } else if (o.feedforward != "none") {
     throw py::value_error("feedforward: needs a plan");
   }
+  return plan;
+}
+
+// simulate's start (q0, qd0), the neutral configuration and rest by default, checked.
+void start_state(const DynamicModel& m, const py::object& q0, const py::object& qd0,
+                 Eigen::VectorXd& x0, Eigen::VectorXd& v0) {
+  x0 = q0.is_none() ? m.neutral_configuration() : vector_argument(q0, "q0");
+  v0 = qd0.is_none() ? Eigen::VectorXd::Zero(m.nv) : vector_argument(qd0, "qd0");
+  if (x0.size() != m.nq)
+    throw py::value_error("q0: expected " + std::to_string(m.nq) + " values, got " +
+                          std::to_string(x0.size()));
+  if (v0.size() != m.nv)
+    throw py::value_error("qd0: expected " + std::to_string(m.nv) + " values, got " +
+                          std::to_string(v0.size()));
+  if (const std::string e = ConfigurationSpace::angle_error(
+          x0, ConfigurationSpace::first_angle(m.free_floating, m.spatial), "q0",
+          m.coordinate_names);
+      !e.empty())
+    throw py::value_error(e);
+}
+
+}  // namespace
+
+py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& torques,
+                           const py::object& q0, const py::object& qd0, const SimulateOptions& o,
+                           const py::object& params_given) const {
+  const Eigen::VectorXd params = named_parameters(model_, params_, params_given);
+  const DynamicModel m = dynamic_model(model_, params);
+  m.require_forward_dynamics("simulate");
+  if (o.consistent_start && !(recipe_.facts().features & needs::springs))
+    throw py::value_error("consistent_start: the scene has no flexible joint (gears[i].stiffness)");
+  IntegratorOptions opt = integrator_options(o);
+  const bool automatic = o.integrator == "auto";
+  // The torque signal: from the samples or a plan (covering [0, t_end] unless extrapolated),
+  // or zero.
+  const int N = m.num_links;
+  std::optional<PlanSamples> plan = replayed_plan(
+      m, o, !torques.is_none() || !q0.is_none() || !qd0.is_none() || o.consistent_start);
   if (!t_end_given && !plan)
     throw py::value_error("t_end: give it (only a plan has an end of its own)");
   const double t_end = t_end_given ? *t_end_given : plan->torques.t_last();
@@ -478,19 +519,8 @@ py::dict PyModel::simulate(std::optional<double> t_end_given, const py::object& 
                           ": give samples that cover it, or extrapolate='hold' or 'zero'");
   const TorqueSignal<Eigen::Dynamic> tau(table.t0, table.dt, table.samples,
                                          interpolation_from_string(o.interpolation), outside);
-  Eigen::VectorXd x0 = q0.is_none() ? m.neutral_configuration() : vector_argument(q0, "q0");
-  Eigen::VectorXd v0 = qd0.is_none() ? Eigen::VectorXd::Zero(m.nv) : vector_argument(qd0, "qd0");
-  if (x0.size() != m.nq)
-    throw py::value_error("q0: expected " + std::to_string(m.nq) + " values, got " +
-                          std::to_string(x0.size()));
-  if (v0.size() != m.nv)
-    throw py::value_error("qd0: expected " + std::to_string(m.nv) + " values, got " +
-                          std::to_string(v0.size()));
-  if (const std::string e = ConfigurationSpace::angle_error(
-          x0, ConfigurationSpace::first_angle(m.free_floating, m.spatial), "q0",
-          m.coordinate_names);
-      !e.empty())
-    throw py::value_error(e);
+  Eigen::VectorXd x0, v0;
+  start_state(m, q0, qd0, x0, v0);
   if (plan) replay_start(m, *plan, plan->torques.samples.front(), x0, v0);
   if (o.consistent_start) consistent_start(m, x0, v0, tau(0.0));
   // auto: rk4 at a step that resolves the stiffest mode at the start, or rosenbrock4.
@@ -631,21 +661,8 @@ PyModel load(const std::string& scene_text, const py::object& params,
   return PyModel(std::move(m), values, scene);
 }
 
-}  // namespace
-
-void bind_study(py::module& module);  // study_binding.cpp
-
-}  // namespace spacearm
-
-PYBIND11_MODULE(_spacearm, module) {
-  using namespace spacearm;
-  module.doc() = "spacearm: exact dynamics of free-floating space manipulators, planar and spatial";
-  py::register_exception<DynamicsError>(module, "DynamicsError", PyExc_ArithmeticError);
-  py::register_exception<CompileError>(module, "CompileError", PyExc_RuntimeError);
-  integration_error_type() =
-      py::register_exception<IntegrationError>(module, "IntegrationError", PyExc_RuntimeError);
-  bind_study(module);
-  py::class_<PyModel> model(module, "Model");
+// Model's read-only facts: name, sizes, names, parameter values, outputs, lanes.
+void bind_model_facts(py::class_<PyModel>& model) {
   model.def_property_readonly("name", [](const PyModel& m) { return m.model().name(); })
       .def_property_readonly("nq", [](const PyModel& m) { return m.model().nq(); })
       .def_property_readonly("nv", [](const PyModel& m) { return m.model().nv(); })
@@ -666,77 +683,80 @@ PYBIND11_MODULE(_spacearm, module) {
       .def_property("lanes", &PyModel::lanes, &PyModel::set_lanes,
                     "States per call of the generated code in a batch: 4 (the 4-lane "
                     "functions of forward_dynamics, end_effector_pose, momentum and "
-                    "kinetic_energy; the same bits) or 1")
-      .def("plan", &PyModel::plan, py::arg("start"), py::arg("goal"), py::arg("duration"),
-           py::arg("dt") = 0.01, py::arg("time_law") = "quintic", py::arg("elbow") = 1,
-           py::arg("q0") = py::none(), py::arg("params") = py::none(),
-           "The zero-momentum straight line of the end-effector from start to goal (x, y or x, y, "
-           "phi; in 3D x, y, z or a pose x, y, z, qw, qx, qy, qz) in `duration` s, as `spacearm "
-           "plan`: a dict of t, q, qd, qdd, tau (link side), "
-           "tau_motor (geared), base_residual (free base) and 'columns', the CSV's columns by "
-           "name.")
-      .def(
-          "simulate",
-          [](const PyModel& m, const py::object& t_end, const py::object& torques,
-             const py::object& q0, const py::object& qd0, const std::string& integrator, double dt,
-             double dt_out, const std::string& interpolation, const std::string& extrapolate,
-             const py::object& rtol, const py::object& atol, bool consistent_start,
-             const py::object& plan, const std::string& feedforward, bool other_arm,
-             const py::object& params) {
-            const SimulateOptions o{integrator, interpolation, extrapolate, dt,
-                                    dt_out,     rtol,          atol,        consistent_start,
-                                    plan,       feedforward,   other_arm};
-            // Without t_end, a plan's end.
-            std::optional<double> end;
-            if (!t_end.is_none()) {
-              end = PyFloat_AsDouble(t_end.ptr());
-              if (PyErr_Occurred()) {
-                PyErr_Clear();
-                throw py::type_error("t_end: a number");
-              }
-            }
-            return m.simulate(end, torques, q0, qd0, o, params);
-          },
-          py::arg("t_end") = py::none(), py::arg("torques") = py::none(),
-          py::arg("q0") = py::none(), py::arg("qd0") = py::none(), py::arg("integrator") = "auto",
-          py::arg("dt") = 0.01, py::arg("dt_out") = 0.0, py::arg("interpolation") = "linear",
-          py::arg("extrapolate") = "error", py::arg("rtol") = py::none(),
-          py::arg("atol") = py::none(), py::arg("consistent_start") = false,
-          py::arg("plan") = py::none(), py::arg("feedforward") = "none",
-          py::arg("other_arm") = false, py::arg("params") = py::none(),
-          "Integrate the dynamics from (q0, qd0) (zero by default) to t_end under joint torques "
-          "sampled on a uniform grid (an array (k, 1 + N): t, tau1..N, link side; None: no "
-          "torque), as `spacearm simulate`: a dict of t, q, qd, 'columns' (the CSV's columns "
-          "by name) and 'integrator' (what auto chose, and why). plan= (a plan file or the dict "
-          "of model.plan(), made on this model or its rigid twin) replays it: its start mapped "
-          "to this model's coordinates, its torques, t_end its end by default; "
-          "feedforward='friction' adds this model's friction along the planned rates. A plan whose "
-          "end effector this model puts elsewhere (another arm) raises ValueError unless "
-          "other_arm=True (then a warning). A run that fails raises IntegrationError: its .t is "
-          "the time reached, its .partial the dict of every row computed up to it.")
-      .def("closed_loop", &PyModel::closed_loop, py::arg("plan"), py::arg("controller") = "pd",
-           py::arg("omega") = 20.0, py::arg("period") = 1e-3,
-           py::arg("control_model") = static_cast<const PyModel*>(nullptr),
-           py::arg("feedforward") = "plan", py::arg("dt_out") = 0.01,
-           py::arg("params") = py::none(),
-           "Track a plan (model.plan()'s dict or a plan file, made on this model or its rigid "
-           "twin) in closed loop, sampled every `period` s with zero-order hold "
-           "(runtime/joint_control.hpp). controller='pd': the plan's torques fed forward "
-           "(feedforward='plan', 'friction' adds this model's friction, 'none') plus kp e + kd "
-           "e' on the motor encoders' angles (qm / p), kp = omega^2, kd = 2 omega; "
-           "'computed_torque': the inverse dynamics of control_model (this model by default) "
-           "with the base free, for qdd_d + kd e' + kp e. Returns the dict simulate returns, "
-           "every dt_out s (tau: the controller's torque).")
+                    "kinetic_energy; the same bits) or 1");
+}
+
+// Model.plan, simulate and closed_loop: what `spacearm plan` and `simulate` do.
+void bind_model_runs(py::class_<PyModel>& model) {
+  model.def("plan", &PyModel::plan, py::arg("start"), py::arg("goal"), py::arg("duration"),
+            py::arg("dt") = 0.01, py::arg("time_law") = "quintic", py::arg("elbow") = 1,
+            py::arg("q0") = py::none(), py::arg("params") = py::none(),
+            "The zero-momentum straight line of the end-effector from start to goal (x, y or x, y, "
+            "phi; in 3D x, y, z or a pose x, y, z, qw, qx, qy, qz) in `duration` s, as `spacearm "
+            "plan`: a dict of t, q, qd, qdd, tau (link side), "
+            "tau_motor (geared), base_residual (free base) and 'columns', the CSV's columns by "
+            "name.");
+  model.def(
+      "simulate",
+      [](const PyModel& m, const py::object& t_end, const py::object& torques, const py::object& q0,
+         const py::object& qd0, const std::string& integrator, double dt, double dt_out,
+         const std::string& interpolation, const std::string& extrapolate, const py::object& rtol,
+         const py::object& atol, bool consistent_start, const py::object& plan,
+         const std::string& feedforward, bool other_arm, const py::object& params) {
+        const SimulateOptions o{integrator, interpolation, extrapolate, dt,
+                                dt_out,     rtol,          atol,        consistent_start,
+                                plan,       feedforward,   other_arm};
+        // Without t_end, a plan's end.
+        std::optional<double> end;
+        if (!t_end.is_none()) {
+          end = PyFloat_AsDouble(t_end.ptr());
+          if (PyErr_Occurred()) {
+            PyErr_Clear();
+            throw py::type_error("t_end: a number");
+          }
+        }
+        return m.simulate(end, torques, q0, qd0, o, params);
+      },
+      py::arg("t_end") = py::none(), py::arg("torques") = py::none(), py::arg("q0") = py::none(),
+      py::arg("qd0") = py::none(), py::arg("integrator") = "auto", py::arg("dt") = 0.01,
+      py::arg("dt_out") = 0.0, py::arg("interpolation") = "linear",
+      py::arg("extrapolate") = "error", py::arg("rtol") = py::none(), py::arg("atol") = py::none(),
+      py::arg("consistent_start") = false, py::arg("plan") = py::none(),
+      py::arg("feedforward") = "none", py::arg("other_arm") = false, py::arg("params") = py::none(),
+      "Integrate the dynamics from (q0, qd0) (zero by default) to t_end under joint torques "
+      "sampled on a uniform grid (an array (k, 1 + N): t, tau1..N, link side; None: no "
+      "torque), as `spacearm simulate`: a dict of t, q, qd, 'columns' (the CSV's columns "
+      "by name) and 'integrator' (what auto chose, and why). plan= (a plan file or the dict "
+      "of model.plan(), made on this model or its rigid twin) replays it: its start mapped "
+      "to this model's coordinates, its torques, t_end its end by default; "
+      "feedforward='friction' adds this model's friction along the planned rates. A plan whose "
+      "end effector this model puts elsewhere (another arm) raises ValueError unless "
+      "other_arm=True (then a warning). A run that fails raises IntegrationError: its .t is "
+      "the time reached, its .partial the dict of every row computed up to it.");
+  model.def("closed_loop", &PyModel::closed_loop, py::arg("plan"), py::arg("controller") = "pd",
+            py::arg("omega") = 20.0, py::arg("period") = 1e-3,
+            py::arg("control_model") = static_cast<const PyModel*>(nullptr),
+            py::arg("feedforward") = "plan", py::arg("dt_out") = 0.01,
+            py::arg("params") = py::none(),
+            "Track a plan (model.plan()'s dict or a plan file, made on this model or its rigid "
+            "twin) in closed loop, sampled every `period` s with zero-order hold "
+            "(runtime/joint_control.hpp). controller='pd': the plan's torques fed forward "
+            "(feedforward='plan', 'friction' adds this model's friction, 'none') plus kp e + kd "
+            "e' on the motor encoders' angles (qm / p), kp = omega^2, kd = 2 omega; "
+            "'computed_torque': the inverse dynamics of control_model (this model by default) "
+            "with the base free, for qdd_d + kd e' + kp e. Returns the dict simulate returns, "
+            "every dt_out s (tau: the controller's torque).");
+}
+
+// Model.inspect and one method per output of the registry: model.mass_matrix(q), ...
+void bind_model_outputs(py::class_<PyModel>& model) {
+  model
       .def("inspect", &PyModel::inspect, py::arg("entry"), py::arg("latex") = false,
            py::arg("decimal") = false,
            "One symbolic entry as text (or LaTeX), e.g. model.inspect(\"M[3][4]\", latex=True): "
            "the closed form that `spacearm inspect` prints, grouped by velocities and parameters; "
            "for a spatial arm the statements that compute it.")
       .def("__repr__", &PyModel::repr);
-  module.def("load", &load, py::arg("scene"), py::arg("params") = py::none(),
-             py::arg("cache_dir") = "",
-             "Compile (or take from the cache) and load the model of a scene: a path to a scene "
-             "file or its YAML text. params: a dict of parameter values (default: the scene's).");
   // Every output of the registry: model.mass_matrix(q), model.forward_dynamics(q, qd, Q), ...
   for (const OutputInfo& o : output_registry()) {
     std::string inputs;
@@ -765,4 +785,28 @@ PYBIND11_MODULE(_spacearm, module) {
          " Each input (n,) for one state or (k, n) for k states.")
             .c_str());
   }
+}
+
+}  // namespace
+
+void bind_study(py::module& module);  // study_binding.cpp
+
+}  // namespace spacearm
+
+PYBIND11_MODULE(_spacearm, module) {
+  using namespace spacearm;
+  module.doc() = "spacearm: exact dynamics of free-floating space manipulators, planar and spatial";
+  py::register_exception<DynamicsError>(module, "DynamicsError", PyExc_ArithmeticError);
+  py::register_exception<CompileError>(module, "CompileError", PyExc_RuntimeError);
+  integration_error_type() =
+      py::register_exception<IntegrationError>(module, "IntegrationError", PyExc_RuntimeError);
+  bind_study(module);
+  py::class_<PyModel> model(module, "Model");
+  bind_model_facts(model);
+  bind_model_runs(model);
+  bind_model_outputs(model);
+  module.def("load", &load, py::arg("scene"), py::arg("params") = py::none(),
+             py::arg("cache_dir") = "",
+             "Compile (or take from the cache) and load the model of a scene: a path to a scene "
+             "file or its YAML text. params: a dict of parameter values (default: the scene's).");
 }

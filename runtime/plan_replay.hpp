@@ -67,6 +67,62 @@ inline PlanSamples plan_samples(const Plan& plan, const DynamicModel& planner) {
   return s;
 }
 
+namespace detail {
+
+// A plan's header (on line `line`): its columns by name, checked against the scene's base and
+// joints (a plan made for another base or number of joints is named as such).
+inline std::map<std::string, size_t> plan_header(const std::vector<std::string>& header, long line,
+                                                 int num_joints, bool free_floating, bool spatial,
+                                                 const CsvErrors& fail) {
+  std::map<std::string, size_t> column;
+  for (size_t c = 0; c < header.size(); ++c)
+    if (!column.insert({header[c], c}).second && !header[c].empty())
+      throw fail(line, "column " + quoted_text(header[c]) + " appears twice");
+  // The plan's base and joints must be the scene's.
+  const std::string more = "tau" + std::to_string(num_joints + 1);
+  if (column.count(more))
+    throw fail(line, "has a column '" + more + "': it was planned for more than " +
+                         std::to_string(num_joints) + " joints");
+  if (column.count("x0") != static_cast<size_t>(free_floating))
+    throw fail(line, free_floating ? "has no column 'x0': it was planned on a fixed base "
+                                     "and the scene's base is free_floating"
+                                   : "has a column 'x0': it was planned on a "
+                                     "free-floating base and the scene's base is fixed");
+  if (free_floating && column.count("z0") != static_cast<size_t>(spatial))
+    throw fail(line, spatial ? "has no column 'z0': it was planned on a planar arm and "
+                               "the scene is spatial"
+                             : "has a column 'z0': it was planned on a spatial arm and "
+                               "the scene is planar");
+  const std::vector<std::string> needed = plan_columns(num_joints, free_floating, spatial);
+  for (const auto& n : needed)
+    if (!column.count(n))
+      throw fail(line, "missing column '" + n + "' (a plan from spacearm plan has it" +
+                           (n[0] == 'q' ? "; replan with this version" : "") + ")");
+  return column;
+}
+
+// The end effector's pose at a plan's first and last rows, where the plan has it (empty if not).
+inline std::vector<Eigen::VectorXd> plan_end_effector(
+    const std::vector<std::pair<long, std::string>>& lines,
+    const std::map<std::string, size_t>& column, bool spatial, const std::string& where) {
+  std::vector<Eigen::VectorXd> poses;
+  const std::vector<std::string> ee = end_effector_columns(spatial);
+  if (!std::all_of(ee.begin(), ee.end(), [&](const auto& n) { return column.count(n); }))
+    return poses;
+  for (const size_t r : {size_t(1), lines.size() - 1}) {
+    const auto fields = split_csv_line(lines[r].second);
+    Eigen::VectorXd x(static_cast<Eigen::Index>(ee.size()));
+    for (size_t c = 0; c < ee.size(); ++c)
+      x[static_cast<Eigen::Index>(c)] =
+          parse_number(fields[column.at(ee[c])], where + " line " + std::to_string(lines[r].first) +
+                                                     ", column '" + ee[c] + "'");
+    poses.push_back(x);
+  }
+  return poses;
+}
+
+}  // namespace detail
+
 // Reads a plan for a scene with num_joints joints (spatial: a base floating in 3D); errors name
 // the file, line and column, and say when the plan was made for another base or number of joints.
 inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool free_floating,
@@ -76,30 +132,9 @@ inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool f
   const auto lines = detail::csv_lines(text);
   if (lines.empty()) throw fail(0, "empty; write one with spacearm plan");
   const auto header = detail::split_csv_line(lines[0].second);
-  std::map<std::string, size_t> column;
-  for (size_t c = 0; c < header.size(); ++c)
-    if (!column.insert({header[c], c}).second && !header[c].empty())
-      throw fail(lines[0].first, "column " + quoted_text(header[c]) + " appears twice");
-  // The plan's base and joints must be the scene's.
-  const std::string more = "tau" + std::to_string(num_joints + 1);
-  if (column.count(more))
-    throw fail(lines[0].first, "has a column '" + more + "': it was planned for more than " +
-                                   std::to_string(num_joints) + " joints");
-  if (column.count("x0") != static_cast<size_t>(free_floating))
-    throw fail(lines[0].first, free_floating ? "has no column 'x0': it was planned on a fixed base "
-                                               "and the scene's base is free_floating"
-                                             : "has a column 'x0': it was planned on a "
-                                               "free-floating base and the scene's base is fixed");
-  if (free_floating && column.count("z0") != static_cast<size_t>(spatial))
-    throw fail(lines[0].first, spatial ? "has no column 'z0': it was planned on a planar arm and "
-                                         "the scene is spatial"
-                                       : "has a column 'z0': it was planned on a spatial arm and "
-                                         "the scene is planar");
+  const std::map<std::string, size_t> column =
+      detail::plan_header(header, lines[0].first, num_joints, free_floating, spatial, fail);
   const std::vector<std::string> needed = detail::plan_columns(num_joints, free_floating, spatial);
-  for (const auto& n : needed)
-    if (!column.count(n))
-      throw fail(lines[0].first, "missing column '" + n + "' (a plan from spacearm plan has it" +
-                                     (n[0] == 'q' ? "; replan with this version" : "") + ")");
   // Rows: the needed columns must be finite numbers; the others are not read.
   PlanSamples plan;
   std::vector<double> times;
@@ -132,7 +167,7 @@ inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool f
       const double norm = plan.base.back().segment<4>(3).norm();
       if (!ConfigurationSpace::takes_quaternion_norm(norm))
         throw fail(number, "columns qw0..qz0, the base's orientation quaternion, have norm " +
-                               std::to_string(norm) + ": expected a unit quaternion");
+                               number_text(norm) + ": expected a unit quaternion");
     }
     plan.base_rate.push_back(take(rate));
     plan.angles.push_back(take(num_joints));
@@ -151,18 +186,7 @@ inline PlanSamples read_plan_csv(const std::string& text, int num_joints, bool f
   }
   if (times.size() < 2)
     throw fail(0, "needs at least two rows of samples, got " + std::to_string(times.size()));
-  // The end effector's pose at the first and last rows, where the plan has it.
-  const std::vector<std::string> ee = end_effector_columns(spatial);
-  if (std::all_of(ee.begin(), ee.end(), [&](const auto& n) { return column.count(n); }))
-    for (const size_t r : {size_t(1), lines.size() - 1}) {
-      const auto fields = detail::split_csv_line(lines[r].second);
-      Eigen::VectorXd x(static_cast<Eigen::Index>(ee.size()));
-      for (size_t c = 0; c < ee.size(); ++c)
-        x[static_cast<Eigen::Index>(c)] = parse_number(
-            fields[column.at(ee[c])],
-            where + " line " + std::to_string(lines[r].first) + ", column '" + ee[c] + "'");
-      plan.end_effector.push_back(x);
-    }
+  plan.end_effector = detail::plan_end_effector(lines, column, spatial, where);
   detail::set_uniform_grid(
       plan.torques, times, [&](size_t k) { return lines[k + 1].first; }, fail);
   // The replay starts at t = 0 in the plan's first state: a plan that starts later would pair

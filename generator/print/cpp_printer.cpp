@@ -437,8 +437,9 @@ std::string model_struct(const LoweredModel& model, const std::string& ns) {
 // three instantiations cost seconds to compile; this compiles in a fraction. `units` > 1 deals
 // the functions out (largest first, each to the least loaded unit, by text length) so that
 // that many compilers can build them at once; the first unit also has the model's facts.
-std::vector<std::string> c_interface(const LoweredModel& model, int per_part, int units) {
-  const ModelFacts& facts = model.facts;
+// The first unit's facts of the model: the arrays and functions that state its names, sizes,
+// layout, span of values, and parameter_error()'s checks (its body's end: the caller's).
+std::string c_facts(const ModelFacts& facts) {
   const std::string nominal = number_list(facts.nominal_parameters);
   const std::string actuated = comma_list(actuated_coordinates(facts));
   std::vector<std::string> span_names;
@@ -447,8 +448,56 @@ std::vector<std::string> c_interface(const LoweredModel& model, int per_part, in
   for (const SpanField& f : facts.span_fields)
     span_names.push_back(f.field), span_values.push_back(f.value),
         span_parameters.push_back(f.parameter);
-  std::vector<std::string> texts;
-  std::vector<bool> batches;
+  std::ostringstream s;
+  s << "const char* const kCoordinateNames[] = {" << quoted_list(facts.coordinate_names) << "};\n"
+    << "const char* const kParameterNames[] = {"
+    << (nominal.empty() ? "\"\"" : quoted_list(facts.parameter_names)) << "};\n"
+    << "const double kNominalParameters[] = {" << (nominal.empty() ? "0.0" : nominal) << "};\n"
+    << "const int kActuatedCoordinates[] = {" << actuated << "};\n"
+    << "const bool kMotorAngleSlots[] = {" << comma_list(facts.motor_angle_slots) << "};\n"
+    << "const char* const kSpanFields[] = {"
+    << (span_names.empty() ? "\"\"" : quoted_list(span_names)) << "};\n"
+    << "const double kSpanValues[] = {" << (span_values.empty() ? "0.0" : number_list(span_values))
+    << "};\n"
+    << "const int kSpanParameters[] = {"
+    << (span_parameters.empty() ? "-1" : comma_list(span_parameters)) << "};\n}  // namespace\n\n"
+    << "extern \"C\" {\n"
+    << "int spacearm_abi_version() { return " << kCInterfaceVersion << "; }\n"
+    << "int spacearm_nq() { return " << facts.dims.nq << "; }\n"
+    << "int spacearm_nv() { return " << facts.dims.nv << "; }\n"
+    << "int spacearm_num_links() { return " << facts.dims.num_links << "; }\n"
+    << "int spacearm_num_params() { return " << facts.parameter_names.size() << "; }\n"
+    << "int spacearm_num_base() { return " << facts.num_base << "; }\n"
+    << "int spacearm_spatial() { return " << facts.dims.spatial << "; }\n"
+    << "int spacearm_free_floating() { return " << facts.free_floating << "; }\n"
+    << "int spacearm_passive_forces() { return " << facts.has_passive_forces() << "; }\n"
+    << "// Where a quaternion (w, x, y, z) sits in q; -1: none, and q has one entry per "
+       "velocity.\n"
+    << "int spacearm_configuration_layout() { return " << facts.quaternion_offset << "; }\n"
+    << "const char* spacearm_name() { return \"" << facts.name << "\"; }\n"
+    << "const char* spacearm_coordinate_name(int i) { return kCoordinateNames[i]; }\n"
+    << "const char* spacearm_parameter_name(int i) { return kParameterNames[i]; }\n"
+    << "double spacearm_nominal_parameter(int i) { return kNominalParameters[i]; }\n"
+    << "int spacearm_actuated_coordinate(int joint) { return kActuatedCoordinates[joint]; }\n"
+    << "// 1 where the joint's slot in q holds its motor angle qm = p q (a rigid gear, eq. 12).\n"
+    << "int spacearm_slot_holds_motor(int joint) { return kMotorAngleSlots[joint]; }\n"
+    << "unsigned long spacearm_outputs() { return " << output_mask(facts.outputs) << "ul; }\n"
+    << "const char* spacearm_scene_hash() { return \"" << facts.scene_hash << "\"; }\n"
+    << "// The numbers a failure's message spans (spacearm's value_span.hpp): field, literal\n"
+    << "// or nominal value, the run-time parameter that gives it (-1: none).\n"
+    << "int spacearm_num_span_fields() { return " << span_names.size() << "; }\n"
+    << "const char* spacearm_span_field(int i) { return kSpanFields[i]; }\n"
+    << "double spacearm_span_value(int i) { return kSpanValues[i]; }\n"
+    << "int spacearm_span_parameter(int i) { return kSpanParameters[i]; }\n"
+    << "const char* spacearm_parameter_error([[maybe_unused]] const double* params) {\n"
+    << parameter_checks(facts, Spelling::c_arrays);
+  return s.str();
+}
+
+// Each function's C text (and its 4-lane version's), and whether it uses the trig batches.
+void c_function_texts(const LoweredModel& model, int per_part, std::vector<std::string>& texts,
+                      std::vector<bool>& batches) {
+  const ModelFacts& facts = model.facts;
   for (const auto& f : model.functions) {
     const Body b = function_body(f, facts.dims, per_part, Spelling::c_arrays);
     batches.push_back(b.trig_batches);
@@ -467,6 +516,13 @@ std::vector<std::string> c_interface(const LoweredModel& model, int per_part, in
                     lanes_prologue(f) + (l.parts.empty() ? c_input_aliases(f, true) : "") + l.body +
                     "}\n");
   }
+}
+
+std::vector<std::string> c_interface(const LoweredModel& model, int per_part, int units) {
+  const ModelFacts& facts = model.facts;
+  std::vector<std::string> texts;
+  std::vector<bool> batches;
+  c_function_texts(model, per_part, texts, batches);
   units = std::max(1, std::min<int>(units, texts.size()));
   std::vector<int> unit_of(texts.size());
   std::vector<size_t> load(units);
@@ -498,48 +554,7 @@ std::vector<std::string> c_interface(const LoweredModel& model, int per_part, in
       result.push_back(s.str());
       continue;
     }
-    s << "const char* const kCoordinateNames[] = {" << quoted_list(facts.coordinate_names) << "};\n"
-      << "const char* const kParameterNames[] = {"
-      << (nominal.empty() ? "\"\"" : quoted_list(facts.parameter_names)) << "};\n"
-      << "const double kNominalParameters[] = {" << (nominal.empty() ? "0.0" : nominal) << "};\n"
-      << "const int kActuatedCoordinates[] = {" << actuated << "};\n"
-      << "const bool kMotorAngleSlots[] = {" << comma_list(facts.motor_angle_slots) << "};\n"
-      << "const char* const kSpanFields[] = {"
-      << (span_names.empty() ? "\"\"" : quoted_list(span_names)) << "};\n"
-      << "const double kSpanValues[] = {"
-      << (span_values.empty() ? "0.0" : number_list(span_values)) << "};\n"
-      << "const int kSpanParameters[] = {"
-      << (span_parameters.empty() ? "-1" : comma_list(span_parameters)) << "};\n}  // namespace\n\n"
-      << "extern \"C\" {\n"
-      << "int spacearm_abi_version() { return " << kCInterfaceVersion << "; }\n"
-      << "int spacearm_nq() { return " << facts.dims.nq << "; }\n"
-      << "int spacearm_nv() { return " << facts.dims.nv << "; }\n"
-      << "int spacearm_num_links() { return " << facts.dims.num_links << "; }\n"
-      << "int spacearm_num_params() { return " << facts.parameter_names.size() << "; }\n"
-      << "int spacearm_num_base() { return " << facts.num_base << "; }\n"
-      << "int spacearm_spatial() { return " << facts.dims.spatial << "; }\n"
-      << "int spacearm_free_floating() { return " << facts.free_floating << "; }\n"
-      << "int spacearm_passive_forces() { return " << facts.has_passive_forces() << "; }\n"
-      << "// Where a quaternion (w, x, y, z) sits in q; -1: none, and q has one entry per "
-         "velocity.\n"
-      << "int spacearm_configuration_layout() { return " << facts.quaternion_offset << "; }\n"
-      << "const char* spacearm_name() { return \"" << facts.name << "\"; }\n"
-      << "const char* spacearm_coordinate_name(int i) { return kCoordinateNames[i]; }\n"
-      << "const char* spacearm_parameter_name(int i) { return kParameterNames[i]; }\n"
-      << "double spacearm_nominal_parameter(int i) { return kNominalParameters[i]; }\n"
-      << "int spacearm_actuated_coordinate(int joint) { return kActuatedCoordinates[joint]; }\n"
-      << "// 1 where the joint's slot in q holds its motor angle qm = p q (a rigid gear, eq. 12).\n"
-      << "int spacearm_slot_holds_motor(int joint) { return kMotorAngleSlots[joint]; }\n"
-      << "unsigned long spacearm_outputs() { return " << output_mask(facts.outputs) << "ul; }\n"
-      << "const char* spacearm_scene_hash() { return \"" << facts.scene_hash << "\"; }\n"
-      << "// The numbers a failure's message spans (spacearm's value_span.hpp): field, literal\n"
-      << "// or nominal value, the run-time parameter that gives it (-1: none).\n"
-      << "int spacearm_num_span_fields() { return " << span_names.size() << "; }\n"
-      << "const char* spacearm_span_field(int i) { return kSpanFields[i]; }\n"
-      << "double spacearm_span_value(int i) { return kSpanValues[i]; }\n"
-      << "int spacearm_span_parameter(int i) { return kSpanParameters[i]; }\n"
-      << "const char* spacearm_parameter_error([[maybe_unused]] const double* params) {\n"
-      << parameter_checks(facts, Spelling::c_arrays) << functions << "}\n";
+    s << c_facts(facts) << functions << "}\n";
     result.push_back(s.str());
   }
   return result;
