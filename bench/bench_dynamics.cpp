@@ -21,10 +21,11 @@
 #include <string>
 #include <vector>
 
+#include "machine_context.hpp"
 #include "model.hpp"
 #include "mujoco_chain.hpp"
 #include "recording_reporter.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 
 #include "paper_geared.hpp"
 #include "paper_reference.hpp"
@@ -544,6 +545,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   benchmark::Initialize(&argc, argv);
+  spacearm::bench::add_machine_context();
   RecordingReporter reporter(g_seconds);
   benchmark::RunSpecifiedBenchmarks(&reporter);
   print_ratio_table();

@@ -24,11 +24,12 @@
 #include <string>
 #include <vector>
 
+#include "machine_context.hpp"
 #include "compiled_model.hpp"
 #include "cpp_emitter.hpp"
 #include "planar_model.hpp"
 #include "recording_reporter.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "symbolic_model.hpp"
 
 #include "chain_n12_geared.hpp"
@@ -266,6 +267,7 @@ int main(int argc, char** argv) {
   warm_up.cache_dir = fresh_cache();
   spacearm::CompiledModel::load(spacearm::load_scene(models[0].first), warm_up);
   benchmark::Initialize(&argc, argv);
+  spacearm::bench::add_machine_context();
   RecordingReporter reporter(g_seconds);
   benchmark::RunSpecifiedBenchmarks(&reporter);
   print_table(names);

@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <random>
 
+#include "machine_context.hpp"
 #include "compiled_model.hpp"
 
 namespace py = pybind11;
@@ -182,6 +183,7 @@ int main(int argc, char** argv) {
   py::module_::import("sys").attr("path").attr("insert")(0, SPACEARM_PYTHON_DIR);
   model();  // compile (or load) before timing
   benchmark::Initialize(&argc, argv);
+  spacearm::bench::add_machine_context();
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
 }

@@ -23,6 +23,7 @@
 #include <random>
 #include <sstream>
 
+#include "machine_context.hpp"
 #include "compiled_model.hpp"
 #include "mujoco_spatial.hpp"
 #include "spatial_scene.hpp"
@@ -218,6 +219,7 @@ void register_all() {
 
 int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
+  spacearm::bench::add_machine_context();
   spacearm::register_all();
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();

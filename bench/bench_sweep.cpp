@@ -23,6 +23,7 @@
 #include <thread>
 #include <vector>
 
+#include "machine_context.hpp"
 #include "mujoco_chain.hpp"
 #include "outputs.hpp"
 #include "sweep.hpp"
@@ -156,6 +157,7 @@ BENCHMARK(BM_MujocoMonteCarloRuns)->ArgName("threads")->Arg(1)->Arg(2)->UseRealT
 int main(int argc, char** argv) {
   runner();  // compile (or load) before timing
   benchmark::Initialize(&argc, argv);
+  spacearm::bench::add_machine_context();
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
 }

@@ -8,7 +8,7 @@
 #include <sstream>
 #include <string>
 
-#include "scene.hpp"
+#include "planar_scene.hpp"
 
 namespace spacearm::bench {
 

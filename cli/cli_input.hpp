@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "model_recipe.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "text_numbers.hpp"
 
 namespace spacearm::cli {

@@ -6,7 +6,7 @@
 #include <iostream>
 
 #include "cpp_emitter.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "model_recipe.hpp"
 
 namespace spacearm {

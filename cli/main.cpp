@@ -25,7 +25,7 @@
 #include "outputs.hpp"
 #include "plan_command.hpp"
 #include "eval_command.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "simulate_command.hpp"
 #include "spatial_scene.hpp"
 #include "sweep_command.hpp"

@@ -11,7 +11,7 @@
 
 #include "comment_rule.hpp"
 #include "emitted_text.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "spatial_scene.hpp"
 #include "urdf_reader.hpp"
 

@@ -13,7 +13,7 @@
 
 #include "cpp_emitter.hpp"
 #include "function_spec.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "spatial_scene.hpp"
 
 namespace spacearm {

@@ -16,7 +16,7 @@
 #include "dynamic_model.hpp"
 #include "model_cache.hpp"
 #include "model_recipe.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 
 namespace spacearm {
 

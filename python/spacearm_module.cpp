@@ -19,7 +19,7 @@
 #include "compiled_model.hpp"
 #include "span_note.hpp"
 #include "dynamics_checks.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "consistent_start.hpp"
 #include "private_folder.hpp"
 #include "integrator_choice.hpp"

@@ -17,7 +17,7 @@
 #include "integrator_options.hpp"
 #include <memory>
 
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "spatial_scene.hpp"
 #include "torque_csv.hpp"
 #include "torque_signal.hpp"

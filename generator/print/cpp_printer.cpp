@@ -262,7 +262,7 @@ inline void sincos_batch(const L4 (&angle)[K], L4 (&s)[K], L4 (&c)[K]) {
 }
 )";
 
-// Which formulation each function was derived by (scene.hpp: Formulation), one line each.
+// Which formulation each function was derived by (planar_scene.hpp: Formulation), one line each.
 std::string formulation_lines(const LoweredModel& model) {
   std::map<std::string, std::string> by_formulation;
   for (const auto& f : model.functions) {

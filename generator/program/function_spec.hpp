@@ -30,7 +30,7 @@ struct FunctionSpec {
   // triangle's roots below the diagonal).
   std::vector<std::vector<SRef>> entries;
   std::string variant;  // the lowering variant kept, e.g. the velocity basis "qd" or "omega"
-  // How its results were derived: "closed form" or "recursive (ABA)", ... (scene.hpp).
+  // How its results were derived: "closed form" or "recursive (ABA)", ... (planar_scene.hpp).
   std::string formulation;
   bool plain = false;               // the benchmark baseline: every expression printed inline
   bool model_constant = false;      // a constant of the model (the gear ratios): no formulation

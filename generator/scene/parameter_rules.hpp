@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "scene.hpp"
+#include "planar_scene.hpp"
 
 namespace spacearm {
 

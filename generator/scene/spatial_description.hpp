@@ -38,7 +38,7 @@ struct Gear {
 };
 
 // Friction on a joint's coordinate rate w (the motor's, qd_m, for a geared joint), opposing
-// motion, as in the plane (scene.hpp's Friction): f(w) = b w + Fc tanh(w/vs)
+// motion, as in the plane (planar_scene.hpp's Friction): f(w) = b w + Fc tanh(w/vs)
 // + (Fs - Fc) exp(-(w/vst)^2) tanh(w/vs). Each value a literal or a run-time parameter.
 struct Friction {
   bool present = false;

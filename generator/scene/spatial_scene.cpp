@@ -8,7 +8,7 @@
 #include <set>
 
 #include "private_folder.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "text_numbers.hpp"
 #include "urdf_reader.hpp"
 #include "yaml_reader.hpp"

@@ -26,7 +26,7 @@
 #include <vector>
 
 #include "parameter_rules.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "spatial_description.hpp"
 
 namespace spacearm {

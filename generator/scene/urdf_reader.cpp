@@ -14,7 +14,7 @@
 #include <set>
 #include <sstream>
 
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "text_numbers.hpp"
 
 namespace spacearm {

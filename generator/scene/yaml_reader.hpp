@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "scene.hpp"
+#include "planar_scene.hpp"
 
 namespace spacearm {
 

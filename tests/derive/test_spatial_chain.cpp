@@ -12,7 +12,7 @@
 #include "integrators.hpp"
 #include "planar_chain.hpp"
 #include "recursive_algorithms.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "support.hpp"
 
 namespace spacearm::spatial {

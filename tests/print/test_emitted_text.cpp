@@ -23,7 +23,7 @@
 #include "cpp_emitter.hpp"
 #include "parameter_rules.hpp"
 #include "planar_model.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "support.hpp"
 #include "symbolic_model.hpp"
 

@@ -4,7 +4,7 @@
 
 #include <algorithm>
 
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "support.hpp"
 
 namespace spacearm {

@@ -15,7 +15,7 @@
 #include <sstream>
 
 #include "recursive_algorithms.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "spatial_chain.hpp"
 #include "spatial_scene.hpp"
 #include "support.hpp"

@@ -13,7 +13,7 @@
 #include <string>
 
 #include "numeric_lagrangian.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 
 // Expects `statement` to throw `type` with a message containing `text`.
 #define EXPECT_THROW_MESSAGE(statement, type, text)                                                \

@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "recursive_algorithms.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "straight_line.hpp"
 
 namespace spacearm {

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "closed_forms.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 
 namespace spacearm {
 

@@ -5,7 +5,7 @@
 #include "parameter_checks.hpp"
 #include "recursive_algorithms.hpp"
 #include "spatial_chain.hpp"
-#include "scene.hpp"
+#include "planar_scene.hpp"
 
 namespace spacearm {
 

@@ -8,7 +8,7 @@
 #include <fstream>
 #include <set>
 
-#include "scene.hpp"
+#include "planar_scene.hpp"
 #include "scene_fuzz_target.hpp"
 
 namespace spacearm {

@@ -1,4 +1,4 @@
-#include "scene.hpp"
+#include "planar_scene.hpp"
 
 #include "emitted_text.hpp"
 #include "parameter_rules.hpp"
