@@ -138,6 +138,8 @@ EmittedModel ModelRecipe::emit(const EmitOptions& options, double* derive_ms) co
   // A planar scene through its Lagrangian derivation, a spatial one through the spatial chain
   // (recorded when lowered): both then share lowering and the printer.
   if (planar_) {
+    // GiNaC from the derivation to lowering's last evaluation (and the model's destruction).
+    const std::lock_guard<std::mutex> lock(ginac_mutex());
     const SymbolicModel model = derive(*planar_);
     derived();
     return emit_cpp(model, options);

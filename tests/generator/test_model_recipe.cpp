@@ -1,0 +1,83 @@
+// The model recipe (generator/model_recipe.hpp): a scene of either kind as its facts, its code
+// and the few scene facts the tools read (gear ratios, the base's inertial), without a caller
+// asking which kind it is; its GiNaC work is safe from several threads.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "model_recipe.hpp"
+
+namespace {
+
+using spacearm::ModelRecipe;
+using spacearm::Output;
+
+std::string source(const char* path) { return std::string(SPACEARM_SOURCE_DIR) + "/" + path; }
+
+// GiNaC's reference counts are plain integers: a planar emit derives and lowers in GiNaC, so
+// emits from several threads (Python's load without the GIL, a sweep) must not interleave.
+TEST(ModelRecipe, EmitsThePlanarCodeFromSeveralThreadsAtOnce) {
+  const ModelRecipe recipe = ModelRecipe::load(source("models/paper_geared.yaml"));
+  const spacearm::EmittedModel serial = recipe.emit({});
+  std::vector<std::string> sources(4);
+  std::vector<std::thread> threads;
+  for (auto& s : sources) threads.emplace_back([&recipe, &s] { s = recipe.emit({}).source; });
+  for (auto& t : threads) t.join();
+  for (const auto& s : sources) EXPECT_EQ(s, serial.source);
+}
+
+TEST(ModelRecipe, GearRatiosAreLiteralsOrTheParametersThatGiveThem) {
+  const ModelRecipe planar = ModelRecipe::load(source("tests/scenes/fixed_n5_geared_params.yaml"));
+  const auto p = planar.gear_ratios();
+  ASSERT_EQ(p.size(), 5u);
+  const auto& names = planar.facts().parameter_names;
+  for (const auto& r : p) {
+    ASSERT_TRUE(r.is_parameter());
+    ASSERT_GE(r.index, 0);
+    EXPECT_EQ(names.at(r.index), "p");
+    EXPECT_EQ(r.value, 20);  // the nominal value
+  }
+  const ModelRecipe spatial = ModelRecipe::load(source("tests/scenes/spatial_arm2.yaml"));
+  const auto s = spatial.gear_ratios();
+  ASSERT_EQ(s.size(), 2u);
+  EXPECT_FALSE(s[0].is_parameter());
+  EXPECT_EQ(s[0].value, 50);
+  EXPECT_EQ(s[1].value, 20);
+  const ModelRecipe reference = ModelRecipe::load(source("models/paper_reference.yaml"));
+  ASSERT_FALSE(reference.gear_ratios().empty());
+  for (const auto& r : reference.gear_ratios()) {  // no gears
+    EXPECT_FALSE(r.is_parameter());
+    EXPECT_EQ(r.value, 1);
+  }
+}
+
+TEST(ModelRecipe, TheBaseInertialIsTheScenes) {
+  const auto planar = ModelRecipe::load(source("models/paper_geared.yaml")).base_inertial();
+  EXPECT_EQ(planar.mass, 64.859);
+  EXPECT_EQ(planar.inertia[5], 2.695);  // izz; the plane has no other entry
+  EXPECT_EQ(planar.inertia[0], 0);
+  const auto spatial = ModelRecipe::load(source("tests/scenes/spatial_arm2.yaml")).base_inertial();
+  EXPECT_GT(spatial.mass, 0);
+  EXPECT_GT(spatial.inertia[0] * spatial.inertia[3] * spatial.inertia[5], 0);
+}
+
+TEST(ModelRecipe, WithOutputsEmitsMoreUnderAnotherContent) {
+  for (const char* path : {"models/paper_geared.yaml", "tests/scenes/spatial_arm2.yaml"}) {
+    SCOPED_TRACE(path);
+    const ModelRecipe recipe = ModelRecipe::load(source(path));
+    const auto& before = recipe.facts().outputs;
+    ASSERT_EQ(std::count(before.begin(), before.end(), Output::forward_dynamics_derivatives), 0);
+    const ModelRecipe more =
+        recipe.with_outputs({Output::forward_dynamics_derivatives, before[0]}, "\n# more");
+    const auto& after = more.facts().outputs;
+    EXPECT_EQ(after.size(), before.size() + 1);  // the one it had is kept once
+    EXPECT_EQ(std::count(after.begin(), after.end(), Output::forward_dynamics_derivatives), 1);
+    EXPECT_NE(more.facts().scene_hash, recipe.facts().scene_hash);
+    EXPECT_EQ(more.content(), recipe.content() + "\n# more");
+  }
+}
+
+}  // namespace
