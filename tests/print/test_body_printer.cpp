@@ -104,5 +104,39 @@ TEST(BodyPrinter, PartsPassValuesThroughTheWorkArrayAndDefineBeforeUse) {
   }
 }
 
+// A value read only in the next part frees its slot there: a long chain passes each link's value
+// on through the same few slots instead of one slot per value, and every slot read in a part was
+// written in an earlier one.
+TEST(BodyPrinter, WorkSlotsAreReusedOnceTheirValueIsRead) {
+  Program p;
+  SRef x = p.input("q", 0);
+  for (int k = 1; k < 40; ++k) x = p.mul({x, p.add({x, p.input("q", k % 7)})});
+  const BodyPrinter printer(p, {{"M(0, 0)", x, ""}}, false, Spelling::eigen, 2);
+  ASSERT_GE(printer.num_parts(), 8);
+  EXPECT_LE(printer.work_size(), 2);
+  const std::regex write(R"(\bw\[(\d+)\] = )"), read(R"(\bw\[(\d+)\])");
+  std::set<std::string> written;
+  size_t writes = 0;
+  for (int k = 0; k < printer.num_parts(); ++k) {
+    std::set<std::string> now;
+    std::string line;
+    std::istringstream in(printer.part(k));
+    while (std::getline(in, line)) {
+      std::smatch m;
+      std::string rest = line;
+      if (std::regex_search(line, m, write) && m.position(0) <= 2) {
+        now.insert(m[1]);
+        rest = m.suffix();
+        ++writes;
+      }
+      for (std::sregex_iterator it(rest.begin(), rest.end(), read), end; it != end; ++it)
+        EXPECT_TRUE(written.count((*it)[1])) << "w[" << (*it)[1] << "] read in part " << k
+                                               << " before any part wrote it";
+    }
+    written.insert(now.begin(), now.end());
+  }
+  EXPECT_GE(writes, static_cast<size_t>(printer.num_parts() - 1));  // a value into every next part
+}
+
 }  // namespace
 }  // namespace spacearm
