@@ -629,7 +629,8 @@ py::dict PyModel::closed_loop(const py::object& plan_given, const std::string& c
           (ct ? "lower omega (computed torque on a model without the plant's springs excites "
                 "them at high gains)"
               : "lower omega or the period (a sampled PD loop needs kd period / (p^2 I_m) "
-                "below about 2, kd = 2 omega)"));
+                "below about 2, kd = 2 omega)") +
+          model_.span_note(params));  // the run-time parameters' span, where they widen it
     }
   }
   return run_result(columns, std::move(rows), plant, choice.why);
