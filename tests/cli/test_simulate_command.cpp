@@ -15,7 +15,6 @@
 
 #include "cli_fixtures.hpp"
 #include "compiled_model.hpp"
-#include "paper_flexible.hpp"
 #include "paper_geared.hpp"
 #include "simulation.hpp"
 #include "support.hpp"
