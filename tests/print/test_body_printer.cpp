@@ -130,8 +130,8 @@ TEST(BodyPrinter, WorkSlotsAreReusedOnceTheirValueIsRead) {
         ++writes;
       }
       for (std::sregex_iterator it(rest.begin(), rest.end(), read), end; it != end; ++it)
-        EXPECT_TRUE(written.count((*it)[1])) << "w[" << (*it)[1] << "] read in part " << k
-                                               << " before any part wrote it";
+        EXPECT_TRUE(written.count((*it)[1]))
+            << "w[" << (*it)[1] << "] read in part " << k << " before any part wrote it";
     }
     written.insert(now.begin(), now.end());
   }
