@@ -18,7 +18,6 @@
 
 namespace spacearm {
 
-// What a model states about itself, whichever way it was built.
 // Joint (or motor) torques tau as generalized forces (eq. 14): Q = tau_i / p_i on the coordinate
 // joint i drives (its slot, or a flexible joint's motor coordinate), 0 elsewhere. The one place
 // that divides by the ratios: DynamicModel and `eval --tau` call it.
@@ -29,6 +28,7 @@ inline void joint_torques_as_forces(const Eigen::VectorXd& tau, const Eigen::Vec
   for (int i = 0; i < ratios.size(); ++i) Q[actuated.at(i)] = tau[i] / ratios[i];
 }
 
+// What a model states about itself, whichever way it was built.
 struct DynamicModelFacts {
   std::string name;
   int nq = 0, nv = 0, num_links = 0;

@@ -217,10 +217,7 @@ class SceneReader {
     read_formulation();  // before the outputs: it decides which are affordable
     coupling_formulation();
     read_outputs();
-    for (const auto& p : s.parameters)
-      if (!used_parameters.count(p.name))
-        r.fail("parameters." + p.name, "parameter '" + p.name + "' is declared but never used",
-               root["parameters"]);
+    declared->refuse_unused(root["parameters"]);
     return s;
   }
 
@@ -229,9 +226,8 @@ class SceneReader {
   const YAML::Node& root;
   const std::string& source_name;
   Scene s;
-  std::map<std::string, int> parameter_index;
-  std::set<std::string> used_parameters;
-  std::map<std::string, YAML::Node> nodes;  // by field, for the range rules' errors
+  std::optional<DeclaredParameters> declared;  // from read_parameters() on
+  std::map<std::string, YAML::Node> nodes;     // by field, for the range rules' errors
   // "gears[1]" -> "gears" where one mapping gives every joint's gear (per_joint).
   std::map<std::string, std::string> joint_fields;
   std::vector<std::function<void()>> after_ranges;  // checks that follow the range rules
@@ -278,26 +274,14 @@ class SceneReader {
 
   void read_parameters() {
     s.parameters = read_scene_parameters(r, root["parameters"]);
-    for (size_t i = 0; i < s.parameters.size(); ++i)
-      parameter_index[s.parameters[i].name] = static_cast<int>(i);
+    declared.emplace(r, s.parameters);
   }
 
   // Resolves a quantity's value (a parameter's nominal one) and keeps its node: its range is
   // checked with the others' (check_ranges).
   Quantity resolved(Quantity q, const std::string& field, const YAML::Node& node) {
     nodes[field] = node;
-    if (q.is_parameter()) {
-      auto it = parameter_index.find(q.parameter);
-      if (it == parameter_index.end())
-        r.fail(
-            field,
-            "refers to parameter '" + q.parameter + "', which is not declared under 'parameters'",
-            node);
-      q.value = s.parameters[it->second].nominal.value;
-      q.index = it->second;
-      used_parameters.insert(q.parameter);
-    }
-    return q;
+    return declared->resolved(std::move(q), field, node);
   }
   Quantity number(const YAML::Node& map, const std::string& key, const std::string& field) {
     const YAML::Node n = r.require(map, key, field);
@@ -411,7 +395,7 @@ class SceneReader {
       gear.motor_inertia =
           resolved(gear.motor_inertia, field + ".motor_inertia", node["motor_inertia"]);
       if (gear.coupling) {
-        if (gear.coupling->is_parameter() && !parameter_index.count(gear.coupling->parameter))
+        if (gear.coupling->is_parameter() && !declared->declared(gear.coupling->parameter))
           r.fail(field + ".rotor_coupling",
                  std::string("expected 'exact', 'armature' or a coupling factor (a number in "
                              "[0, 1], or a parameter declared under 'parameters'), got '") +

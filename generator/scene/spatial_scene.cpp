@@ -99,7 +99,7 @@ class SpatialReader {
     SpatialScene s;
     s.content = text;
     s.parameters = read_scene_parameters(r_, root["parameters"]);  // first: fields refer to them
-    parameters_ = &s.parameters;
+    parameters_.emplace(r_, s.parameters);
     rules_ = &s.run_time_rules;
     s.name = r_.bounded(r_.require(root, "name", ""), "name").Scalar();
     if (!is_identifier(s.name)) r_.fail("name", "'" + s.name + "' is not an identifier");
@@ -126,33 +126,18 @@ class SpatialReader {
         s.chain.tip[k] += R[3 * k] * point[0] + R[3 * k + 1] * point[1] + R[3 * k + 2] * point[2];
     }
     if (root["outputs"]) s.outputs = read_outputs(root["outputs"], s.chain);
-    for (const Parameter& p : s.parameters)
-      if (!used_.count(p.name))
-        r_.fail("parameters." + p.name, "parameter '" + p.name + "' is declared but never used",
-                root["parameters"]);
+    parameters_->refuse_unused(root["parameters"]);
     return s;
   }
 
  private:
   const YamlReader& r_;
-  const std::vector<Parameter>* parameters_ = nullptr;
+  std::optional<DeclaredParameters> parameters_;  // the scene's, once read
   std::vector<RangeRule>* rules_ = nullptr;
-  std::set<std::string> used_;
 
   // A number or a declared parameter, resolved: its nominal value and its index in params.
   Quantity quantity(const YAML::Node& n, const std::string& field) {
-    Quantity q = r_.quantity(n, field);
-    if (!q.is_parameter()) return q;
-    for (size_t i = 0; i < parameters_->size(); ++i)
-      if ((*parameters_)[i].name == q.parameter) {
-        used_.insert(q.parameter);
-        q.index = static_cast<int>(i);
-        q.value = (*parameters_)[i].nominal.value;
-        return q;
-      }
-    r_.fail(field,
-            "refers to parameter '" + q.parameter + "', which is not declared under 'parameters'",
-            n);
+    return parameters_->resolved(r_.quantity(n, field), field, n);
   }
   template <size_t K>
   std::array<Quantity, K> quantities(const YAML::Node& n, const std::string& field) {

@@ -57,4 +57,32 @@ YAML::Node YamlReader::load(const std::string& text) const {
   return root;
 }
 
+bool DeclaredParameters::declared(const std::string& name) const {
+  for (const Parameter& p : parameters_)
+    if (p.name == name) return true;
+  return false;
+}
+
+Quantity DeclaredParameters::resolved(Quantity q, const std::string& field,
+                                      const YAML::Node& node) {
+  if (!q.is_parameter()) return q;
+  for (size_t i = 0; i < parameters_.size(); ++i)
+    if (parameters_[i].name == q.parameter) {
+      used_.insert(q.parameter);
+      q.index = static_cast<int>(i);
+      q.value = parameters_[i].nominal.value;
+      return q;
+    }
+  r_.fail(field,
+          "refers to parameter '" + q.parameter + "', which is not declared under 'parameters'",
+          node);
+}
+
+void DeclaredParameters::refuse_unused(const YAML::Node& node) const {
+  for (const Parameter& p : parameters_)
+    if (!used_.count(p.name))
+      r_.fail("parameters." + p.name, "parameter '" + p.name + "' is declared but never used",
+              node);
+}
+
 }  // namespace spacearm

@@ -155,4 +155,24 @@ class YamlReader {
 // generated code does not use itself, its nominal value a number.
 std::vector<Parameter> read_scene_parameters(const YamlReader& r, const YAML::Node& node);
 
+// A scene's declared parameters as its fields use them, for both kinds of scene: a quantity that
+// names one is resolved to its nominal value and its index in params; one no field names is an
+// error. Keeps a reference to `parameters` (the scene's own, alive while it is read).
+class DeclaredParameters {
+ public:
+  DeclaredParameters(const YamlReader& r, const std::vector<Parameter>& parameters)
+      : r_(r), parameters_(parameters) {}
+  bool declared(const std::string& name) const;
+  // q, resolved where it names a parameter (marked used); fails naming `field` where it names
+  // none that is declared.
+  Quantity resolved(Quantity q, const std::string& field, const YAML::Node& node);
+  // Fails naming the first declared parameter that no field used (`node`: the mapping).
+  void refuse_unused(const YAML::Node& node) const;
+
+ private:
+  const YamlReader& r_;
+  const std::vector<Parameter>& parameters_;
+  std::set<std::string> used_;
+};
+
 }  // namespace spacearm

@@ -76,22 +76,16 @@ class PlanarBuilder : public HornerBuilder {
     }
   }
 
-  // theta_k as partial sums: theta_k = theta_{k-1} + (relative angle of joint k).
-  SRef theta_node(int k) {
-    if (theta_nodes_.count(k)) return theta_nodes_[k];
-    Program& p = program();
-    SRef r = k == 0 ? node_of(m_.theta[0])
-                    : p.add({theta_node(k - 1), node_of((m_.theta[k] - m_.theta[k - 1]).expand())});
-    return theta_nodes_[k] = r;
+  // Body k's angle theta_k or rate Omega_k as a partial sum: x_k = x_{k-1} + (joint k's share).
+  SRef partial_sum(const std::vector<ex>& x, std::map<int, SRef>& nodes, int k) {
+    if (nodes.count(k)) return nodes[k];
+    SRef r =
+        k == 0 ? node_of(x[0])
+               : program().add({partial_sum(x, nodes, k - 1), node_of((x[k] - x[k - 1]).expand())});
+    return nodes[k] = r;
   }
-
-  SRef omega_node(int k) {
-    if (omega_nodes_.count(k)) return omega_nodes_[k];
-    Program& p = program();
-    SRef r = k == 0 ? node_of(m_.omega[0])
-                    : p.add({omega_node(k - 1), node_of((m_.omega[k] - m_.omega[k - 1]).expand())});
-    return omega_nodes_[k] = r;
-  }
+  SRef theta_node(int k) { return partial_sum(m_.theta, theta_nodes_, k); }
+  SRef omega_node(int k) { return partial_sum(m_.omega, omega_nodes_, k); }
 
   SRef trig_node(bool is_cos, int from, int to) {
     Program& p = program();
