@@ -2,7 +2,7 @@
 // (a 7-joint arm on a free base from its URDF, 13 velocities) without gears, with armature gears
 // and with exact rotors, compiled through the compile-and-load cache with its default flags and
 // called through its C interface without checks, against MuJoCo 2.2's mj_forward and its M + bias
-// stages on the same MJCF (tests/support/mujoco_spatial.hpp), without gears and with armature.
+// stages on the same MJCF (spacearm export --mjcf), without gears and with armature.
 // MuJoCo has armature gears only; the exact rotors run on the same states for their cost against
 // the ungeared arm's. Forward dynamics is the articulated-body algorithm. Before anything is timed,
 // the ungeared and the armature model's forward dynamics must equal MuJoCo's to 1e-12. The first/
@@ -25,7 +25,8 @@
 
 #include "machine_context.hpp"
 #include "compiled_model.hpp"
-#include "mujoco_spatial.hpp"
+#include "mjcf_export.hpp"
+#include "mujoco_model.hpp"
 #include "spatial_scene.hpp"
 
 namespace spacearm {
@@ -75,13 +76,14 @@ States states;  // the timed states, the same for every model
 struct Loaded {
   CompiledModel model;
   spatial::ChainDescription chain;
+  std::string mjcf;  // spacearm export --mjcf of the same scene
 };
 Loaded load(Gears gears) {
   const SpatialScene s = arm7(gears);
   CompileOptions options;
   options.cache_dir = (std::filesystem::temp_directory_path() / "spacearm-bench-spatial").string();
   options.flags = compile_flags();  // the default, what eval, simulate and Python get
-  return {CompiledModel::load(ModelRecipe(s), options), s.chain};
+  return {CompiledModel::load(ModelRecipe(s), options), s.chain, export_mjcf(s)};
 }
 
 // MuJoCo's qacc at the states, in the chain's coordinates (qdd_m = p qdd), against ours.
@@ -198,8 +200,7 @@ void register_first_use() {
 void register_all() {
   static const Loaded ungeared = load(Gears::none), armature = load(Gears::armature),
                       exact = load(Gears::exact);
-  static test::MujocoModel mj_ungeared(test::mjcf_of(ungeared.chain)),
-      mj_armature(test::mjcf_of(armature.chain));
+  static test::MujocoModel mj_ungeared(ungeared.mjcf), mj_armature(armature.mjcf);
   states = random_states(armature.chain);
   for (auto [ours, mj] : {std::pair{&ungeared, &mj_ungeared}, {&armature, &mj_armature}}) {
     const double worst = worst_disagreement(*ours, *mj, states);

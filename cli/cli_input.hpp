@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 
 #include <algorithm>
+#include <cstdio>
 #include <set>
 #include <string>
 #include <utility>
@@ -23,6 +24,18 @@ inline std::vector<std::pair<std::string, std::string>> scene_inputs(const std::
   std::vector<std::pair<std::string, std::string>> inputs = {{"the scene", scene_path}};
   for (const std::string& path : recipe.read_files()) inputs.push_back({"the scene's URDF", path});
   return inputs;
+}
+
+// Says a scene's warnings once, on stderr (the command's output stays clean).
+inline void say_warnings(const std::vector<std::string>& warnings) {
+  for (const std::string& w : warnings) std::fprintf(stderr, "spacearm: warning: %s\n", w.c_str());
+}
+
+// A scene file as a recipe (SceneError naming the file), its warnings said.
+inline ModelRecipe load_scene(const std::string& path) {
+  ModelRecipe recipe = ModelRecipe::load(path);
+  say_warnings(recipe.warnings());
+  return recipe;
 }
 
 // Parses "a,b,c" for option `name` into exactly n finite numbers (strictly: no empty

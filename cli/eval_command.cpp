@@ -132,7 +132,7 @@ Eigen::VectorXd generalized_forces(const ModelRecipe& recipe, const Eigen::Vecto
 }  // namespace
 
 int run_eval(const EvalArgs& a) {
-  const ModelRecipe scene = ModelRecipe::load(a.scene_path);
+  const ModelRecipe scene = cli::load_scene(a.scene_path);
   const ModelFacts& facts = scene.facts();
   const int nq = facts.dims.nq, nv = facts.dims.nv, N = facts.dims.num_links;
   if (a.symbolic && !scene.has_closed_forms())
@@ -142,7 +142,14 @@ int run_eval(const EvalArgs& a) {
     return text.empty() ? Eigen::VectorXd::Zero(size) : cli::parse_vector(text, option, size);
   };
   EvalInputs in;
-  in.values[Input::q] = cli::parse_vector(a.q_text, "--q", nq);
+  if (a.q_text.empty()) {  // the home state, said so (MuJoCo's qpos0)
+    in.values[Input::q] = ConfigurationSpace{nq, nv, facts.quaternion_offset}.neutral();
+    std::fprintf(stderr,
+                 "spacearm: --q not given: the home state (base at the origin%s, joints at 0)\n",
+                 facts.quaternion_offset >= 0 ? ", identity quaternion" : "");
+  } else {
+    in.values[Input::q] = cli::parse_vector(a.q_text, "--q", nq);
+  }
   const int first_angle = ConfigurationSpace::first_angle(facts.free_floating, facts.dims.spatial);
   if (const std::string e = ConfigurationSpace::angle_error(in.values[Input::q], first_angle, "--q",
                                                             facts.coordinate_names);

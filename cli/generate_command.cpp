@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <iostream>
 
+#include "cli_input.hpp"
 #include "cpp_emitter.hpp"
 #include "planar_scene.hpp"
 #include "model_recipe.hpp"
@@ -41,6 +42,7 @@ Generated generate(const std::string& text, const std::string& path, const EmitO
   Generated g;
   const auto t = std::chrono::steady_clock::now();
   const ModelRecipe recipe = ModelRecipe::parse(text, path);
+  cli::say_warnings(recipe.warnings());
   g.emitted = recipe.emit(options, &g.derive_ms);
   g.emit_ms = ms_since(t) - g.derive_ms;
   g.coordinates = recipe.facts().dims.nq;
@@ -87,7 +89,7 @@ int run_generate(const GenerateArgs& a) {
 }
 
 int run_inspect(const InspectArgs& a) {
-  std::cout << ModelRecipe::load(a.scene_path).inspect_entry(a.entry, a.latex, a.decimal);
+  std::cout << cli::load_scene(a.scene_path).inspect_entry(a.entry, a.latex, a.decimal);
   return 0;
 }
 

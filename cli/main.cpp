@@ -25,6 +25,7 @@
 #include "outputs.hpp"
 #include "plan_command.hpp"
 #include "eval_command.hpp"
+#include "export_command.hpp"
 #include "planar_scene.hpp"
 #include "simulate_command.hpp"
 #include "spatial_scene.hpp"
@@ -124,6 +125,23 @@ CLI::App* add_generate(CLI::App& app, spacearm::GenerateArgs& a) {
   return command;
 }
 
+// The export subcommand's options.
+CLI::App* add_export(CLI::App& app, spacearm::ExportArgs& a) {
+  auto* command = app.add_subcommand(
+      "export", "Write a spatial scene as another tool's model (--mjcf: MuJoCo's MJCF)");
+  command->add_option("scene", a.scene_path, "Scene file (YAML, space: spatial)")->required();
+  command->add_flag("--mjcf", a.mjcf,
+                    "A MuJoCo model in space (no gravity, no contacts) in spacearm's coordinates, "
+                    "except that a geared joint's angle is the link angle qm / p");
+  command->add_option("-o,--output", a.output_file, "The model file to write")->required();
+  command->add_option("--param", a.param_assignments,
+                      "name=value: a run-time parameter's value (default: its nominal value)");
+  command->add_flag("--balance-inertia", a.balance_inertia,
+                    "Let MuJoCo change bodies whose inertia is not physical (balanceinertia) "
+                    "instead of refusing them: its model then differs from spacearm's");
+  return command;
+}
+
 // The inspect subcommand's options.
 CLI::App* add_inspect(CLI::App& app, spacearm::InspectArgs& a) {
   auto* command = app.add_subcommand("inspect", "Print one symbolic entry of the derived model");
@@ -152,7 +170,9 @@ CLI::App* add_eval(CLI::App& app, spacearm::EvalArgs& a) {
   auto* command = app.add_subcommand(
       "eval", "Evaluate a scene's quantities at a state (compiled and cached, or --symbolic)");
   command->add_option("scene", a.scene_path, "Scene file (YAML)")->required();
-  command->add_option("--q", a.q_text, "Coordinates, comma-separated")->required();
+  command->add_option("--q", a.q_text,
+                      "Coordinates, comma-separated (default: the home state: base at the origin, "
+                      "identity quaternion, joints at 0)");
   command->add_option("--qd", a.qd_text, "Velocities, comma-separated (default: zeros)");
   command->add_option("--qdd", a.qdd_text, "Accelerations for inverse_dynamics (default: zeros)");
   auto* forces = command->add_option("--forces", a.forces_text,
@@ -239,7 +259,8 @@ CLI::App* add_simulate(CLI::App& app, spacearm::SimulateArgs& a) {
       ->check(positive_number(true));
   command
       ->add_option("--q0", a.q0_text,
-                   "Initial coordinates (default: zeros; motor angles qm = p q if geared)")
+                   "Initial coordinates (default: the home state: base at the origin, identity "
+                   "quaternion, joints at 0; motor angles qm = p q if geared)")
       ->excludes(plan_opt);
   command->add_option("--qd0", a.qd0_text, "Initial velocities (default: zeros)")
       ->excludes(plan_opt);
@@ -410,6 +431,7 @@ int main(int argc, char** argv) {
   spacearm::PlanArgs plan_args;
   spacearm::SweepArgs sweep_args;
   spacearm::ViewArgs view_args;
+  spacearm::ExportArgs export_args;
   CLI::App* generate = add_generate(app, generate_args);
   add_inspect(app, inspect_args);
   CLI::App* eval = add_eval(app, eval_args);
@@ -417,6 +439,7 @@ int main(int argc, char** argv) {
   CLI::App* plan = add_plan(app, plan_args);
   CLI::App* sweep = add_sweep(app, sweep_args);
   CLI::App* view = add_view(app, view_args);
+  CLI::App* export_command = add_export(app, export_args);
 
   // Parse errors get the same prefix and exit code (1) as every other error; --help exits 0.
   try {
@@ -450,6 +473,7 @@ int main(int argc, char** argv) {
       view_args.command_line = command_line(argc, argv);
       return spacearm::run_view(view_args);
     });
+  if (*export_command) return guarded([&] { return spacearm::run_export(export_args); });
   if (*eval)
     return guarded([&] {
       const int status = spacearm::run_eval(eval_args);

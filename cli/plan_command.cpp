@@ -7,6 +7,7 @@
 
 #include "provenance.hpp"
 #include "cli_input.hpp"
+#include "joint_limits.hpp"
 #include "compiled_model.hpp"
 #include "row_writer.hpp"
 #include "trajectory_planning.hpp"
@@ -108,7 +109,7 @@ StraightLineTask task_from_options(const PlanArgs& a, const ModelFacts& facts) {
 constexpr double kSpike = 100;
 
 int run_plan(const PlanArgs& a) {
-  const ModelRecipe recipe = ModelRecipe::load(a.scene_path);
+  const ModelRecipe recipe = cli::load_scene(a.scene_path);
   const ModelFacts& facts = recipe.facts();
   check_outputs(facts);
   const StraightLineTask task = task_from_options(a, facts);
@@ -166,6 +167,8 @@ int run_plan(const PlanArgs& a) {
                  "%.2e (largest |qdd| %.2e): --dt is coarse for this motion, or the plan is "
                  "inaccurate\n",
                  plan.max_acceleration_mismatch, qdd_peak);
+  std::vector<Eigen::VectorXd> tau(plan.tau.begin(), plan.tau.end());
+  cli::report_limit_use(cli::limit_use(recipe, params, tau, plan.qd));
   if (!plan.base_residual.empty())
     std::fprintf(stderr,
                  "spacearm: free base: max |momentum| %.2e, max force on the base (eq. 5 base "

@@ -522,7 +522,7 @@ int simulate_loaded(const SimulateArgs& a, const ModelRecipe& scene, const Compi
 int run_simulate(const SimulateArgs& args) {
   // Everything the run needs is checked before the output file is opened.
   SimulateArgs a = args;
-  const ModelRecipe scene = ModelRecipe::load(a.scene_path);
+  const ModelRecipe scene = cli::load_scene(a.scene_path);
   const ModelFacts& facts = scene.facts();
   const bool passive = facts.has_passive_forces();
   const auto wants = [&facts](Output o) {

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <thread>
 
+#include "cli_input.hpp"
 #include "stop_on_signals.hpp"
 #include "sweep.hpp"
 
@@ -19,6 +20,7 @@ void say(const std::string& line) { std::fprintf(stderr, "spacearm: %s\n", line.
 int run_sweep_command(const SweepArgs& a) {
   const Shard shard = parse_shard(a.shard);
   Study study = load_study(a.study_path);
+  if (study.scene.is_spatial()) cli::say_warnings(study.scene.spatial->warnings);
   const long runs = study.num_runs();
   CompileOptions compile;
   compile.cache_dir = a.cache_dir;

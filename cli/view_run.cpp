@@ -68,7 +68,7 @@ std::unique_ptr<ModelRecipe> view_recipe(ModelRecipe recipe) {
 
 LoadedScene load_scene(const ViewArgs& a) {
   LoadedScene s;
-  s.recipe = view_recipe(ModelRecipe::load(a.scene_path));
+  s.recipe = view_recipe(cli::load_scene(a.scene_path));
   CompileOptions options;
   options.cache_dir = a.cache_dir;
   options.progress = [&](const std::string& m) {

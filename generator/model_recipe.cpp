@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <map>
 #include <mutex>
 #include <sstream>
@@ -114,6 +115,37 @@ ModelRecipe::BaseInertial ModelRecipe::base_inertial() const {
     b.inertia = base.inertia_values();
   }
   return b;
+}
+
+std::string ModelRecipe::parameter_error(const std::vector<double>& params) const {
+  const std::vector<std::string>& names = facts_.parameter_names;
+  if (params.size() != names.size())
+    throw std::invalid_argument("parameter_error: " + std::to_string(params.size()) +
+                                " values for " + std::to_string(names.size()) + " parameters");
+  for (size_t i = 0; i < params.size(); ++i)
+    if (!std::isfinite(params[i])) return "parameter '" + names[i] + "' is not finite";
+  auto input = [&params](const std::string&, int i) { return params.at(i); };
+  for (const ParameterCheck& c : facts_.checks) {
+    const double v = facts_.checks_program.evaluate({c.value}, input)[0];
+    if (!(c.strict ? v > 0 : v >= 0)) return c.message;
+  }
+  return "";
+}
+
+std::vector<std::string> ModelRecipe::joint_names() const {
+  if (spatial_ && !spatial_->joint_names.empty()) return spatial_->joint_names;
+  std::vector<std::string> names;
+  for (int j = 0; j < facts_.dims.num_links; ++j) names.push_back("joint" + std::to_string(j + 1));
+  return names;
+}
+
+std::vector<spatial::JointLimits> ModelRecipe::joint_limits() const {
+  if (spatial_ && !spatial_->joint_limits.empty()) return spatial_->joint_limits;
+  return std::vector<spatial::JointLimits>(facts_.dims.num_links);
+}
+
+std::vector<std::string> ModelRecipe::warnings() const {
+  return spatial_ ? spatial_->warnings : std::vector<std::string>{};
 }
 
 std::vector<std::string> ModelRecipe::read_files() const {

@@ -38,6 +38,12 @@ class ModelRecipe {
   // Every byte the model is made from: its hash names the cache entry and the library.
   const std::string& content() const;
   const std::string& source_path() const;
+  // Why the run-time parameter values (in the scene's order) break the scene's range rules, as
+  // the generated parameter_error() says it ("" if they do not): without compiling the model.
+  std::string parameter_error(const std::vector<double>& params) const;
+  // What a command says once on reading the scene (spatial bodies that inertia_check:
+  // positive_definite takes though they are not physical), each naming the scene.
+  std::vector<std::string> warnings() const;
   // The files besides the scene that it was read from (a spatial scene's URDF), as opened.
   std::vector<std::string> read_files() const;
   // Derives and emits the model; derive_ms (when given) receives the derivation's time.
@@ -65,6 +71,10 @@ class ModelRecipe {
   // The same scene with the outputs `extra` emitted too (those it already emits are kept once)
   // and `note` appended to its content (so the cache tells the two apart).
   ModelRecipe with_outputs(const std::vector<Output>& extra, const std::string& note) const;
+  // Per joint, its name (a URDF's, else "joint1" ...) and a URDF's <limit> and <dynamics>
+  // (none given for the YAML forms).
+  std::vector<std::string> joint_names() const;
+  std::vector<spatial::JointLimits> joint_limits() const;
   // Per joint, its gear ratio p (1 without a gear), a literal or a run-time parameter
   // (Quantity::index): joint torques act as tau / p (eq. 14).
   std::vector<Quantity> gear_ratios() const;

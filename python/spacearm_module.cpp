@@ -637,10 +637,14 @@ py::dict PyModel::closed_loop(const py::object& plan_given, const std::string& c
 }
 
 // The YAML text of a scene (it has line breaks), else the path of a scene file; either kind.
+// Its warnings (bodies inertia_check: positive_definite takes) become Python's UserWarnings.
 ModelRecipe scene_from(const std::string& path_or_text) {
-  if (path_or_text.find('\n') != std::string::npos)
-    return ModelRecipe::parse(path_or_text, "<yaml text>");
-  return ModelRecipe::load(path_or_text);
+  ModelRecipe recipe = path_or_text.find('\n') != std::string::npos
+                           ? ModelRecipe::parse(path_or_text, "<yaml text>")
+                           : ModelRecipe::load(path_or_text);
+  for (const std::string& w : recipe.warnings())
+    if (PyErr_WarnEx(PyExc_UserWarning, w.c_str(), 1) != 0) throw py::error_already_set();
+  return recipe;
 }
 
 PyModel load(const std::string& scene_text, const py::object& params,

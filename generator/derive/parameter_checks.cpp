@@ -47,13 +47,16 @@ void add_parameter_checks(const std::vector<RangeRule>& rules, ModelFacts& facts
   };
   for (const RangeRule& rule : rules) {
     if (!rule.at_run_time || !rule.uses_parameter()) continue;
-    if (rule.physical_inertia) {
+    if (rule.inertia != InertiaRule::none) {
       std::array<Sym, 6> i;
       for (int k = 0; k < 6; ++k) {
         const Quantity& q = rule.terms.at(k).quantity;
         i[k] = q.is_parameter() ? Sym(&p, value(q)) : Sym::number(&p, q.value);
       }
-      for (const auto& [v, strict] : physical_inertia(i))
+      auto conditions = physical_inertia(i);
+      if (rule.inertia == InertiaRule::positive_definite)
+        conditions.resize(3);  // the leading minors alone
+      for (const auto& [v, strict] : conditions)
         if (!v.is_zero())  // 0 >= 0 (a strict one cannot fold to 0: the reader checked it)
           facts.checks.push_back({v.ref(), strict, rule.message});
       continue;

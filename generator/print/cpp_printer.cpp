@@ -355,8 +355,12 @@ std::string header_constants(const ModelFacts& facts) {
     << quoted_list(facts.parameter_names) << "};\n"
     << "inline constexpr std::array<double, kNumParams> kNominalParameters = {"
     << number_list(facts.nominal_parameters) << "};\n"
-    << "inline constexpr const char* kSceneHash = \"" << facts.scene_hash << "\";\n"
-    << parameter_error_function(facts);
+    << "inline constexpr const char* kSceneHash = \"" << facts.scene_hash << "\";\n";
+  if (!facts.inertia_check.empty())  // a spatial arm's
+    h << "// The bodies' inertias: \"physical\" (a rigid body's) or \"positive_definite\" (as "
+         "given).\n"
+      << "inline constexpr const char* kInertiaCheck = \"" << facts.inertia_check << "\";\n";
+  h << parameter_error_function(facts);
   for (const auto& o : output_registry()) {
     const bool has = std::count(facts.outputs.begin(), facts.outputs.end(), o.id) != 0;
     h << "inline constexpr bool kHas_" << o.name << " = " << (has ? "true" : "false") << ";\n";

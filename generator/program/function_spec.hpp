@@ -60,6 +60,9 @@ struct ModelFacts {
   std::vector<double> nominal_parameters;
   std::string scene_hash;   // "fnv1a64:..."
   std::string formulation;  // the scene's: "auto", "closed" or "recursive"
+  // A spatial arm's bodies' inertias as the scene checked them: "physical" or "positive_definite"
+  // (identified tensors as given); empty for a planar model.
+  std::string inertia_check;
   std::vector<Output> outputs;
   unsigned features = 0;  // needs:: bits of the scene (outputs.hpp)
   // Springs, dampers or friction act besides M qdd + b.

@@ -11,7 +11,8 @@ bool RangeRule::uses_parameter() const {
 }
 
 bool RangeRule::holds() const {
-  if (physical_inertia) return true;  // the spatial reader's own check (inertia_problem)
+  if (inertia != InertiaRule::none)
+    return true;  // the spatial reader's own check (inertia_problem)
   double value = 0;
   for (const RangeTerm& t : terms)
     value += t.constant ? t.coefficient : t.coefficient * t.quantity.value;

@@ -22,6 +22,12 @@ struct RangeTerm {
   Quantity quantity;
 };
 
+// What a spatial body's inertia tensor about its centre must be (a scene's `inertia_check`):
+// physical, a rigid body's (positive definite, each principal moment at most the sum of the other
+// two); or positive_definite, any symmetric positive definite tensor (identified parameters, such
+// as a link tensor holding its motor's reflected inertia, often break the triangle inequality).
+enum class InertiaRule { none, physical, positive_definite };
+
 struct RangeRule {
   std::string field;             // the field an error names: "gears[0].ratio"
   std::string node_field;        // the field whose YAML node an error points at (empty: field)
@@ -31,10 +37,10 @@ struct RangeRule {
   std::string literal_message;   // at parse time, with the values: "must be positive, got 0"
   bool at_parse = true;          // the scene checks it
   bool at_run_time = true;       // parameter_error() checks it (where it uses a parameter)
-  // The terms are an inertia tensor's six entries (ixx, ixy, ixz, iyy, iyz, izz), which must be
-  // physical: positive definite, principal moments within the triangle inequality (the spatial
-  // reader checks the nominal tensor itself, so such a rule is never checked at parse).
-  bool physical_inertia = false;
+  // Not none: the terms are an inertia tensor's six entries (ixx, ixy, ixz, iyy, iyz, izz), which
+  // must be physical or positive definite (the spatial reader checks the nominal tensor itself,
+  // so such a rule is never checked at parse).
+  InertiaRule inertia = InertiaRule::none;
 
   bool uses_parameter() const;
   bool holds() const;  // at the literal and nominal values

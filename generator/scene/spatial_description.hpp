@@ -115,6 +115,17 @@ struct ChainDescription {
   int q_index(int v) const { return free_base && v >= 6 ? v + 1 : v; }
 };
 
+// A URDF joint's <limit> and <dynamics>, on the link side: effort [N m] and velocity [rad/s]
+// (0 or absent: none given, as URDFs write placeholders), and damping [N m s/rad] and friction
+// [N m]. Not part of the model: plans and runs are measured against the limits, and the scene's
+// `friction: {from_urdf: true}` turns the dynamics into joint friction.
+struct JointLimits {
+  double effort = 0, velocity = 0;
+  double damping = 0, friction = 0;
+  bool has_effort() const { return effort > 0; }
+  bool has_velocity() const { return velocity > 0; }
+};
+
 // A part's frame as the transform from the link's frame to the part's.
 inline Transform<double> part_frame(const Part& p) {
   return {transposed(rpy_rotation(p.rpy)), {p.xyz[0], p.xyz[1], p.xyz[2]}};

@@ -26,43 +26,36 @@ std::string number_text(double v) {
 
 constexpr int kMaxLinks = 30;  // as in the plane
 
-// Why a body's inertia about its centre is not physical ("" if it is): positive definite with
-// principal moments that satisfy the triangle inequality.
-std::string inertia_problem(const spatial::Inertial& l) {
+// A body's inertia about its centre as its principal moments, and which rules it keeps.
+struct PrincipalMoments {
+  Eigen::Vector3d m;  // ascending
+  bool positive_definite = false, physical = false;
+  std::string text() const {
+    return "principal moments " + number_text(m[0]) + ", " + number_text(m[1]) + ", " +
+           number_text(m[2]);
+  }
+};
+
+PrincipalMoments principal_moments(const spatial::Inertial& l) {
   const auto i = l.inertia_values();
   Eigen::Matrix3d I;
   I << i[0], i[1], i[2], i[1], i[3], i[4], i[2], i[4], i[5];
-  const Eigen::Vector3d m = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I).eigenvalues();
-  const double slack = 1e-12 * m.cwiseAbs().maxCoeff();
-  if (m.minCoeff() > 0 && m[0] + m[1] >= m[2] - slack) return "";
-  return "not a physical inertia (principal moments " + number_text(m[0]) + ", " +
-         number_text(m[1]) + ", " + number_text(m[2]) +
-         ": each must be positive and at most the sum of the other two)";
+  PrincipalMoments p;
+  p.m = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I).eigenvalues();
+  const double slack = 1e-12 * p.m.cwiseAbs().maxCoeff();  // a flat plate or a thin rod passes
+  p.positive_definite = p.m.minCoeff() > 0;
+  p.physical = p.positive_definite && p.m[0] + p.m[1] >= p.m[2] - slack;
+  return p;
 }
 
-// A body's inertial with its parts (a URDF's links given by the scene) at their nominal values:
-// what must be physical as a whole (a part alone, or the rest alone, may be a point mass).
-spatial::Inertial whole_body(const spatial::Link& l) {
-  if (l.parts.empty()) return l;
-  auto rigid = [](const spatial::Inertial& b) {  // about the frame's origin
-    const auto c = b.com_values();
-    return spatial::about_origin(b.mass.value, {c[0], c[1], c[2]}, b.inertia_values(),
-                                 [](double x) { return x; });
-  };
-  spatial::RigidInertia<double> sum = rigid(l);
-  for (const spatial::Part& p : l.parts)
-    sum = sum + spatial::in_parent(spatial::part_frame(p), rigid(p.inertial));
-  spatial::Inertial whole;
-  whole.mass = sum.m;
-  if (!(sum.m > 0)) return whole;
-  const spatial::Vec3<double> c = spatial::scaled(sum.h, 1 / sum.m);
-  spatial::Mat3<double> I = sum.I;  // back to the centre: I_c = I_o - m (|c|^2 1 - c c^T)
-  for (int r = 0; r < 3; ++r)
-    for (int k = 0; k < 3; ++k)
-      I[3 * r + k] -= sum.m * ((r == k ? spatial::dot(c, c) : 0) - c[r] * c[k]);
-  whole.com = {c[0], c[1], c[2]};
-  whole.inertia = {I[0], I[1], I[2], I[4], I[5], I[8]};
-  return whole;
+// Why `check` refuses a body's inertia ("" if it does not).
+std::string inertia_problem(const PrincipalMoments& p, InertiaRule check) {
+  if (check == InertiaRule::positive_definite)
+    return p.positive_definite ? ""
+                               : "not positive definite (" + p.text() + ": each must be positive)";
+  return p.physical ? ""
+                    : "not a physical inertia (" + p.text() +
+                          ": each must be positive and at most the sum of the other two)";
 }
 
 // A given URDF link's field in the scene's errors: inertials.NAME (quoted unless an identifier).
@@ -93,9 +86,10 @@ class SpatialReader {
 
   SpatialScene read(const YAML::Node& root, const std::string& text,
                     const UrdfFileReader& read_file) {
-    r_.check_keys(root, "",
-                  {"name", "description", "space", "base", "links", "urdf", "end_effector_link",
-                   "gears", "friction", "end_effector", "outputs", "parameters", "inertials"});
+    r_.check_keys(
+        root, "",
+        {"name", "description", "space", "base", "links", "urdf", "end_effector_link", "gears",
+         "friction", "end_effector", "outputs", "parameters", "inertials", "inertia_check"});
     SpatialScene s;
     s.content = text;
     s.parameters = read_scene_parameters(r_, root["parameters"]);  // first: fields refer to them
@@ -105,6 +99,7 @@ class SpatialReader {
     if (!is_identifier(s.name)) r_.fail("name", "'" + s.name + "' is not an identifier");
     const std::string space = r_.bounded(r_.require(root, "space", ""), "space").Scalar();
     if (space != "spatial") r_.fail("space", "expected 'spatial', got '" + space + "'");
+    if (root["inertia_check"]) read_inertia_check(root["inertia_check"], s);
     if (root["urdf"]) {
       read_urdf_chain(root, s, read_file);
     } else {
@@ -118,7 +113,13 @@ class SpatialReader {
         s.chain.links.push_back(read_link(links[i], "links[" + std::to_string(i) + "]"));
     }
     if (root["gears"]) read_gears(root["gears"], s.chain);
-    if (root["friction"]) read_friction(root["friction"], s.chain);
+    const bool from_urdf =
+        root["friction"] && root["friction"].IsMap() && root["friction"]["from_urdf"];
+    if (from_urdf)
+      read_urdf_friction(root["friction"], s);
+    else if (root["friction"])
+      read_friction(root["friction"], s.chain);
+    if (!from_urdf) note_ignored_dynamics(s);
     if (root["end_effector"]) {  // a point in the end-effector frame (URDF: its link's)
       const std::array<double, 3> point = vec3(root["end_effector"], "end_effector");
       const spatial::Mat3<double> R = spatial::rpy_rotation(s.chain.tip_rpy);
@@ -127,6 +128,7 @@ class SpatialReader {
     }
     if (root["outputs"]) s.outputs = read_outputs(root["outputs"], s.chain);
     parameters_->refuse_unused(root["parameters"]);
+    if (!not_physical_.empty()) s.warnings.push_back(accepted_text(not_physical_));
     return s;
   }
 
@@ -134,6 +136,26 @@ class SpatialReader {
   const YamlReader& r_;
   std::optional<DeclaredParameters> parameters_;  // the scene's, once read
   std::vector<RangeRule>* rules_ = nullptr;
+  InertiaRule check_ = InertiaRule::physical;  // the scene's inertia_check
+  std::vector<std::string> not_physical_;      // bodies positive_definite accepts, with moments
+
+  void read_inertia_check(const YAML::Node& n, SpatialScene& s) {
+    const std::string c = r_.bounded(n, "inertia_check").Scalar();
+    if (c != "physical" && c != "positive_definite")
+      r_.fail("inertia_check", "expected physical or positive_definite, got " + quoted_text(c), n);
+    check_ = s.inertia_check =
+        c == "physical" ? InertiaRule::physical : InertiaRule::positive_definite;
+  }
+  // The one warning for the bodies that positive_definite accepts though no rigid body has them.
+  static std::string accepted_text(const std::vector<std::string>& bodies) {
+    std::string listed;
+    for (const std::string& b : bodies) listed += (listed.empty() ? "" : "; ") + b;
+    return "inertia_check: positive_definite takes " + std::to_string(bodies.size()) +
+           (bodies.size() == 1 ? " body" : " bodies") +
+           " whose inertia no rigid body has (a principal moment above the sum of the other two, "
+           "as identified parameters may be): " +
+           listed;
+  }
 
   // A number or a declared parameter, resolved: its nominal value and its index in params.
   Quantity quantity(const YAML::Node& n, const std::string& field) {
@@ -194,17 +216,24 @@ class SpatialReader {
     rule(true, rule_field + ".mass", l.mass);
     if (n["com"]) l.com = quantities<3>(n["com"], field + ".com");
     l.inertia = quantities<6>(r_.require(n, "inertia", field), field + ".inertia");
-    const std::string why = inertia_problem(l);
-    if (!why.empty()) r_.fail(field + ".inertia", why, n["inertia"]);
+    const PrincipalMoments p = principal_moments(l);
+    if (const std::string why = inertia_problem(p, check_); !why.empty())
+      r_.fail(field + ".inertia",
+              why + (p.positive_definite ? "; for identified parameters, inertia_check: "
+                                           "positive_definite takes any positive definite tensor"
+                                         : ""),
+              n["inertia"]);
+    if (!p.physical) not_physical_.push_back(field + " (" + p.text() + ")");
     if (std::any_of(l.inertia.begin(), l.inertia.end(),
                     [](const Quantity& q) { return q.is_parameter(); })) {
       RangeRule tensor;
       tensor.field = rule_field + ".inertia";
       for (const Quantity& q : l.inertia) tensor.terms.push_back({1, false, q});
-      tensor.physical_inertia = true;
-      tensor.message = tensor.field +
-                       " must be a physical inertia (positive definite, principal moments within "
-                       "the triangle inequality)";
+      tensor.inertia = check_;
+      tensor.message = tensor.field + (check_ == InertiaRule::physical
+                                           ? " must be a physical inertia (positive definite, "
+                                             "principal moments within the triangle inequality)"
+                                           : " must be positive definite");
       rules_->push_back(run_time_rule(std::move(tensor)));
     }
   }
@@ -269,21 +298,55 @@ class SpatialReader {
       r_.check_keys(n, field, {"mass", "com", "inertia"});
       read_inertial(n, field, l.parts[part].inertial, inertials_field(name, k));
     }
-    // A body's URDF inertial (what is lumped from its links), unless the scene gives them all.
-    auto check = [&](const spatial::Link& body_link, const std::string& body) {
-      const spatial::Inertial l = whole_body(body_link);
-      std::string why = !(l.mass.value > 0)
-                            ? "its mass, " + number_text(l.mass.value) + ", must be positive"
-                            : inertia_problem(l);
-      if (!why.empty())
-        r_.fail("urdf", "URDF '" + path + "', the body of " + body + ": " + why, root["urdf"]);
-    };
-    if (u.chain.free_base) check(u.chain.base, "the root link " + quoted_text(u.root_link));
-    for (size_t i = 0; i < u.chain.links.size(); ++i)
-      check(u.chain.links[i], "joint " + quoted_text(u.joint_names[i]));
+    check_urdf_bodies(u, path, root["urdf"]);
     s.chain = u.chain;
     s.joint_names = u.joint_names;
+    s.joint_limits = u.limits;
+    for (const auto& links : u.body_links) s.body_names.push_back(links.front());
     s.content += std::string("\0urdf ", 6) + path + '\0' + xml;
+  }
+
+  // Every moving body's inertial as lumped from its URDF links (with the scene's parts), checked
+  // together: one message lists every body refused, by its links' names, with both remedies.
+  void check_urdf_bodies(const UrdfChain& u, const std::string& path, const YAML::Node& node) {
+    std::vector<std::string> refused;
+    bool mass_only = true;
+    for (size_t b = u.chain.free_base ? 0 : 1; b <= u.chain.links.size(); ++b) {
+      const std::vector<std::string>& links = u.body_links.at(b);
+      std::string name = links.size() == 1 ? "link " : "links ";
+      for (size_t k = 0; k < links.size(); ++k) name += (k ? " + " : "") + quoted_text(links[k]);
+      const spatial::Inertial l = whole_body(b == 0 ? u.chain.base : u.chain.links[b - 1],
+                                             [](const Quantity& q) { return q.value; });
+      if (!(l.mass.value > 0)) {
+        refused.push_back(name + " (mass " + number_text(l.mass.value) + ": must be positive)");
+        continue;
+      }
+      const PrincipalMoments p = principal_moments(l);
+      if (!inertia_problem(p, check_).empty()) {
+        refused.push_back(name + " (" + p.text() + ")");
+        mass_only = false;
+      } else if (!p.physical) {
+        not_physical_.push_back(name + " (" + p.text() + ")");
+      }
+    }
+    if (refused.empty()) return;
+    std::string listed;
+    for (const std::string& b : refused) listed += (listed.empty() ? "" : "; ") + b;
+    const bool physical = check_ == InertiaRule::physical;
+    r_.fail(
+        "urdf",
+        "URDF '" + path + "': " + std::to_string(refused.size()) +
+            (refused.size() == 1 ? " body is" : " bodies are") + " refused: " + listed +
+            (mass_only  ? ""
+             : physical ? ". A rigid body's inertia is positive definite, each principal moment at "
+                          "most the sum of the other two"
+                        : ". inertia_check: positive_definite takes a positive definite tensor") +
+            ". Remedies: give the link's inertial in the scene (inertials: {LINK: {mass, com, "
+            "inertia}})" +
+            (physical && !mass_only ? ", or, for identified parameters, inertia_check: "
+                                      "positive_definite (any positive definite tensor)"
+                                    : ""),
+        node);
   }
 
   void read_base(const YAML::Node& n, spatial::ChainDescription& c) {
@@ -375,6 +438,66 @@ class SpatialReader {
                   number_text(g.axial.value),
               n["rotor_inertia"] ? n["rotor_inertia"] : n);
     rule(true, axial, g.axial);
+  }
+
+  // A URDF's joint <dynamics damping d friction F> as the joint's friction on its coordinate's
+  // rate (the motor's, qm' = p q', where geared): viscous d / p^2 and Coulomb F / p, smoothed by
+  // the scene's velocity_scale (URDF has none).
+  void read_urdf_friction(const YAML::Node& n, SpatialScene& s) {
+    r_.check_keys(n, "friction", {"from_urdf", "velocity_scale"});
+    if (!n["from_urdf"].IsScalar() || n["from_urdf"].Scalar() != "true")
+      r_.fail("friction.from_urdf", "expected true (or leave it out)", n["from_urdf"]);
+    if (s.joint_limits.empty())
+      r_.fail("friction.from_urdf", "reads a URDF's <dynamics>: needs field 'urdf'", n);
+    bool coulomb = false;
+    for (const auto& l : s.joint_limits) coulomb = coulomb || l.friction > 0;
+    Quantity vs = 1.0;
+    if (n["velocity_scale"]) {
+      vs = quantity(n["velocity_scale"], "friction.velocity_scale");
+      if (!(vs.value >= kMinFrictionVelocity))
+        r_.fail("friction.velocity_scale",
+                "must be at least 1e-9 rad/s, got " + number_text(vs.value), n["velocity_scale"]);
+      if (vs.is_parameter())
+        not_below("friction.velocity_scale", vs, kMinFrictionVelocity,
+                  "must be at least 1e-9 rad/s");
+    } else if (coulomb) {
+      r_.fail("friction.velocity_scale",
+              "the URDF's Coulomb friction (<dynamics friction>) needs a positive velocity_scale "
+              "vs [rad/s] (tanh(w/vs) smooths sign(w); URDF gives none)",
+              n);
+    }
+    for (size_t j = 0; j < s.chain.links.size(); ++j) {
+      const spatial::JointLimits& l = s.joint_limits[j];
+      if (!(l.damping > 0 || l.friction > 0)) continue;
+      const spatial::Gear& g = s.chain.links[j].gear;
+      if (g.present && g.ratio.is_parameter())
+        r_.fail("friction.from_urdf",
+                "joint " + quoted_text(s.joint_names[j]) +
+                    ": its gear ratio is the run-time "
+                    "parameter '" +
+                    g.ratio.parameter +
+                    "', so its URDF friction cannot be moved to "
+                    "the motor in numbers; give the friction in the scene",
+                n);
+      const double p = g.present ? g.ratio.value : 1.0;
+      spatial::Friction& f = s.chain.links[j].friction;
+      f.present = true;
+      f.viscous = l.damping / (p * p);
+      f.coulomb = f.stribeck_static = l.friction / p;
+      f.has_coulomb = l.friction > 0;
+      f.velocity_scale = vs;
+    }
+  }
+  // A URDF's <dynamics> that the scene does not read: said once, naming the joints.
+  static void note_ignored_dynamics(SpatialScene& s) {
+    std::string listed;
+    for (size_t j = 0; j < s.joint_limits.size(); ++j)
+      if (s.joint_limits[j].damping > 0 || s.joint_limits[j].friction > 0)
+        listed += (listed.empty() ? "" : ", ") + quoted_text(s.joint_names[j]);
+    if (!listed.empty())
+      s.warnings.push_back("the URDF's <dynamics damping friction> of joints " + listed +
+                           " are ignored; friction: {from_urdf: true, velocity_scale: VS} reads "
+                           "them");
   }
 
   // Friction for every joint (a mapping) or per joint (a list; null: none), as in the plane:
@@ -503,6 +626,37 @@ class SpatialReader {
 
 }  // namespace
 
+spatial::Inertial whole_body(const spatial::Link& l,
+                             const std::function<double(const Quantity&)>& value) {
+  auto rigid = [&value](const spatial::Inertial& b) {  // about the frame's origin
+    std::array<double, 6> i;
+    for (int k = 0; k < 6; ++k) i[k] = value(b.inertia[k]);
+    return spatial::about_origin(value(b.mass), {value(b.com[0]), value(b.com[1]), value(b.com[2])},
+                                 i, [](double x) { return x; });
+  };
+  if (l.parts.empty()) {  // as given, not through the origin and back
+    spatial::Inertial as_given;
+    as_given.mass = value(l.mass);
+    for (int k = 0; k < 3; ++k) as_given.com[k] = value(l.com[k]);
+    for (int k = 0; k < 6; ++k) as_given.inertia[k] = value(l.inertia[k]);
+    return as_given;
+  }
+  spatial::RigidInertia<double> sum = rigid(l);
+  for (const spatial::Part& p : l.parts)
+    sum = sum + spatial::in_parent(spatial::part_frame(p), rigid(p.inertial));
+  spatial::Inertial whole;
+  whole.mass = sum.m;
+  if (!(sum.m > 0)) return whole;
+  const spatial::Vec3<double> c = spatial::scaled(sum.h, 1 / sum.m);
+  spatial::Mat3<double> I = sum.I;  // back to the centre: I_c = I_o - m (|c|^2 1 - c c^T)
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k)
+      I[3 * r + k] -= sum.m * ((r == k ? spatial::dot(c, c) : 0) - c[r] * c[k]);
+  whole.com = {c[0], c[1], c[2]};
+  whole.inertia = {I[0], I[1], I[2], I[4], I[5], I[8]};
+  return whole;
+}
+
 bool spatial_output(Output o, bool free_base) {
   switch (o) {
     case Output::mass_matrix:
@@ -574,6 +728,7 @@ SpatialScene parse_spatial_scene(const std::string& yaml_text, const std::string
   try {
     SpatialScene s = SpatialReader(r).read(root, yaml_text, read_file ? read_file : beside_scene);
     s.source_path = source_name;
+    for (std::string& w : s.warnings) w = "scene " + quoted_text(source_name) + ": " + w;
     s.read_files = opened;
     return s;
   } catch (const YAML::Exception& e) {

@@ -13,12 +13,14 @@
 //     # a flexible joint adds stiffness: k [N m/rad] (and damping: d [N m s/rad]) between the
 //     # gear's output qm / p and the link angle q; its motor angle qm follows all the joints
 //   friction: {viscous: b, coulomb: Fc, velocity_scale: vs}   # optional, as in the plane
+//   friction: {from_urdf: true, velocity_scale: vs}    # (URDF form) its joints' <dynamics>
 //   end_effector: [x, y, z]                   # the tip in the last link's frame (default 0)
 //   parameters: {m7: 1.0, p: 100}             # run-time parameters with their nominal values:
 //                                             # any mass, com, inertia entry, ratio, rotor inertia
 //   inertials: {link7: {mass: m7, com: [...], inertia: [...]}}   # (URDF form) a link's inertial
 //                                             # given by the scene, in the link's frame
 //   outputs: [mass_matrix, forward_dynamics]  # optional: what to emit (default: spatial_model.hpp)
+//   inertia_check: physical                   # or positive_definite: identified tensors as given
 #pragma once
 
 #include <functional>
@@ -34,7 +36,9 @@ namespace spacearm {
 struct SpatialScene {
   std::string name;
   std::vector<std::string> joint_names;  // a URDF's moving joints (empty for the YAML form)
-  std::string source_path;               // as given (messages, the generated banner)
+  std::vector<std::string> body_names;   // a URDF's link of each body, 0 the base (YAML: empty)
+  std::vector<spatial::JointLimits> joint_limits;  // a URDF's, per moving joint (YAML: empty)
+  std::string source_path;                         // as given (messages, the generated banner)
   std::string content;  // every byte the model is made from (its hash names the library)
   spatial::ChainDescription chain;
   std::vector<Output> outputs;  // as listed (`outputs:`); empty: the defaults (spatial_model.hpp)
@@ -46,7 +50,17 @@ struct SpatialScene {
   // The files it was read from besides itself, as opened (the URDF's path beside the scene):
   // a command refuses to write over them.
   std::vector<std::string> read_files;
+  // What its bodies' inertia tensors must be (`inertia_check: physical | positive_definite`).
+  InertiaRule inertia_check = InertiaRule::physical;
+  // What a command says once on reading it (bodies positive_definite takes that are not physical).
+  std::vector<std::string> warnings;
 };
+
+// A body's mass, centre of mass and inertia about it, in its frame, with the parts welded to it
+// (a URDF's links whose inertial the scene gives) lumped in, each number as value() gives it (a
+// literal's value, a parameter's nominal or run-time value); a massless whole keeps mass 0.
+spatial::Inertial whole_body(const spatial::Link& l,
+                             const std::function<double(const Quantity&)>& value);
 
 // The outputs a spatial arm can give today (the free-base ones only for a free base).
 bool spatial_output(Output o, bool free_base);

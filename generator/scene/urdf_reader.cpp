@@ -39,6 +39,7 @@ struct Joint {
   Frame origin;
   std::array<double, 3> xyz{}, rpy{};
   std::array<double, 3> axis{1, 0, 0};
+  spatial::JointLimits limits;
 };
 
 // URDF's roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll).
@@ -214,6 +215,24 @@ class UrdfReader {
     return {rpy_matrix(r), Eigen::Vector3d(x[0], x[1], x[2])};
   }
 
+  // A joint's <limit effort velocity> and <dynamics damping friction>, each not negative.
+  spatial::JointLimits limits(const tinyxml2::XMLElement* joint) const {
+    spatial::JointLimits l;
+    auto read = [&](const tinyxml2::XMLElement* e, const char* name, double& to) {
+      to = numbers<1>(e, name, std::array<double, 1>{0})[0];
+      if (!(to >= 0)) fail(e, std::string("attribute '") + name + "': must not be negative");
+    };
+    if (const tinyxml2::XMLElement* e = only_child(joint, "limit")) {
+      read(e, "effort", l.effort);
+      read(e, "velocity", l.velocity);
+    }
+    if (const tinyxml2::XMLElement* e = only_child(joint, "dynamics")) {
+      read(e, "damping", l.damping);
+      read(e, "friction", l.friction);
+    }
+    return l;
+  }
+
   Inertial inertial(const tinyxml2::XMLElement* link) const {
     Inertial in;
     const tinyxml2::XMLElement* e = only_child(link, "inertial");
@@ -306,6 +325,7 @@ class UrdfReader {
             std::sqrt(j.axis[0] * j.axis[0] + j.axis[1] * j.axis[1] + j.axis[2] * j.axis[2]);
         if (!(n > 1e-12)) fail(axis, "attribute 'xyz': the axis must not be zero");
       }
+      j.limits = limits(e);
       if (j.type != "revolute" && j.type != "continuous" && j.type != "fixed")
         fail(e, "joint type " + quoted_text(j.type) +
                     ": only revolute, continuous and fixed joints are read (prismatic, "
@@ -381,7 +401,11 @@ class UrdfReader {
       std::vector<std::pair<std::string, Frame>> welded;
       std::vector<const Joint*> moving;
       weld(body, Frame{}, welded, moving);
-      for (const auto& w : welded) seen.insert(w.first);
+      out.body_links.emplace_back();
+      for (const auto& w : welded) {
+        seen.insert(w.first);
+        out.body_links.back().push_back(w.first);
+      }
       spatial::Link l = lumped(welded);
       for (const auto& [name, f] : welded)
         if (given_.count(name)) {
@@ -395,6 +419,7 @@ class UrdfReader {
         l.axis = carrier->axis;
         out.chain.links.push_back(l);
         out.joint_names.push_back(carrier->name);
+        out.limits.push_back(carrier->limits);
       } else {
         out.chain.base = l;
       }
@@ -425,10 +450,25 @@ class UrdfReader {
     return out;
   }
 
+  // The welded link a URDF's tool ends in: the one leaf among the links welded to the last body
+  // (the body itself when nothing is welded to it); several leaves are refused, named.
+  std::string welded_leaf(const std::vector<std::pair<std::string, Frame>>& welded) const {
+    std::vector<std::string> leaves;
+    for (const auto& [link, f] : welded)
+      if (!child_joints_.count(link)) leaves.push_back(link);
+    if (leaves.size() == 1) return leaves[0];
+    std::string listed;
+    for (const std::string& l : leaves) listed += (listed.empty() ? "" : ", ") + quoted_text(l);
+    throw SceneError("URDF '" + source_ + "': the last moving body " +
+                     quoted_text(welded.front().first) + " ends in " +
+                     std::to_string(leaves.size()) + " welded links (" + listed +
+                     "): say which is the end effector with the scene's end_effector_link");
+  }
+
   // The tip: the origin of the end-effector link, a link welded to the last body.
   void end_effector(const std::vector<std::pair<std::string, Frame>>& welded,
                     const std::string& wanted, UrdfChain& out) const {
-    const std::string& name = wanted.empty() ? welded.front().first : wanted;
+    const std::string name = wanted.empty() ? welded_leaf(welded) : wanted;
     for (const auto& [link, f] : welded)
       if (link == name) {
         out.end_effector_link = name;

@@ -4,7 +4,8 @@
 // and inertias lumped into the moving body, frames kept, so a welded link can be the end
 // effector); joint origin xyz/rpy (R = Rz(y) Ry(p) Rx(r)), axis (absent: (1, 0, 0), as the URDF
 // specification says), inertial origin xyz/rpy and full tensors. Prismatic, floating and planar
-// joints, and moving branches, are refused by name.
+// joints, and moving branches, are refused by name. A joint's <limit effort velocity> and
+// <dynamics damping friction> are read (spatial::JointLimits); its lower and upper are not.
 #pragma once
 
 #include <map>
@@ -17,16 +18,22 @@
 namespace spacearm {
 
 struct UrdfChain {
-  spatial::ChainDescription chain;       // gears absent; tip at the end effector link's origin
-  std::vector<std::string> joint_names;  // the moving joints, base to tip
+  spatial::ChainDescription chain;           // gears absent; tip at the end effector link's origin
+  std::vector<std::string> joint_names;      // the moving joints, base to tip
+  std::vector<spatial::JointLimits> limits;  // theirs, from <limit> and <dynamics>
   std::string root_link, end_effector_link;
+  // Per body (0 the base, i link i), the URDF links it is made of: its own, then those welded to
+  // it.
+  std::vector<std::vector<std::string>> body_links;
   // Each link whose inertial the scene gives: its body (0 the base, i link i) and its index among
   // that body's parts (its frame there; the inertial left to the scene).
   std::map<std::string, std::pair<int, int>> given_parts;
 };
 
 // free_base: the root link floats (else it is fixed to the world). end_effector_link: a link
-// welded to the last moving body (empty: the last moving joint's child). Throws SceneError.
+// welded to the last moving body (empty: the leaf of the links welded to it, the tool a URDF
+// ends in; the last body itself where nothing is welded to it; several leaves are refused, listed).
+// Throws SceneError.
 // given: links whose inertial the scene gives (left out of the lumping, kept as parts; a name
 // that is no link is not in given_parts).
 UrdfChain read_urdf(const std::string& xml, const std::string& source, bool free_base,

@@ -178,7 +178,6 @@ TEST_F(EvalCli, BadInputsGetClearErrors) {
            {ref + " --q 0,0,-2e6,0,0,0", "--q[2] (q0) = -2e+06 rad: angles must lie within"},
            {geared + " --q 0,0,0,0,0,0 --param p=2 --param p=3",
             "--param: 'p' given more than once"},
-           {ref, "spacearm: error: --q is required"},
            {geared + " --q 0,0,0,0,0,0 --param k=3",
             "--param: unknown parameter 'k' (known: p, Im)"},
            {geared + " --q 0,0,0,0,0,0 --param p=inf", "--param p: 'inf' is not finite"},
@@ -197,6 +196,21 @@ TEST_F(EvalCli, BadInputsGetClearErrors) {
     EXPECT_EQ(WEXITSTATUS(status), 1) << c.args;
     EXPECT_NE(out.find(c.message), std::string::npos) << "args: " << c.args << "\noutput: " << out;
   }
+}
+
+// Issue 51: without --q, eval takes the home state (MuJoCo's qpos0: base at the origin, the
+// identity quaternion, joints at 0) and says so.
+TEST_F(EvalCli, WithoutQTheHomeStateIsTakenAndSaid) {
+  const std::string arm = std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/spatial_arm2.yaml";
+  int status = 0;
+  const std::string out = run(cli + arm + " --json 2>&1", &status);
+  ASSERT_EQ(WEXITSTATUS(status), 0) << out;
+  EXPECT_NE(out.find("spacearm: --q not given: the home state (base at the origin, identity "
+                     "quaternion, joints at 0)"),
+            std::string::npos)
+      << out;
+  const nlohmann::json j = nlohmann::json::parse(out.substr(out.find('{')));
+  EXPECT_EQ(j["q"], nlohmann::json({0, 0, 0, 1, 0, 0, 0, 0, 0}));
 }
 
 TEST_F(EvalCli, LostOutputAndAnEmptyCacheFolderAreErrors) {

@@ -543,5 +543,76 @@ TEST_F(PlanCommand, SpatialArmPlansAPoseAndSimulateFliesIt) {
   EXPECT_LT(5000 * apart, peak * 3);
 }
 
+// Issue 51: a URDF with identified link inertias (models/identified_arm3: each Izz above
+// Ixx + Iyy) under inertia_check: positive_definite plans and flies like any arm (momentum
+// held), says once which bodies are not physical, ends at the URDF's welded tool, and measures
+// the plan against the URDF's <limit effort velocity>, warning beyond them; its <dynamics>
+// become joint friction with friction: {from_urdf: true}. Cost: about 5 s (two models).
+TEST_F(PlanCommand, IdentifiedUrdfPlansFliesAndReportsItsLimits) {
+  const fs::path models = fs::path(SPACEARM_SOURCE_DIR) / "models";
+  const std::string scene = (models / "identified_arm3.yaml").string();
+  const std::string csv = (dir() / "identified.csv").string(),
+                    flown = (dir() / "identified_flown.csv").string();
+  const std::string line =
+      " --q0 0,0,0,1,0,0,0,0.3,0.5,-0.8 --from 2.455210170466492,0.4192156315649229,"
+      "0.9619002758873577 --to 2.3,0.6,1.1 -o " +
+      csv + cache();
+  int status = 0;
+  const std::string out =
+      test::run_command(cli() + "plan " + scene + line + " --duration 10 2>&1", &status);
+  ASSERT_EQ(status, 0) << out;
+  const std::string said =
+      "inertia_check: positive_definite takes 3 bodies whose inertia no "
+      "rigid body has";
+  EXPECT_NE(out.find(said + " (a principal moment above the sum of the other two, as identified "
+                            "parameters may be): link 'Link_1' (principal moments 0.25, 0.25, "
+                            "1.69)"),
+            std::string::npos)
+      << out;
+  EXPECT_EQ(out.find(said), out.rfind(said)) << out;  // once
+  EXPECT_NE(out.find("URDF limits, peak |tau| / effort and |q'| / velocity per joint: 'Joint_1' "),
+            std::string::npos)
+      << out;
+  EXPECT_EQ(out.find("beyond the URDF's limits"), std::string::npos) << out;
+  EXPECT_NE(out.find("<dynamics damping friction> of joints 'Joint_1', 'Joint_2', 'Joint_3' are "
+                     "ignored"),
+            std::string::npos)
+      << out;
+  const std::string sim = test::run_command(
+      cli() + "simulate " + scene + " --plan " + csv + " -o " + flown + cache() + " 2>&1", &status);
+  ASSERT_EQ(status, 0) << sim;
+  const Csv run = read_csv(flown);
+  const size_t last = run.rows.size() - 1;
+  EXPECT_LT((run.values(last, {"ee_x", "ee_y", "ee_z"}) - Eigen::Vector3d(2.3, 0.6, 1.1)).norm(),
+            1e-4);
+  EXPECT_LT(run.values(last, {"Px", "Py", "Pz", "Lx", "Ly", "Lz"}).norm(), 1e-8);
+  // The same line in 0.5 s asks 20 times the rates: beyond the joints' velocity limits.
+  const std::string fast =
+      test::run_command(cli() + "plan " + scene + line + " --duration 0.5 2>&1", &status);
+  ASSERT_EQ(status, 0) << fast;
+  EXPECT_NE(fast.find("warning: beyond the URDF's limits (times the limit): 'Joint_1' (effort"),
+            std::string::npos)
+      << fast;
+  // The URDF's <dynamics> as friction: the replay without feed-forward lags the plan.
+  const fs::path twin = dir() / "identified_friction.yaml";
+  fs::copy_file(models / "identified_arm3.urdf", dir() / "identified_arm3.urdf",
+                fs::copy_options::overwrite_existing);
+  {
+    std::string text = test::read_text_file(scene);
+    text.replace(text.find("name: identified_arm3"), 21, "name: identified_friction");
+    std::ofstream(twin) << text << "friction: {from_urdf: true, velocity_scale: 0.01}\n";
+  }
+  const std::string lag = test::run_command(
+      cli() + "simulate " + twin.string() + " --plan " + csv + " -o " + flown + cache() + " 2>&1",
+      &status);
+  ASSERT_EQ(status, 0) << lag;
+  EXPECT_EQ(lag.find("are ignored"), std::string::npos) << lag;
+  const Csv lagged = read_csv(flown);
+  EXPECT_GT((lagged.values(lagged.rows.size() - 1, {"ee_x", "ee_y", "ee_z"}) -
+             Eigen::Vector3d(2.3, 0.6, 1.1))
+                .norm(),
+            1e-3);
+}
+
 }  // namespace
 }  // namespace spacearm

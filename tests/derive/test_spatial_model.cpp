@@ -467,6 +467,43 @@ links: [{mass: 1, inertia: [1, 0, 0, 1, 0, 1]}]
   EXPECT_LT(accepted, 240);
 }
 
+// Issue 51: under inertia_check: positive_definite a tensor with a run-time parameter is
+// checked for positive definiteness alone (its leading minors): an identified tensor passes, one
+// that is not positive definite is named.
+TEST(SpatialModel, PositiveDefiniteRuleChecksOnlyTheLeadingMinors) {
+  const std::string text = R"(name: one
+space: spatial
+base: {type: free_floating, mass: 10, inertia: [1, 0, 0, 1, 0, 1]}
+links: [{mass: 1, inertia: [0.1, ixy, 0, 0.1, 0, izz]}]
+parameters: {izz: 0.15, ixy: 0}
+)";
+  for (const bool identified : {false, true}) {
+    const ModelFacts facts = spatial_facts(parse_spatial_scene(
+        text + (identified ? "inertia_check: positive_definite\n" : ""), "one.yaml"));
+    EXPECT_EQ(facts.inertia_check, identified ? "positive_definite" : "physical");
+    auto failure = [&](double izz, double ixy) -> std::string {
+      const std::vector<double> params = {izz, ixy};
+      for (const ParameterCheck& c : facts.checks) {
+        const double v = facts.checks_program.evaluate(
+            {c.value}, [&](const std::string&, int i) { return params.at(i); })[0];
+        if (!(c.strict ? v > 0 : v >= 0)) return c.message;
+      }
+      return "";
+    };
+    EXPECT_EQ(failure(0.15, 0), "");
+    EXPECT_EQ(failure(1.5, 0), identified ? ""
+                                          : "links[0].inertia must be a physical inertia "
+                                            "(positive definite, principal moments within "
+                                            "the triangle inequality)");
+    const std::string not_definite =
+        identified ? "links[0].inertia must be positive definite"
+                   : "links[0].inertia must be a physical inertia (positive definite, principal "
+                     "moments within the triangle inequality)";
+    EXPECT_EQ(failure(-0.1, 0), not_definite);
+    EXPECT_EQ(failure(1.5, 0.2), not_definite);  // 0.1 0.1 - 0.2^2 < 0
+  }
+}
+
 // Issue 49, item 10: the numbers whose span a failure names include a spatial arm's, a URDF's
 // `inertials:` with its run-time parameter among them; the payload's mass taken 26 decades
 // below its nominal value widens the span, by field and parameter.

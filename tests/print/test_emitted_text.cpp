@@ -486,8 +486,9 @@ TEST(EmittedText, NestedSinCosBatchesComputeWhatTheyRead) {
     const EmittedModel e = print_cpp(model, options);
     ASSERT_NE(e.c_interface.find("sincos_batch(angles2, sines2, cosines2)"), std::string::npos)
         << e.c_interface;
-    if (options.statements_per_part == 3)
+    if (options.statements_per_part == 3) {
       ASSERT_NE(e.c_interface.find("_part2("), std::string::npos);
+    }
     const auto got = call_every_function(model, e.c_interface, dir);
     ASSERT_EQ(got.at("nested_trig").size(), want.size());
     for (size_t i = 0; i < want.size(); ++i)
@@ -527,7 +528,9 @@ TEST(EmittedText, VectorSinCosAgreesWithLibm) {
         differ += vector.at(name)[i] != values[i];
       }
     }
-    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) EXPECT_GT(differ, 0);
+    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
+      EXPECT_GT(differ, 0);
+    }
   }
   fs::remove_all(dir);
 #endif

@@ -80,7 +80,9 @@ TEST(StraightLine, AScheduleListsOperandsBeforeTheirUsers) {
   for (size_t k = 0; k < order.size(); ++k) position[size_t(order[k])] = int(k);
   for (int id : order)
     for (const SRef& a : p.node(id).args)
-      if (a.id >= 0) EXPECT_LT(position[size_t(a.id)], position[size_t(id)]) << id;
+      if (a.id >= 0) {
+        EXPECT_LT(position[size_t(a.id)], position[size_t(id)]) << id;
+      }
   for (const SRef& r : roots) EXPECT_GE(position[size_t(r.id)], 0);
 }
 

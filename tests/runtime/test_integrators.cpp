@@ -147,7 +147,9 @@ TEST(Integrators, Rosenbrock4SolvesAStiffProblemWithFewSteps) {
     EXPECT_NEAR(x[0], std::sin(2.0), 1e-6);
     EXPECT_NEAR(x[1], std::sin(2.0), 1e-6);
     evaluations[m == Method::dopri5] = stats.rhs_evaluations;
-    if (m == Method::rosenbrock4) EXPECT_GT(stats.jacobian_evaluations, 0);
+    if (m == Method::rosenbrock4) {
+      EXPECT_GT(stats.jacobian_evaluations, 0);
+    }
   }
   std::printf("right-hand side evaluations: rosenbrock4 %ld, dopri5 %ld\n", evaluations[0],
               evaluations[1]);

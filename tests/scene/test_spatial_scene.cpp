@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "model_recipe.hpp"
 #include "planar_scene.hpp"
 #include "support.hpp"
 
@@ -195,6 +196,101 @@ TEST(SpatialScene, ReadsFlexibleJointsAndNamesTheirBadFields) {
   EXPECT_THROW_MESSAGE(
       parse_spatial_scene(kArm + "outputs: [potential_energy]\n", "arm2.yaml"), SceneError,
       "field 'outputs[0]': 'potential_energy' needs a flexible joint (gears: stiffness)");
+}
+
+// Issue 51: identified inertias. A URDF whose link tensors hold the motors' reflected inertia
+// about the joint axis (Izz above Ixx + Iyy, as ETS-VII's identified links): `physical` refuses
+// every such body in one message, by its URDF link names, with both remedies;
+// `positive_definite` takes them, says so once, and records it in the model's facts; a tensor
+// that is not positive definite is refused under either.
+std::string identified_urdf(const std::string& izz3 = "1.69", const std::string& izz1 = "1.69") {
+  auto link = [](const std::string& name, const std::string& m, const std::string& ixx,
+                 const std::string& izz) {
+    return "<link name=\"" + name + "\"><inertial><mass value=\"" + m + "\"/><inertia ixx=\"" +
+           ixx + "\" ixy=\"0\" ixz=\"0\" iyy=\"" + ixx + "\" iyz=\"0\" izz=\"" + izz +
+           "\"/></inertial></link>\n";
+  };
+  auto joint = [](const std::string& name, const std::string& type, const std::string& parent,
+                  const std::string& child) {
+    return "<joint name=\"" + name + "\" type=\"" + type + "\"><parent link=\"" + parent +
+           "\"/><child link=\"" + child +
+           "\"/><origin xyz=\"0 0 0.5\"/><axis xyz=\"0 0 1\"/></joint>\n";
+  };
+  return "<robot name=\"identified\">\n" + link("bus", "2500", "1500", "2000") +
+         link("Link_1", "25", "0.25", izz1) + link("Link_2", "25", "0.25", "0.3") +
+         link("Link_3", "20", "0.25", izz3) + link("Link_EE", "2", "0.01", "0.01") +
+         joint("Joint_1", "revolute", "bus", "Link_1") +
+         joint("Joint_2", "revolute", "Link_1", "Link_2") +
+         joint("Joint_3", "revolute", "Link_2", "Link_3") +
+         joint("Joint_EE", "fixed", "Link_3", "Link_EE") + "</robot>\n";
+}
+
+SpatialScene identified_scene(const std::string& check, const std::string& xml) {
+  const std::string text =
+      "name: ets\nspace: spatial\nbase: {type: free_floating}\nurdf: e.urdf\n" +
+      (check.empty() ? "" : "inertia_check: " + check + "\n");
+  return parse_spatial_scene(text, "ets.yaml", [xml](const std::string&) { return xml; });
+}
+
+TEST(SpatialScene, PhysicalRefusesEveryIdentifiedBodyInOneMessage) {
+  for (const std::string check : {"", "physical"}) {
+    try {
+      identified_scene(check, identified_urdf());
+      ADD_FAILURE() << "identified tensors taken under '" << check << "'";
+    } catch (const SceneError& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find("field 'urdf': URDF 'e.urdf': 2 bodies are refused: link 'Link_1' "
+                       "(principal moments 0.25, 0.25, 1.69); links 'Link_3' + 'Link_EE' "
+                       "(principal moments"),
+                std::string::npos)
+          << m;
+      EXPECT_EQ(m.find("Link_2"), std::string::npos) << m;  // physical: not listed
+      EXPECT_NE(m.find("give the link's inertial in the scene (inertials:"), std::string::npos);
+      EXPECT_NE(m.find("inertia_check: positive_definite"), std::string::npos) << m;
+    }
+  }
+  EXPECT_THROW_MESSAGE(identified_scene("rigid", identified_urdf()), SceneError,
+                       "field 'inertia_check': expected physical or positive_definite, got "
+                       "'rigid'");
+}
+
+TEST(SpatialScene, PositiveDefiniteTakesIdentifiedBodiesWithOneWarning) {
+  const SpatialScene s = identified_scene("positive_definite", identified_urdf());
+  EXPECT_EQ(s.inertia_check, InertiaRule::positive_definite);
+  ASSERT_EQ(s.warnings.size(), 1u);
+  EXPECT_NE(s.warnings[0].find("scene 'ets.yaml': inertia_check: positive_definite takes 2 bodies "
+                               "whose inertia no rigid body has"),
+            std::string::npos)
+      << s.warnings[0];
+  EXPECT_NE(s.warnings[0].find("link 'Link_1' (principal moments 0.25, 0.25, 1.69)"),
+            std::string::npos);
+  EXPECT_EQ(s.chain.links[0].inertia[5].value, 1.69);  // as given
+  EXPECT_EQ(ModelRecipe(s).facts().inertia_check, "positive_definite");
+  EXPECT_EQ(ModelRecipe(s).warnings(), s.warnings);
+  const std::string rigid = identified_urdf("0.3", "0.3");
+  EXPECT_EQ(identified_scene("positive_definite", rigid).warnings.size(), 0u);
+  EXPECT_EQ(ModelRecipe(identified_scene("", rigid)).facts().inertia_check, "physical");
+  // Not positive definite: refused under either rule, naming the rule it breaks.
+  EXPECT_THROW_MESSAGE(identified_scene("positive_definite", identified_urdf("-0.3")), SceneError,
+                       "1 body is refused: links 'Link_3' + 'Link_EE' (principal moments -");
+  EXPECT_THROW_MESSAGE(identified_scene("positive_definite", identified_urdf("-0.3")), SceneError,
+                       "inertia_check: positive_definite takes a positive definite tensor");
+}
+
+TEST(SpatialScene, YamlLinksNameTheFieldAndTheRemedy) {
+  const std::string identified = "inertia: [0.01, 0, 0, 0.2, 0, 0.5]";  // 0.5 > 0.01 + 0.2
+  std::string text = kArm;
+  text.replace(text.find("inertia: [0.01, 0, 0, 0.2, 0, 0.2]"), 34, identified);
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(text, "arm2.yaml"), SceneError,
+                       "field 'links[0].inertia': not a physical inertia (principal moments 0.01, "
+                       "0.2, 0.5: each must be positive and at most the sum of the other two); "
+                       "for identified parameters, inertia_check: positive_definite takes");
+  const SpatialScene s =
+      parse_spatial_scene(text + "inertia_check: positive_definite\n", "arm2.yaml");
+  ASSERT_EQ(s.warnings.size(), 1u);
+  EXPECT_NE(s.warnings[0].find("1 body whose inertia no rigid body has"), std::string::npos);
+  EXPECT_NE(s.warnings[0].find("links[0] (principal moments 0.01, 0.2, 0.5)"), std::string::npos)
+      << s.warnings[0];
 }
 
 }  // namespace

@@ -307,6 +307,31 @@ TEST(UrdfReader, AbsentAxisIsXAndErrorsNameTheElement) {
       SceneError, "end effector link 'a' is not welded to the last moving body");
 }
 
+// Issue 51, item 6: by default the end effector is the URDF's tool, the one leaf of the links
+// welded to the last moving body (SC_3DoF's Link_EE, 0.75 m beyond its last joint); several
+// leaves are refused, listed; end_effector_link still picks any welded link.
+TEST(UrdfReader, DefaultEndEffectorIsTheWeldedLeaf) {
+  auto massless = [](const std::string& name) { return "<link name=\"" + name + "\"/>\n"; };
+  const std::string tool =
+      joint("to_flange", "fixed", "b", "flange", "<origin xyz=\"0.5 0 0\"/>") +
+      joint("to_tip", "fixed", "flange", "tip", "<origin xyz=\"0.25 0 0\" rpy=\"0 0 0.5\"/>");
+  const std::string arm =
+      kTwoLinks + massless("flange") + massless("tip") + joint("j", "revolute", "a", "b") + tool;
+  const UrdfChain c = read_urdf(robot(arm), "r.urdf", true, "");
+  EXPECT_EQ(c.end_effector_link, "tip");
+  EXPECT_EQ(c.chain.tip, (std::array<double, 3>{0.75, 0, 0}));
+  EXPECT_NEAR(c.chain.tip_rpy[2], 0.5, 1e-15);
+  EXPECT_EQ(c.body_links, (std::vector<std::vector<std::string>>{{"a"}, {"b", "flange", "tip"}}));
+  EXPECT_EQ(read_urdf(robot(arm), "r.urdf", true, "flange").end_effector_link, "flange");
+  const std::string two_tools =
+      arm + massless("camera") + joint("to_camera", "fixed", "b", "camera");
+  EXPECT_THROW_MESSAGE(read_urdf(robot(two_tools), "r.urdf", true, ""), SceneError,
+                       "URDF 'r.urdf': the last moving body 'b' ends in 2 welded links ('tip', "
+                       "'camera'): say which is the end effector with the scene's "
+                       "end_effector_link");
+  EXPECT_EQ(read_urdf(robot(two_tools), "r.urdf", true, "camera").end_effector_link, "camera");
+}
+
 // Issue 49: the work of a parse is bounded before tinyxml2 sees the bytes (it compares each
 // attribute with the element's earlier ones: 60 000 took 23 s), so a hostile file is refused
 // at once, naming the limit; the same file under the limit is read as before.
@@ -401,8 +426,9 @@ TEST(UrdfReader, SceneNamesTheUrdfAndChecksItsBodies) {
       joint("j", "revolute", "a", "b"));
   EXPECT_THROW_MESSAGE(
       parse_spatial_scene(head + "urdf: r.urdf\n", "s.yaml", reader(massless_root)), SceneError,
-      "field 'urdf': URDF 'r.urdf', the body of the root link 'a': its mass, "
-      "0, must be positive");
+      "field 'urdf': URDF 'r.urdf': 1 body is refused: link 'a' (mass 0: must be positive). "
+      "Remedies: give the link's inertial in the scene (inertials: {LINK: {mass, com, "
+      "inertia}})");
   EXPECT_THROW_MESSAGE(
       parse_spatial_scene(head + "urdf: r.urdf\nlinks: []\n", "s.yaml", reader(massless_root)),
       SceneError, "field 'links': comes from the URDF");

@@ -1,5 +1,5 @@
 // A MuJoCo model loaded from MJCF text, the peer of the agreement tests and the benchmarks
-// (bench/mujoco_chain.hpp writes the planar chains' MJCF, tests/support/mujoco_spatial.hpp the
+// (bench/mujoco_chain.hpp writes the planar chains' MJCF, export/mjcf_export.hpp the
 // spatial ones), and MuJoCo's stages that give M and the bias without the rest of mj_forward.
 #pragma once
 

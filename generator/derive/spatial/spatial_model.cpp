@@ -87,6 +87,7 @@ ModelFacts spatial_facts(const SpatialScene& scene) {
       f.actuated_coordinates.push_back(c.motor_coordinate(static_cast<int>(j)));
   f.scene_hash = "fnv1a64:" + content_hash(scene.content);
   f.formulation = "recursive";
+  f.inertia_check = scene.inertia_check == InertiaRule::physical ? "physical" : "positive_definite";
   f.features = spatial_features(scene);
   f.outputs = spatial_outputs(scene);
   f.parameter_names = parameter_names(scene.parameters);

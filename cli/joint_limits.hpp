@@ -1,0 +1,70 @@
+// A run or a plan measured against a URDF's joint limits (<limit effort velocity>): per joint,
+// the peak |tau| / effort and the peak |q'| / velocity on the link side (q' = qm' / p where the
+// coordinate is the motor angle), printed by plan and simulate --plan, a warning above 1.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "model_recipe.hpp"
+#include "text_numbers.hpp"
+
+namespace spacearm::cli {
+
+struct LimitUse {
+  std::string joint;
+  double effort = NAN, velocity = NAN;  // peak over the limit; NaN where the URDF gives none
+};
+
+// tau[k]: link-side joint torques at sample k; qd[k]: the velocities (nv) at sample k.
+inline std::vector<LimitUse> limit_use(const ModelRecipe& recipe, const Eigen::VectorXd& params,
+                                       const std::vector<Eigen::VectorXd>& tau,
+                                       const std::vector<Eigen::VectorXd>& qd) {
+  const std::vector<spatial::JointLimits> limits = recipe.joint_limits();
+  const std::vector<Quantity> ratios = recipe.gear_ratios();
+  const ModelFacts& facts = recipe.facts();
+  std::vector<LimitUse> use;
+  for (size_t j = 0; j < limits.size(); ++j) {
+    const spatial::JointLimits& l = limits[j];
+    if (!l.has_effort() && !l.has_velocity()) continue;
+    const Quantity& r = ratios.at(j);
+    const double p = r.is_parameter() ? params[r.index] : r.value;
+    const double to_link = facts.motor_angle_slots.at(j) ? 1 / p : 1.0;
+    const int slot = facts.num_base + static_cast<int>(j);
+    double tau_peak = 0, rate_peak = 0;
+    for (const auto& t : tau) tau_peak = std::max(tau_peak, std::abs(t[j]));
+    for (const auto& v : qd) rate_peak = std::max(rate_peak, std::abs(v[slot] * to_link));
+    use.push_back({recipe.joint_names().at(j), l.has_effort() ? tau_peak / l.effort : NAN,
+                   l.has_velocity() ? rate_peak / l.velocity : NAN});
+  }
+  return use;
+}
+
+// One line of the joints' use of their limits, and a warning naming each joint above 1.
+inline void report_limit_use(const std::vector<LimitUse>& use) {
+  if (use.empty()) return;
+  std::string line, over;
+  char text[64];
+  for (const LimitUse& u : use) {
+    line += (line.empty() ? "" : ", ") + quoted_text(u.joint);
+    std::snprintf(text, sizeof text, " %.2g / %.2g", u.effort, u.velocity);
+    line += text;
+    if (u.effort > 1 || u.velocity > 1) {
+      std::snprintf(text, sizeof text, " (effort %.3g, velocity %.3g)", u.effort, u.velocity);
+      over += (over.empty() ? "" : ", ") + quoted_text(u.joint) + text;
+    }
+  }
+  std::fprintf(stderr,
+               "spacearm: URDF limits, peak |tau| / effort and |q'| / velocity per joint: %s\n",
+               line.c_str());
+  if (!over.empty())
+    std::fprintf(stderr, "spacearm: warning: beyond the URDF's limits (times the limit): %s\n",
+                 over.c_str());
+}
+
+}  // namespace spacearm::cli

@@ -1,0 +1,239 @@
+// export/mjcf_export.hpp, `spacearm export --mjcf`, against MuJoCo, a peer that shares no code
+// with the chain: models/space_arm7 (from its URDF: welded links lumped) on a free base,
+// ungeared, with armature gears and with its exact rotors, loaded in MuJoCo from the exported
+// file at random states. Rigid and armature: the mass matrix, the bias forces and the forward
+// dynamics under joint torques, each to 1e-12 relative. MuJoCo's joint coordinate is the link
+// angle q, the chain's the motor angle qm = p q: v = D v_mj with D = diag(1 (base), p), so
+// M_mj = D M D, b_mj = D b and a joint torque tau is Q = tau / p on the chain's coordinate.
+// Exact rotors are rotor bodies held by MuJoCo's soft joint equalities: the forward dynamics to
+// the tolerance those allow (measured: below 2e-4 relative; stated in docs/cli.md).
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "mjcf_export.hpp"
+#include "mujoco_model.hpp"
+#include "recursive_algorithms.hpp"
+#include "spatial_chain.hpp"
+#include "spatial_scene.hpp"
+#include "support.hpp"
+
+namespace spacearm {
+namespace {
+
+enum class Gears { none, armature, exact };
+
+SpatialScene arm7(Gears gears) {
+  const std::string path = std::string(SPACEARM_SOURCE_DIR) + "/models/space_arm7.yaml";
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  SpatialScene s = parse_spatial_scene(text.str(), path);
+  for (auto& l : s.chain.links) {
+    if (gears == Gears::none) l.gear = {};
+    l.gear.exact = gears == Gears::exact;
+  }
+  return s;
+}
+
+// The chain's output o at (q, v, Q) as a vector.
+Eigen::VectorXd chain_output(const spatial::ChainDescription& c, Output o, const Eigen::VectorXd& q,
+                             const Eigen::VectorXd& v, const Eigen::VectorXd& Q) {
+  auto input = [&](const std::string& a, int i) {
+    return a == "q" ? q[i] : a == "qd" ? v[i] : a == "Q" ? Q[i] : 0.0;
+  };
+  const std::vector<double> x = evaluate_chain<spatial::Chain>(c, o, input)[0];
+  return Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size()));
+}
+
+// A random state of the chain and joint torques.
+struct State {
+  Eigen::VectorXd q, v, tau;
+};
+State random_state(const spatial::ChainDescription& c, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-1, 1);
+  const int N = static_cast<int>(c.links.size());
+  State s{Eigen::VectorXd(c.nq()), Eigen::VectorXd(c.nv()), Eigen::VectorXd(N)};
+  for (int i = 0; i < c.nq(); ++i) s.q[i] = 2 * u(rng);
+  const Eigen::Quaterniond r = Eigen::Quaterniond::UnitRandom();
+  s.q.segment<4>(3) << r.w(), r.x(), r.y(), r.z();
+  for (int i = 0; i < c.nv(); ++i) s.v[i] = u(rng);
+  for (int j = 0; j < N; ++j) s.tau[j] = 10 * u(rng);
+  return s;
+}
+
+// Puts the state into MuJoCo by joint name (the base's free joint, the URDF's joints, the rotors
+// at qm = p q), with tau on the joints; returns D.
+Eigen::VectorXd set_state(const SpatialScene& s, const test::MujocoModel& mj, const State& x) {
+  const spatial::ChainDescription& c = s.chain;
+  const int N = static_cast<int>(c.links.size());
+  Eigen::VectorXd D = Eigen::VectorXd::Ones(c.nv());
+  mju_zero(mj.d->qfrc_applied, mj.m->nv);
+  const int base = mj_name2id(mj.m.get(), mjOBJ_JOINT, s.body_names[0].c_str());
+  for (int i = 0; i < 7; ++i) mj.d->qpos[mj.m->jnt_qposadr[base] + i] = x.q[i];
+  for (int i = 0; i < 6; ++i) mj.d->qvel[mj.m->jnt_dofadr[base] + i] = x.v[i];
+  for (int j = 0; j < N; ++j) {
+    const spatial::Gear& g = c.links[j].gear;
+    D[6 + j] = g.present ? g.ratio.value : 1;
+    const int joint = mj_name2id(mj.m.get(), mjOBJ_JOINT, s.joint_names[j].c_str());
+    mj.d->qpos[mj.m->jnt_qposadr[joint]] = x.q[7 + j] / D[6 + j];
+    mj.d->qvel[mj.m->jnt_dofadr[joint]] = x.v[6 + j] / D[6 + j];
+    mj.d->qfrc_applied[mj.m->jnt_dofadr[joint]] = x.tau[j];
+    const std::string rotor = "spacearm_rotor_" + std::to_string(j + 1);
+    if (const int r = mj_name2id(mj.m.get(), mjOBJ_JOINT, rotor.c_str()); r >= 0) {
+      mj.d->qpos[mj.m->jnt_qposadr[r]] = x.q[7 + j];
+      mj.d->qvel[mj.m->jnt_dofadr[r]] = x.v[6 + j];
+    }
+  }
+  return D;
+}
+
+// The chain's dofs of MuJoCo's vector x (by joint name).
+Eigen::VectorXd chain_dofs(const SpatialScene& s, const test::MujocoModel& mj, const mjtNum* x) {
+  Eigen::VectorXd out(s.chain.nv());
+  const int base = mj_name2id(mj.m.get(), mjOBJ_JOINT, s.body_names[0].c_str());
+  for (int i = 0; i < 6; ++i) out[i] = x[mj.m->jnt_dofadr[base] + i];
+  for (size_t j = 0; j < s.joint_names.size(); ++j)
+    out[6 + j] = x[mj.m->jnt_dofadr[mj_name2id(mj.m.get(), mjOBJ_JOINT, s.joint_names[j].c_str())]];
+  return out;
+}
+
+TEST(MujocoAgreement, ExportedRigidAndArmatureArmsAgreeToRounding) {
+  for (const Gears gears : {Gears::none, Gears::armature}) {
+    SCOPED_TRACE(gears == Gears::armature ? "armature gears" : "no gears");
+    const SpatialScene s = arm7(gears);
+    const spatial::ChainDescription& c = s.chain;
+    const test::MujocoModel mj(export_mjcf(s));
+    ASSERT_EQ(mj.m->nq, c.nq());
+    ASSERT_EQ(mj.m->nv, c.nv());
+    std::mt19937 rng(5);
+    for (int trial = 0; trial < 5; ++trial) {
+      const State x = random_state(c, rng);
+      const Eigen::VectorXd D = set_state(s, mj, x);
+      mj_forward(mj.m.get(), mj.d.get());
+      const int nv = c.nv();
+      Eigen::MatrixXd M_mj(nv, nv);
+      mj_fullM(mj.m.get(), M_mj.data(), mj.d->qM);  // symmetric: row or column major alike
+      const Eigen::VectorXd b_mj = Eigen::Map<const Eigen::VectorXd>(mj.d->qfrc_bias, nv);
+      const Eigen::VectorXd qacc_mj = Eigen::Map<const Eigen::VectorXd>(mj.d->qacc, nv);
+      Eigen::VectorXd Q = Eigen::VectorXd::Zero(nv);
+      Q.tail(x.tau.size()) = x.tau.cwiseQuotient(D.tail(x.tau.size()));
+      const Eigen::VectorXd Mv = chain_output(c, Output::mass_matrix, x.q, x.v, Q);
+      const Eigen::MatrixXd M = Eigen::Map<const Eigen::MatrixXd>(Mv.data(), nv, nv);
+      const Eigen::MatrixXd M_ours = D.asDiagonal() * M * D.asDiagonal();
+      EXPECT_LT((M_ours - M_mj).norm(), 1e-12 * M_mj.norm()) << trial;
+      const Eigen::VectorXd b_ours =
+          D.asDiagonal() * chain_output(c, Output::bias_forces, x.q, x.v, Q);
+      EXPECT_LT((b_ours - b_mj).norm(), 1e-12 * (1 + b_mj.norm())) << trial;
+      const Eigen::VectorXd qacc_ours =
+          chain_output(c, Output::forward_dynamics, x.q, x.v, Q).cwiseQuotient(D);  // qdd_m / p
+      EXPECT_LT((qacc_ours - qacc_mj).norm(), 1e-12 * (1 + qacc_mj.norm())) << trial;
+    }
+  }
+}
+
+TEST(MujocoAgreement, ExportedExactRotorsAgreeToTheEqualitiesTolerance) {
+  const SpatialScene s = arm7(Gears::exact);
+  const spatial::ChainDescription& c = s.chain;
+  const test::MujocoModel mj(export_mjcf(s));
+  ASSERT_EQ(mj.m->nv, c.nv() + static_cast<int>(c.links.size()));  // a rotor per joint
+  std::mt19937 rng(7);
+  double worst = 0;
+  for (int trial = 0; trial < 5; ++trial) {
+    const State x = random_state(c, rng);
+    const Eigen::VectorXd D = set_state(s, mj, x);
+    mj_forward(mj.m.get(), mj.d.get());
+    Eigen::VectorXd Q = Eigen::VectorXd::Zero(c.nv());
+    Q.tail(x.tau.size()) = x.tau.cwiseQuotient(D.tail(x.tau.size()));
+    const Eigen::VectorXd qacc_ours =
+        chain_output(c, Output::forward_dynamics, x.q, x.v, Q).cwiseQuotient(D);
+    const Eigen::VectorXd qacc_mj = chain_dofs(s, mj, mj.d->qacc);
+    worst = std::max(worst, (qacc_ours - qacc_mj).norm() / (1 + qacc_mj.norm()));
+  }
+  std::printf("exact rotors: MuJoCo's forward dynamics within %.1e relative\n", worst);
+  EXPECT_LT(worst, 2e-4);
+  // Without the rotors' gyroscopic coupling (the armature model) the difference is larger: the
+  // comparison sees the rotors.
+  SpatialScene armature = s;
+  for (auto& l : armature.chain.links) l.gear.exact = false;
+  const State x = random_state(c, rng);
+  const Eigen::VectorXd D = set_state(s, mj, x);
+  mj_forward(mj.m.get(), mj.d.get());
+  Eigen::VectorXd Q = Eigen::VectorXd::Zero(c.nv());
+  Q.tail(x.tau.size()) = x.tau.cwiseQuotient(D.tail(x.tau.size()));
+  const Eigen::VectorXd qacc_armature =
+      chain_output(armature.chain, Output::forward_dynamics, x.q, x.v, Q).cwiseQuotient(D);
+  const Eigen::VectorXd qacc_mj = chain_dofs(s, mj, mj.d->qacc);
+  EXPECT_GT((qacc_armature - qacc_mj).norm() / (1 + qacc_mj.norm()), 10 * worst);
+}
+
+// A URDF of one identified link (Izz above Ixx + Iyy) and names that need escaping.
+std::string identified_urdf(const std::string& izz) {
+  return "<robot name=\"r\">\n"
+         "<link name=\"bus\"><inertial><mass value=\"100\"/><inertia ixx=\"10\" ixy=\"0\" "
+         "ixz=\"0\" iyy=\"12\" iyz=\"0\" izz=\"14\"/></inertial></link>\n"
+         "<link name=\"arm &amp; &quot;hand&quot;\"><inertial><mass value=\"5\"/><inertia "
+         "ixx=\"0.2\" ixy=\"0\" ixz=\"0\" iyy=\"0.2\" iyz=\"0\" izz=\"" +
+         izz +
+         "\"/></inertial></link>\n"
+         "<joint name=\"j&lt;1&gt;\" type=\"revolute\"><parent link=\"bus\"/><child "
+         "link=\"arm &amp; &quot;hand&quot;\"/><origin xyz=\"0.5 0 0\"/><axis xyz=\"0 0 "
+         "1\"/></joint>\n</robot>\n";
+}
+SpatialScene urdf_scene(const std::string& xml, const std::string& more = "") {
+  return parse_spatial_scene(
+      "name: r\nspace: spatial\nbase: {type: free_floating}\nurdf: r.urdf\n" + more, "r.yaml",
+      [xml](const std::string&) { return xml; });
+}
+
+TEST(MjcfExport, NamesAreEscapedAndParametersTakeTheirValues) {
+  const SpatialScene s = urdf_scene(identified_urdf("0.3"));
+  const test::MujocoModel mj(export_mjcf(s));
+  EXPECT_GE(mj_name2id(mj.m.get(), mjOBJ_JOINT, "j<1>"), 0);
+  EXPECT_GE(mj_name2id(mj.m.get(), mjOBJ_BODY, "arm & \"hand\""), 0);
+  EXPECT_GE(mj_name2id(mj.m.get(), mjOBJ_SITE, "end_effector"), 0);
+  const SpatialScene p = parse_spatial_scene(R"(name: p
+space: spatial
+base: {type: free_floating, mass: mb, inertia: [10, 0, 0, 12, 0, 14]}
+links: [{origin: [0.5, 0, 0], axis: [0, 0, 1], mass: 5, inertia: [0.2, 0, 0, 0.2, 0, 0.3]}]
+gears: {ratio: p, rotor_inertia: [1e-4, 0], rotor_coupling: armature}
+friction: {viscous: 0.5}
+parameters: {mb: 100, p: 50}
+)",
+                                             "p.yaml");
+  MjcfOptions o;
+  o.params = {250, 20};
+  const test::MujocoModel given(export_mjcf(p, o));
+  EXPECT_DOUBLE_EQ(given.m->body_mass[mj_name2id(given.m.get(), mjOBJ_BODY, "base")], 250);
+  EXPECT_DOUBLE_EQ(given.m->dof_armature[6], 20 * 20 * 1e-4);
+  EXPECT_DOUBLE_EQ(given.m->dof_damping[6], 20 * 20 * 0.5);  // p b p q' on q
+  const test::MujocoModel nominal(export_mjcf(p));
+  EXPECT_DOUBLE_EQ(nominal.m->body_mass[mj_name2id(nominal.m.get(), mjOBJ_BODY, "base")], 100);
+  o.params = {1};
+  EXPECT_THROW(export_mjcf(p, o), std::invalid_argument);
+}
+
+TEST(MjcfExport, WhatMujocoLacksIsRefusedNamed) {
+  // An identified body: MuJoCo refuses its tensor; with balance_inertia MuJoCo changes it.
+  const SpatialScene s = urdf_scene(identified_urdf("0.9"), "inertia_check: positive_definite\n");
+  EXPECT_THROW_MESSAGE(export_mjcf(s), std::invalid_argument,
+                       "these bodies' are not: 'arm & \"hand\"'. --balance-inertia lets MuJoCo "
+                       "change them");
+  MjcfOptions o;
+  o.balance_inertia = true;
+  const std::string xml = export_mjcf(s, o);
+  EXPECT_NE(xml.find("balanceinertia=\"true\""), std::string::npos);
+  EXPECT_NO_THROW(test::MujocoModel{xml});
+  // A flexible joint's spring has no counterpart.
+  SpatialScene flexible = arm7(Gears::exact);
+  flexible.chain.links[2].gear.flexible = true;
+  EXPECT_THROW_MESSAGE(export_mjcf(flexible), std::invalid_argument,
+                       "joint 'joint3' is flexible (gears: stiffness)");
+}
+
+}  // namespace
+}  // namespace spacearm
