@@ -5,6 +5,7 @@
 
 #include "cli_input.hpp"
 #include "mjcf_export.hpp"
+#include "mujoco_compare.hpp"
 #include "private_folder.hpp"
 #include "row_writer.hpp"
 #include "spatial_scene.hpp"
@@ -13,6 +14,10 @@ namespace spacearm {
 
 int run_export(const ExportArgs& a) {
   if (!a.mjcf) throw std::invalid_argument("export: say which format: --mjcf (MuJoCo's)");
+  if (a.compare && !cli::mujoco_built())
+    throw std::invalid_argument(
+        "--compare: this spacearm was built without MuJoCo (libmujoco-dev; scripts/setup.sh "
+        "installs it)");
   if (a.output_file.empty() || a.output_file == "-")
     throw std::invalid_argument("-o: give a file name for the MuJoCo model");
   const std::string text = read_scene_file(a.scene_path);
@@ -38,6 +43,10 @@ int run_export(const ExportArgs& a) {
   }
   std::fprintf(stderr, "spacearm: wrote %s (MuJoCo model of scene '%s')\n", a.output_file.c_str(),
                scene.name.c_str());
+  if (a.compare)
+    std::printf("%s\n", cli::compare_in_mujoco(recipe, mjcf_names(scene, options), params,
+                                               a.output_file, a.cache_dir)
+                            .c_str());
   return 0;
 }
 

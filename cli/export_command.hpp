@@ -9,10 +9,12 @@ namespace spacearm {
 
 struct ExportArgs {
   std::string scene_path, output_file;
-  bool mjcf = false, balance_inertia = false;
+  bool mjcf = false, balance_inertia = false, compare = false;
+  std::string cache_dir;  // for --compare's compiled model
   std::vector<std::string> param_assignments;
 };
-// Writes the model; returns the exit status. Throws on errors, naming the option or the field.
+// Writes the model (and with compare loads it in MuJoCo and compares it with spacearm's at
+// random states); returns the exit status. Throws on errors, naming the option or the field.
 int run_export(const ExportArgs& args);
 
 }  // namespace spacearm

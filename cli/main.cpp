@@ -136,6 +136,12 @@ CLI::App* add_export(CLI::App& app, spacearm::ExportArgs& a) {
   command->add_option("-o,--output", a.output_file, "The model file to write")->required();
   command->add_option("--param", a.param_assignments,
                       "name=value: a run-time parameter's value (default: its nominal value)");
+  command->add_flag("--compare", a.compare,
+                    "Then load the file in MuJoCo and compare M, the bias and the forward "
+                    "dynamics with spacearm's compiled model at 20 random states");
+  command->add_option("--cache-dir", a.cache_dir,
+                      "Compiled-model cache for --compare (default: $SPACEARM_CACHE_DIR, else "
+                      "$XDG_CACHE_HOME/spacearm, else ~/.cache/spacearm)");
   command->add_flag("--balance-inertia", a.balance_inertia,
                     "Let MuJoCo change bodies whose inertia is not physical (balanceinertia) "
                     "instead of refusing them: its model then differs from spacearm's");

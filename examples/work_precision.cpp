@@ -120,7 +120,7 @@ Eigen::Vector2d rk4_in(const Model<models::paper_geared::Model>& g,
   const long steps = std::lround(T / dt);
   for (long k = 0; k < steps; ++k)
     stepper.do_step(f, x, static_cast<S>(k * dt), static_cast<S>(dt));
-  m::Vector3<S> pose;
+  m::Pose<S> pose;
   m::end_effector_pose<S>(x.template head<6>(), params, pose);
   return pose.template head<2>().template cast<double>();
 }

@@ -91,6 +91,16 @@ class MjcfWriter {
                                   " parameters");
   }
 
+  MjcfNames names() const {
+    MjcfNames n;
+    if (s_.chain.free_base) n.base_joint = body_name(0);
+    for (size_t j = 0; j < s_.chain.links.size(); ++j) {
+      n.joints.push_back(joint_name(j));
+      n.rotors.push_back(exact_rotor(j) ? rotor_name(j) : "");
+    }
+    return n;
+  }
+
   std::string write() {
     const spatial::ChainDescription& c = s_.chain;
     for (size_t j = 0; j < c.links.size(); ++j) refuse_what_mujoco_lacks(j);
@@ -317,6 +327,10 @@ class MjcfWriter {
 };
 
 }  // namespace
+
+MjcfNames mjcf_names(const SpatialScene& scene, const MjcfOptions& options) {
+  return MjcfWriter(scene, options).names();
+}
 
 std::string export_mjcf(const SpatialScene& scene, const MjcfOptions& options) {
   return MjcfWriter(scene, options).write();

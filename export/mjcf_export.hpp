@@ -27,6 +27,14 @@ struct MjcfOptions {
   bool balance_inertia = false;
 };
 
+// The names the MJCF gives: the base's free joint (empty for a fixed base), each spacearm joint's
+// hinge, and each joint's rotor hinge (empty where the joint has no exact rotor there).
+struct MjcfNames {
+  std::string base_joint;
+  std::vector<std::string> joints, rotors;
+};
+MjcfNames mjcf_names(const SpatialScene& scene, const MjcfOptions& options = {});
+
 // The MJCF text; std::invalid_argument naming the joint or body and what MuJoCo lacks.
 std::string export_mjcf(const SpatialScene& scene, const MjcfOptions& options = {});
 

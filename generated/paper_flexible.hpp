@@ -111,7 +111,9 @@ template <typename T> using Coordinates = Eigen::Matrix<T, kNq, 1>;
 template <typename T> using Velocities = Eigen::Matrix<T, kNv, 1>;
 template <typename T> using Parameters = Eigen::Matrix<T, kNumParams, 1>;
 template <typename T> using MassMatrix = Eigen::Matrix<T, kNv, kNv>;
-template <typename T> using Vector3 = Eigen::Matrix<T, 3, 1>;
+// The end effector's pose: x, y, phi in the plane; x, y, z, qw, qx, qy, qz in 3D.
+template <typename T> using Pose = Eigen::Matrix<T, 3, 1>;
+template <typename T> using Vector3 = Pose<T>;  // its former name, kept for old code
 template <typename T> using PoseJacobian = Eigen::Matrix<T, 3, kNv>;
 template <typename T> using JointVector = Eigen::Matrix<T, kNumLinks, 1>;
 template <typename T> using JointPositions = Eigen::Matrix<T, 2, kNumLinks + 1>;
@@ -220,6 +222,7 @@ struct Model {
   template <typename T> using Velocities = spacearm::models::paper_flexible::Velocities<T>;
   template <typename T> using Parameters = spacearm::models::paper_flexible::Parameters<T>;
   template <typename T> using MassMatrix = spacearm::models::paper_flexible::MassMatrix<T>;
+  template <typename T> using Pose = spacearm::models::paper_flexible::Pose<T>;
   template <typename T> using Vector3 = spacearm::models::paper_flexible::Vector3<T>;
   template <typename T> using PoseJacobian = spacearm::models::paper_flexible::PoseJacobian<T>;
   template <typename T> using JointVector = spacearm::models::paper_flexible::JointVector<T>;

@@ -70,8 +70,20 @@ void CompiledModel::check_parameters(const Eigen::VectorXd& params) const {
         << " is outside the supported magnitude range 1e-30 .. 1e30 (or 0)";
       throw std::invalid_argument(m.str());
     }
-  if (const char* error = parameter_error_(params.data()))
-    throw std::invalid_argument(std::string("parameters: ") + error);
+  if (const char* error = parameter_error_(params.data())) {
+    // The rule names the field; the values that moved from the nominal ones say why.
+    std::ostringstream m;
+    m << "parameters: " << error;
+    std::string moved;
+    for (size_t i = 0; i < nominal_.size(); ++i)
+      if (params[static_cast<Eigen::Index>(i)] != nominal_[i]) {
+        std::ostringstream one;
+        one << parameter_names_[i] << " = " << params[static_cast<Eigen::Index>(i)];
+        moved += (moved.empty() ? "" : "; ") + one.str();
+      }
+    if (!moved.empty()) m << " (given " << moved << ")";
+    throw std::invalid_argument(m.str());
+  }
 }
 
 std::string CompiledModel::value_span(const Eigen::VectorXd& params) const {

@@ -37,8 +37,8 @@ class Model {
   using JointVector = Eigen::Matrix<double, kNumLinks, 1>;
   // The pose and its Jacobian as the generated header shapes them (the registry's pose and
   // twist sizes: 3 in the plane; in 3D a pose [x, y, z, w, qx, qy, qz] and a 6-row Jacobian).
-  using Vector3 = typename Generated::template Vector3<double>;
-  using Pose = Vector3;
+  using Pose = typename Generated::template Pose<double>;
+  using Vector3 = Pose;  // its former name
   using PoseJacobian = typename Generated::template PoseJacobian<double>;
   // A spatial arm (a base floating in 3D, or fixed): its pose has 7 entries.
   static constexpr bool kSpatial = Pose::RowsAtCompileTime == 7;
@@ -153,8 +153,8 @@ class Model {
     Generated::momentum(q, qd, params_, h);
     return h;
   }
-  Vector3 end_effector_pose(const Vector& q) const {
-    Vector3 x;
+  Pose end_effector_pose(const Vector& q) const {
+    Pose x;
     Generated::end_effector_pose(q, params_, x);
     return x;
   }

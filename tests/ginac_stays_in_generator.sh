@@ -8,7 +8,7 @@ cd "$(dirname "$0")/.."
 cxx=${1:?compiler} eigen=${2:?Eigen include dir}
 generator_dirs=(generator generator/scene generator/program generator/derive generator/derive/planar
                 generator/derive/spatial generator/lower generator/print)
-includes=("${generator_dirs[@]/#/-I}" -Ijit -Iruntime -Isweep -Icli -Ifiles -I"$eigen")
+includes=("${generator_dirs[@]/#/-I}" -Ijit -Iruntime -Isweep -Icli -Iexport -Ifiles -I"$eigen")
 errors=$(mktemp)
 trap 'rm -f "$errors"' EXIT
 carries_ginac() {
@@ -20,7 +20,7 @@ carries_ginac() {
 }
 
 status=0
-for h in jit/*.hpp runtime/*.hpp sweep/*.hpp cli/*.hpp; do
+for h in jit/*.hpp runtime/*.hpp sweep/*.hpp cli/*.hpp export/*.hpp; do
   if carries_ginac "$h"; then echo "ginac_stays_in_generator: $h includes GiNaC" >&2; status=1; fi
 done
 # The generator's headers that carry GiNaC, and who outside it includes one.

@@ -381,8 +381,10 @@ std::string header_constants(const ModelFacts& facts) {
     << "template <typename T> using Velocities = Eigen::Matrix<T, kNv, 1>;\n"
     << "template <typename T> using Parameters = Eigen::Matrix<T, kNumParams, 1>;\n"
     << "template <typename T> using MassMatrix = Eigen::Matrix<T, kNv, kNv>;\n"
-    << "template <typename T> using Vector3 = Eigen::Matrix<T, "
+    << "// The end effector's pose: x, y, phi in the plane; x, y, z, qw, qx, qy, qz in 3D.\n"
+    << "template <typename T> using Pose = Eigen::Matrix<T, "
     << size_constant(Size::pose, facts.dims) << ", 1>;\n"
+    << "template <typename T> using Vector3 = Pose<T>;  // its former name, kept for old code\n"
     << "template <typename T> using PoseJacobian = Eigen::Matrix<T, "
     << size_constant(Size::twist, facts.dims) << ", kNv>;\n"
     << "template <typename T> using JointVector = Eigen::Matrix<T, kNumLinks, 1>;\n"
@@ -411,8 +413,8 @@ std::string model_struct(const LoweredModel& model, const std::string& ns) {
        "kActuatedCoordinates; }\n"
     << "  static constexpr const std::array<bool, kNumLinks>& motor_angle_slots() { return "
        "kMotorAngleSlots; }\n";
-  for (const char* alias : {"Coordinates", "Velocities", "Parameters", "MassMatrix", "Vector3",
-                            "PoseJacobian", "JointVector", "JointPositions"})
+  for (const char* alias : {"Coordinates", "Velocities", "Parameters", "MassMatrix", "Pose",
+                            "Vector3", "PoseJacobian", "JointVector", "JointPositions"})
     h << "  template <typename T> using " << alias << " = " << ns << "::" << alias << "<T>;\n";
   h << "  static constexpr const std::array<const char*, kNq>& coordinate_names() { return "
        "kCoordinateNames; }\n"

@@ -208,12 +208,17 @@ class SpatialReader {
   // A body's mass (> 0) and its inertia about the centre of mass: a physical tensor, positive
   // definite with principal moments that satisfy the triangle inequality. rule_field: the
   // field its run-time rules name (fixed text).
+  // part: a URDF link the scene gives (`inertials:`), whose mass may be 0 (a payload not yet
+  // there; its body as a whole keeps a positive mass).
   void read_inertial(const YAML::Node& n, const std::string& field, spatial::Inertial& l,
-                     const std::string& rule_field) {
+                     const std::string& rule_field, bool part = false) {
     l.mass = quantity(r_.require(n, "mass", field), field + ".mass");
-    if (!(l.mass.value > 0))
-      r_.fail(field + ".mass", "must be positive, got " + number_text(l.mass.value), n);
-    rule(true, rule_field + ".mass", l.mass);
+    if (part ? !(l.mass.value >= 0) : !(l.mass.value > 0))
+      r_.fail(field + ".mass",
+              std::string(part ? "must not be negative" : "must be positive") + ", got " +
+                  number_text(l.mass.value),
+              n);
+    rule(!part, rule_field + ".mass", l.mass);
     if (n["com"]) l.com = quantities<3>(n["com"], field + ".com");
     l.inertia = quantities<6>(r_.require(n, "inertia", field), field + ".inertia");
     const PrincipalMoments p = principal_moments(l);
@@ -296,7 +301,7 @@ class SpatialReader {
       spatial::Link& l = body == 0 ? u.chain.base : u.chain.links[body - 1];
       if (!n.IsMap()) r_.fail(field, "expected a mapping {mass, com, inertia}", n);
       r_.check_keys(n, field, {"mass", "com", "inertia"});
-      read_inertial(n, field, l.parts[part].inertial, inertials_field(name, k));
+      read_inertial(n, field, l.parts[part].inertial, inertials_field(name, k), true);
     }
     check_urdf_bodies(u, path, root["urdf"]);
     s.chain = u.chain;

@@ -10,7 +10,8 @@ arrays, one state of shape (n,) or k states of shape (k, n).
 
 Study reads a study file (`spacearm sweep`) and computes its runs' CSV rows (Study.rows) or
 named numpy columns (Study.table);
-spacearm.dask_sweep runs a study on Dask.
+spacearm.dask_sweep runs a study on Dask; spacearm.states converts a free base's state to and
+from Pinocchio's, SpaceDyn's and SPART's conventions.
 """
 try:
     import numpy as _np

@@ -52,7 +52,7 @@ TEST_F(EvalCli, JsonEqualsGeneratedCodeAndSymbolicAgrees) {
   const g::Parameters<double> pv(10, 2e-5);
   g::MassMatrix<double> M, C;
   g::Coordinates<double> b;
-  g::Vector3<double> h, x;
+  g::Pose<double> h, x;
   g::mass_matrix(qv, pv, M);
   g::coriolis_matrix(qv, qdv, pv, C);
   g::bias_forces(qv, qdv, pv, b);
@@ -181,6 +181,8 @@ TEST_F(EvalCli, BadInputsGetClearErrors) {
            {geared + " --q 0,0,0,0,0,0 --param k=3",
             "--param: unknown parameter 'k' (known: p, Im)"},
            {geared + " --q 0,0,0,0,0,0 --param p=inf", "--param p: 'inf' is not finite"},
+           {geared + " --q 0,0,0,0,0,0 --param p=-3",
+            "parameters: gears[0].ratio must be positive (given p = -3)"},
            {geared + " --q 0,0,0,0,0,0 --param Im=1",
             "gears[0].motor_inertia must be smaller than the inertia"},
            {unknown_field_scene() + " --q 0", "field 'links[0].colour': unknown field"},

@@ -105,13 +105,13 @@ void check_against_symbolic(const std::string& scene_path,
             "kinetic_energy");
       }
       if constexpr (Model::kHas_momentum) {
-        typename Model::template Vector3<double> h;
+        typename Model::template Pose<double> h;
         Model::momentum(q, qd, params, h);
         expect_equal_to_symbolic(
             h, evaluate_matrix(sym, sym.expression(Output::momentum), q, qd, pv), "momentum");
       }
       if constexpr (Model::kHas_end_effector_pose) {
-        typename Model::template Vector3<double> x;
+        typename Model::template Pose<double> x;
         Model::end_effector_pose(q, params, x);
         expect_equal_to_symbolic(
             x, evaluate_matrix(sym, sym.expression(Output::end_effector_pose), q, qd, pv),
@@ -131,7 +131,7 @@ void check_against_symbolic(const std::string& scene_path,
             P, evaluate_matrix(sym, sym.expression(Output::joint_positions), q, qd, pv),
             "joint_positions");
         if constexpr (Model::kHas_end_effector_pose) {
-          typename Model::template Vector3<double> x;
+          typename Model::template Pose<double> x;
           Model::end_effector_pose(q, params, x);
           EXPECT_NEAR((P.col(Model::kNumLinks) - x.template head<2>()).norm(), 0.0,
                       1e-14 * x.norm());
@@ -293,13 +293,13 @@ void check_dynamics_invariants(const typename Model::template Parameters<double>
               Model::template kinetic_energy<double>(q, qd - e, params)) /
              2;
     };
-    typename Model::template Vector3<double> h;
+    typename Model::template Pose<double> h;
     Model::momentum(q, qd, params, h);
     const Eigen::Vector3d from_T(dT(0), dT(1), dT(2) + q[0] * dT(1) - q[1] * dT(0));
     EXPECT_MATRIX_NEAR(h, from_T, 1e-12);
     EXPECT_MATRIX_NEAR(h, oracle.momentum(q, qd), 1e-12);
     // End-effector pose and its Jacobian (central differences).
-    typename Model::template Vector3<double> x;
+    typename Model::template Pose<double> x;
     typename Model::template PoseJacobian<double> J, J_fd;
     Model::end_effector_pose(q, params, x);
     Model::end_effector_jacobian(q, params, J);
@@ -307,7 +307,7 @@ void check_dynamics_invariants(const typename Model::template Parameters<double>
     for (int i = 0; i < Model::kNq; ++i) {
       Vec<Model> dq = Vec<Model>::Zero();
       dq[i] = 1e-6;
-      typename Model::template Vector3<double> xp, xm;
+      typename Model::template Pose<double> xp, xm;
       Model::template end_effector_pose<double>(q + dq, params, xp);
       Model::template end_effector_pose<double>(q - dq, params, xm);
       J_fd.col(i) = (xp - xm) / 2e-6;

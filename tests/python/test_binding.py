@@ -486,3 +486,16 @@ def test_hostile_input_third_round(geared, tmp_path):
         geared.mass_matrix(np.zeros(geared.nq), params={"p": 1e300})
     with pytest.raises(ValueError, match="is a folder, not a file to write a CSV into"):
         spacearm.write_csv(plan, tmp_path)
+
+
+def test_identified_inertias_load_with_one_warning():
+    """Issue 51: a URDF with identified link tensors under inertia_check: positive_definite loads
+    with one UserWarning naming its bodies, and its mass matrix is symmetric positive definite."""
+    scene = os.path.join(SOURCE, "models", "identified_arm3.yaml")
+    with pytest.warns(UserWarning) as caught:
+        model = spacearm.load(scene, cache_dir=CACHE)
+    said = [str(w.message) for w in caught if "inertia_check" in str(w.message)]
+    assert len(said) == 1 and "link 'Link_1' (principal moments 0.25, 0.25, 1.69)" in said[0]
+    M = model.mass_matrix([0, 0, 0, 1, 0, 0, 0, 0.3, 0.5, -0.8])
+    assert np.allclose(M, M.T, rtol=0, atol=1e-12)
+    assert np.linalg.eigvalsh(M).min() > 0

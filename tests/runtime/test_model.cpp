@@ -85,7 +85,7 @@ struct NearlySingular {
     return s;
   }
   template <typename T>
-  using Vector3 = Eigen::Matrix<T, 3, 1>;  // as a generated header's (the planar pose)
+  using Pose = Eigen::Matrix<T, 3, 1>;  // as a generated header's (the planar pose)
   template <typename T>
   using PoseJacobian = Eigen::Matrix<T, 3, kNv>;
   static const std::array<double, 1>& nominal_parameters() {

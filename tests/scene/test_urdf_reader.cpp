@@ -226,6 +226,21 @@ TEST(UrdfReader, InertialsTheSceneGivesArePartsOfTheirBodies) {
                                           "inertials: {link7: {mass: 1, com: [0, 0, 0.04], "
                                           "inertia: [0.003, 0, 0, 0.003, 0, 0.002]}}\n",
                                       path, with_urdf(point_flange)));
+  // Issue 51: a payload (a given part) may weigh 0 (uniform: [0, 50] in a study); not less.
+  const std::string payload =
+      "inertials: {tool_flange: {mass: PAYLOAD, com: [0, 0, 0.03], "
+      "inertia: [0.0005, 0, 0, 0.0005, 0, 0.0004]}}\n";
+  auto with_payload = [&](const std::string& mass) {
+    std::string text = model_file("space_arm7.yaml") + payload;
+    return text.replace(text.find("PAYLOAD"), 7, mass);
+  };
+  EXPECT_EQ(parse_spatial_scene(with_payload("0"), path, with_urdf(xml))
+                .chain.links[6]
+                .parts.at(0)
+                .inertial.mass.value,
+            0);
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(with_payload("-1"), path, with_urdf(xml)), SceneError,
+                       "field 'inertials.tool_flange.mass': must not be negative, got -1");
   EXPECT_THROW_MESSAGE(
       parse_spatial_scene(model_file("space_arm7.yaml") +
                               "inertials:\n  link7: {mass: 1, inertia: [1, 0, 0, 1, 0, 1]}\n"
