@@ -261,7 +261,8 @@ Frames frames_of(const LoadedScene& s, const RunTable& table, const StateReader&
 }
 
 // Drawing sizes from the scene: the base as the box of its inertia (a uniform box with the same
-// principal moments; the plane's square from m a^2 / 6 = I), joints and rods scaled to the reach.
+// principal moments; the plane's square from m a^2 / 6 = I) and a URDF base's own <visual>
+// shapes, joints and rods scaled to the reach.
 json geometry(const LoadedScene& s, const Frames& f) {
   const DynamicModel& m = s.dyn;
   double reach = 0;
@@ -289,8 +290,14 @@ json geometry(const LoadedScene& s, const Frames& f) {
   const double radius = 0.025 * reach;
   std::vector<bool> rotors;
   for (int i = 0; i < m.num_links; ++i) rotors.push_back(has_rotor(m, i));
+  // A URDF base's own shapes, drawn instead of the box (which a toggle shows).
+  json visuals = json::array();
+  for (const spatial::Visual& v : s.recipe->base_visuals())
+    visuals.push_back(
+        {{"kind", v.kind}, {"size", v.size}, {"position", v.xyz}, {"quaternion", v.quaternion}});
   return {{"base_box", box},
           {"base_center", center},
+          {"base_visuals", visuals},
           {"link_radius", std::vector<double>(m.num_links, radius)},
           {"joint_radius", 1.6 * radius},
           {"rotor_radius", 2.2 * radius},

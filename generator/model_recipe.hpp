@@ -86,6 +86,10 @@ class ModelRecipe {
     std::array<double, 6> inertia{};
   };
   BaseInertial base_inertial() const;
+  // A URDF base's <visual> shapes in the base frame (what the viewer draws; none for YAML).
+  std::vector<spatial::Visual> base_visuals() const {
+    return spatial_ ? spatial_->base_visuals : std::vector<spatial::Visual>{};
+  }
 
  private:
   std::shared_ptr<const Scene> planar_;

@@ -87,6 +87,11 @@ expect_error "is the run's provenance file" "$cli" view "$work/replay.csv" \
   -o "$work/replay.csv.provenance.json" "${cache[@]}"
 [[ ! -e $work/bad.html ]] || fail "a page was written for bad input"
 
+# A URDF arm (identified inertias) drawn with its base's <visual> shapes.
+run "$cli" simulate "$source_dir/models/identified_arm3.yaml" --zero --t-end 1 --dt 0.01 \
+  --qd0 0,0,0,0,0,0,0.2,-0.3,0.4 -o "$work/urdf.csv" "${cache[@]}"
+run "$cli" view "$work/urdf.csv" --scene "$source_dir/models/identified_arm3.yaml" \
+  -o "$work/urdf.html" "${cache[@]}"
 # A spatial arm turning its joints from rest, the base reacting.
 run "$cli" simulate "$source_dir/tests/scenes/spatial_arm2.yaml" --zero --t-end 1 --dt 0.01 \
   --qd0 0,0,0,0,0,0.2,60,-30 -o "$work/spatial.csv" "${cache[@]}"

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <string>
 #include <vector>
 
 #include "quantity.hpp"
@@ -124,6 +125,16 @@ struct JointLimits {
   double damping = 0, friction = 0;
   bool has_effort() const { return effort > 0; }
   bool has_velocity() const { return velocity > 0; }
+};
+
+// A URDF <visual> shape of the base (the root link or a link welded to it), in the base frame,
+// for the viewer: a box (size x y z), a cylinder along its z (radius, length), or a sphere
+// (radius); at xyz, turned by the quaternion (w, x, y, z). Not part of the model.
+struct Visual {
+  std::string kind;              // "box", "cylinder" or "sphere"
+  std::array<double, 3> size{};  // box: x y z; cylinder: radius, length, 0; sphere: radius, 0, 0
+  std::array<double, 3> xyz{};
+  std::array<double, 4> quaternion{1, 0, 0, 0};
 };
 
 // A part's frame as the transform from the link's frame to the part's.

@@ -38,6 +38,7 @@ struct SpatialScene {
   std::vector<std::string> joint_names;  // a URDF's moving joints (empty for the YAML form)
   std::vector<std::string> body_names;   // a URDF's link of each body, 0 the base (YAML: empty)
   std::vector<spatial::JointLimits> joint_limits;  // a URDF's, per moving joint (YAML: empty)
+  std::vector<spatial::Visual> base_visuals;       // a URDF's base shapes, for the viewer
   std::string source_path;                         // as given (messages, the generated banner)
   std::string content;  // every byte the model is made from (its hash names the library)
   spatial::ChainDescription chain;

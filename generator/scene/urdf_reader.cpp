@@ -382,6 +382,41 @@ class UrdfReader {
     return l;
   }
 
+  // The <visual> shapes of the links welded into the base, in the base frame (at most 200).
+  void base_visuals(const std::vector<std::pair<std::string, Frame>>& welded,
+                    UrdfChain& out) const {
+    for (const auto& [name, f] : welded) {
+      const tinyxml2::XMLElement* link = links_.at(name);
+      for (auto* v = link->FirstChildElement("visual"); v; v = v->NextSiblingElement("visual")) {
+        const tinyxml2::XMLElement* g = only_child(v, "geometry");
+        if (!g) continue;
+        spatial::Visual shape;
+        if (const auto* box = only_child(g, "box")) {
+          shape.kind = "box";
+          shape.size = numbers<3>(box, "size", std::nullopt);
+        } else if (const auto* c = only_child(g, "cylinder")) {
+          shape.kind = "cylinder";
+          shape.size = {numbers<1>(c, "radius", std::nullopt)[0],
+                        numbers<1>(c, "length", std::nullopt)[0], 0};
+        } else if (const auto* s = only_child(g, "sphere")) {
+          shape.kind = "sphere";
+          shape.size = {numbers<1>(s, "radius", std::nullopt)[0], 0, 0};
+        } else {
+          out.base_meshes += g->FirstChildElement("mesh") != nullptr;
+          continue;
+        }
+        for (double x : shape.size)
+          if (x < 0) fail(g, "a visual's size must not be negative");
+        const Frame at = f * origin(v);
+        shape.xyz = {at.p[0], at.p[1], at.p[2]};
+        const Eigen::Quaterniond q(at.R);
+        shape.quaternion = {q.w(), q.x(), q.y(), q.z()};
+        if (out.base_visuals.size() >= 200) fail(v, "more than 200 visuals on the base");
+        out.base_visuals.push_back(shape);
+      }
+    }
+  }
+
   UrdfChain chain(bool free_base, const std::string& end_effector_link) {
     UrdfChain out;
     std::vector<std::string> roots;
@@ -422,6 +457,7 @@ class UrdfReader {
         out.limits.push_back(carrier->limits);
       } else {
         out.chain.base = l;
+        base_visuals(welded, out);
       }
       if (moving.size() > 1)
         fail(moving[1]->element, "a second moving joint after body " + quoted_text(body) +

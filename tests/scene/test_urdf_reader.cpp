@@ -347,6 +347,38 @@ TEST(UrdfReader, DefaultEndEffectorIsTheWeldedLeaf) {
   EXPECT_EQ(read_urdf(robot(two_tools), "r.urdf", true, "camera").end_effector_link, "camera");
 }
 
+// Issue 51: the base's <visual> shapes (its own link's and those welded to it) in the base
+// frame, for the viewer; a mesh is counted, not read; a negative size is refused.
+TEST(UrdfReader, BaseVisualsAreReadInTheBaseFrame) {
+  const std::string shapes =
+      "<link name=\"a\"><inertial><mass value=\"2\"/><inertia ixx=\"1\" ixy=\"0\" ixz=\"0\" "
+      "iyy=\"1\" iyz=\"0\" izz=\"1\"/></inertial>"
+      "<visual><geometry><box size=\"2.2 2.1 2\"/></geometry></visual>"
+      "<visual><geometry><mesh filename=\"bus.stl\"/></geometry></visual></link>\n"
+      "<link name=\"panel\"><visual><origin xyz=\"0 0 0.5\" rpy=\"1.5707963267948966 0 0\"/>"
+      "<geometry><cylinder radius=\"0.1\" length=\"3\"/></geometry></visual></link>\n"
+      "<link name=\"b\"><inertial><mass value=\"1\"/><inertia ixx=\"0.1\" ixy=\"0\" ixz=\"0\" "
+      "iyy=\"0.1\" iyz=\"0\" izz=\"0.1\"/></inertial></link>\n" +
+      joint("wing", "fixed", "a", "panel", "<origin xyz=\"1.5 0 0\"/>") +
+      joint("j", "revolute", "a", "b");
+  const UrdfChain c = read_urdf(robot(shapes), "r.urdf", true, "");
+  ASSERT_EQ(c.base_visuals.size(), 2u);
+  EXPECT_EQ(c.base_meshes, 1);
+  EXPECT_EQ(c.base_visuals[0].kind, "box");
+  EXPECT_EQ(c.base_visuals[0].size, (std::array<double, 3>{2.2, 2.1, 2}));
+  const spatial::Visual& wing = c.base_visuals[1];
+  EXPECT_EQ(wing.kind, "cylinder");
+  EXPECT_EQ(wing.size, (std::array<double, 3>{0.1, 3, 0}));
+  EXPECT_NEAR(wing.xyz[0], 1.5, 1e-15);
+  EXPECT_NEAR(wing.xyz[2], 0.5, 1e-15);
+  EXPECT_NEAR(wing.quaternion[0], std::sqrt(0.5), 1e-15);  // about x by pi/2
+  EXPECT_NEAR(wing.quaternion[1], std::sqrt(0.5), 1e-15);
+  std::string negative = shapes;
+  negative.replace(negative.find("2.2 2.1 2"), 9, "2.2 -2.1 2");
+  EXPECT_THROW_MESSAGE(read_urdf(robot(negative), "r.urdf", true, ""), SceneError,
+                       "<geometry>: a visual's size must not be negative");
+}
+
 // Issue 49: the work of a parse is bounded before tinyxml2 sees the bytes (it compares each
 // attribute with the element's earlier ones: 60 000 took 23 s), so a hostile file is refused
 // at once, naming the limit; the same file under the limit is read as before.

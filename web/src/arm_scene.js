@@ -63,6 +63,20 @@ function placeRod(mesh, a, b) {
   mesh.scale.set(r, length, r);
 }
 
+// A URDF <visual> shape (data.geometry.base_visuals): a box, a cylinder along its z (three.js's
+// are along y) or a sphere, placed in the base frame.
+function visualMesh(v, material) {
+  const [a, b, c] = v.size;
+  const shape = v.kind === 'box' ? new THREE.BoxGeometry(a, b, c)
+    : v.kind === 'cylinder' ? new THREE.CylinderGeometry(a, a, b, 32).rotateX(Math.PI / 2)
+    : new THREE.SphereGeometry(a, 24, 16);
+  const mesh = new THREE.Mesh(shape, material);
+  mesh.position.set(...v.position);
+  const [w, x, y, z] = v.quaternion;
+  mesh.quaternion.set(x, y, z, w);
+  return mesh;
+}
+
 // One run's meshes: base, mount strut, links, joints, rotors and tip.
 class ArmMeshes {
   constructor(scene, geometry, run, ghost) {
@@ -74,6 +88,11 @@ class ArmMeshes {
     const [a, b, c] = geometry.base_box;
     this.base = new THREE.Mesh(new THREE.BoxGeometry(a, b, c), material(COLORS.base));
     this.baseCenter = new THREE.Vector3(...geometry.base_center);
+    // A URDF base's own shapes (in the base frame), drawn instead of the inertia box.
+    this.shapes = new THREE.Group();
+    for (const v of geometry.base_visuals || []) this.shapes.add(visualMesh(v, material(COLORS.base)));
+    const shaped = this.shapes.children.length > 0;
+    this.base.visible = !shaped;
     this.strut = rod(geometry.joint_radius * 0.6, COLORS.base, opacity);
     this.links = geometry.link_radius.map((r, i) =>
       rod(r, COLORS.link[ghost ? 1 : 0] + (i % 2) * 0x101010, opacity));
@@ -84,7 +103,7 @@ class ArmMeshes {
     this.rotors = geometry.rotors.map((present) =>
       present && !ghost && run.rotor ? this.rotorMesh(geometry.rotor_radius) : null);
     this.group = new THREE.Group();
-    this.group.add(this.base, this.strut, ...this.links, ...this.joints, this.tip);
+    this.group.add(this.base, this.shapes, this.strut, ...this.links, ...this.joints, this.tip);
     for (const r of this.rotors) if (r) this.group.add(r);
     scene.add(this.group);
   }
@@ -112,6 +131,8 @@ class ArmMeshes {
     const origin = new THREE.Vector3(pose[0], pose[1], pose[2]);
     this.base.quaternion.copy(q);
     this.base.position.copy(this.baseCenter).applyQuaternion(q).add(origin);
+    this.shapes.quaternion.copy(q);
+    this.shapes.position.copy(origin);
     placeRod(this.strut, this.base.position, point(0));
     for (let i = 0; i < this.n; ++i) {
       placeRod(this.links[i], point(i), point(i + 1));
@@ -173,6 +194,7 @@ export class ArmScene {
     this.arms = data.runs.map((run, i) => new ArmMeshes(this.scene, data.geometry, run, i > 0));
     data.runs.forEach((run, i) => this.scene.add(pathLine(run, COLORS.path[Math.min(i, 1)])));
     this.setCamera(data);
+    if ((data.geometry.base_visuals || []).length) this.boxToggle(parent);
     new ResizeObserver(() => this.resize()).observe(this.box);
     this.resize();
   }
@@ -186,7 +208,9 @@ export class ArmScene {
         for (let i = 0; i < p.length; i += 3) bounds.expandByPoint(new THREE.Vector3(p[i], p[i + 1], p[i + 2]));
         bounds.expandByPoint(new THREE.Vector3(run.base[k][0], run.base[k][1], run.base[k][2]));
       }
-    bounds.expandByScalar(Math.max(...data.geometry.base_box) * 0.75);
+    const shaped = (data.geometry.base_visuals || []).length > 0;
+    bounds.expandByScalar(shaped ? 0 : Math.max(...data.geometry.base_box) * 0.75);
+    if (shaped) for (const arm of this.arms) bounds.expandByObject(arm.shapes);
     const center = bounds.getCenter(new THREE.Vector3());
     const size = bounds.getSize(new THREE.Vector3()).length();
     this.extent = size;
@@ -210,6 +234,20 @@ export class ArmScene {
     this.controls.update();
   }
 
+  // A URDF base is drawn with its own shapes; this shows the box of its inertia beside them.
+  boxToggle(parent) {
+    const label = el('label', 'note');
+    const box = document.createElement('input');
+    box.type = 'checkbox';
+    box.addEventListener('change', () => {
+      for (const arm of this.arms) arm.base.visible = box.checked;
+      this.render();
+    });
+    label.append(box, document.createTextNode(' the base as the box of its inertia too'));
+    parent.append(label);
+    this.inertiaBoxToggle = box;
+  }
+
   resize() {
     const w = Math.max(1, this.box.clientWidth), h = Math.max(1, this.box.clientHeight);
     this.renderer.setSize(w, h);
@@ -230,6 +268,12 @@ export class ArmScene {
 
   render() {
     this.renderer.render(this.scene, this.camera);
+  }
+
+  // How run 0's base is drawn: its URDF shapes, and whether the inertia box shows.
+  baseShapes() {
+    const arm = this.arms[0];
+    return { shapes: arm.shapes.children.length, box: arm.base.visible };
   }
 
   // The drawn end effector of run i: [x, y, z], or null where the run is hidden.

@@ -77,6 +77,7 @@ function main() {
       play: () => timeline.play(),
       pause: () => timeline.pause(),
       endEffector: (run = 0) => scene.endEffector(run),
+      baseShapes: () => scene.baseShapes(),
       render: () => scene.render(),
       plotRanges: () => plots.plots.map((u) => [u.scales.y.min, u.scales.y.max]),
     });

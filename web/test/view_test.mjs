@@ -92,6 +92,20 @@ try {
     await drawsAndShoots(page, 'spatial', 'spatial_view.png');
     check(errors.length === 0, 'spatial: no console errors ' + JSON.stringify(errors));
   }
+  {  // A URDF arm: its base drawn with the URDF's own shapes, the inertia box on request.
+    const { page, errors } = await open(browser, 'urdf.html');
+    check(await page.evaluate(() => window.spacearmView.ready), 'urdf: ready');
+    const before = await page.evaluate(() => window.spacearmView.baseShapes());
+    check(before.shapes === 1 && !before.box, 'urdf: the bus box drawn, not the inertia box (' + JSON.stringify(before) + ')');
+    const canvas = page.locator('.scene3d canvas');
+    const shapes = await canvas.screenshot();
+    await page.locator('label.note input[type=checkbox]').check();
+    const after = await page.evaluate(() => window.spacearmView.baseShapes());
+    const both = await canvas.screenshot();
+    check(after.box && !shapes.equals(both), 'urdf: the checkbox shows the inertia box too');
+    await drawsAndShoots(page, 'urdf', 'urdf_view.png');
+    check(errors.length === 0, 'urdf: no console errors ' + JSON.stringify(errors));
+  }
   {  // Markup in the scene's description and the run's file name.
     const { page, errors } = await open(browser, 'hostile.html');
     const seen = await page.evaluate(() => ({
