@@ -44,6 +44,7 @@ int run_sweep_command(const SweepArgs& a) {
       (shard.count > 1 ? ", shard " + a.shard : "") + ", " + std::to_string(o.threads) +
       " threads, into '" + a.out_dir + "'");
   if (a.verbose) say("sweep: " + runner.integration_text());
+  if (!runner.plan_report().empty()) say("sweep: " + runner.plan_report());
   if (runner.study().scene.geared)
     say(runner.command_ratio_text() == "run"
             ? "sweep: command_ratio run (the default): each run's motors get tau / its own p, a "

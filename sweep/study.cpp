@@ -211,7 +211,8 @@ void StudyReader::torque_manoeuvre(Study& s, const YAML::Node& n) const {
 // A straight line of the end effector, a position or a pose (3D: with the orientation slerped).
 void StudyReader::plan(Study& s, const YAML::Node& p) const {
   const bool spatial = s.scene.is_spatial();
-  r_.check_keys(p, "manoeuvre.plan", {"from", "to", "duration", "time_law", "elbow", "scene"});
+  r_.check_keys(p, "manoeuvre.plan",
+                {"from", "to", "duration", "time_law", "elbow", "scene", "q0"});
   StraightLineTask task;
   task.start = position_or_pose(r_.require(p, "from", "manoeuvre.plan"), "manoeuvre.plan.from",
                                 spatial, true);
@@ -233,6 +234,19 @@ void StudyReader::plan(Study& s, const YAML::Node& p) const {
     task.elbow = static_cast<int>(e);
   }
   if (p["scene"].IsDefined()) s.plan_scene = scene(p["scene"], "manoeuvre.plan.scene");
+  // The planner's start guess, as plan --q0: the plan scene's coordinates (the base pose, then
+  // each joint's slot: a geared joint's motor angle qm = p q), which picks the IK branch.
+  if (p["q0"].IsDefined()) {
+    const StudyScene& pf = s.plan_scene ? *s.plan_scene : s.scene;
+    const int nq = pf.base_coordinates + pf.num_links, k = pf.quaternion_offset;
+    task.q0 = numbers(p["q0"], "manoeuvre.plan.q0", nq, nq);
+    if (k >= 0) {
+      if (const std::string why = quaternion_problem(task.q0, k, "the base's quaternion");
+          !why.empty())
+        r_.fail("manoeuvre.plan.q0", why, p["q0"]);
+      task.q0.segment(k, 4).normalize();
+    }
+  }
   s.target = task.goal;
   s.plan = task;
 }

@@ -55,6 +55,9 @@ class StudyRunner {
   // calls where the library has none). By default 4 where the model has 4-lane functions, else
   // 1. Every setting writes the same bytes (test_sweep).
   int lanes() const { return lanes_; }
+  // The plan's checks as `spacearm plan` prints them (empty without a plan): its samples, the
+  // largest path error and the largest |qdd - central differences of qd|.
+  const std::string& plan_report() const { return plan_report_; }
   // How the runs are integrated, in words (spacearm sweep --verbose says it).
   std::string integration_text() const;
   void set_lanes(int lanes);
@@ -68,6 +71,7 @@ class StudyRunner {
   Study study_;
   std::unique_ptr<Loaded> loaded_;
   std::string header_;
+  std::string plan_report_;
   int lanes_ = 1;
   std::string reference_row(long run, std::string* series) const;
 };

@@ -677,6 +677,11 @@ TEST(Sweep, SpatialArmSweepsAPayloadAndTheRatioWithOneModel) {
        "field 'manoeuvre.plan.from': the quaternion (entries 3 to 6) needs a norm from 1e-6 to "
        "1e6, "
        "got 0"},
+      {replace(text, "    duration: 4", "    duration: 4\n    q0: [0, 0, 0, 1]"),
+       "field 'manoeuvre.plan.q0': expected a list of 14 numbers"},
+      {replace(text, "    duration: 4",
+               "    duration: 4\n    q0: [0, 0, 0, 0, 0, 0, 0, 40, 40, 40, 40, 40, 40, 40]"),
+       "field 'manoeuvre.plan.q0': the base's quaternion"},
       {replace(text, "mp: {from", "payload: {from"),
        "field 'grid.payload': not a run-time "
        "parameter of scene 'space_arm7_payload' "
@@ -691,6 +696,19 @@ TEST(Sweep, SpatialArmSweepsAPayloadAndTheRatioWithOneModel) {
       EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
     }
   }
+  // Issue 51: the plan's start guess (manoeuvre.plan.q0, as plan --q0) is the planner's: the
+  // seed the study plans from by default (every joint at 0.4 rad: motor angles 40) gives the
+  // same study, another seed another plan start.
+  const std::string seeded =
+      replace(replace(text, "../models/space_arm7_payload.yaml", scene), "    duration: 4",
+              "    duration: 4\n    q0: [0, 0, 0, 1, 0, 0, 0, 40, 40, 40, 40, 40, 40, 40]");
+  const Study with_seed = parse_study(seeded, "3d.yaml");
+  ASSERT_TRUE(with_seed.plan && with_seed.plan->q0.size() == 14);
+  EXPECT_EQ(with_seed.plan->q0[7], 40);
+  const StudyRunner seeded_runner(with_seed, cache());
+  EXPECT_EQ(seeded_runner.row(0), runner.row(0));
+  EXPECT_NE(runner.plan_report().find("plan of 401 samples: max path error"), std::string::npos)
+      << runner.plan_report();
   // A torque manoeuvre's q0 in 3D: base origin, quaternion, joints; the quaternion is named.
   const std::string torques = (dir / "tau.csv").string();
   std::ofstream(torques) << "t,tau1,tau2,tau3,tau4,tau5,tau6,tau7\n0,0,0,0,0,0,0,0\n"
