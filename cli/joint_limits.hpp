@@ -21,28 +21,44 @@ struct LimitUse {
   double effort = NAN, velocity = NAN;  // peak over the limit; NaN where the URDF gives none
 };
 
-// tau[k]: link-side joint torques at sample k; qd[k]: the velocities (nv) at sample k.
-inline std::vector<LimitUse> limit_use(const ModelRecipe& recipe, const Eigen::VectorXd& params,
+// tau[k], rates[k]: the link-side joint torques and joint rates q' at sample k.
+inline std::vector<LimitUse> limit_use(const ModelRecipe& recipe,
                                        const std::vector<Eigen::VectorXd>& tau,
-                                       const std::vector<Eigen::VectorXd>& qd) {
+                                       const std::vector<Eigen::VectorXd>& rates) {
   const std::vector<spatial::JointLimits> limits = recipe.joint_limits();
-  const std::vector<Quantity> ratios = recipe.gear_ratios();
-  const ModelFacts& facts = recipe.facts();
   std::vector<LimitUse> use;
   for (size_t j = 0; j < limits.size(); ++j) {
     const spatial::JointLimits& l = limits[j];
     if (!l.has_effort() && !l.has_velocity()) continue;
-    const Quantity& r = ratios.at(j);
-    const double p = r.is_parameter() ? params[r.index] : r.value;
-    const double to_link = facts.motor_angle_slots.at(j) ? 1 / p : 1.0;
-    const int slot = facts.num_base + static_cast<int>(j);
+    const auto row = static_cast<Eigen::Index>(j);
     double tau_peak = 0, rate_peak = 0;
-    for (const auto& t : tau) tau_peak = std::max(tau_peak, std::abs(t[j]));
-    for (const auto& v : qd) rate_peak = std::max(rate_peak, std::abs(v[slot] * to_link));
+    for (const auto& t : tau) tau_peak = std::max(tau_peak, std::abs(t[row]));
+    for (const auto& v : rates) rate_peak = std::max(rate_peak, std::abs(v[row]));
     use.push_back({recipe.joint_names().at(j), l.has_effort() ? tau_peak / l.effort : NAN,
                    l.has_velocity() ? rate_peak / l.velocity : NAN});
   }
   return use;
+}
+
+// The link-side joint rates of velocities qd (nv each): q' = qm' / p where the slot holds the
+// motor angle.
+inline std::vector<Eigen::VectorXd> link_rates(const ModelRecipe& recipe,
+                                               const Eigen::VectorXd& params,
+                                               const std::vector<Eigen::VectorXd>& qd) {
+  const ModelFacts& facts = recipe.facts();
+  const std::vector<Quantity> ratios = recipe.gear_ratios();
+  const int N = facts.dims.num_links;
+  std::vector<Eigen::VectorXd> out;
+  for (const auto& v : qd) {
+    Eigen::VectorXd r(N);
+    for (int j = 0; j < N; ++j) {
+      const Quantity& q = ratios.at(static_cast<size_t>(j));
+      const double p = q.is_parameter() ? params[q.index] : q.value;
+      r[j] = v[facts.num_base + j] / (facts.motor_angle_slots.at(static_cast<size_t>(j)) ? p : 1.0);
+    }
+    out.push_back(r);
+  }
+  return out;
 }
 
 // One line of the joints' use of their limits, and a warning naming each joint above 1.

@@ -168,7 +168,7 @@ int run_plan(const PlanArgs& a) {
                  "inaccurate\n",
                  plan.max_acceleration_mismatch, qdd_peak);
   std::vector<Eigen::VectorXd> tau(plan.tau.begin(), plan.tau.end());
-  cli::report_limit_use(cli::limit_use(recipe, params, tau, plan.qd));
+  cli::report_limit_use(cli::limit_use(recipe, tau, cli::link_rates(recipe, params, plan.qd)));
   if (!plan.base_residual.empty())
     std::fprintf(stderr,
                  "spacearm: free base: max |momentum| %.2e, max force on the base (eq. 5 base "

@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "cli_input.hpp"
+#include "joint_limits.hpp"
 #include "compiled_model.hpp"
 #include "dynamic_model.hpp"
 #include "consistent_start.hpp"
@@ -442,7 +443,11 @@ int simulate_loaded(const SimulateArgs& a, const ModelRecipe& scene, const Compi
   const bool passive = facts.has_passive_forces();
   const int N = facts.dims.num_links;
   const DynamicModel model = dynamic_model(compiled, params);
-  if (plan) prepare_replay(a, model, *plan, q0, qd0);
+  if (plan) {
+    prepare_replay(a, model, *plan, q0, qd0);
+    // The torques it applies and the plan's rates against the URDF's joint limits.
+    cli::report_limit_use(cli::limit_use(scene, plan->torques.samples, plan->rates));
+  }
   const auto tau = torque_signal(a, N, plan ? &plan->torques : torque_file);
   if (a.consistent_start) consistent_start(model, q0, qd0, (*tau)(0.0));
   // The integrator, from the stiffest mode at the start.

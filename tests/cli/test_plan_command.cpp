@@ -581,6 +581,10 @@ TEST_F(PlanCommand, IdentifiedUrdfPlansFliesAndReportsItsLimits) {
   const std::string sim = test::run_command(
       cli() + "simulate " + scene + " --plan " + csv + " -o " + flown + cache() + " 2>&1", &status);
   ASSERT_EQ(status, 0) << sim;
+  const std::string limits = "URDF limits, peak |tau| / effort and |q'| / velocity per joint: ";
+  EXPECT_EQ(sim.substr(sim.find(limits), sim.find('\n', sim.find(limits)) - sim.find(limits)),
+            out.substr(out.find(limits), out.find('\n', out.find(limits)) - out.find(limits)))
+      << sim;  // the replay reports the plan's use of the limits
   const Csv run = read_csv(flown);
   const size_t last = run.rows.size() - 1;
   EXPECT_LT((run.values(last, {"ee_x", "ee_y", "ee_z"}) - Eigen::Vector3d(2.3, 0.6, 1.1)).norm(),
