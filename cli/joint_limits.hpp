@@ -67,12 +67,17 @@ inline void report_limit_use(const std::vector<LimitUse>& use) {
   std::string line, over;
   char text[64];
   for (const LimitUse& u : use) {
-    line += (line.empty() ? "" : ", ") + quoted_text(u.joint);
-    std::snprintf(text, sizeof text, " %.2g / %.2g", u.effort, u.velocity);
-    line += text;
+    // "-" where the URDF gives no limit (effort or velocity 0 or absent).
+    auto ratio = [&text](double r) {
+      if (std::isnan(r)) return std::string("-");
+      std::snprintf(text, sizeof text, "%.2g", r);
+      return std::string(text);
+    };
+    line += (line.empty() ? "" : ", ") + quoted_text(u.joint) + " " + ratio(u.effort) + " / " +
+            ratio(u.velocity);
     if (u.effort > 1 || u.velocity > 1) {
-      std::snprintf(text, sizeof text, " (effort %.3g, velocity %.3g)", u.effort, u.velocity);
-      over += (over.empty() ? "" : ", ") + quoted_text(u.joint) + text;
+      over += (over.empty() ? "" : ", ") + quoted_text(u.joint) + " (effort " + ratio(u.effort) +
+              ", velocity " + ratio(u.velocity) + ")";
     }
   }
   std::fprintf(stderr,

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "compiled_model.hpp"
+#include "text_numbers.hpp"
 
 #ifdef SPACEARM_WITH_MUJOCO
 #include <mujoco/mujoco.h>
@@ -34,6 +35,14 @@ bool mujoco_built() { return true; }
 
 namespace {
 
+// MuJoCo's message, control characters as '?' and at most 300 characters.
+std::string shown(const std::string& text) {
+  std::string s;
+  for (char c : text.substr(0, 300))
+    s += (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) ? '?' : c;
+  return s + (text.size() > 300 ? "..." : "");
+}
+
 // The worst of three kinds of difference over the states, relative.
 struct Worst {
   double mass_matrix = 0, bias = 0, forward = 0;
@@ -45,7 +54,8 @@ struct Mujoco {
   std::unique_ptr<mjData, void (*)(mjData*)> d{nullptr, mj_deleteData};
   int joint(const std::string& name) const {
     const int id = mj_name2id(m.get(), mjOBJ_JOINT, name.c_str());
-    if (id < 0) throw std::invalid_argument("--compare: MuJoCo's model has no joint " + name);
+    if (id < 0)
+      throw std::invalid_argument("--compare: MuJoCo's model has no joint " + quoted_text(name));
     return id;
   }
 };
@@ -80,7 +90,9 @@ std::string compare_in_mujoco(const ModelRecipe& recipe, const MjcfNames& names,
   Mujoco mj;
   char error[1000] = "";
   mj.m.reset(mj_loadXML(mjcf_path.c_str(), nullptr, error, sizeof error));
-  if (!mj.m) throw std::invalid_argument("--compare: MuJoCo refuses '" + mjcf_path + "': " + error);
+  if (!mj.m)  // MuJoCo's message quotes the file's names: shown through quoted_text's filter
+    throw std::invalid_argument("--compare: MuJoCo refuses " + quoted_text(mjcf_path) + ": " +
+                                shown(error));
   mj.d.reset(mj_makeData(mj.m.get()));
   CompileOptions options;
   options.cache_dir = cache_dir;

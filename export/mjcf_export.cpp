@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 #include <stdexcept>
@@ -15,14 +16,47 @@ namespace spacearm {
 namespace {
 
 // Numbers for an attribute, with 17 significant digits: MuJoCo reads back spacearm's doubles.
+// One that overflowed (run-time parameters at the edge of their range) is refused, never written.
 std::string numbers(std::initializer_list<double> values) {
   std::string text;
   char one[32];
   for (double v : values) {
+    if (!std::isfinite(v))
+      throw std::invalid_argument(
+          "export --mjcf: a number of the MuJoCo model is not finite (the --param values "
+          "overflow it)");
     std::snprintf(one, sizeof one, "%.17g", v == 0 ? 0.0 : v);  // no "-0"
     text += (text.empty() ? "" : " ") + std::string(one);
   }
   return text;
+}
+
+// Whether a name can be an XML attribute that every parser reads back as it is: valid UTF-8,
+// no control character (tab, newline and CR would be read back as spaces), no surrogate or
+// non-character (U+FFFE, U+FFFF). Hand-written: a few lines over the bytes.
+bool xml_safe(const std::string& name) {
+  const auto* s = reinterpret_cast<const unsigned char*>(name.data());
+  for (size_t i = 0, n = name.size(); i < n;) {
+    const unsigned c = s[i];
+    if (c < 0x20 || c == 0x7f) return false;
+    if (c < 0x80) {
+      ++i;
+      continue;
+    }
+    const int more = c >= 0xf0 ? (c <= 0xf4 ? 3 : -1) : c >= 0xe0 ? 2 : c >= 0xc2 ? 1 : -1;
+    if (more < 0 || i + more >= n) return false;
+    unsigned code = c & (0x3f >> more);
+    for (int k = 1; k <= more; ++k) {
+      if ((s[i + k] & 0xc0) != 0x80) return false;
+      code = (code << 6) | (s[i + k] & 0x3f);
+    }
+    const unsigned least[] = {0, 0x80, 0x800, 0x10000};
+    if (code < least[more] || code > 0x10ffff || (code >= 0xd800 && code <= 0xdfff) ||
+        code == 0xfffe || code == 0xffff)
+      return false;
+    i += more + 1;
+  }
+  return true;
 }
 
 // Text in an attribute (a URDF's names may hold any character): XML's five as entities.
@@ -104,10 +138,11 @@ class MjcfWriter {
   std::string write() {
     const spatial::ChainDescription& c = s_.chain;
     for (size_t j = 0; j < c.links.size(); ++j) refuse_what_mujoco_lacks(j);
+    check_names();
     std::vector<Mass> bodies;  // 0 the base, j + 1 link j; less exact rotors' point masses
     for (size_t b = 0; b <= c.links.size(); ++b) bodies.push_back(body_mass(b));
     for (size_t j = 0; j < c.links.size(); ++j)
-      if (exact_rotor(j)) bodies[j] = with_rotor_removed(bodies[j], j);
+      if (exact_rotor(j) && (j > 0 || c.free_base)) bodies[j] = with_rotor_removed(bodies[j], j);
     check_physical(bodies);
     std::ostringstream x;
     header(x);
@@ -197,7 +232,8 @@ class MjcfWriter {
     out.I += (It - T) * (Eigen::Matrix3d::Identity() - a * a.transpose());
     return out;
   }
-  static double rotor_mass(const Mass& parent) { return 1e-9 * parent.m; }
+  // A fixed base has no mass of its own: its rotors get 1e-9 kg (the base does not move).
+  static double rotor_mass(const Mass& parent) { return parent.m > 0 ? 1e-9 * parent.m : 1e-9; }
   double rotor_transverse(size_t j) const {
     return std::max(value(link(j).gear.transverse), value(link(j).gear.axial) / 2);
   }
@@ -205,14 +241,31 @@ class MjcfWriter {
   // Every moving body's tensor must be physical for MuJoCo (it refuses others unless its
   // balanceinertia changes them): all such bodies named at once.
   void check_physical(const std::vector<Mass>& bodies) {
-    std::string listed;
+    std::string listed, massless;
     for (size_t b = s_.chain.free_base ? 0 : 1; b < bodies.size(); ++b) {
+      if (!(bodies[b].m > 0)) {  // a payload of mass 0 with nothing else on its body
+        massless += (massless.empty() ? "" : ", ") + quoted_text(body_name(b));
+        continue;
+      }
       const Eigen::Vector3d m =
           Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(bodies[b].I).eigenvalues();
       if (m.minCoeff() > 0 && m[0] + m[1] >= m[2] * (1 - 1e-12)) continue;
       listed += (listed.empty() ? "" : ", ") + quoted_text(body_name(b));
     }
+    if (!massless.empty())
+      throw std::invalid_argument(
+          "export --mjcf: MuJoCo's moving bodies need a positive mass, "
+          "and these bodies' is 0 at the parameters' values: " +
+          massless);
     if (listed.empty()) return;
+    bool thin_rotor = false;  // a rotor's transverse inertia below half its axial one
+    for (size_t j = 0; j < s_.chain.links.size(); ++j)
+      thin_rotor =
+          thin_rotor || (exact_rotor(j) && rotor_transverse(j) > value(link(j).gear.transverse));
+    if (thin_rotor)
+      listed +=
+          " (exact rotors whose transverse inertia is below half their axial one lend the "
+          "difference to their parent body, whose tensor must then stay physical)";
     if (!o_.balance_inertia)
       throw std::invalid_argument(
           "export --mjcf: MuJoCo takes only physical inertias (each principal moment at most the "
@@ -221,6 +274,42 @@ class MjcfWriter {
           ". --balance-inertia lets MuJoCo change them (balanceinertia), so its model "
           "then differs from spacearm's");
     balance_ = true;
+  }
+
+  // Every name the file gives, once per kind (MuJoCo refuses a repeated one), none of them
+  // MuJoCo's own "world" body, each one XML carries as it is.
+  void check_names() const {
+    std::vector<std::pair<std::string, std::string>> bodies, joints;  // (name, what it is)
+    for (size_t b = 0; b <= s_.chain.links.size(); ++b)
+      bodies.push_back({body_name(b), b == 0
+                                          ? "the base's body"
+                                          : "joint " + quoted_text(joint_name(b - 1)) + "'s body"});
+    if (s_.chain.free_base) joints.push_back({body_name(0), "the base's free joint"});
+    for (size_t j = 0; j < s_.chain.links.size(); ++j) {
+      joints.push_back({joint_name(j), "a joint"});
+      if (exact_rotor(j)) {
+        bodies.push_back({rotor_name(j), "an exact rotor's body"});
+        joints.push_back({rotor_name(j), "an exact rotor's joint"});
+      }
+    }
+    for (const auto* list : {&bodies, &joints})
+      for (size_t a = 0; a < list->size(); ++a) {
+        const auto& [name, what] = (*list)[a];
+        if (!xml_safe(name))
+          throw std::invalid_argument("export --mjcf: the name " + quoted_text(name) + " of " +
+                                      what +
+                                      " holds a character XML cannot carry as it is (a control "
+                                      "character, or bytes that are not UTF-8)");
+        if (list == &bodies && name == "world")
+          throw std::invalid_argument(
+              "export --mjcf: " + what +
+              " is named 'world', MuJoCo's own world body: rename the URDF's link");
+        for (size_t b = 0; b < a; ++b)
+          if ((*list)[b].first == name)
+            throw std::invalid_argument("export --mjcf: " + (*list)[b].second + " and " + what +
+                                        " are both named " + quoted_text(name) +
+                                        ", and MuJoCo needs each name once: rename one");
+      }
   }
 
   void header(std::ostringstream& x) const {

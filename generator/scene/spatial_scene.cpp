@@ -140,6 +140,7 @@ class SpatialReader {
   std::vector<std::string> not_physical_;      // bodies positive_definite accepts, with moments
 
   void read_inertia_check(const YAML::Node& n, SpatialScene& s) {
+    if (!n.IsScalar()) r_.fail("inertia_check", "expected physical or positive_definite", n);
     const std::string c = r_.bounded(n, "inertia_check").Scalar();
     if (c != "physical" && c != "positive_definite")
       r_.fail("inertia_check", "expected physical or positive_definite, got " + quoted_text(c), n);

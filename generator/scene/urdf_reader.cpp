@@ -390,6 +390,8 @@ class UrdfReader {
       for (auto* v = link->FirstChildElement("visual"); v; v = v->NextSiblingElement("visual")) {
         const tinyxml2::XMLElement* g = only_child(v, "geometry");
         if (!g) continue;
+        if (g->FirstChildElement() && g->FirstChildElement()->NextSiblingElement())
+          fail(g->FirstChildElement()->NextSiblingElement(), "a second shape in one <geometry>");
         spatial::Visual shape;
         if (const auto* box = only_child(g, "box")) {
           shape.kind = "box";
@@ -401,12 +403,14 @@ class UrdfReader {
         } else if (const auto* s = only_child(g, "sphere")) {
           shape.kind = "sphere";
           shape.size = {numbers<1>(s, "radius", std::nullopt)[0], 0, 0};
-        } else {
-          out.base_meshes += g->FirstChildElement("mesh") != nullptr;
+        } else {  // a mesh, or a shape URDF does not define: counted, not drawn
+          out.base_undrawn += g->FirstChildElement() != nullptr;
           continue;
         }
         for (double x : shape.size)
-          if (x < 0) fail(g, "a visual's size must not be negative");
+          if (x < 0)
+            fail(g->FirstChildElement(),
+                 "a visual's size must not be negative, got " + number_text(x));
         const Frame at = f * origin(v);
         shape.xyz = {at.p[0], at.p[1], at.p[2]};
         const Eigen::Quaterniond q(at.R);

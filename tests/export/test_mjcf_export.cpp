@@ -235,5 +235,49 @@ TEST(MjcfExport, WhatMujocoLacksIsRefusedNamed) {
                        "joint 'joint3' is flexible (gears: stiffness)");
 }
 
+// Found in review: names XML cannot carry or MuJoCo would refuse are refused by name; a fixed
+// base's exact rotor gets a mass MuJoCo takes; overflowing numbers and massless bodies are
+// refused, never written.
+TEST(MjcfExport, NamesAndNumbersMujocoWouldRefuseAreRefusedFirst) {
+  auto renamed = [](const std::string& from, const std::string& to) {
+    std::string xml = identified_urdf("0.3");
+    for (size_t at; (at = xml.find(from)) != std::string::npos;) xml.replace(at, from.size(), to);
+    return xml;
+  };
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {renamed("j&lt;1&gt;", "j&#1;1"), "holds a character XML cannot carry as it is"},
+      {renamed("j&lt;1&gt;", "j&#9;1"), "holds a character XML cannot carry as it is"},
+      {renamed("j&lt;1&gt;", "j\xff"), "holds a character XML cannot carry as it is"},
+      {renamed("j&lt;1&gt;", "bus"),
+       "the base's free joint and a joint are both named 'bus', and MuJoCo needs each name once"},
+      {renamed("\"bus\"", "\"world\""), "the base's body is named 'world', MuJoCo's own"},
+  };
+  for (const auto& [xml, message] : cases) {
+    SCOPED_TRACE(message);
+    EXPECT_THROW_MESSAGE(export_mjcf(urdf_scene(xml)), std::invalid_argument, message);
+  }
+  // A fixed base (massless) carrying an exact rotor: the rotor's own mass, and MuJoCo loads it.
+  SpatialScene fixed = arm7(Gears::exact);
+  fixed.chain.free_base = false;
+  fixed.chain.base = {};
+  EXPECT_NO_THROW(test::MujocoModel{export_mjcf(fixed)});
+  // Parameters that overflow the model's numbers, or leave a body without mass.
+  const SpatialScene p = parse_spatial_scene(R"(name: p
+space: spatial
+base: {type: free_floating, mass: 100, inertia: [10, 0, 0, 12, 0, 14]}
+links: [{origin: [0.5, 0, 0], axis: [0, 0, 1], mass: m, inertia: [0.2, 0, 0, 0.2, 0, 0.3]}]
+gears: {ratio: p, rotor_inertia: [1e-4, 0], rotor_coupling: armature}
+parameters: {m: 5, p: 50}
+)",
+                                             "p.yaml");
+  MjcfOptions o;
+  o.params = {5, 1e200};
+  EXPECT_THROW_MESSAGE(export_mjcf(p, o), std::invalid_argument, "is not finite");
+  o.params = {0, 50};
+  EXPECT_THROW_MESSAGE(export_mjcf(p, o), std::invalid_argument,
+                       "need a positive mass, and these bodies' is 0 at the parameters' values: "
+                       "'link1'");
+}
+
 }  // namespace
 }  // namespace spacearm

@@ -363,7 +363,7 @@ TEST(UrdfReader, BaseVisualsAreReadInTheBaseFrame) {
       joint("j", "revolute", "a", "b");
   const UrdfChain c = read_urdf(robot(shapes), "r.urdf", true, "");
   ASSERT_EQ(c.base_visuals.size(), 2u);
-  EXPECT_EQ(c.base_meshes, 1);
+  EXPECT_EQ(c.base_undrawn, 1);
   EXPECT_EQ(c.base_visuals[0].kind, "box");
   EXPECT_EQ(c.base_visuals[0].size, (std::array<double, 3>{2.2, 2.1, 2}));
   const spatial::Visual& wing = c.base_visuals[1];
@@ -376,7 +376,7 @@ TEST(UrdfReader, BaseVisualsAreReadInTheBaseFrame) {
   std::string negative = shapes;
   negative.replace(negative.find("2.2 2.1 2"), 9, "2.2 -2.1 2");
   EXPECT_THROW_MESSAGE(read_urdf(robot(negative), "r.urdf", true, ""), SceneError,
-                       "<geometry>: a visual's size must not be negative");
+                       "<box>: a visual's size must not be negative, got -2.1");
 }
 
 // Issue 49: the work of a parse is bounded before tinyxml2 sees the bytes (it compares each
