@@ -6,7 +6,6 @@
 #include "cli_input.hpp"
 #include "mjcf_export.hpp"
 #include "mujoco_compare.hpp"
-#include "private_folder.hpp"
 #include "row_writer.hpp"
 #include "spatial_scene.hpp"
 
@@ -36,11 +35,7 @@ int run_export(const ExportArgs& a) {
   options.balance_inertia = a.balance_inertia;
   const std::string xml = export_mjcf(scene, options);
   refuse_input_as_output(a.output_file, cli::scene_inputs(a.scene_path, recipe));
-  try {  // whole, through a temporary renamed into place
-    replace_file(a.output_file, xml, 0644);
-  } catch (const FolderError& e) {
-    throw std::invalid_argument(std::string("-o: ") + e.what());
-  }
+  replace_output_file(a.output_file, xml);
   std::fprintf(stderr, "spacearm: wrote %s (MuJoCo model of scene '%s')\n", a.output_file.c_str(),
                scene.name.c_str());
   if (a.compare)

@@ -40,27 +40,6 @@ inline std::vector<LimitUse> limit_use(const ModelRecipe& recipe,
   return use;
 }
 
-// The link-side joint rates of velocities qd (nv each): q' = qm' / p where the slot holds the
-// motor angle.
-inline std::vector<Eigen::VectorXd> link_rates(const ModelRecipe& recipe,
-                                               const Eigen::VectorXd& params,
-                                               const std::vector<Eigen::VectorXd>& qd) {
-  const ModelFacts& facts = recipe.facts();
-  const std::vector<Quantity> ratios = recipe.gear_ratios();
-  const int N = facts.dims.num_links;
-  std::vector<Eigen::VectorXd> out;
-  for (const auto& v : qd) {
-    Eigen::VectorXd r(N);
-    for (int j = 0; j < N; ++j) {
-      const Quantity& q = ratios.at(static_cast<size_t>(j));
-      const double p = q.is_parameter() ? params[q.index] : q.value;
-      r[j] = v[facts.num_base + j] / (facts.motor_angle_slots.at(static_cast<size_t>(j)) ? p : 1.0);
-    }
-    out.push_back(r);
-  }
-  return out;
-}
-
 // One line of the joints' use of their limits, and a warning naming each joint above 1.
 inline void report_limit_use(const std::vector<LimitUse>& use) {
   if (use.empty()) return;

@@ -133,10 +133,7 @@ int run_plan(const PlanArgs& a) {
   cli::write_provenance(a.output_file, cli::run_provenance(a.command_line, a.scene_path,
                                                            facts.parameter_names, params));
   if (!a.torque_file.empty()) write_torques(plan, a.torque_file);
-  std::fprintf(stderr,
-               "spacearm: plan of %zu samples: max path error %.2e, max |qdd - central differences "
-               "of qd| %.2e\n",
-               plan.t.size(), plan.max_path_error, plan.max_acceleration_mismatch);
+  std::fprintf(stderr, "spacearm: %s\n", plan_checks_text(plan).c_str());
   double qdd_peak = 0, tau_peak = 0;
   std::vector<double> rate(plan.t.size());  // per sample, the largest |qd|
   for (size_t k = 0; k < plan.t.size(); ++k) {
@@ -167,8 +164,9 @@ int run_plan(const PlanArgs& a) {
                  "%.2e (largest |qdd| %.2e): --dt is coarse for this motion, or the plan is "
                  "inaccurate\n",
                  plan.max_acceleration_mismatch, qdd_peak);
-  std::vector<Eigen::VectorXd> tau(plan.tau.begin(), plan.tau.end());
-  cli::report_limit_use(cli::limit_use(recipe, tau, cli::link_rates(recipe, params, plan.qd)));
+  std::vector<Eigen::VectorXd> rates;  // link side: q' = qm' / p where the slot holds qm
+  for (const auto& qd : plan.qd) rates.push_back(dynamic.joint_rates(qd));
+  cli::report_limit_use(cli::limit_use(recipe, plan.tau, rates));
   if (!plan.base_residual.empty())
     std::fprintf(stderr,
                  "spacearm: free base: max |momentum| %.2e, max force on the base (eq. 5 base "

@@ -16,6 +16,8 @@
 #include <utility>
 #include <vector>
 
+#include "private_folder.hpp"
+
 namespace spacearm {
 
 // A failed write or close. Not a runtime_error: an integrator passes it on unchanged
@@ -113,6 +115,17 @@ class RowWriter {
   std::string buffer_;
   unsigned long long bytes_ = 0, written_ = 0;
 };
+
+// A whole output file (a page, a model) replaces `output` through a temporary renamed into place:
+// a failed write leaves the old file or none, never half of one, and a link planted at the name
+// is not written through. Errors name -o.
+inline void replace_output_file(const std::string& output, const std::string& text) {
+  try {
+    replace_file(output, text, 0644);
+  } catch (const FolderError& e) {
+    throw std::invalid_argument(std::string("-o: ") + e.what());
+  }
+}
 
 // -o naming an input file (the scene, a torque file) would overwrite it: refused before the
 // output is opened. `inputs` are (what the file is, its path) pairs; empty paths are skipped.

@@ -5,7 +5,6 @@
 #include <cstdio>
 
 #include "cpp_printer.hpp"
-#include "private_folder.hpp"
 #include "row_writer.hpp"
 #include "run_table.hpp"
 #include "view_page.hpp"
@@ -26,20 +25,6 @@ bool is_study_results(const std::string& path) {
 
 }  // namespace cli
 
-namespace {
-
-// The page replaces the output whole (a temporary renamed into place): a failed write leaves
-// the old file or none, never half a page, and a link planted at the name is not written through.
-void write_page(const std::string& output, const std::string& page) {
-  try {
-    replace_file(output, page, 0644);
-  } catch (const FolderError& e) {
-    throw std::invalid_argument(std::string("-o: ") + e.what());
-  }
-}
-
-}  // namespace
-
 int run_view(const ViewArgs& a) {
   if (!cli::viewer_built())
     throw std::invalid_argument(
@@ -59,7 +44,7 @@ int run_view(const ViewArgs& a) {
   data["info"].push_back({"this page", a.command_line});
   data["info"].push_back({"made by", std::string("spacearm ") + kGeneratorVersion});
   refuse_input_as_output(a.output_file, inputs);
-  write_page(a.output_file, cli::view_page(data));
+  replace_output_file(a.output_file, cli::view_page(data));
   std::fprintf(stderr, "spacearm: wrote %s (open it in a browser; it needs no network)\n",
                a.output_file.c_str());
   return 0;

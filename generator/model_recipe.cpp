@@ -118,34 +118,20 @@ ModelRecipe::BaseInertial ModelRecipe::base_inertial() const {
   return b;
 }
 
-namespace {
-std::string shown_value(double v) {  // as the compiled model's messages show it
-  char text[32];
-  std::snprintf(text, sizeof text, "%g", v);
-  return text;
-}
-}  // namespace
-
 std::string ModelRecipe::parameter_error(const std::vector<double>& params) const {
   const std::vector<std::string>& names = facts_.parameter_names;
   if (params.size() != names.size())
     throw std::invalid_argument("parameter_error: " + std::to_string(params.size()) +
                                 " values for " + std::to_string(names.size()) + " parameters");
-  for (size_t i = 0; i < params.size(); ++i) {
+  for (size_t i = 0; i < params.size(); ++i)
     if (!std::isfinite(params[i])) return "parameter '" + names[i] + "' is not finite";
-    // The compiled model's range (jit/model_calls.cpp): beyond it products overflow.
-    if (params[i] != 0 && !(std::abs(params[i]) >= 1e-30 && std::abs(params[i]) <= 1e30))
-      return "parameter '" + names[i] + "' = " + shown_value(params[i]) +
-             " is outside the supported magnitude range 1e-30 .. 1e30 (or 0)";
-  }
+  if (const std::string e = parameter_range_error(names, params); !e.empty())
+    return "parameter " + e;
   auto input = [&params](const std::string&, int i) { return params.at(i); };
   for (const ParameterCheck& c : facts_.checks) {
     const double v = facts_.checks_program.evaluate({c.value}, input)[0];
     if (!(c.strict ? v > 0 : v >= 0)) {  // the rule, and the values that moved
-      std::string moved;
-      for (size_t i = 0; i < params.size(); ++i)
-        if (params[i] != facts_.nominal_parameters[i])
-          moved += (moved.empty() ? "" : "; ") + names[i] + " = " + shown_value(params[i]);
+      const std::string moved = moved_parameters(names, facts_.nominal_parameters, params);
       return c.message + (moved.empty() ? "" : " (given " + moved + ")");
     }
   }

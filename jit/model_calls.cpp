@@ -12,6 +12,7 @@
 #include "compiled_model.hpp"
 #include "dynamics_checks.hpp"
 #include "lane_layout.hpp"
+#include "parameter_rules.hpp"
 #include "outputs.hpp"
 
 namespace spacearm {
@@ -60,29 +61,16 @@ void CompiledModel::check(const char* what, Eigen::Ref<const Eigen::VectorXd> v,
 
 void CompiledModel::check_parameters(const Eigen::VectorXd& params) const {
   check("params", params, static_cast<int>(nominal_.size()));
-  // The scene's range for its numbers (yaml_reader.hpp) holds at run time too: beyond 1e30
-  // products overflow, below 1e-30 they run into subnormals, and either would surface later as
-  // an unnamed failure (a mass matrix not positive definite).
-  for (Eigen::Index i = 0; i < params.size(); ++i)
-    if (params[i] != 0 && !(std::abs(params[i]) >= 1e-30 && std::abs(params[i]) <= 1e30)) {
-      std::ostringstream m;
-      m << "parameters: '" << parameter_names().at(static_cast<size_t>(i)) << "' = " << params[i]
-        << " is outside the supported magnitude range 1e-30 .. 1e30 (or 0)";
-      throw std::invalid_argument(m.str());
-    }
+  // Out of range a value would surface later as an unnamed failure (a mass matrix not
+  // positive definite).
+  const std::vector<double> values(params.data(), params.data() + params.size());
+  if (const std::string e = parameter_range_error(parameter_names_, values); !e.empty())
+    throw std::invalid_argument("parameters: " + e);
   if (const char* error = parameter_error_(params.data())) {
     // The rule names the field; the values that moved from the nominal ones say why.
-    std::ostringstream m;
-    m << "parameters: " << error;
-    std::string moved;
-    for (size_t i = 0; i < nominal_.size(); ++i)
-      if (params[static_cast<Eigen::Index>(i)] != nominal_[i]) {
-        std::ostringstream one;
-        one << parameter_names_[i] << " = " << params[static_cast<Eigen::Index>(i)];
-        moved += (moved.empty() ? "" : "; ") + one.str();
-      }
-    if (!moved.empty()) m << " (given " << moved << ")";
-    throw std::invalid_argument(m.str());
+    const std::string moved = moved_parameters(parameter_names_, nominal_, values);
+    throw std::invalid_argument(std::string("parameters: ") + error +
+                                (moved.empty() ? "" : " (given " + moved + ")"));
   }
 }
 

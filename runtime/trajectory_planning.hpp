@@ -20,6 +20,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <limits>
 #include <sstream>
@@ -115,6 +116,17 @@ Eigen::VectorXd initial_configuration(const DynamicModel& m, const StraightLineT
 
 // The straight line of `task` for model `m` on the grid t = 0, dt, ..., T.
 Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task);
+
+// A plan's own checks in one line, as `spacearm plan` and a sweep that plans print them: its
+// samples, the largest path error and the largest |qdd - central differences of qd|.
+inline std::string plan_checks_text(const Plan& plan) {
+  char text[200];
+  std::snprintf(text, sizeof text,
+                "plan of %zu samples: max path error %.2e, max |qdd - central differences of qd| "
+                "%.2e",
+                plan.t.size(), plan.max_path_error, plan.max_acceleration_mismatch);
+  return text;
+}
 
 // The plan as a table, as `spacearm plan` writes it and Python returns it: t, q, qd, qdd (by
 // coordinate name, suffixes d and dd), a motor slot's link-side angle q_j and rate q_jd, the

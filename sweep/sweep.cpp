@@ -168,12 +168,7 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
                               pm.nominal_parameters().data(),
                               static_cast<Eigen::Index>(pm.nominal_parameters().size())));
     const Plan plan = plan_straight_line(planner, *s.plan);
-    char report[200];
-    std::snprintf(report, sizeof report,
-                  "plan of %zu samples: max path error %.2e, max |qdd - central differences of "
-                  "qd| %.2e",
-                  plan.t.size(), plan.max_path_error, plan.max_acceleration_mismatch);
-    plan_report_ = report;
+    plan_report_ = plan_checks_text(plan);
     // Friction fed forward is the believed one; each run's own friction may differ.
     PlanSamples samples = plan_samples(plan, planner);
     if (s.feedforward_friction) feed_friction_forward(believed, samples);

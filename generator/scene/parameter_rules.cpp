@@ -1,5 +1,7 @@
 #include "parameter_rules.hpp"
 
+#include <cmath>
+#include <cstdio>
 #include <string>
 
 namespace spacearm {
@@ -17,6 +19,33 @@ bool RangeRule::holds() const {
   for (const RangeTerm& t : terms)
     value += t.constant ? t.coefficient : t.coefficient * t.quantity.value;
   return strict ? value > 0 : value >= 0;
+}
+
+namespace {
+std::string shown_value(double v) {  // "%g": -3, 1e+300, 2e-05
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", v);
+  return text;
+}
+}  // namespace
+
+std::string parameter_range_error(const std::vector<std::string>& names,
+                                  const std::vector<double>& values) {
+  for (size_t i = 0; i < values.size(); ++i)
+    if (values[i] != 0 && !(std::abs(values[i]) >= 1e-30 && std::abs(values[i]) <= 1e30))
+      return "'" + names.at(i) + "' = " + shown_value(values[i]) +
+             " is outside the supported magnitude range 1e-30 .. 1e30 (or 0)";
+  return "";
+}
+
+std::string moved_parameters(const std::vector<std::string>& names,
+                             const std::vector<double>& nominal,
+                             const std::vector<double>& values) {
+  std::string moved;
+  for (size_t i = 0; i < values.size(); ++i)
+    if (values[i] != nominal.at(i))
+      moved += (moved.empty() ? "" : "; ") + names.at(i) + " = " + shown_value(values[i]);
+  return moved;
 }
 
 RangeRule sign_rule(const std::string& field, const Quantity& q, bool strict) {

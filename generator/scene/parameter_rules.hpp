@@ -56,6 +56,17 @@ RangeRule sign_rule(const std::string& field, const Quantity& q, bool strict);
 std::vector<RangeRule> range_rules(const Scene& scene,
                                    const std::function<bool(const std::string&)>& given = {});
 
+// Run-time parameter values against the scene's range for its numbers (yaml_reader.hpp), which
+// holds at run time too: beyond 1e30 products overflow, below 1e-30 they run into subnormals.
+// "" or "'p' = 1e+300 is outside the supported magnitude range 1e-30 .. 1e30 (or 0)" for the
+// first value outside it. The compiled model and the recipe both check with it.
+std::string parameter_range_error(const std::vector<std::string>& names,
+                                  const std::vector<double>& values);
+// The values that moved from the nominal ones, for a broken rule's message: "p = -3; Im = 2e-05"
+// ("" if none moved).
+std::string moved_parameters(const std::vector<std::string>& names,
+                             const std::vector<double>& nominal, const std::vector<double>& values);
+
 // "0.5", or "Im = 1e-5" for a parameter with its nominal value, for messages.
 std::string shown(const Scene& scene, const Quantity& q);
 
