@@ -178,7 +178,12 @@ class MjcfWriter {
   double ratio(size_t j) const { return link(j).gear.present ? value(link(j).gear.ratio) : 1.0; }
   bool exact_rotor(size_t j) const {
     const spatial::Gear& g = link(j).gear;
-    return g.present && g.exact && (value(g.axial) != 0 || value(g.transverse) != 0);
+    return g.present && exact_coupling(j) && (value(g.axial) != 0 || value(g.transverse) != 0);
+  }
+  // A coupling factor (refused unless 0 or 1) is exact at 1, armature at 0.
+  bool exact_coupling(size_t j) const {
+    const spatial::Gear& g = link(j).gear;
+    return g.coupled ? value(g.coupling) == 1 : g.exact;
   }
   std::string body_name(size_t b) const {
     if (b < s_.body_names.size()) return s_.body_names[b];
@@ -208,6 +213,16 @@ class MjcfWriter {
           "export --mjcf: joint " + quoted_text(joint_name(j)) +
           " is flexible (gears: stiffness): its spring between the motor and the link has no "
           "MuJoCo counterpart here yet; export the scene with rigid gears");
+    const spatial::Gear& g = link(j).gear;
+    if (g.present && g.coupled && value(g.coupling) != 0 && value(g.coupling) != 1)
+      throw std::invalid_argument(
+          "export --mjcf: joint " + quoted_text(joint_name(j)) + " has rotor_coupling " +
+          (g.coupling.is_parameter() ? g.coupling.parameter + " = " : std::string()) +
+          number_text(value(g.coupling)) +
+          ": MuJoCo has exact rotors (1) and armature (0) only; " +
+          (g.coupling.is_parameter()
+               ? "export with --param " + g.coupling.parameter + "=1 or =0"
+               : std::string("give rotor_coupling: exact or armature")));
   }
 
   Mass body_mass(size_t b) const {
@@ -378,7 +393,7 @@ class MjcfWriter {
     const spatial::Link& l = link(j);
     const double p = ratio(j);
     std::string extras;
-    if (l.gear.present && !l.gear.exact && value(l.gear.axial) != 0)
+    if (l.gear.present && !exact_coupling(j) && value(l.gear.axial) != 0)
       extras += " armature=\"" + numbers({p * p * value(l.gear.axial)}) + "\"";
     if (l.friction.present && value(l.friction.viscous) != 0)
       extras += " damping=\"" + numbers({p * p * value(l.friction.viscous)}) + "\"";

@@ -29,11 +29,16 @@ using spacearm::Quantity;
 // A flexible joint (Spong's model, as in the plane) has a torsional spring of stiffness k and a
 // damper d between the gear's output qm / p and the link angle q: its slot then holds q, and the
 // motor angle qm a coordinate of its own after all the joints (ChainDescription::motor_coordinate).
+// rotor_coupling: c in [0, 1] (coupled; a number or a run-time parameter) gives the rotor
+// 1/2 (c omega_parent + qd_m a)^T I_r (c omega_parent + qd_m a): 1 is exact, 0 armature, so one
+// compiled model compares both (as in the plane). Rigid gears only.
 struct Gear {
   bool present = false;
   Quantity ratio = 1;
   Quantity axial = 0, transverse = 0;  // the rotor's inertia about its axis and across it
   bool exact = true;
+  bool coupled = false;  // coupling holds the factor c (exact is then unused)
+  Quantity coupling = 1;
   bool flexible = false, has_damping = false;
   Quantity stiffness = 0, damping = 0;
 };

@@ -400,21 +400,58 @@ class SpatialReader {
       for (int k = 0; k < 2; ++k)
         rule(false, field + ".rotor_inertia[" + std::to_string(k) + "]", r[k]);
     }
-    if (n["rotor_coupling"]) {
-      const std::string c = r_.bounded(n["rotor_coupling"], field + ".rotor_coupling").Scalar();
-      if (c != "exact" && c != "armature")
-        r_.fail(field + ".rotor_coupling", "expected exact or armature, got '" + c + "'",
-                n["rotor_coupling"]);
-      g.exact = c == "exact";
-    }
-    if (!g.exact && g.transverse.is_parameter())
+    if (n["rotor_coupling"]) read_coupling(n["rotor_coupling"], field + ".rotor_coupling", g);
+    if (!g.exact && !g.coupled && g.transverse.is_parameter())
       r_.fail(field + ".rotor_inertia[1]",
               "'" + g.transverse.parameter +
                   "': the transverse inertia acts only with rotor_coupling exact (armature keeps "
                   "the axial inertia alone)",
               n["rotor_inertia"]);
     read_spring(n, field, g);
+    if (g.flexible && g.coupled)
+      r_.fail(field + ".rotor_coupling",
+              "a coupling factor needs a rigid gear (a flexible joint's rotor takes exact or "
+              "armature)",
+              n["rotor_coupling"]);
     return g;
+  }
+
+  // rotor_coupling: exact, armature, or a factor c in [0, 1] (a number or a run-time parameter):
+  // the rotor turns at c omega_parent + qd_m a, so c = 1 is exact and c = 0 armature in one model.
+  void read_coupling(const YAML::Node& n, const std::string& field, spatial::Gear& g) {
+    const std::string c = r_.bounded(n, field).Scalar();
+    if (c == "exact" || c == "armature") {
+      g.exact = c == "exact";
+      return;
+    }
+    Quantity factor;
+    try {
+      factor = parameters_->resolved(r_.quantity(n, field), field, n);
+    } catch (const SceneError&) {
+      r_.fail(field,
+              "expected exact, armature or a coupling factor in [0, 1] (a number, or a parameter "
+              "declared under 'parameters'), got '" + c + "'",
+              n);
+    }
+    if (!(factor.value >= 0 && factor.value <= 1))
+      r_.fail(field,
+              "expected exact, armature or a coupling factor in [0, 1] (1 exact, 0 armature), "
+              "got " + (factor.is_parameter() ? factor.parameter + " = " : std::string()) +
+                  number_text(factor.value),
+              n);
+    if (!factor.is_parameter() && (factor.value == 0 || factor.value == 1)) {
+      g.exact = factor.value == 1;  // a literal end of the range is that coupling
+      return;
+    }
+    g.coupled = true;
+    g.coupling = factor;
+    if (!factor.is_parameter()) return;
+    RangeRule low = sign_rule(field, factor, false), high = low;
+    low.message = field + " must be in [0, 1] (not negative)";
+    high.terms = {{1, true, {}}, {-1, false, factor}};  // 1 - c >= 0
+    high.message = field + " must be in [0, 1] (not above 1)";
+    rules_->push_back(run_time_rule(std::move(low)));
+    rules_->push_back(run_time_rule(std::move(high)));
   }
 
   // A flexible joint's spring (stiffness > 0) and damper (>= 0, only with a spring): its rotor

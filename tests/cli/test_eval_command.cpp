@@ -146,6 +146,48 @@ TEST_F(EvalCli, RotorCouplingFactorComparesExactAndArmature) {
   EXPECT_NE(bad.find("rotor_coupling must be in [0, 1]"), std::string::npos) << bad;
 }
 
+// The same in 3D (issue 51): a spatial arm's rotor_coupling: c gives the exact scene's numbers at
+// c = 1 and the armature scene's at c = 0, in one compiled model. Compiles three small models.
+TEST_F(EvalCli, RotorCouplingFactorComparesExactAndArmatureInSpace) {
+  auto scene = [&](const std::string& name, const std::string& coupling) {
+    const fs::path path = cache / (name + ".yaml");
+    fs::create_directories(cache);
+    std::ofstream(path)
+        << "name: " << name << "\nspace: spatial\n"
+        << "base: {type: free_floating, mass: 200, com: [0.1, 0, 0], inertia: [40, 1, 0, 50, 0, "
+           "60]}\n"
+        << "links:\n  - {origin: [0.5, 0, 0.2], axis: [0, 0, 1], mass: 5, com: [0.2, 0, 0], "
+           "inertia: [0.01, 0, 0, 0.2, 0, 0.2]}\n"
+        << "  - {origin: [0.4, 0, 0], rpy: [1.2, 0, 0], axis: [0, 1, 0], mass: 3, com: [0.2, 0, 0], "
+           "inertia: [0.01, 0, 0, 0.1, 0, 0.1]}\n"
+        << "gears: {ratio: 50, rotor_inertia: [2.0e-4, 1.0e-4], rotor_coupling: " << coupling
+        << "}\noutputs: [mass_matrix, bias_forces, momentum]\n"
+        << (coupling == "c" ? "parameters: {c: 0.5}\n" : "");
+    return path.string();
+  };
+  const std::string state =
+      " --q 0.1,0.2,0.3,0.5,0.5,0.5,0.5,3,-7 --qd 0.1,0.2,0.3,0.4,-0.5,0.6,20,-30 --json";
+  auto eval = [&](const std::string& args) {
+    int status = 0;
+    const std::string out = run(cli + args + state + " 2>/dev/null", &status);
+    EXPECT_EQ(status, 0) << args;
+    return nlohmann::json::parse(out);
+  };
+  const std::string coupled = scene("coupled3", "c");
+  const auto exact = eval(scene("exact3", "exact")), armature = eval(scene("armature3", "armature"));
+  for (const auto& [c, twin] : {std::pair{"1", &exact}, std::pair{"0", &armature}}) {
+    const auto factor = eval(coupled + " --param c=" + c);
+    for (const char* out : {"mass_matrix", "bias_forces", "momentum"})
+      expect_json_near(factor[out], (*twin)[out]);
+  }
+  EXPECT_NE(exact["mass_matrix"][3][6], armature["mass_matrix"][3][6]);  // they do differ
+  int status = 0;
+  const std::string bad = run(cli + coupled + " --param c=1.5" + state + " 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(bad.find("gears.rotor_coupling must be in [0, 1] (not above 1)"), std::string::npos)
+      << bad;
+}
+
 TEST_F(EvalCli, VerboseReportShowsTheCacheHit) {
   const std::string args = std::string(SPACEARM_SOURCE_DIR) +
                            "/models/paper_reference.yaml --q 0,0,0,0.1,0.2,0.3 --verbose 2>&1";

@@ -51,8 +51,11 @@ void frame_axis_joint(std::mt19937& rng, Link& l, int i) {
 // armature on the even ones. frame_axes: every joint about a frame axis (frame_axis_joint).
 // flexible: joints 1, 3, 4, 6, 7 (i % 3 != 1) have a spring (k 50 to 550 N m/rad), every other
 // one of them a damper too; the others keep rigid gears.
+// coupled: every gear's rotor turns with a coupling factor c in (0, 1), 1/2 (c omega' + qd_m a)^T
+// I_r (c omega' + qd_m a), instead of exactly or as armature.
 ChainDescription random_chain(std::mt19937& rng, int links, bool free_base, bool geared = false,
-                              bool frame_axes = false, bool flexible = false) {
+                              bool frame_axes = false, bool flexible = false,
+                              bool coupled = false) {
   std::uniform_real_distribution<double> u(0, 1);
   ChainDescription d;
   d.free_base = free_base;
@@ -64,6 +67,7 @@ ChainDescription random_chain(std::mt19937& rng, int links, bool free_base, bool
     if (!geared) continue;
     Gear& g = d.links.back().gear;
     g = {true, 5 + 95 * u(rng), 1e-4 * (1 + u(rng)), 0.6e-4 * (1 + u(rng)), i % 2 == 0};
+    if (coupled) g.coupled = true, g.coupling = 0.1 + 0.8 * u(rng);
     if (!flexible || i % 3 == 1) continue;
     g.flexible = true;
     g.stiffness = 50 + 500 * u(rng);
@@ -75,7 +79,7 @@ ChainDescription random_chain(std::mt19937& rng, int links, bool free_base, bool
 
 struct Case {
   int links;
-  bool free, geared, frame_axes = false, flexible = false;
+  bool free, geared, frame_axes = false, flexible = false, coupled = false;
 };
 const Case kCases[] = {{7, true, false},
                        {6, false, false},
@@ -85,14 +89,16 @@ const Case kCases[] = {{7, true, false},
                        {7, true, true, true},
                        {6, false, false, true},
                        {7, true, true, false, true},
-                       {6, false, true, true, true}};
+                       {6, false, true, true, true},
+                       {7, true, true, false, false, true},
+                       {6, false, true, true, false, true}};
 std::string name(const Case& c) {
   return std::to_string(c.links) + (c.free ? " on a free base" : " on a fixed base") +
          (c.geared ? ", geared" : "") + (c.frame_axes ? ", about frame axes" : "") +
-         (c.flexible ? ", flexible" : "");
+         (c.flexible ? ", flexible" : "") + (c.coupled ? ", rotors coupled by a factor" : "");
 }
 ChainDescription random_chain(std::mt19937& rng, const Case& c) {
-  return random_chain(rng, c.links, c.free, c.geared, c.frame_axes, c.flexible);
+  return random_chain(rng, c.links, c.free, c.geared, c.frame_axes, c.flexible, c.coupled);
 }
 
 // The velocity index of joint j's motor, counted here apart from the chain: its slot (past the
@@ -113,6 +119,9 @@ struct World {
   std::vector<Eigen::Vector3d> com, com_velocity, omega;
   std::vector<double> mass;
   std::vector<Eigen::Matrix3d> inertia;               // about the com, in the body frame
+  // What of a body's angular momentum the system's momentum holds: 1, or a rotor's coupling c
+  // (T's derivative by a common rotation of the bodies, as its velocity is c omega' + qd_m a).
+  std::vector<double> momentum_share;
   double armature_energy = 0;                         // 1/2 I qd_m^2 of the armature-coupled motors
   Eigen::Vector3d last_origin, last_origin_velocity;  // the last link frame's
   std::vector<Eigen::Vector3d> joint_origins;         // each link frame's, in the world
@@ -147,6 +156,7 @@ World world(const ChainDescription& d, const Eigen::VectorXd& q, const Eigen::Ve
     w.omega.push_back(omega);
     w.mass.push_back(l.mass.value);
     w.inertia.push_back(inertia_of(l));
+    w.momentum_share.push_back(1);
   };
   if (d.free_base) add_body(d.base);
   for (size_t i = 0; i < d.links.size(); ++i) {
@@ -163,12 +173,14 @@ World world(const ChainDescription& d, const Eigen::VectorXd& q, const Eigen::Ve
     const double qm_rate = v[motor_index(d, static_cast<int>(i))];
     pdot += omega.cross(R * origin);  // the joint's origin moves with the parent body
     p += R * origin;
-    if (l.gear.present && l.gear.exact) {  // a massless rotor on the parent at qd_m
+    if (l.gear.present && (l.gear.exact || l.gear.coupled)) {  // a massless rotor on the parent
       const Eigen::Matrix3d Rr = R * rpy;
+      const double c = l.gear.coupled ? l.gear.coupling.value : 1;
       w.R.push_back(Rr);
       w.com.push_back(p);
       w.com_velocity.push_back(pdot);
-      w.omega.push_back(omega + Rr * axis * qm_rate);
+      w.omega.push_back(c * omega + Rr * axis * qm_rate);
+      w.momentum_share.push_back(c);
       w.mass.push_back(0);
       w.inertia.push_back(l.gear.transverse.value * Eigen::Matrix3d::Identity() +
                           (l.gear.axial.value - l.gear.transverse.value) * axis * axis.transpose());
@@ -202,7 +214,8 @@ Eigen::Matrix<double, 6, 1> momentum(const ChainDescription& d, const Eigen::Vec
   for (size_t b = 0; b < w.R.size(); ++b) {
     const Eigen::Vector3d P = w.mass[b] * w.com_velocity[b];
     h.head<3>() += P;
-    h.tail<3>() += w.com[b].cross(P) + w.R[b] * w.inertia[b] * w.R[b].transpose() * w.omega[b];
+    h.tail<3>() += w.com[b].cross(P) + w.momentum_share[b] * w.R[b] * w.inertia[b] *
+                                           w.R[b].transpose() * w.omega[b];
   }
   return h;
 }
@@ -263,7 +276,7 @@ Eigen::MatrixXd mass_matrix(const ChainDescription& d, const State& s) {
 TEST(SpatialChain, MassMatrixEnergyAndMomentumAreTheWorldComputations) {
   std::mt19937 rng(31);
   for (const Case& c : kCases) {
-    const auto [links, free, geared, frame_axes, flexible] = c;
+    const auto [links, free, geared, frame_axes, flexible, coupled] = c;
     const ChainDescription d = random_chain(rng, c);
     SCOPED_TRACE(name(c));
     const auto springs = std::count_if(d.links.begin(), d.links.end(),
@@ -299,7 +312,7 @@ TEST(SpatialChain, MassMatrixEnergyAndMomentumAreTheWorldComputations) {
 TEST(SpatialChain, InverseDynamicsConservesMomentumAndEnergy) {
   std::mt19937 rng(32);
   for (const Case& c : kCases) {
-    const auto [links, free, geared, frame_axes, flexible] = c;
+    const auto [links, free, geared, frame_axes, flexible, coupled] = c;
     const ChainDescription d = random_chain(rng, c);
     SCOPED_TRACE(name(c));
     for (int trial = 0; trial < 3; ++trial) {

@@ -357,6 +357,53 @@ TEST(SpatialModel, AFlexibleArmHasItsMotorsAfterTheJointsAndItsSprings) {
   EXPECT_GE(checked, 3 * 13);
 }
 
+// Issue 51: rotor_coupling: c in 3D as in the plane. One compiled model is the exact model at
+// c = 1 and the armature model at c = 0 (every lowered output against the literal scene's, which
+// reads 1 as exact and 0 as armature), and a literal factor between at c = 0.4; the generated
+// rules keep c in [0, 1]; a literal out of range, a word, or a flexible joint are refused.
+TEST(SpatialModel, ARotorCouplingFactorSpansExactAndArmature) {
+  std::string coupled = kArm;
+  for (const char* kind : {"rotor_coupling: exact", "rotor_coupling: armature"})
+    coupled.replace(coupled.find(kind), std::string(kind).size(), "rotor_coupling: c");
+  coupled.replace(coupled.find("outputs:"), 0, "parameters: {c: 0.5}\n");
+  for (const char* c : {"1", "0", "0.4"}) {
+    SCOPED_TRACE(std::string("c = ") + c);
+    expect_parameters_written_in(coupled, {{"c", c}});
+  }
+  const ModelFacts facts = spatial_facts(parse_spatial_scene(coupled, "arm3c.yaml"));
+  auto failure = [&](double c) -> std::string {
+    for (const ParameterCheck& check : facts.checks) {
+      const double v = facts.checks_program.evaluate(
+          {check.value}, [&](const std::string&, int) { return c; })[0];
+      if (!(check.strict ? v > 0 : v >= 0)) return check.message;
+    }
+    return "";
+  };
+  EXPECT_EQ(failure(0), "");
+  EXPECT_EQ(failure(1), "");
+  EXPECT_EQ(failure(-0.01), "gears[0].rotor_coupling must be in [0, 1] (not negative)");
+  EXPECT_EQ(failure(1.01), "gears[0].rotor_coupling must be in [0, 1] (not above 1)");
+  const std::string flexible =
+      flexible_arm("{ratio: 100, rotor_inertia: [1.0e-4, 6.0e-5], rotor_coupling: 0.5, "
+                   "stiffness: 800}",
+                   "600");
+  for (const auto& [text, want] :
+       {std::pair{std::regex_replace(coupled, std::regex("c: 0.5"), "c: 1.5"),
+                  "gears[0].rotor_coupling': expected exact, armature or a coupling factor in [0, "
+                  "1] (1 exact, 0 armature), got c = 1.5"},
+        std::pair{std::regex_replace(coupled, std::regex("rotor_coupling: c"),
+                                     "rotor_coupling: sideways"),
+                  "a parameter declared under 'parameters'), got 'sideways'"},
+        std::pair{flexible, "a coupling factor needs a rigid gear"}}) {
+    try {
+      parse_spatial_scene(text, "bad.yaml");
+      ADD_FAILURE() << "accepted: " << want;
+    } catch (const SceneError& e) {
+      EXPECT_NE(std::string(e.what()).find(want), std::string::npos) << e.what();
+    }
+  }
+}
+
 // A flexible arm's springs, dampers and rotor as run-time parameters.
 TEST(SpatialModel, AFlexibleArmsRunTimeParametersGiveItsModelWithTheirValuesWrittenIn) {
   const std::string parametric =

@@ -235,6 +235,32 @@ TEST(MjcfExport, WhatMujocoLacksIsRefusedNamed) {
                        "joint 'joint3' is flexible (gears: stiffness)");
 }
 
+// A rotor coupling factor (issue 51) exports at its ends: c = 1 as the exact scene's file, c = 0
+// as the armature scene's; between them MuJoCo has no counterpart, refused naming the joint.
+TEST(MjcfExport, ACouplingFactorExportsAtItsEndsOnly) {
+  auto scene = [](const std::string& coupling, const std::string& parameters) {
+    return parse_spatial_scene(
+        "name: c\nspace: spatial\nbase: {type: free_floating, mass: 100, inertia: [10, 0, 0, 12, "
+        "0, 14]}\nlinks: [{origin: [0.5, 0, 0], axis: [0, 0, 1], mass: 5, inertia: [0.2, 0, 0, "
+        "0.2, 0, 0.3]}]\ngears: {ratio: 50, rotor_inertia: [1e-4, 6e-5], rotor_coupling: " +
+            coupling + "}\n" + parameters,
+        "c.yaml");
+  };
+  const SpatialScene coupled = scene("c", "parameters: {c: 0.5}\n");
+  MjcfOptions o;
+  o.params = {1};
+  const std::string exact = export_mjcf(scene("exact", ""));
+  EXPECT_EQ(export_mjcf(coupled, o), exact);
+  o.params = {0};
+  const std::string armature = export_mjcf(scene("armature", ""));
+  EXPECT_EQ(export_mjcf(coupled, o), armature);
+  EXPECT_THROW_MESSAGE(export_mjcf(coupled), std::invalid_argument,
+                       "joint 'joint1' has rotor_coupling c = 0.5: MuJoCo has exact rotors (1) and "
+                       "armature (0) only; export with --param c=1 or =0");
+  EXPECT_THROW_MESSAGE(export_mjcf(scene("0.25", "")), std::invalid_argument,
+                       "give rotor_coupling: exact or armature");
+}
+
 // Found in review: names XML cannot carry or MuJoCo would refuse are refused by name; a fixed
 // base's exact rotor gets a mass MuJoCo takes; overflowing numbers and massless bodies are
 // refused, never written.

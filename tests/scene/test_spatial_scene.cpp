@@ -81,7 +81,8 @@ TEST(SpatialScene, NamesEveryBadField) {
       {"origin: [0.4, 0, 0]", "origin: [L, 0, 0]",
        "field 'links[1].origin[0]': 'L': a frame, an axis or the end effector takes numbers"},
       {"rotor_coupling: armature", "rotor_coupling: loose",
-       "field 'gears.rotor_coupling': expected exact or armature, got 'loose'"},
+       "field 'gears.rotor_coupling': expected exact, armature or a coupling factor in [0, 1] "
+       "(a number, or a parameter declared under 'parameters'), got 'loose'"},
       {"rpy: [0, 1.5707963, 0]", "rpy: [0, .nan, 0]",
        "field 'links[0].rpy[1]': value '.nan' is not finite"},
       {"end_effector:", "end_effektor:", "field 'end_effektor': unknown field"},

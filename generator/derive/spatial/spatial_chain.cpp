@@ -145,6 +145,15 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
     if (exact_rotor(i)) {
       rotor_X_[i] = {num(transposed(R_origin)), num(l.origin_xyz)};
       rotor_I_[i] = {T{}, zero3(), rotor_inertia(i, a)};
+      if (coupled(i)) {  // c I_r turning exactly, (c^2 - c) I_r on the parent (massless)
+        const T c = coupling(i);
+        RigidInertia<T> parent_share = rotor_I_[i];
+        for (int k = 0; k < 9; ++k) {
+          rotor_I_[i].I[k] = c * rotor_I_[i].I[k];
+          parent_share.I[k] = (c * c - c) * parent_share.I[k];
+        }
+        I_[i - 1] = I_[i - 1] + in_parent(rotor_X_[i], parent_share);
+      }
       rotor_V_[i] = rotor_X_[i].apply(V_[i - 1]);
       rotor_V_[i].w = rotor_V_[i].w + scaled(axis_[i], motor_qd_[i]);
     }
@@ -449,8 +458,8 @@ template <class T>
 void Chain<T>::add_rotor(int i, ArticulatedInertia<T>& Ia, Force<T>& U, T& D, Force<T>& pa) const {
   const Mat3<T>& Ir = rotor_I_[i].I;
   const Vec3<T>& a = axis_[i];
-  U.n = U.n + scaled(a, ratio_times_axial(i, 1));  // I_r a = axial a, per unit link rate p a
-  D += ratio_times_axial(i, 2);
+  U.n = U.n + scaled(a, rotor_ratio_times_axial(i, 1));  // I_r a = J a, per unit link rate p a
+  D += rotor_ratio_times_axial(i, 2);
   pa.n = pa.n + rotor_bias(i);
   for (int k = 0; k < 9; ++k) Ia.A[k] += Ir[k];
 }
@@ -462,7 +471,8 @@ Vec3<T> Chain<T>::rotor_bias(int i) const {
   const Vec3<T>& a = axis_[i];
   const Vec3<T>& w_parent = parent_w_[i];
   const Gear& g = d_.links[i - 1].gear;
-  const T J = axial(i), t = value(g.transverse);
+  T J = axial(i), t = value(g.transverse);
+  if (coupled(i)) J = coupling(i) * J, t = coupling(i) * t;  // the exact rotor's share
   return scaled(cross(w_parent, a), (J - t) * dot(a, w_parent) + J * motor_qd_[i]);
 }
 

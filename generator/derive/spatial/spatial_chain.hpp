@@ -123,9 +123,15 @@ class Chain {
   std::vector<Motion<T>> rotor_V_;
   // Whether joint i has an exactly coupled rotor (a body on the parent), and whether it is
   // flexible (its rotor on a coordinate of its own, a leaf of the tree).
+  // A coupling factor c splits the rotor (spatial_description.hpp's Gear) into an exact rotor of
+  // inertia c I_r, armature (1 - c) J and a rotational inertia (c^2 - c) I_r on the parent:
+  // together 1/2 (c omega' + qd_m a)^T I_r (c omega' + qd_m a), in the same algorithms.
   bool exact_rotor(int i) const {
-    return d_.links[i - 1].gear.present && d_.links[i - 1].gear.exact;
+    const Gear& g = d_.links[i - 1].gear;
+    return g.present && (g.exact || g.coupled);
   }
+  bool coupled(int i) const { return d_.links[i - 1].gear.present && d_.links[i - 1].gear.coupled; }
+  T coupling(int i) const { return value(d_.links[i - 1].gear.coupling); }
   bool flexible(int i) const {
     return d_.links[i - 1].gear.present && d_.links[i - 1].gear.flexible;
   }
@@ -158,6 +164,7 @@ class Chain {
   // The armature inertia on joint i's slot (0 without a rigid armature-coupled gear).
   T armature(int i) const {
     const Gear* g = slot_gear(i);
+    if (g && g->coupled) return (num(1.0) - coupling(i)) * value(g->axial);
     return g && !g->exact ? value(g->axial) : T{};
   }
   // The armature inertia on a flexible joint's motor coordinate (0 otherwise).
@@ -184,7 +191,12 @@ class Chain {
   // p^2 times the armature: joint i's armature per unit link rate.
   T armature_per_link_rate(int i) const {
     const Gear* g = slot_gear(i);
+    if (g && g->coupled) return (num(1.0) - coupling(i)) * ratio_times_axial(i, 2);
     return g && !g->exact ? ratio_times_axial(i, 2) : T{};
+  }
+  // The exact rotor's share of p_i^power J (all of it, or c of it with a coupling factor).
+  T rotor_ratio_times_axial(int i, int power) const {
+    return coupled(i) ? coupling(i) * ratio_times_axial(i, power) : ratio_times_axial(i, power);
   }
   Mat3<T> rotor_inertia(int i, const Vec3<double>& a) const;
   // A body's inertia about its frame's origin: its own inertial and its welded parts'.
