@@ -218,11 +218,9 @@ class MjcfWriter {
       throw std::invalid_argument(
           "export --mjcf: joint " + quoted_text(joint_name(j)) + " has rotor_coupling " +
           (g.coupling.is_parameter() ? g.coupling.parameter + " = " : std::string()) +
-          number_text(value(g.coupling)) +
-          ": MuJoCo has exact rotors (1) and armature (0) only; " +
-          (g.coupling.is_parameter()
-               ? "export with --param " + g.coupling.parameter + "=1 or =0"
-               : std::string("give rotor_coupling: exact or armature")));
+          number_text(value(g.coupling)) + ": MuJoCo has exact rotors (1) and armature (0) only; " +
+          (g.coupling.is_parameter() ? "export with --param " + g.coupling.parameter + "=1 or =0"
+                                     : std::string("give rotor_coupling: exact or armature")));
   }
 
   Mass body_mass(size_t b) const {

@@ -57,10 +57,24 @@ class RunMetrics {
   const DynamicModel& model_;
   bool series_;
   Eigen::VectorXd base0_, h0_, pose_;
+  Eigen::VectorXd tau_peak_, rate_peak_;  // per joint, link side: for the URDF's limits
   double base_drift_ = 0, base_rotation_ = 0, momentum_drift_ = 0, tau_squares_ = 0;
   long samples_ = 0;
   std::string csv_;
 };
+
+// The URDF's joint limits as metrics, one place for the header and the rows: per joint with a
+// <limit effort> the peak |tau| / effort ("effort_use_J", J the joint's number from 1), then with
+// a <limit velocity> the peak |q'| / velocity ("velocity_use_J"); link side.
+struct LimitMetric {
+  int joint;
+  bool effort;  // else velocity
+  double limit;
+  std::string name() const {
+    return (effort ? "effort_use_" : "velocity_use_") + std::to_string(joint + 1);
+  }
+};
+std::vector<LimitMetric> limit_metrics(const StudyScene& scene);
 
 // ",v" with v printed %.17g (every number of a row).
 void append_number(std::string& row, double v);

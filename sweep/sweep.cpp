@@ -60,6 +60,18 @@ double angle_between(const Eigen::Vector4d& a, const Eigen::Vector4d& b) {
 
 }  // namespace
 
+std::vector<LimitMetric> limit_metrics(const StudyScene& scene) {
+  std::vector<LimitMetric> metrics;
+  if (!scene.is_spatial()) return metrics;
+  const std::vector<spatial::JointLimits>& limits = scene.spatial->joint_limits;
+  for (size_t j = 0; j < limits.size(); ++j)
+    if (limits[j].has_effort()) metrics.push_back({static_cast<int>(j), true, limits[j].effort});
+  for (size_t j = 0; j < limits.size(); ++j)
+    if (limits[j].has_velocity())
+      metrics.push_back({static_cast<int>(j), false, limits[j].velocity});
+  return metrics;
+}
+
 void append_number(std::string& row, double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, ",%.17g", v);
@@ -92,6 +104,10 @@ void RunMetrics::observe(double t, const Eigen::VectorXd& q, const Eigen::Vector
     momentum_drift_ = std::max(momentum_drift_, (h - h0_).cwiseAbs().maxCoeff());
   }
   tau_squares_ += tau.squaredNorm();
+  const Eigen::VectorXd rates = model_.joint_rates(qd).cwiseAbs();
+  if (samples_ == 0) tau_peak_ = tau.cwiseAbs(), rate_peak_ = rates;
+  tau_peak_ = tau_peak_.cwiseMax(tau.cwiseAbs());
+  rate_peak_ = rate_peak_.cwiseMax(rates);
   if (series_ && samples_ % s_.series_every == 0) {
     char buf[32];
     std::snprintf(buf, sizeof buf, "%.17g", t);
@@ -115,6 +131,8 @@ std::string RunMetrics::measured() const {
   if (model_.num_base())
     measures.insert(measures.end(), {base_drift_, base_rotation_, momentum_drift_});
   measures.push_back(std::sqrt(tau_squares_ / static_cast<double>(samples_ * model_.num_links)));
+  for (const LimitMetric& m : limit_metrics(s_.scene))
+    measures.push_back((m.effort ? tau_peak_ : rate_peak_)[m.joint] / m.limit);
   std::string measured;
   for (double v : measures) append_number(measured, v);
   for (double v : measures)  // nan or inf: no metric to trust
@@ -200,7 +218,9 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
   if (s.target.size()) header_ += ",ee_error";
   if (f.is_spatial() && s.target.size() == 7) header_ += ",ee_angle_error";
   if (f.free_floating) header_ += ",base_drift,base_rotation,momentum_drift";
-  header_ += ",torque_rms,command_ratio,message\n";
+  header_ += ",torque_rms";
+  for (const LimitMetric& m : limit_metrics(f)) header_ += "," + m.name();
+  header_ += ",command_ratio,message\n";
 }
 
 StudyRunner::~StudyRunner() = default;

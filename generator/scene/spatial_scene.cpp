@@ -129,7 +129,26 @@ class SpatialReader {
     if (root["outputs"]) s.outputs = read_outputs(root["outputs"], s.chain);
     parameters_->refuse_unused(root["parameters"]);
     if (!not_physical_.empty()) s.warnings.push_back(accepted_text(not_physical_));
+    name_joints_in_rules(s);
     return s;
+  }
+
+  // A run-time rule on a joint's gear or friction names the URDF's joint too, or says that one
+  // mapping gives every joint: "gears[1].ratio (joint 'elbow') must be positive",
+  // "gears.ratio (every joint) must be positive".
+  static void name_joints_in_rules(SpatialScene& s) {
+    for (RangeRule& r : s.run_time_rules)
+      for (const std::string group : {"gears", "friction"}) {
+        if (r.field.rfind(group, 0) != 0 || r.field.size() <= group.size()) continue;
+        std::string joint = "every joint";
+        if (r.field[group.size()] == '[') {
+          const size_t j = std::stoul(r.field.substr(group.size() + 1));
+          if (j >= s.joint_names.size()) continue;  // a YAML arm: the index is its name
+          joint = "joint " + quoted_text(s.joint_names[j]);
+        }
+        const size_t end = r.field.size();
+        if (r.message.compare(0, end, r.field) == 0) r.message.insert(end, " (" + joint + ")");
+      }
   }
 
  private:
@@ -430,13 +449,15 @@ class SpatialReader {
     } catch (const SceneError&) {
       r_.fail(field,
               "expected exact, armature or a coupling factor in [0, 1] (a number, or a parameter "
-              "declared under 'parameters'), got '" + c + "'",
+              "declared under 'parameters'), got '" +
+                  c + "'",
               n);
     }
     if (!(factor.value >= 0 && factor.value <= 1))
       r_.fail(field,
               "expected exact, armature or a coupling factor in [0, 1] (1 exact, 0 armature), "
-              "got " + (factor.is_parameter() ? factor.parameter + " = " : std::string()) +
+              "got " +
+                  (factor.is_parameter() ? factor.parameter + " = " : std::string()) +
                   number_text(factor.value),
               n);
     if (!factor.is_parameter() && (factor.value == 0 || factor.value == 1)) {

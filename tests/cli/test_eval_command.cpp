@@ -158,7 +158,8 @@ TEST_F(EvalCli, RotorCouplingFactorComparesExactAndArmatureInSpace) {
            "60]}\n"
         << "links:\n  - {origin: [0.5, 0, 0.2], axis: [0, 0, 1], mass: 5, com: [0.2, 0, 0], "
            "inertia: [0.01, 0, 0, 0.2, 0, 0.2]}\n"
-        << "  - {origin: [0.4, 0, 0], rpy: [1.2, 0, 0], axis: [0, 1, 0], mass: 3, com: [0.2, 0, 0], "
+        << "  - {origin: [0.4, 0, 0], rpy: [1.2, 0, 0], axis: [0, 1, 0], mass: 3, com: [0.2, 0, "
+           "0], "
            "inertia: [0.01, 0, 0, 0.1, 0, 0.1]}\n"
         << "gears: {ratio: 50, rotor_inertia: [2.0e-4, 1.0e-4], rotor_coupling: " << coupling
         << "}\noutputs: [mass_matrix, bias_forces, momentum]\n"
@@ -174,7 +175,8 @@ TEST_F(EvalCli, RotorCouplingFactorComparesExactAndArmatureInSpace) {
     return nlohmann::json::parse(out);
   };
   const std::string coupled = scene("coupled3", "c");
-  const auto exact = eval(scene("exact3", "exact")), armature = eval(scene("armature3", "armature"));
+  const auto exact = eval(scene("exact3", "exact")),
+             armature = eval(scene("armature3", "armature"));
   for (const auto& [c, twin] : {std::pair{"1", &exact}, std::pair{"0", &armature}}) {
     const auto factor = eval(coupled + " --param c=" + c);
     for (const char* out : {"mass_matrix", "bias_forces", "momentum"})
@@ -184,7 +186,10 @@ TEST_F(EvalCli, RotorCouplingFactorComparesExactAndArmatureInSpace) {
   int status = 0;
   const std::string bad = run(cli + coupled + " --param c=1.5" + state + " 2>&1", &status);
   EXPECT_NE(status, 0);
-  EXPECT_NE(bad.find("gears.rotor_coupling must be in [0, 1] (not above 1)"), std::string::npos)
+  EXPECT_NE(
+      bad.find(
+          "gears.rotor_coupling (every joint) must be in [0, 1] (not above 1) (given c = 1.5)"),
+      std::string::npos)
       << bad;
 }
 

@@ -118,7 +118,7 @@ struct World {
   std::vector<Eigen::Matrix3d> R;
   std::vector<Eigen::Vector3d> com, com_velocity, omega;
   std::vector<double> mass;
-  std::vector<Eigen::Matrix3d> inertia;               // about the com, in the body frame
+  std::vector<Eigen::Matrix3d> inertia;  // about the com, in the body frame
   // What of a body's angular momentum the system's momentum holds: 1, or a rotor's coupling c
   // (T's derivative by a common rotation of the bodies, as its velocity is c omega' + qd_m a).
   std::vector<double> momentum_share;
@@ -214,8 +214,8 @@ Eigen::Matrix<double, 6, 1> momentum(const ChainDescription& d, const Eigen::Vec
   for (size_t b = 0; b < w.R.size(); ++b) {
     const Eigen::Vector3d P = w.mass[b] * w.com_velocity[b];
     h.head<3>() += P;
-    h.tail<3>() += w.com[b].cross(P) + w.momentum_share[b] * w.R[b] * w.inertia[b] *
-                                           w.R[b].transpose() * w.omega[b];
+    h.tail<3>() += w.com[b].cross(P) +
+                   w.momentum_share[b] * w.R[b] * w.inertia[b] * w.R[b].transpose() * w.omega[b];
   }
   return h;
 }

@@ -373,8 +373,8 @@ TEST(SpatialModel, ARotorCouplingFactorSpansExactAndArmature) {
   const ModelFacts facts = spatial_facts(parse_spatial_scene(coupled, "arm3c.yaml"));
   auto failure = [&](double c) -> std::string {
     for (const ParameterCheck& check : facts.checks) {
-      const double v = facts.checks_program.evaluate(
-          {check.value}, [&](const std::string&, int) { return c; })[0];
+      const double v = facts.checks_program.evaluate({check.value},
+                                                     [&](const std::string&, int) { return c; })[0];
       if (!(check.strict ? v > 0 : v >= 0)) return check.message;
     }
     return "";
@@ -383,10 +383,10 @@ TEST(SpatialModel, ARotorCouplingFactorSpansExactAndArmature) {
   EXPECT_EQ(failure(1), "");
   EXPECT_EQ(failure(-0.01), "gears[0].rotor_coupling must be in [0, 1] (not negative)");
   EXPECT_EQ(failure(1.01), "gears[0].rotor_coupling must be in [0, 1] (not above 1)");
-  const std::string flexible =
-      flexible_arm("{ratio: 100, rotor_inertia: [1.0e-4, 6.0e-5], rotor_coupling: 0.5, "
-                   "stiffness: 800}",
-                   "600");
+  const std::string flexible = flexible_arm(
+      "{ratio: 100, rotor_inertia: [1.0e-4, 6.0e-5], rotor_coupling: 0.5, "
+      "stiffness: 800}",
+      "600");
   for (const auto& [text, want] :
        {std::pair{std::regex_replace(coupled, std::regex("c: 0.5"), "c: 1.5"),
                   "gears[0].rotor_coupling': expected exact, armature or a coupling factor in [0, "

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -14,6 +16,7 @@ namespace {
 
 using spacearm::ModelRecipe;
 using spacearm::Output;
+namespace fs = std::filesystem;
 
 std::string source(const char* path) { return std::string(SPACEARM_SOURCE_DIR) + "/" + path; }
 
@@ -52,6 +55,30 @@ TEST(ModelRecipe, GearRatiosAreLiteralsOrTheParametersThatGiveThem) {
     EXPECT_FALSE(r.is_parameter());
     EXPECT_EQ(r.value, 1);
   }
+}
+
+// Issue 51: a broken run-time rule names the field, the URDF's joint (or every joint, where one
+// mapping gives them all) and the values given.
+TEST(ModelRecipe, ParameterErrorsNameTheJointAndTheValue) {
+  const fs::path dir = fs::temp_directory_path() / "spacearm_recipe_joint_names";
+  fs::create_directories(dir);
+  fs::copy_file(source("models/identified_arm3.urdf"), dir / "identified_arm3.urdf",
+                fs::copy_options::overwrite_existing);
+  const std::string head =
+      "name: named\nspace: spatial\nurdf: identified_arm3.urdf\nbase: {type: "
+      "free_floating}\ninertia_check: positive_definite\n";
+  std::ofstream(dir / "list.yaml") << head
+                                   << "gears: [{ratio: 10}, {ratio: p2}, {ratio: 10}]\n"
+                                      "parameters: {p2: 50}\n";
+  std::ofstream(dir / "mapping.yaml") << head << "gears: {ratio: p}\nparameters: {p: 50}\n";
+  const ModelRecipe list = ModelRecipe::load((dir / "list.yaml").string());
+  EXPECT_EQ(list.parameter_error({50}), "");
+  EXPECT_EQ(list.parameter_error({-3}),
+            "gears[1].ratio (joint 'Joint_2') must be positive (given p2 = -3)");
+  const ModelRecipe mapping = ModelRecipe::load((dir / "mapping.yaml").string());
+  EXPECT_EQ(mapping.parameter_error({-3}),
+            "gears.ratio (every joint) must be positive (given p = -3)");
+  fs::remove_all(dir);
 }
 
 TEST(ModelRecipe, TheBaseInertialIsTheScenes) {

@@ -635,11 +635,13 @@ TEST(Sweep, SpatialArmSweepsAPayloadAndTheRatioWithOneModel) {
   std::getline(rows, header);
   EXPECT_EQ(header,
             "run,status,p,Ia,mp,ee_x,ee_y,ee_z,ee_qw,ee_qx,ee_qy,ee_qz,ee_error,ee_angle_error,"
-            "base_drift,base_rotation,momentum_drift,torque_rms,command_ratio,message");
+            "base_drift,base_rotation,momentum_drift,torque_rms,effort_use_1,effort_use_2,"
+            "effort_use_3,effort_use_4,effort_use_5,effort_use_6,velocity_use_1,velocity_use_2,"
+            "velocity_use_3,velocity_use_4,velocity_use_5,velocity_use_6,command_ratio,message");
   std::map<std::pair<double, double>, std::vector<double>> by;  // (p, mp) -> the row
   for (std::string row; std::getline(rows, row);) {
     const std::vector<double> v = row_numbers(row);
-    ASSERT_EQ(v.size(), 19u) << row;  // the empty message field ends the row
+    ASSERT_EQ(v.size(), 31u) << row;  // the empty message field ends the row
     by[{v[2], v[4]}] = v;
     EXPECT_NEAR(Eigen::Vector4d(v[8], v[9], v[10], v[11]).norm(), 1, 1e-9) << row;
     EXPECT_LT(v[16], 1e-8) << row;  // momentum: internal torques only
@@ -654,6 +656,18 @@ TEST(Sweep, SpatialArmSweepsAPayloadAndTheRatioWithOneModel) {
   EXPECT_GT(by.at({100, 20})[12], 0.05);
   EXPECT_GT(by.at({100, 20})[12], by.at({100, 7})[12]);
   EXPECT_GT(by.at({50, 0.5})[12], 0.1);
+  // The URDF's limits as metrics (issue 51): each run's peak link-side |tau| over the joint's
+  // effort, here the replayed torques' (the run's own p: scale 1), sampled at the steps; and the
+  // peak |q'| over its velocity, which the plan's line keeps well inside the limits.
+  const std::vector<spatial::JointLimits>& limits = s.scene.spatial->joint_limits;
+  for (int j = 0; j < 6; ++j) {
+    double peak = 0;
+    for (double t = 0; t <= s.t_end + 1e-12; t += s.integrator.dt)
+      peak = std::max(peak, std::abs(runner.torques()(std::min(t, s.t_end))[j]));
+    EXPECT_NEAR(nominal[18 + j] * limits[j].effort, peak, 1e-9 * peak) << "joint " << j + 1;
+    EXPECT_GT(nominal[24 + j], 0) << "joint " << j + 1;
+    EXPECT_LT(nominal[24 + j], 1) << "joint " << j + 1;
+  }
   // Errors in a 3D study name the field.
   const std::string text = read(fs::path(SPACEARM_SOURCE_DIR) / "studies/space_arm7_payload.yaml");
   const std::string scene = std::string(SPACEARM_SOURCE_DIR) + "/models/space_arm7_payload.yaml";
