@@ -5,8 +5,13 @@
 
 #include <filesystem>
 
+#include <openssl/evp.h>
+
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <map>
 #include <memory>
 
 #include "cli_input.hpp"
@@ -14,6 +19,7 @@
 #include "dynamic_model.hpp"
 #include "model_recipe.hpp"
 #include "outputs.hpp"
+#include "private_folder.hpp"
 #include "provenance.hpp"
 #include "run_table.hpp"
 #include "spatial_scene.hpp"
@@ -31,6 +37,16 @@ double shown(double v) {
   char text[32];
   std::snprintf(text, sizeof text, "%.9g", v);
   return std::strtod(text, nullptr);
+}
+
+// Bytes as base64 (OpenSSL's encoder), for a mesh embedded in the page's JSON.
+std::string base64(const std::string& bytes) {
+  std::string text(4 * ((bytes.size() + 2) / 3) + 1, '\0');
+  const int n = EVP_EncodeBlock(reinterpret_cast<unsigned char*>(text.data()),
+                                reinterpret_cast<const unsigned char*>(bytes.data()),
+                                static_cast<int>(bytes.size()));
+  text.resize(static_cast<size_t>(n));
+  return text;
 }
 
 // The scene's model at the chosen parameters. The DynamicModel refers to the CompiledModel.
@@ -213,7 +229,12 @@ Frames frames_of(const LoadedScene& s, const RunTable& table, const StateReader&
   for (int i = 0; i < n; ++i) rotors |= has_rotor(m, i);
   Frames f;
   json points = json::array(), base = json::array(), axis_rows = json::array(),
-       rotor_rows = json::array();
+       rotor_rows = json::array(), body_rows = json::array();
+  // The links' frames where a URDF gives a link visuals (the base's pose is `base`).
+  const auto visuals = s.recipe->body_visuals();
+  const bool bodies = std::any_of(visuals.begin() + (visuals.empty() ? 0 : 1), visuals.end(),
+                                  [](const auto& v) { return !v.empty(); });
+  const std::vector<double> params(s.params.data(), s.params.data() + s.params.size());
   for (const auto& row : table.rows) {
     const Eigen::VectorXd& q = f.q.emplace_back(reader.q(row));
     const Eigen::MatrixXd P = s.model->evaluate(Output::joint_positions, {q}, s.params).at(0);
@@ -243,6 +264,12 @@ Frames frames_of(const LoadedScene& s, const RunTable& table, const StateReader&
       }
       axis_rows.push_back(std::move(a));
     }
+    if (bodies) {
+      json row = json::array();
+      for (const auto& pose : s.recipe->body_poses({q.data(), q.data() + q.size()}, params))
+        for (double v : pose) row.push_back(shown(v));
+      body_rows.push_back(std::move(row));
+    }
     if (rotors) {  // the motor's angle relative to its link: qm - q
       json r = json::array();
       for (int i = 0; i < n; ++i)
@@ -256,7 +283,8 @@ Frames frames_of(const LoadedScene& s, const RunTable& table, const StateReader&
            {"points", points},
            {"base", base},
            {"axes", axes ? axis_rows : json(nullptr)},
-           {"rotor", rotors ? rotor_rows : json(nullptr)}};
+           {"rotor", rotors ? rotor_rows : json(nullptr)},
+           {"bodies", bodies ? body_rows : json(nullptr)}};
   return f;
 }
 
@@ -290,14 +318,8 @@ json geometry(const LoadedScene& s, const Frames& f) {
   const double radius = 0.025 * reach;
   std::vector<bool> rotors;
   for (int i = 0; i < m.num_links; ++i) rotors.push_back(has_rotor(m, i));
-  // A URDF base's own shapes, drawn instead of the box (which a toggle shows).
-  json visuals = json::array();
-  for (const spatial::Visual& v : s.recipe->base_visuals())
-    visuals.push_back(
-        {{"kind", v.kind}, {"size", v.size}, {"position", v.xyz}, {"quaternion", v.quaternion}});
   return {{"base_box", box},
           {"base_center", center},
-          {"base_visuals", visuals},
           {"link_radius", std::vector<double>(m.num_links, radius)},
           {"joint_radius", 1.6 * radius},
           {"rotor_radius", 2.2 * radius},
@@ -458,6 +480,63 @@ ViewArgs with_provenance(const ViewArgs& given, json& info, std::vector<std::str
 
 }  // namespace
 
+// Whether bytes are an STL file: binary (an 80-byte header, a count n, 50 bytes per triangle:
+// 84 + 50 n in all) or ASCII ("solid", then printable text with facets).
+bool is_stl(const std::string& bytes) {
+  if (bytes.size() >= 84) {
+    uint32_t n = 0;
+    for (int k = 3; k >= 0; --k) n = (n << 8) | static_cast<unsigned char>(bytes[80 + k]);
+    if (bytes.size() == 84 + 50 * static_cast<uint64_t>(n)) return true;
+  }
+  if (bytes.compare(0, 5, "solid") != 0 || bytes.find("facet") == std::string::npos) return false;
+  return std::all_of(bytes.begin(), bytes.end(), [](char c) {
+    return (c >= 0x20 && c < 0x7f) || c == '\n' || c == '\r' || c == '\t';
+  });
+}
+
+// A URDF's <visual> shapes per body, and its STL meshes embedded (base64) once each. A mesh must
+// lie inside the URDF's folder once links are resolved, be at most 32 MB (96 MB in all) and be
+// an STL file: an untrusted scene cannot carry another file into the page.
+json body_visuals(const ModelRecipe& recipe, json& meshes,
+                  std::vector<std::pair<std::string, std::string>>& inputs) {
+  namespace fs = std::filesystem;
+  std::map<std::string, int> index;
+  size_t total = 0;
+  json bodies = json::array();
+  for (const auto& shapes : recipe.body_visuals()) {
+    json list = json::array();
+    for (const spatial::Visual& v : shapes) {
+      json shape = {
+          {"kind", v.kind}, {"size", v.size}, {"position", v.xyz}, {"quaternion", v.quaternion}};
+      if (v.kind == "mesh") {
+        if (!index.count(v.mesh)) {
+          const std::string path = recipe.mesh_folder() + v.mesh;
+          std::error_code ec;
+          const fs::path folder = fs::canonical(recipe.mesh_folder(), ec),
+                         file = fs::canonical(path, ec);
+          const std::string inside = folder.string() + "/";
+          if (ec || file.string().compare(0, inside.size(), inside) != 0)
+            throw std::invalid_argument("view: mesh '" + path +
+                                        "' is not a file inside the URDF's folder '" +
+                                        recipe.mesh_folder() + "'");
+          const std::string bytes = read_regular_file(path, "view: mesh", size_t(32) << 20);
+          if (!is_stl(bytes))
+            throw std::invalid_argument("view: mesh '" + path + "' is not an STL file");
+          if ((total += bytes.size()) > (size_t(96) << 20))
+            throw std::invalid_argument("view: the URDF's meshes are larger than 96 MB in all");
+          index[v.mesh] = static_cast<int>(meshes.size());
+          meshes.push_back({{"path", v.mesh}, {"stl", base64(bytes)}});
+          inputs.push_back({"mesh", path});
+        }
+        shape["mesh"] = index[v.mesh];
+      }
+      list.push_back(shape);
+    }
+    bodies.push_back(list);
+  }
+  return bodies;
+}
+
 json run_view_data(const ViewArgs& given,
                    std::vector<std::pair<std::string, std::string>>& inputs) {
   json info = json::array();
@@ -488,6 +567,9 @@ json run_view_data(const ViewArgs& given,
                {"space", s.dyn.spatial ? "spatial" : "planar"},
                {"geometry", geometry(s, main)},
                {"runs", runs}};
+  json meshes = json::array();
+  data["geometry"]["body_visuals"] = body_visuals(*s.recipe, meshes, inputs);
+  data["meshes"] = meshes;
   data["plots"] = plots(s, table, reader, main, compare.get(), plot_notes);
   data["plot_notes"] = plot_notes;
   info.push_back({"scene", s.recipe->name() + " ('" + a.scene_path + "')"});

@@ -1,5 +1,7 @@
 #include "model_recipe.hpp"
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -15,6 +17,7 @@
 #include "numeric_outputs.hpp"
 #include "planar_model.hpp"
 #include "program_expression.hpp"
+#include "spatial_chain.hpp"
 #include "spatial_model.hpp"
 
 namespace spacearm {
@@ -116,6 +119,36 @@ ModelRecipe::BaseInertial ModelRecipe::base_inertial() const {
     b.inertia = base.inertia_values();
   }
   return b;
+}
+
+std::string ModelRecipe::mesh_folder() const {
+  if (!spatial_ || spatial_->read_files.empty()) return "";
+  const std::string& urdf = spatial_->read_files.front();
+  const size_t slash = urdf.rfind('/');
+  return slash == std::string::npos ? "." : urdf.substr(0, slash + 1);
+}
+
+std::vector<std::array<double, 7>> ModelRecipe::body_poses(
+    const std::vector<double>& q, const std::vector<double>& params) const {
+  if (!spatial_) throw std::invalid_argument("body_poses: a spatial scene's");
+  const spatial::ChainDescription& d = spatial_->chain;
+  if (static_cast<int>(q.size()) != d.nq() || params.size() != facts_.parameter_names.size())
+    throw std::invalid_argument("body_poses: expected " + std::to_string(d.nq()) +
+                                " coordinates and " +
+                                std::to_string(facts_.parameter_names.size()) + " parameters");
+  auto input = [&](const std::string& array, int i) {
+    return array == "q" ? q.at(i) : array == "params" ? params.at(i) : 0.0;
+  };
+  const spatial::Chain<double> chain(d, Values<double>{input, [](double x) { return x; }});
+  const std::vector<double> frames = chain.body_frames();
+  std::vector<std::array<double, 7>> poses;
+  for (size_t at = 0; at + 12 <= frames.size(); at += 12) {
+    Eigen::Matrix3d R;
+    for (int k = 0; k < 9; ++k) R(k / 3, k % 3) = frames[at + 3 + k];
+    const Eigen::Quaterniond r(R);
+    poses.push_back({frames[at], frames[at + 1], frames[at + 2], r.w(), r.x(), r.y(), r.z()});
+  }
+  return poses;
 }
 
 std::string ModelRecipe::parameter_error(const std::vector<double>& params) const {

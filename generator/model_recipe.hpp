@@ -86,10 +86,17 @@ class ModelRecipe {
     std::array<double, 6> inertia{};
   };
   BaseInertial base_inertial() const;
-  // A URDF base's <visual> shapes in the base frame (what the viewer draws; none for YAML).
-  std::vector<spatial::Visual> base_visuals() const {
-    return spatial_ ? spatial_->base_visuals : std::vector<spatial::Visual>{};
+  // A URDF's <visual> shapes per body in its frame (what the viewer draws; none for YAML), and
+  // the folder a mesh's path is relative to (the URDF's).
+  std::vector<std::vector<spatial::Visual>> body_visuals() const {
+    return spatial_ ? spatial_->body_visuals : std::vector<std::vector<spatial::Visual>>{};
   }
+  std::string mesh_folder() const;
+  // A spatial arm's bodies in the world at q (nq) and the parameters' values: per body (0 the
+  // base) its position and its rotation's quaternion (w x y z), 7 numbers. Forward kinematics in
+  // double, for drawing (the generated code has no such output).
+  std::vector<std::array<double, 7>> body_poses(const std::vector<double>& q,
+                                                const std::vector<double>& params) const;
 
  private:
   std::shared_ptr<const Scene> planar_;

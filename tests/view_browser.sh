@@ -87,11 +87,38 @@ expect_error "is the run's provenance file" "$cli" view "$work/replay.csv" \
   -o "$work/replay.csv.provenance.json" "${cache[@]}"
 [[ ! -e $work/bad.html ]] || fail "a page was written for bad input"
 
-# A URDF arm (identified inertias) drawn with its base's <visual> shapes.
-run "$cli" simulate "$source_dir/models/identified_arm3.yaml" --zero --t-end 1 --dt 0.01 \
+# A URDF arm (identified inertias) drawn with its <visual> shapes, an STL mesh on Link_2 (a
+# tetrahedron, binary STL, by package:// path) among them.
+mkdir -p "$work/urdf/meshes"
+cp "$source_dir/models/identified_arm3.yaml" "$work/urdf/"
+sed 's|<link name="Link_2">|&<visual><geometry><mesh filename="package://arm/meshes/tetra.stl" scale="0.5 0.5 0.5"/></geometry></visual>|' \
+  "$source_dir/models/identified_arm3.urdf" > "$work/urdf/identified_arm3.urdf"
+/usr/bin/python3 - "$work/urdf/meshes/tetra.stl" <<'PY'
+import struct, sys
+v = [(0, 0, 0), (0.4, 0, 0), (0, 0.4, 0), (0, 0, 0.4)]
+faces = [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]
+with open(sys.argv[1], "wb") as f:
+    f.write(b"tetra".ljust(80, b" ") + struct.pack("<I", len(faces)))
+    for a, b, c in faces:
+        f.write(struct.pack("<12fH", 0, 0, 0, *v[a], *v[b], *v[c], 0))
+PY
+run "$cli" simulate "$work/urdf/identified_arm3.yaml" --zero --t-end 1 --dt 0.01 \
   --qd0 0,0,0,0,0,0,0.2,-0.3,0.4 -o "$work/urdf.csv" "${cache[@]}"
-run "$cli" view "$work/urdf.csv" --scene "$source_dir/models/identified_arm3.yaml" \
+run "$cli" view "$work/urdf.csv" --scene "$work/urdf/identified_arm3.yaml" \
   -o "$work/urdf.html" "${cache[@]}"
+# A mesh that leaves the URDF's folder through a link, or is no STL, is refused by name.
+printf 'secret-text-9012\n' > "$work/secret.stl"
+mv "$work/urdf/meshes/tetra.stl" "$work/tetra.stl"
+ln -s "$work/secret.stl" "$work/urdf/meshes/tetra.stl"
+expect_error "mesh '.*tetra.stl' is not a file inside the URDF's folder" "$cli" view \
+  "$work/urdf.csv" --scene "$work/urdf/identified_arm3.yaml" -o "$work/bad.html" "${cache[@]}"
+rm "$work/urdf/meshes/tetra.stl"
+printf 'secret-text-9012\n' > "$work/urdf/meshes/tetra.stl"
+expect_error "mesh '.*tetra.stl' is not an STL file" "$cli" view \
+  "$work/urdf.csv" --scene "$work/urdf/identified_arm3.yaml" -o "$work/bad.html" "${cache[@]}"
+! grep -q secret-text "$work/log" || fail "the refused mesh's text was shown"
+mv "$work/tetra.stl" "$work/urdf/meshes/tetra.stl"
+[[ ! -e $work/bad.html ]] || fail "a page was written for a refused mesh"
 # A spatial arm turning its joints from rest, the base reacting.
 run "$cli" simulate "$source_dir/tests/scenes/spatial_arm2.yaml" --zero --t-end 1 --dt 0.01 \
   --qd0 0,0,0,0,0,0.2,60,-30 -o "$work/spatial.csv" "${cache[@]}"

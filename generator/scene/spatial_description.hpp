@@ -132,14 +132,17 @@ struct JointLimits {
   bool has_velocity() const { return velocity > 0; }
 };
 
-// A URDF <visual> shape of the base (the root link or a link welded to it), in the base frame,
-// for the viewer: a box (size x y z), a cylinder along its z (radius, length), or a sphere
-// (radius); at xyz, turned by the quaternion (w, x, y, z). Not part of the model.
+// A URDF <visual> shape of a body (its link or a link welded to it), in the body's frame, for
+// the viewer: a box (size x y z), a cylinder along its z (radius, length), a sphere (radius), or
+// an STL mesh (a file in the URDF's folder, scaled per axis); at xyz, turned by the quaternion
+// (w, x, y, z). Not part of the model.
 struct Visual {
-  std::string kind;              // "box", "cylinder" or "sphere"
-  std::array<double, 3> size{};  // box: x y z; cylinder: radius, length, 0; sphere: radius, 0, 0
+  std::string kind;              // "box", "cylinder", "sphere" or "mesh"
+  std::array<double, 3> size{};  // box: x y z; cylinder: radius, length, 0; sphere: radius, 0, 0;
+                                 // mesh: the scale
   std::array<double, 3> xyz{};
   std::array<double, 4> quaternion{1, 0, 0, 0};
+  std::string mesh;  // a mesh's path relative to the URDF's folder (no '..', not absolute)
 };
 
 // A part's frame as the transform from the link's frame to the part's.

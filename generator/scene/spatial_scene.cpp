@@ -327,7 +327,7 @@ class SpatialReader {
     s.chain = u.chain;
     s.joint_names = u.joint_names;
     s.joint_limits = u.limits;
-    s.base_visuals = u.base_visuals;
+    s.body_visuals = u.body_visuals;
     for (const auto& links : u.body_links) s.body_names.push_back(links.front());
     s.content += std::string("\0urdf ", 6) + path + '\0' + xml;
   }

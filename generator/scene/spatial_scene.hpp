@@ -38,9 +38,11 @@ struct SpatialScene {
   std::vector<std::string> joint_names;  // a URDF's moving joints (empty for the YAML form)
   std::vector<std::string> body_names;   // a URDF's link of each body, 0 the base (YAML: empty)
   std::vector<spatial::JointLimits> joint_limits;  // a URDF's, per moving joint (YAML: empty)
-  std::vector<spatial::Visual> base_visuals;       // a URDF's base shapes, for the viewer
-  std::string source_path;                         // as given (messages, the generated banner)
-  std::string content;  // every byte the model is made from (its hash names the library)
+  // A URDF's shapes per body (0 the base, i link i), in the body's frame, for the viewer; a
+  // mesh's path is relative to the URDF's folder (the folder of read_files[0]).
+  std::vector<std::vector<spatial::Visual>> body_visuals;
+  std::string source_path;  // as given (messages, the generated banner)
+  std::string content;      // every byte the model is made from (its hash names the library)
   spatial::ChainDescription chain;
   std::vector<Output> outputs;  // as listed (`outputs:`); empty: the defaults (spatial_model.hpp)
   std::vector<Parameter> parameters;  // run-time parameters, params[i] in the generated code

@@ -382,9 +382,10 @@ class UrdfReader {
     return l;
   }
 
-  // The <visual> shapes of the links welded into the base, in the base frame (at most 200).
-  void base_visuals(const std::vector<std::pair<std::string, Frame>>& welded,
+  // The <visual> shapes of a body's links, in the body's frame (at most 500 in all).
+  void body_visuals(const std::vector<std::pair<std::string, Frame>>& welded,
                     UrdfChain& out) const {
+    std::vector<spatial::Visual>& shapes = out.body_visuals.emplace_back();
     for (const auto& [name, f] : welded) {
       const tinyxml2::XMLElement* link = links_.at(name);
       for (auto* v = link->FirstChildElement("visual"); v; v = v->NextSiblingElement("visual")) {
@@ -393,32 +394,79 @@ class UrdfReader {
         if (g->FirstChildElement() && g->FirstChildElement()->NextSiblingElement())
           fail(g->FirstChildElement()->NextSiblingElement(), "a second shape in one <geometry>");
         spatial::Visual shape;
-        if (const auto* box = only_child(g, "box")) {
-          shape.kind = "box";
-          shape.size = numbers<3>(box, "size", std::nullopt);
-        } else if (const auto* c = only_child(g, "cylinder")) {
-          shape.kind = "cylinder";
-          shape.size = {numbers<1>(c, "radius", std::nullopt)[0],
-                        numbers<1>(c, "length", std::nullopt)[0], 0};
-        } else if (const auto* s = only_child(g, "sphere")) {
-          shape.kind = "sphere";
-          shape.size = {numbers<1>(s, "radius", std::nullopt)[0], 0, 0};
-        } else {  // a mesh, or a shape URDF does not define: counted, not drawn
-          out.base_undrawn += g->FirstChildElement() != nullptr;
+        if (!read_shape(g, shape)) {  // not drawn: counted
+          out.undrawn += g->FirstChildElement() != nullptr;
           continue;
         }
-        for (double x : shape.size)
-          if (x < 0)
-            fail(g->FirstChildElement(),
-                 "a visual's size must not be negative, got " + number_text(x));
         const Frame at = f * origin(v);
         shape.xyz = {at.p[0], at.p[1], at.p[2]};
         const Eigen::Quaterniond q(at.R);
         shape.quaternion = {q.w(), q.x(), q.y(), q.z()};
-        if (out.base_visuals.size() >= 200) fail(v, "more than 200 visuals on the base");
-        out.base_visuals.push_back(shape);
+        size_t count = 0;
+        for (const auto& body : out.body_visuals) count += body.size();
+        if (count >= 500) fail(v, "more than 500 visuals");
+        shapes.push_back(shape);
       }
     }
+  }
+
+  // A <geometry>'s shape; false for one not drawn (a mesh not STL, a shape URDF does not define).
+  bool read_shape(const tinyxml2::XMLElement* g, spatial::Visual& shape) const {
+    if (const auto* box = only_child(g, "box")) {
+      shape.kind = "box";
+      shape.size = numbers<3>(box, "size", std::nullopt);
+    } else if (const auto* c = only_child(g, "cylinder")) {
+      shape.kind = "cylinder";
+      shape.size = {numbers<1>(c, "radius", std::nullopt)[0],
+                    numbers<1>(c, "length", std::nullopt)[0], 0};
+    } else if (const auto* s = only_child(g, "sphere")) {
+      shape.kind = "sphere";
+      shape.size = {numbers<1>(s, "radius", std::nullopt)[0], 0, 0};
+    } else if (const auto* m = only_child(g, "mesh")) {
+      shape.kind = "mesh";
+      shape.size = numbers<3>(m, "scale", std::array<double, 3>{1, 1, 1});
+      shape.mesh = mesh_path(m);
+      if (shape.mesh.empty()) return false;
+    } else {
+      return false;
+    }
+    for (double x : shape.size)
+      if (x < 0)
+        fail(g->FirstChildElement(), "a visual's size must not be negative, got " + number_text(x));
+    return true;
+  }
+
+  // A mesh's file as a path inside the URDF's folder: "package://PKG/REST" and "REST" are REST,
+  // which must be relative, without '..', '.' or empty parts, of at most 255 printable ASCII
+  // characters. "" for a mesh that is not STL (drawn as nothing, counted). Untrusted: a scene must
+  // not make the viewer embed a file outside the URDF's folder into a page.
+  std::string mesh_path(const tinyxml2::XMLElement* m) const {
+    const char* attribute = m->Attribute("filename");
+    if (!attribute) fail(m, "a <mesh> needs a filename");
+    std::string path = attribute;
+    const std::string package = "package://";
+    if (path.rfind(package, 0) == 0) {
+      const size_t slash = path.find('/', package.size());
+      path = slash == std::string::npos ? "" : path.substr(slash + 1);
+    }
+    auto refuse = [&](const std::string& why) {
+      fail(m, "mesh filename " + quoted_text(attribute) + ": " + why);
+    };
+    if (path.empty() || path.size() > 255) refuse("expected a path of 1 to 255 characters");
+    if (path.front() == '/' || path.find("://") != std::string::npos)
+      refuse("expected a path relative to the URDF's folder (or package://PACKAGE/PATH)");
+    for (char c : path)
+      if (c < 0x21 || c > 0x7e || c == '\\') refuse("expected printable ASCII without spaces");
+    for (size_t at = 0; at <= path.size();) {
+      const size_t end = std::min(path.find('/', at), path.size());
+      const std::string part = path.substr(at, end - at);
+      if (part.empty() || part == "." || part == "..")
+        refuse("a path inside the URDF's folder has no empty, '.' or '..' part");
+      at = end + 1;
+    }
+    std::string extension = path.size() > 4 ? path.substr(path.size() - 4) : "";
+    for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return extension == ".stl" ? path : "";
   }
 
   UrdfChain chain(bool free_base, const std::string& end_effector_link) {
@@ -461,8 +509,8 @@ class UrdfReader {
         out.limits.push_back(carrier->limits);
       } else {
         out.chain.base = l;
-        base_visuals(welded, out);
       }
+      body_visuals(welded, out);
       if (moving.size() > 1)
         fail(moving[1]->element, "a second moving joint after body " + quoted_text(body) +
                                      " (the first is " + quoted_text(moving[0]->name) +

@@ -21,10 +21,10 @@ struct UrdfChain {
   spatial::ChainDescription chain;           // gears absent; tip at the end effector link's origin
   std::vector<std::string> joint_names;      // the moving joints, base to tip
   std::vector<spatial::JointLimits> limits;  // theirs, from <limit> and <dynamics>
-  // The base's <visual> boxes, cylinders and spheres (of its links), for the viewer; meshes and
-  // other shapes are counted, not read.
-  std::vector<spatial::Visual> base_visuals;
-  int base_undrawn = 0;
+  // Per body (0 the base, i link i), the <visual> boxes, cylinders, spheres and STL meshes of its
+  // links, in its frame, for the viewer; other meshes and shapes are counted, not read.
+  std::vector<std::vector<spatial::Visual>> body_visuals;
+  int undrawn = 0;
   std::string root_link, end_effector_link;
   // Per body (0 the base, i link i), the URDF links it is made of: its own, then those welded to
   // it.

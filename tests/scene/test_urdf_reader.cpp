@@ -347,32 +347,56 @@ TEST(UrdfReader, DefaultEndEffectorIsTheWeldedLeaf) {
   EXPECT_EQ(read_urdf(robot(two_tools), "r.urdf", true, "camera").end_effector_link, "camera");
 }
 
-// Issue 51: the base's <visual> shapes (its own link's and those welded to it) in the base
-// frame, for the viewer; a mesh is counted, not read; a negative size is refused.
-TEST(UrdfReader, BaseVisualsAreReadInTheBaseFrame) {
+// Issue 51: each body's <visual> shapes (its own link's and those welded to it) in its frame, for
+// the viewer; an STL mesh by its path in the URDF's folder (package:// stripped), another mesh
+// counted, not read; a negative size, or a mesh path that leaves the folder, refused by name.
+TEST(UrdfReader, VisualsAreReadInTheirBodysFrame) {
   const std::string shapes =
       "<link name=\"a\"><inertial><mass value=\"2\"/><inertia ixx=\"1\" ixy=\"0\" ixz=\"0\" "
       "iyy=\"1\" iyz=\"0\" izz=\"1\"/></inertial>"
       "<visual><geometry><box size=\"2.2 2.1 2\"/></geometry></visual>"
-      "<visual><geometry><mesh filename=\"bus.stl\"/></geometry></visual></link>\n"
+      "<visual><geometry><mesh filename=\"bus.dae\"/></geometry></visual></link>\n"
       "<link name=\"panel\"><visual><origin xyz=\"0 0 0.5\" rpy=\"1.5707963267948966 0 0\"/>"
       "<geometry><cylinder radius=\"0.1\" length=\"3\"/></geometry></visual></link>\n"
       "<link name=\"b\"><inertial><mass value=\"1\"/><inertia ixx=\"0.1\" ixy=\"0\" ixz=\"0\" "
-      "iyy=\"0.1\" iyz=\"0\" izz=\"0.1\"/></inertial></link>\n" +
+      "iyy=\"0.1\" iyz=\"0\" izz=\"0.1\"/></inertial><visual><origin xyz=\"0.2 0 0\"/>"
+      "<geometry><mesh filename=\"package://arm/meshes/B.STL\" scale=\"0.001 0.001 0.001\"/>"
+      "</geometry></visual></link>\n" +
       joint("wing", "fixed", "a", "panel", "<origin xyz=\"1.5 0 0\"/>") +
       joint("j", "revolute", "a", "b");
   const UrdfChain c = read_urdf(robot(shapes), "r.urdf", true, "");
-  ASSERT_EQ(c.base_visuals.size(), 2u);
-  EXPECT_EQ(c.base_undrawn, 1);
-  EXPECT_EQ(c.base_visuals[0].kind, "box");
-  EXPECT_EQ(c.base_visuals[0].size, (std::array<double, 3>{2.2, 2.1, 2}));
-  const spatial::Visual& wing = c.base_visuals[1];
+  ASSERT_EQ(c.body_visuals.size(), 2u);
+  const std::vector<spatial::Visual>& base = c.body_visuals[0];
+  ASSERT_EQ(base.size(), 2u);
+  EXPECT_EQ(c.undrawn, 1);
+  EXPECT_EQ(base[0].kind, "box");
+  EXPECT_EQ(base[0].size, (std::array<double, 3>{2.2, 2.1, 2}));
+  const spatial::Visual& wing = base[1];
   EXPECT_EQ(wing.kind, "cylinder");
   EXPECT_EQ(wing.size, (std::array<double, 3>{0.1, 3, 0}));
   EXPECT_NEAR(wing.xyz[0], 1.5, 1e-15);
   EXPECT_NEAR(wing.xyz[2], 0.5, 1e-15);
   EXPECT_NEAR(wing.quaternion[0], std::sqrt(0.5), 1e-15);  // about x by pi/2
   EXPECT_NEAR(wing.quaternion[1], std::sqrt(0.5), 1e-15);
+  ASSERT_EQ(c.body_visuals[1].size(), 1u);
+  const spatial::Visual& link = c.body_visuals[1][0];
+  EXPECT_EQ(link.kind, "mesh");
+  EXPECT_EQ(link.mesh, "meshes/B.STL");
+  EXPECT_EQ(link.size, (std::array<double, 3>{0.001, 0.001, 0.001}));
+  EXPECT_EQ(link.xyz, (std::array<double, 3>{0.2, 0, 0}));
+  for (const auto& [path, message] : std::vector<std::pair<std::string, std::string>>{
+           {"../secret.stl", "a path inside the URDF's folder has no empty, '.' or '..' part"},
+           {"package://arm/../../x.stl", "a path inside the URDF's folder has no empty"},
+           {"meshes//b.stl", "a path inside the URDF's folder has no empty, '.' or '..' part"},
+           {"/etc/b.stl", "expected a path relative to the URDF's folder"},
+           {"file:///etc/b.stl", "expected a path relative to the URDF's folder"},
+           {"a b.stl", "expected printable ASCII without spaces"},
+           {"package://arm", "expected a path of 1 to 255 characters"}}) {
+    std::string bad = shapes;
+    bad.replace(bad.find("package://arm/meshes/B.STL"), 26, path);
+    EXPECT_THROW_MESSAGE(read_urdf(robot(bad), "r.urdf", true, ""), SceneError,
+                         "mesh filename '" + path + "': " + message);
+  }
   std::string negative = shapes;
   negative.replace(negative.find("2.2 2.1 2"), 9, "2.2 -2.1 2");
   EXPECT_THROW_MESSAGE(read_urdf(robot(negative), "r.urdf", true, ""), SceneError,

@@ -4,6 +4,7 @@
 // drawn as a ghost. In the plane the camera looks down z (pan and zoom); in 3D it orbits.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
+import { STLLoader } from 'three/examples/jsm/loaders/STLLoader.js';
 import { el } from './dom.js';
 
 const COLORS = {
@@ -44,6 +45,20 @@ function blend(rows, at, quaternion = -1) {
   return a.map((v, i) => v + (b[i] - v) * at.w);
 }
 
+// Row k of rows of poses [x y z qw qx qy qz]... blended with row k + 1, each quaternion on
+// the first row's side.
+function blendPoses(rows, at) {
+  const a = rows[at.k];
+  if (at.w === 0 || at.k + 1 >= rows.length) return a.slice();
+  const b = rows[at.k + 1].slice();
+  for (let p = 0; p < b.length; p += 7) {
+    let dot = 0;
+    for (let i = p + 3; i < p + 7; ++i) dot += a[i] * b[i];
+    if (dot < 0) for (let i = p + 3; i < p + 7; ++i) b[i] = -b[i];
+  }
+  return a.map((v, i) => v + (b[i] - v) * at.w);
+}
+
 function rod(radius, color, opacity) {
   const material = new THREE.MeshStandardMaterial({ color, transparent: opacity < 1, opacity });
   const mesh = new THREE.Mesh(new THREE.CylinderGeometry(1, 1, 1, 20), material);
@@ -63,23 +78,51 @@ function placeRod(mesh, a, b) {
   mesh.scale.set(r, length, r);
 }
 
-// A URDF <visual> shape (data.geometry.base_visuals): a box, a cylinder along its z (three.js's
-// are along y) or a sphere, placed in the base frame.
-function visualMesh(v, material) {
+// A URDF <visual> shape (data.geometry.body_visuals[body]): a box, a cylinder along its z
+// (three.js's are along y), a sphere, or an STL mesh (data.meshes, parsed once by three.js's
+// STLLoader, scaled per axis), placed in its body's frame.
+function visualMesh(v, material, meshes) {
   const [a, b, c] = v.size;
   const shape = v.kind === 'box' ? new THREE.BoxGeometry(a, b, c)
     : v.kind === 'cylinder' ? new THREE.CylinderGeometry(a, a, b, 32).rotateX(Math.PI / 2)
+    : v.kind === 'mesh' ? meshes[v.mesh]
     : new THREE.SphereGeometry(a, 24, 16);
   const mesh = new THREE.Mesh(shape, material);
+  if (v.kind === 'mesh') mesh.scale.set(a, b, c);
   mesh.position.set(...v.position);
   const [w, x, y, z] = v.quaternion;
   mesh.quaternion.set(x, y, z, w);
   return mesh;
 }
 
-// One run's meshes: base, mount strut, links, joints, rotors and tip.
+// The page's STL meshes as three.js geometries (base64 in data.meshes).
+export function stlGeometries(meshes) {
+  const loader = new STLLoader();
+  return (meshes || []).map((m) => {
+    const bytes = Uint8Array.from(atob(m.stl), (ch) => ch.charCodeAt(0));
+    const geometry = loader.parse(bytes.buffer);
+    geometry.computeVertexNormals();
+    return geometry;
+  });
+}
+
+// A body's URDF shapes as one group in its frame.
+function bodyGroup(shapes, material, meshes) {
+  const group = new THREE.Group();
+  for (const v of shapes || []) group.add(visualMesh(v, material, meshes));
+  return group;
+}
+
+// Sets a group to a pose [x, y, z, qw, qx, qy, qz].
+function placeGroup(group, pose, at = 0) {
+  group.position.set(pose[at], pose[at + 1], pose[at + 2]);
+  group.quaternion.set(pose[at + 4], pose[at + 5], pose[at + 6], pose[at + 3]).normalize();
+}
+
+// One run's meshes: base, mount strut, links, joints, rotors and tip; a URDF's shapes on the
+// base and on each link where it gives them (the rods and joints stay: the kinematic chain).
 class ArmMeshes {
-  constructor(scene, geometry, run, ghost) {
+  constructor(scene, geometry, run, ghost, meshes) {
     this.run = run;
     this.n = run.points[0].length / 3 - 1;
     const opacity = ghost ? 0.35 : 1;
@@ -89,9 +132,14 @@ class ArmMeshes {
     this.base = new THREE.Mesh(new THREE.BoxGeometry(a, b, c), material(COLORS.base));
     this.baseCenter = new THREE.Vector3(...geometry.base_center);
     // A URDF base's own shapes (in the base frame), drawn instead of the inertia box.
-    this.shapes = new THREE.Group();
-    for (const v of geometry.base_visuals || []) this.shapes.add(visualMesh(v, material(COLORS.base)));
+    const visuals = geometry.body_visuals || [];
+    this.shapes = bodyGroup(visuals[0], material(COLORS.base), meshes);
     const shaped = this.shapes.children.length > 0;
+    // Each link's own shapes, placed by the run's body frames.
+    this.linkShapes = run.bodies
+      ? visuals.slice(1).map((list, i) =>
+        bodyGroup(list, material(COLORS.link[ghost ? 1 : 0] + (i % 2) * 0x101010), meshes))
+      : [];
     this.base.visible = !shaped;
     this.strut = rod(geometry.joint_radius * 0.6, COLORS.base, opacity);
     this.links = geometry.link_radius.map((r, i) =>
@@ -103,7 +151,8 @@ class ArmMeshes {
     this.rotors = geometry.rotors.map((present) =>
       present && !ghost && run.rotor ? this.rotorMesh(geometry.rotor_radius) : null);
     this.group = new THREE.Group();
-    this.group.add(this.base, this.shapes, this.strut, ...this.links, ...this.joints, this.tip);
+    this.group.add(this.base, this.shapes, this.strut, ...this.links, ...this.joints, this.tip,
+                   ...this.linkShapes);
     for (const r of this.rotors) if (r) this.group.add(r);
     scene.add(this.group);
   }
@@ -139,6 +188,10 @@ class ArmMeshes {
       this.joints[i].position.copy(point(i));
     }
     this.tip.position.copy(point(this.n));
+    if (this.linkShapes.length) {
+      const frames = blendPoses(this.run.bodies, at);
+      this.linkShapes.forEach((group, i) => placeGroup(group, frames, 7 * (i + 1)));
+    }
     const axes = this.run.axes ? blend(this.run.axes, at) : null;
     const angles = this.run.rotor ? blend(this.run.rotor, at) : null;
     this.rotors.forEach((rotor, i) => {
@@ -191,10 +244,12 @@ export class ArmScene {
     const sun = new THREE.DirectionalLight(0xffffff, 2.0);
     sun.position.set(2, -3, 5);
     this.scene.add(sun);
-    this.arms = data.runs.map((run, i) => new ArmMeshes(this.scene, data.geometry, run, i > 0));
+    const meshes = stlGeometries(data.meshes);
+    this.arms = data.runs.map((run, i) =>
+      new ArmMeshes(this.scene, data.geometry, run, i > 0, meshes));
     data.runs.forEach((run, i) => this.scene.add(pathLine(run, COLORS.path[Math.min(i, 1)])));
     this.setCamera(data);
-    if ((data.geometry.base_visuals || []).length) this.boxToggle(parent);
+    if (((data.geometry.body_visuals || [])[0] || []).length) this.boxToggle(parent);
     new ResizeObserver(() => this.resize()).observe(this.box);
     this.resize();
   }
@@ -208,9 +263,13 @@ export class ArmScene {
         for (let i = 0; i < p.length; i += 3) bounds.expandByPoint(new THREE.Vector3(p[i], p[i + 1], p[i + 2]));
         bounds.expandByPoint(new THREE.Vector3(run.base[k][0], run.base[k][1], run.base[k][2]));
       }
-    const shaped = (data.geometry.base_visuals || []).length > 0;
+    const shaped = ((data.geometry.body_visuals || [])[0] || []).length > 0;
     bounds.expandByScalar(shaped ? 0 : Math.max(...data.geometry.base_box) * 0.75);
-    if (shaped) for (const arm of this.arms) bounds.expandByObject(arm.shapes);
+    for (const arm of this.arms) {
+      arm.show(arm.run.t[0]);
+      if (shaped) bounds.expandByObject(arm.shapes);
+      for (const group of arm.linkShapes) bounds.expandByObject(group);
+    }
     const center = bounds.getCenter(new THREE.Vector3());
     const size = bounds.getSize(new THREE.Vector3()).length();
     this.extent = size;
@@ -270,10 +329,20 @@ export class ArmScene {
     this.renderer.render(this.scene, this.camera);
   }
 
-  // How run 0's base is drawn: its URDF shapes, and whether the inertia box shows.
+  // How run 0's base is drawn: its URDF shapes, and whether the inertia box shows; its links'
+  // shapes (count per link) and where each link's shapes sit in the world.
   baseShapes() {
     const arm = this.arms[0];
-    return { shapes: arm.shapes.children.length, box: arm.base.visible };
+    return {
+      shapes: arm.shapes.children.length,
+      box: arm.base.visible,
+      links: arm.linkShapes.map((g) => g.children.length),
+      linkPositions: arm.linkShapes.map((g) => g.position.toArray()),
+      jointPositions: arm.joints.map((j) => j.position.toArray()),
+      meshTriangles: arm.linkShapes.flatMap((g) => g.children)
+        .filter((m) => m.geometry.type === 'BufferGeometry')
+        .map((m) => m.geometry.attributes.position.count / 3),
+    };
   }
 
   // The drawn end effector of run i: [x, y, z], or null where the run is hidden.

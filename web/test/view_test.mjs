@@ -97,6 +97,16 @@ try {
     check(await page.evaluate(() => window.spacearmView.ready), 'urdf: ready');
     const before = await page.evaluate(() => window.spacearmView.baseShapes());
     check(before.shapes === 1 && !before.box, 'urdf: the bus box drawn, not the inertia box (' + JSON.stringify(before) + ')');
+    check(JSON.stringify(before.links) === '[1,2,2]', 'urdf: each link drawn with its shapes, the STL among them (' + JSON.stringify(before.links) + ')');
+    check(JSON.stringify(before.meshTriangles) === '[4]', 'urdf: the STL tetrahedron parsed (' + JSON.stringify(before.meshTriangles) + ')');
+    for (const t of [0.3, 1]) {  // each link's shapes ride on its frame, whose origin is its joint
+      await page.evaluate((at) => window.spacearmView.setTime(at), t);
+      const now = await page.evaluate(() => window.spacearmView.baseShapes());
+      const gap = Math.max(...now.linkPositions.map((p, i) =>
+        Math.hypot(...p.map((v, k) => v - now.jointPositions[i][k]))));
+      check(gap < 1e-6, 'urdf: link frames at their joints at t = ' + t + ' (' + gap + ' m)');
+    }
+    await page.evaluate(() => window.spacearmView.setTime(0));
     const canvas = page.locator('.scene3d canvas');
     const shapes = await canvas.screenshot();
     await page.locator('label.note input[type=checkbox]').check();

@@ -822,6 +822,16 @@ std::vector<T> Chain<T>::joint_positions() const {
 }
 
 template <class T>
+std::vector<T> Chain<T>::body_frames() const {
+  std::vector<T> frames;
+  for (int b = 0; b <= n_; ++b) {
+    frames.insert(frames.end(), p_[b].begin(), p_[b].end());
+    frames.insert(frames.end(), R_[b].begin(), R_[b].end());
+  }
+  return frames;
+}
+
+template <class T>
 std::vector<T> Chain<T>::end_effector_jacobian() const {
   const int nv = d_.nv(), nb = d_.num_base();
   const Vec3<T> tip = p_[n_] + times(R_[n_], num(d_.tip));

@@ -82,6 +82,9 @@ class Chain {
   // The world positions of joints 1..N (each link frame's origin) and of the tip, for drawing:
   // row-major 3 x (N + 1), one column per point.
   std::vector<T> joint_positions() const;
+  // Each body's frame in the world (0 the base, i link i), for drawing its visuals: 12 numbers
+  // per body, the position then the rotation row-major. Not a registry output.
+  std::vector<T> body_frames() const;
   // Its geometric Jacobian, row-major 6 x nv: the tip's linear and the last link's angular
   // velocity in the world per unit velocity.
   std::vector<T> end_effector_jacobian() const;
