@@ -543,6 +543,46 @@ TEST_F(PlanCommand, SpatialArmPlansAPoseAndSimulateFliesIt) {
   EXPECT_LT(5000 * apart, peak * 3);
 }
 
+// A published robot (issue 51): ETS-VII's URDF, byte for byte as its authors published it
+// (models/published/SOURCE.md), with inertias identified in orbit that no rigid body has. It
+// loads with inertia_check: positive_definite alone (three links named once), plans a line with
+// zero momentum, and flies it to the goal with the momentum kept; MuJoCo cannot take it as it is.
+// Cost: about 3 s (one model).
+TEST_F(PlanCommand, PublishedEtsViiPlansAndFlies) {
+  const fs::path folder = fs::path(SPACEARM_SOURCE_DIR) / "models/published";
+  int status = 0;
+  EXPECT_EQ(
+      test::run_command("sha256sum " + (folder / "ETSVII.urdf").string(), &status).substr(0, 64),
+      "9f8405b5bff9f0c3c013841cdf6082b648ce36a36361ed45d0ee77506f5e8948");
+  const std::string scene = (folder / "ets_vii.yaml").string();
+  const std::string csv = (dir() / "ets.csv").string(), flown = (dir() / "ets_flown.csv").string();
+  const std::string out = test::run_command(cli() + "plan " + scene +
+                                                " --from 0.9,-0.3,2.0 --to 0.9,0.1,2.0 "
+                                                "--duration 10 --dt 0.05 -o " +
+                                                csv + cache() + " 2>&1",
+                                            &status);
+  ASSERT_EQ(status, 0) << out;
+  EXPECT_NE(out.find("takes 3 bodies whose inertia no rigid body has (a principal moment above "
+                     "the sum of the other two, as identified parameters may be): link 'Link_1' "
+                     "(principal moments 0.25, 0.25, 1.69); link 'Link_2' (principal moments "
+                     "0.1, 1.31, 3.75); link 'Link_3' (principal moments 0.1, 0.71, 2.53)"),
+            std::string::npos)
+      << out;
+  const std::string sim = test::run_command(
+      cli() + "simulate " + scene + " --plan " + csv + " -o " + flown + cache() + " 2>&1", &status);
+  ASSERT_EQ(status, 0) << sim;
+  const Csv run = read_csv(flown);
+  const size_t last = run.rows.size() - 1;
+  EXPECT_LT((run.values(last, {"ee_x", "ee_y", "ee_z"}) - Eigen::Vector3d(0.9, 0.1, 2.0)).norm(),
+            1e-4);
+  EXPECT_LT(run.values(last, {"Px", "Py", "Pz", "Lx", "Ly", "Lz"}).norm(), 1e-8);
+  const std::string mjcf = test::run_command(
+      cli() + "export --mjcf " + scene + " -o " + (dir() / "ets.xml").string() + " 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(mjcf.find("these bodies' are not: 'Link_1', 'Link_2', 'Link_3'"), std::string::npos)
+      << mjcf;
+}
+
 // Issue 51: a URDF with identified link inertias (models/identified_arm3: each Izz above
 // Ixx + Iyy) under inertia_check: positive_definite plans and flies like any arm (momentum
 // held), says once which bodies are not physical, ends at the URDF's welded tool, and measures
