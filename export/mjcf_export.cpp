@@ -225,7 +225,8 @@ class MjcfWriter {
 
   Mass body_mass(size_t b) const {
     const spatial::Link& l = b == 0 ? s_.chain.base : link(b - 1);
-    const spatial::Inertial w = whole_body(l, [this](const Quantity& q) { return value(q); });
+    const spatial::Inertial w = whole_body(
+        l, [this](const Quantity& q) { return value(q); }, s_.chain.exact_right_angles);
     Mass m;
     m.m = w.mass.value;
     m.c = Eigen::Vector3d(w.com[0].value, w.com[1].value, w.com[2].value);

@@ -360,6 +360,9 @@ std::string header_constants(const ModelFacts& facts) {
     h << "// The bodies' inertias: \"physical\" (a rigid body's) or \"positive_definite\" (as "
          "given).\n"
       << "inline constexpr const char* kInertiaCheck = \"" << facts.inertia_check << "\";\n";
+  if (facts.right_angles_snapped)
+    h << "// snap_right_angles: the frames' angles within 1e-5 rad of a multiple of pi/2 are it.\n"
+      << "inline constexpr bool kRightAnglesSnapped = true;\n";
   h << parameter_error_function(facts);
   for (const auto& o : output_registry()) {
     const bool has = std::count(facts.outputs.begin(), facts.outputs.end(), o.id) != 0;

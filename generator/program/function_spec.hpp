@@ -63,6 +63,7 @@ struct ModelFacts {
   // A spatial arm's bodies' inertias as the scene checked them: "physical" or "positive_definite"
   // (identified tensors as given); empty for a planar model.
   std::string inertia_check;
+  bool right_angles_snapped = false;  // a spatial scene's snap_right_angles
   std::vector<Output> outputs;
   unsigned features = 0;  // needs:: bits of the scene (outputs.hpp)
   // Springs, dampers or friction act besides M qdd + b.

@@ -308,12 +308,47 @@ inline Quaternion<double> rpy_quaternion(const std::array<double, 3>& rpy) {
   return half(rpy[2], 2) * half(rpy[1], 1) * half(rpy[0], 0);
 }
 
+// A scene's snap_right_angles: an angle within 1e-5 rad of a multiple k pi/2 becomes k pi/2
+// (URDFs round pi/2 to 1.5708), and the cosine and sine of such a multiple are exactly 0 and +-1,
+// so a right angle leaves no 1e-6 or 1e-17 residue in the model's terms.
+inline double snapped_right_angle(double a) {
+  const double k = std::round(a / (M_PI / 2));
+  return std::abs(a - k * (M_PI / 2)) <= 1e-5 ? k * (M_PI / 2) : a;
+}
+inline void cos_sin(double a, bool exact_right_angles, double& c, double& s) {
+  const double k = std::round(a / (M_PI / 2));
+  if (exact_right_angles && a == k * (M_PI / 2) && std::abs(k) < 1e6) {
+    const int quarter = static_cast<int>(((static_cast<long>(k) % 4) + 4) % 4);
+    const double cosines[] = {1, 0, -1, 0}, sines[] = {0, 1, 0, -1};
+    c = cosines[quarter], s = sines[quarter];
+    return;
+  }
+  c = std::cos(a), s = std::sin(a);
+}
+
 // URDF's roll-pitch-yaw as a rotation matrix (R = Rz Ry Rx), from the quaternion the pose
-// composes: one convention for the frames and for the pose. Inline: the scene readers use it
-// without the chain's algorithms.
-inline Mat3<double> rpy_rotation(const std::array<double, 3>& rpy) {
-  const Quaternion<double> q = rpy_quaternion(rpy);
-  return quaternion_rotation(q[0], q[1], q[2], q[3], 1.0, 2.0);
+// composes: one convention for the frames and for the pose. With exact_right_angles (a scene's
+// snap_right_angles), the product of the three turns, each right angle's exactly. Inline: the
+// scene readers use it without the chain's algorithms.
+inline Mat3<double> rpy_rotation(const std::array<double, 3>& rpy,
+                                 bool exact_right_angles = false) {
+  if (!exact_right_angles) {
+    const Quaternion<double> q = rpy_quaternion(rpy);
+    return quaternion_rotation(q[0], q[1], q[2], q[3], 1.0, 2.0);
+  }
+  double cr, sr, cp, sp, cy, sy;
+  cos_sin(rpy[0], true, cr, sr);
+  cos_sin(rpy[1], true, cp, sp);
+  cos_sin(rpy[2], true, cy, sy);
+  return {cy * cp,
+          cy * sp * sr - sy * cr,
+          cy * sp * cr + sy * sr,
+          sy * cp,
+          sy * sp * sr + cy * cr,
+          sy * sp * cr - cy * sr,
+          -sp,
+          cp * sr,
+          cp * cr};
 }
 
 }  // namespace spacearm::spatial

@@ -96,6 +96,8 @@ struct ChainDescription {
   std::vector<Link> links;
   std::array<double, 3> tip{};      // the end effector's point, in the last link's frame
   std::array<double, 3> tip_rpy{};  // its frame's orientation there (a welded URDF link's)
+  // snap_right_angles: the rpy angles that are multiples of pi/2 turn by exact cosines and sines.
+  bool exact_right_angles = false;
   int num_base() const { return free_base ? 6 : 0; }
   // The one place that lays out the velocities: the base's, one slot per joint (its link angle's
   // rate, or a rigid gear's motor rate), then the motor of each flexible joint; nq = nv + 1 with
@@ -146,8 +148,8 @@ struct Visual {
 };
 
 // A part's frame as the transform from the link's frame to the part's.
-inline Transform<double> part_frame(const Part& p) {
-  return {transposed(rpy_rotation(p.rpy)), {p.xyz[0], p.xyz[1], p.xyz[2]}};
+inline Transform<double> part_frame(const Part& p, bool exact_right_angles = false) {
+  return {transposed(rpy_rotation(p.rpy, exact_right_angles)), {p.xyz[0], p.xyz[1], p.xyz[2]}};
 }
 
 }  // namespace spacearm::spatial

@@ -86,10 +86,10 @@ class SpatialReader {
 
   SpatialScene read(const YAML::Node& root, const std::string& text,
                     const UrdfFileReader& read_file) {
-    r_.check_keys(
-        root, "",
-        {"name", "description", "space", "base", "links", "urdf", "end_effector_link", "gears",
-         "friction", "end_effector", "outputs", "parameters", "inertials", "inertia_check"});
+    r_.check_keys(root, "",
+                  {"name", "description", "space", "base", "links", "urdf", "end_effector_link",
+                   "gears", "friction", "end_effector", "outputs", "parameters", "inertials",
+                   "inertia_check", "snap_right_angles"});
     SpatialScene s;
     s.content = text;
     s.parameters = read_scene_parameters(r_, root["parameters"]);  // first: fields refer to them
@@ -100,6 +100,13 @@ class SpatialReader {
     const std::string space = r_.bounded(r_.require(root, "space", ""), "space").Scalar();
     if (space != "spatial") r_.fail("space", "expected 'spatial', got '" + space + "'");
     if (root["inertia_check"]) read_inertia_check(root["inertia_check"], s);
+    if (root["snap_right_angles"]) {
+      const YAML::Node& n = root["snap_right_angles"];
+      const std::string v = n.IsScalar() ? r_.bounded(n, "snap_right_angles").Scalar() : "";
+      if (v != "true" && v != "false")
+        r_.fail("snap_right_angles", "expected true or false, got " + quoted_text(v), n);
+      snap_ = v == "true";
+    }
     if (root["urdf"]) {
       read_urdf_chain(root, s, read_file);
     } else {
@@ -112,6 +119,7 @@ class SpatialReader {
       for (size_t i = 0; i < links.size(); ++i)
         s.chain.links.push_back(read_link(links[i], "links[" + std::to_string(i) + "]"));
     }
+    s.chain.exact_right_angles = snap_;
     if (root["gears"]) read_gears(root["gears"], s.chain);
     const bool from_urdf =
         root["friction"] && root["friction"].IsMap() && root["friction"]["from_urdf"];
@@ -156,6 +164,7 @@ class SpatialReader {
   std::optional<DeclaredParameters> parameters_;  // the scene's, once read
   std::vector<RangeRule>* rules_ = nullptr;
   InertiaRule check_ = InertiaRule::physical;  // the scene's inertia_check
+  bool snap_ = false;                          // snap_right_angles
   std::vector<std::string> not_physical_;      // bodies positive_definite accepts, with moments
 
   void read_inertia_check(const YAML::Node& n, SpatialScene& s) {
@@ -300,7 +309,7 @@ class SpatialReader {
     try {
       xml = read_file(path);
       u = read_urdf(xml, path, type == "free_floating", link,
-                    std::set<std::string>(given_links.begin(), given_links.end()));
+                    std::set<std::string>(given_links.begin(), given_links.end()), snap_);
     } catch (const SceneError& e) {
       r_.fail("urdf", e.what(), root["urdf"]);
     }
@@ -328,6 +337,10 @@ class SpatialReader {
     s.joint_names = u.joint_names;
     s.joint_limits = u.limits;
     s.body_visuals = u.body_visuals;
+    if (snap_)  // said once, and kept in the model's facts (kRightAnglesSnapped)
+      s.warnings.push_back("snap_right_angles: " + std::to_string(u.snapped_angles) +
+                           " of the URDF's angles moved to a multiple of pi/2 (at most " +
+                           number_text(u.largest_snap) + " rad)");
     for (const auto& links : u.body_links) s.body_names.push_back(links.front());
     s.content += std::string("\0urdf ", 6) + path + '\0' + xml;
   }
@@ -341,8 +354,9 @@ class SpatialReader {
       const std::vector<std::string>& links = u.body_links.at(b);
       std::string name = links.size() == 1 ? "link " : "links ";
       for (size_t k = 0; k < links.size(); ++k) name += (k ? " + " : "") + quoted_text(links[k]);
-      const spatial::Inertial l = whole_body(b == 0 ? u.chain.base : u.chain.links[b - 1],
-                                             [](const Quantity& q) { return q.value; });
+      const spatial::Inertial l = whole_body(
+          b == 0 ? u.chain.base : u.chain.links[b - 1], [](const Quantity& q) { return q.value; },
+          u.chain.exact_right_angles);
       if (!(l.mass.value > 0)) {
         refused.push_back(name + " (mass " + number_text(l.mass.value) + ": must be positive)");
         continue;
@@ -393,6 +407,8 @@ class SpatialReader {
     spatial::Link l;
     if (n["origin"]) l.origin_xyz = vec3(n["origin"], field + ".origin");
     if (n["rpy"]) l.origin_rpy = vec3(n["rpy"], field + ".rpy");
+    if (snap_)
+      for (double& angle : l.origin_rpy) angle = spatial::snapped_right_angle(angle);
     if (n["axis"]) l.axis = vec3(n["axis"], field + ".axis");  // URDF's default: (1, 0, 0)
     const auto& a = l.axis;
     if (!(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] > 1e-24))
@@ -692,7 +708,8 @@ class SpatialReader {
 }  // namespace
 
 spatial::Inertial whole_body(const spatial::Link& l,
-                             const std::function<double(const Quantity&)>& value) {
+                             const std::function<double(const Quantity&)>& value,
+                             bool exact_right_angles) {
   auto rigid = [&value](const spatial::Inertial& b) {  // about the frame's origin
     std::array<double, 6> i;
     for (int k = 0; k < 6; ++k) i[k] = value(b.inertia[k]);
@@ -708,7 +725,7 @@ spatial::Inertial whole_body(const spatial::Link& l,
   }
   spatial::RigidInertia<double> sum = rigid(l);
   for (const spatial::Part& p : l.parts)
-    sum = sum + spatial::in_parent(spatial::part_frame(p), rigid(p.inertial));
+    sum = sum + spatial::in_parent(spatial::part_frame(p, exact_right_angles), rigid(p.inertial));
   spatial::Inertial whole;
   whole.mass = sum.m;
   if (!(sum.m > 0)) return whole;

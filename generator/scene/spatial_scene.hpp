@@ -63,7 +63,8 @@ struct SpatialScene {
 // (a URDF's links whose inertial the scene gives) lumped in, each number as value() gives it (a
 // literal's value, a parameter's nominal or run-time value); a massless whole keeps mass 0.
 spatial::Inertial whole_body(const spatial::Link& l,
-                             const std::function<double(const Quantity&)>& value);
+                             const std::function<double(const Quantity&)>& value,
+                             bool exact_right_angles = false);
 
 // The outputs a spatial arm can give today (the free-base ones only for a free base).
 bool spatial_output(Output o, bool free_base);

@@ -142,8 +142,8 @@ std::string parse_error(const tinyxml2::XMLDocument& doc) {
 
 class UrdfReader {
  public:
-  UrdfReader(std::string source, std::set<std::string> given)
-      : source_(std::move(source)), given_(std::move(given)) {}
+  UrdfReader(std::string source, std::set<std::string> given, bool snap)
+      : source_(std::move(source)), given_(std::move(given)), snap_(snap) {}
 
   [[noreturn]] void fail(const tinyxml2::XMLElement* e, const std::string& what) const {
     std::string where = "URDF '" + source_ + "'";
@@ -209,10 +209,35 @@ class UrdfReader {
                std::array<double, 3>* rpy = nullptr) const {
     const tinyxml2::XMLElement* o = only_child(parent, "origin");
     const std::array<double, 3> zero{};
-    const auto x = numbers<3>(o, "xyz", zero), r = numbers<3>(o, "rpy", zero);
+    const auto x = numbers<3>(o, "xyz", zero);
+    auto r = numbers<3>(o, "rpy", zero);
+    if (snap_)
+      for (double& angle : r) {
+        const double snapped = spatial::snapped_right_angle(angle);
+        if (snapped != angle) {
+          snapped_.insert({o, static_cast<int>(&angle - r.data())});
+          largest_snap_ = std::max(largest_snap_, std::abs(snapped - angle));
+        }
+        angle = snapped;
+      }
     if (xyz) *xyz = x;
     if (rpy) *rpy = r;
-    return {rpy_matrix(r), Eigen::Vector3d(x[0], x[1], x[2])};
+    return {rotation(r), Eigen::Vector3d(x[0], x[1], x[2])};
+  }
+  // rpy as a matrix: Eigen's turns, or with snapping each right angle's turn exactly.
+  Eigen::Matrix3d rotation(const std::array<double, 3>& r) const {
+    if (!snap_) return rpy_matrix(r);
+    const spatial::Mat3<double> R = spatial::rpy_rotation(r, true);
+    Eigen::Matrix3d M;
+    for (int k = 0; k < 9; ++k) M(k / 3, k % 3) = R[k];
+    return M;
+  }
+  // A composed rotation back to rpy (snapped again: the exact right angles stay exact).
+  std::array<double, 3> angles(const Eigen::Matrix3d& R) const {
+    std::array<double, 3> r = matrix_rpy(R);
+    if (snap_)
+      for (double& angle : r) angle = spatial::snapped_right_angle(angle);
+    return r;
   }
 
   // A joint's <limit effort velocity> and <dynamics damping friction>, each not negative.
@@ -266,12 +291,19 @@ class UrdfReader {
            "a second element at the top: an XML document has one root, <robot>");
     refuse_xacro(robot);
     read_elements(robot);
-    return chain(free_base, end_effector_link);
+    UrdfChain out = chain(free_base, end_effector_link);
+    out.chain.exact_right_angles = snap_;
+    out.snapped_angles = static_cast<int>(snapped_.size());
+    out.largest_snap = largest_snap_;
+    return out;
   }
 
  private:
   std::string source_;
   std::set<std::string> given_;  // links whose inertial the scene gives: parts, not lumped
+  bool snap_ = false;            // snap_right_angles
+  mutable std::set<std::pair<const void*, int>> snapped_;  // each <origin>'s angles moved
+  mutable double largest_snap_ = 0;
   std::map<std::string, const tinyxml2::XMLElement*> links_;
   std::map<std::string, Joint> joints_;                   // by name
   std::map<std::string, std::string> parent_joint_;       // child link -> joint
@@ -498,7 +530,7 @@ class UrdfReader {
         if (given_.count(name)) {
           out.given_parts[name] = {static_cast<int>(out.chain.links.size()) + (carrier ? 1 : 0),
                                    static_cast<int>(l.parts.size())};
-          l.parts.push_back({{f.p[0], f.p[1], f.p[2]}, matrix_rpy(f.R), {}});
+          l.parts.push_back({{f.p[0], f.p[1], f.p[2]}, angles(f.R), {}});
         }
       if (carrier) {
         l.origin_xyz = joint_xyz;
@@ -527,7 +559,7 @@ class UrdfReader {
         if (name == carrier->parent && name != body) {
           const Frame composed = f * carrier->origin;
           joint_xyz = {composed.p[0], composed.p[1], composed.p[2]};
-          joint_rpy = matrix_rpy(composed.R);
+          joint_rpy = angles(composed.R);
         }
       body = carrier->child;
       if (out.chain.links.size() >= 30) fail(carrier->element, "more than 30 moving joints");
@@ -561,7 +593,7 @@ class UrdfReader {
       if (link == name) {
         out.end_effector_link = name;
         out.chain.tip = {f.p[0], f.p[1], f.p[2]};
-        out.chain.tip_rpy = matrix_rpy(f.R);
+        out.chain.tip_rpy = angles(f.R);
         return;
       }
     if (links_.count(name))
@@ -575,8 +607,9 @@ class UrdfReader {
 }  // namespace
 
 UrdfChain read_urdf(const std::string& xml, const std::string& source, bool free_base,
-                    const std::string& end_effector_link, const std::set<std::string>& given) {
-  return UrdfReader(source, given).read(xml, free_base, end_effector_link);
+                    const std::string& end_effector_link, const std::set<std::string>& given,
+                    bool snap_right_angles) {
+  return UrdfReader(source, given, snap_right_angles).read(xml, free_base, end_effector_link);
 }
 
 }  // namespace spacearm

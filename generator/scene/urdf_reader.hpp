@@ -26,6 +26,9 @@ struct UrdfChain {
   std::vector<std::vector<spatial::Visual>> body_visuals;
   int undrawn = 0;
   std::string root_link, end_effector_link;
+  // snap_right_angles: how many <origin> angles moved to a multiple of pi/2, the largest move.
+  int snapped_angles = 0;
+  double largest_snap = 0;
   // Per body (0 the base, i link i), the URDF links it is made of: its own, then those welded to
   // it.
   std::vector<std::vector<std::string>> body_links;
@@ -40,7 +43,10 @@ struct UrdfChain {
 // Throws SceneError.
 // given: links whose inertial the scene gives (left out of the lumping, kept as parts; a name
 // that is no link is not in given_parts).
+// snap_right_angles: every <origin> rpy angle within 1e-5 rad of a multiple of pi/2 is that
+// multiple, turned by exact cosines and sines (URDFs round pi/2 to 1.5708).
 UrdfChain read_urdf(const std::string& xml, const std::string& source, bool free_base,
-                    const std::string& end_effector_link, const std::set<std::string>& given = {});
+                    const std::string& end_effector_link, const std::set<std::string>& given = {},
+                    bool snap_right_angles = false);
 
 }  // namespace spacearm

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -78,6 +79,60 @@ TEST(ModelRecipe, ParameterErrorsNameTheJointAndTheValue) {
   const ModelRecipe mapping = ModelRecipe::load((dir / "mapping.yaml").string());
   EXPECT_EQ(mapping.parameter_error({-3}),
             "gears.ratio (every joint) must be positive (given p = -3)");
+  fs::remove_all(dir);
+}
+
+// Issue 51: snap_right_angles. ETS-VII's published URDF rounds its right angles (1.5708,
+// 3.1416), which leaves residue terms in the closed forms; snapped, the entry is the clean one,
+// and every right angle turns a frame by exact cosines and sines (the model then differs from the
+// rounded one by about the 7e-6 rad moved, no more).
+TEST(ModelRecipe, SnappedRightAnglesLeaveNoResidueInTheClosedForms) {
+  const fs::path dir = fs::temp_directory_path() / "spacearm_recipe_snap";
+  fs::create_directories(dir);
+  fs::copy_file(source("models/published/ETSVII.urdf"), dir / "ETSVII.urdf",
+                fs::copy_options::overwrite_existing);
+  const std::string head =
+      "name: ets\nspace: spatial\nurdf: ETSVII.urdf\nbase: {type: free_floating}\n"
+      "inertia_check: positive_definite\n";
+  std::ofstream(dir / "rounded.yaml") << head;
+  std::ofstream(dir / "snapped.yaml") << head << "snap_right_angles: true\n";
+  const ModelRecipe rounded = ModelRecipe::load((dir / "rounded.yaml").string());
+  const ModelRecipe snapped = ModelRecipe::load((dir / "snapped.yaml").string());
+  EXPECT_EQ(rounded.inspect_entry("M[9][11]"),
+            "3.508033289833957E-12-(0.2599999999964919)*sin(q5)\n");
+  EXPECT_EQ(snapped.inspect_entry("M[9][11]"), "-(0.26)*sin(q5)\n");
+  EXPECT_EQ(snapped.inspect_entry("M[10][11]"), "0\n");
+  EXPECT_NE(rounded.inspect_entry("M[10][11]"), "0\n");
+  ASSERT_EQ(snapped.warnings().size(), 2u);
+  EXPECT_EQ(snapped.warnings()[0],
+            "scene '" + (dir / "snapped.yaml").string() +
+                "': snap_right_angles: 7 of the URDF's angles moved to a multiple of pi/2 (at most "
+                "7.34641e-06 rad)");
+  EXPECT_NE(snapped.emit({}).header.find("inline constexpr bool kRightAnglesSnapped = true;"),
+            std::string::npos);
+  EXPECT_EQ(rounded.emit({}).header.find("kRightAnglesSnapped"), std::string::npos);
+  // The two models at one state: as close as the angles moved.
+  std::vector<double> q(13, 0.3);
+  q[3] = 1, q[4] = q[5] = q[6] = 0;
+  const auto a = rounded.body_poses(q, {}), b = snapped.body_poses(q, {});
+  ASSERT_EQ(a.size(), b.size());
+  double gap = 0;
+  for (size_t k = 0; k < a.size(); ++k)
+    for (int i = 0; i < 7; ++i)
+      gap = std::max(gap, std::abs(std::abs(a[k][i]) - std::abs(b[k][i])));
+  EXPECT_GT(gap, 1e-9);
+  EXPECT_LT(gap, 3e-5);
+  // Off, true or false; anything else is refused by name.
+  std::ofstream(dir / "bad.yaml") << head << "snap_right_angles: yes please\n";
+  try {
+    ModelRecipe::load((dir / "bad.yaml").string());
+    ADD_FAILURE() << "accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find(
+                  "field 'snap_right_angles': expected true or false, got 'yes please'"),
+              std::string::npos)
+        << e.what();
+  }
   fs::remove_all(dir);
 }
 

@@ -347,6 +347,38 @@ TEST(UrdfReader, DefaultEndEffectorIsTheWeldedLeaf) {
   EXPECT_EQ(read_urdf(robot(two_tools), "r.urdf", true, "camera").end_effector_link, "camera");
 }
 
+// Issue 51: snap_right_angles takes an <origin>'s angles within 1e-5 rad of a multiple of pi/2
+// as that multiple, so a tensor turned by them keeps its exact zeros and the joint frame turns
+// by exact cosines; an angle further off, or the option off, is kept as written.
+TEST(UrdfReader, SnappedRightAnglesAreExact) {
+  const std::string arm =
+      "<link name=\"a\"><inertial><mass value=\"2\"/><inertia ixx=\"1\" ixy=\"0\" ixz=\"0\" "
+      "iyy=\"1\" iyz=\"0\" izz=\"1\"/></inertial></link>\n"
+      "<link name=\"b\"><inertial><origin rpy=\"1.5708 0 0\"/><mass value=\"1\"/>"
+      "<inertia ixx=\"0.1\" ixy=\"0\" ixz=\"0\" iyy=\"0.2\" iyz=\"0\" izz=\"0.25\"/>"
+      "</inertial></link>\n" +
+      joint("j", "revolute", "a", "b", "<origin rpy=\"0 -1.5708 3.1416\"/>");
+  const UrdfChain snapped = read_urdf(robot(arm), "r.urdf", true, "", {}, true);
+  const spatial::Link& l = snapped.chain.links.at(0);
+  EXPECT_EQ(l.origin_rpy, (std::array<double, 3>{0, -M_PI / 2, M_PI}));
+  EXPECT_TRUE(snapped.chain.exact_right_angles);
+  EXPECT_EQ(snapped.snapped_angles, 3);
+  EXPECT_NEAR(snapped.largest_snap, 7.35e-6, 1e-8);
+  // The tensor turned a quarter about x: y and z swap, and the zeros stay zeros.
+  const auto I = l.inertia_values();
+  EXPECT_EQ(I, (std::array<double, 6>{0.1, 0, 0, 0.25, 0, 0.2}));
+  const spatial::Mat3<double> R = spatial::rpy_rotation(l.origin_rpy, true);
+  for (double x : R) EXPECT_TRUE(x == 0 || x == 1 || x == -1) << x;
+  const UrdfChain rounded = read_urdf(robot(arm), "r.urdf", true, "");
+  EXPECT_FALSE(rounded.chain.exact_right_angles);
+  EXPECT_EQ(rounded.chain.links[0].origin_rpy, (std::array<double, 3>{0, -1.5708, 3.1416}));
+  EXPECT_NE(rounded.chain.links[0].inertia_values()[4], 0);  // a 1e-7 residue of the turn
+  std::string further = arm;
+  further.replace(further.find("3.1416"), 6, "3.1417");  // 1.07e-4 rad off: kept
+  EXPECT_EQ(read_urdf(robot(further), "r.urdf", true, "", {}, true).chain.links[0].origin_rpy[2],
+            3.1417);
+}
+
 // Issue 51: each body's <visual> shapes (its own link's and those welded to it) in its frame, for
 // the viewer; an STL mesh by its path in the URDF's folder (package:// stripped), another mesh
 // counted, not read; a negative size, or a mesh path that leaves the folder, refused by name.

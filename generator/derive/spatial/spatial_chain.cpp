@@ -46,7 +46,7 @@ template <class T>
 RigidInertia<T> Chain<T>::body_inertia(const Link& l) const {
   RigidInertia<T> I = rigid_inertia(l);
   for (const Part& part : l.parts) {
-    const Transform<double> X = part_frame(part);
+    const Transform<double> X = part_frame(part, d_.exact_right_angles);
     I = I + in_parent(Transform<T>{num(X.E), num(X.r)}, rigid_inertia(part.inertial));
   }
   return I;
@@ -123,7 +123,7 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
     const Vec3<double> a = unit_axis(l, i);
     const T qi = q(jq + i - 1), angle = qi * over_ratio(i, 1.0);
     const T s = sin(angle), c = cos(angle);  // in this order: the recorded nodes as before
-    const Mat3<double> R_origin = rpy_rotation(l.origin_rpy);
+    const Mat3<double> R_origin = rpy_rotation(l.origin_rpy, d.exact_right_angles);
     const Mat3<T> R =
         product(num(R_origin), axis_rotation(a, c, s, [this](double x) { return num(x); }));
     X_[i] = {transposed(R), num(l.origin_xyz)};
@@ -179,8 +179,11 @@ std::vector<Turn<T>> Chain<T>::joint_turns(const Link& l, const Vec3<double>& a,
                                            const T& s) const {
   std::vector<Turn<T>> turns;
   for (int k : {2, 1, 0})
-    if (l.origin_rpy[k] != 0)
-      turns.push_back({k, num(std::cos(l.origin_rpy[k])), num(std::sin(l.origin_rpy[k])), {}});
+    if (l.origin_rpy[k] != 0) {
+      double c, s;
+      cos_sin(l.origin_rpy[k], d_.exact_right_angles, c, s);
+      turns.push_back({k, num(c), num(s), {}});
+    }
   const int k = frame_axis(a);
   if (k < 0) {
     turns.push_back({-1, T{}, T{}, axis_rotation(a, c, s, [this](double x) { return num(x); })});

@@ -88,6 +88,7 @@ ModelFacts spatial_facts(const SpatialScene& scene) {
   f.scene_hash = "fnv1a64:" + content_hash(scene.content);
   f.formulation = "recursive";
   f.inertia_check = scene.inertia_check == InertiaRule::physical ? "physical" : "positive_definite";
+  f.right_angles_snapped = scene.chain.exact_right_angles;
   f.features = spatial_features(scene);
   f.outputs = spatial_outputs(scene);
   f.parameter_names = parameter_names(scene.parameters);
