@@ -399,6 +399,12 @@ CLI::App* add_view(CLI::App& app, spacearm::ViewArgs& a) {
                    "Rows drawn per run: a longer file is thinned evenly (every k-th row and the "
                    "last) and the page says so")
       ->check(CLI::Range(2L, 1000000L));
+  command
+      ->add_option("--camera", a.camera,
+                   "A run's first view: all (every run's path and the base), arm (the arm "
+                   "alone, over the run), or x,y,z[,tx,ty,tz] in the world (3D: the point to "
+                   "look from, and at; default the arm's centre); buttons switch all and arm")
+      ->default_str("all");
   command->add_option("--cache-dir", a.cache_dir, "Cache folder for compiled models");
   command->add_flag("--verbose", a.verbose, "Report the stages on stderr");
   return command;

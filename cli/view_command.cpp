@@ -34,10 +34,11 @@ int run_view(const ViewArgs& a) {
     throw std::invalid_argument("-o: give a file name for the page (it is one HTML file)");
   std::vector<std::pair<std::string, std::string>> inputs;
   const bool study = cli::is_study_results(a.file);
-  if (study && (!a.scene_path.empty() || !a.compare_file.empty() || !a.param_assignments.empty()))
+  if (study && (!a.scene_path.empty() || !a.compare_file.empty() || !a.param_assignments.empty() ||
+                a.camera != "all"))
     throw std::invalid_argument("view: '" + a.file +
-                                "' is a study's results.csv: --scene, --compare and --param apply "
-                                "to a run's CSV (the study names its scene)");
+                                "' is a study's results.csv: --scene, --compare, --param and "
+                                "--camera apply to a run's CSV (the study names its scene)");
   nlohmann::json data = study ? cli::study_view_data(a, inputs) : cli::run_view_data(a, inputs);
   data["format"] = "spacearm-view";
   data["version"] = 1;

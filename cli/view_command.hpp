@@ -14,6 +14,9 @@ struct ViewArgs {
   std::string file, scene_path, compare_file, output_file = "view.html", cache_dir;
   std::vector<std::string> param_assignments;
   long max_frames = 2000;  // rows drawn per run (the file's are thinned evenly to this)
+  // A run's first view: "all" (every run's points and the base), "arm" (the arm's joints and
+  // tip), or "x,y,z[,tx,ty,tz]" (a point to look from, and one to look at).
+  std::string camera = "all";
   bool verbose = false;
   std::string command_line;  // this command, shown in the page
 };

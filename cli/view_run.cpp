@@ -537,6 +537,29 @@ json body_visuals(const ModelRecipe& recipe, json& meshes,
   return bodies;
 }
 
+// --camera: {fit: all | arm, eye, target} (eye and target null, or 3 numbers each).
+json camera(const std::string& text, bool spatial) {
+  if (text == "all" || text == "arm") return {{"fit", text}, {"eye", nullptr}, {"target", nullptr}};
+  auto refuse = [&text](const std::string& why) {
+    throw std::invalid_argument("view: --camera: " + why + ", got '" + text + "'");
+  };
+  std::vector<double> v;
+  try {
+    v = parse_number_list(text, "--camera");
+  } catch (const std::exception&) {
+    refuse("expected all, arm or x,y,z[,tx,ty,tz]");
+  }
+  if (v.size() != 3 && v.size() != 6) refuse("expected all, arm or x,y,z[,tx,ty,tz]");
+  for (double x : v)
+    if (!(std::abs(x) <= 1e6)) refuse("expected coordinates within 1e6 m");
+  if (!spatial) refuse("a point to look from is for a spatial run (the plane is seen from above)");
+  json target = nullptr;
+  if (v.size() == 6) target = {v[3], v[4], v[5]};
+  if (v.size() == 6 && v[0] == v[3] && v[1] == v[4] && v[2] == v[5])
+    refuse("the point to look from is the point to look at");
+  return {{"fit", "arm"}, {"eye", {v[0], v[1], v[2]}}, {"target", target}};
+}
+
 json run_view_data(const ViewArgs& given,
                    std::vector<std::pair<std::string, std::string>>& inputs) {
   json info = json::array();
@@ -567,6 +590,7 @@ json run_view_data(const ViewArgs& given,
                {"space", s.dyn.spatial ? "spatial" : "planar"},
                {"geometry", geometry(s, main)},
                {"runs", runs}};
+  data["camera"] = camera(a.camera, s.dyn.spatial);
   json meshes = json::array();
   data["geometry"]["body_visuals"] = body_visuals(*s.recipe, meshes, inputs);
   data["meshes"] = meshes;

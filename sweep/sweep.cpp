@@ -104,10 +104,15 @@ void RunMetrics::observe(double t, const Eigen::VectorXd& q, const Eigen::Vector
     momentum_drift_ = std::max(momentum_drift_, (h - h0_).cwiseAbs().maxCoeff());
   }
   tau_squares_ += tau.squaredNorm();
-  const Eigen::VectorXd rates = model_.joint_rates(qd).cwiseAbs();
-  if (samples_ == 0) tau_peak_ = tau.cwiseAbs(), rate_peak_ = rates;
-  tau_peak_ = tau_peak_.cwiseMax(tau.cwiseAbs());
-  rate_peak_ = rate_peak_.cwiseMax(rates);
+  // Peak link-side |tau| and |q'| per joint, in place (a step allocates nothing).
+  const int n = model_.num_links;
+  if (samples_ == 0) tau_peak_.setZero(n), rate_peak_.setZero(n);
+  for (int j = 0; j < n; ++j) {
+    const double slot = qd[model_.joint_v_offsets[j]];
+    const double rate = model_.slot_holds_motor(j) ? slot / model_.gear_ratios[j] : slot;
+    tau_peak_[j] = std::max(tau_peak_[j], std::abs(tau[j]));
+    rate_peak_[j] = std::max(rate_peak_[j], std::abs(rate));
+  }
   if (series_ && samples_ % s_.series_every == 0) {
     char buf[32];
     std::snprintf(buf, sizeof buf, "%.17g", t);

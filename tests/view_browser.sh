@@ -106,6 +106,18 @@ run "$cli" simulate "$work/urdf/identified_arm3.yaml" --zero --t-end 1 --dt 0.01
   --qd0 0,0,0,0,0,0,0.2,-0.3,0.4 -o "$work/urdf.csv" "${cache[@]}"
 run "$cli" view "$work/urdf.csv" --scene "$work/urdf/identified_arm3.yaml" \
   -o "$work/urdf.html" "${cache[@]}"
+# --camera: the arm alone, or a point to look from; bad values refused by name.
+run "$cli" view "$work/urdf.csv" --scene "$work/urdf/identified_arm3.yaml" --camera arm \
+  -o "$work/urdf_arm.html" "${cache[@]}"
+run "$cli" view "$work/urdf.csv" --scene "$work/urdf/identified_arm3.yaml" \
+  --camera 6,-4,3,1.5,0,0.8 -o "$work/urdf_eye.html" "${cache[@]}"
+expect_error "view: --camera: expected all, arm or x,y,z\[,tx,ty,tz\], got 'wide'" "$cli" view \
+  "$work/urdf.csv" --scene "$work/urdf/identified_arm3.yaml" --camera wide -o "$work/bad.html" \
+  "${cache[@]}"
+expect_error "the point to look from is the point to look at" "$cli" view "$work/urdf.csv" \
+  --scene "$work/urdf/identified_arm3.yaml" --camera 1,2,3,1,2,3 -o "$work/bad.html" "${cache[@]}"
+expect_error "a point to look from is for a spatial run" "$cli" view "$work/replay.csv" \
+  --camera 1,2,3 -o "$work/bad.html" "${cache[@]}"
 # A mesh that leaves the URDF's folder through a link, or is no STL, is refused by name.
 printf 'secret-text-9012\n' > "$work/secret.stl"
 mv "$work/urdf/meshes/tetra.stl" "$work/tetra.stl"

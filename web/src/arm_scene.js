@@ -249,48 +249,86 @@ export class ArmScene {
       new ArmMeshes(this.scene, data.geometry, run, i > 0, meshes));
     data.runs.forEach((run, i) => this.scene.add(pathLine(run, COLORS.path[Math.min(i, 1)])));
     this.setCamera(data);
+    this.fitButtons(parent);
     if (((data.geometry.body_visuals || [])[0] || []).length) this.boxToggle(parent);
     new ResizeObserver(() => this.resize()).observe(this.box);
     this.resize();
   }
 
-  // Frames every run's points and base; the plane seen from above, 3D from an oblique corner.
+  // The two framings (data.camera.fit picks the first, buttons switch): "all", every run's
+  // points, bases and shapes; "arm", the arm's joints and tip over the run (a satellite far
+  // larger than its arm then leaves the arm in view). The plane seen from above, 3D from an
+  // oblique corner, or from data.camera.eye towards its target (default the arm's centre).
   setCamera(data) {
-    const bounds = new THREE.Box3();
+    const all = new THREE.Box3(), arm = new THREE.Box3();
     for (const run of data.runs)
       for (let k = 0; k < run.points.length; ++k) {
         const p = run.points[k];
-        for (let i = 0; i < p.length; i += 3) bounds.expandByPoint(new THREE.Vector3(p[i], p[i + 1], p[i + 2]));
-        bounds.expandByPoint(new THREE.Vector3(run.base[k][0], run.base[k][1], run.base[k][2]));
+        for (let i = 0; i < p.length; i += 3) arm.expandByPoint(new THREE.Vector3(p[i], p[i + 1], p[i + 2]));
+        all.expandByPoint(new THREE.Vector3(run.base[k][0], run.base[k][1], run.base[k][2]));
       }
+    all.union(arm);
     const shaped = ((data.geometry.body_visuals || [])[0] || []).length > 0;
-    bounds.expandByScalar(shaped ? 0 : Math.max(...data.geometry.base_box) * 0.75);
-    for (const arm of this.arms) {
-      arm.show(arm.run.t[0]);
-      if (shaped) bounds.expandByObject(arm.shapes);
-      for (const group of arm.linkShapes) bounds.expandByObject(group);
+    all.expandByScalar(shaped ? 0 : Math.max(...data.geometry.base_box) * 0.75);
+    for (const a of this.arms) {
+      a.show(a.run.t[0]);
+      if (shaped) all.expandByObject(a.shapes);
+      for (const group of a.linkShapes) { all.expandByObject(group); arm.expandByObject(group); }
     }
-    const center = bounds.getCenter(new THREE.Vector3());
-    const size = bounds.getSize(new THREE.Vector3()).length();
-    this.extent = size;
+    arm.expandByScalar(data.geometry.joint_radius * 2);
+    this.fits = { all, arm };
+    const camera = data.camera || { fit: 'all' };
+    const size = all.getSize(new THREE.Vector3()).length();
     if (this.planar) {
       this.camera = new THREE.OrthographicCamera(-1, 1, 1, -1, -100 * size, 100 * size);
-      this.camera.position.set(center.x, center.y, size);
     } else {
       this.camera = new THREE.PerspectiveCamera(40, 1, size / 1000, size * 100);
       this.camera.up.set(0, 0, 1);
-      this.camera.position.copy(center).add(new THREE.Vector3(0.55, -0.8, 0.5).multiplyScalar(size));
       const grid = new THREE.GridHelper(size * 2, 20, 0xbbbbbb, 0xdddddd);
       grid.rotation.x = Math.PI / 2;
-      grid.position.set(center.x, center.y, bounds.min.z);
+      const center = all.getCenter(new THREE.Vector3());
+      grid.position.set(center.x, center.y, all.min.z);
       this.scene.add(grid);
     }
     this.controls = new OrbitControls(this.camera, this.renderer.domElement);
-    this.controls.target.copy(center);
     this.controls.enableRotate = !this.planar;
     if (this.planar) this.controls.screenSpacePanning = true;
     this.controls.addEventListener('change', () => this.render());
+    this.fit(camera.fit === 'arm' ? 'arm' : 'all');
+    if (camera.eye) {
+      const target = camera.target ? new THREE.Vector3(...camera.target)
+        : arm.getCenter(new THREE.Vector3());
+      this.camera.position.set(...camera.eye);
+      this.controls.target.copy(target);
+      this.controls.update();
+    }
+  }
+
+  // Frames `name` ("all" or "arm") from the default direction.
+  fit(name) {
+    const box = this.fits[name];
+    const center = box.getCenter(new THREE.Vector3());
+    const size = Math.max(box.getSize(new THREE.Vector3()).length(), 1e-6);
+    this.extent = size;
+    this.framed = name;
+    if (this.planar) this.camera.position.set(center.x, center.y, this.fits.all.getSize(new THREE.Vector3()).length());
+    else this.camera.position.copy(center).add(new THREE.Vector3(0.55, -0.8, 0.5).multiplyScalar(size));
+    this.controls.target.copy(center);
     this.controls.update();
+    if (this.box.clientWidth) this.resize();
+  }
+
+  // Buttons that frame the whole scene or the arm alone.
+  fitButtons(parent) {
+    const row = el('div', 'note');
+    for (const [name, text] of [['all', 'fit all'], ['arm', 'fit the arm']]) {
+      const button = el('button');
+      button.textContent = text;
+      button.dataset.fit = name;
+      button.addEventListener('click', () => this.fit(name));
+      row.append(button, document.createTextNode(' '));
+    }
+    parent.append(row);
   }
 
   // A URDF base is drawn with its own shapes; this shows the box of its inertia beside them.
@@ -343,6 +381,12 @@ export class ArmScene {
         .filter((m) => m.geometry.type === 'BufferGeometry')
         .map((m) => m.geometry.attributes.position.count / 3),
     };
+  }
+
+  // The framing shown ("all" or "arm") and the camera's position and target.
+  view() {
+    return { framed: this.framed, position: this.camera.position.toArray(),
+             target: this.controls.target.toArray() };
   }
 
   // The drawn end effector of run i: [x, y, z], or null where the run is hidden.

@@ -78,6 +78,7 @@ function main() {
       pause: () => timeline.pause(),
       endEffector: (run = 0) => scene.endEffector(run),
       baseShapes: () => scene.baseShapes(),
+      view: () => scene.view(),
       render: () => scene.render(),
       plotRanges: () => plots.plots.map((u) => [u.scales.y.min, u.scales.y.max]),
     });

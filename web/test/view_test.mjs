@@ -107,6 +107,15 @@ try {
       check(gap < 1e-6, 'urdf: link frames at their joints at t = ' + t + ' (' + gap + ' m)');
     }
     await page.evaluate(() => window.spacearmView.setTime(0));
+    // Framing: all by default; "fit the arm" comes closer to the arm, whose centre it looks at.
+    const dist = (v) => Math.hypot(...v.position.map((x, k) => x - v.target[k]));
+    const framedAll = await page.evaluate(() => window.spacearmView.view());
+    await page.locator('button[data-fit=arm]').click();
+    const framedArm = await page.evaluate(() => window.spacearmView.view());
+    check(framedAll.framed === 'all' && framedArm.framed === 'arm' && dist(framedArm) < 0.8 * dist(framedAll),
+          'urdf: fit the arm frames the arm closer (' + dist(framedAll).toFixed(2) + ' m, then ' + dist(framedArm).toFixed(2) + ' m)');
+    await page.locator('button[data-fit=all]').click();
+    check((await page.evaluate(() => window.spacearmView.view())).framed === 'all', 'urdf: fit all again');
     const canvas = page.locator('.scene3d canvas');
     const shapes = await canvas.screenshot();
     await page.locator('label.note input[type=checkbox]').check();
@@ -115,6 +124,17 @@ try {
     check(after.box && !shapes.equals(both), 'urdf: the checkbox shows the inertia box too');
     await drawsAndShoots(page, 'urdf', 'urdf_view.png');
     check(errors.length === 0, 'urdf: no console errors ' + JSON.stringify(errors));
+  }
+  {  // --camera arm starts framed on the arm; --camera x,y,z,tx,ty,tz looks from there.
+    const arm = await open(browser, 'urdf_arm.html');
+    const a = await arm.page.evaluate(() => window.spacearmView.view());
+    check(a.framed === 'arm', 'camera: --camera arm starts on the arm (' + a.framed + ')');
+    const eye = await open(browser, 'urdf_eye.html');
+    const e = await eye.page.evaluate(() => window.spacearmView.view());
+    const near = (a, b) => a.every((x, k) => Math.abs(x - b[k]) < 1e-9);
+    check(near(e.position, [6, -4, 3]) && near(e.target, [1.5, 0, 0.8]),
+          'camera: --camera x,y,z,tx,ty,tz looks from and at them (' + JSON.stringify(e) + ')');
+    check(arm.errors.length === 0 && eye.errors.length === 0, 'camera: no console errors');
   }
   {  // Markup in the scene's description and the run's file name.
     const { page, errors } = await open(browser, 'hostile.html');
