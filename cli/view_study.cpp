@@ -27,6 +27,7 @@ constexpr size_t kMaxCategories = 60;  // distinct values drawn as they are; mor
 constexpr int kBins = 40;
 constexpr long kSeriesNumbers = 2000000;  // numbers of all embedded time series, at most
 constexpr int kSeriesColumns = 24;        // columns of one embedded series, at most
+constexpr long kPointNumbers = 1000000;   // numbers of the runs' own values (the scatter), at most
 
 // Splits a results.csv line: fields may be double-quoted (the message), "" inside is a quote.
 std::vector<std::string> split_quoted(const std::string& line) {
@@ -204,11 +205,24 @@ json study_view_data(const ViewArgs& a, std::vector<std::pair<std::string, std::
   if (axes.empty())
     throw std::invalid_argument("view '" + a.file + "': no parameter varies between the runs (" +
                                 std::to_string(runs) + "): there is no map to draw");
-  // Pass 2: each metric's sum and count per cell, and each cell's first run.
+  // Pass 2: each metric's sum and count per cell, and each cell's first run; and every run's
+  // own values (every k-th run where they would pass the budget) for the scatter and ranking.
   const size_t nx = axes[0].values().size(), ny = axes.size() > 1 ? axes[1].values().size() : 1;
   std::vector<std::vector<double>> sums(layout.metrics.size(), std::vector<double>(nx * ny, 0));
   std::vector<long> counts(nx * ny, 0), first(nx * ny, -1);
+  const long per_run = static_cast<long>(layout.params.size() + layout.metrics.size());
+  const long every = std::max(1L, (runs * per_run + kPointNumbers - 1) / kPointNumbers);
+  json point_params = json::array(), point_metrics = json::array();
+  for (size_t k = 0; k < layout.params.size(); ++k) point_params.push_back(json::array());
+  for (size_t m = 0; m < layout.metrics.size(); ++m) point_metrics.push_back(json::array());
+  long row = 0, points = 0;
   for_each_result(a.file, layout, [&](long run, bool ok, const auto& params, const auto& metrics) {
+    if (row++ % every == 0) {
+      ++points;
+      for (size_t k = 0; k < params.size(); ++k) point_params[k].push_back(params[k]);
+      for (size_t m = 0; m < metrics.size(); ++m)
+        point_metrics[m].push_back(ok && std::isfinite(metrics[m]) ? json(metrics[m]) : json());
+    }
     const size_t i = axes[0].index(params[axes[0].param]);
     const size_t j = axes.size() > 1 ? axes[1].index(params[axes[1].param]) : 0;
     const size_t cell = std::min(j * nx + i, nx * ny - 1);
@@ -238,10 +252,21 @@ json study_view_data(const ViewArgs& a, std::vector<std::pair<std::string, std::
   auto axis_json = [](const Axis& axis) {
     return json{{"name", axis.name}, {"values", axis.values()}};
   };
-  const json study = {
-      {"x", axis_json(axes[0])}, {"y", axes.size() > 1 ? axis_json(axes[1]) : json()},
-      {"metrics", metrics},      {"counts", counts},
-      {"runs", first_runs},      {"series", series}};
+  if (every > 1)
+    notes.push_back("the scatter shows every " + std::to_string(every) + "th run (" +
+                    std::to_string(points) + " of " + std::to_string(runs) + ")");
+  json parameter_names = json::array();
+  for (int c : layout.params) parameter_names.push_back(layout.names[c]);
+  const json study = {{"x", axis_json(axes[0])},
+                      {"y", axes.size() > 1 ? axis_json(axes[1]) : json()},
+                      {"metrics", metrics},
+                      {"counts", counts},
+                      {"runs", first_runs},
+                      {"series", series},
+                      {"points",
+                       {{"parameters", parameter_names},
+                        {"parameter_values", point_params},
+                        {"metric_values", point_metrics}}}};
   const std::string folder = std::filesystem::path(a.file).parent_path().filename().string();
   return {{"kind", "study"},
           {"title", "study " + (folder.empty() ? a.file : folder)},

@@ -185,6 +185,15 @@ expect_error "is a study's time series file" "$cli" view "$work/study/results.cs
   -o "$work/study/series/run-00000000.csv"
 
 status=0
+# Random draws (a Monte Carlo): the metric follows the third parameter alone; some runs failed.
+mkdir -p "$work/random"
+awk 'BEGIN { srand(7); print "run,status,g1,g2,mp,ee_x,ee_error,command_ratio,message"
+             for (i = 0; i < 300; ++i) { g1 = rand(); g2 = rand(); mp = 50 * rand()
+               if (i % 37 == 5) printf "%d,failed,%.9g,%.9g,%.9g,,,run,\"diverged\"\n", i, g1, g2, mp
+               else printf "%d,ok,%.9g,%.9g,%.9g,1,%.9g,run,\n", i, g1, g2, mp, 1e-3 * mp + 1e-5 * rand() } }' \
+  > "$work/random/results.csv"
+run "$cli" view "$work/random/results.csv" -o "$work/random.html"
+
 # A parameter over +-1e308, drawn (not a grid): 40 bins that do not overflow.
 mkdir -p "$work/wide"
 awk 'BEGIN { print "run,status,p,ee_x,ee_error,message"

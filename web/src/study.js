@@ -25,6 +25,153 @@ function scaleOf(values) {
   return { f: (v) => (b > a ? (g(v) - a) / (b - a) : 0.5), log, lo, hi };
 }
 
+// Pearson's correlation of two equally long arrays over the entries where both are finite;
+// null where fewer than three such, or either does not vary.
+export function correlation(a, b) {
+  let n = 0, sa = 0, sb = 0;
+  for (let i = 0; i < a.length; ++i)
+    if (Number.isFinite(a[i]) && Number.isFinite(b[i])) ++n, sa += a[i], sb += b[i];
+  if (n < 3) return null;
+  const ma = sa / n, mb = sb / n;
+  let ab = 0, aa = 0, bb = 0;
+  for (let i = 0; i < a.length; ++i)
+    if (Number.isFinite(a[i]) && Number.isFinite(b[i])) {
+      const x = a[i] - ma, y = b[i] - mb;
+      ab += x * y, aa += x * x, bb += y * y;
+    }
+  return aa > 0 && bb > 0 ? ab / Math.sqrt(aa * bb) : null;
+}
+
+// Every run's own values (data.study.points): a scatter of any parameter or metric against any
+// other, coloured by the chosen metric; a histogram of the metric; the parameters ranked by
+// |correlation| with it. For random draws, which a map of bins averages away.
+class RunsView {
+  constructor(box, study, metricOf) {
+    const p = study.points;
+    this.columns = [
+      ...p.parameters.map((name, k) => ({ name, values: p.parameter_values[k], parameter: true })),
+      ...study.metrics.map((m, k) => ({ name: m.name, values: p.metric_values[k].map((v) => (v == null ? NaN : v)) })),
+    ];
+    this.metricOf = metricOf;
+    box.append(text('h2', 'runs (' + (p.parameter_values[0] || []).length + ' drawn)'));
+    const controls = el('div', 'controls');
+    this.x = this.columnSelect(controls, 'x ');
+    this.y = this.columnSelect(controls, ' y ');
+    box.append(controls);
+    this.scatter = el('canvas', 'scatter');
+    this.histogram = el('canvas', 'histogram');
+    this.ranking = text('div', '', 'ranking');
+    box.append(this.scatter, this.histogram, this.ranking);
+    for (const s of [this.x, this.y]) s.addEventListener('change', () => this.draw(false));
+  }
+
+  columnSelect(parent, label) {
+    parent.append(text('label', label));
+    const select = el('select');
+    this.columns.forEach((c, i) => {
+      const option = text('option', c.name);
+      option.value = String(i);
+      select.append(option);
+    });
+    parent.append(select);
+    return select;
+  }
+
+  column(name) {
+    return this.columns.find((c) => c.name === name);
+  }
+
+  // The parameters by |r| with the metric, largest first.
+  ranked() {
+    const metric = this.column(this.metricOf()).values;
+    return this.columns.filter((c) => c.parameter)
+      .map((c) => ({ name: c.name, r: correlation(c.values, metric) }))
+      .filter((e) => e.r != null)
+      .sort((a, b) => Math.abs(b.r) - Math.abs(a.r));
+  }
+
+  // reset: x becomes the parameter that matters most, y the metric.
+  draw(reset = true) {
+    const metricName = this.metricOf(), ranked = this.ranked();
+    if (reset) {
+      const first = ranked.length ? ranked[0].name : this.columns[0].name;
+      this.x.value = String(this.columns.indexOf(this.column(first)));
+      this.y.value = String(this.columns.indexOf(this.column(metricName)));
+    }
+    this.ranking.textContent = 'parameters by their correlation with ' + metricName + ': ' +
+      (ranked.length ? ranked.map((e) => e.name + ' r = ' + e.r.toFixed(3)).join(', ')
+        : 'none varies with it');
+    this.rankedNow = ranked;
+    this.drawScatter();
+    this.drawHistogram();
+  }
+
+  canvas(node, width, height) {
+    const ratio = window.devicePixelRatio || 1;
+    node.width = width * ratio, node.height = height * ratio;
+    node.style.width = width + 'px', node.style.height = height + 'px';
+    const ctx = node.getContext('2d');
+    ctx.scale(ratio, ratio);
+    ctx.fillStyle = '#fff';
+    ctx.fillRect(0, 0, width, height);
+    ctx.font = '11px sans-serif';
+    return ctx;
+  }
+
+  drawScatter() {
+    const W = 640, H = 360, L = 70, T = 10, w = 540, h = 300;
+    const ctx = this.canvas(this.scatter, W, H);
+    const xs = this.columns[+this.x.value], ys = this.columns[+this.y.value];
+    const colour = this.column(this.metricOf()).values, scale = scaleOf(colour);
+    const range = (v) => {
+      const f = v.filter(Number.isFinite);
+      const lo = Math.min(...f), hi = Math.max(...f);
+      return hi > lo ? [lo, hi] : [lo - 1, lo + 1];
+    };
+    const [x0, x1] = range(xs.values), [y0, y1] = range(ys.values);
+    let drawn = 0, failed = 0;
+    for (let i = 0; i < xs.values.length; ++i) {
+      const x = xs.values[i], y = ys.values[i];
+      if (!Number.isFinite(x) || !Number.isFinite(y)) { ++failed; continue; }
+      ctx.fillStyle = Number.isFinite(colour[i]) ? color(scale.f(colour[i])) : '#bbb';
+      ctx.fillRect(L + ((x - x0) / (x1 - x0)) * w - 2, T + h - ((y - y0) / (y1 - y0)) * h - 2, 4, 4);
+      ++drawn;
+    }
+    ctx.strokeStyle = '#999';
+    ctx.strokeRect(L, T, w, h);
+    ctx.fillStyle = '#000';
+    ctx.textAlign = 'center';
+    ctx.fillText(fmt(x0), L, T + h + 14);
+    ctx.fillText(fmt(x1), L + w, T + h + 14);
+    ctx.fillText(xs.name, L + w / 2, T + h + 30);
+    ctx.textAlign = 'right';
+    ctx.fillText(fmt(y1), L - 4, T + 8);
+    ctx.fillText(fmt(y0), L - 4, T + h);
+    ctx.fillText(ys.name, L - 4, T + h / 2);
+    this.scatterCounts = { drawn, failed };
+  }
+
+  drawHistogram() {
+    const W = 640, H = 160, L = 70, T = 10, w = 540, h = 110, bins = 30;
+    const ctx = this.canvas(this.histogram, W, H);
+    const metric = this.column(this.metricOf());
+    const v = metric.values.filter(Number.isFinite);
+    if (!v.length) return;
+    const lo = Math.min(...v), hi = Math.max(...v), span = hi > lo ? hi - lo : 1;
+    const counts = new Array(bins).fill(0);
+    for (const x of v) counts[Math.min(bins - 1, Math.floor(((x - lo) / span) * bins))]++;
+    const top = Math.max(...counts);
+    ctx.fillStyle = '#3b7dd8';
+    counts.forEach((c, k) => ctx.fillRect(L + (k * w) / bins, T + h - (c / top) * h, w / bins - 1, (c / top) * h));
+    ctx.fillStyle = '#000';
+    ctx.textAlign = 'center';
+    ctx.fillText(fmt(lo), L, T + h + 14);
+    ctx.fillText(fmt(hi), L + w, T + h + 14);
+    ctx.fillText(metric.name + ': ' + v.length + ' runs (most in one bin: ' + top + ')', L + w / 2, T + h + 30);
+    this.histogramCounts = counts;
+  }
+}
+
 export class StudyView {
   constructor(parent, data) {
     this.data = data;
@@ -50,6 +197,7 @@ export class StudyView {
     box.append(this.canvas, this.legend, this.tip);
     this.seriesBox = el('div', 'series');
     box.append(this.seriesBox);
+    this.runsView = this.study.points ? new RunsView(box, this.study, () => this.metric().name) : null;
     this.select.addEventListener('change', () => this.draw());
     this.canvas.addEventListener('mousemove', (e) => this.hover(e));
     this.canvas.addEventListener('click', (e) => this.open(this.cellAt(e)));
@@ -80,12 +228,21 @@ export class StudyView {
     const cells = this.metric().cells;
     const scale = scaleOf(cells);
     const w = g.width / g.nx, h = g.height / g.ny;
+    let empty = 0, failed = 0;
     for (let j = 0; j < g.ny; ++j)
       for (let i = 0; i < g.nx; ++i) {
-        const v = cells[j * g.nx + i];
-        ctx.fillStyle = v == null || !Number.isFinite(v) ? '#ccc' : color(scale.f(v));
+        const k = j * g.nx + i, v = cells[k];
+        // A bin no run fell in (white), one whose runs all failed (grey), or the metric's colour.
+        const none = this.study.runs[k] == null;
+        empty += none;
+        failed += !none && (v == null || !Number.isFinite(v));
+        ctx.fillStyle = none ? '#fff' : v == null || !Number.isFinite(v) ? '#bbb' : color(scale.f(v));
         ctx.fillRect(g.left + i * w, g.top + (g.ny - 1 - j) * h, Math.ceil(w), Math.ceil(h));
       }
+    this.emptyCells = empty;
+    this.failedCells = failed;
+    ctx.strokeStyle = '#999';
+    ctx.strokeRect(g.left, g.top, g.width, g.height);
     // Tick labels at about eight cells per axis, and the parameters' names.
     ctx.fillStyle = '#000';
     ctx.font = '11px sans-serif';
@@ -109,9 +266,11 @@ export class StudyView {
       ctx.restore();
     }
     ctx.textAlign = 'left';
+    if (this.runsView) this.runsView.draw();
     this.legend.textContent = this.metric().name + ': ' + fmt(scale.lo) + ' (dark) to ' +
       fmt(scale.hi) + ' (light)' + (scale.log ? ', logarithmic colours' : '') +
-      '; grey: no value (a failed run)';
+      (failed ? '; grey: every run there failed (' + failed + ' cells)' : '') +
+      (empty ? '; white: no run fell in the bin (' + empty + ' cells)' : '');
   }
 
   // The cell under a mouse event: {i, j} or null.
@@ -125,6 +284,11 @@ export class StudyView {
 
   describe(cell) {
     const s = this.study, k = cell.j * s.x.values.length + cell.i;
+    if (s.runs[k] == null) {
+      let where = s.x.name + ' = ' + fmt(s.x.values[cell.i]);
+      if (s.y) where += ', ' + s.y.name + ' = ' + fmt(s.y.values[cell.j]);
+      return where + ': no run fell in this bin';
+    }
     let line = s.x.name + ' = ' + fmt(s.x.values[cell.i]);
     if (s.y) line += ', ' + s.y.name + ' = ' + fmt(s.y.values[cell.j]);
     line += ': ' + this.metric().name + ' = ' + fmt(this.metric().cells[k]);
@@ -160,6 +324,17 @@ export class StudyView {
   hook() {
     return {
       metric: () => this.metric().name,
+      legend: () => this.legend.textContent,
+      cells: () => ({ empty: this.emptyCells, failed: this.failedCells }),
+      setMetric: (name) => {
+        this.select.value = String(this.study.metrics.findIndex((m) => m.name === name));
+        this.draw();
+      },
+      ranking: () => this.runsView.rankedNow,
+      scatter: () => ({ x: this.runsView.columns[+this.runsView.x.value].name,
+                        y: this.runsView.columns[+this.runsView.y.value].name,
+                        ...this.runsView.scatterCounts }),
+      histogram: () => this.runsView.histogramCounts,
       cell: (i, j) => this.describe({ i, j }),
       open: (i, j) => (this.open({ i, j }), this.openedRun),
     };

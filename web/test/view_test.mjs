@@ -136,6 +136,24 @@ try {
           'camera: --camera x,y,z,tx,ty,tz looks from and at them (' + JSON.stringify(e) + ')');
     check(arm.errors.length === 0 && eye.errors.length === 0, 'camera: no console errors');
   }
+  {  // Random draws: bins with no run told from failed ones; the runs' scatter, histogram and
+     // ranking find the parameter the metric follows.
+    const { page, errors } = await open(browser, 'random.html');
+    const legend = await page.evaluate(() => window.spacearmView.legend());
+    const cells = await page.evaluate(() => window.spacearmView.cells());
+    check(cells.empty > 0 && /white: no run fell in the bin/.test(legend) && !/grey: every run there failed/.test(legend) === (cells.failed === 0),
+          'random: empty bins are named apart from failed ones (' + legend + ')');
+    const ranking = await page.evaluate(() => window.spacearmView.ranking());
+    check(ranking[0].name === 'mp' && ranking[0].r > 0.99 && Math.abs(ranking[1].r) < 0.3,
+          'random: mp ranked first by correlation with ee_error (' + JSON.stringify(ranking) + ')');
+    const scatter = await page.evaluate(() => window.spacearmView.scatter());
+    check(scatter.x === 'mp' && scatter.y === 'ee_error' && scatter.drawn === 292 && scatter.failed === 8,
+          'random: the scatter shows ee_error against mp, failed runs left out (' + JSON.stringify(scatter) + ')');
+    const histogram = await page.evaluate(() => window.spacearmView.histogram());
+    check(histogram.reduce((a, b) => a + b, 0) === 292, 'random: the histogram counts every run that has the metric');
+    await page.screenshot({ path: path.join(dir, 'random_view.png'), fullPage: true });
+    check(errors.length === 0, 'random: no console errors ' + JSON.stringify(errors));
+  }
   {  // Markup in the scene's description and the run's file name.
     const { page, errors } = await open(browser, 'hostile.html');
     const seen = await page.evaluate(() => ({
