@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <set>
 #include <tuple>
 
@@ -14,6 +15,7 @@
 #include "compiled_model.hpp"
 #include "span_note.hpp"
 #include "dynamics_checks.hpp"
+#include "state_conventions.hpp"
 
 namespace spacearm {
 
@@ -129,6 +131,42 @@ Eigen::VectorXd generalized_forces(const ModelRecipe& recipe, const Eigen::Vecto
   return Q;
 }
 
+// --state-from and --state-to: a spatial free base's state in another tool's convention, the
+// joints as link angles (a motor slot over its ratio at the parameters used).
+struct StateConversion {
+  StateConvention from = StateConvention::spacearm;
+  std::optional<StateConvention> to;
+  Eigen::Vector3d base_com = Eigen::Vector3d::Zero();
+  Eigen::VectorXd ratios;
+};
+
+StateConversion state_conversion(const ModelRecipe& scene, const EvalArgs& a,
+                                 const Eigen::VectorXd& params) {
+  StateConversion c;
+  c.from = state_convention(a.state_from, "--state-from");
+  if (!a.state_to.empty()) c.to = state_convention(a.state_to, "--state-to");
+  const ModelFacts& facts = scene.facts();
+  if ((c.from != StateConvention::spacearm || c.to) && !(facts.dims.spatial && facts.free_floating))
+    throw std::invalid_argument(std::string(c.to ? "--state-to" : "--state-from") +
+                                ": converts a spatial scene's free base; '" + facts.name +
+                                "' has none");
+  const std::vector<double> p(params.data(), params.data() + params.size());
+  const auto com = scene.base_com(p);
+  c.base_com = Eigen::Vector3d(com[0], com[1], com[2]);
+  const std::vector<Quantity> ratio = scene.gear_ratios();
+  c.ratios = Eigen::VectorXd::Ones(facts.dims.num_links);
+  for (int j = 0; j < c.ratios.size(); ++j)
+    if (j < static_cast<int>(facts.motor_angle_slots.size()) && facts.motor_angle_slots[j])
+      c.ratios[j] = ratio[j].is_parameter() ? params[ratio[j].index] : ratio[j].value;
+  return c;
+}
+
+nlohmann::ordered_json state_json(const std::string& convention, const BaseState& s) {
+  return {{"convention", convention},
+          {"q", std::vector<double>(s.q.data(), s.q.data() + s.q.size())},
+          {"v", std::vector<double>(s.v.data(), s.v.data() + s.v.size())}};
+}
+
 }  // namespace
 
 int run_eval(const EvalArgs& a) {
@@ -156,10 +194,17 @@ int run_eval(const EvalArgs& a) {
       !e.empty())
     throw std::invalid_argument(e);
   in.values[Input::qd] = vector(a.qd_text, "--qd", nv);
+  in.params = cli::parse_parameters(a.param_assignments, facts);
+  const StateConversion conversion = state_conversion(scene, a, in.params);
+  const BaseState given{in.values[Input::q], in.values[Input::qd]};
+  if (conversion.from != StateConvention::spacearm) {
+    const BaseState s =
+        from_convention(conversion.from, given.q, given.v, conversion.base_com, conversion.ratios);
+    in.values[Input::q] = s.q, in.values[Input::qd] = s.v;
+  }
   in.values[Input::qdd] = vector(a.qdd_text, "--qdd", nv);
   in.values[Input::generalized_forces] = vector(a.forces_text, "--forces", nv);
   in.values[Input::joint_accelerations] = vector(a.qdd_joints_text, "--qdd-joints", N);
-  in.params = cli::parse_parameters(a.param_assignments, facts);
   const Eigen::VectorXd tau =
       a.tau_text.empty() ? Eigen::VectorXd() : cli::parse_vector(a.tau_text, "--tau", N);
   if (tau.size()) in.values[Input::generalized_forces] = generalized_forces(scene, in.params, tau);
@@ -181,6 +226,12 @@ int run_eval(const EvalArgs& a) {
     if (input == Input::q || used.count(input))
       out[info(input).name] = std::vector<double>(v.data(), v.data() + v.size());
   if (tau.size()) out["tau"] = std::vector<double>(tau.data(), tau.data() + tau.size());
+  if (conversion.from != StateConvention::spacearm)
+    out["given_state"] = state_json(a.state_from, given);
+  if (conversion.to)
+    out["state_" + a.state_to] = state_json(
+        a.state_to, to_convention(*conversion.to, in.values[Input::q], in.values[Input::qd],
+                                  conversion.base_com, conversion.ratios));
   out["parameters"] = nlohmann::ordered_json::object();
   for (size_t i = 0; i < facts.parameter_names.size(); ++i)
     out["parameters"][facts.parameter_names[i]] = in.params[i];

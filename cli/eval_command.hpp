@@ -13,6 +13,9 @@ struct EvalArgs {
       qdd_joints_text;   // inputs of the dynamics outputs (default zeros)
   std::string tau_text;  // joint torques, one per joint: Q = tau / p on the driven coordinates
   std::vector<std::string> param_assignments;
+  // A free base's state in another tool's convention (runtime/state_conventions.hpp): --q and
+  // --qd given in it, and the state also written in it.
+  std::string state_from = "spacearm", state_to;
   bool compact_json = false, symbolic = false, verbose = false;
 };
 

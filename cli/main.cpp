@@ -195,6 +195,13 @@ CLI::App* add_eval(CLI::App& app, spacearm::EvalArgs& a) {
       ->add_option("--param", a.param_assignments,
                    "Run-time parameter name=value (repeatable, once per name)")
       ->default_str("");
+  command
+      ->add_option("--state-from", a.state_from,
+                   "A spatial free base's --q and --qd are in this tool's convention: "
+                   "pinocchio, spacedyn or spart (joints as link angles; see docs/cli.md)")
+      ->default_str("spacearm");
+  command->add_option("--state-to", a.state_to,
+                      "Also write the state in this tool's convention (state_NAME in the JSON)");
   command->add_flag("--json", a.compact_json, "Compact JSON on one line (default: indented JSON)");
   command->add_flag("--symbolic", a.symbolic,
                     "Evaluate GiNaC's expressions instead of the compiled code");

@@ -121,6 +121,16 @@ ModelRecipe::BaseInertial ModelRecipe::base_inertial() const {
   return b;
 }
 
+std::array<double, 3> ModelRecipe::base_com(const std::vector<double>& params) const {
+  std::array<double, 3> c{};
+  if (!spatial_) return c;
+  for (int k = 0; k < 3; ++k) {
+    const Quantity& q = spatial_->chain.base.com[k];
+    c[k] = q.is_parameter() ? params.at(static_cast<size_t>(q.index)) : q.value;
+  }
+  return c;
+}
+
 std::string ModelRecipe::mesh_folder() const {
   if (!spatial_ || spatial_->read_files.empty()) return "";
   const std::string& urdf = spatial_->read_files.front();

@@ -86,6 +86,9 @@ class ModelRecipe {
     std::array<double, 6> inertia{};
   };
   BaseInertial base_inertial() const;
+  // The base's centre of mass in its frame at the parameters' values (a spatial scene's; 0 in
+  // the plane, whose base frame is at its centre of mass).
+  std::array<double, 3> base_com(const std::vector<double>& params) const;
   // A URDF's <visual> shapes per body in its frame (what the viewer draws; none for YAML), and
   // the folder a mesh's path is relative to (the URDF's).
   std::vector<std::vector<spatial::Visual>> body_visuals() const {

@@ -193,6 +193,73 @@ TEST_F(EvalCli, RotorCouplingFactorComparesExactAndArmatureInSpace) {
       << bad;
 }
 
+// Issue 51: --state-to writes a spatial free base's state in another tool's convention and
+// --state-from reads it back: the same state (to 1e-14) and the same numbers, for every tool; the
+// joints are link angles there (the geared slots over p = 50); a planar scene is refused.
+TEST_F(EvalCli, StatesConvertToAndFromOtherToolsConventions) {
+  fs::create_directories(cache);
+  const fs::path scene = cache / "arm2c.yaml";
+  std::ofstream(scene)
+      << "name: arm2c\nspace: spatial\n"
+      << "base: {type: free_floating, mass: 200, com: [0.1, -0.2, 0.3], inertia: [40, 1, 0, 50, "
+         "0, 60]}\nlinks:\n  - {origin: [0.5, 0, 0.2], axis: [0, 0, 1], mass: 5, com: [0.2, 0, "
+         "0], inertia: [0.01, 0, 0, 0.2, 0, 0.2]}\n  - {origin: [0.4, 0, 0], axis: [0, 1, 0], "
+         "mass: 3, com: [0.2, 0, 0], inertia: [0.01, 0, 0, 0.1, 0, 0.1]}\n"
+      << "gears: [{ratio: 50, rotor_inertia: [2.0e-4, 1.0e-4]}, {ratio: 1}]\n"
+      << "outputs: [mass_matrix, momentum]\n";
+  auto eval = [&](const std::string& args) {
+    int status = 0;
+    const std::string out = run(cli + scene.string() + args + " --json 2>&1", &status);
+    EXPECT_EQ(status, 0) << out;
+    return nlohmann::json::parse(out.substr(out.find('{')));
+  };
+  auto list = [](const nlohmann::json& v) {
+    std::string text;
+    char number[32];
+    for (double x : v) {
+      std::snprintf(number, sizeof number, "%.17g", x);
+      text += (text.empty() ? "" : ",") + std::string(number);
+    }
+    return text;
+  };
+  const std::string q = "0.1,0.2,0.3,0.5,-0.5,0.5,0.5,3,-0.7",
+                    qd = "0.1,-0.2,0.3,0.4,-0.5,0.6,20,-0.3";
+  for (const char* tool : {"pinocchio", "spacedyn", "spart"}) {
+    SCOPED_TRACE(tool);
+    const auto there = eval(" --q " + q + " --qd " + qd + " --state-to " + tool);
+    const auto& other = there[std::string("state_") + tool];
+    EXPECT_EQ(other["convention"], tool);
+    EXPECT_NEAR(other["q"][7].get<double>(), 3.0 / 50, 1e-16);  // a link angle
+    EXPECT_NEAR(other["q"][8].get<double>(), -0.7, 1e-16);
+    const auto back =
+        eval(" --q " + list(other["q"]) + " --qd " + list(other["v"]) + " --state-from " + tool);
+    for (int i = 0; i < 9; ++i)
+      EXPECT_NEAR(back["q"][i].get<double>(), there["q"][i].get<double>(), 1e-14) << i;
+    for (int i = 0; i < 8; ++i)
+      EXPECT_NEAR(back["qd"][i].get<double>(), there["qd"][i].get<double>(), 1e-14) << i;
+    expect_json_near(back["momentum"], there["momentum"]);
+    EXPECT_EQ(back["given_state"]["convention"], tool);
+  }
+  // SpaceDyn's R0 is the base's centre of mass: at the identity turn, the origin plus its com.
+  const auto at_home = eval(" --state-to spacedyn");
+  EXPECT_EQ(at_home["state_spacedyn"]["q"][0], 0.1);
+  EXPECT_EQ(at_home["state_spacedyn"]["q"][1], -0.2);
+  int status = 0;
+  const std::string planar = run(cli + std::string(SPACEARM_SOURCE_DIR) +
+                                     "/models/paper_geared.yaml --state-to pinocchio 2>&1",
+                                 &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(planar.find("--state-to: converts a spatial scene's free base; 'paper_geared' has "
+                        "none"),
+            std::string::npos)
+      << planar;
+  const std::string bad = run(cli + scene.string() + " --state-from mujoco 2>&1", &status);
+  EXPECT_NE(bad.find("--state-from: expected spacearm, pinocchio, spacedyn or spart, got "
+                     "'mujoco'"),
+            std::string::npos)
+      << bad;
+}
+
 TEST_F(EvalCli, VerboseReportShowsTheCacheHit) {
   const std::string args = std::string(SPACEARM_SOURCE_DIR) +
                            "/models/paper_reference.yaml --q 0,0,0,0.1,0.2,0.3 --verbose 2>&1";
