@@ -20,19 +20,25 @@ int run_export(const ExportArgs& a) {
   if (a.output_file.empty() || a.output_file == "-")
     throw std::invalid_argument("-o: give a file name for the MuJoCo model");
   const std::string text = read_scene_file(a.scene_path);
-  if (!is_spatial_scene(text))
-    throw std::invalid_argument("export --mjcf: " + quoted_text(a.scene_path) +
-                                " is a planar scene; MuJoCo models are exported from spatial "
-                                "scenes (space: spatial)");
-  const SpatialScene scene = parse_spatial_scene(text, a.scene_path);
-  cli::say_warnings(scene.warnings);
-  const ModelRecipe recipe(scene);
+  // A planar scene: the spatial arm that moves in its plane, at the parameters' values.
+  const bool planar = !is_spatial_scene(text);
+  if (planar && a.compare)
+    throw std::invalid_argument(
+        "--compare: compares a spatial scene's model; a planar scene's MuJoCo model moves in "
+        "3D (free joint), so its M has the plane's rows among others (MjcfExport tests them)");
+  const ModelRecipe recipe = planar ? ModelRecipe(parse_scene(text, a.scene_path))
+                                    : ModelRecipe(parse_spatial_scene(text, a.scene_path));
+  cli::say_warnings(recipe.warnings());
   const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, recipe.facts());
   MjcfOptions options;
   options.params.assign(params.data(), params.data() + params.size());
   if (const std::string why = recipe.parameter_error(options.params); !why.empty())
     throw std::invalid_argument("--param: " + why);
   options.balance_inertia = a.balance_inertia;
+  const SpatialScene scene =
+      planar ? planar_as_spatial(parse_scene(text, a.scene_path), options.params)
+             : parse_spatial_scene(text, a.scene_path);
+  if (planar) options.params.clear();  // the numbers are written in
   const std::string xml = export_mjcf(scene, options);
   refuse_input_as_output(a.output_file, cli::scene_inputs(a.scene_path, recipe));
   replace_output_file(a.output_file, xml);

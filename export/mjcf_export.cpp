@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <sstream>
 #include <stdexcept>
 
@@ -437,6 +438,74 @@ MjcfNames mjcf_names(const SpatialScene& scene, const MjcfOptions& options) {
 
 std::string export_mjcf(const SpatialScene& scene, const MjcfOptions& options) {
   return MjcfWriter(scene, options).write();
+}
+
+namespace {
+
+// A planar gear as a spatial one at numbers: exact (the rotor on the previous body, eqs. 10-11),
+// armature, or a coupling factor at its value (export_mjcf takes 0 and 1 only).
+spatial::Gear spatial_gear(const Gear& g, const std::function<double(const Quantity&)>& value) {
+  spatial::Gear out;
+  out.present = true;
+  out.ratio = value(g.ratio);
+  out.axial = value(g.motor_inertia);
+  out.exact = !g.armature;
+  if (g.coupling) out.coupled = true, out.coupling = value(*g.coupling);
+  if (g.flexible()) {
+    out.flexible = true;
+    out.stiffness = value(*g.stiffness);
+    if (g.damping) out.has_damping = true, out.damping = value(*g.damping);
+  }
+  return out;
+}
+
+}  // namespace
+
+SpatialScene planar_as_spatial(const Scene& planar, const std::vector<double>& params) {
+  const std::vector<double> p = params.empty() ? nominal_values(planar.parameters) : params;
+  if (p.size() != planar.parameters.size())
+    throw std::invalid_argument("export: " + std::to_string(p.size()) + " parameter values for " +
+                                std::to_string(planar.parameters.size()) + " parameters");
+  auto value = [&p](const Quantity& q) { return q.is_parameter() ? p.at(q.index) : q.value; };
+  // In the plane only izz acts; about x and y the same value keeps the tensor physical.
+  auto tensor = [](double izz) { return std::array<Quantity, 6>{izz, 0.0, 0.0, izz, 0.0, izz}; };
+  SpatialScene s;
+  s.name = planar.name;
+  s.source_path = planar.source_path;
+  s.chain.free_base = planar.free_floating();
+  s.chain.base.mass = value(planar.base.mass);
+  s.chain.base.inertia = tensor(value(planar.base.inertia));
+  for (int i = 0; i < planar.num_links(); ++i) {
+    const Link& l = planar.links[i];
+    spatial::Link link;
+    link.origin_xyz =
+        i == 0 ? std::array<double, 3>{value(planar.base.mount[0]), value(planar.base.mount[1]), 0}
+               : std::array<double, 3>{value(planar.links[i - 1].length), 0, 0};
+    link.axis = {0, 0, 1};
+    link.mass = value(l.mass);
+    link.com = {value(l.com[0]), value(l.com[1]), 0.0};
+    double izz = value(l.inertia);
+    if (planar.has_gear(i)) {
+      const Gear& g = *planar.gears[i];
+      link.gear = spatial_gear(g, value);
+      if (g.compensate_link_inertia) izz -= value(g.motor_inertia);  // the motor's share
+    }
+    link.inertia = tensor(izz);
+    if (i < static_cast<int>(planar.friction.size()) && planar.friction[i]) {
+      const Friction& f = *planar.friction[i];
+      link.friction = {true,
+                       value(f.viscous),
+                       value(f.coulomb),
+                       value(f.velocity_scale),
+                       value(f.stribeck_static),
+                       value(f.stribeck_velocity),
+                       f.has_coulomb,
+                       f.has_stribeck};
+    }
+    s.chain.links.push_back(link);
+  }
+  s.chain.tip = {value(planar.links.back().length), 0, 0};
+  return s;
 }
 
 }  // namespace spacearm

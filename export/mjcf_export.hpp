@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "planar_scene.hpp"
 #include "spatial_scene.hpp"
 
 namespace spacearm {
@@ -37,5 +38,15 @@ MjcfNames mjcf_names(const SpatialScene& scene, const MjcfOptions& options = {})
 
 // The MJCF text; std::invalid_argument naming the joint or body and what MuJoCo lacks.
 std::string export_mjcf(const SpatialScene& scene, const MjcfOptions& options = {});
+
+// A planar scene as the spatial arm that moves in its plane, at the parameters' values (its
+// scene's order; empty: the nominal ones), for export_mjcf: the base's frame at its centre of
+// mass (a free base moves in x, y and turns about z), each joint about z at the mount or the
+// previous link's length along its x, the inertias about z as given (about x and y: the same
+// value, which no planar motion excites and MuJoCo takes as physical), a motor's inertia as an
+// exact rotor (the paper's eqs. 10-11) or armature, compensated from its link where the scene
+// says so. Flexible joints are refused by export_mjcf; a coupling factor becomes exact at 1 and
+// armature at 0 (refused between).
+SpatialScene planar_as_spatial(const Scene& planar, const std::vector<double>& params = {});
 
 }  // namespace spacearm

@@ -17,6 +17,7 @@
 
 #include "mjcf_export.hpp"
 #include "mujoco_model.hpp"
+#include "numeric_outputs.hpp"
 #include "recursive_algorithms.hpp"
 #include "spatial_chain.hpp"
 #include "spatial_scene.hpp"
@@ -233,6 +234,59 @@ TEST(MjcfExport, WhatMujocoLacksIsRefusedNamed) {
   flexible.chain.links[2].gear.flexible = true;
   EXPECT_THROW_MESSAGE(export_mjcf(flexible), std::invalid_argument,
                        "joint 'joint3' is flexible (gears: stiffness)");
+}
+
+// A planar scene (issue 51) as the 3D model that moves in its plane: MuJoCo's M and bias at
+// in-plane states, on its x, y, turn about z and hinges, are the planar model's (its GiNaC closed
+// forms, sharing no code with the spatial chain), the geared slots scaled to link angles; the
+// out-of-plane bias is zero. The reference model, and the armature model at p = 20.
+TEST(MjcfExport, APlanarSceneMovesInItsPlane) {
+  for (const char* name : {"paper_reference", "paper_geared_armature"}) {
+    SCOPED_TRACE(name);
+    const std::string path = std::string(SPACEARM_SOURCE_DIR) + "/models/" + name + ".yaml";
+    const Scene planar = parse_scene(test::read_text_file(path), path);
+    Eigen::VectorXd params = Eigen::VectorXd::Zero(planar.parameters.size());
+    for (size_t k = 0; k < planar.parameters.size(); ++k)
+      params[k] = planar.parameters[k].name == "p" ? 20 : planar.parameters[k].nominal.value;
+    const test::MujocoModel mj(
+        export_mjcf(planar_as_spatial(planar, {params.data(), params.data() + params.size()})));
+    const int N = planar.num_links(), n = 3 + N;
+    ASSERT_EQ(mj.m->nv, 6 + N);
+    const SymbolicModel model = derive(planar);
+    const Eigen::VectorXd ratio = Eigen::VectorXd::Constant(N, planar.geared() ? 20.0 : 1.0);
+    std::mt19937 rng(8);
+    std::uniform_real_distribution<double> u(-1, 1);
+    for (int trial = 0; trial < 5; ++trial) {
+      Eigen::VectorXd q(n), v(n);  // planar: x0, y0, q0, then the slots (motor angles if geared)
+      for (int i = 0; i < n; ++i) q[i] = 2 * u(rng), v[i] = u(rng);
+      mju_zero(mj.d->qpos, mj.m->nq);
+      mju_zero(mj.d->qvel, mj.m->nv);
+      const int plane[3] = {0, 1, 5};  // x, y and the turn about z among the free joint's dofs
+      mj.d->qpos[0] = q[0], mj.d->qpos[1] = q[1];
+      mj.d->qpos[3] = std::cos(q[2] / 2), mj.d->qpos[6] = std::sin(q[2] / 2);
+      for (int k = 0; k < 3; ++k) mj.d->qvel[plane[k]] = v[k];
+      for (int j = 0; j < N; ++j)
+        mj.d->qpos[7 + j] = q[3 + j] / ratio[j], mj.d->qvel[6 + j] = v[3 + j] / ratio[j];
+      mj_forward(mj.m.get(), mj.d.get());
+      Eigen::MatrixXd M_mj(6 + N, 6 + N);
+      mj_fullM(mj.m.get(), M_mj.data(), mj.d->qM);
+      std::vector<int> rows = {0, 1, 5};
+      for (int j = 0; j < N; ++j) rows.push_back(6 + j);
+      Eigen::MatrixXd M_plane(n, n);
+      Eigen::VectorXd b_plane(n);
+      for (int r = 0; r < n; ++r) {
+        b_plane[r] = mj.d->qfrc_bias[rows[r]];
+        for (int c = 0; c < n; ++c) M_plane(r, c) = M_mj(rows[r], rows[c]);
+      }
+      for (int out : {2, 3, 4}) EXPECT_NEAR(mj.d->qfrc_bias[out], 0, 1e-12);  // no out-of-plane
+      Eigen::VectorXd D = Eigen::VectorXd::Ones(n);  // d(planar slot) / d(MuJoCo's coordinate)
+      D.tail(N) = ratio;
+      const Eigen::MatrixXd M = evaluate_output(model, Output::mass_matrix, {q}, params)[0];
+      const Eigen::VectorXd b = evaluate_output(model, Output::bias_forces, {q, v}, params)[0];
+      EXPECT_LT((D.asDiagonal() * M * D.asDiagonal() - M_plane).norm(), 1e-12 * M_plane.norm());
+      EXPECT_LT((D.asDiagonal() * b - b_plane).norm(), 1e-12 * (1 + b_plane.norm()));
+    }
+  }
 }
 
 // A rotor coupling factor (issue 51) exports at its ends: c = 1 as the exact scene's file, c = 0
