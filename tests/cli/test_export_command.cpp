@@ -65,8 +65,10 @@ TEST(ExportCommand, WritesAModelThatMujocoAgreesWith) {
   EXPECT_NE(text.find("armature=\""), std::string::npos);
   // Refusals name what is wrong.
   const std::vector<std::pair<std::string, std::string>> refused = {
-      {source("models/paper_geared.yaml") + " -o " + xml,
-       "is a planar scene; MuJoCo models are exported from spatial scenes"},
+      {source("models/paper_geared.yaml") + " -o " + xml + " --compare",
+       "--compare: compares a spatial scene's model; a planar scene's MuJoCo model moves in 3D"},
+      {source("models/paper_flexible.yaml") + " -o " + xml,
+       "joint 'joint1' is flexible (gears: stiffness)"},
       {source("models/identified_arm3.yaml") + " -o " + xml,
        "MuJoCo takes only physical inertias (each principal moment at most the sum of the other "
        "two), and these bodies' are not: 'Link_1', 'Link_2', 'Link_3'"},
@@ -81,6 +83,11 @@ TEST(ExportCommand, WritesAModelThatMujocoAgreesWith) {
   }
   EXPECT_NE(test::read_text_file(source("tests/scenes/spatial_arm2.yaml")).find("space: spatial"),
             std::string::npos);
+  // A planar scene exports as the arm moving in its plane (MjcfExport tests its numbers).
+  const std::string planar =
+      test::run(cli() + source("models/paper_geared.yaml") + " -o " + xml + " 2>&1", &status);
+  EXPECT_EQ(status, 0) << planar;
+  EXPECT_NE(test::read_text_file(xml).find("<mujoco model=\"paper_geared\">"), std::string::npos);
   fs::remove_all(dir);
 }
 
