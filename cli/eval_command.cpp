@@ -188,20 +188,25 @@ int run_eval(const EvalArgs& a) {
   } else {
     in.values[Input::q] = cli::parse_vector(a.q_text, "--q", nq);
   }
-  const int first_angle = ConfigurationSpace::first_angle(facts.free_floating, facts.dims.spatial);
-  if (const std::string e = ConfigurationSpace::angle_error(in.values[Input::q], first_angle, "--q",
-                                                            facts.coordinate_names);
-      !e.empty())
-    throw std::invalid_argument(e);
   in.values[Input::qd] = vector(a.qd_text, "--qd", nv);
   in.params = cli::parse_parameters(a.param_assignments, facts);
   const StateConversion conversion = state_conversion(scene, a, in.params);
   const BaseState given{in.values[Input::q], in.values[Input::qd]};
   if (conversion.from != StateConvention::spacearm) {
-    const BaseState s =
-        from_convention(conversion.from, given.q, given.v, conversion.base_com, conversion.ratios);
-    in.values[Input::q] = s.q, in.values[Input::qd] = s.v;
+    try {
+      const BaseState s = from_convention(conversion.from, given.q, given.v, conversion.base_com,
+                                          conversion.ratios);
+      in.values[Input::q] = s.q, in.values[Input::qd] = s.v;
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument("--q (--state-from " + a.state_from + "): " + e.what());
+    }
   }
+  // The angles' bound on spacearm's coordinates, after a conversion (p times a link angle).
+  const int first_angle = ConfigurationSpace::first_angle(facts.free_floating, facts.dims.spatial);
+  if (const std::string e = ConfigurationSpace::angle_error(in.values[Input::q], first_angle, "--q",
+                                                            facts.coordinate_names);
+      !e.empty())
+    throw std::invalid_argument(e);
   in.values[Input::qdd] = vector(a.qdd_text, "--qdd", nv);
   in.values[Input::generalized_forces] = vector(a.forces_text, "--forces", nv);
   in.values[Input::joint_accelerations] = vector(a.qdd_joints_text, "--qdd-joints", N);

@@ -11,7 +11,9 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <map>
+#include <sstream>
 #include <memory>
 
 #include "cli_input.hpp"
@@ -480,18 +482,71 @@ ViewArgs with_provenance(const ViewArgs& given, json& info, std::vector<std::str
 
 }  // namespace
 
-// Whether bytes are an STL file: binary (an 80-byte header, a count n, 50 bytes per triangle:
-// 84 + 50 n in all) or ASCII ("solid", then printable text with facets).
-bool is_stl(const std::string& bytes) {
-  if (bytes.size() >= 84) {
-    uint32_t n = 0;
-    for (int k = 3; k >= 0; --k) n = (n << 8) | static_cast<unsigned char>(bytes[80 + k]);
-    if (bytes.size() == 84 + 50 * static_cast<uint64_t>(n)) return true;
+// An STL file's triangles (binary: an 80-byte header, a count n, 50 bytes per triangle, 84 + 50 n
+// in all; ASCII: "solid", then "vertex x y z" three per facet) as binary STL, which the page's
+// STLLoader reads without its ASCII parser (a regular expression whose time grows with the
+// square of a hostile file's size). Every coordinate must be finite and within 1e6 m, or the
+// page's framing would be NaN or far away. Hand-written: no Debian library reads STL. Throws
+// naming `path`.
+std::string stl_as_binary(const std::string& bytes, const std::string& path) {
+  auto refuse = [&path](const std::string& why) {
+    throw std::invalid_argument("view: mesh '" + path + "' " + why);
+  };
+  std::vector<float> vertices;  // 9 per triangle
+  uint32_t count = 0;
+  if (bytes.size() >= 84)
+    for (int k = 3; k >= 0; --k) count = (count << 8) | static_cast<unsigned char>(bytes[80 + k]);
+  if (bytes.size() >= 84 && bytes.size() == 84 + 50 * static_cast<uint64_t>(count)) {
+    for (uint32_t t = 0; t < count; ++t)
+      for (int k = 0; k < 9; ++k) {
+        float x;
+        std::memcpy(&x, bytes.data() + 84 + 50 * static_cast<size_t>(t) + 12 + 4 * k, 4);
+        vertices.push_back(x);
+      }
+  } else {
+    if (bytes.compare(0, 5, "solid") != 0) refuse("is not an STL file");
+    for (char c : bytes)
+      if (!((c >= 0x20 && c < 0x7f) || c == '\n' || c == '\r' || c == '\t'))
+        refuse("is not an STL file (a byte that is not text in an ASCII STL)");
+    std::istringstream in(bytes);
+    std::string word;
+    while (in >> word) {
+      if (word != "vertex") continue;
+      for (int k = 0; k < 3; ++k) {
+        std::string number;
+        in >> number;
+        char* end = nullptr;
+        const double x = std::strtod(number.c_str(), &end);
+        if (number.empty() || *end != '\0') refuse("has a vertex coordinate that is not a number");
+        vertices.push_back(static_cast<float>(x));
+      }
+    }
+    if (vertices.empty() || vertices.size() % 9 != 0)
+      refuse("is not an STL file (no facets of three vertices)");
   }
-  if (bytes.compare(0, 5, "solid") != 0 || bytes.find("facet") == std::string::npos) return false;
-  return std::all_of(bytes.begin(), bytes.end(), [](char c) {
-    return (c >= 0x20 && c < 0x7f) || c == '\n' || c == '\r' || c == '\t';
-  });
+  for (float x : vertices)
+    if (!(std::abs(x) <= 1e6f)) refuse("has a vertex coordinate that is not finite or beyond 1e6");
+  const uint32_t n = static_cast<uint32_t>(vertices.size() / 9);
+  std::string out(84 + 50 * static_cast<size_t>(n), '\0');
+  for (int k = 0; k < 4; ++k) out[80 + k] = static_cast<char>((n >> (8 * k)) & 0xff);
+  for (uint32_t t = 0; t < n; ++t)  // normals left 0: the page computes them
+    std::memcpy(out.data() + 84 + 50 * static_cast<size_t>(t) + 12, vertices.data() + 9 * t, 36);
+  return out;
+}
+
+// A mesh file opened once and checked on its descriptor: a regular file whose resolved path
+// (the kernel's, /proc/self/fd) lies inside `folder` (resolved), so no link and no change between
+// a check and the read lets another file in.
+std::string read_mesh(const std::string& folder, const std::string& path) {
+  namespace fs = std::filesystem;
+  const Fd fd = open_regular_file(path, "view: mesh", size_t(32) << 20);
+  std::error_code ec;
+  const std::string inside = fs::canonical(folder, ec).string() + "/";
+  const std::string file = fs::read_symlink("/proc/self/fd/" + std::to_string(fd.get()), ec);
+  if (ec || file.compare(0, inside.size(), inside) != 0)
+    throw std::invalid_argument("view: mesh '" + path +
+                                "' is not a file inside the URDF's folder '" + folder + "'");
+  return read_all(fd.get(), path, size_t(32) << 20);
 }
 
 // A URDF's <visual> shapes per body, and its STL meshes embedded (base64) once each. A mesh must
@@ -499,7 +554,6 @@ bool is_stl(const std::string& bytes) {
 // an STL file: an untrusted scene cannot carry another file into the page.
 json body_visuals(const ModelRecipe& recipe, json& meshes,
                   std::vector<std::pair<std::string, std::string>>& inputs) {
-  namespace fs = std::filesystem;
   std::map<std::string, int> index;
   size_t total = 0;
   json bodies = json::array();
@@ -511,17 +565,7 @@ json body_visuals(const ModelRecipe& recipe, json& meshes,
       if (v.kind == "mesh") {
         if (!index.count(v.mesh)) {
           const std::string path = recipe.mesh_folder() + v.mesh;
-          std::error_code ec;
-          const fs::path folder = fs::canonical(recipe.mesh_folder(), ec),
-                         file = fs::canonical(path, ec);
-          const std::string inside = folder.string() + "/";
-          if (ec || file.string().compare(0, inside.size(), inside) != 0)
-            throw std::invalid_argument("view: mesh '" + path +
-                                        "' is not a file inside the URDF's folder '" +
-                                        recipe.mesh_folder() + "'");
-          const std::string bytes = read_regular_file(path, "view: mesh", size_t(32) << 20);
-          if (!is_stl(bytes))
-            throw std::invalid_argument("view: mesh '" + path + "' is not an STL file");
+          const std::string bytes = stl_as_binary(read_mesh(recipe.mesh_folder(), path), path);
           if ((total += bytes.size()) > (size_t(96) << 20))
             throw std::invalid_argument("view: the URDF's meshes are larger than 96 MB in all");
           index[v.mesh] = static_cast<int>(meshes.size());

@@ -135,7 +135,7 @@ std::string ModelRecipe::mesh_folder() const {
   if (!spatial_ || spatial_->read_files.empty()) return "";
   const std::string& urdf = spatial_->read_files.front();
   const size_t slash = urdf.rfind('/');
-  return slash == std::string::npos ? "." : urdf.substr(0, slash + 1);
+  return slash == std::string::npos ? "./" : urdf.substr(0, slash + 1);
 }
 
 std::vector<std::array<double, 7>> ModelRecipe::body_poses(

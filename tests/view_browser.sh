@@ -129,6 +129,28 @@ printf 'secret-text-9012\n' > "$work/urdf/meshes/tetra.stl"
 expect_error "mesh '.*tetra.stl' is not an STL file" "$cli" view \
   "$work/urdf.csv" --scene "$work/urdf/identified_arm3.yaml" -o "$work/bad.html" "${cache[@]}"
 ! grep -q secret-text "$work/log" || fail "the refused mesh's text was shown"
+# Found in review: an ASCII STL is read here and handed to the page as binary (three.js's ASCII
+# parser takes quadratic time on a hostile file); coordinates not finite or beyond 1e6 m are
+# refused; a scene named without a folder finds its meshes.
+printf 'solid t\nfacet normal 0 0 0\nouter loop\nvertex 0 0 0\nvertex nan 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n' \
+  > "$work/urdf/meshes/tetra.stl"
+expect_error "mesh '.*tetra.stl' has a vertex coordinate that is not finite or beyond 1e6" "$cli" \
+  view "$work/urdf.csv" --scene "$work/urdf/identified_arm3.yaml" -o "$work/bad.html" "${cache[@]}"
+{ printf 'solid facet '; for _ in $(seq 20000); do printf 'solid '; done; } > "$work/urdf/meshes/tetra.stl"
+expect_error "mesh '.*tetra.stl' is not an STL file (no facets of three vertices)" timeout 20 "$cli" \
+  view "$work/urdf.csv" --scene "$work/urdf/identified_arm3.yaml" -o "$work/bad.html" "${cache[@]}"
+/usr/bin/python3 - "$work/urdf/meshes/tetra.stl" <<'PY'
+import sys
+v = [(0, 0, 0), (0.4, 0, 0), (0, 0.4, 0), (0, 0, 0.4)]
+facets = "".join("facet normal 0 0 0\nouter loop\n" + "".join("vertex %g %g %g\n" % v[i] for i in f)
+                 + "endloop\nendfacet\n" for f in [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)])
+open(sys.argv[1], "w").write("solid tetra\n" + facets + "endsolid tetra\n")
+PY
+(cd "$work/urdf" && "$cli" view ../urdf.csv --scene identified_arm3.yaml -o "$work/ascii.html" \
+  "${cache[@]}") > "$work/log" 2>&1 || { cat "$work/log"; fail "an ASCII STL, the scene by its bare name"; }
+# base64 of 84 + 4 x 50 bytes (380 characters), quoted, and grep's newline.
+[[ $(grep -o '"stl":"[^"]*"' "$work/ascii.html" | wc -c) -eq $((4 * 95 + 9)) ]] ||
+  fail "the ASCII tetrahedron is not in the page as a binary STL of 4 triangles"
 mv "$work/tetra.stl" "$work/urdf/meshes/tetra.stl"
 [[ ! -e $work/bad.html ]] || fail "a page was written for a refused mesh"
 # A spatial arm turning its joints from rest, the base reacting.

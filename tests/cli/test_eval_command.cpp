@@ -253,6 +253,19 @@ TEST_F(EvalCli, StatesConvertToAndFromOtherToolsConventions) {
                         "none"),
             std::string::npos)
       << planar;
+  // Found in review: the angle bound holds after conversion (p times a link angle), and a zero
+  // quaternion names the option.
+  const std::string far =
+      run(cli + scene.string() + " --state-from spart --q 0,0,0,1,0,0,0,1e5,0 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(far.find("--q[7] (qm1) = 5e+06 rad: angles must lie within +-1e6 rad"),
+            std::string::npos)
+      << far;
+  const std::string zero =
+      run(cli + scene.string() + " --state-from spacedyn --q 0,0,0,0,0,0,0,0,0 2>&1", &status);
+  EXPECT_NE(zero.find("--q (--state-from spacedyn): the base's quaternion is zero"),
+            std::string::npos)
+      << zero;
   const std::string bad = run(cli + scene.string() + " --state-from mujoco 2>&1", &status);
   EXPECT_NE(bad.find("--state-from: expected spacearm, pinocchio, spacedyn or spart, got "
                      "'mujoco'"),
