@@ -118,16 +118,21 @@ void evaluate_compiled(const ModelRecipe& scene, const EvalArgs& a, const EvalIn
   if (a.verbose) std::fprintf(stderr, "spacearm: run %.3f ms\n", ms_since(t0));
 }
 
+// Each joint's gear ratio at the parameters used (1 without a gear).
+Eigen::VectorXd gear_ratio_values(const ModelRecipe& recipe, const Eigen::VectorXd& params) {
+  const std::vector<Quantity> p = recipe.gear_ratios();
+  Eigen::VectorXd ratios(static_cast<Eigen::Index>(p.size()));
+  for (size_t j = 0; j < p.size(); ++j)
+    ratios[static_cast<Eigen::Index>(j)] = p[j].is_parameter() ? params[p[j].index] : p[j].value;
+  return ratios;
+}
+
 // Generalized forces of joint torques tau (eq. 14), the gear ratios at the parameters used.
 Eigen::VectorXd generalized_forces(const ModelRecipe& recipe, const Eigen::VectorXd& params,
                                    const Eigen::VectorXd& tau) {
   const ModelFacts& facts = recipe.facts();
-  Eigen::VectorXd ratios(facts.dims.num_links);
-  const std::vector<Quantity> p = recipe.gear_ratios();
-  for (int j = 0; j < ratios.size(); ++j)
-    ratios[j] = p[j].is_parameter() ? params[p[j].index] : p[j].value;
   Eigen::VectorXd Q(facts.dims.nv);
-  joint_torques_as_forces(tau, ratios, actuated_coordinates(facts), Q);
+  joint_torques_as_forces(tau, gear_ratio_values(recipe, params), actuated_coordinates(facts), Q);
   return Q;
 }
 
@@ -153,11 +158,10 @@ StateConversion state_conversion(const ModelRecipe& scene, const EvalArgs& a,
   const std::vector<double> p(params.data(), params.data() + params.size());
   const auto com = scene.base_com(p);
   c.base_com = Eigen::Vector3d(com[0], com[1], com[2]);
-  const std::vector<Quantity> ratio = scene.gear_ratios();
-  c.ratios = Eigen::VectorXd::Ones(facts.dims.num_links);
-  for (int j = 0; j < c.ratios.size(); ++j)
-    if (j < static_cast<int>(facts.motor_angle_slots.size()) && facts.motor_angle_slots[j])
-      c.ratios[j] = ratio[j].is_parameter() ? params[ratio[j].index] : ratio[j].value;
+  c.ratios = gear_ratio_values(scene, params);
+  for (int j = 0; j < c.ratios.size(); ++j)  // a slot that holds the link angle converts as is
+    if (!(j < static_cast<int>(facts.motor_angle_slots.size()) && facts.motor_angle_slots[j]))
+      c.ratios[j] = 1;
   return c;
 }
 

@@ -1,6 +1,7 @@
 #include "export_command.hpp"
 
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
 
 #include "cli_input.hpp"
@@ -26,8 +27,12 @@ int run_export(const ExportArgs& a) {
     throw std::invalid_argument(
         "--compare: compares a spatial scene's model; a planar scene's MuJoCo model moves in "
         "3D (free joint), so its M has the plane's rows among others (MjcfExport tests them)");
-  const ModelRecipe recipe = planar ? ModelRecipe(parse_scene(text, a.scene_path))
-                                    : ModelRecipe(parse_spatial_scene(text, a.scene_path));
+  // Each read once: a spatial scene reads its URDF.
+  const std::optional<Scene> planar_scene =
+      planar ? std::optional<Scene>(parse_scene(text, a.scene_path)) : std::nullopt;
+  const std::optional<SpatialScene> spatial_scene =
+      planar ? std::nullopt : std::optional<SpatialScene>(parse_spatial_scene(text, a.scene_path));
+  const ModelRecipe recipe = planar ? ModelRecipe(*planar_scene) : ModelRecipe(*spatial_scene);
   cli::say_warnings(recipe.warnings());
   const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, recipe.facts());
   MjcfOptions options;
@@ -36,8 +41,7 @@ int run_export(const ExportArgs& a) {
     throw std::invalid_argument("--param: " + why);
   options.balance_inertia = a.balance_inertia;
   const SpatialScene scene =
-      planar ? planar_as_spatial(parse_scene(text, a.scene_path), options.params)
-             : parse_spatial_scene(text, a.scene_path);
+      planar ? planar_as_spatial(*planar_scene, options.params) : *spatial_scene;
   if (planar) options.params.clear();  // the numbers are written in
   const std::string xml = export_mjcf(scene, options);
   refuse_input_as_output(a.output_file, cli::scene_inputs(a.scene_path, recipe));

@@ -2,6 +2,7 @@
 // and the few scene facts the tools read (gear ratios, the base's inertial), without a caller
 // asking which kind it is; its GiNaC work is safe from several threads.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -58,13 +59,21 @@ TEST(ModelRecipe, GearRatiosAreLiteralsOrTheParametersThatGiveThem) {
   }
 }
 
+// A fresh folder of this process holding a copy of the project's URDF `urdf`, for scenes that
+// name it beside them.
+fs::path folder_with_urdf(const std::string& name, const std::string& urdf) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("sa_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  fs::copy_file(source(urdf.c_str()), dir / fs::path(urdf).filename());
+  return dir;
+}
+
 // Issue 51: a broken run-time rule names the field, the URDF's joint (or every joint, where one
 // mapping gives them all) and the values given.
 TEST(ModelRecipe, ParameterErrorsNameTheJointAndTheValue) {
-  const fs::path dir = fs::temp_directory_path() / "spacearm_recipe_joint_names";
-  fs::create_directories(dir);
-  fs::copy_file(source("models/identified_arm3.urdf"), dir / "identified_arm3.urdf",
-                fs::copy_options::overwrite_existing);
+  const fs::path dir = folder_with_urdf("joint_names", "models/identified_arm3.urdf");
   const std::string head =
       "name: named\nspace: spatial\nurdf: identified_arm3.urdf\nbase: {type: "
       "free_floating}\ninertia_check: positive_definite\n";
@@ -87,10 +96,7 @@ TEST(ModelRecipe, ParameterErrorsNameTheJointAndTheValue) {
 // and every right angle turns a frame by exact cosines and sines (the model then differs from the
 // rounded one by about the 7e-6 rad moved, no more).
 TEST(ModelRecipe, SnappedRightAnglesLeaveNoResidueInTheClosedForms) {
-  const fs::path dir = fs::temp_directory_path() / "spacearm_recipe_snap";
-  fs::create_directories(dir);
-  fs::copy_file(source("models/published/ETSVII.urdf"), dir / "ETSVII.urdf",
-                fs::copy_options::overwrite_existing);
+  const fs::path dir = folder_with_urdf("snap", "models/published/ETSVII.urdf");
   const std::string head =
       "name: ets\nspace: spatial\nurdf: ETSVII.urdf\nbase: {type: free_floating}\n"
       "inertia_check: positive_definite\n";
