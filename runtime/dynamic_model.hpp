@@ -157,6 +157,10 @@ struct DynamicModel : DynamicModelFacts {
   // divided by p; any other slot holds q itself. joint_rates does the same for qd.
   JointVector joint_angles(const Vector& q) const { return link_side(q, joint_q_offsets, nq); }
   JointVector joint_rates(const Velocity& qd) const { return link_side(qd, joint_v_offsets, nv); }
+  // Joint j's link-side rate alone (nothing allocated: a sweep's step reads it).
+  double joint_rate(const Velocity& qd, int j) const {
+    return link_side_value(qd[joint_v_offsets[j]], j);
+  }
 
   // Whether joint j's slot holds a motor angle (a rigid gear: qm_j, not q_j), so that tables add
   // its link-side angle q_j = qm_j / p_j as a column of its own.
@@ -193,12 +197,15 @@ struct DynamicModel : DynamicModelFacts {
  private:
   // A velocity index past the base in a vector of q's size or of v's.
   int index_in(Eigen::Index size, int v) const { return size == nv ? v : q_index(v); }
+  // A slot's value on the link side: qm / p where it holds a rigid gear's motor angle.
+  double link_side_value(double slot, int j) const {
+    return slot_holds_motor(j) ? slot / gear_ratios[j] : slot;
+  }
   JointVector link_side(const Eigen::VectorXd& x, const std::vector<int>& offsets, int size) const {
     check_size(x, size);
     JointVector a(num_links);
     for (int i = 0; i < num_links; ++i) {
-      const double slot = x[offsets.at(i)];
-      a[i] = slot_holds_motor(i) ? slot / gear_ratios[i] : slot;
+      a[i] = link_side_value(x[offsets.at(i)], i);
     }
     return a;
   }

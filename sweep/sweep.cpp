@@ -108,10 +108,8 @@ void RunMetrics::observe(double t, const Eigen::VectorXd& q, const Eigen::Vector
   const int n = model_.num_links;
   if (samples_ == 0) tau_peak_.setZero(n), rate_peak_.setZero(n);
   for (int j = 0; j < n; ++j) {
-    const double slot = qd[model_.joint_v_offsets[j]];
-    const double rate = model_.slot_holds_motor(j) ? slot / model_.gear_ratios[j] : slot;
     tau_peak_[j] = std::max(tau_peak_[j], std::abs(tau[j]));
-    rate_peak_[j] = std::max(rate_peak_[j], std::abs(rate));
+    rate_peak_[j] = std::max(rate_peak_[j], std::abs(model_.joint_rate(qd, j)));
   }
   if (series_ && samples_ % s_.series_every == 0) {
     char buf[32];
