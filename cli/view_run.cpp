@@ -486,7 +486,8 @@ ViewArgs with_provenance(const ViewArgs& given, json& info, std::vector<std::str
 // in all; ASCII: "solid", then "vertex x y z" three per facet) as binary STL, which the page's
 // STLLoader reads without its ASCII parser (a regular expression whose time grows with the
 // square of a hostile file's size). Every coordinate must be finite and within 1e6 m, or the
-// page's framing would be NaN or far away. Hand-written: no Debian library reads STL. Throws
+// page's framing would be NaN or far away. Hand-written: Debian's Assimp reads STL, but as a
+// dependency of the tool for nine floats per triangle it would outweigh these lines. Throws
 // naming `path`.
 std::string stl_as_binary(const std::string& bytes, const std::string& path) {
   auto refuse = [&path](const std::string& why) {
