@@ -95,18 +95,14 @@ void evaluate_compiled(const ModelRecipe& scene, const EvalArgs& a, const EvalIn
                        nlohmann::ordered_json& out) {
   CompileOptions options;
   options.cache_dir = a.cache_dir;
+  options.engine = parse_engine(a.engine);
   options.progress = [verbose = a.verbose](const std::string& m) {
-    if (verbose || m.find("compiling") != std::string::npos || m.rfind("deriving", 0) == 0)
+    if (verbose || worth_saying(m) || m.rfind("deriving", 0) == 0)
       std::fprintf(stderr, "spacearm: %s%s\n", m.c_str(), verbose ? "" : " ...");
   };
   StageReport rep;
   const auto model = CompiledModel::load(scene, options, &rep);
-  if (a.verbose)
-    std::fprintf(stderr,
-                 "spacearm: cache %s (%s)\nspacearm: derive %.1f ms, emit %.1f ms, compile %.1f "
-                 "ms, load %.1f ms\n",
-                 rep.cache_entry.c_str(), rep.compiled ? "built" : "hit", rep.derive_ms,
-                 rep.emit_ms, rep.compile_ms, rep.load_ms);
+  if (a.verbose) std::fprintf(stderr, "spacearm: %s\n", stage_line(rep).c_str());
   const auto t0 = clock::now();
   with_span_note([&] { return model.span_note(in.params); },
                  [&] {
@@ -115,7 +111,9 @@ void evaluate_compiled(const ModelRecipe& scene, const EvalArgs& a, const EvalIn
                        out[o.name] =
                            results_json(scene.name(), o, model.evaluate(o.id, in.of(o), in.params));
                  });
-  if (a.verbose) std::fprintf(stderr, "spacearm: run %.3f ms\n", ms_since(t0));
+  if (a.verbose)
+    std::fprintf(stderr, "spacearm: run %.3f ms\nspacearm: %s\n", ms_since(t0),
+                 model.engine_report().c_str());
 }
 
 // Each joint's gear ratio at the parameters used (1 without a gear).

@@ -8,6 +8,7 @@
 namespace spacearm {
 
 struct EvalArgs {
+  std::string engine = "auto";  // --engine: CompileOptions::engine (compiled_model.hpp)
   std::string scene_path, q_text, qd_text, cache_dir;
   std::string qdd_text, forces_text,
       qdd_joints_text;   // inputs of the dynamics outputs (default zeros)

@@ -94,14 +94,29 @@ CLI::Validator positive_number(bool allow_zero = false) {
 }
 
 // Runs a subcommand: its errors become one "spacearm: error:" line and exit status 1.
+// A compile still running in the background (--engine auto) finishes, after the output, so that
+// the next run finds the model in the cache.
 template <class Run>
 int guarded(Run&& run) {
+  int status = 1;
   try {
-    return run();
+    status = run();
   } catch (const std::exception& e) {
     std::cerr << "spacearm: error: " << e.what() << "\n";
-    return 1;
   }
+  std::cout.flush();
+  spacearm::finish_background_compiles();
+  return status;
+}
+
+// --engine, for every command that runs a model.
+void add_engine(CLI::App* command, std::string& engine) {
+  command
+      ->add_option("--engine", engine,
+                   "auto: the model's interpreted code answers at once while its library "
+                   "compiles in the background, then the compiled code (the same numbers); "
+                   "interpreter: never compile; compiled: wait for the compiler")
+      ->check(CLI::IsMember({"auto", "interpreter", "compiled"}));
 }
 
 // The generate subcommand's options.
@@ -207,6 +222,7 @@ CLI::App* add_eval(CLI::App& app, spacearm::EvalArgs& a) {
                     "Evaluate GiNaC's expressions instead of the compiled code");
   command->add_flag("--verbose", a.verbose, "Report the time of each stage on stderr");
   command->add_option("--cache-dir", a.cache_dir, "Cache folder for compiled models");
+  add_engine(command, a.engine);
   return command;
 }
 
@@ -305,6 +321,7 @@ CLI::App* add_simulate(CLI::App& app, spacearm::SimulateArgs& a) {
                    "stopped (its rows kept) naming the stiffest mode")
       ->check(positive_number());
   command->add_option("--cache-dir", a.cache_dir, "Cache folder for compiled models");
+  add_engine(command, a.engine);
   command->add_flag("--verbose", a.verbose, "Report the time of each stage on stderr");
   return command;
 }
@@ -352,6 +369,7 @@ CLI::App* add_plan(CLI::App& app, spacearm::PlanArgs& a) {
       "--torque-file", a.torque_file,
       "Also write t,tau1..N alone, the file simulate --torques reads (replay of the plan)");
   command->add_option("--cache-dir", a.cache_dir, "Cache folder for compiled models");
+  add_engine(command, a.engine);
   command->add_flag("--verbose", a.verbose, "Report the stages on stderr");
   return command;
 }
@@ -376,6 +394,7 @@ CLI::App* add_sweep(CLI::App& app, spacearm::SweepArgs& a) {
       ->check(CLI::Range(1, 1024))
       ->default_str("");
   command->add_option("--cache-dir", a.cache_dir, "Cache folder for compiled models");
+  add_engine(command, a.engine);
   command->add_flag("--verbose", a.verbose, "Report the stages on stderr");
   return command;
 }
@@ -413,6 +432,7 @@ CLI::App* add_view(CLI::App& app, spacearm::ViewArgs& a) {
                    "look from, and at; default the arm's centre); buttons switch all and arm")
       ->default_str("all");
   command->add_option("--cache-dir", a.cache_dir, "Cache folder for compiled models");
+  add_engine(command, a.engine);
   command->add_flag("--verbose", a.verbose, "Report the stages on stderr");
   return command;
 }

@@ -10,6 +10,7 @@
 namespace spacearm {
 
 struct PlanArgs {
+  std::string engine = "auto";  // --engine: CompileOptions::engine (compiled_model.hpp)
   std::string scene_path, from_text, to_text, output_file, torque_file, cache_dir;
   std::string time_law = "quintic", q0_text;
   int elbow = +1;

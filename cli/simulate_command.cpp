@@ -298,18 +298,13 @@ std::string failure_advice(const IntegrationError& e, const IntegratorOptions& o
 CompiledModel load_model(const SimulateArgs& a, const ModelRecipe& scene) {
   CompileOptions options;
   options.cache_dir = a.cache_dir;
+  options.engine = parse_engine(a.engine);
   options.progress = [&](const std::string& m) {
-    if (a.verbose || m.find("compiling") != std::string::npos)
-      std::fprintf(stderr, "spacearm: %s\n", m.c_str());
+    if (a.verbose || worth_saying(m)) std::fprintf(stderr, "spacearm: %s\n", m.c_str());
   };
   StageReport rep;
   CompiledModel model = CompiledModel::load(scene, options, &rep);
-  if (a.verbose)
-    std::fprintf(
-        stderr,
-        "spacearm: cache %s (%s); derive %.1f ms, emit %.1f ms, compile %.1f ms, load %.1f ms\n",
-        rep.cache_entry.c_str(), rep.compiled ? "built" : "hit", rep.derive_ms, rep.emit_ms,
-        rep.compile_ms, rep.load_ms);
+  if (a.verbose) std::fprintf(stderr, "spacearm: %s\n", stage_line(rep).c_str());
   return model;
 }
 
@@ -570,12 +565,14 @@ int run_simulate(const SimulateArgs& args) {
   const double dt_out = a.dt_out > 0 ? a.dt_out : a.dt;
   const CompiledModel compiled = load_model(a, scene);
   // A failure at parameters beyond the span the generator checked names that span.
-  return with_span_note([&] { return compiled.span_note(params); },
-                        [&] {
-                          return simulate_loaded(a, scene, compiled, params, q0, qd0,
-                                                 plan ? &*plan : nullptr,
-                                                 torque_file ? &*torque_file : nullptr, dt_out);
-                        });
+  const int status = with_span_note(
+      [&] { return compiled.span_note(params); },
+      [&] {
+        return simulate_loaded(a, scene, compiled, params, q0, qd0, plan ? &*plan : nullptr,
+                               torque_file ? &*torque_file : nullptr, dt_out);
+      });
+  if (a.verbose) std::fprintf(stderr, "spacearm: %s\n", compiled.engine_report().c_str());
+  return status;
 }
 
 }  // namespace spacearm

@@ -10,6 +10,7 @@
 namespace spacearm {
 
 struct SimulateArgs {
+  std::string engine = "auto";  // --engine: CompileOptions::engine (compiled_model.hpp)
   std::string scene_path, torque_file, output_file, cache_dir;
   bool zero_torque = false, verbose = false;
   // Flexible joints: set the motor coordinates to qm = p (q + e), the springs pre-deflected

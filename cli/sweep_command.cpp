@@ -24,8 +24,9 @@ int run_sweep_command(const SweepArgs& a) {
   const long runs = study.num_runs();
   CompileOptions compile;
   compile.cache_dir = a.cache_dir;
+  compile.engine = parse_engine(a.engine);
   compile.progress = [&](const std::string& m) {
-    if (a.verbose || m.find("compiling") != std::string::npos) say(m);
+    if (a.verbose || worth_saying(m)) say(m);
   };
   const StudyRunner runner(std::move(study), compile);
   if (!a.merge.empty()) {

@@ -11,6 +11,7 @@
 namespace spacearm {
 
 struct SweepArgs {
+  std::string engine = "auto";  // --engine: CompileOptions::engine (compiled_model.hpp)
   std::string study_path, out_dir, shard = "1/1", cache_dir;
   int threads = 0;  // 0: one per hardware thread
   // Folders of shards run apart (--merge): their rows checked and merged into -o's results.csv.

@@ -11,6 +11,7 @@
 namespace spacearm {
 
 struct ViewArgs {
+  std::string engine = "auto";  // --engine: CompileOptions::engine (compiled_model.hpp)
   std::string file, scene_path, compare_file, output_file = "view.html", cache_dir;
   std::vector<std::string> param_assignments;
   long max_frames = 2000;  // rows drawn per run (the file's are thinned evenly to this)

@@ -89,9 +89,9 @@ LoadedScene load_scene(const ViewArgs& a) {
   s.recipe = view_recipe(cli::load_scene(a.scene_path));
   CompileOptions options;
   options.cache_dir = a.cache_dir;
+  options.engine = parse_engine(a.engine);
   options.progress = [&](const std::string& m) {
-    if (a.verbose || m.find("compiling") != std::string::npos)
-      std::fprintf(stderr, "spacearm: %s\n", m.c_str());
+    if (a.verbose || worth_saying(m)) std::fprintf(stderr, "spacearm: %s\n", m.c_str());
   };
   s.model = std::make_unique<CompiledModel>(CompiledModel::load(*s.recipe, options));
   s.params = parse_parameters(a.param_assignments, s.recipe->facts());

@@ -37,6 +37,147 @@ namespace spacearm {
 namespace fs = std::filesystem;
 
 namespace {
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace
+
+// A work folder holding the scene's emitted C++, ready to compile (compile_entry), and what the
+// compile will cost.
+struct EmittedEntry {
+  WorkFolder work;
+  EmittedModel emitted;
+  std::vector<std::string> sources;
+  CompileEstimate cost;
+  std::string cost_line;  // checked_cost's; cost_error: past the bound on the code's size
+  std::string cost_error;
+};
+
+// A model's functions as slots (ModelFunction), the library that the compiled ones come from,
+// the interpreted code that serves until then, and the compile that builds the library in the
+// background (Engine::automatic).
+struct CompiledModel::Library {
+  std::map<std::string, std::unique_ptr<ModelFunction::Slot>> slots;  // 4-lane: name + "_x4"
+  std::shared_ptr<const InterpretedModel> code;
+  std::atomic<const char* (*)(const double*)> parameter_error{nullptr};
+  // The interpreter's parameter_error(): the scene's messages (ModelFacts::checks) and "not
+  // finite" per parameter.
+  std::vector<std::string> check_messages, not_finite;
+  std::vector<bool> check_strict;
+  void* handle = nullptr;
+  std::chrono::steady_clock::time_point started;
+  std::mutex mutex;  // guards the three below
+  std::mutex joining;
+  std::thread compile;
+  std::string compile_error;
+  double loaded_after_ms = -1;
+  bool background = false;        // a compile was started
+  std::atomic<bool> done{false};  // and has ended
+
+  ModelFunction add_slot(const std::string& name, ModelFunction::Raw compiled,
+                         const InterpretedFunction* interpreted, bool lanes, TrigSource trig) {
+    auto slot = std::make_unique<ModelFunction::Slot>();
+    slot->compiled.store(compiled);
+    slot->interpreted = interpreted;
+    slot->lanes = lanes;
+    slot->trig = trig;
+    const ModelFunction f(slot.get());
+    slots[name] = std::move(slot);
+    return f;
+  }
+  // The compiled library's functions, from a model just loaded, serve from now on: every one
+  // is found before any is published.
+  void take(Library& loaded) {
+    for (const auto& [name, slot] : slots)
+      if (!loaded.slots.count(name))
+        throw CompileError("the compiled library lacks spacearm_" + name);
+    parameter_error.store(loaded.parameter_error.load());
+    for (const auto& [name, slot] : slots)
+      slot->compiled.store(loaded.slots.at(name)->compiled.load(), std::memory_order_release);
+    const std::lock_guard<std::mutex> lock(mutex);
+    std::swap(handle, loaded.handle);
+    loaded_after_ms = ms_since(started);
+  }
+  void join() {
+    const std::lock_guard<std::mutex> lock(joining);
+    if (compile.joinable()) compile.join();
+  }
+  ~Library() {
+    if (compile.joinable()) compile.join();
+    if (handle) dlclose(handle);
+  }
+};
+
+namespace {
+
+// The libraries of models dropped while their compile ran: each compile finishes (and lands in
+// the cache for the next run) before the process ends, here or in finish_background_compiles.
+// The compile's statics are made before its thread starts (in_background), so they outlive this.
+class PendingCompiles {
+ public:
+  static PendingCompiles& instance() {
+    static PendingCompiles pending;
+    return pending;
+  }
+  void keep(std::shared_ptr<void> library, std::function<bool()> done) {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    // Those already ended are let go (their threads join at once).
+    for (size_t k = 0; k < libraries_.size();)
+      if (libraries_[k].second())
+        libraries_.erase(libraries_.begin() + static_cast<long>(k));
+      else
+        ++k;
+    libraries_.emplace_back(std::move(library), std::move(done));
+  }
+  int running() {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    int n = 0;
+    for (const auto& [library, done] : libraries_) n += !done();
+    return n;
+  }
+  void finish() {
+    std::vector<std::pair<std::shared_ptr<void>, std::function<bool()>>> waiting;
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      waiting.swap(libraries_);
+    }
+    waiting.clear();  // each Library's destructor joins its compile
+  }
+  ~PendingCompiles() { finish(); }
+
+ private:
+  std::mutex mutex_;
+  std::vector<std::pair<std::shared_ptr<void>, std::function<bool()>>> libraries_;
+};
+
+}  // namespace
+
+void ModelFunction::interpret_call(const double* const* in, const double* params,
+                                   double* const* out) const {
+  slot_->interpreted_calls.fetch_add(1, std::memory_order_relaxed);
+  (slot_->lanes ? interpret_lanes : interpret)(*slot_->interpreted, slot_->trig, in, params, out);
+}
+
+const char* engine_name(Engine e) {
+  switch (e) {
+    case Engine::automatic:
+      return "auto";
+    case Engine::interpreter:
+      return "interpreter";
+    case Engine::compiled:
+      return "compiled";
+  }
+  return "";
+}
+
+Engine parse_engine(const std::string& text, const std::string& option) {
+  for (Engine e : {Engine::automatic, Engine::interpreter, Engine::compiled})
+    if (text == engine_name(e)) return e;
+  throw std::invalid_argument(option + ": expected auto, interpreter or compiled, got " +
+                              quoted_text(text));
+}
+
+namespace {
 
 // The whole content of a memory file (a log).
 std::string read_log(const Fd& log) {
@@ -119,10 +260,6 @@ const std::string& generator_identity() {
   return id;
 }
 
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
 // The self-description every library exports (cpp_printer.hpp), checked before anything is
 // called.
 const std::vector<std::string>& description_symbols() {
@@ -174,14 +311,15 @@ std::string shown_command(const std::vector<std::string>& argv) {
 // to `log_text`; the first nonzero exit status (-1: one could not start), or 0.
 int run_compilers(const std::vector<std::vector<std::string>>& commands, int dir,
                   std::string& log_text, const std::function<void()>& on_interrupt,
-                  const std::string& compiler, const std::string& model) {
+                  const std::string& compiler, const std::string& model, bool own_signals) {
   std::vector<Fd> logs;
   std::vector<int> fds;
   for (size_t k = 0; k < commands.size(); ++k) {
     logs.push_back(memory_file("spacearm-compile-log"));
     fds.push_back(logs.back().get());
   }
-  const std::vector<RunResult> runs = run_all_interruptible(commands, dir, fds, on_interrupt);
+  const std::vector<RunResult> runs =
+      run_all_interruptible(commands, dir, fds, on_interrupt, own_signals);
   int failed = 0;
   for (size_t k = 0; k < runs.size(); ++k) {
     if (runs[k].interrupted) throw CompileError("compiling model '" + model + "' was interrupted");
@@ -339,52 +477,74 @@ struct CompilePlan {
   }
 };
 
-// Generates and compiles the scene into a new work folder; returns it, ready to install.
-// Every file is written and read relative to the folder's descriptor, and the compiler runs
-// inside it with relative names: nothing goes through the cache's path again.
-WorkFolder build_entry(const ModelRecipe& recipe, const CacheFolder& cache,
-                       const std::string& entry, const std::string& compiler,
-                       const std::string& compiler_id, const CompileOptions& options,
-                       StageReport& rep) {
-  auto say = [&](const std::string& m) {
-    if (options.progress) options.progress(m);
-  };
-  WorkFolder work = cache.make_work_folder(entry);
-  const std::string shown = cache.path() + "/" + work.name;
-  const int dir = work.fd.get();
+// Generates the scene into a new work folder (with the interpreter's code too where asked).
+// Every file is written relative to the folder's descriptor. The code's size is checked against
+// its bound: past it, cost_error says why (the caller refuses to compile).
+EmittedEntry emit_entry(const ModelRecipe& recipe, const CacheFolder& cache,
+                        const std::string& entry, const CompileOptions& options, StageReport& rep,
+                        bool interpreted) {
+  if (options.progress) options.progress("deriving " + recipe.name());
+  EmittedEntry e{cache.make_work_folder(entry), {}, {}, {}, {}, {}};
+  const std::string shown = cache.path() + "/" + e.work.name;
   try {
-    say("deriving " + recipe.name());
     const auto t0 = std::chrono::steady_clock::now();
     EmitOptions eo;
     eo.scene_path = recipe.source_path();
     eo.command = "spacearm (compile-and-load cache)";
     eo.c_units = compile_jobs(options);
-    const EmittedModel emitted = recipe.emit(eo, &rep.derive_ms);
-    const size_t units = emitted.c_units.size();
-    std::vector<std::string> sources;
+    eo.interpreted = interpreted;
+    e.emitted = recipe.emit(eo, &rep.derive_ms);
+    const size_t units = e.emitted.c_units.size();
     for (size_t u = 0; u < units; ++u) {
-      sources.push_back(units == 1 ? "libmodel.cpp" : "libmodel_" + std::to_string(u) + ".cpp");
-      write_new_file_at(dir, sources[u], emitted.c_units[u], shown + "/" + sources[u]);
+      e.sources.push_back(units == 1 ? "libmodel.cpp" : "libmodel_" + std::to_string(u) + ".cpp");
+      write_new_file_at(e.work.fd.get(), e.sources[u], e.emitted.c_units[u],
+                        shown + "/" + e.sources[u]);
     }
     rep.emit_ms = ms_since(t0) - rep.derive_ms;
     rep.generated = true;
+    try {
+      e.cost = checked_cost(recipe, e.emitted, options, e.cost_line);
+    } catch (const CompileError& error) {
+      e.cost_error = error.what();
+    }
+    return e;
+  } catch (const FolderError& error) {
+    cache.remove(e.work);
+    throw CompileError(error.what());
+  } catch (...) {
+    cache.remove(e.work);
+    throw;
+  }
+}
 
-    // The cost, said before the compiler starts; a model past the bound is refused.
-    std::string line;
-    const CompileEstimate cost = checked_cost(recipe, emitted, options, line);
-    say("compiling with " + compiler + ": " + line);
-    const CompileHeartbeat heartbeat(options.progress, recipe.name(), cost.seconds);
+// Compiles an emitted entry's sources inside its work folder, with relative names (nothing goes
+// through the cache's path again), and writes its COMPLETE marker: ready to install. On failure
+// the folder is kept for inspection (compile errors) or removed, and a CompileError says why.
+void compile_entry(const ModelRecipe& recipe, const CacheFolder& cache, const std::string& entry,
+                   EmittedEntry& e, const std::string& compiler, const std::string& compiler_id,
+                   const CompileOptions& options, StageReport& rep, bool own_signals) {
+  auto say = [&](const std::string& m) {
+    if (options.progress) options.progress(m);
+  };
+  const WorkFolder& work = e.work;
+  const std::string shown = cache.path() + "/" + work.name;
+  const int dir = work.fd.get();
+  try {
+    if (!e.cost_error.empty()) throw CompileError(e.cost_error);
+    say("compiling with " + compiler + ": " + e.cost_line);
+    const CompileHeartbeat heartbeat(options.progress, recipe.name(), e.cost.seconds);
     const auto t1 = std::chrono::steady_clock::now();
     const std::string flags = options.flags + instruction_set_flags(options.instruction_set);
-    const CompilePlan plan(sources, compiler, flags, options.libraries);
+    const CompilePlan plan(e.sources, compiler, flags, options.libraries);
     const auto& [compiles, objects, link] = plan;
     write_new_file_at(dir, "compile_command.txt", "cd " + shown + plan.shown() + "\n",
                       shown + "/compile_command.txt");
     std::string log_text;
     const auto remove = [&] { cache.remove(work); };
-    int failed = run_compilers(compiles, dir, log_text, remove, compiler, recipe.name());
-    if (failed == 0 && units > 1)
-      failed = run_compilers({link}, dir, log_text, remove, compiler, recipe.name());
+    int failed =
+        run_compilers(compiles, dir, log_text, remove, compiler, recipe.name(), own_signals);
+    if (failed == 0 && e.sources.size() > 1)
+      failed = run_compilers({link}, dir, log_text, remove, compiler, recipe.name(), own_signals);
     rep.compile_ms = ms_since(t1);
     if (failed != 0) {
       try {
@@ -410,11 +570,10 @@ WorkFolder build_entry(const ModelRecipe& recipe, const CacheFolder& cache,
                           "\ngenerator " + kGeneratorVersion + "\ncompiler " + compiler_id +
                           "\nflags " + flags + "\nlibraries " + options.libraries + "\n",
                       shown + "/COMPLETE");
-    return work;
-  } catch (const FolderError& e) {
+  } catch (const FolderError& error) {
     cache.remove(work);
-    throw CompileError(e.what());
-  } catch (...) {
+    throw CompileError(error.what());
+  } catch (...) {  // a failed build was kept as failed/ENTRY first
     cache.remove(work);
     throw;
   }
@@ -469,7 +628,10 @@ CompiledModel CompiledModel::load(const ModelRecipe& recipe, const CompileOption
   auto say = [&](const std::string& m) {
     if (options.progress) options.progress(m);
   };
-  const CacheFolder cache(cache_directory(options));
+  if (options.engine == Engine::interpreter) return interpreted(recipe, options, rep, "");
+  if (!(options.max_code_mb > 0)) CompileOptions::default_max_code_mb();  // a bad value: an error
+  const bool automatic = options.engine == Engine::automatic;
+  CacheFolder cache(cache_directory(options));
   cache.remove_stale_work();
   std::string compiler = options.compiler;
   if (compiler.empty())
@@ -480,10 +642,19 @@ CompiledModel CompiledModel::load(const ModelRecipe& recipe, const CompileOption
                  options.flags + '\0' + options.libraries)
           .substr(0, 24) +
       "-";
+  // No compiler, or a cache that cannot be written: a library built before, else (automatic)
+  // the interpreter.
+  const auto built_before = [&](const std::string& why) {
+    if (!automatic) return load_built(recipe, cache, source, options.instruction_set, why, rep);
+    try {
+      return load_built(recipe, cache, source, options.instruction_set, why, rep);
+    } catch (const CompileError& e) {
+      return interpreted(recipe, options, rep, e.what());
+    }
+  };
   std::string no_compiler;
   const std::string compiler_id = compiler_identity(compiler, cache.fd(), no_compiler);
-  if (compiler_id.empty())
-    return load_built(recipe, cache, source, options.instruction_set, no_compiler, rep);
+  if (compiler_id.empty()) return built_before(no_compiler);
   const std::string entry =
       source + options.instruction_set + "-" + sha256_hex(compiler_id).substr(0, 8);
   rep.cache_entry = cache.path() + "/" + entry;
@@ -501,15 +672,19 @@ CompiledModel CompiledModel::load(const ModelRecipe& recipe, const CompileOption
         say("cache entry " + rep.cache_entry + " is " + problem + ": rebuilding");
         cache.discard(entry);
       }
-      std::optional<WorkFolder> work;
+      std::optional<EmittedEntry> emitted;
       try {
-        work.emplace(build_entry(recipe, cache, entry, compiler, compiler_id, options, rep));
+        emitted.emplace(emit_entry(recipe, cache, entry, options, rep, automatic));
       } catch (const CompileError& e) {
         // Nothing generated: the folder cannot be written (a read-only cache); another entry?
         if (rep.generated) throw;
-        return load_built(recipe, cache, source, options.instruction_set, e.what(), rep);
+        return built_before(e.what());
       }
-      cache.install(*work, entry);
+      if (automatic)
+        return in_background(recipe, std::move(cache), entry, std::move(*emitted),
+                             {compiler, compiler_id}, options, rep);
+      compile_entry(recipe, cache, entry, *emitted, compiler, compiler_id, options, rep, true);
+      cache.install(emitted->work, entry);
       continue;
     }
     std::string why;
@@ -520,6 +695,165 @@ CompiledModel CompiledModel::load(const ModelRecipe& recipe, const CompileOption
     say("cache entry " + rep.cache_entry + " is corrupted (" + why + "): rebuilding");
     cache.discard(entry);
   }
+}
+
+// The model served by its interpreted code (emitted here unless given), its facts the scene's.
+CompiledModel CompiledModel::interpreted(const ModelRecipe& recipe, const CompileOptions& options,
+                                         StageReport& rep, const std::string& no_library,
+                                         std::shared_ptr<const InterpretedModel> code) {
+  if (!code) {
+    EmitOptions eo;
+    eo.scene_path = recipe.source_path();
+    eo.interpreted = true;
+    const auto t0 = std::chrono::steady_clock::now();
+    code = recipe.emit(eo, &rep.derive_ms).interpreted;
+    rep.emit_ms = ms_since(t0) - rep.derive_ms;
+    rep.generated = true;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  const ModelFacts& facts = recipe.facts();
+  CompiledModel m;
+  m.library_ = std::make_shared<Library>();
+  Library& lib = *m.library_;
+  lib.code = code;
+  lib.started = t0;
+  if (!no_library.empty()) lib.compile_error = no_library;
+  m.name_ = facts.name;
+  m.dims_ = facts.dims;
+  m.num_base_ = facts.num_base;
+  m.free_floating_ = facts.free_floating;
+  m.passive_forces_ = facts.has_passive_forces();
+  m.quaternion_offset_ = facts.quaternion_offset;
+  m.outputs_ = output_mask(facts.outputs);
+  m.coordinate_names_ = facts.coordinate_names;
+  m.parameter_names_ = facts.parameter_names;
+  m.nominal_ = facts.nominal_parameters;
+  m.actuated_ = spacearm::actuated_coordinates(facts);
+  m.motor_angle_slots_ = facts.motor_angle_slots;
+  m.span_fields_ = facts.span_fields;
+  for (const auto& c : facts.checks)
+    lib.check_messages.push_back(c.message), lib.check_strict.push_back(c.strict);
+  for (const auto& p : facts.parameter_names)
+    lib.not_finite.push_back("parameter '" + p + "' is not finite");
+  // The compiled sin and cos: libmvec's where the flags define the macro (kVectorTrigFlag).
+  const TrigSource trig{(" " + options.flags + " ").find(" -DSPACEARM_VECTOR_TRIG ") !=
+                        std::string::npos};
+  for (const std::string& name : exported_functions(m.outputs_)) {
+    const auto f = std::find_if(code->functions.begin(), code->functions.end(),
+                                [&](const InterpretedFunction& g) { return g.name == name; });
+    if (f == code->functions.end())
+      throw std::logic_error("interpreted code of " + m.name_ + " lacks " + name);
+    m.functions_[name] = lib.add_slot(name, nullptr, &*f, false, trig);
+    if (f->lanes)
+      m.lanes_functions_[name] = lib.add_slot(name + kLanesSuffix, nullptr, &*f, true, trig);
+  }
+  rep.interpreted = true;
+  rep.interpret_ms = ms_since(t0);
+  return m;
+}
+
+// Served by the interpreter now; the library compiled on a thread of its own, installed in the
+// cache and loaded, then its functions swapped in (Library::take).
+CompiledModel CompiledModel::in_background(const ModelRecipe& recipe, CacheFolder cache,
+                                           const std::string& entry, EmittedEntry emitted,
+                                           const std::pair<std::string, std::string>& compiler,
+                                           const CompileOptions& options, StageReport& rep) {
+  CompiledModel m = interpreted(recipe, options, rep, "", emitted.emitted.interpreted);
+  Library* lib = m.library_.get();
+  lib->background = true;
+  description_symbols();        // the compile's statics, made before PendingCompiles (which
+  PendingCompiles::instance();  // they must outlive: it joins the compile at exit)
+  const auto say = options.progress;
+  CompileOptions quiet = options;  // its stages, for --verbose (worth_saying)
+  if (say) quiet.progress = [say](const std::string& m) { say("background: " + m); };
+  lib->compile = std::thread([lib, recipe, cache = std::move(cache), entry, e = std::move(emitted),
+                              compiler, options = quiet, say]() mutable {
+    StageReport background;
+    try {
+      compile_entry(recipe, cache, entry, e, compiler.first, compiler.second, options, background,
+                    false);
+      cache.install(e.work, entry);
+      std::string problem, why;
+      const Fd library = cache.open_library(entry, problem);
+      if (!library.valid())
+        throw CompileError("cache entry '" + entry + "' is " + problem + " after a fresh build");
+      CompiledModel loaded = open_verified(recipe, library, background, why);
+      if (!why.empty()) throw CompileError("cannot load the library of '" + entry + "': " + why);
+      lib->take(*loaded.library_);
+      if (say) say("the compiled library of " + recipe.name() + " serves from now on");
+    } catch (const std::exception& error) {
+      {
+        const std::lock_guard<std::mutex> lock(lib->mutex);
+        lib->compile_error = error.what();
+      }
+      if (say)
+        say("compiling " + recipe.name() + " in the background failed; the interpreter serves " +
+            "on: " + error.what());
+    }
+    lib->done = true;
+  });
+  return m;
+}
+
+std::string stage_line(const StageReport& rep) {
+  const char* state = !rep.interpreted ? (rep.compiled ? "built" : "hit")
+                      : rep.cache_entry.empty()
+                          ? "not used: the interpreter serves"
+                          : "missed: the interpreter serves while the library compiles";
+  char line[300];
+  std::snprintf(
+      line, sizeof line,
+      "; derive %.1f ms, emit %.1f ms, compile %.1f ms, load %.1f ms, interpreter %.1f ms",
+      rep.derive_ms, rep.emit_ms, rep.compile_ms, rep.load_ms, rep.interpret_ms);
+  return "cache " + (rep.cache_entry.empty() ? std::string("-") : rep.cache_entry) + " (" + state +
+         ")" + line;
+}
+
+const char* CompiledModel::engine() const {
+  const auto f = functions_.find("gear_ratios");
+  return f != functions_.end() && f->second.compiled() ? "compiled" : "interpreter";
+}
+
+bool CompiledModel::wait_for_compiled() const {
+  library_->join();
+  return std::string_view(engine()) == "compiled";
+}
+
+std::string CompiledModel::engine_report() const {
+  long calls = 0;
+  for (const auto& [name, slot] : library_->slots)
+    calls += slot->interpreted_calls.load(std::memory_order_relaxed);
+  const std::lock_guard<std::mutex> lock(library_->mutex);
+  const std::string interpreted =
+      "the interpreter served " + std::to_string(calls) + (calls == 1 ? " call" : " calls");
+  char loaded[120];
+  std::snprintf(loaded, sizeof loaded, "; the compiled library loaded %.2f s after the start",
+                library_->loaded_after_ms / 1e3);
+  if (!library_->code) return "engine: compiled";
+  if (library_->loaded_after_ms >= 0)
+    return "engine: " + interpreted + loaded + " and served the rest";
+  if (!library_->compile_error.empty())
+    return "engine: " + interpreted + " (no compiled library: " + library_->compile_error + ")";
+  return "engine: " + interpreted +
+         (library_->background ? "; the compile goes on in the background" : "");
+}
+
+const char* CompiledModel::parameter_error(const double* params) const {
+  if (const auto compiled = library_->parameter_error.load()) return compiled(params);
+  const Library& lib = *library_;
+  for (size_t i = 0; i < lib.not_finite.size(); ++i)
+    if (!std::isfinite(params[i])) return lib.not_finite[i].c_str();
+  const size_t n = lib.check_messages.size();
+  if (n == 0) return nullptr;
+  thread_local std::vector<double> values;
+  values.resize(n);
+  std::vector<double*> out(n);
+  for (size_t k = 0; k < n; ++k) out[k] = &values[k];
+  interpret(lib.code->check_values, {}, nullptr, params, out.data());
+  for (size_t k = 0; k < n; ++k)
+    if (!(lib.check_strict[k] ? values[k] > 0 : values[k] >= 0))
+      return lib.check_messages[k].c_str();
+  return nullptr;
 }
 
 // A complete, verified entry of `source` built before by any compiler for an instruction set
@@ -592,18 +926,20 @@ CompiledModel CompiledModel::open_verified(const ModelRecipe& recipe, const Fd& 
                                            StageReport& rep, std::string& why) {
   const auto t0 = std::chrono::steady_clock::now();
   CompiledModel m;
-  m.handle_ = dlopen(never_used_path(library.get()).c_str(), RTLD_NOW | RTLD_LOCAL);
-  if (!m.handle_) {
+  m.library_ = std::make_shared<Library>();
+  void*& handle = m.library_->handle;
+  handle = dlopen(never_used_path(library.get()).c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (!handle) {
     const char* e = dlerror();
     why = e ? e : "dlopen failed";
     return m;
   }
   for (const auto& name : description_symbols())
-    if (!dlsym(m.handle_, name.c_str())) {
+    if (!dlsym(handle, name.c_str())) {
       why = "the library lacks the symbol " + name;
       return m;
     }
-  auto sym = [&](const std::string& name) { return dlsym(m.handle_, name.c_str()); };
+  auto sym = [&](const std::string& name) { return dlsym(handle, name.c_str()); };
   auto number = [&](const char* name) { return reinterpret_cast<int (*)()>(sym(name))(); };
   if (number("spacearm_abi_version") != kCInterfaceVersion) {
     why = "wrong interface version";
@@ -653,17 +989,18 @@ CompiledModel CompiledModel::open_verified(const ModelRecipe& recipe, const Fd& 
   // A cross-check only: the hash already names the scene.
   why = m.mismatch_with(recipe.facts());
   if (!why.empty()) return m;
-  m.parameter_error_ =
+  m.library_->parameter_error =
       reinterpret_cast<const char* (*)(const double*)>(sym("spacearm_parameter_error"));
   for (const auto& f : exported_functions(m.outputs_)) {
-    m.functions_[f] = reinterpret_cast<Function>(sym("spacearm_" + f));
-    if (!m.functions_[f]) {
+    const auto compiled = reinterpret_cast<ModelFunction::Raw>(sym("spacearm_" + f));
+    if (!compiled) {
       why = "the library lacks the symbol spacearm_" + f;
       return m;
     }
+    m.functions_[f] = m.library_->add_slot(f, compiled, nullptr, false, {});
     // The 4-lane version beside it (cpp_printer.hpp), where the printer emitted one.
-    if (auto lanes = reinterpret_cast<Function>(sym("spacearm_" + f + kLanesSuffix)))
-      m.lanes_functions_[f] = lanes;
+    if (auto lanes = reinterpret_cast<ModelFunction::Raw>(sym("spacearm_" + f + kLanesSuffix)))
+      m.lanes_functions_[f] = m.library_->add_slot(f + kLanesSuffix, lanes, nullptr, true, {});
   }
   rep.load_ms = ms_since(t0);
   return m;
@@ -688,29 +1025,17 @@ std::string CompiledModel::mismatch_with(const ModelFacts& expected) const {
   return "";
 }
 
+void finish_background_compiles() { PendingCompiles::instance().finish(); }
+
+int background_compiles_running() { return PendingCompiles::instance().running(); }
+
+// A model dropped while its library compiles leaves the compile to finish (PendingCompiles).
 CompiledModel::~CompiledModel() {
-  if (handle_) dlclose(handle_);
+  if (!library_ || !library_->background || library_->done) return;
+  Library* lib = library_.get();
+  PendingCompiles::instance().keep(std::move(library_), [lib] { return lib->done.load(); });
 }
-CompiledModel::CompiledModel(CompiledModel&& o) noexcept { *this = std::move(o); }
-CompiledModel& CompiledModel::operator=(CompiledModel&& o) noexcept {
-  std::swap(handle_, o.handle_);
-  dims_ = o.dims_;
-  name_ = std::move(o.name_);
-  outputs_ = o.outputs_;
-  functions_ = std::move(o.functions_);
-  lanes_functions_ = std::move(o.lanes_functions_);
-  parameter_error_ = o.parameter_error_;
-  coordinate_names_ = std::move(o.coordinate_names_);
-  parameter_names_ = std::move(o.parameter_names_);
-  nominal_ = std::move(o.nominal_);
-  actuated_ = std::move(o.actuated_);
-  motor_angle_slots_ = std::move(o.motor_angle_slots_);
-  span_fields_ = std::move(o.span_fields_);
-  free_floating_ = o.free_floating_;
-  passive_forces_ = o.passive_forces_;
-  num_base_ = o.num_base_;
-  quaternion_offset_ = o.quaternion_offset_;
-  return *this;
-}
+CompiledModel::CompiledModel(CompiledModel&& o) noexcept = default;
+CompiledModel& CompiledModel::operator=(CompiledModel&& o) noexcept = default;
 
 }  // namespace spacearm

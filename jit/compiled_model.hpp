@@ -6,6 +6,8 @@
 
 #include <Eigen/Core>
 
+#include <atomic>
+#include <cstddef>
 #include <functional>
 #include <map>
 #include <memory>
@@ -14,6 +16,7 @@
 #include <vector>
 
 #include "dynamic_model.hpp"
+#include "interpreter.hpp"
 #include "model_cache.hpp"
 #include "model_recipe.hpp"
 #include "planar_scene.hpp"
@@ -55,6 +58,25 @@ inline std::string compile_flags(const std::string& optimization = kDefaultOptim
   return optimization + " -ffp-contract=off -std=c++17 -fPIC -shared" + kVectorTrigFlag;
 }
 
+// Which engine serves a model's calls (--engine).
+//  automatic: the compiled library where the cache holds one; else the interpreter at once
+//    (interpreter.hpp, the same numbers) while the compiler builds the library in the
+//    background, whose functions serve every call made after it loads; the model's destruction
+//    waits for that compile, so that the next run finds the library in the cache.
+//  interpreter: the interpreter only; no compiler runs.
+//  compiled: the compiled library, built first where the cache has none (waits for it).
+enum class Engine { automatic, interpreter, compiled };
+const char* engine_name(Engine e);  // "auto", "interpreter", "compiled"
+// std::invalid_argument naming `option` and the value when it is none of those three.
+Engine parse_engine(const std::string& text, const std::string& option = "--engine");
+
+// Whether a stage message of CompileOptions::progress is worth saying without --verbose: a compile
+// the user waits for, or a failure. A compile in the background (Engine::automatic) says its
+// stages with the prefix "background: ", for --verbose alone.
+inline bool worth_saying(const std::string& message) {
+  return message.rfind("background: ", 0) != 0 && message.find("compiling") != std::string::npos;
+}
+
 struct CompileOptions {
   std::string cache_dir;  // empty: $SPACEARM_CACHE_DIR, else $XDG_CACHE_HOME/spacearm, else
                           // ~/.cache/spacearm
@@ -67,6 +89,8 @@ struct CompileOptions {
   std::string instruction_set = host_instruction_set();  // added to the flags; cpu_runs it
   int jobs = 0;  // compilers at once (the library in as many units); 0: the CPUs we may use, <= 4
   std::function<void(const std::string&)> progress;  // stage messages (may be empty)
+  // The API's default waits for the compiled library; the commands and Python take automatic.
+  Engine engine = Engine::compiled;
   // The largest emitted C++ compiled [MB] (compile_estimate): past it the load is refused
   // before the compiler starts, naming the size, the estimated time and memory. 0: read when a
   // compile needs it, $SPACEARM_MAX_CODE_MB or else 8 (default_max_code_mb).
@@ -85,8 +109,52 @@ CompileEstimate compile_estimate(size_t largest_unit_bytes);
 struct StageReport {
   bool generated = false, compiled = false;
   double derive_ms = 0, emit_ms = 0, compile_ms = 0, load_ms = 0;
+  // The interpreter serves the first calls (Engine): its code was read in interpret_ms; with
+  // Engine::automatic the compile then runs in the background (compile_ms stays 0).
+  bool interpreted = false;
+  double interpret_ms = 0;
   std::string cache_entry;  // folder of the cached model
 };
+
+// One function of a model, called as cpp_printer.hpp says (no checks): the compiled library's
+// where it has loaded, else the interpreter's (interpreter.hpp), whose numbers are the same. Each
+// call reads which one anew, so a caller that holds it switches at its next call when the
+// library loads in the background (Engine::automatic).
+class ModelFunction {
+ public:
+  using Raw = void (*)(const double* const*, const double*, double* const*);
+  // What a model holds for each function: the compiled one, set once it has loaded, and the
+  // interpreted code that serves until then.
+  struct Slot {
+    std::atomic<Raw> compiled{nullptr};
+    const InterpretedFunction* interpreted = nullptr;
+    bool lanes = false;  // the 4-lane version
+    TrigSource trig;
+    mutable std::atomic<long> interpreted_calls{0};
+  };
+  ModelFunction() = default;
+  ModelFunction(std::nullptr_t) {}
+  explicit ModelFunction(const Slot* slot) : slot_(slot) {}
+  void operator()(const double* const* in, const double* params, double* const* out) const {
+    if (const Raw f = slot_->compiled.load(std::memory_order_acquire)) return f(in, params, out);
+    interpret_call(in, params, out);
+  }
+  explicit operator bool() const { return slot_ != nullptr; }
+  bool operator==(const ModelFunction& o) const { return slot_ == o.slot_; }
+  bool operator!=(const ModelFunction& o) const { return slot_ != o.slot_; }
+  // The compiled function serves it now.
+  bool compiled() const { return slot_ && slot_->compiled.load(std::memory_order_acquire); }
+
+ private:
+  void interpret_call(const double* const* in, const double* params, double* const* out) const;
+  const Slot* slot_ = nullptr;
+};
+
+struct EmittedEntry;  // compiled_model.cpp: a cache work folder with emitted C++
+
+// The stages as --verbose says them: "cache ENTRY (hit); derive 1.0 ms, emit ..., compile ...,
+// load ...", or which engine serves while the compile runs in the background.
+std::string stage_line(const StageReport& rep);
 
 // A generated model loaded from a shared library, with a dynamic-size interface.
 class CompiledModel {
@@ -189,8 +257,8 @@ class CompiledModel {
    private:
     const CompiledModel* m_;
     Eigen::VectorXd params_, pivots_, scaled_pivots_;
-    // The emitted function (Function below); nullptr: the Cholesky path.
-    void (*emitted_)(const double* const*, const double*, double* const*) = nullptr;
+    // The emitted function (Function below); empty: the Cholesky path.
+    ModelFunction emitted_;
   };
   // The state Jacobian dqdd/dq, dqdd/dqd at constant Q; returns qdd. DynamicsError where a
   // result is not finite (as Model<G>'s).
@@ -201,9 +269,10 @@ class CompiledModel {
                                                Eigen::MatrixXd& dqdd_dqd) const;
 
   // The exported C function of an output, called as cpp_printer.hpp says, with no checks:
-  // for callers that check their inputs once and then call it many times (benchmarks). It
-  // points into the loaded library: valid while this model lives.
-  using Function = void (*)(const double* const*, const double*, double* const*);
+  // for callers that check their inputs once and then call it many times (benchmarks). Valid
+  // while this model lives; it calls the compiled function once that has loaded, else the
+  // interpreter (ModelFunction).
+  using Function = ModelFunction;
   Function function(Output o) const;
   // By its exported name without the prefix: an output's, or mass_matrix_and_bias.
   Function function(const std::string& name) const;
@@ -211,16 +280,28 @@ class CompiledModel {
   // [4 i + l] of every input, parameter and result), or nullptr where the library has none.
   Function lanes_function(Output o) const;
 
+  // Which engine serves calls now ("compiled" or "interpreter"), and, for --verbose, a line
+  // that says so: how many calls the interpreter served, when the compiled library loaded, or
+  // why the background compile failed.
+  const char* engine() const;
+  std::string engine_report() const;
+  // Waits for a background compile (Engine::automatic) to end; true if the compiled library
+  // serves now.
+  bool wait_for_compiled() const;
+
  private:
   CompiledModel() = default;
   class BatchCall;
-  void* handle_ = nullptr;
+  struct Library;  // the function slots, the loaded library, the background compile
+  std::shared_ptr<Library> library_;
   Dimensions dims_;
   std::string name_;
   unsigned long outputs_ = 0;
   std::map<std::string, Function> functions_;        // by name, without the "spacearm_" prefix
   std::map<std::string, Function> lanes_functions_;  // the 4-lane versions, where emitted
-  const char* (*parameter_error_)(const double*) = nullptr;
+  // The library's parameter_error() (cpp_printer.cpp), or the interpreter's: nullptr or what is
+  // wrong.
+  const char* parameter_error(const double* params) const;
   std::vector<std::string> coordinate_names_, parameter_names_;
   std::vector<double> nominal_;
   std::vector<int> actuated_;
@@ -230,6 +311,13 @@ class CompiledModel {
   int num_base_ = 0, quaternion_offset_ = -1;
   static CompiledModel open_verified(const ModelRecipe& recipe, const Fd& library, StageReport& rep,
                                      std::string& why);
+  static CompiledModel interpreted(const ModelRecipe& recipe, const CompileOptions& options,
+                                   StageReport& rep, const std::string& no_library,
+                                   std::shared_ptr<const InterpretedModel> code = nullptr);
+  static CompiledModel in_background(const ModelRecipe& recipe, CacheFolder cache,
+                                     const std::string& entry, EmittedEntry emitted,
+                                     const std::pair<std::string, std::string>& compiler,
+                                     const CompileOptions& options, StageReport& rep);
   static CompiledModel load_built(const ModelRecipe& recipe, const CacheFolder& cache,
                                   const std::string& source, const std::string& preferred,
                                   const std::string& no_compiler, StageReport& rep);
@@ -286,6 +374,13 @@ class LoadedSource {
 inline DynamicModel dynamic_model(const CompiledModel& m, const Eigen::VectorXd& params) {
   return dynamic_model_of(LoadedSource(m, params));
 }
+
+// Models dropped while their library compiled in the background (Engine::automatic) leave the
+// compile to finish before the process ends, so that the next run finds it in the cache: how
+// many still run, and a wait for them all (a command's last step, after its output; the process's
+// exit waits too).
+int background_compiles_running();
+void finish_background_compiles();
 
 // runtime/dynamics_checks.hpp's checks on the results of evaluate(Output::forward_dynamics, ...)
 // (qdd, pivots, scaled_pivots: the registry's order); DynamicsError when one fails.

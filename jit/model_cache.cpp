@@ -222,7 +222,8 @@ void kill_own_group(int) { ::kill(0, SIGKILL); }
 
 std::vector<RunResult> run_all_interruptible(const std::vector<std::vector<std::string>>& argvs,
                                              int work_dir, const std::vector<int>& logs,
-                                             const std::function<void()>& on_interrupt) {
+                                             const std::function<void()>& on_interrupt,
+                                             bool own_signals) {
   if (logs.size() != argvs.size()) throw std::logic_error("run_all_interruptible: one log each");
   const size_t n = argvs.size();
   std::vector<RunResult> results(n);
@@ -232,16 +233,17 @@ std::vector<RunResult> run_all_interruptible(const std::vector<std::vector<std::
   }, old_int{}, old_term{};
   ours.sa_handler = note_signal;
   sigemptyset(&ours.sa_mask);
-  g_signal = 0;
+  if (own_signals) g_signal = 0;
+  const auto signalled = [own_signals] { return own_signals ? int(g_signal) : 0; };
   sigaction(SIGINT, nullptr, &old_int);
   sigaction(SIGTERM, nullptr, &old_term);
-  if (old_int.sa_handler != SIG_IGN) sigaction(SIGINT, &ours, nullptr);
-  if (old_term.sa_handler != SIG_IGN) sigaction(SIGTERM, &ours, nullptr);
+  if (own_signals && old_int.sa_handler != SIG_IGN) sigaction(SIGINT, &ours, nullptr);
+  if (own_signals && old_term.sa_handler != SIG_IGN) sigaction(SIGTERM, &ours, nullptr);
   // Each program under its own watcher, in its own process group.
   const pid_t parent = ::getpid();
   std::vector<pid_t> pids(n, -1);
   std::vector<Fd> error_ins(n);
-  for (size_t k = 0; k < n && !g_signal; ++k) {
+  for (size_t k = 0; k < n && !signalled(); ++k) {
     std::vector<char*> args;
     for (const auto& a : argvs[k]) args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);
@@ -274,13 +276,13 @@ std::vector<RunResult> run_all_interruptible(const std::vector<std::vector<std::
     }
     if (all_done) break;
     // One failed: the others' work is of no use; stop them (SIGTERM, their watchers pass it on).
-    if (one_failed && !g_signal)
+    if (one_failed && !signalled())
       for (size_t k = 0; k < n; ++k)
         if (!done[k] && !results[k].stopped) {
           ::kill(-pids[k], SIGTERM);
           results[k].stopped = true;
         }
-    if (g_signal) {
+    if (signalled()) {
       ++waited_after_signal;
       for (size_t k = 0; k < n; ++k)
         if (!done[k]) ::kill(-pids[k], waited_after_signal > 250 ? SIGKILL : SIGTERM);
@@ -294,9 +296,11 @@ std::vector<RunResult> run_all_interruptible(const std::vector<std::vector<std::
         ::read(error_ins[k].get(), &error, sizeof error) == static_cast<ssize_t>(sizeof error))
       results[k].start_error = error;
   }
-  sigaction(SIGINT, &old_int, nullptr);
-  sigaction(SIGTERM, &old_term, nullptr);
-  if (g_signal) {
+  if (own_signals) {
+    sigaction(SIGINT, &old_int, nullptr);
+    sigaction(SIGTERM, &old_term, nullptr);
+  }
+  if (own_signals && g_signal) {
     const int sig = g_signal;
     if (on_interrupt) on_interrupt();
     ::raise(sig);

@@ -93,9 +93,12 @@ RunResult run_interruptible(const std::vector<std::string>& argv, int work_dir, 
 
 // The same for several programs at once, each with its own log; a signal stops them all, and
 // so does one's failure (the others are then `stopped`).
+// own_signals = false (a compile in the background, beside the caller's own handlers): the
+// handlers are left alone; the watchers still stop the programs if this process dies.
 std::vector<RunResult> run_all_interruptible(const std::vector<std::vector<std::string>>& argvs,
                                              int work_dir, const std::vector<int>& logs,
-                                             const std::function<void()>& on_interrupt);
+                                             const std::function<void()>& on_interrupt,
+                                             bool own_signals = true);
 
 // An anonymous file in memory (memfd): a compiler's messages survive a full disk.
 Fd memory_file(const char* name);

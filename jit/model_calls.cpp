@@ -66,7 +66,7 @@ void CompiledModel::check_parameters(const Eigen::VectorXd& params) const {
   const std::vector<double> values(params.data(), params.data() + params.size());
   if (const std::string e = parameter_range_error(parameter_names_, values); !e.empty())
     throw std::invalid_argument("parameters: " + e);
-  if (const char* error = parameter_error_(params.data())) {
+  if (const char* error = parameter_error(params.data())) {
     // The rule names the field; the values that moved from the nominal ones say why.
     const std::string moved = moved_parameters(parameter_names_, nominal_, values);
     throw std::invalid_argument(std::string("parameters: ") + error +

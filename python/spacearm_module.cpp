@@ -647,11 +647,12 @@ ModelRecipe scene_from(const std::string& path_or_text) {
   return recipe;
 }
 
-PyModel load(const std::string& scene_text, const py::object& params,
-             const std::string& cache_dir) {
+PyModel load(const std::string& scene_text, const py::object& params, const std::string& cache_dir,
+             const std::string& engine) {
   const ModelRecipe scene = scene_from(scene_text);
   CompileOptions options;
   options.cache_dir = cache_dir;
+  options.engine = parse_engine(engine, "engine");
   CompiledModel m = [&] {
     py::gil_scoped_release release;  // a compile can take seconds
     return CompiledModel::load(scene, options);
@@ -670,6 +671,9 @@ PyModel load(const std::string& scene_text, const py::object& params,
 void bind_model_facts(py::class_<PyModel>& model) {
   model.def_property_readonly("name", [](const PyModel& m) { return m.model().name(); })
       .def_property_readonly("nq", [](const PyModel& m) { return m.model().nq(); })
+      .def_property_readonly(
+          "engine", [](const PyModel& m) { return std::string(m.model().engine()); },
+          "'compiled' or 'interpreter': which serves the calls now (load's engine)")
       .def_property_readonly("nv", [](const PyModel& m) { return m.model().nv(); })
       .def_property_readonly("num_links", [](const PyModel& m) { return m.model().num_links(); })
       .def_property_readonly("coordinate_names",
@@ -811,7 +815,10 @@ PYBIND11_MODULE(_spacearm, module) {
   bind_model_runs(model);
   bind_model_outputs(model);
   module.def("load", &load, py::arg("scene"), py::arg("params") = py::none(),
-             py::arg("cache_dir") = "",
+             py::arg("cache_dir") = "", py::arg("engine") = "auto",
              "Compile (or take from the cache) and load the model of a scene: a path to a scene "
-             "file or its YAML text. params: a dict of parameter values (default: the scene's).");
+             "file or its YAML text. params: a dict of parameter values (default: the scene's). "
+             "engine: 'auto' (the interpreter at once while the library compiles in the "
+             "background, then the compiled code: the same numbers), 'interpreter' or "
+             "'compiled' (wait for the compiler).");
 }

@@ -18,6 +18,7 @@ namespace {
 std::unique_ptr<StudyRunner> open_study(const std::string& path, const std::string& cache_dir) {
   CompileOptions options;
   options.cache_dir = cache_dir;
+  options.engine = Engine::automatic;  // runs start at once; the compiled code takes over
   Study study = load_study(path);
   py::gil_scoped_release release;  // a compile can take seconds
   return std::make_unique<StudyRunner>(std::move(study), options);

@@ -299,6 +299,17 @@ std::string quoted_list(const std::vector<std::string>& items) {
   return s;
 }
 
+// The values of the scene's range checks (ModelFacts::checks), each printed inline.
+std::vector<std::string> check_values(const ModelFacts& facts, Spelling spelling) {
+  std::vector<Assignment> values;
+  for (const auto& c : facts.checks) values.push_back({"", c.value, ""});
+  if (values.empty()) return {};
+  const BodyPrinter printer(facts.checks_program, values, true, spelling);
+  std::vector<std::string> texts;
+  for (const auto& c : facts.checks) texts.push_back(printer.value(c.value));
+  return texts;
+}
+
 // The body of parameter_error(): the scene's range checks, repeated for the parameters'
 // actual values.
 std::string parameter_checks(const ModelFacts& facts, Spelling spelling) {
@@ -307,15 +318,11 @@ std::string parameter_checks(const ModelFacts& facts, Spelling spelling) {
   for (size_t i = 0; i < facts.parameter_names.size(); ++i)
     s << "  if (!std::isfinite(params" << (eigen ? "(" : "[") << i << (eigen ? ")" : "]")
       << ")) return \"parameter '" << facts.parameter_names[i] << "' is not finite\";\n";
-  std::vector<Assignment> values;  // printed inline (plain), in the checks below
-  for (const auto& c : facts.checks) values.push_back({"", c.value, ""});
-  if (!values.empty()) {
-    const BodyPrinter printer(facts.checks_program, values, true, spelling);
-    s << "  using T [[maybe_unused]] = double;\n";
-    for (const auto& c : facts.checks)
-      s << "  if (!(" << printer.value(c.value) << (c.strict ? " > 0" : " >= 0") << ")) return \""
-        << c.message << "\";\n";
-  }
+  const std::vector<std::string> values = check_values(facts, spelling);
+  if (!values.empty()) s << "  using T [[maybe_unused]] = double;\n";
+  for (size_t k = 0; k < values.size(); ++k)
+    s << "  if (!(" << values[k] << (facts.checks[k].strict ? " > 0" : " >= 0") << ")) return \""
+      << facts.checks[k].message << "\";\n";
   s << "  return nullptr;\n}\n";
   return s.str();
 }
@@ -571,6 +578,14 @@ std::vector<std::string> c_interface(const LoweredModel& model, int per_part, in
 
 }  // namespace
 
+std::string c_body_statements(const FunctionSpec& f, const Dimensions& dims) {
+  return function_body(f, dims, 0, Spelling::c_arrays).body;
+}
+
+std::vector<std::string> c_check_values(const ModelFacts& facts) {
+  return check_values(facts, Spelling::c_arrays);
+}
+
 EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
   const ModelFacts& facts = model.facts;
   // Per-joint facts come from the derived model; a short list would print a wrong header.
@@ -641,6 +656,8 @@ EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
   result.header = h.str();
   result.source = s.str();
   result.c_units = c_interface(model, options.statements_per_part, options.c_units);
+  if (options.interpreted)
+    result.interpreted = std::make_shared<const InterpretedModel>(interpreted_code(model));
   if (result.c_units.size() == 1) result.c_interface = result.c_units[0];
   return result;
 }

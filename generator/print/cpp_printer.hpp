@@ -6,7 +6,10 @@
 #include <string>
 #include <vector>
 
+#include <memory>
+
 #include "function_spec.hpp"
+#include "interpreted_code.hpp"
 #include "version.hpp"
 
 namespace spacearm {
@@ -38,6 +41,8 @@ struct PrintOptions {
   int statements_per_part = 2000;
   // The C interface in this many translation units (c_units), for as many compilers at once.
   int c_units = 1;
+  // Also the interpreter's form of the C interface (EmittedModel::interpreted).
+  bool interpreted = false;
 };
 
 struct FunctionStats {
@@ -53,9 +58,17 @@ struct EmittedModel {
   std::string c_interface;  // extern "C" wrappers of every function, for dlopen (c_units = 1)
   std::vector<std::string> c_units;  // the same in PrintOptions::c_units translation units
   std::vector<FunctionStats> stats;
+  // PrintOptions::interpreted: the same functions for the interpreter (interpreted_code.hpp).
+  std::shared_ptr<const InterpretedModel> interpreted;
 };
 
 EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options);
+
+// What the interpreter reads (interpreted_code.hpp): the statements of function f's body in the
+// C interface, printed whole (one part), and the C interface's values of the scene's range checks
+// (ModelFacts::checks, in order), each an expression over params[i].
+std::string c_body_statements(const FunctionSpec& f, const Dimensions& dims);
+std::vector<std::string> c_check_values(const ModelFacts& facts);
 
 // Writes the header and source into dir through temporary files renamed into place, so
 // that a failed run leaves no half-written output.

@@ -276,11 +276,37 @@ TEST_F(EvalCli, StatesConvertToAndFromOtherToolsConventions) {
 TEST_F(EvalCli, VerboseReportShowsTheCacheHit) {
   const std::string args = std::string(SPACEARM_SOURCE_DIR) +
                            "/models/paper_reference.yaml --q 0,0,0,0.1,0.2,0.3 --verbose 2>&1";
-  const std::string first = run(cli + args);
+  const std::string first = run(cli + "--engine compiled " + args);
   const std::string second = run(cli + args);
   EXPECT_NE(first.find("(built)"), std::string::npos) << first;
   EXPECT_NE(second.find("(hit)"), std::string::npos) << second;
   EXPECT_NE(second.find("compile 0.0 ms"), std::string::npos) << second;
+  EXPECT_NE(second.find("engine: compiled"), std::string::npos) << second;
+}
+
+// --engine auto (the default) on a miss: the interpreter answers while the library compiles in
+// the background; the command waits for that compile after its output, so the next run hits the
+// cache; the numbers of both runs and of --engine interpreter are the same, to the last digit.
+TEST_F(EvalCli, AutomaticEngineAnswersFromTheInterpreterThenTheCacheHits) {
+  const fs::path fresh = cache.parent_path() / ("auto-cache-" + std::to_string(getpid()));
+  const std::string eval = std::string(SPACEARM_CLI) + " eval " + SPACEARM_SOURCE_DIR +
+                           "/models/space_arm7.yaml --json --cache-dir " + fresh.string();
+  const std::string log_file = fresh.string() + ".log";
+  const std::string first = run(eval + " --verbose 2>" + log_file);
+  const std::string log = test::read_text_file(log_file);
+  fs::remove(log_file);
+  EXPECT_NE(log.find("(missed: the interpreter serves while the library compiles)"),
+            std::string::npos)
+      << log;
+  EXPECT_NE(log.find("engine: the interpreter served"), std::string::npos) << log;
+  const std::string second = run(eval + " --verbose 2>&1");
+  EXPECT_NE(second.find("(hit)"), std::string::npos) << second;
+  const std::string hit = run(eval + " 2>/dev/null"),
+                    interpreted = run(eval + " --engine interpreter 2>/dev/null");
+  EXPECT_EQ(hit, first);
+  EXPECT_EQ(interpreted, first);
+  EXPECT_NE(first.find("\"mass_matrix\""), std::string::npos) << first;
+  fs::remove_all(fresh);
 }
 
 TEST_F(EvalCli, BadInputsGetClearErrors) {
@@ -366,15 +392,23 @@ TEST_F(EvalCli, LostOutputAndAnEmptyCacheFolderAreErrors) {
 TEST_F(EvalCli, ModelsPastTheCodeBoundAreRefusedBeforeCompiling) {
   const std::string scene = std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/free_n5.yaml";
   const fs::path fresh = cache.parent_path() / ("bound-cache-" + std::to_string(getpid()));
-  const std::string eval = std::string(SPACEARM_CLI) + " eval " + scene +
-                           " --q 0,0,0,0,0,0,0,0 --cache-dir " + fresh.string();
+  const std::string base = std::string(SPACEARM_CLI) + " eval " + scene +
+                           " --q 0,0,0,0,0,0,0,0 --cache-dir " + fresh.string(),
+                    eval = base + " --engine compiled";
   int status = 0;
   std::string out = run("SPACEARM_MAX_CODE_MB=0.001 " + eval + " 2>&1", &status);
   EXPECT_EQ(WEXITSTATUS(status), 1) << out;
+  // --engine auto: the interpreter serves the run, and says why nothing was compiled.
+  std::string served = run("SPACEARM_MAX_CODE_MB=0.001 " + base + " 2>&1", &status);
+  EXPECT_EQ(WEXITSTATUS(status), 0) << served;
+  EXPECT_NE(served.find("the interpreter serves on: model 'free_n5'"), std::string::npos) << served;
+  EXPECT_NE(served.find("\"mass_matrix\""), std::string::npos) << served;
   EXPECT_NE(out.find("MB of C++: at least"), std::string::npos) << out;
   EXPECT_NE(out.find("past the bound of 0.001 MB; raise it (SPACEARM_MAX_CODE_MB"),
             std::string::npos)
       << out;
+  out = run("SPACEARM_MAX_CODE_MB=many " + base + " 2>&1", &status);  // auto, too
+  EXPECT_EQ(WEXITSTATUS(status), 1) << out;
   out = run("SPACEARM_MAX_CODE_MB=many " + eval + " 2>&1", &status);
   EXPECT_EQ(WEXITSTATUS(status), 1) << out;
   EXPECT_NE(out.find("SPACEARM_MAX_CODE_MB: expected a positive number of MB, got 'many'"),

@@ -64,8 +64,9 @@ TEST(CompiledModel, CachedSecondLoadNeitherGeneratesNorCompiles) {
 // under its path, so a library cannot be replaced under a running process anyway).
 TEST(CompiledModel, CorruptedEntryIsDetectedAndRebuilt) {
   const fs::path cache = fresh_cache("corrupt");
-  const std::string cmd = std::string(SPACEARM_CLI) + " eval --json --verbose --cache-dir " +
-                          cache.string() + " " + SPACEARM_SOURCE_DIR +
+  const std::string cmd = std::string(SPACEARM_CLI) +
+                          " eval --engine compiled --json --verbose --cache-dir " + cache.string() +
+                          " " + SPACEARM_SOURCE_DIR +
                           "/models/paper_reference.yaml --q 0,0,0,0.1,0.2,0.3 2>&1";
   const std::string first = run(cmd);
   ASSERT_NE(first.find("(built)"), std::string::npos) << first;

@@ -73,8 +73,9 @@ const fs::path& real_library() {
 }
 
 std::string eval_command(const fs::path& cache, const fs::path& compiler) {
-  return "CXX='" + compiler.string() + "' " + SPACEARM_CLI + " eval --json --cache-dir '" +
-         cache.string() + "' " + kScene + " --q 0,0,0,0.1,0.2,0.3";
+  return "CXX='" + compiler.string() + "' " + SPACEARM_CLI +
+         " eval --engine compiled --json --cache-dir '" + cache.string() + "' " + kScene +
+         " --q 0,0,0,0.1,0.2,0.3";
 }
 
 std::string entry_of(const fs::path& cache) {
@@ -166,10 +167,10 @@ TEST(ModelCache, FolderIsPrivateAndUnsafeFoldersOrEntriesAreRefusedByName) {
       << out;
 
   // No HOME, XDG_CACHE_HOME or SPACEARM_CACHE_DIR: no shared /tmp fallback.
-  out =
-      test::run_command("env -u HOME -u XDG_CACHE_HOME -u SPACEARM_CACHE_DIR " +
-                            std::string(SPACEARM_CLI) + " eval " + kScene + " --q 0,0,0,0,0,0 2>&1",
-                        &status);
+  out = test::run_command("env -u HOME -u XDG_CACHE_HOME -u SPACEARM_CACHE_DIR " +
+                              std::string(SPACEARM_CLI) + " eval --engine compiled " + kScene +
+                              " --q 0,0,0,0,0,0 2>&1",
+                          &status);
   EXPECT_NE(status, 0);
   EXPECT_NE(out.find("set HOME, XDG_CACHE_HOME or SPACEARM_CACHE_DIR, or pass --cache-dir"),
             std::string::npos)
@@ -199,7 +200,8 @@ TEST(ModelCache, CacheBehindAnotherUsersLinkIsRefused) {
             std::string::npos)
       << out;
   out = test::run_command("XDG_CACHE_HOME='" + theirs.string() + "' CXX='" + cc.string() + "' " +
-                              SPACEARM_CLI + " eval " + kScene + " --q 0,0,0,0,0,0 2>&1",
+                              SPACEARM_CLI + " eval --engine compiled " + kScene +
+                              " --q 0,0,0,0,0,0 2>&1",
                           &status);
   EXPECT_NE(status, 0);
   EXPECT_NE(out.find("belongs to user 65534"), std::string::npos) << out;
@@ -455,9 +457,9 @@ TEST(ModelCache, InterruptDuringCompileStopsTheCompilerAndRemovesItsWorkFolder) 
   ASSERT_EQ(::flock(in_use, LOCK_EX), 0);
   fs::permissions(cache, fs::perms::owner_all, fs::perm_options::replace);
   // exec: the shell becomes spacearm, so the signal goes to it.
-  const pid_t pid =
-      spawn_shell("CXX='" + cc.string() + "' exec " + SPACEARM_CLI + " eval --cache-dir '" +
-                  cache.string() + "' " + kScene + " --q 0,0,0,0,0,0 > /dev/null 2>&1");
+  const pid_t pid = spawn_shell("CXX='" + cc.string() + "' exec " + SPACEARM_CLI +
+                                " eval --engine compiled --cache-dir '" + cache.string() + "' " +
+                                kScene + " --q 0,0,0,0,0,0 > /dev/null 2>&1");
   for (int i = 0; i < 1500 && !fs::exists(pid_file); ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   ASSERT_TRUE(fs::exists(pid_file)) << "the fake compiler never started";
@@ -492,9 +494,9 @@ TEST(ModelCache, InterruptDuringCompileStopsTheCompilerAndRemovesItsWorkFolder) 
   fs::remove(pid_file);
   const fs::path driver = fake_compiler(
       dir, "driver", "sh -c 'echo $$ >> \"" + pid_file.string() + "\"; exec sleep 60' & wait");
-  const pid_t killed =
-      spawn_shell("CXX='" + driver.string() + "' exec " + SPACEARM_CLI + " eval --cache-dir '" +
-                  cache.string() + "' " + kScene + " --q 0,0,0,0,0,0 > /dev/null 2>&1");
+  const pid_t killed = spawn_shell("CXX='" + driver.string() + "' exec " + SPACEARM_CLI +
+                                   " eval --engine compiled --cache-dir '" + cache.string() + "' " +
+                                   kScene + " --q 0,0,0,0,0,0 > /dev/null 2>&1");
   for (int i = 0; i < 1500 && !fs::exists(pid_file); ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   ASSERT_TRUE(fs::exists(pid_file));

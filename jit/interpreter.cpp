@@ -1,0 +1,176 @@
+#include "interpreter.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <vector>
+
+namespace spacearm {
+
+namespace {
+
+using Op = InterpretedFunction::Op;
+
+#if SPACEARM_JIT_VECTOR_TRIG && defined(__x86_64__) && defined(__GLIBC__)
+// libmvec's sin and cos of four angles, declared as the generated code declares them
+// (cpp_printer.cpp, kTrigBatchIncludes), called only where the CPU has AVX2 and FMA.
+typedef double Double4 __attribute__((vector_size(32)));
+extern "C" [[gnu::target("avx2,fma")]] Double4 _ZGVdN4v_sin(Double4);
+extern "C" [[gnu::target("avx2,fma")]] Double4 _ZGVdN4v_cos(Double4);
+
+[[gnu::target("avx2,fma")]] void sincos4(const double* angle, double* s, double* c) {
+  Double4 a;
+  std::memcpy(&a, angle, sizeof a);
+  const Double4 sines = _ZGVdN4v_sin(a), cosines = _ZGVdN4v_cos(a);
+  std::memcpy(s, &sines, sizeof sines);
+  std::memcpy(c, &cosines, sizeof cosines);
+}
+bool vector_trig_runs() {
+  static const bool runs = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  return runs;
+}
+#else
+void sincos4(const double*, double*, double*) {}
+bool vector_trig_runs() { return false; }
+#endif
+
+// sin and cos of four angles (zero where fewer are given), as the compiled sincos_batch computes
+// them: each lane's value depends on its own angle alone, in libmvec and in libm.
+void sin_cos(TrigSource trig, const double (&angle)[4], double (&s)[4], double (&c)[4]) {
+  if (trig.vector_trig && vector_trig_runs()) return sincos4(angle, s, c);
+  for (int j = 0; j < 4; ++j) s[j] = std::sin(angle[j]), c[j] = std::cos(angle[j]);
+}
+
+// Each thread's register file, grown to the largest function it has run.
+double* registers(size_t count) {
+  thread_local std::vector<double> file;
+  if (file.size() < count) file.resize(count);
+  return file.data();
+}
+
+}  // namespace
+
+void interpret(const InterpretedFunction& f, TrigSource trig, const double* const* in,
+               const double* params, double* const* out) {
+  double* r = registers(f.num_registers);
+  // The fixed registers: constants, parameters, inputs.
+  std::memcpy(r, f.constants.data(), f.constants.size() * sizeof(double));
+  std::memcpy(r + f.constants.size(), params, f.num_params * sizeof(double));
+  double* at = r + f.first_input_register();
+  for (size_t k = 0; k < f.input_sizes.size(); ++k)
+    std::memcpy(at, in[k], f.input_sizes[k] * sizeof(double)), at += f.input_sizes[k];
+  const std::int32_t* operands = f.operands.data();
+  for (const InterpretedFunction::Instruction& i : f.code) {
+    switch (i.op) {
+      case Op::add:
+        r[i.dst] = r[i.a] + r[i.b];
+        break;
+      case Op::sub:
+        r[i.dst] = r[i.a] - r[i.b];
+        break;
+      case Op::mul:
+        r[i.dst] = r[i.a] * r[i.b];
+        break;
+      case Op::div:
+        r[i.dst] = r[i.a] / r[i.b];
+        break;
+      case Op::neg:
+        r[i.dst] = -r[i.a];
+        break;
+      case Op::tanh:
+        r[i.dst] = std::tanh(r[i.a]);
+        break;
+      case Op::exp:
+        r[i.dst] = std::exp(r[i.a]);
+        break;
+      case Op::pow:
+        r[i.dst] = std::pow(r[i.a], r[i.b]);
+        break;
+      case Op::sin:
+        r[i.dst] = std::sin(r[i.a]);
+        break;
+      case Op::cos:
+        r[i.dst] = std::cos(r[i.a]);
+        break;
+      case Op::store:
+        out[i.dst][i.a] = r[i.b];
+        break;
+      case Op::sincos4: {
+        const std::int32_t* o = operands + i.a;
+        double angle[4] = {}, s[4], c[4];
+        for (int j = 0; j < i.b; ++j) angle[j] = r[o[j]];
+        sin_cos(trig, angle, s, c);
+        for (int j = 0; j < i.b; ++j) r[o[4 + j]] = s[j], r[o[8 + j]] = c[j];
+        break;
+      }
+    }
+  }
+}
+
+void interpret_lanes(const InterpretedFunction& f, TrigSource trig, const double* const* in,
+                     const double* params, double* const* out) {
+  double* r = registers(4 * static_cast<size_t>(f.num_registers));
+  for (size_t k = 0; k < f.constants.size(); ++k)
+    for (int l = 0; l < 4; ++l) r[4 * k + l] = f.constants[k];
+  std::memcpy(r + 4 * f.constants.size(), params, 4 * f.num_params * sizeof(double));
+  double* at = r + 4 * f.first_input_register();
+  for (size_t k = 0; k < f.input_sizes.size(); ++k)
+    std::memcpy(at, in[k], 4 * f.input_sizes[k] * sizeof(double)), at += 4 * f.input_sizes[k];
+  const std::int32_t* operands = f.operands.data();
+  const auto each = [r](const InterpretedFunction::Instruction& i, auto op) {
+    double* d = r + 4 * i.dst;
+    const double *a = r + 4 * i.a, *b = r + 4 * (i.b < 0 ? 0 : i.b);
+    for (int l = 0; l < 4; ++l) d[l] = op(a[l], b[l]);
+  };
+  for (const InterpretedFunction::Instruction& i : f.code) {
+    switch (i.op) {
+      case Op::add:
+        each(i, [](double a, double b) { return a + b; });
+        break;
+      case Op::sub:
+        each(i, [](double a, double b) { return a - b; });
+        break;
+      case Op::mul:
+        each(i, [](double a, double b) { return a * b; });
+        break;
+      case Op::div:
+        each(i, [](double a, double b) { return a / b; });
+        break;
+      case Op::neg:
+        each(i, [](double a, double) { return -a; });
+        break;
+      case Op::tanh:
+        each(i, [](double a, double) { return std::tanh(a); });
+        break;
+      case Op::exp:
+        each(i, [](double a, double) { return std::exp(a); });
+        break;
+      case Op::pow:
+        each(i, [](double a, double b) { return std::pow(a, b); });
+        break;
+      case Op::sin:
+        each(i, [](double a, double) { return std::sin(a); });
+        break;
+      case Op::cos:
+        each(i, [](double a, double) { return std::cos(a); });
+        break;
+      case Op::store:
+        for (int l = 0; l < 4; ++l) out[i.dst][4 * i.a + l] = r[4 * i.b + l];
+        break;
+      case Op::sincos4: {
+        // One angle's four lanes per call, as the 4-lane sincos_batch calls it; every angle
+        // read before a result is written (a result may take an angle's register).
+        const std::int32_t* o = operands + i.a;
+        double angle[4][4], s[4][4], c[4][4];
+        for (int j = 0; j < i.b; ++j) std::memcpy(angle[j], r + 4 * o[j], sizeof angle[j]);
+        for (int j = 0; j < i.b; ++j) sin_cos(trig, angle[j], s[j], c[j]);
+        for (int j = 0; j < i.b; ++j) {
+          std::memcpy(r + 4 * o[4 + j], s[j], sizeof s[j]);
+          std::memcpy(r + 4 * o[8 + j], c[j], sizeof c[j]);
+        }
+        break;
+      }
+    }
+  }
+}
+
+}  // namespace spacearm
