@@ -499,3 +499,20 @@ def test_identified_inertias_load_with_one_warning():
     M = model.mass_matrix([0, 0, 0, 1, 0, 0, 0, 0.3, 0.5, -0.8])
     assert np.allclose(M, M.T, rtol=0, atol=1e-12)
     assert np.linalg.eigvalsh(M).min() > 0
+
+
+def test_engines_give_the_same_bits(geared):
+    """load(engine=...): the interpreter (no compiler) gives the compiled model's numbers to the
+    last bit, in batches of four states too; an unknown engine is a ValueError naming it."""
+    path = os.path.join(SOURCE, "models", "paper_geared.yaml")
+    interpreted = spacearm.load(path, engine="interpreter")
+    assert interpreted.engine == "interpreter"
+    compiled = spacearm.load(path, cache_dir=CACHE, engine="compiled")
+    assert compiled.engine == "compiled"
+    q, qd = states(geared, 9, seed=5)
+    Q = np.random.default_rng(6).uniform(-1, 1, (9, geared.nv))
+    assert np.array_equal(interpreted.forward_dynamics(q, qd, Q),
+                          compiled.forward_dynamics(q, qd, Q))
+    assert np.array_equal(interpreted.mass_matrix(q[0]), compiled.mass_matrix(q[0]))
+    with pytest.raises(ValueError, match="engine: expected auto, interpreter or compiled, got 'jit'"):
+        spacearm.load(path, engine="jit")
