@@ -119,8 +119,9 @@ int run_plan(const PlanArgs& a) {
   CompileOptions options;
   options.cache_dir = a.cache_dir;
   options.engine = parse_engine(a.engine);
-  options.progress = [&](const std::string& msg) {
-    if (a.verbose || worth_saying(msg)) std::fprintf(stderr, "spacearm: %s\n", msg.c_str());
+  // By value: a compile in the background says its last stage after this function returns.
+  options.progress = [verbose = a.verbose](const std::string& msg) {
+    if (verbose || worth_saying(msg)) std::fprintf(stderr, "spacearm: %s\n", msg.c_str());
   };
   const auto model = CompiledModel::load(recipe, options);
   const DynamicModel dynamic = dynamic_model(model, params);

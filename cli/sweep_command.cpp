@@ -25,8 +25,9 @@ int run_sweep_command(const SweepArgs& a) {
   CompileOptions compile;
   compile.cache_dir = a.cache_dir;
   compile.engine = parse_engine(a.engine);
-  compile.progress = [&](const std::string& m) {
-    if (a.verbose || worth_saying(m)) say(m);
+  // By value: a compile in the background says its last stage after this function returns.
+  compile.progress = [verbose = a.verbose](const std::string& m) {
+    if (verbose || worth_saying(m)) say(m);
   };
   const StudyRunner runner(std::move(study), compile);
   if (!a.merge.empty()) {

@@ -90,8 +90,9 @@ LoadedScene load_scene(const ViewArgs& a) {
   CompileOptions options;
   options.cache_dir = a.cache_dir;
   options.engine = parse_engine(a.engine);
-  options.progress = [&](const std::string& m) {
-    if (a.verbose || worth_saying(m)) std::fprintf(stderr, "spacearm: %s\n", m.c_str());
+  // By value: a compile in the background says its last stage after this function returns.
+  options.progress = [verbose = a.verbose](const std::string& m) {
+    if (verbose || worth_saying(m)) std::fprintf(stderr, "spacearm: %s\n", m.c_str());
   };
   s.model = std::make_unique<CompiledModel>(CompiledModel::load(*s.recipe, options));
   s.params = parse_parameters(a.param_assignments, s.recipe->facts());

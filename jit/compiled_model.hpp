@@ -88,7 +88,9 @@ struct CompileOptions {
   std::string libraries = kVectorTrigLibraries;          // after the source, split at spaces
   std::string instruction_set = host_instruction_set();  // added to the flags; cpu_runs it
   int jobs = 0;  // compilers at once (the library in as many units); 0: the CPUs we may use, <= 4
-  std::function<void(const std::string&)> progress;  // stage messages (may be empty)
+  // Stage messages (may be empty). Engine::automatic calls it from the compile's thread too,
+  // until the compile ends (finish_background_compiles): capture by value.
+  std::function<void(const std::string&)> progress;
   // The API's default waits for the compiled library; the commands and Python take automatic.
   Engine engine = Engine::compiled;
   // The largest emitted C++ compiled [MB] (compile_estimate): past it the load is refused

@@ -40,11 +40,16 @@ void sin_cos(TrigSource trig, const double (&angle)[4], double (&s)[4], double (
   for (int j = 0; j < 4; ++j) s[j] = std::sin(angle[j]), c[j] = std::cos(angle[j]);
 }
 
-// Each thread's register file, grown to the largest function it has run.
+// Each thread's register file, grown to the largest function it has run (never empty).
 double* registers(size_t count) {
-  thread_local std::vector<double> file;
+  thread_local std::vector<double> file(1);
   if (file.size() < count) file.resize(count);
   return file.data();
+}
+
+// n doubles (none: a model without parameters passes no array).
+void copy(double* to, const double* from, size_t n) {
+  if (n > 0) std::memcpy(to, from, n * sizeof(double));
 }
 
 }  // namespace
@@ -53,11 +58,11 @@ void interpret(const InterpretedFunction& f, TrigSource trig, const double* cons
                const double* params, double* const* out) {
   double* r = registers(f.num_registers);
   // The fixed registers: constants, parameters, inputs.
-  std::memcpy(r, f.constants.data(), f.constants.size() * sizeof(double));
-  std::memcpy(r + f.constants.size(), params, f.num_params * sizeof(double));
+  copy(r, f.constants.data(), f.constants.size());
+  copy(r + f.constants.size(), params, f.num_params);
   double* at = r + f.first_input_register();
   for (size_t k = 0; k < f.input_sizes.size(); ++k)
-    std::memcpy(at, in[k], f.input_sizes[k] * sizeof(double)), at += f.input_sizes[k];
+    copy(at, in[k], f.input_sizes[k]), at += f.input_sizes[k];
   // Threaded dispatch (GCC's labels as values): one indirect jump per operation, each predicted
   // from its own site, instead of a switch's single jump.
   static const void* const kLabels[] = {&&add, &&sub, &&mul, &&div, &&neg,     &&tanh,
@@ -120,10 +125,10 @@ void interpret_lanes(const InterpretedFunction& f, TrigSource trig, const double
   double* r = registers(4 * static_cast<size_t>(f.num_registers));
   for (size_t k = 0; k < f.constants.size(); ++k)
     for (int l = 0; l < 4; ++l) r[4 * k + l] = f.constants[k];
-  std::memcpy(r + 4 * f.constants.size(), params, 4 * f.num_params * sizeof(double));
+  copy(r + 4 * f.constants.size(), params, 4 * f.num_params);
   double* at = r + 4 * f.first_input_register();
   for (size_t k = 0; k < f.input_sizes.size(); ++k)
-    std::memcpy(at, in[k], 4 * f.input_sizes[k] * sizeof(double)), at += 4 * f.input_sizes[k];
+    copy(at, in[k], 4 * f.input_sizes[k]), at += 4 * f.input_sizes[k];
   const std::int32_t* operands = f.operands.data();
   const auto each = [r](const InterpretedFunction::Instruction& i, auto op) {
     double* d = r + 4 * i.dst;
