@@ -105,6 +105,9 @@ int guarded(Run&& run) {
     std::cerr << "spacearm: error: " << e.what() << "\n";
   }
   std::cout.flush();
+  if (spacearm::background_compiles_running() > 0)
+    std::cerr << "spacearm: finishing the model's compile for the cache (Ctrl-C stops it; the "
+                 "next run then compiles again)\n";
   spacearm::finish_background_compiles();
   return status;
 }

@@ -19,7 +19,9 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <new>
 #include <optional>
+#include <system_error>
 
 #include <Eigen/Cholesky>
 
@@ -631,7 +633,14 @@ CompiledModel CompiledModel::load(const ModelRecipe& recipe, const CompileOption
   if (options.engine == Engine::interpreter) return interpreted(recipe, options, rep, "");
   if (!(options.max_code_mb > 0)) CompileOptions::default_max_code_mb();  // a bad value: an error
   const bool automatic = options.engine == Engine::automatic;
-  CacheFolder cache(cache_directory(options));
+  std::optional<CacheFolder> opened;
+  try {
+    opened.emplace(cache_directory(options));
+  } catch (const CompileError& e) {  // no cache folder: automatic serves by the interpreter
+    if (!automatic) throw;
+    return interpreted(recipe, options, rep, e.what());
+  }
+  CacheFolder& cache = *opened;
   cache.remove_stale_work();
   std::string compiler = options.compiler;
   if (compiler.empty())
@@ -680,7 +689,10 @@ CompiledModel CompiledModel::load(const ModelRecipe& recipe, const CompileOption
         if (rep.generated) throw;
         return built_before(e.what());
       }
-      if (automatic)
+      if (automatic && !emitted->emitted.interpreted)
+        say("the interpreter cannot read " + recipe.name() +
+            "'s code (please report: " + emitted->emitted.interpreted_error + "): compiling first");
+      if (automatic && emitted->emitted.interpreted)
         return in_background(recipe, std::move(cache), entry, std::move(*emitted),
                              {compiler, compiler_id}, options, rep);
       compile_entry(recipe, cache, entry, *emitted, compiler, compiler_id, options, rep, true);
@@ -706,7 +718,11 @@ CompiledModel CompiledModel::interpreted(const ModelRecipe& recipe, const Compil
     eo.scene_path = recipe.source_path();
     eo.interpreted = true;
     const auto t0 = std::chrono::steady_clock::now();
-    code = recipe.emit(eo, &rep.derive_ms).interpreted;
+    const EmittedModel emitted = recipe.emit(eo, &rep.derive_ms);
+    if (!emitted.interpreted)
+      throw CompileError("the interpreter cannot read " + recipe.name() + "'s code (please " +
+                         "report): " + emitted.interpreted_error);
+    code = emitted.interpreted;
     rep.emit_ms = ms_since(t0) - rep.derive_ms;
     rep.generated = true;
   }
@@ -760,46 +776,63 @@ CompiledModel CompiledModel::in_background(const ModelRecipe& recipe, CacheFolde
                                            const CompileOptions& options, StageReport& rep) {
   CompiledModel m = interpreted(recipe, options, rep, "", emitted.emitted.interpreted);
   Library* lib = m.library_.get();
-  lib->background = true;
-  description_symbols();        // the compile's statics, made before PendingCompiles (which
-  PendingCompiles::instance();  // they must outlive: it joins the compile at exit)
   const auto say = options.progress;
+  const auto no_compile = [&](const std::string& why) {
+    cache.remove(emitted.work);
+    lib->compile_error = why;
+    if (say)
+      say("compiling " + recipe.name() +
+          " in the background failed; the interpreter serves on: " + why);
+    return std::move(m);
+  };
+  if (!emitted.cost_error.empty()) return no_compile(emitted.cost_error);  // past the bound
+  description_symbols();           // the compile's statics, made before PendingCompiles (which
+  PendingCompiles::instance();     // they must outlive: it joins the compile at exit)
   CompileOptions quiet = options;  // its stages, for --verbose (worth_saying)
   if (say) quiet.progress = [say](const std::string& m) { say("background: " + m); };
-  lib->compile = std::thread([lib, recipe, cache = std::move(cache), entry, e = std::move(emitted),
-                              compiler, options = quiet, say]() mutable {
-    StageReport background;
-    try {
-      compile_entry(recipe, cache, entry, e, compiler.first, compiler.second, options, background,
-                    false);
-      cache.install(e.work, entry);
-      std::string problem, why;
-      const Fd library = cache.open_library(entry, problem);
-      if (!library.valid())
-        throw CompileError("cache entry '" + entry + "' is " + problem + " after a fresh build");
-      CompiledModel loaded = open_verified(recipe, library, background, why);
-      if (!why.empty()) throw CompileError("cannot load the library of '" + entry + "': " + why);
-      lib->take(*loaded.library_);
-      if (say) say("the compiled library of " + recipe.name() + " serves from now on");
-    } catch (const std::exception& error) {
-      {
-        const std::lock_guard<std::mutex> lock(lib->mutex);
-        lib->compile_error = error.what();
+  try {
+    lib->background = true;
+    rep.compiling_in_background = true;
+    lib->compile = std::thread([lib, recipe, cache = std::move(cache), entry,
+                                e = std::move(emitted), compiler, options = quiet, say]() mutable {
+      StageReport background;
+      try {
+        compile_entry(recipe, cache, entry, e, compiler.first, compiler.second, options, background,
+                      false);
+        cache.install(e.work, entry);
+        std::string problem, why;
+        const Fd library = cache.open_library(entry, problem);
+        if (!library.valid())
+          throw CompileError("cache entry '" + entry + "' is " + problem + " after a fresh build");
+        CompiledModel loaded = open_verified(recipe, library, background, why);
+        if (!why.empty()) throw CompileError("cannot load the library of '" + entry + "': " + why);
+        lib->take(*loaded.library_);
+        if (say) say("the compiled library of " + recipe.name() + " serves from now on");
+      } catch (const std::exception& error) {
+        {
+          const std::lock_guard<std::mutex> lock(lib->mutex);
+          lib->compile_error = error.what();
+        }
+        if (say)
+          say("compiling " + recipe.name() + " in the background failed; the interpreter serves " +
+              "on: " + error.what());
       }
-      if (say)
-        say("compiling " + recipe.name() + " in the background failed; the interpreter serves " +
-            "on: " + error.what());
-    }
-    lib->done = true;
-  });
+      lib->done = true;
+    });
+  } catch (const std::system_error& e) {  // no thread: the interpreter serves alone
+    lib->background = rep.compiling_in_background = false;
+    // Its work folder, unlocked now, is removed as stale by a later load.
+    lib->compile_error = std::string("no thread for the compile: ") + e.what();
+  }
   return m;
 }
 
 std::string stage_line(const StageReport& rep) {
-  const char* state = !rep.interpreted ? (rep.compiled ? "built" : "hit")
-                      : rep.cache_entry.empty()
-                          ? "not used: the interpreter serves"
-                          : "missed: the interpreter serves while the library compiles";
+  const char* state = !rep.interpreted              ? (rep.compiled ? "built" : "hit")
+                      : rep.compiling_in_background ? "missed: the interpreter serves while the "
+                                                      "library compiles"
+                      : rep.cache_entry.empty()     ? "not used: the interpreter serves"
+                                                    : "no library: the interpreter serves";
   char line[300];
   std::snprintf(
       line, sizeof line,
@@ -1036,6 +1069,14 @@ CompiledModel::~CompiledModel() {
   PendingCompiles::instance().keep(std::move(library_), [lib] { return lib->done.load(); });
 }
 CompiledModel::CompiledModel(CompiledModel&& o) noexcept = default;
-CompiledModel& CompiledModel::operator=(CompiledModel&& o) noexcept = default;
+// Assigned over, a model hands its compile over as its destruction does (not a wait): destroyed,
+// then made anew from o.
+CompiledModel& CompiledModel::operator=(CompiledModel&& o) noexcept {
+  if (this != &o) {
+    this->~CompiledModel();
+    new (this) CompiledModel(std::move(o));
+  }
+  return *this;
+}
 
 }  // namespace spacearm

@@ -114,6 +114,7 @@ struct StageReport {
   // The interpreter serves the first calls (Engine): its code was read in interpret_ms; with
   // Engine::automatic the compile then runs in the background (compile_ms stays 0).
   bool interpreted = false;
+  bool compiling_in_background = false;  // else the interpreter serves alone
   double interpret_ms = 0;
   std::string cache_entry;  // folder of the cached model
 };

@@ -656,8 +656,11 @@ EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
   result.header = h.str();
   result.source = s.str();
   result.c_units = c_interface(model, options.statements_per_part, options.c_units);
-  if (options.interpreted)
-    result.interpreted = std::make_shared<const InterpretedModel>(interpreted_code(model));
+  if (options.interpreted) try {
+      result.interpreted = std::make_shared<const InterpretedModel>(interpreted_code(model));
+    } catch (const std::logic_error& e) {  // the compiled code still serves
+      result.interpreted_error = e.what();
+    }
   if (result.c_units.size() == 1) result.c_interface = result.c_units[0];
   return result;
 }

@@ -60,6 +60,7 @@ struct EmittedModel {
   std::vector<FunctionStats> stats;
   // PrintOptions::interpreted: the same functions for the interpreter (interpreted_code.hpp).
   std::shared_ptr<const InterpretedModel> interpreted;
+  std::string interpreted_error;  // why there is none, where it was asked for (a bug to report)
 };
 
 EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options);

@@ -328,13 +328,17 @@ void CodeBuilder::fold_negations() {
   };
   for (VInstruction& i : code_) {
     if (i.op != Op::add && i.op != Op::sub) continue;
+    // The sum now reads the negated value itself: one more use of it, one fewer of the
+    // negation (whose own read of it goes when it is dropped as dead below).
     if (single_negation(i.b)) {
       --uses[i.b];
       i.b = code_[defined_by[i.b]].a;
+      ++uses[i.b];
       i.op = i.op == Op::add ? Op::sub : Op::add;
     } else if (i.op == Op::add && single_negation(i.a)) {
       --uses[i.a];
       i.a = std::exchange(i.b, code_[defined_by[i.a]].a);
+      ++uses[i.b];
       i.op = Op::sub;
     }
   }
@@ -430,6 +434,16 @@ InterpretedFunction CodeBuilder::finish(const std::vector<int>& result_sizes) {
 }
 
 }  // namespace
+
+InterpretedFunction interpreted_statements(const std::string& name,
+                                           const std::vector<std::string>& inputs,
+                                           const std::vector<int>& input_sizes, int num_params,
+                                           const std::string& body,
+                                           const std::vector<int>& result_sizes) {
+  CodeBuilder builder(name, inputs, input_sizes, num_params);
+  builder.statements(body);
+  return builder.finish(result_sizes);
+}
 
 InterpretedModel interpreted_code(const LoweredModel& model) {
   const ModelFacts& facts = model.facts;

@@ -62,4 +62,12 @@ struct InterpretedModel {
 // std::logic_error if the printer printed something it cannot read (a bug here or there).
 InterpretedModel interpreted_code(const LoweredModel& model);
 
+// One body of statements as the printer prints them (c_body_statements), over the named inputs
+// (sizes given) and params[0 .. num_params): what interpreted_code reads per function.
+InterpretedFunction interpreted_statements(const std::string& name,
+                                           const std::vector<std::string>& inputs,
+                                           const std::vector<int>& input_sizes, int num_params,
+                                           const std::string& body,
+                                           const std::vector<int>& result_sizes);
+
 }  // namespace spacearm
