@@ -119,7 +119,9 @@ void add_engine(CLI::App* command, std::string& engine) {
                    "auto: the model's interpreted code answers at once while its library "
                    "compiles in the background, then the compiled code (the same numbers); "
                    "interpreter: never compile; compiled: wait for the compiler")
-      ->check(CLI::IsMember({"auto", "interpreter", "compiled"}));
+      ->check(CLI::IsMember({spacearm::engine_name(spacearm::Engine::automatic),
+                             spacearm::engine_name(spacearm::Engine::interpreter),
+                             spacearm::engine_name(spacearm::Engine::compiled)}));
 }
 
 // The generate subcommand's options.
