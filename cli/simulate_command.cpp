@@ -299,6 +299,7 @@ CompiledModel load_model(const SimulateArgs& a, const ModelRecipe& scene) {
   CompileOptions options;
   options.cache_dir = a.cache_dir;
   options.engine = parse_engine(a.engine);
+  options.call_first(Output::forward_dynamics);  // the integration's: compiled first
   // By value: a compile in the background says its last stage after this function returns.
   options.progress = [verbose = a.verbose](const std::string& m) {
     if (verbose || worth_saying(m)) std::fprintf(stderr, "spacearm: %s\n", m.c_str());

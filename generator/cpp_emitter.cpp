@@ -25,6 +25,7 @@ EmittedModel emit_cpp(const DerivedModel& model, const EmitOptions& options) {
   po.command = options.command;
   po.file_stem = options.file_stem;
   po.c_units = options.c_units;
+  po.leading_units = options.leading_units;
   po.interpreted = options.interpreted;
   return print_cpp(lower(model, lo), po);
 }

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "cpp_printer.hpp"
 #include "derived_model.hpp"
@@ -13,12 +14,13 @@ namespace spacearm {
 struct SymbolicModel;  // symbolic_model.hpp (GiNaC), included only where a model is derived
 
 struct EmitOptions {
-  std::string scene_path;    // as shown in the banner (keep it relative for reproducibility)
-  std::string command;       // the regeneration command shown in the banner
-  std::string file_stem;     // file names STEM.hpp/STEM.cpp; empty: the model's name
-  bool plain = false;        // the benchmark baseline (see LowerOptions)
-  int c_units = 1;           // PrintOptions::c_units
-  bool interpreted = false;  // PrintOptions::interpreted
+  std::string scene_path;  // as shown in the banner (keep it relative for reproducibility)
+  std::string command;     // the regeneration command shown in the banner
+  std::string file_stem;   // file names STEM.hpp/STEM.cpp; empty: the model's name
+  bool plain = false;      // the benchmark baseline (see LowerOptions)
+  int c_units = 1;         // PrintOptions::c_units
+  std::vector<std::vector<std::string>> leading_units{};  // PrintOptions::leading_units
+  bool interpreted = false;                               // PrintOptions::interpreted
 };
 
 EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options);

@@ -53,6 +53,7 @@ struct EmittedEntry {
   CompileEstimate cost;
   std::string cost_line;  // checked_cost's; cost_error: past the bound on the code's size
   std::string cost_error;
+  bool first_unit = false;  // unit 0 holds the first functions (CompileOptions), linked first
 };
 
 // A model's functions as slots (ModelFunction), the library that the compiled ones come from,
@@ -67,14 +68,18 @@ struct CompiledModel::Library {
   std::vector<std::string> check_messages, not_finite;
   std::vector<bool> check_strict;
   void* handle = nullptr;
+  void* first_handle = nullptr;  // the first functions' library, until the process ends
+  std::atomic<bool> all_compiled{false};
   std::chrono::steady_clock::time_point started;
   std::mutex mutex;  // guards the three below
   std::mutex joining;
   std::thread compile;
   std::string compile_error;
   double loaded_after_ms = -1;
-  bool background = false;        // a compile was started
-  std::atomic<bool> done{false};  // and has ended
+  double first_after_ms = -1;             // the first functions' library served from then on
+  std::vector<std::string> first_served;  // its functions
+  bool background = false;                // a compile was started
+  std::atomic<bool> done{false};          // and has ended
 
   ModelFunction add_slot(const std::string& name, ModelFunction::Raw compiled,
                          const InterpretedFunction* interpreted, bool lanes, TrigSource trig) {
@@ -96,9 +101,25 @@ struct CompiledModel::Library {
     parameter_error.store(loaded.parameter_error.load());
     for (const auto& [name, slot] : slots)
       slot->compiled.store(loaded.slots.at(name)->compiled.load(), std::memory_order_release);
+    all_compiled = true;
     const std::lock_guard<std::mutex> lock(mutex);
     std::swap(handle, loaded.handle);
     loaded_after_ms = ms_since(started);
+  }
+  // The first functions' library (a part of the model's): the functions it has serve from now
+  // on. Its handle stays open (a caller may be inside one of them when the whole library loads).
+  void take_first(Library& loaded) {
+    std::vector<std::string> names;
+    for (const auto& [name, slot] : loaded.slots)
+      if (const auto ours = slots.find(name); ours != slots.end()) {
+        ours->second->compiled.store(slot->compiled.load(), std::memory_order_release);
+        names.push_back(name);
+      }
+    if (loaded.parameter_error.load()) parameter_error.store(loaded.parameter_error.load());
+    const std::lock_guard<std::mutex> lock(mutex);
+    std::swap(first_handle, loaded.handle);
+    first_after_ms = ms_since(started);
+    first_served = names;
   }
   void join() {
     const std::lock_guard<std::mutex> lock(joining);
@@ -107,6 +128,7 @@ struct CompiledModel::Library {
   ~Library() {
     if (compile.joinable()) compile.join();
     if (handle) dlclose(handle);
+    if (first_handle) dlclose(first_handle);
   }
 };
 
@@ -309,11 +331,13 @@ std::string shown_command(const std::vector<std::string>& argv) {
   return command;
 }
 
-// Runs the compilers at once, their messages (kept in memory: they survive a full disk) added
+// Runs the compilers (at most max_running at once, in order; on_success as
+// run_all_interruptible's), their messages (kept in memory: they survive a full disk) added
 // to `log_text`; the first nonzero exit status (-1: one could not start), or 0.
 int run_compilers(const std::vector<std::vector<std::string>>& commands, int dir,
                   std::string& log_text, const std::function<void()>& on_interrupt,
-                  const std::string& compiler, const std::string& model, bool own_signals) {
+                  const std::string& compiler, const std::string& model, bool own_signals,
+                  int max_running = 0, const std::function<void(size_t)>& on_success = {}) {
   std::vector<Fd> logs;
   std::vector<int> fds;
   for (size_t k = 0; k < commands.size(); ++k) {
@@ -321,7 +345,7 @@ int run_compilers(const std::vector<std::vector<std::string>>& commands, int dir
     fds.push_back(logs.back().get());
   }
   const std::vector<RunResult> runs =
-      run_all_interruptible(commands, dir, fds, on_interrupt, own_signals);
+      run_all_interruptible(commands, dir, fds, on_interrupt, own_signals, max_running, on_success);
   int failed = 0;
   for (size_t k = 0; k < runs.size(); ++k) {
     if (runs[k].interrupted) throw CompileError("compiling model '" + model + "' was interrupted");
@@ -359,6 +383,10 @@ int compile_jobs(const CompileOptions& options) {
 }
 
 }  // namespace
+
+void CompileOptions::call_first(Output o, bool lanes) {
+  first_functions.push_back(info(o).name + (lanes ? std::string(kLanesSuffix) : ""));
+}
 
 double CompileOptions::default_max_code_mb() {
   const char* text = std::getenv("SPACEARM_MAX_CODE_MB");
@@ -425,10 +453,13 @@ CompileEstimate checked_cost(const ModelRecipe& recipe, const EmittedModel& emit
   for (const auto& unit : emitted.c_units)
     bytes += unit.size(), largest = std::max(largest, unit.size());
   const CompileEstimate cost = compile_estimate(largest);
+  const size_t at_once = std::min(units, static_cast<size_t>(compile_jobs(options)));
+  const std::string parts = units > at_once ? std::to_string(units) + " units, " : "";
   char text[400];
   std::snprintf(text, sizeof text,
-                "%.2f MB of C++: at least %.0f s and %.0f MB of memory (%zu compilers at once)",
-                static_cast<double>(bytes) / 1e6, cost.seconds, cost.memory_mb, units);
+                "%.2f MB of C++: at least %.0f s and %.0f MB of memory (%s%zu compilers at once)",
+                static_cast<double>(bytes) / 1e6, cost.seconds, cost.memory_mb, parts.c_str(),
+                at_once);
   line = text;
   const double max_mb =
       options.max_code_mb > 0 ? options.max_code_mb : CompileOptions::default_max_code_mb();
@@ -442,10 +473,11 @@ CompileEstimate checked_cost(const ModelRecipe& recipe, const EmittedModel& emit
 }
 
 // The compiler's commands: one unit compiled and linked by one command; several each to an
-// object at once (`compiles`), then linked (`link`).
+// object (`compiles`, in order, as many at once as the caller runs), then linked (`link`);
+// `link_first` links unit 0's object alone (EmittedEntry::first_unit).
 struct CompilePlan {
   std::vector<std::vector<std::string>> compiles;
-  std::vector<std::string> objects, link;
+  std::vector<std::string> objects, link, link_first;
 
   CompilePlan(const std::vector<std::string>& sources, const std::string& compiler,
               const std::string& flags, const std::string& libraries) {
@@ -468,7 +500,9 @@ struct CompilePlan {
     std::vector<std::string> middle = objects;
     middle.insert(middle.end(), {"-o", "libmodel.so"});
     link = argv(middle, true);
+    if (!objects.empty()) link_first = argv({objects[0], "-o", kFirstLibrary}, true);
   }
+  static constexpr const char* kFirstLibrary = "libfirst.so";
   // The commands as a shell would run them (compile_command.txt).
   std::string shown() const {
     const bool several = compiles.size() > 1;
@@ -495,7 +529,12 @@ EmittedEntry emit_entry(const ModelRecipe& recipe, const CacheFolder& cache,
     eo.command = "spacearm (compile-and-load cache)";
     eo.c_units = compile_jobs(options);
     eo.interpreted = interpreted;
+    // The first functions in unit 0 where the interpreter serves meanwhile.
+    if (interpreted && !options.first_functions.empty())
+      eo.leading_units = {options.first_functions};
     e.emitted = recipe.emit(eo, &rep.derive_ms);
+    e.first_unit = !eo.leading_units.empty() && e.emitted.c_units.size() > 1 &&
+                   !e.emitted.c_unit_functions[0].empty();
     const size_t units = e.emitted.c_units.size();
     for (size_t u = 0; u < units; ++u) {
       e.sources.push_back(units == 1 ? "libmodel.cpp" : "libmodel_" + std::to_string(u) + ".cpp");
@@ -522,9 +561,13 @@ EmittedEntry emit_entry(const ModelRecipe& recipe, const CacheFolder& cache,
 // Compiles an emitted entry's sources inside its work folder, with relative names (nothing goes
 // through the cache's path again), and writes its COMPLETE marker: ready to install. On failure
 // the folder is kept for inspection (compile errors) or removed, and a CompileError says why.
+// first_built (with EmittedEntry::first_unit): called on this thread with the folder's
+// descriptor once unit 0 is compiled and linked alone as CompilePlan::kFirstLibrary, while the
+// other units compile; its failure only delays those functions to the whole library.
 void compile_entry(const ModelRecipe& recipe, const CacheFolder& cache, const std::string& entry,
                    EmittedEntry& e, const std::string& compiler, const std::string& compiler_id,
-                   const CompileOptions& options, StageReport& rep, bool own_signals) {
+                   const CompileOptions& options, StageReport& rep, bool own_signals,
+                   const std::function<void(int dir)>& first_built = {}) {
   auto say = [&](const std::string& m) {
     if (options.progress) options.progress(m);
   };
@@ -538,13 +581,23 @@ void compile_entry(const ModelRecipe& recipe, const CacheFolder& cache, const st
     const auto t1 = std::chrono::steady_clock::now();
     const std::string flags = options.flags + instruction_set_flags(options.instruction_set);
     const CompilePlan plan(e.sources, compiler, flags, options.libraries);
-    const auto& [compiles, objects, link] = plan;
+    const auto& [compiles, objects, link, link_first] = plan;
     write_new_file_at(dir, "compile_command.txt", "cd " + shown + plan.shown() + "\n",
                       shown + "/compile_command.txt");
     std::string log_text;
     const auto remove = [&] { cache.remove(work); };
-    int failed =
-        run_compilers(compiles, dir, log_text, remove, compiler, recipe.name(), own_signals);
+    const auto unit_built = [&](size_t k) {
+      if (k != 0 || !e.first_unit || !first_built) return;
+      std::string first_log;
+      if (run_compilers({link_first}, dir, first_log, remove, compiler, recipe.name(),
+                        own_signals) == 0)
+        first_built(dir);
+      else
+        say("linking the first functions failed; they wait for the whole library: " + first_log);
+      ::unlinkat(dir, CompilePlan::kFirstLibrary, 0);  // loaded, or of no use: never installed
+    };
+    int failed = run_compilers(compiles, dir, log_text, remove, compiler, recipe.name(),
+                               own_signals, compile_jobs(options), unit_built);
     if (failed == 0 && e.sources.size() > 1)
       failed = run_compilers({link}, dir, log_text, remove, compiler, recipe.name(), own_signals);
     rep.compile_ms = ms_since(t1);
@@ -797,8 +850,23 @@ CompiledModel CompiledModel::in_background(const ModelRecipe& recipe, CacheFolde
                                 e = std::move(emitted), compiler, options = quiet, say]() mutable {
       StageReport background;
       try {
+        // The first functions serve from their own library as soon as it is linked.
+        const auto first_built = [&](int dir) {
+          std::string why;
+          StageReport first;
+          const Fd part = open_private_at(dir, CompilePlan::kFirstLibrary, false,
+                                          CompilePlan::kFirstLibrary, "compiled library");
+          CompiledModel loaded;
+          if (part.valid()) loaded = open_verified(recipe, part, first, why, true);
+          if (!part.valid() || !why.empty()) {
+            if (say) say("the first functions' library does not load: " + why);
+            return;
+          }
+          lib->take_first(*loaded.library_);
+          if (say) say("the first functions of " + recipe.name() + " compiled: they serve now");
+        };
         compile_entry(recipe, cache, entry, e, compiler.first, compiler.second, options, background,
-                      false);
+                      false, first_built);
         cache.install(e.work, entry);
         std::string problem, why;
         const Fd library = cache.open_library(entry, problem);
@@ -843,8 +911,7 @@ std::string stage_line(const StageReport& rep) {
 }
 
 const char* CompiledModel::engine() const {
-  const auto f = functions_.find("gear_ratios");
-  return f != functions_.end() && f->second.compiled() ? "compiled" : "interpreter";
+  return !library_->code || library_->all_compiled ? "compiled" : "interpreter";
 }
 
 bool CompiledModel::wait_for_compiled() const {
@@ -863,11 +930,19 @@ std::string CompiledModel::engine_report() const {
   std::snprintf(loaded, sizeof loaded, "; the compiled library loaded %.2f s after the start",
                 library_->loaded_after_ms / 1e3);
   if (!library_->code) return "engine: compiled";
+  std::string first;
+  if (library_->first_after_ms >= 0) {
+    for (const auto& name : library_->first_served) first += (first.empty() ? "" : ", ") + name;
+    char after[80];
+    std::snprintf(after, sizeof after, " compiled first, serving %.2f s after the start",
+                  library_->first_after_ms / 1e3);
+    first = "; " + first + after;
+  }
   if (library_->loaded_after_ms >= 0)
-    return "engine: " + interpreted + loaded + " and served the rest";
+    return "engine: " + interpreted + first + loaded + " and served the rest";
   if (!library_->compile_error.empty())
     return "engine: " + interpreted + " (no compiled library: " + library_->compile_error + ")";
-  return "engine: " + interpreted +
+  return "engine: " + interpreted + first +
          (library_->background ? "; the compile goes on in the background" : "");
 }
 
@@ -956,7 +1031,7 @@ std::string never_used_path(int fd) {
 // mapped), then every symbol the scene needs is looked up before any is called, and the
 // library's scene hash must be this scene's.
 CompiledModel CompiledModel::open_verified(const ModelRecipe& recipe, const Fd& library,
-                                           StageReport& rep, std::string& why) {
+                                           StageReport& rep, std::string& why, bool partial) {
   const auto t0 = std::chrono::steady_clock::now();
   CompiledModel m;
   m.library_ = std::make_shared<Library>();
@@ -1026,11 +1101,11 @@ CompiledModel CompiledModel::open_verified(const ModelRecipe& recipe, const Fd& 
       reinterpret_cast<const char* (*)(const double*)>(sym("spacearm_parameter_error"));
   for (const auto& f : exported_functions(m.outputs_)) {
     const auto compiled = reinterpret_cast<ModelFunction::Raw>(sym("spacearm_" + f));
-    if (!compiled) {
+    if (!compiled && !partial) {
       why = "the library lacks the symbol spacearm_" + f;
       return m;
     }
-    m.functions_[f] = m.library_->add_slot(f, compiled, nullptr, false, {});
+    if (compiled) m.functions_[f] = m.library_->add_slot(f, compiled, nullptr, false, {});
     // The 4-lane version beside it (cpp_printer.hpp), where the printer emitted one.
     if (auto lanes = reinterpret_cast<ModelFunction::Raw>(sym("spacearm_" + f + kLanesSuffix)))
       m.lanes_functions_[f] = m.library_->add_slot(f + kLanesSuffix, lanes, nullptr, true, {});

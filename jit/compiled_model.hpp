@@ -93,6 +93,12 @@ struct CompileOptions {
   std::function<void(const std::string&)> progress;
   // The API's default waits for the compiled library; the commands and Python take automatic.
   Engine engine = Engine::compiled;
+  // Engine::automatic: the functions the caller calls first (C names without "spacearm_",
+  // 4-lane ones ending in "_x4"; names the scene lacks are skipped). They compile in a unit of
+  // their own, first, and serve as soon as it is built (from a library of their own, not cached);
+  // the rest serves when the whole library loads.
+  std::vector<std::string> first_functions;
+  void call_first(Output o, bool lanes = false);  // adds output o's function (its 4-lane one)
   // The largest emitted C++ compiled [MB] (compile_estimate): past it the load is refused
   // before the compiler starts, naming the size, the estimated time and memory. 0: read when a
   // compile needs it, $SPACEARM_MAX_CODE_MB or else 8 (default_max_code_mb).
@@ -312,8 +318,9 @@ class CompiledModel {
   std::vector<SpanField> span_fields_;
   bool free_floating_ = false, passive_forces_ = false;
   int num_base_ = 0, quaternion_offset_ = -1;
+  // partial: a library of some functions only (CompileOptions::first_functions).
   static CompiledModel open_verified(const ModelRecipe& recipe, const Fd& library, StageReport& rep,
-                                     std::string& why);
+                                     std::string& why, bool partial = false);
   static CompiledModel interpreted(const ModelRecipe& recipe, const CompileOptions& options,
                                    StageReport& rep, const std::string& no_library,
                                    std::shared_ptr<const InterpretedModel> code = nullptr);

@@ -223,7 +223,8 @@ void kill_own_group(int) { ::kill(0, SIGKILL); }
 std::vector<RunResult> run_all_interruptible(const std::vector<std::vector<std::string>>& argvs,
                                              int work_dir, const std::vector<int>& logs,
                                              const std::function<void()>& on_interrupt,
-                                             bool own_signals) {
+                                             bool own_signals, int max_running,
+                                             const std::function<void(size_t)>& on_success) {
   if (logs.size() != argvs.size()) throw std::logic_error("run_all_interruptible: one log each");
   const size_t n = argvs.size();
   std::vector<RunResult> results(n);
@@ -239,52 +240,80 @@ std::vector<RunResult> run_all_interruptible(const std::vector<std::vector<std::
   sigaction(SIGTERM, nullptr, &old_term);
   if (own_signals && old_int.sa_handler != SIG_IGN) sigaction(SIGINT, &ours, nullptr);
   if (own_signals && old_term.sa_handler != SIG_IGN) sigaction(SIGTERM, &ours, nullptr);
-  // Each program under its own watcher, in its own process group.
+  // Each program under its own watcher, in its own process group; at most max_running at once,
+  // started in order as earlier ones end.
   const pid_t parent = ::getpid();
   std::vector<pid_t> pids(n, -1);
   std::vector<Fd> error_ins(n);
-  for (size_t k = 0; k < n && !signalled(); ++k) {
+  std::vector<int> status(n, 0);
+  std::vector<bool> done(n, false);
+  const size_t limit = max_running > 0 ? static_cast<size_t>(max_running) : n;
+  size_t started = 0, running = 0;
+  const auto start = [&](size_t k) {
     std::vector<char*> args;
     for (const auto& a : argvs[k]) args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);
     int pipe_fds[2];
     if (::pipe2(pipe_fds, O_CLOEXEC | O_NONBLOCK) != 0) {
       results[k].start_error = errno;
-      continue;
+      done[k] = true;
+      return;
     }
     error_ins[k] = Fd(pipe_fds[0]);
     Fd error_out(pipe_fds[1]);
+    // The watcher starts with the stopping signals blocked: one sent to its group before it has
+    // its own handlers stays pending (it would otherwise run ours, inherited, and be lost).
+    sigset_t stopping, before;
+    sigemptyset(&stopping);
+    for (int sig : {SIGTERM, SIGINT, SIGHUP}) sigaddset(&stopping, sig);
+    ::pthread_sigmask(SIG_BLOCK, &stopping, &before);
     pids[k] = ::fork();
     if (pids[k] == 0) watch(args.data(), parent, work_dir, logs[k], error_out.get());
+    ::pthread_sigmask(SIG_SETMASK, &before, nullptr);
     if (pids[k] > 0) ::setpgid(pids[k], pids[k]);  // also here: no window where a signal misses
     if (pids[k] < 0) results[k].start_error = errno;
-  }
+    done[k] = pids[k] <= 0;
+    running += !done[k];
+  };
   // Wait for all; on a signal SIGTERM to every group, SIGKILL if one is still there 5 s later.
-  std::vector<int> status(n, 0);
-  std::vector<bool> done(n);
-  for (size_t k = 0; k < n; ++k) done[k] = pids[k] <= 0;
   bool one_failed = false;
   for (int waited_after_signal = 0;;) {
-    bool all_done = true;
-    for (size_t k = 0; k < n; ++k) {
+    // The next programs start while none failed and no signal came; the others never run.
+    for (; started < n && running < limit; ++started) {
+      if (one_failed || signalled()) {
+        results[started].stopped = !signalled();
+        done[started] = true;
+        continue;
+      }
+      start(started);
+      one_failed = one_failed || results[started].start_error != 0;
+    }
+    bool all_done = started == n;
+    for (size_t k = 0; k < started; ++k) {
       if (done[k]) continue;
       const pid_t r = ::waitpid(pids[k], &status[k], WNOHANG);
-      if (r == pids[k] || (r < 0 && errno != EINTR)) done[k] = true;
-      one_failed =
-          one_failed || (done[k] && !(WIFEXITED(status[k]) && WEXITSTATUS(status[k]) == 0));
+      if (r == pids[k] || (r < 0 && errno != EINTR)) {
+        done[k] = true;
+        --running;
+        // (waitpid's ECHILD, SIGCHLD ignored by the caller, leaves status 0: as before, the
+        // files it should have written tell.)
+        const bool ok = WIFEXITED(status[k]) && WEXITSTATUS(status[k]) == 0;
+        one_failed = one_failed || !ok;
+        if (ok && on_success && !signalled()) on_success(k);
+      }
       all_done = all_done && done[k];
     }
     if (all_done) break;
     // One failed: the others' work is of no use; stop them (SIGTERM, their watchers pass it on).
     if (one_failed && !signalled())
-      for (size_t k = 0; k < n; ++k)
+      for (size_t k = 0; k < started; ++k)
         if (!done[k] && !results[k].stopped) {
           ::kill(-pids[k], SIGTERM);
           results[k].stopped = true;
         }
     if (signalled()) {
       ++waited_after_signal;
-      for (size_t k = 0; k < n; ++k)
+      for (size_t k = 0; k < started; ++k)
         if (!done[k]) ::kill(-pids[k], waited_after_signal > 250 ? SIGKILL : SIGTERM);
     }
     const timespec pause{0, 20 * 1000 * 1000};

@@ -95,10 +95,14 @@ RunResult run_interruptible(const std::vector<std::string>& argv, int work_dir, 
 // so does one's failure (the others are then `stopped`).
 // own_signals = false (a compile in the background, beside the caller's own handlers): the
 // handlers are left alone; the watchers still stop the programs if this process dies.
+// max_running > 0: at most that many run at once, started in the order given (a program not
+// started because another failed is `stopped` too). on_success(k), on this thread as soon as
+// program k has exited with status 0 (the others may still run).
 std::vector<RunResult> run_all_interruptible(const std::vector<std::vector<std::string>>& argvs,
                                              int work_dir, const std::vector<int>& logs,
                                              const std::function<void()>& on_interrupt,
-                                             bool own_signals = true);
+                                             bool own_signals = true, int max_running = 0,
+                                             const std::function<void(size_t)>& on_success = {});
 
 // An anonymous file in memory (memfd): a compiler's messages survive a full disk.
 Fd memory_file(const char* name);

@@ -164,8 +164,13 @@ struct StudyRunner::Loaded : LoadedStudy {};
 StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(std::move(study)) {
   const Study& s = study_;
   check_outputs(s);
+  // The runs' functions compile first (lockstep_applies: four runs at once under rk4).
+  CompileOptions first = options;
+  const bool lanes = s.integrator.method == Method::rk4;
+  for (Output o : {Output::forward_dynamics, Output::end_effector_pose, Output::momentum})
+    first.call_first(o, lanes);
   loaded_ = std::make_unique<Loaded>(
-      Loaded{{CompiledModel::load(recipe(s.scene), options), {}, {}, {}, {}, {}, {}}});
+      Loaded{{CompiledModel::load(recipe(s.scene), first), {}, {}, {}, {}, {}, {}}});
   // The run scene at its nominal parameters: what a controller believes (its p, its friction).
   const std::vector<double>& nominal = loaded_->model.nominal_parameters();
   const DynamicModel believed = dynamic_model(

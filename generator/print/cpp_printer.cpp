@@ -511,51 +511,86 @@ std::string c_facts(const ModelFacts& facts) {
 }
 
 // Each function's C text (and its 4-lane version's), and whether it uses the trig batches.
-void c_function_texts(const LoweredModel& model, int per_part, std::vector<std::string>& texts,
-                      std::vector<bool>& batches) {
+// One function of the C interface: its C name (spacearm_ + name), text and whether it batches
+// sin/cos (the unit then includes the batch helper).
+struct CFunction {
+  std::string name, text;
+  bool trig_batches = false;
+};
+
+std::vector<CFunction> c_functions(const LoweredModel& model, int per_part) {
   const ModelFacts& facts = model.facts;
+  std::vector<CFunction> functions;
   for (const auto& f : model.functions) {
     const Body b = function_body(f, facts.dims, per_part, Spelling::c_arrays);
-    batches.push_back(b.trig_batches);
-    texts.push_back("\n// " + f.doc + "\n" + b.parts + "void spacearm_" + f.name +
-                    "([[maybe_unused]] const double* const* in, [[maybe_unused]] const double* "
-                    "params, double* const* out) {\n" +
-                    (b.parts.empty() ? c_input_aliases(f) : "") + b.body + "}\n");
+    functions.push_back({f.name,
+                         "\n// " + f.doc + "\n" + b.parts + "void spacearm_" + f.name +
+                             "([[maybe_unused]] const double* const* in, [[maybe_unused]] const "
+                             "double* params, double* const* out) {\n" +
+                             (b.parts.empty() ? c_input_aliases(f) : "") + b.body + "}\n",
+                         b.trig_batches});
     // Its 4-lane version: four states per call, every input, parameter and result interleaved.
     if (!f.lanes) continue;
     const Body l = function_body(f, facts.dims, per_part, Spelling::c_arrays, true);
-    batches.push_back(l.trig_batches);
-    texts.push_back("\n// " + f.name + " of four states at once (kLanesHelper).\n" + l.parts +
-                    "void spacearm_" + f.name + kLanesSuffix +
-                    "([[maybe_unused]] const double* const* in, const double* lane_params, "
-                    "double* const* lane_results) {\n" +
-                    lanes_prologue(f) + (l.parts.empty() ? c_input_aliases(f, true) : "") + l.body +
-                    "}\n");
+    functions.push_back({f.name + kLanesSuffix,
+                         "\n// " + f.name + " of four states at once (kLanesHelper).\n" + l.parts +
+                             "void spacearm_" + f.name + kLanesSuffix +
+                             "([[maybe_unused]] const double* const* in, const double* "
+                             "lane_params, double* const* lane_results) {\n" +
+                             lanes_prologue(f) + (l.parts.empty() ? c_input_aliases(f, true) : "") +
+                             l.body + "}\n",
+                         l.trig_batches});
   }
+  return functions;
 }
 
-std::vector<std::string> c_interface(const LoweredModel& model, int per_part, int units) {
-  const ModelFacts& facts = model.facts;
-  std::vector<std::string> texts;
-  std::vector<bool> batches;
-  c_function_texts(model, per_part, texts, batches);
-  units = std::max(1, std::min<int>(units, texts.size()));
-  std::vector<int> unit_of(texts.size());
-  std::vector<size_t> load(units);
-  std::vector<size_t> order(texts.size());
-  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::stable_sort(order.begin(), order.end(),
-                   [&](size_t a, size_t b) { return texts[a].size() > texts[b].size(); });
+// Which unit each function goes to: the named leading units first, in their order (a name the
+// model lacks is skipped), then the rest over `units` more, balanced by size (largest first).
+std::vector<int> unit_of_functions(const std::vector<CFunction>& functions,
+                                   const std::vector<std::vector<std::string>>& leading,
+                                   int units) {
+  std::vector<int> unit_of(functions.size(), -1);
+  for (size_t u = 0; u < leading.size(); ++u)
+    for (const auto& name : leading[u])
+      for (size_t i = 0; i < functions.size(); ++i)
+        if (functions[i].name == name && unit_of[i] < 0) unit_of[i] = static_cast<int>(u);
+  size_t rest = 0;
+  for (int u : unit_of) rest += u < 0;
+  units = std::max(1, std::min<int>(units, static_cast<int>(rest)));
+  std::vector<size_t> load(units), order;
+  for (size_t i = 0; i < functions.size(); ++i)
+    if (unit_of[i] < 0) order.push_back(i);
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return functions[a].text.size() > functions[b].text.size();
+  });
   for (size_t i : order) {
-    unit_of[i] = std::min_element(load.begin(), load.end()) - load.begin();
-    load[unit_of[i]] += texts[i].size();
+    const auto least = std::min_element(load.begin(), load.end()) - load.begin();
+    unit_of[i] = static_cast<int>(leading.size() + least);
+    load[least] += functions[i].text.size();
   }
+  return unit_of;
+}
+
+// The C interface's translation units (PrintOptions::c_units, leading_units); unit 0 also
+// states the model's facts.
+std::vector<std::string> c_interface(const LoweredModel& model, const PrintOptions& options,
+                                     std::vector<std::vector<std::string>>& names) {
+  const ModelFacts& facts = model.facts;
+  const std::vector<CFunction> functions = c_functions(model, options.statements_per_part);
+  const std::vector<int> unit_of =
+      unit_of_functions(functions, options.leading_units, options.c_units);
+  const int units = unit_of.empty() ? 1 : *std::max_element(unit_of.begin(), unit_of.end()) + 1;
+  names.assign(units, {});
   std::vector<std::string> result;
   for (int u = 0; u < units; ++u) {
-    std::string functions;
+    std::string texts;
     bool trig_batches = false;
-    for (size_t i = 0; i < texts.size(); ++i)
-      if (unit_of[i] == u) functions += texts[i], trig_batches = trig_batches || batches[i];
+    for (size_t i = 0; i < functions.size(); ++i)
+      if (unit_of[i] == u) {
+        texts += functions[i].text;
+        trig_batches = trig_batches || functions[i].trig_batches;
+        names[u].push_back(functions[i].name);
+      }
     std::ostringstream s;
     s << "// C interface of model " << facts.name << " for dlopen (written by spacearm; do not edit"
       << (units > 1 ? "; part " + std::to_string(u + 1) + " of " + std::to_string(units) : "")
@@ -565,12 +600,10 @@ std::vector<std::string> c_interface(const LoweredModel& model, int per_part, in
       << (trig_batches ? kTrigBatchIncludes : "") << "\nnamespace {\nusing T = double;\n"
       << (trig_batches ? kTrigBatchHelper : "") << kLanesHelper
       << (trig_batches ? kLanesTrigHelper : "");
-    if (u > 0) {
-      s << "}  // namespace\n\nextern \"C\" {" << functions << "}\n";
-      result.push_back(s.str());
-      continue;
-    }
-    s << c_facts(facts) << functions << "}\n";
+    if (u > 0)
+      s << "}  // namespace\n\nextern \"C\" {" << texts << "}\n";
+    else
+      s << c_facts(facts) << texts << "}\n";
     result.push_back(s.str());
   }
   return result;
@@ -655,7 +688,7 @@ EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
   h << "\n}  // namespace " << ns << "\n";
   result.header = h.str();
   result.source = s.str();
-  result.c_units = c_interface(model, options.statements_per_part, options.c_units);
+  result.c_units = c_interface(model, options, result.c_unit_functions);
   if (options.interpreted) try {
       result.interpreted = std::make_shared<const InterpretedModel>(interpreted_code(model));
     } catch (const std::logic_error& e) {  // the compiled code still serves

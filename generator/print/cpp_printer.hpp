@@ -39,8 +39,13 @@ struct PrintOptions {
   // and 8.9 GB to compile at -O1; in parts of 2000, 33 s and 0.6 GB). Values a later part reads
   // pass through a work array on the stack whose slots are reused after their last reader.
   int statements_per_part = 2000;
-  // The C interface in this many translation units (c_units), for as many compilers at once.
+  // The C interface in this many translation units (c_units), for as many compilers at once,
+  // after the leading ones: unit k < leading_units.size() holds the functions named in
+  // leading_units[k] (C names without "spacearm_"; 4-lane ones end in kLanesSuffix; a name the
+  // model lacks is skipped), so that a caller can compile and load them first. Unit 0 also
+  // states the model's facts.
   int c_units = 1;
+  std::vector<std::vector<std::string>> leading_units;
   // Also the interpreter's form of the C interface (EmittedModel::interpreted).
   bool interpreted = false;
 };
@@ -57,6 +62,7 @@ struct EmittedModel {
   std::string header, source;
   std::string c_interface;  // extern "C" wrappers of every function, for dlopen (c_units = 1)
   std::vector<std::string> c_units;  // the same in PrintOptions::c_units translation units
+  std::vector<std::vector<std::string>> c_unit_functions;  // the functions of each of them
   std::vector<FunctionStats> stats;
   // PrintOptions::interpreted: the same functions for the interpreter (interpreted_code.hpp).
   std::shared_ptr<const InterpretedModel> interpreted;

@@ -1,11 +1,15 @@
 // jit/interpreter.hpp: the interpreted code computes the compiled library's numbers bit for bit
 // (every kept scene, every function, random states, scalar and four lanes), checks the
 // parameters as the library does, and serves a model at once while the library is compiled in
-// the background (Engine::automatic), which then takes over at a call boundary and lands in the
-// cache even when the model is dropped before it finishes.
+// the background (Engine::automatic), which then takes over at a call boundary (the functions
+// the caller calls first before the rest) and lands in the cache even when the model is dropped
+// before it finishes.
+#include <chrono>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <random>
+#include <thread>
 
 #include "compiled_model.hpp"
 #include "cli_fixtures.hpp"
@@ -201,6 +205,58 @@ TEST(Interpreter, AutomaticServesAtOnceThenSwapsInTheCompiledLibrary) {
   EXPECT_FALSE(second.generated || second.compiled || second.interpreted);
   EXPECT_STREQ(again.engine(), "compiled");
   fs::remove_all(cache);
+}
+
+// The functions a command calls first (CompileOptions::first_functions) serve compiled from a
+// library of their own while the other units still compile (held back here by a compiler that
+// waits 3 s before any other unit), with the interpreter's numbers; the whole library then
+// takes over, and the cache holds it alone.
+TEST(Interpreter, FirstFunctionsServeCompiledBeforeTheWholeLibrary) {
+  const fs::path cache = fresh_cache("interpreter_first");
+  const fs::path slow = cache.parent_path() / ("slow-c++-" + std::to_string(::getpid()));
+  std::ofstream(slow) << "#!/bin/sh\ncase \"$*\" in *libmodel_[1-9].cpp*) sleep 3;; esac\n"
+                      << "exec c++ \"$@\"\n";
+  fs::permissions(slow, fs::perms::owner_all);
+  const ModelRecipe recipe =
+      ModelRecipe::load(std::string(SPACEARM_SOURCE_DIR) + "/models/paper_geared.yaml");
+  CompileOptions options;
+  options.cache_dir = cache.string();
+  options.compiler = slow.string();
+  options.engine = Engine::automatic;
+  options.call_first(Output::forward_dynamics);
+  const CompiledModel m = CompiledModel::load(recipe, options);
+  const CompiledModel::Function fd = m.function(Output::forward_dynamics);
+  const CompiledModel::Function mass = m.function(Output::mass_matrix);
+  const auto t0 = std::chrono::steady_clock::now();
+  while (!fd.compiled() && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(20))
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_TRUE(fd.compiled()) << m.engine_report();
+  EXPECT_FALSE(mass.compiled());
+  EXPECT_STREQ(m.engine(), "interpreter");
+  EXPECT_NE(m.engine_report().find("forward_dynamics compiled first"), std::string::npos)
+      << m.engine_report();
+  // The compiled first function computes the interpreter's numbers.
+  const InterpretedModel code = interpreted_code_of(recipe);
+  const auto fd_code = std::find_if(code.functions.begin(), code.functions.end(),
+                                    [](const auto& f) { return f.name == "forward_dynamics"; });
+  std::mt19937 rng(11);
+  CompileOptions interpreted;
+  interpreted.engine = Engine::interpreter;
+  const CompiledModel i = CompiledModel::load(recipe, interpreted);
+  for (int trial = 0; trial < 8; ++trial) {
+    Arguments a = random_arguments(m, *fd_code, 1, rng), b = a;
+    b.point();
+    fd(a.in_ptr.data(), a.params.data(), a.out_ptr.data());
+    i.function(Output::forward_dynamics)(b.in_ptr.data(), b.params.data(), b.out_ptr.data());
+    for (size_t e = 0; e < a.out[0].size(); ++e) EXPECT_TRUE(same_bits(a.out[0][e], b.out[0][e]));
+  }
+  ASSERT_TRUE(m.wait_for_compiled()) << m.engine_report();
+  EXPECT_TRUE(mass.compiled());
+  EXPECT_NE(m.engine_report().find("the compiled library loaded"), std::string::npos);
+  for (const auto& entry : fs::recursive_directory_iterator(cache))
+    EXPECT_NE(entry.path().filename(), "libfirst.so") << entry.path();
+  fs::remove_all(cache);
+  fs::remove(slow);
 }
 
 // A model dropped while its library compiles leaves the compile to finish: the next run hits the

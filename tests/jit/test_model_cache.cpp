@@ -18,6 +18,7 @@
 #include <fstream>
 #include <sstream>
 #include <thread>
+#include <tuple>
 
 #include "compiled_model.hpp"
 #include "support.hpp"
@@ -261,6 +262,55 @@ TEST(ModelCache, OneUnitFailingStopsTheOthers) {
   EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(15)) << out;
   EXPECT_NE(out.find("compiling model 'paper_reference' failed:\nunit broke"), std::string::npos)
       << out;
+  fs::remove_all(dir);
+}
+
+// run_all_interruptible with max_running: the programs start in order, at most that many at
+// once; on_success names each as it ends well; after a failure the rest never start.
+TEST(ModelCache, AtMostMaxRunningProgramsRunInOrder) {
+  const fs::path dir = scratch("max-running");
+  const Fd folder(::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+  ASSERT_TRUE(folder.valid());
+  const auto program = [](int k, int status) {
+    const std::string n = std::to_string(k);
+    return std::vector<std::string>{"/bin/sh", "-c",
+                                    "echo start " + n + " >> log; sleep 0.3; echo end " + n +
+                                        " >> log; exit " + std::to_string(status)};
+  };
+  const auto run = [&](const std::vector<int>& statuses, int max_running) {
+    fs::remove(dir / "log");
+    std::vector<std::vector<std::string>> argvs;
+    std::vector<Fd> logs;
+    std::vector<int> fds;
+    for (size_t k = 0; k < statuses.size(); ++k) {
+      argvs.push_back(program(static_cast<int>(k), statuses[k]));
+      logs.push_back(memory_file("test-log"));
+      fds.push_back(logs.back().get());
+    }
+    std::vector<size_t> succeeded;
+    const auto results = run_all_interruptible(argvs, folder.get(), fds, {}, false, max_running,
+                                               [&](size_t k) { succeeded.push_back(k); });
+    return std::make_tuple(results, succeeded, slurp(dir / "log"));
+  };
+  {
+    const auto [results, succeeded, log] = run({0, 0, 0}, 1);
+    EXPECT_EQ(log, "start 0\nend 0\nstart 1\nend 1\nstart 2\nend 2\n");
+    EXPECT_EQ(succeeded, (std::vector<size_t>{0, 1, 2}));
+    for (const auto& r : results) EXPECT_EQ(r.status, 0);
+  }
+  {
+    const auto [results, succeeded, log] = run({0, 3, 0}, 1);
+    EXPECT_EQ(log, "start 0\nend 0\nstart 1\nend 1\n");
+    EXPECT_EQ(succeeded, (std::vector<size_t>{0}));
+    EXPECT_EQ(results[1].status, 3);
+    EXPECT_TRUE(results[2].stopped);
+    EXPECT_EQ(results[2].status, -1);
+  }
+  {
+    const auto [results, succeeded, log] = run({0, 0, 0}, 0);  // all at once
+    EXPECT_EQ(log.substr(0, 24).find("end"), std::string::npos) << log;
+    EXPECT_EQ(succeeded.size(), 3u);
+  }
   fs::remove_all(dir);
 }
 

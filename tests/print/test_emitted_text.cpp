@@ -16,6 +16,7 @@
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <set>
 #include <fstream>
 #include <iterator>
 #include <sstream>
@@ -420,6 +421,40 @@ TEST(EmittedText, UnitsComputeWhatOneUnitComputes) {
     for (size_t i = 0; i < values.size(); ++i)
       EXPECT_EQ(got.at(name)[i], values[i]) << name << " entry " << i;
   }
+  fs::remove_all(dir);
+}
+
+// Leading units (PrintOptions::leading_units: what a command calls first, compiled first): unit 0
+// holds the model's facts and exactly the named functions the model has, the others are spread
+// over c_units more, each function once, and the units compute what one unit computes.
+TEST(EmittedText, LeadingUnitsHoldTheNamedFunctionsFirst) {
+  const fs::path dir = fs::temp_directory_path() / ("spacearm-leading-" + std::to_string(getpid()));
+  const LoweredModel model =
+      lower(derive(load_scene(std::string(SPACEARM_SOURCE_DIR) + "/models/paper_flexible.yaml")));
+  PrintOptions first;
+  first.c_units = 2;
+  first.leading_units = {{"forward_dynamics", "no_such_function", "momentum_x4"}};
+  const EmittedModel one = print_cpp(model, {}), units = print_cpp(model, first);
+  ASSERT_EQ(units.c_units.size(), 3u);
+  ASSERT_EQ(units.c_unit_functions.size(), 3u);
+  EXPECT_EQ(
+      std::set<std::string>(units.c_unit_functions[0].begin(), units.c_unit_functions[0].end()),
+      (std::set<std::string>{"forward_dynamics", "momentum_x4"}));
+  std::multiset<std::string> all, want;
+  for (const auto& names : units.c_unit_functions) all.insert(names.begin(), names.end());
+  for (const auto& names : one.c_unit_functions) want.insert(names.begin(), names.end());
+  EXPECT_EQ(all, want);
+  EXPECT_GT(want.size(), 10u);
+  for (size_t u = 0; u < 3; ++u) {
+    EXPECT_EQ(units.c_units[u].find("spacearm_abi_version") != std::string::npos, u == 0) << u;
+    for (const auto& name : units.c_unit_functions[u])
+      EXPECT_NE(units.c_units[u].find("void spacearm_" + name + "("), std::string::npos) << name;
+  }
+  EXPECT_EQ(units.c_units[1].find("void spacearm_forward_dynamics("), std::string::npos);
+  const auto values = call_every_function(model, one.c_interface, dir / "one");
+  const auto got = call_every_function(model, units.c_units, dir / "leading");
+  ASSERT_EQ(got.size(), values.size());
+  for (const auto& [name, v] : values) EXPECT_EQ(got.at(name), v) << name;
   fs::remove_all(dir);
 }
 
