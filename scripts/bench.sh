@@ -2,13 +2,15 @@
 # Builds and runs the benchmarks: per-call cost against MuJoCo, SymPy (with cse) and the
 # CSE-free baseline, with the ratio table at the end. Installs Google Benchmark, MuJoCo and
 # SymPy when missing.
-#   scripts/bench.sh [--quick [--all-sizes] | --first-use | --sweep | --python | --spatial] [benchmark options, e.g. --benchmark_filter=chain_n3]
+#   scripts/bench.sh [--quick [--all-sizes] | --first-use | --compile | --sweep | --python | --spatial] [benchmark options, e.g. --benchmark_filter=chain_n3]
 # --spatial: a 7-joint arm on a free base (models/space_arm7) against MuJoCo.
 # --quick: only the MuJoCo comparison for N = 3, 12 and 30 (reference, geared, armature) and
 # the paper's models; a few minutes from a clean clone (build folder build-bench-quick).
 # --quick --all-sizes: the MuJoCo comparison at every N of bench/scenes, 2 to 30
 # (build-bench-sizes; about 25 minutes to build on 2 cores), M + bias and forward dynamics only.
 # --first-use: latency to the first result against time per call (bench/bench_first_use.cpp).
+# --compile: compile time per output at -O1x/-O2/-O3 and each level's time per call
+# (bench/bench_compile.cpp; about 4 minutes).
 # --sweep: Monte Carlo runs per second on 1 and 2 threads (bench/bench_sweep.cpp).
 # --python: a batched call from Python against the C++ calls (bench/bench_python_batch.cpp).
 # Build folder: build-bench (Release). Results vary with the machine and its load: compare
@@ -20,9 +22,10 @@ folder=build-bench-quick
 sizes=()
 filter=()
 program=bench_dynamics
-if [[ "${1:-}" == "--quick" || "${1:-}" == "--first-use" || "${1:-}" == "--sweep" || "${1:-}" == "--python" || "${1:-}" == "--spatial" ]]; then
+if [[ "${1:-}" == "--quick" || "${1:-}" == "--first-use" || "${1:-}" == "--compile" || "${1:-}" == "--sweep" || "${1:-}" == "--python" || "${1:-}" == "--spatial" ]]; then
   quick=1
   [[ "$1" == "--first-use" ]] && program=bench_first_use
+  [[ "$1" == "--compile" ]] && program=bench_compile
   [[ "$1" == "--sweep" ]] && program=bench_sweep
   [[ "$1" == "--python" ]] && program=bench_python_batch
   [[ "$1" == "--spatial" ]] && program=bench_spatial
