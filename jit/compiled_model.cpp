@@ -586,14 +586,20 @@ void compile_entry(const ModelRecipe& recipe, const CacheFolder& cache, const st
                       shown + "/compile_command.txt");
     std::string log_text;
     const auto remove = [&] { cache.remove(work); };
+    // Nothing thrown from here: the other compilers are still running (run_all_interruptible
+    // would leave them unwaited for).
     const auto unit_built = [&](size_t k) {
       if (k != 0 || !e.first_unit || !first_built) return;
-      std::string first_log;
-      if (run_compilers({link_first}, dir, first_log, remove, compiler, recipe.name(),
-                        own_signals) == 0)
-        first_built(dir);
-      else
-        say("linking the first functions failed; they wait for the whole library: " + first_log);
+      try {
+        std::string first_log;
+        if (run_compilers({link_first}, dir, first_log, remove, compiler, recipe.name(),
+                          own_signals) == 0)
+          first_built(dir);
+        else
+          say("linking the first functions failed; they wait for the whole library: " + first_log);
+      } catch (const std::exception& error) {
+        say(std::string("the first functions wait for the whole library: ") + error.what());
+      }
       ::unlinkat(dir, CompilePlan::kFirstLibrary, 0);  // loaded, or of no use: never installed
     };
     int failed = run_compilers(compiles, dir, log_text, remove, compiler, recipe.name(),
