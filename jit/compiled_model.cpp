@@ -98,9 +98,7 @@ struct CompiledModel::Library {
     for (const auto& [name, slot] : slots)
       if (!loaded.slots.count(name))
         throw CompileError("the compiled library lacks spacearm_" + name);
-    parameter_error.store(loaded.parameter_error.load());
-    for (const auto& [name, slot] : slots)
-      slot->compiled.store(loaded.slots.at(name)->compiled.load(), std::memory_order_release);
+    publish(loaded);
     all_compiled = true;
     const std::lock_guard<std::mutex> lock(mutex);
     std::swap(handle, loaded.handle);
@@ -109,17 +107,23 @@ struct CompiledModel::Library {
   // The first functions' library (a part of the model's): the functions it has serve from now
   // on. Its handle stays open (a caller may be inside one of them when the whole library loads).
   void take_first(Library& loaded) {
+    const std::vector<std::string> names = publish(loaded);
+    const std::lock_guard<std::mutex> lock(mutex);
+    std::swap(first_handle, loaded.handle);
+    first_after_ms = ms_since(started);
+    first_served = names;
+  }
+  // The loaded library's functions (and parameter check) serve in our slots of the same names;
+  // those names.
+  std::vector<std::string> publish(const Library& loaded) {
+    parameter_error.store(loaded.parameter_error.load());
     std::vector<std::string> names;
     for (const auto& [name, slot] : loaded.slots)
       if (const auto ours = slots.find(name); ours != slots.end()) {
         ours->second->compiled.store(slot->compiled.load(), std::memory_order_release);
         names.push_back(name);
       }
-    if (loaded.parameter_error.load()) parameter_error.store(loaded.parameter_error.load());
-    const std::lock_guard<std::mutex> lock(mutex);
-    std::swap(first_handle, loaded.handle);
-    first_after_ms = ms_since(started);
-    first_served = names;
+    return names;
   }
   void join() {
     const std::lock_guard<std::mutex> lock(joining);

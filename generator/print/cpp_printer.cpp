@@ -510,13 +510,14 @@ std::string c_facts(const ModelFacts& facts) {
   return s.str();
 }
 
-// Each function's C text (and its 4-lane version's), and whether it uses the trig batches.
-// One function of the C interface: its C name (spacearm_ + name), text and whether it batches
-// sin/cos (the unit then includes the batch helper).
+// One function of the C interface: its C name (spacearm_ + name), text, whether it is a 4-lane
+// version and whether it batches sin/cos (the unit then includes the batch helper).
 struct CFunction {
   std::string name, text;
-  bool trig_batches = false;
+  bool lanes = false, trig_batches = false;
 };
+
+// Each function's C text, and its 4-lane version's.
 
 std::vector<CFunction> c_functions(const LoweredModel& model, int per_part) {
   const ModelFacts& facts = model.facts;
@@ -528,7 +529,7 @@ std::vector<CFunction> c_functions(const LoweredModel& model, int per_part) {
                              "([[maybe_unused]] const double* const* in, [[maybe_unused]] const "
                              "double* params, double* const* out) {\n" +
                              (b.parts.empty() ? c_input_aliases(f) : "") + b.body + "}\n",
-                         b.trig_batches});
+                         false, b.trig_batches});
     // Its 4-lane version: four states per call, every input, parameter and result interleaved.
     if (!f.lanes) continue;
     const Body l = function_body(f, facts.dims, per_part, Spelling::c_arrays, true);
@@ -539,7 +540,7 @@ std::vector<CFunction> c_functions(const LoweredModel& model, int per_part) {
                              "lane_params, double* const* lane_results) {\n" +
                              lanes_prologue(f) + (l.parts.empty() ? c_input_aliases(f, true) : "") +
                              l.body + "}\n",
-                         l.trig_batches});
+                         true, l.trig_batches});
   }
   return functions;
 }
@@ -562,11 +563,7 @@ std::vector<int> unit_of_functions(const std::vector<CFunction>& functions,
   for (int u : unit_of) rest += u < 0;
   units = std::max(1, std::min<int>(units, static_cast<int>(rest)));
   const auto weight = [&](size_t i) {
-    const std::string& name = functions[i].name;
-    const bool lanes =
-        name.size() > std::strlen(kLanesSuffix) &&
-        name.compare(name.size() - std::strlen(kLanesSuffix), std::string::npos, kLanesSuffix) == 0;
-    return functions[i].text.size() * (lanes ? 2 : 1);
+    return functions[i].text.size() * (functions[i].lanes ? 2 : 1);
   };
   std::vector<size_t> load(units), order;
   for (size_t i = 0; i < functions.size(); ++i)

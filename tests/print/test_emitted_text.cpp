@@ -262,6 +262,11 @@ TEST(EmittedText, EveryAcceptedSceneEmitsCodeThatCompilesWithUserTextOnlyInComme
       std::invalid_argument, "file stem");
 }
 
+// The lowered model of a scene in the repository (path from its root, "/models/...").
+LoweredModel lowered_scene(const std::string& path) {
+  return lower(derive(load_scene(std::string(SPACEARM_SOURCE_DIR) + path)));
+}
+
 // Every function of a C interface, compiled (with `extra` flags and libraries after the source)
 // and loaded, called at one state (inputs 0.3, 0.4, ..., the nominal parameters): each
 // result's entries, by function.
@@ -393,8 +398,7 @@ TEST(EmittedText, GeneratedFilesNeverWriteThroughALinkPlantedInTheFolder) {
 // for bit; each unit compiles alone without a warning, and the model's facts are in the first.
 TEST(EmittedText, UnitsComputeWhatOneUnitComputes) {
   const fs::path dir = fs::temp_directory_path() / ("spacearm-units-" + std::to_string(getpid()));
-  const LoweredModel model =
-      lower(derive(load_scene(std::string(SPACEARM_SOURCE_DIR) + "/models/paper_flexible.yaml")));
+  const LoweredModel model = lowered_scene("/models/paper_flexible.yaml");
   PrintOptions three;
   three.c_units = 3;
   three.statements_per_part = 40;  // parts stay in their function's unit
@@ -429,8 +433,7 @@ TEST(EmittedText, UnitsComputeWhatOneUnitComputes) {
 // over c_units more, each function once, and the units compute what one unit computes.
 TEST(EmittedText, LeadingUnitsHoldTheNamedFunctionsFirst) {
   const fs::path dir = fs::temp_directory_path() / ("spacearm-leading-" + std::to_string(getpid()));
-  const LoweredModel model =
-      lower(derive(load_scene(std::string(SPACEARM_SOURCE_DIR) + "/models/paper_flexible.yaml")));
+  const LoweredModel model = lowered_scene("/models/paper_flexible.yaml");
   PrintOptions first;
   first.c_units = 2;
   first.leading_units = {{"forward_dynamics", "no_such_function", "momentum_x4"}};
@@ -463,7 +466,7 @@ TEST(EmittedText, SplitBodiesComputeWhatWholeBodiesCompute) {
       fs::temp_directory_path() / ("spacearm-split-bodies-" + std::to_string(getpid()));
   for (const char* scene : {"/models/paper_geared.yaml", "/models/paper_flexible.yaml"}) {
     SCOPED_TRACE(scene);
-    const LoweredModel model = lower(derive(load_scene(std::string(SPACEARM_SOURCE_DIR) + scene)));
+    const LoweredModel model = lowered_scene(scene);
     PrintOptions split;
     split.statements_per_part = 40;
     const EmittedModel whole = print_cpp(model, {}), parts = print_cpp(model, split);
@@ -490,8 +493,7 @@ TEST(EmittedText, SplitBodiesComputeWhatWholeBodiesCompute) {
 // nests three levels, read across parts: its values equal std::sin/std::cos evaluated here.
 // Cost: two compiles of a small C interface, about 1 s.
 TEST(EmittedText, NestedSinCosBatchesComputeWhatTheyRead) {
-  LoweredModel model =
-      lower(derive(load_scene(SPACEARM_SOURCE_DIR "/models/paper_reference.yaml")));
+  LoweredModel model = lowered_scene("/models/paper_reference.yaml");
   FunctionSpec f;
   f.name = "nested_trig";
   f.doc = "nested sin and cos";
@@ -545,7 +547,7 @@ TEST(EmittedText, VectorSinCosAgreesWithLibm) {
   const fs::path dir = fs::temp_directory_path() / ("spacearm-vtrig-" + std::to_string(getpid()));
   for (const char* scene : {"/models/paper_geared.yaml", "/models/paper_flexible.yaml"}) {
     SCOPED_TRACE(scene);
-    const LoweredModel model = lower(derive(load_scene(std::string(SPACEARM_SOURCE_DIR) + scene)));
+    const LoweredModel model = lowered_scene(scene);
     const EmittedModel e = print_cpp(model, {});
     const auto libm = call_every_function(model, e.c_interface, dir / "libm");
     const auto vector =
