@@ -143,7 +143,8 @@ class MjcfWriter {
     std::vector<Mass> bodies;  // 0 the base, j + 1 link j; less exact rotors' point masses
     for (size_t b = 0; b <= c.links.size(); ++b) bodies.push_back(body_mass(b));
     for (size_t j = 0; j < c.links.size(); ++j)
-      if (exact_rotor(j) && (j > 0 || c.free_base)) bodies[j] = with_rotor_removed(bodies[j], j);
+      if (const int parent = c.parent(int(j) + 1); exact_rotor(j) && (parent > 0 || c.free_base))
+        bodies[parent] = with_rotor_removed(bodies[parent], j);
     check_physical(bodies);
     std::ostringstream x;
     header(x);
@@ -152,16 +153,7 @@ class MjcfWriter {
       x << "      <freejoint name=\"" << attribute(body_name(0)) << "\"/>\n";
       x << "      " << inertial(bodies[0]) << "\n";
     }
-    std::string indent = "      ";
-    for (size_t j = 0; j < c.links.size(); ++j) {
-      link_body(x, j, bodies[j + 1], indent);
-      indent += "  ";
-    }
-    for (size_t j = c.links.size(); j-- > 0;) {
-      indent.resize(indent.size() - 2);
-      x << indent << "</body>\n";
-      if (exact_rotor(j)) rotor_body(x, j, indent);
-    }
+    children(x, 0, bodies, "      ");
     x << "    </body>\n  </worldbody>\n";
     equalities(x);
     x << "</mujoco>\n";
@@ -192,6 +184,13 @@ class MjcfWriter {
   }
   std::string joint_name(size_t j) const {
     return j < s_.joint_names.size() ? s_.joint_names[j] : "joint" + std::to_string(j + 1);
+  }
+  // "end_effector" for a chain's one; a tree's are named by their links.
+  std::string site_name(int e) const {
+    const spatial::ChainDescription& c = s_.chain;
+    if (c.num_end_effectors() == 1) return "end_effector";
+    const std::string& link = c.end_effectors[size_t(e)].link;
+    return "end_effector_" + (link.empty() ? std::to_string(e + 1) : link);
   }
   std::string rotor_name(size_t j) const { return "spacearm_rotor_" + std::to_string(j + 1); }
   Eigen::Vector3d axis(size_t j) const {
@@ -241,7 +240,9 @@ class MjcfWriter {
   // below half its axial one, the rotor body gets half (a thin disc) and the parent the
   // difference, which turns with it (symmetric about the axis), so the sum is spacearm's.
   Mass with_rotor_removed(const Mass& parent, size_t j) const {
-    Mass out = less_point_mass(parent, rotor_mass(parent), joint_origin(j));
+    // The rotor body's mass from the whole parent (a branching parent may carry several).
+    const double mr = rotor_mass(body_mass(size_t(s_.chain.parent(int(j) + 1))));
+    Mass out = less_point_mass(parent, mr, joint_origin(j));
     const double It = value(link(j).gear.transverse), T = rotor_transverse(j);
     const Eigen::Vector3d a = joint_rotation(j) * axis(j);
     out.I += (It - T) * (Eigen::Matrix3d::Identity() - a * a.transpose());
@@ -366,6 +367,20 @@ class MjcfWriter {
            numbers({d[0], d[1], d[2]}) + "\"/>";
   }
 
+  // The links body b carries, depth-first in their order (MuJoCo numbers its bodies so): each
+  // nested in its parent, an exact rotor a sibling after its joint's link.
+  void children(std::ostringstream& x, int b, const std::vector<Mass>& bodies,
+                const std::string& indent) const {
+    const spatial::ChainDescription& c = s_.chain;
+    for (size_t j = 0; j < c.links.size(); ++j) {
+      if (c.parent(int(j) + 1) != b) continue;
+      link_body(x, j, bodies[j + 1], indent);
+      children(x, int(j) + 1, bodies, indent + "  ");
+      x << indent << "</body>\n";
+      if (exact_rotor(j)) rotor_body(x, j, indent);
+    }
+  }
+
   void link_body(std::ostringstream& x, size_t j, const Mass& m, const std::string& indent) const {
     const spatial::Link& l = link(j);
     const Eigen::Vector3d a = axis(j);
@@ -379,11 +394,14 @@ class MjcfWriter {
       x << indent
         << "  <!-- this joint's Coulomb friction is smoothed (tanh(w / vs)) in spacearm; "
            "MuJoCo's frictionloss is not: left out -->\n";
-    if (j + 1 == s_.chain.links.size()) {
-      const auto& t = s_.chain.tip;
-      const auto q = spatial::rpy_quaternion(s_.chain.tip_rpy);
-      x << indent << "  <site name=\"end_effector\" pos=\"" << numbers({t[0], t[1], t[2]})
-        << "\" quat=\"" << numbers({q[0], q[1], q[2], q[3]}) << "\"/>\n";
+    const spatial::ChainDescription& c = s_.chain;
+    for (int e = 0; e < c.num_end_effectors(); ++e) {
+      if (c.end_effector_body(e) != int(j) + 1) continue;
+      const auto& t = c.end_effectors[e].xyz;
+      const auto q = spatial::rpy_quaternion(c.end_effectors[e].rpy);
+      x << indent << "  <site name=\"" << attribute(site_name(e)) << "\" pos=\""
+        << numbers({t[0], t[1], t[2]}) << "\" quat=\"" << numbers({q[0], q[1], q[2], q[3]})
+        << "\"/>\n";
     }
   }
 
@@ -407,7 +425,7 @@ class MjcfWriter {
     const Eigen::Matrix3d R =
         Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), a).toRotationMatrix();
     const double T = rotor_transverse(j), Ia = value(l.gear.axial);
-    const Mass parent = body_mass(j);
+    const Mass parent = body_mass(size_t(s_.chain.parent(int(j) + 1)));
     x << indent << "<body name=\"" << rotor_name(j) << "\" pos=\""
       << numbers({l.origin_xyz[0], l.origin_xyz[1], l.origin_xyz[2]}) << "\" quat=\""
       << quaternion(joint_rotation(j)) << "\">\n"
@@ -504,7 +522,7 @@ SpatialScene planar_as_spatial(const Scene& planar, const std::vector<double>& p
     }
     s.chain.links.push_back(link);
   }
-  s.chain.tip = {value(planar.links.back().length), 0, 0};
+  s.chain.end_effectors[0].xyz = {value(planar.links.back().length), 0, 0};
   return s;
 }
 

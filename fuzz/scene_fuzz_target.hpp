@@ -91,7 +91,8 @@ inline std::string broken_spatial_rule(const SpatialScene& s) {
         !(l.gear.ratio.value > 0 && l.gear.axial.value >= 0 && l.gear.transverse.value >= 0))
       return "gear";
   }
-  if (!all_finite(c.tip)) return "end effector";
+  for (const auto& e : c.end_effectors)
+    if (!all_finite(e.xyz)) return "end effector";
   if (is_cpp_reserved(s.name)) return "reserved scene name";
   return "";
 }
@@ -134,7 +135,8 @@ inline Verdict check_urdf_text(const std::string& text) {
           !all_finite(l.inertia) || !std::isfinite(l.mass.value) ||
           !(l.axis[0] * l.axis[0] + l.axis[1] * l.axis[1] + l.axis[2] * l.axis[2] > 0))
         throw std::logic_error("URDF: a link's numbers");
-    if (!all_finite(c.tip) || !all_finite(c.tip_rpy)) throw std::logic_error("URDF: end effector");
+    for (const auto& e : c.end_effectors)
+      if (!all_finite(e.xyz) || !all_finite(e.rpy)) throw std::logic_error("URDF: end effector");
     return Verdict::accepted;
   } catch (const SceneError& e) {
     if (std::string(e.what()).rfind("URDF 'fuzz-input.urdf'", 0) != 0)

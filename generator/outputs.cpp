@@ -15,6 +15,12 @@ int Dimensions::operator()(Size s) const {
       return spatial ? 6 : 3;
     case Size::point:
       return spatial ? 3 : 2;
+    case Size::poses:
+      return (*this)(Size::pose)*num_end_effectors;
+    case Size::twists:
+      return (*this)(Size::twist)*num_end_effectors;
+    case Size::num_points:
+      return num_links + num_end_effectors;
     case Size::nq:
       return nq;
     case Size::nv:
@@ -36,7 +42,11 @@ std::string size_constant(Size s, const Dimensions& dims) {
     case Size::pose:
     case Size::twist:
     case Size::point:
+    case Size::poses:
+    case Size::twists:
       return std::to_string(dims(s));
+    case Size::num_points:
+      return "kNumLinks + " + std::to_string(dims.num_end_effectors);
     case Size::nq:
       return "kNq";
     case Size::nv:
@@ -89,14 +99,14 @@ const std::vector<OutputInfo>& output_registry() {
       {O::momentum, "momentum", "h", {I::q, I::qd}, {{"h", S::twist, S::one, false}},
        kFreeBaseOnly, kByDefault, {}, "",
        "Momentum h = [Px, Py, L]: linear momentum and angular momentum about the world origin."},
-      {O::end_effector_pose, "end_effector_pose", "x", {I::q}, {{"x", S::pose, S::one, false}},
+      {O::end_effector_pose, "end_effector_pose", "x", {I::q}, {{"x", S::poses, S::one, false}},
        kAnyBase, kByDefault, {}, "",
        "End-effector pose [x, y, phi]: tip of the last link, absolute angle of the last link."},
       {O::end_effector_jacobian, "end_effector_jacobian", "J", {I::q},
-       {{"J", S::twist, S::nv, false}}, kAnyBase, kByDefault, {}, "",
+       {{"J", S::twists, S::nv, false}}, kAnyBase, kByDefault, {}, "",
        "Jacobian of the end-effector pose, d[x, y, phi]/dq."},
       {O::joint_positions, "joint_positions", "P", {I::q},
-       {{"P", S::point, S::num_links_plus_one, false}}, kAnyBase, kByDefault, {}, "",
+       {{"P", S::point, S::num_points, false}}, kAnyBase, kByDefault, {}, "",
        "World positions of joints 1..N (columns) and of the tip (last column)."},
       {O::joint_angles, "joint_angles", "qj", {I::q}, {{"q_joints", S::num_links, S::one, false}},
        kAnyBase, kByDefault, {}, "12",
@@ -121,7 +131,7 @@ const std::vector<OutputInfo>& output_registry() {
        "positive for a positive definite M) and D_i / M_ii, the pivots of "
        "diag(M)^-1/2 M diag(M)^-1/2 (max/min bounds its condition number)."},
       {O::generalized_jacobian, "generalized_jacobian", "Jg", {I::q},
-       {{"Jg", S::twist, S::num_links, false}}, kRigidFreeBase, kByDefault,
+       {{"Jg", S::twists, S::num_links, false}}, kRigidFreeBase, kByDefault,
        {O::mass_matrix, O::end_effector_jacobian}, "",
        "Generalized Jacobian J* (Umetani-Yoshida): end-effector velocity per rate of the joint "
        "coordinates (motor rates in a geared scene) with the base moving so that the momentum "

@@ -62,14 +62,29 @@ std::string missing_feature(unsigned required, unsigned features);
 
 // A size of the model: the shape of an input or a result. pose, twist and point depend on the
 // space the model moves in: a pose [x, y, phi] (3) or [position, quaternion w x y z] (7), a
-// twist, wrench or momentum (3 or 6), a point (2 or 3).
-enum class Size { one, nq, nv, num_links, num_links_plus_one, num_base, pose, twist, point };
+// twist, wrench or momentum (3 or 6), a point (2 or 3). poses and twists: one per end effector,
+// stacked; num_points: the joints' and the end effectors' points.
+enum class Size {
+  one,
+  nq,
+  nv,
+  num_links,
+  num_links_plus_one,
+  num_base,
+  pose,
+  twist,
+  point,
+  poses,
+  twists,
+  num_points
+};
 
 // The model's sizes, in one place: nq coordinates, nv velocities (equal for every planar
 // model so far, kept apart for a quaternion base), num_links joints, and the space.
 struct Dimensions {
   int nq = 0, nv = 0, num_links = 0;
   bool spatial = false;          // 3D (pose 7, twist 6, point 3); else the plane
+  int num_end_effectors = 1;     // a tree's may be several (each a pose and 6 Jacobian rows)
   int operator()(Size s) const;  // num_base: the velocities of the base, nv - num_links
 };
 // The name of a size in generated code ("kNv", "3").

@@ -393,13 +393,14 @@ std::string header_constants(const ModelFacts& facts) {
     << "template <typename T> using MassMatrix = Eigen::Matrix<T, kNv, kNv>;\n"
     << "// The end effector's pose: x, y, phi in the plane; x, y, z, qw, qx, qy, qz in 3D.\n"
     << "template <typename T> using Pose = Eigen::Matrix<T, "
-    << size_constant(Size::pose, facts.dims) << ", 1>;\n"
+    << size_constant(Size::poses, facts.dims) << ", 1>;\n"
     << "template <typename T> using Vector3 = Pose<T>;  // its former name, kept for old code\n"
     << "template <typename T> using PoseJacobian = Eigen::Matrix<T, "
-    << size_constant(Size::twist, facts.dims) << ", kNv>;\n"
+    << size_constant(Size::twists, facts.dims) << ", kNv>;\n"
     << "template <typename T> using JointVector = Eigen::Matrix<T, kNumLinks, 1>;\n"
     << "template <typename T> using JointPositions = Eigen::Matrix<T, "
-    << size_constant(Size::point, facts.dims) << ", kNumLinks + 1>;\n\n";
+    << size_constant(Size::point, facts.dims) << ", " << size_constant(Size::num_points, facts.dims)
+    << ">;\n\n";
   return h.str();
 }
 

@@ -1,7 +1,7 @@
 // What a spatial arm is made of, as the scene readers give it to the derivation: a free (or
-// fixed) base and a serial chain of revolute joints, each number a literal or a run-time
-// parameter (spatial_scene.hpp, urdf_reader.hpp read it; spatial_chain.hpp derives from it).
-// Plain data and the frames of welded parts: no algorithm, no GiNaC.
+// fixed) base and a tree of revolute joints (a serial chain the common case), each number a
+// literal or a run-time parameter (spatial_scene.hpp, urdf_reader.hpp read it; spatial_chain.hpp
+// derives from it). Plain data and the frames of welded parts: no algorithm, no GiNaC.
 #pragma once
 
 #include <algorithm>
@@ -80,7 +80,10 @@ struct Part {
 
 // One link and the revolute joint that carries it (URDF's joint origin and axis; the link's
 // inertial about its centre of mass, in the link frame), with the parts welded to it.
+// parent: the body the joint leaves (0 the base, k link k, k before this link: Featherstone's
+// parent array, RBDA 4.1); -1, the default, is the link before it (a serial chain).
 struct Link : Inertial {
+  int parent = -1;
   std::array<double, 3> origin_xyz{}, origin_rpy{};  // the joint frame in the parent link's
   std::array<double, 3> axis{1, 0, 0};               // unit, in the joint frame
   std::vector<Part> parts;
@@ -88,17 +91,42 @@ struct Link : Inertial {
   Friction friction;
 };
 
-// The base (the root link, the satellite) and the links after it, each the child of the one
-// before (a serial chain: branching is refused where chains are read).
+// A frame fixed in a body whose pose and velocity the model gives (a tool, a URDF link welded to
+// the body): its origin and rpy in the body's frame, named by its link ("" for a chain's one).
+struct EndEffector {
+  std::string link;
+  int body = -1;  // 0 the base, i link i; -1: the last link
+  std::array<double, 3> xyz{}, rpy{};
+};
+
+// The base (the root link, the satellite) and the links after it, numbered depth-first from the
+// root (each link's parent before it); a serial chain has each the child of the one before.
 struct ChainDescription {
   bool free_base = true;
   Link base;  // its mass, com and inertia; its origin and axis are unused
   std::vector<Link> links;
-  std::array<double, 3> tip{};      // the end effector's point, in the last link's frame
-  std::array<double, 3> tip_rpy{};  // its frame's orientation there (a welded URDF link's)
+  // In the order of the outputs' blocks (pose 7 each, Jacobian rows 6 each); one at the last
+  // link's origin unless a reader says otherwise.
+  std::vector<EndEffector> end_effectors{EndEffector{}};
   // snap_right_angles: the rpy angles that are multiples of pi/2 turn by exact cosines and sines.
   bool exact_right_angles = false;
   int num_base() const { return free_base ? 6 : 0; }
+  // The body that carries link i (1-based): 0 the base, else a link before i.
+  int parent(int i) const {
+    const int p = links.at(i - 1).parent;
+    return p < 0 ? i - 1 : p;
+  }
+  bool serial() const {
+    for (int i = 1; i <= static_cast<int>(links.size()); ++i)
+      if (parent(i) != i - 1) return false;
+    return true;
+  }
+  int num_end_effectors() const { return static_cast<int>(end_effectors.size()); }
+  // The body end effector e sits on.
+  int end_effector_body(int e) const {
+    const int b = end_effectors.at(e).body;
+    return b < 0 ? static_cast<int>(links.size()) : b;
+  }
   // The one place that lays out the velocities: the base's, one slot per joint (its link angle's
   // rate, or a rigid gear's motor rate), then the motor of each flexible joint; nq = nv + 1 with
   // a free base's quaternion.

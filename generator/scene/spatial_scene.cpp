@@ -88,8 +88,8 @@ class SpatialReader {
                     const UrdfFileReader& read_file) {
     r_.check_keys(root, "",
                   {"name", "description", "space", "base", "links", "urdf", "end_effector_link",
-                   "gears", "friction", "end_effector", "outputs", "parameters", "inertials",
-                   "inertia_check", "snap_right_angles"});
+                   "end_effector_links", "gears", "friction", "end_effector", "outputs",
+                   "parameters", "inertials", "inertia_check", "snap_right_angles"});
     SpatialScene s;
     s.content = text;
     s.parameters = read_scene_parameters(r_, root["parameters"]);  // first: fields refer to them
@@ -118,6 +118,7 @@ class SpatialReader {
         r_.fail("links", "expected a list of 1 to " + std::to_string(kMaxLinks) + " links", links);
       for (size_t i = 0; i < links.size(); ++i)
         s.chain.links.push_back(read_link(links[i], "links[" + std::to_string(i) + "]"));
+      read_tree(links, root["end_effector_links"], s.chain);
     }
     s.chain.exact_right_angles = snap_;
     if (root["gears"]) read_gears(root["gears"], s.chain);
@@ -128,12 +129,7 @@ class SpatialReader {
     else if (root["friction"])
       read_friction(root["friction"], s.chain);
     if (!from_urdf) note_ignored_dynamics(s);
-    if (root["end_effector"]) {  // a point in the end-effector frame (URDF: its link's)
-      const std::array<double, 3> point = vec3(root["end_effector"], "end_effector");
-      const spatial::Mat3<double> R = spatial::rpy_rotation(s.chain.tip_rpy);
-      for (int k = 0; k < 3; ++k)
-        s.chain.tip[k] += R[3 * k] * point[0] + R[3 * k + 1] * point[1] + R[3 * k + 2] * point[2];
-    }
+    if (root["end_effector"]) read_end_effector_points(root["end_effector"], s.chain);
     if (root["outputs"]) s.outputs = read_outputs(root["outputs"], s.chain);
     parameters_->refuse_unused(root["parameters"]);
     if (!not_physical_.empty()) s.warnings.push_back(accepted_text(not_physical_));
@@ -296,10 +292,12 @@ class SpatialReader {
     if (type != "free_floating" && type != "fixed")
       r_.fail("base.type", "expected free_floating or fixed, got '" + type + "'", base["type"]);
     const std::string path = r_.bounded(root["urdf"], "urdf").Scalar();
-    const std::string link =
-        root["end_effector_link"]
-            ? r_.bounded(root["end_effector_link"], "end_effector_link").Scalar()
-            : "";
+    if (root["end_effector_link"] && root["end_effector_links"])
+      r_.fail("end_effector_links", "give end_effector_link or end_effector_links, not both",
+              root["end_effector_links"]);
+    std::vector<std::string> link = end_effector_links(root["end_effector_links"]);
+    if (root["end_effector_link"])
+      link.push_back(r_.bounded(root["end_effector_link"], "end_effector_link").Scalar());
     for (char c : path)
       if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
         r_.fail("urdf", "the path holds a control character", root["urdf"]);
@@ -402,8 +400,110 @@ class SpatialReader {
                 "a fixed base does not move: it takes no mass, centre or inertia", n[field]);
   }
 
+  // A point in an end effector's frame (URDF: its link's), moving it there: [x, y, z] where the
+  // scene has one end effector, else a mapping from end effector link to point.
+  void read_end_effector_points(const YAML::Node& n, spatial::ChainDescription& c) {
+    auto move = [](spatial::EndEffector& e, const std::array<double, 3>& point) {
+      const spatial::Mat3<double> R = spatial::rpy_rotation(e.rpy);
+      for (int k = 0; k < 3; ++k)
+        e.xyz[k] += R[3 * k] * point[0] + R[3 * k + 1] * point[1] + R[3 * k + 2] * point[2];
+    };
+    if (!n.IsMap()) {
+      if (c.num_end_effectors() != 1)
+        r_.fail("end_effector",
+                "a point [x, y, z] is for one end effector; this scene has " +
+                    std::to_string(c.num_end_effectors()) + " (" + end_effector_list(c) +
+                    "): give a mapping from end effector link to point",
+                n);
+      move(c.end_effectors[0], vec3(n, "end_effector"));
+      return;
+    }
+    for (const auto& kv : n) {
+      const std::string link = r_.key_text(kv.first, "end_effector");
+      const std::string field = "end_effector." + (is_identifier(link) ? link : quoted_text(link));
+      auto it = std::find_if(c.end_effectors.begin(), c.end_effectors.end(),
+                             [&](const spatial::EndEffector& e) { return e.link == link; });
+      if (it == c.end_effectors.end())
+        r_.fail(field, "is no end effector of this scene (" + end_effector_list(c) + ")", kv.first);
+      move(*it, vec3(kv.second, field));
+    }
+  }
+
+  static std::string end_effector_list(const spatial::ChainDescription& c) {
+    std::string listed;
+    for (const spatial::EndEffector& e : c.end_effectors)
+      listed += (listed.empty() ? "" : ", ") + quoted_text(e.link);
+    return listed;
+  }
+
+  // The native form's tree: links[i].name (an identifier) and links[i].parent (base, or the name
+  // of a link listed before it; default: the link before), and the end effectors: the links
+  // end_effector_links names, else every leaf (a link no other carries) at its origin. A chain
+  // without names keeps its one end effector at the last link.
+  void read_tree(const YAML::Node& links, const YAML::Node& wanted, spatial::ChainDescription& c) {
+    std::vector<std::string> names;
+    bool tree = false;
+    for (size_t i = 0; i < links.size(); ++i) {
+      const std::string field = "links[" + std::to_string(i) + "]";
+      std::string name = "link" + std::to_string(i + 1);
+      if (const YAML::Node n = links[i]["name"]) {
+        name = r_.bounded(n, field + ".name").Scalar();
+        if (!is_identifier(name) || name == "base")
+          r_.fail(field + ".name",
+                  "expected an identifier other than 'base', got " + quoted_text(name), n);
+        if (std::count(names.begin(), names.end(), name))
+          r_.fail(field + ".name", quoted_text(name) + " names an earlier link too", n);
+        tree = true;
+      }
+      names.push_back(name);
+      if (const YAML::Node n = links[i]["parent"]) {
+        const std::string parent = r_.bounded(n, field + ".parent").Scalar();
+        const auto it = std::find(names.begin(), names.end() - 1, parent);
+        if (parent != "base" && it == names.end() - 1)
+          r_.fail(field + ".parent",
+                  "expected base or the name of a link listed before this one, got " +
+                      quoted_text(parent),
+                  n);
+        c.links[i].parent = parent == "base" ? 0 : static_cast<int>(it - names.begin()) + 1;
+        tree = true;
+      }
+    }
+    if (!tree && !wanted) return;
+    std::vector<std::string> chosen = end_effector_links(wanted);
+    if (!wanted)
+      for (size_t i = 0; i < names.size(); ++i) {
+        bool leaf = true;
+        for (int k = 1; k <= static_cast<int>(c.links.size()); ++k)
+          leaf = leaf && c.parent(k) != static_cast<int>(i) + 1;
+        if (leaf) chosen.push_back(names[i]);
+      }
+    c.end_effectors.clear();
+    for (const std::string& link : chosen) {
+      const auto it = std::find(names.begin(), names.end(), link);
+      if (it == names.end())
+        r_.fail("end_effector_links", "no link is named " + quoted_text(link), wanted);
+      c.end_effectors.push_back({link, static_cast<int>(it - names.begin()) + 1, {}, {}});
+    }
+  }
+
+  // end_effector_links: a list of 1 to 16 distinct link names (empty: none given).
+  std::vector<std::string> end_effector_links(const YAML::Node& n) const {
+    std::vector<std::string> links;
+    if (!n) return links;
+    if (!n.IsSequence() || n.size() < 1 || n.size() > 16)
+      r_.fail("end_effector_links", "expected a list of 1 to 16 link names", n);
+    for (size_t k = 0; k < n.size(); ++k) {
+      const std::string link =
+          r_.bounded(n[k], "end_effector_links[" + std::to_string(k) + "]").Scalar();
+      if (std::count(links.begin(), links.end(), link))
+        r_.fail("end_effector_links", quoted_text(link) + " is listed twice", n[k]);
+      links.push_back(link);
+    }
+    return links;
+  }
+
   spatial::Link read_link(const YAML::Node& n, const std::string& field) {
-    r_.check_keys(n, field, {"origin", "rpy", "axis", "mass", "com", "inertia"});
+    r_.check_keys(n, field, {"name", "parent", "origin", "rpy", "axis", "mass", "com", "inertia"});
     spatial::Link l;
     if (n["origin"]) l.origin_xyz = vec3(n["origin"], field + ".origin");
     if (n["rpy"]) l.origin_rpy = vec3(n["rpy"], field + ".rpy");

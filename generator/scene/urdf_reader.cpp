@@ -67,6 +67,8 @@ std::array<double, 3> matrix_rpy(const Eigen::Matrix3d& R) {
 // the bound must hold before the parse, which no option of tinyxml2 offers.
 constexpr int kMaxAttributes = 64, kMaxDepth = 64;
 constexpr long kMaxElements = 100000;
+// The moving joints a robot may have (as a scene's links: compile time grows with them).
+constexpr size_t kMaxMovingJoints = 30;
 
 void bound_the_parse(const std::string& xml, const std::string& source) {
   int line = 1, depth = 0;
@@ -278,7 +280,8 @@ class UrdfReader {
     return in;
   }
 
-  UrdfChain read(const std::string& xml, bool free_base, const std::string& end_effector_link) {
+  UrdfChain read(const std::string& xml, bool free_base,
+                 const std::vector<std::string>& end_effector_links) {
     bound_the_parse(xml, source_);
     tinyxml2::XMLDocument doc;
     if (doc.Parse(xml.data(), xml.size()) != tinyxml2::XML_SUCCESS)
@@ -291,7 +294,7 @@ class UrdfReader {
            "a second element at the top: an XML document has one root, <robot>");
     refuse_xacro(robot);
     read_elements(robot);
-    UrdfChain out = chain(free_base, end_effector_link);
+    UrdfChain out = chain(free_base, end_effector_links);
     out.chain.exact_right_angles = snap_;
     out.snapped_angles = static_cast<int>(snapped_.size());
     out.largest_snap = largest_snap_;
@@ -501,7 +504,7 @@ class UrdfReader {
     return extension == ".stl" ? path : "";
   }
 
-  UrdfChain chain(bool free_base, const std::string& end_effector_link) {
+  UrdfChain chain(bool free_base, const std::vector<std::string>& end_effector_links) {
     UrdfChain out;
     std::vector<std::string> roots;
     for (const auto& [name, e] : links_)
@@ -511,67 +514,75 @@ class UrdfReader {
                                        " links have no parent joint; a URDF has exactly one root");
     out.root_link = roots[0];
     out.chain.free_base = free_base;
-    // Body by body from the root: its welded links, and the one moving joint after it.
-    std::string body = roots[0];
-    std::array<double, 3> joint_xyz{}, joint_rpy{};  // of the joint that carries `body`
-    const Joint* carrier = nullptr;
-    std::set<std::string> seen;
-    for (;;) {
-      std::vector<std::pair<std::string, Frame>> welded;
-      std::vector<const Joint*> moving;
-      weld(body, Frame{}, welded, moving);
-      out.body_links.emplace_back();
-      for (const auto& w : welded) {
-        seen.insert(w.first);
-        out.body_links.back().push_back(w.first);
-      }
-      spatial::Link l = lumped(welded);
-      for (const auto& [name, f] : welded)
-        if (given_.count(name)) {
-          out.given_parts[name] = {static_cast<int>(out.chain.links.size()) + (carrier ? 1 : 0),
-                                   static_cast<int>(l.parts.size())};
-          l.parts.push_back({{f.p[0], f.p[1], f.p[2]}, angles(f.R), {}});
-        }
-      if (carrier) {
-        l.origin_xyz = joint_xyz;
-        l.origin_rpy = joint_rpy;
-        l.axis = carrier->axis;
-        out.chain.links.push_back(l);
-        out.joint_names.push_back(carrier->name);
-        out.limits.push_back(carrier->limits);
-      } else {
-        out.chain.base = l;
-      }
-      body_visuals(welded, out);
-      if (moving.size() > 1)
-        fail(moving[1]->element, "a second moving joint after body " + quoted_text(body) +
-                                     " (the first is " + quoted_text(moving[0]->name) +
-                                     "): only serial chains are read");
-      if (moving.empty()) {
-        end_effector(welded, end_effector_link, out);
-        break;
-      }
-      carrier = moving[0];
-      // The joint's frame in this body: as written where it leaves the body's own link, else
-      // composed through the welded link it leaves from.
-      joint_xyz = carrier->xyz, joint_rpy = carrier->rpy;
-      for (const auto& [name, f] : welded)
-        if (name == carrier->parent && name != body) {
-          const Frame composed = f * carrier->origin;
-          joint_xyz = {composed.p[0], composed.p[1], composed.p[2]};
-          joint_rpy = angles(composed.R);
-        }
-      body = carrier->child;
-      if (out.chain.links.size() >= 30) fail(carrier->element, "more than 30 moving joints");
-    }
+    Walk walk;
+    add_body(roots[0], nullptr, {}, {}, 0, out, walk);
     if (out.chain.links.empty()) fail(links_.at(roots[0]), "no moving joint");
-    if (seen.size() != links_.size())
+    if (walk.seen.size() != links_.size())
       fail(nullptr, "links not connected to the root " + quoted_text(roots[0]));
+    end_effectors(end_effector_links, walk, out);
     return out;
   }
 
-  // The welded link a URDF's tool ends in: the one leaf among the links welded to the last body
-  // (the body itself when nothing is welded to it); several leaves are refused, named.
+  // What the walk over the bodies keeps for the end effectors: every link's body and frame in
+  // it, and each leaf body's welded links (a body no moving joint leaves).
+  struct Walk {
+    std::set<std::string> seen;
+    std::map<std::string, std::pair<int, Frame>> in_body;
+    std::vector<std::vector<std::pair<std::string, Frame>>> leaves;
+  };
+
+  // Body `link` (the root, or the child of the moving joint `carrier` at joint_xyz/rpy in body
+  // `parent`) and, depth-first, the bodies after it: the moving joints that leave its welded
+  // links in the order the URDF lists them (MuJoCo's URDF import numbers its bodies so).
+  void add_body(const std::string& link, const Joint* carrier, std::array<double, 3> joint_xyz,
+                std::array<double, 3> joint_rpy, int parent, UrdfChain& out, Walk& walk) {
+    std::vector<std::pair<std::string, Frame>> welded;
+    std::vector<const Joint*> moving;
+    weld(link, Frame{}, welded, moving);
+    const int body = carrier ? static_cast<int>(out.chain.links.size()) + 1 : 0;
+    out.body_links.emplace_back();
+    for (const auto& [name, f] : welded) {
+      walk.seen.insert(name);
+      walk.in_body[name] = {body, f};
+      out.body_links.back().push_back(name);
+    }
+    spatial::Link l = lumped(welded);
+    for (const auto& [name, f] : welded)
+      if (given_.count(name)) {
+        out.given_parts[name] = {body, static_cast<int>(l.parts.size())};
+        l.parts.push_back({{f.p[0], f.p[1], f.p[2]}, angles(f.R), {}});
+      }
+    if (carrier) {
+      l.origin_xyz = joint_xyz;
+      l.origin_rpy = joint_rpy;
+      l.axis = carrier->axis;
+      l.parent = parent;
+      out.chain.links.push_back(l);
+      out.joint_names.push_back(carrier->name);
+      out.limits.push_back(carrier->limits);
+    } else {
+      out.chain.base = l;
+    }
+    body_visuals(welded, out);
+    if (moving.empty() && carrier) walk.leaves.push_back(welded);
+    for (const Joint* next : moving) {
+      if (out.chain.links.size() >= kMaxMovingJoints)
+        fail(next->element, "more than " + std::to_string(kMaxMovingJoints) + " moving joints");
+      // The joint's frame in this body: as written where it leaves the body's own link, else
+      // composed through the welded link it leaves from.
+      std::array<double, 3> xyz = next->xyz, rpy = next->rpy;
+      for (const auto& [name, f] : welded)
+        if (name == next->parent && name != link) {
+          const Frame composed = f * next->origin;
+          xyz = {composed.p[0], composed.p[1], composed.p[2]};
+          rpy = angles(composed.R);
+        }
+      add_body(next->child, next, xyz, rpy, body, out, walk);
+    }
+  }
+
+  // The welded link a URDF's tool ends in: the one leaf among the links welded to a last moving
+  // body (the body itself when nothing is welded to it); several leaves are refused, named.
   std::string welded_leaf(const std::vector<std::pair<std::string, Frame>>& welded) const {
     std::vector<std::string> leaves;
     for (const auto& [link, f] : welded)
@@ -582,34 +593,52 @@ class UrdfReader {
     throw SceneError("URDF '" + source_ + "': the last moving body " +
                      quoted_text(welded.front().first) + " ends in " +
                      std::to_string(leaves.size()) + " welded links (" + listed +
-                     "): say which is the end effector with the scene's end_effector_link");
+                     "): say which is the end effector with the scene's end_effector_link" +
+                     (walk_leaves_ > 1 ? "s" : ""));
   }
 
-  // The tip: the origin of the end-effector link, a link welded to the last body.
-  void end_effector(const std::vector<std::pair<std::string, Frame>>& welded,
-                    const std::string& wanted, UrdfChain& out) const {
-    const std::string name = wanted.empty() ? welded_leaf(welded) : wanted;
-    for (const auto& [link, f] : welded)
-      if (link == name) {
-        out.end_effector_link = name;
-        out.chain.tip = {f.p[0], f.p[1], f.p[2]};
-        out.chain.tip_rpy = angles(f.R);
-        return;
-      }
-    if (links_.count(name))
-      throw SceneError("URDF '" + source_ + "': end effector link " + quoted_text(name) +
-                       " is not welded to the last moving body (joints after it move)");
-    throw SceneError("URDF '" + source_ + "': no link named " + quoted_text(name) +
-                     " for the end effector");
+  // The end effectors: the links named, in their order, else the tool of every last moving body
+  // (its one welded leaf), in the order of the bodies; each at its link's origin and turned as it.
+  void end_effectors(const std::vector<std::string>& wanted, const Walk& walk, UrdfChain& out) {
+    std::vector<std::string> names = wanted;
+    walk_leaves_ = walk.leaves.size();
+    if (names.empty())
+      for (const auto& welded : walk.leaves) names.push_back(welded_leaf(welded));
+    out.chain.end_effectors.clear();
+    for (const std::string& name : names) {
+      const auto it = walk.in_body.find(name);
+      if (it == walk.in_body.end())
+        throw SceneError("URDF '" + source_ + "': no link named " + quoted_text(name) +
+                         " for the end effector");
+      const auto& [body, f] = it->second;
+      if (body == 0)
+        throw SceneError("URDF '" + source_ + "': end effector link " + quoted_text(name) +
+                         " is the base's (welded to the root): it moves with no joint");
+      for (const auto& e : out.chain.end_effectors)
+        if (e.link == name)
+          throw SceneError("URDF '" + source_ + "': end effector link " + quoted_text(name) +
+                           " is named twice");
+      out.chain.end_effectors.push_back({name, body, {f.p[0], f.p[1], f.p[2]}, angles(f.R)});
+    }
+    out.end_effector_link = out.chain.end_effectors.front().link;
   }
+  size_t walk_leaves_ = 0;
 };
 
 }  // namespace
 
 UrdfChain read_urdf(const std::string& xml, const std::string& source, bool free_base,
+                    const std::vector<std::string>& end_effector_links,
+                    const std::set<std::string>& given, bool snap_right_angles) {
+  return UrdfReader(source, given, snap_right_angles).read(xml, free_base, end_effector_links);
+}
+
+UrdfChain read_urdf(const std::string& xml, const std::string& source, bool free_base,
                     const std::string& end_effector_link, const std::set<std::string>& given,
                     bool snap_right_angles) {
-  return UrdfReader(source, given, snap_right_angles).read(xml, free_base, end_effector_link);
+  std::vector<std::string> links;
+  if (!end_effector_link.empty()) links.push_back(end_effector_link);
+  return read_urdf(xml, source, free_base, links, given, snap_right_angles);
 }
 
 }  // namespace spacearm

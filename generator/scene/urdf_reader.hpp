@@ -3,8 +3,10 @@
 // and `continuous` joints move; `fixed` joints weld their child to the parent (masses, centres
 // and inertias lumped into the moving body, frames kept, so a welded link can be the end
 // effector); joint origin xyz/rpy (R = Rz(y) Ry(p) Rx(r)), axis (absent: (1, 0, 0), as the URDF
-// specification says), inertial origin xyz/rpy and full tensors. Prismatic, floating and planar
-// joints, and moving branches, are refused by name. A joint's <limit effort velocity> and
+// specification says), inertial origin xyz/rpy and full tensors. A body may carry several moving
+// joints (a tree: several arms, a torso): the moving joints are numbered depth-first from the
+// root, a body's in the order the URDF lists them (MuJoCo's URDF import numbers bodies so).
+// Prismatic, floating and planar joints are refused by name. A joint's <limit effort velocity> and
 // <dynamics damping friction> are read (spatial::JointLimits); its lower and upper are not.
 #pragma once
 
@@ -18,14 +20,14 @@
 namespace spacearm {
 
 struct UrdfChain {
-  spatial::ChainDescription chain;           // gears absent; tip at the end effector link's origin
-  std::vector<std::string> joint_names;      // the moving joints, base to tip
+  spatial::ChainDescription chain;           // gears absent; end effectors at their links' origins
+  std::vector<std::string> joint_names;      // the moving joints, depth-first from the root
   std::vector<spatial::JointLimits> limits;  // theirs, from <limit> and <dynamics>
   // Per body (0 the base, i link i), the <visual> boxes, cylinders, spheres and STL meshes of its
   // links, in its frame, for the viewer; other meshes and shapes are counted, not read.
   std::vector<std::vector<spatial::Visual>> body_visuals;
   int undrawn = 0;
-  std::string root_link, end_effector_link;
+  std::string root_link, end_effector_link;  // the first end effector's link
   // snap_right_angles: how many <origin> angles moved to a multiple of pi/2, the largest move.
   int snapped_angles = 0;
   double largest_snap = 0;
@@ -37,14 +39,19 @@ struct UrdfChain {
   std::map<std::string, std::pair<int, int>> given_parts;
 };
 
-// free_base: the root link floats (else it is fixed to the world). end_effector_link: a link
-// welded to the last moving body (empty: the leaf of the links welded to it, the tool a URDF
-// ends in; the last body itself where nothing is welded to it; several leaves are refused, listed).
+// free_base: the root link floats (else it is fixed to the world). end_effector_links: links
+// welded to moving bodies, one end effector each in this order (empty: the tool of every last
+// moving body, a body no moving joint leaves: the leaf of the links welded to it, the body itself
+// where nothing is; several leaves are refused, listed). The base's links are refused.
 // Throws SceneError.
 // given: links whose inertial the scene gives (left out of the lumping, kept as parts; a name
 // that is no link is not in given_parts).
 // snap_right_angles: every <origin> rpy angle within 1e-5 rad of a multiple of pi/2 is that
 // multiple, turned by exact cosines and sines (URDFs round pi/2 to 1.5708).
+UrdfChain read_urdf(const std::string& xml, const std::string& source, bool free_base,
+                    const std::vector<std::string>& end_effector_links,
+                    const std::set<std::string>& given = {}, bool snap_right_angles = false);
+// One end effector link ("": the default).
 UrdfChain read_urdf(const std::string& xml, const std::string& source, bool free_base,
                     const std::string& end_effector_link, const std::set<std::string>& given = {},
                     bool snap_right_angles = false);

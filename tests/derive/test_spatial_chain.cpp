@@ -689,7 +689,7 @@ TEST(SpatialChain, GeneralizedJacobianKeepsTheWorldMomentumZero) {
   for (const bool geared : {false, true}) {
     SCOPED_TRACE(geared ? "geared" : "no gears");
     ChainDescription d = random_chain(rng, 7, true, geared);
-    d.tip = {0.2, -0.05, 0.1};
+    d.end_effectors[0].xyz = {0.2, -0.05, 0.1};
     const State s = random_state(rng, d);
     const int N = 7;
     const Eigen::VectorXd qd = s.v.tail(N);
@@ -702,7 +702,9 @@ TEST(SpatialChain, GeneralizedJacobianKeepsTheWorldMomentumZero) {
     v.head(6) = -Hb.lu().solve(h_joints);
     ASSERT_LT(momentum(d, s.q, v).norm(), 1e-12);
     const World w = world(d, s.q, v);
-    const Eigen::Vector3d tip = w.R.back() * Eigen::Vector3d(d.tip[0], d.tip[1], d.tip[2]);
+    const Eigen::Vector3d tip =
+        w.R.back() * Eigen::Vector3d(d.end_effectors[0].xyz[0], d.end_effectors[0].xyz[1],
+                                     d.end_effectors[0].xyz[2]);
     Eigen::Matrix<double, 6, 1> twist;
     twist << w.last_origin_velocity + w.omega.back().cross(tip), w.omega.back();
     const std::vector<double> Jg = chain_at(d, s).generalized_jacobian();
@@ -947,13 +949,14 @@ TEST(SpatialChain, EndEffectorPoseAndJacobianAreTheWorldComputations) {
   for (const bool free : {true, false}) {
     ChainDescription d =
         random_chain(rng, 7, free, true, false, free);  // flexible on the free base
-    d.tip = {0.2, -0.05, 0.1};
+    d.end_effectors[0].xyz = {0.2, -0.05, 0.1};
     SCOPED_TRACE(free ? "free base, flexible joints" : "fixed base");
     const State s = random_state(rng, d);
     const Chain<double> chain = chain_at(d, s);
     const World w = world(d, s.q, s.v);
     const std::vector<double> pose = chain.end_effector_pose();
-    const Eigen::Vector3d tip = Eigen::Vector3d(d.tip[0], d.tip[1], d.tip[2]);
+    const Eigen::Vector3d tip = Eigen::Vector3d(
+        d.end_effectors[0].xyz[0], d.end_effectors[0].xyz[1], d.end_effectors[0].xyz[2]);
     const Eigen::Matrix3d R = w.R.back();
     EXPECT_LT((as_eigen(pose).head<3>() - (w.last_origin + R * tip)).norm(), 1e-12);
     const Eigen::Quaterniond orientation(pose[3], pose[4], pose[5], pose[6]);

@@ -47,7 +47,7 @@ TEST(SpatialScene, ReadsTheChain) {
     EXPECT_FALSE(l.gear.exact);
     EXPECT_EQ(l.gear.transverse.value, 6.0e-5);
   }
-  EXPECT_EQ(c.tip[0], 0.3);
+  EXPECT_EQ(c.end_effectors[0].xyz[0], 0.3);
 }
 
 // Each malformed field, with the text that replaces a part of the valid arm, and the message.

@@ -293,9 +293,6 @@ TEST(UrdfReader, AbsentAxisIsXAndErrorsNameTheElement) {
       {robot(kTwoLinks + joint("j", "revolute", "a", "b", "<origin xyz=\"1 nan 0\"/>")),
        "<origin>: attribute 'xyz': expected 3 numbers, each 0 or of magnitude 1e-30 to 1e6 (not "
        "finite)"},
-      {robot(kTwoLinks + c_link + joint("j", "revolute", "a", "b") +
-             joint("k", "revolute", "a", "c")),
-       "<joint name='k'>: a second moving joint after body 'a' (the first is 'j')"},
       {robot(kTwoLinks + joint("j", "revolute", "a", "b") + joint("k", "revolute", "a", "b")),
        "link 'b' already has a parent joint, 'j'"},
       {robot(kTwoLinks), "2 links have no parent joint"},
@@ -319,7 +316,57 @@ TEST(UrdfReader, AbsentAxisIsXAndErrorsNameTheElement) {
   }
   EXPECT_THROW_MESSAGE(
       read_urdf(robot(kTwoLinks + joint("j", "revolute", "a", "b")), "r.urdf", true, "a"),
-      SceneError, "end effector link 'a' is not welded to the last moving body");
+      SceneError,
+      "end effector link 'a' is the base's (welded to the root): it moves with no joint");
+}
+
+// Issue 52: a body may carry several moving joints. Two arms on a satellite, the right one on a
+// mount welded to it, listed interleaved: the joints are numbered depth-first from the root, a
+// body's in the URDF's order (left_1, left_2, right_1, right_2: parents 0, 1, 0, 3), the right
+// arm's first joint composed through the mount, and each arm's welded tool is an end effector,
+// in the bodies' order; end_effector_links picks and orders them.
+TEST(UrdfReader, ATreeIsNumberedDepthFirstWithAnEndEffectorPerArm) {
+  auto body = [](const std::string& name) {
+    return "<link name=\"" + name +
+           "\"><inertial><mass value=\"1\"/><inertia ixx=\"0.1\" ixy=\"0\" ixz=\"0\" "
+           "iyy=\"0.1\" iyz=\"0\" izz=\"0.1\"/></inertial></link>\n";
+  };
+  auto massless = [](const std::string& name) { return "<link name=\"" + name + "\"/>\n"; };
+  const std::string at = "<origin xyz=\"0.5 0 0\"/><axis xyz=\"0 0 1\"/>";
+  const std::string urdf = robot(
+      body("sat") + body("l1") + body("l2") + body("r1") + body("r2") + massless("mount") +
+      massless("l_tool") + massless("r_tool") + joint("left_1", "revolute", "sat", "l1", at) +
+      joint("to_mount", "fixed", "sat", "mount", "<origin xyz=\"0 -1 0\" rpy=\"0 0 0.3\"/>") +
+      joint("right_1", "revolute", "mount", "r1", at) +
+      joint("left_2", "revolute", "l1", "l2", at) + joint("right_2", "revolute", "r1", "r2", at) +
+      joint("l_flange", "fixed", "l2", "l_tool", "<origin xyz=\"0.2 0 0\"/>") +
+      joint("r_flange", "fixed", "r2", "r_tool", "<origin xyz=\"0.1 0 0\"/>"));
+  const UrdfChain c = read_urdf(urdf, "r.urdf", true, "");
+  EXPECT_EQ(c.joint_names, (std::vector<std::string>{"left_1", "left_2", "right_1", "right_2"}));
+  std::vector<int> parents;
+  for (int i = 1; i <= 4; ++i) parents.push_back(c.chain.parent(i));
+  EXPECT_EQ(parents, (std::vector<int>{0, 1, 0, 3}));
+  EXPECT_EQ(c.body_links,
+            (std::vector<std::vector<std::string>>{
+                {"sat", "mount"}, {"l1"}, {"l2", "l_tool"}, {"r1"}, {"r2", "r_tool"}}));
+  EXPECT_NEAR(c.chain.links[2].origin_xyz[0], 0.5 * std::cos(0.3), 1e-15);
+  EXPECT_NEAR(c.chain.links[2].origin_xyz[1], -1 + 0.5 * std::sin(0.3), 1e-15);
+  EXPECT_NEAR(c.chain.links[2].origin_rpy[2], 0.3, 1e-15);
+  ASSERT_EQ(c.chain.num_end_effectors(), 2);
+  EXPECT_EQ(c.chain.end_effectors[0].link, "l_tool");
+  EXPECT_EQ(c.chain.end_effector_body(0), 2);
+  EXPECT_EQ(c.chain.end_effectors[0].xyz, (std::array<double, 3>{0.2, 0, 0}));
+  EXPECT_EQ(c.chain.end_effectors[1].link, "r_tool");
+  EXPECT_EQ(c.chain.end_effector_body(1), 4);
+  const UrdfChain picked =
+      read_urdf(urdf, "r.urdf", true, std::vector<std::string>{"r_tool", "l1"});
+  ASSERT_EQ(picked.chain.num_end_effectors(), 2);
+  EXPECT_EQ(picked.chain.end_effectors[0].link, "r_tool");
+  EXPECT_EQ(picked.chain.end_effector_body(1), 1);
+  EXPECT_THROW_MESSAGE(read_urdf(urdf, "r.urdf", true, std::vector<std::string>{"mount"}),
+                       SceneError, "end effector link 'mount' is the base's");
+  EXPECT_THROW_MESSAGE(read_urdf(urdf, "r.urdf", true, std::vector<std::string>{"l1", "l1"}),
+                       SceneError, "end effector link 'l1' is named twice");
 }
 
 // Issue 51, item 6: by default the end effector is the URDF's tool, the one leaf of the links
@@ -334,8 +381,8 @@ TEST(UrdfReader, DefaultEndEffectorIsTheWeldedLeaf) {
       kTwoLinks + massless("flange") + massless("tip") + joint("j", "revolute", "a", "b") + tool;
   const UrdfChain c = read_urdf(robot(arm), "r.urdf", true, "");
   EXPECT_EQ(c.end_effector_link, "tip");
-  EXPECT_EQ(c.chain.tip, (std::array<double, 3>{0.75, 0, 0}));
-  EXPECT_NEAR(c.chain.tip_rpy[2], 0.5, 1e-15);
+  EXPECT_EQ(c.chain.end_effectors[0].xyz, (std::array<double, 3>{0.75, 0, 0}));
+  EXPECT_NEAR(c.chain.end_effectors[0].rpy[2], 0.5, 1e-15);
   EXPECT_EQ(c.body_links, (std::vector<std::vector<std::string>>{{"a"}, {"b", "flange", "tip"}}));
   EXPECT_EQ(read_urdf(robot(arm), "r.urdf", true, "flange").end_effector_link, "flange");
   const std::string two_tools =
@@ -509,7 +556,7 @@ TEST(UrdfReader, WeldedFramesNearTheGimbalLockAreExact) {
       kTwoLinks + joint("j", "revolute", "a", "b") + "<link name=\"tool\"/>\n" +
       joint("w", "fixed", "b", "tool", "<origin xyz=\"0.1 0.2 0.3\" rpy=\"1 1.5707958 0.4\"/>"));
   const UrdfChain c = read_urdf(xml, "r.urdf", true, "tool");
-  const spatial::Mat3<double> got = spatial::rpy_rotation(c.chain.tip_rpy);
+  const spatial::Mat3<double> got = spatial::rpy_rotation(c.chain.end_effectors[0].rpy);
   const Eigen::Matrix3d want = rpy({1, 1.5707958, 0.4});
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) EXPECT_NEAR(got[3 * i + j], want(i, j), 1e-14) << i << j;

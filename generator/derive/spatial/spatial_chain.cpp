@@ -93,6 +93,18 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
   auto q = [this](int i) { return values_.input("q", i); };
   auto v = [this](int i) { return values_.input("qd", i); };
   // The base: its pose from q, its velocity in its own frame (omega_b, R^T v_world).
+  parent_.resize(n_ + 1, 0);
+  for (int i = 1; i <= n_; ++i) {
+    parent_[i] = d.parent(i);
+    if (parent_[i] < 0 || parent_[i] >= i)
+      throw std::invalid_argument("spatial chain: link " + std::to_string(i) + "'s parent " +
+                                  std::to_string(parent_[i]) + " is not a body before it");
+  }
+  for (int e = 0; e < d.num_end_effectors(); ++e)
+    if (d.end_effector_body(e) > n_)
+      throw std::invalid_argument("spatial chain: end effector " + std::to_string(e) +
+                                  " is on body " + std::to_string(d.end_effector_body(e)) +
+                                  ", past the last link");
   X_.resize(n_ + 1);
   turns_.resize(n_ + 1);
   parent_w_.resize(n_ + 1, zero3());
@@ -128,8 +140,9 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
         product(num(R_origin), axis_rotation(a, c, s, [this](double x) { return num(x); }));
     X_[i] = {transposed(R), num(l.origin_xyz)};
     turns_[i] = joint_turns(l, a, c, s);
-    R_.push_back(product(R_[i - 1], R));
-    p_.push_back(p_[i - 1] + times(R_[i - 1], X_[i].r));
+    const int parent = parent_[i];
+    R_.push_back(product(R_[parent], R));
+    p_.push_back(p_[parent] + times(R_[parent], X_[i].r));
     axis_.push_back(num(a));
     qd_.push_back(v(jv + i - 1));
     motor_.push_back(d.motor_coordinate(i - 1));
@@ -137,7 +150,7 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
     S_.push_back(
         {literal_ratio(i) ? num(scaled(a, 1 / ratio_value(i))) : scaled(num(a), over_ratio(i, 1.0)),
          zero3()});
-    Motion<T> Vi = X_[i].apply(V_[i - 1]);
+    Motion<T> Vi = X_[i].apply(V_[parent]);
     parent_w_[i] = Vi.w;
     Vi.w = Vi.w + scaled(S_[i].w, qd_[i]);
     V_.push_back(Vi);
@@ -152,9 +165,9 @@ Chain<T>::Chain(const ChainDescription& d, Values<T> values)
           rotor_I_[i].I[k] = c * rotor_I_[i].I[k];
           parent_share.I[k] = (c * c - c) * parent_share.I[k];
         }
-        I_[i - 1] = I_[i - 1] + in_parent(rotor_X_[i], parent_share);
+        I_[parent] = I_[parent] + in_parent(rotor_X_[i], parent_share);
       }
-      rotor_V_[i] = rotor_X_[i].apply(V_[i - 1]);
+      rotor_V_[i] = rotor_X_[i].apply(V_[parent]);
       rotor_V_[i].w = rotor_V_[i].w + scaled(axis_[i], motor_qd_[i]);
     }
   }
@@ -288,7 +301,7 @@ template <class T>
 void Chain<T>::fill_column(std::vector<T>& M, int col, int i, Force<T> up) const {
   const int nv = d_.nv(), nb = d_.num_base();
   auto set = [&](int a, int b, const T& x) { M[a * nv + b] = M[b * nv + a] = x; };
-  for (int j = i - 1; j >= 1; --j) {
+  for (int j = parent_[i]; j >= 1; j = parent_[j]) {
     set(nb + j - 1, col, power(up, S_[j]));
     up = X_[j].apply_transpose(up);
   }
@@ -330,14 +343,14 @@ std::vector<T> Chain<T>::inverse_dynamics(const std::vector<T>& vdot) const {
   std::vector<Force<T>> rotor_F(n_ + 1);
   for (int i = 1; i <= n_; ++i) {
     const int col = nb + i - 1;
-    A[i] = joint_acceleration(X_[i], A[i - 1], V_[i], S_[i], vdot[col], qd_[i]);
+    A[i] = joint_acceleration(X_[i], A[parent_[i]], V_[i], S_[i], vdot[col], qd_[i]);
     F[i] = I_[i] * A[i] + cross_force(V_[i], I_[i] * V_[i]);
     Q[col] = vdot[col] * armature(i);
     if (flexible(i) && !exact_rotor(i)) Q[motor_[i]] = vdot[motor_[i]] * motor_armature(i);
     if (exact_rotor(i)) {
       const Motion<T> S = {axis_[i], zero3()};
-      const Motion<T> Ar =
-          joint_acceleration(rotor_X_[i], A[i - 1], rotor_V_[i], S, vdot[motor_[i]], motor_qd_[i]);
+      const Motion<T> Ar = joint_acceleration(rotor_X_[i], A[parent_[i]], rotor_V_[i], S,
+                                              vdot[motor_[i]], motor_qd_[i]);
       rotor_F[i] = rotor_I_[i] * Ar + cross_force(rotor_V_[i], rotor_I_[i] * rotor_V_[i]);
     }
   }
@@ -345,10 +358,11 @@ std::vector<T> Chain<T>::inverse_dynamics(const std::vector<T>& vdot) const {
   for (int i = n_; i >= 1; --i) {
     const int col = nb + i - 1;
     Q[col] += power(F[i], S_[i]);
-    F[i - 1] = F[i - 1] + X_[i].apply_transpose(F[i]);
+    const int parent = parent_[i];
+    F[parent] = F[parent] + X_[i].apply_transpose(F[i]);
     if (exact_rotor(i)) {
       Q[motor_[i]] += dot(axis_[i], rotor_F[i].n);
-      F[i - 1] = F[i - 1] + rotor_X_[i].apply_transpose(rotor_F[i]);
+      F[parent] = F[parent] + rotor_X_[i].apply_transpose(rotor_F[i]);
     }
   }
   if (d_.free_base) {
@@ -367,9 +381,10 @@ template <class T>
 std::vector<RigidInertia<T>> Chain<T>::composite_inertias() const {
   std::vector<RigidInertia<T>> Ic = I_;
   for (int i = n_; i >= 1; --i) {
-    if (i == 1 && !d_.free_base) break;  // a fixed base carries no coordinate
-    Ic[i - 1] = Ic[i - 1] + in_parent_of(i, Ic[i]);
-    if (exact_rotor(i)) Ic[i - 1] = Ic[i - 1] + in_parent(rotor_X_[i], rotor_I_[i]);
+    const int parent = parent_[i];
+    if (parent == 0 && !d_.free_base) continue;  // a fixed base carries no coordinate
+    Ic[parent] = Ic[parent] + in_parent_of(i, Ic[i]);
+    if (exact_rotor(i)) Ic[parent] = Ic[parent] + in_parent(rotor_X_[i], rotor_I_[i]);
   }
   return Ic;
 }
@@ -608,7 +623,7 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
       Q_motor[i] = Q[motor_[i]] - passive[motor_[i]];
       pivots[motor_[i]] = axial(i);
     }
-    if (i == 1 && !d_.free_base) break;
+    if (parent_[i] == 0 && !d_.free_base) continue;  // a fixed base takes nothing
     const Force<T> W = scaled(U[i], inverse_D[i]);
     ArticulatedInertia<T> reduced = Ia.minus_outer(U[i], W);
     // Without a gear on the slot, I^A - U U^T / D takes S to zero (U = I^A S, D = S^T U): row and
@@ -619,11 +634,12 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
         reduced.A[3 * k + m] = reduced.A[3 * m + k] = reduced.B[3 * k + m] = T{};
     Force<T> passed = pa + scaled(W, u[i]);
     if (flexible(i) && exact_rotor(i)) add_leaf_rotor(i, Q_motor[i], reduced, passed);
-    IA[i - 1] = IA[i - 1] + in_parent_of(i, reduced);
-    pA[i - 1] = pA[i - 1] + X_[i].apply_transpose(passed);
+    IA[parent_[i]] = IA[parent_[i]] + in_parent_of(i, reduced);
+    pA[parent_[i]] = pA[parent_[i]] + X_[i].apply_transpose(passed);
   }
   // The base: f_0 in its frame is (n, R^T f_world); a_0 = (omega_dot, R^T vdot - omega x v).
-  Motion<T> a = zero_motion();
+  std::vector<Motion<T>> acceleration(n_ + 1, zero_motion());  // each body's, in its frame
+  Motion<T>& a = acceleration[0];
   if (d_.free_base) {
     const Force<T> f0 = {
         Vec3<T>{Q[3] - passive[3], Q[4] - passive[4], Q[5] - passive[5]},
@@ -635,7 +651,7 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
   // Forward: the link's acceleration (u - U^T X a_parent) / D, a = X a_parent + c + S qdd, and
   // the motor's p times it.
   for (int i = 1; i <= n_; ++i) {
-    const Motion<T> ap = X_[i].apply(a);
+    const Motion<T> ap = X_[i].apply(acceleration[parent_[i]]);
     const T link = (u[i] - power(U[i], ap)) * inverse_D[i];
     qdd[nb + i - 1] = link * ratio(i);
     // A flexible joint's rotor: J (a . alpha_parent + qdd_m) = Q_m (armature: J qdd_m = Q_m).
@@ -644,8 +660,9 @@ std::vector<std::vector<T>> Chain<T>::forward_dynamics(const std::vector<T>& Q) 
       qdd[motor_[i]] = Q_motor[i] * inverse(g.axial);
       if (exact_rotor(i)) qdd[motor_[i]] = qdd[motor_[i]] - dot(axis_[i], ap.w);
     }
-    a = ap + c[i];
-    a.w = a.w + scaled(axis_[i], link);
+    Motion<T>& ai = acceleration[i];
+    ai = ap + c[i];
+    ai.w = ai.w + scaled(axis_[i], link);
   }
   const std::vector<T> diagonal = mass_matrix_diagonal();
   std::vector<T> scaled_pivots(nv);
@@ -660,12 +677,12 @@ std::vector<T> Chain<T>::generalized_jacobian() const {
   if (!d_.free_base) throw std::logic_error("spatial chain: generalized Jacobian of a fixed base");
   if (d_.num_flexible() > 0)
     throw std::logic_error("spatial chain: generalized Jacobian with flexible joints");
-  const int nv = d_.nv(), N = n_;
+  const int nv = d_.nv(), N = n_, rows = 6 * d_.num_end_effectors();
   const std::vector<T> M = mass_matrix(), J = end_effector_jacobian();
   const std::vector<T> X =
       ldlt_solve(block(M, nv, 0, 0, 6, 6), 6, block(M, nv, 0, 6, 6, N), N, num(1.0));
-  std::vector<T> Jg(6 * N);
-  for (int r = 0; r < 6; ++r)
+  std::vector<T> Jg(rows * N);
+  for (int r = 0; r < rows; ++r)
     for (int c = 0; c < N; ++c) {
       T x = J[r * nv + 6 + c];
       for (int k = 0; k < 6; ++k) x -= J[r * nv + k] * X[k * N + c];
@@ -721,22 +738,28 @@ template <class T>
 std::vector<T> Chain<T>::generalized_momentum() const {
   const int nv = d_.nv(), nb = d_.num_base();
   std::vector<T> p(nv, T{});
-  Force<T> carried = {zero3(), zero3()};
+  // carried[b]: the momenta of what body b carries, in its frame (its children's first, its own
+  // added last, the order a chain's recording has always had).
+  std::vector<Force<T>> carried(n_ + 1, {zero3(), zero3()});
+  std::vector<bool> has_carried(n_ + 1, false);
   for (int i = n_; i >= 1; --i) {
     const int col = nb + i - 1;
-    carried = carried + I_[i] * V_[i];
-    p[col] = power(carried, S_[i]) + qd_[i] * armature(i);
+    carried[i] = carried[i] + I_[i] * V_[i];
+    p[col] = power(carried[i], S_[i]) + qd_[i] * armature(i);
     if (flexible(i) && !exact_rotor(i)) p[motor_[i]] = motor_qd_[i] * motor_armature(i);
-    carried = X_[i].apply_transpose(carried);
+    Force<T> up = X_[i].apply_transpose(carried[i]);
     if (exact_rotor(i)) {  // the rotor's momentum, in the parent's frame
       const Force<T> h = rotor_I_[i] * rotor_V_[i];
       p[motor_[i]] += dot(axis_[i], h.n);
-      carried = carried + rotor_X_[i].apply_transpose(h);
+      up = up + rotor_X_[i].apply_transpose(h);
     }
+    const int parent = parent_[i];
+    carried[parent] = has_carried[parent] ? carried[parent] + up : up;
+    has_carried[parent] = true;
   }
   if (d_.free_base) {
-    carried = carried + I_[0] * V_[0];
-    for (int k = 0; k < nb; ++k) p[k] = power(carried, base_unit(k));
+    carried[0] = carried[0] + I_[0] * V_[0];
+    for (int k = 0; k < nb; ++k) p[k] = power(carried[0], base_unit(k));
   }
   return p;
 }
@@ -769,31 +792,50 @@ std::vector<T> Chain<T>::momentum() const {
   // An exact rotor's angular momentum (armature drops it): its frame is the joint's at q = 0.
   for (int i = 1; i <= n_; ++i)
     if (exact_rotor(i))
-      add(rotor_I_[i] * rotor_V_[i], product(R_[i - 1], transposed(rotor_X_[i].E)), p_[i]);
+      add(rotor_I_[i] * rotor_V_[i], product(R_[parent_[i]], transposed(rotor_X_[i].E)), p_[i]);
   return h;
 }
 
 template <class T>
+std::vector<int> Chain<T>::path_to(int b) const {
+  std::vector<int> path;
+  for (int i = b; i >= 1; i = parent_[i]) path.push_back(i);
+  std::reverse(path.begin(), path.end());
+  return path;
+}
+
+template <class T>
+Vec3<T> Chain<T>::end_effector_point(int e) const {
+  const int b = d_.end_effector_body(e);
+  return p_[b] + times(R_[b], num(d_.end_effectors[e].xyz));
+}
+
+template <class T>
 std::vector<T> Chain<T>::end_effector_pose() const {
-  const Vec3<T> tip = p_[n_] + times(R_[n_], num(d_.tip));
-  Quaternion<T> q = {num(1.0), T{}, T{}, T{}};
-  if (d_.free_base)
-    q = {values_.input("q", 3), values_.input("q", 4), values_.input("q", 5),
-         values_.input("q", 6)};
+  std::vector<T> poses;
   const int jq = d_.free_base ? 7 : 0;
-  for (int i = 1; i <= n_; ++i) {
-    const Link& l = d_.links[i - 1];
-    const Quaternion<double> o = rpy_quaternion(l.origin_rpy);
-    const T qi = values_.input("q", jq + i - 1), half = qi * over_ratio(i, 0.5);
-    const T s = sin(half);
-    q = q * Quaternion<T>{num(o[0]), num(o[1]), num(o[2]), num(o[3])} *
-        Quaternion<T>{cos(half), s * axis_[i][0], s * axis_[i][1], s * axis_[i][2]};
+  for (int e = 0; e < d_.num_end_effectors(); ++e) {
+    const Vec3<T> tip = end_effector_point(e);
+    Quaternion<T> q = {num(1.0), T{}, T{}, T{}};
+    if (d_.free_base)
+      q = {values_.input("q", 3), values_.input("q", 4), values_.input("q", 5),
+           values_.input("q", 6)};
+    for (int i : path_to(d_.end_effector_body(e))) {
+      const Link& l = d_.links[i - 1];
+      const Quaternion<double> o = rpy_quaternion(l.origin_rpy);
+      const T qi = values_.input("q", jq + i - 1), half = qi * over_ratio(i, 0.5);
+      const T s = sin(half);
+      q = q * Quaternion<T>{num(o[0]), num(o[1]), num(o[2]), num(o[3])} *
+          Quaternion<T>{cos(half), s * axis_[i][0], s * axis_[i][1], s * axis_[i][2]};
+    }
+    const std::array<double, 3>& rpy = d_.end_effectors[e].rpy;
+    if (rpy != std::array<double, 3>{}) {  // a welded end-effector frame's rotation
+      const Quaternion<double> t = rpy_quaternion(rpy);
+      q = q * Quaternion<T>{num(t[0]), num(t[1]), num(t[2]), num(t[3])};
+    }
+    poses.insert(poses.end(), {tip[0], tip[1], tip[2], q[0], q[1], q[2], q[3]});
   }
-  if (d_.tip_rpy != std::array<double, 3>{}) {  // a welded end-effector frame's rotation
-    const Quaternion<double> t = rpy_quaternion(d_.tip_rpy);
-    q = q * Quaternion<T>{num(t[0]), num(t[1]), num(t[2]), num(t[3])};
-  }
-  return {tip[0], tip[1], tip[2], q[0], q[1], q[2], q[3]};
+  return poses;
 }
 
 template <class T>
@@ -814,12 +856,13 @@ std::vector<T> Chain<T>::joint_rates() const {
 
 template <class T>
 std::vector<T> Chain<T>::joint_positions() const {
-  const int cols = n_ + 1;
+  const int E = d_.num_end_effectors(), cols = n_ + E;
   std::vector<T> P(3 * cols);
-  const Vec3<T> tip = p_[n_] + times(R_[n_], num(d_.tip));
+  std::vector<Vec3<T>> tips;
+  for (int e = 0; e < E; ++e) tips.push_back(end_effector_point(e));
   for (int k = 0; k < 3; ++k) {
     for (int i = 1; i <= n_; ++i) P[k * cols + i - 1] = p_[i][k];
-    P[k * cols + n_] = tip[k];
+    for (int e = 0; e < E; ++e) P[k * cols + n_ + e] = tips[e][k];
   }
   return P;
 }
@@ -837,30 +880,33 @@ std::vector<T> Chain<T>::body_frames() const {
 template <class T>
 std::vector<T> Chain<T>::end_effector_jacobian() const {
   const int nv = d_.nv(), nb = d_.num_base();
-  const Vec3<T> tip = p_[n_] + times(R_[n_], num(d_.tip));
-  std::vector<T> J(6 * nv, T{});
-  auto column = [&](int c, const Vec3<T>& linear, const Vec3<T>& angular) {
-    for (int k = 0; k < 3; ++k) {
-      J[k * nv + c] = linear[k];
-      J[(3 + k) * nv + c] = angular[k];
+  std::vector<T> J(6 * nv * d_.num_end_effectors(), T{});
+  for (int ee = 0; ee < d_.num_end_effectors(); ++ee) {
+    const Vec3<T> tip = end_effector_point(ee);
+    const int row = 6 * ee;
+    auto column = [&](int c, const Vec3<T>& linear, const Vec3<T>& angular) {
+      for (int k = 0; k < 3; ++k) {
+        J[(row + k) * nv + c] = linear[k];
+        J[(row + 3 + k) * nv + c] = angular[k];
+      }
+    };
+    // The base: its origin's world velocity moves the tip alike; its body angular velocity
+    // turns the tip about the origin.
+    for (int k = 0; k < nb; ++k) {
+      Vec3<double> e = {0, 0, 0};
+      e[k % 3] = 1;
+      if (k < 3) {
+        column(k, num(e), zero3());
+      } else {
+        const Vec3<T> w = times(R_[0], num(e));
+        column(k, cross(w, tip - p_[0]), w);
+      }
     }
-  };
-  // The base: its origin's world velocity moves the tip alike; its body angular velocity
-  // turns the tip about the origin.
-  for (int k = 0; k < nb; ++k) {
-    Vec3<double> e = {0, 0, 0};
-    e[k % 3] = 1;
-    if (k < 3) {
-      column(k, num(e), zero3());
-    } else {
-      const Vec3<T> w = times(R_[0], num(e));
-      column(k, cross(w, tip - p_[0]), w);
+    // Each joint from the root turns everything after it about its world axis, at qd_m / p.
+    for (int i : path_to(d_.end_effector_body(ee))) {
+      const Vec3<T> w = times(R_[i], S_[i].w);
+      column(nb + i - 1, cross(w, tip - p_[i]), w);
     }
-  }
-  // Each joint turns everything after it about its world axis, at qd_m / p.
-  for (int i = 1; i <= n_; ++i) {
-    const Vec3<T> w = times(R_[i], S_[i].w);
-    column(nb + i - 1, cross(w, tip - p_[i]), w);
   }
   return J;
 }

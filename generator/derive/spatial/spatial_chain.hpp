@@ -1,6 +1,7 @@
-// A serial chain of revolute joints in space on a base that floats in all six degrees of freedom
-// (or is fixed): forward kinematics, body velocities, the mass matrix (CRBA), recursive
-// Newton-Euler, forward dynamics, kinetic energy, momentum and the end effector, written once
+// A tree of revolute joints in space (a serial chain the common case) on a base that floats in
+// all six degrees of freedom (or is fixed): forward kinematics, body velocities, the mass matrix
+// (CRBA), recursive Newton-Euler, forward dynamics, kinetic energy, momentum and the end
+// effectors, written once
 // over the scalar (double, and recorded_scalar.hpp's Sym and duals, as planar_chain.cpp is).
 // The algebra is Featherstone's in body coordinates (spatial_algebra.hpp); what the chain is made
 // of, its description (spatial_description.hpp).
@@ -39,7 +40,7 @@ class Chain {
   Chain(const ChainDescription& d, Values<T> values);
 
   static Dimensions dimensions(const ChainDescription& d) {
-    return {d.nq(), d.nv(), static_cast<int>(d.links.size()), true};
+    return {d.nq(), d.nv(), static_cast<int>(d.links.size()), true, d.num_end_effectors()};
   }
   // Entry i of qdot = f(q, v): the base origin's velocity, the quaternion's rate
   // 1/2 q (0, omega) with omega in the base frame, the joint rates.
@@ -71,24 +72,25 @@ class Chain {
   std::vector<T> hamel_coupling(const std::vector<T>& M) const;
   // [P (3), L (3)]: linear momentum and angular momentum about the world origin, in the world.
   std::vector<T> momentum() const;
-  // The end effector's pose [x, y, z, w, qx, qy, qz]: the tip's world position and the last
-  // link's orientation as a quaternion, composed joint by joint (no branches: recordable); it has
-  // the norm of the base's quaternion in q (1 for a unit one; a square root is not recordable).
+  // Each end effector's pose [x, y, z, w, qx, qy, qz], stacked: its world position and
+  // orientation as a quaternion, composed joint by joint from the root (no branches:
+  // recordable); it has the norm of the base's quaternion in q (1 for a unit one; a square root
+  // is not recordable).
   std::vector<T> end_effector_pose() const;
   // The link-side joint angles and rates (N): a rigid gear's slot divided by its ratio (qm / p),
   // any other slot as it is.
   std::vector<T> joint_angles() const;
   std::vector<T> joint_rates() const;
-  // The world positions of joints 1..N (each link frame's origin) and of the tip, for drawing:
-  // row-major 3 x (N + 1), one column per point.
+  // The world positions of joints 1..N (each link frame's origin) and of the end effectors, for
+  // drawing: row-major 3 x (N + E), one column per point.
   std::vector<T> joint_positions() const;
   // Each body's frame in the world (0 the base, i link i), for drawing its visuals: 12 numbers
   // per body, the position then the rotation row-major. Not a registry output.
   std::vector<T> body_frames() const;
-  // Its geometric Jacobian, row-major 6 x nv: the tip's linear and the last link's angular
-  // velocity in the world per unit velocity.
+  // The geometric Jacobians, stacked, row-major 6E x nv: each end effector's linear and angular
+  // velocity in the world per unit velocity (zero in the columns of joints that do not carry it).
   std::vector<T> end_effector_jacobian() const;
-  // Umetani and Yoshida's generalized Jacobian J* (6 x N): the end effector's twist per unit
+  // Umetani and Yoshida's generalized Jacobian J* (6E x N): the end effectors' twists per unit
   // joint (motor) rate with the base moving so that the momentum stays zero. Free base only.
   std::vector<T> generalized_jacobian() const;
   // The joint torques tau = p Q that give the link-side joint accelerations qdd_joints with no
@@ -99,6 +101,7 @@ class Chain {
   const ChainDescription& d_;
   Values<T> values_;
   int n_ = 0;
+  std::vector<int> parent_;      // the body that carries link i (parent_[0] unused)
   std::vector<Transform<T>> X_;  // parent -> link i (X_[0] unused)
   // X_[i]'s rotation as turns, R = E^T = turns_[i][0] turns_[i][1] ... (the origin's yaw, pitch
   // and roll, then the joint's own turn, always last), for the inertias' transforms.
@@ -225,11 +228,16 @@ class Chain {
   // A flexible joint's exact rotor, a leaf on the parent: what it passes to the parent in link
   // i's frame once its coordinate (net force Q_m) is eliminated.
   void add_leaf_rotor(int i, const T& Q_m, ArticulatedInertia<T>& reduced, Force<T>& pa) const;
-  // Column `col` of M above joint i: the force `up` (in link i - 1's frame) read along joints
-  // i - 1 .. 1 and the base's directions, carried inward.
+  // Column `col` of M above joint i: the force `up` (in its parent's frame) read along the joints
+  // from that parent to the root and the base's directions, carried inward; the entries of
+  // joints on other branches stay zero (RBDA 6.5's branch-induced sparsity).
   void fill_column(std::vector<T>& M, int col, int i, Force<T> up) const;
   // Body b's contribution: the bodies that carry mass (a fixed base carries none that moves).
   int first_body() const { return d_.free_base ? 0 : 1; }
+  // The links from the root to body b, root first (empty for the base).
+  std::vector<int> path_to(int b) const;
+  // End effector e's origin in the world.
+  Vec3<T> end_effector_point(int e) const;
 };
 
 }  // namespace spacearm::spatial
