@@ -229,6 +229,11 @@ int run_eval(const EvalArgs& a) {
   // The state, inputs and parameters used, then every output by its registry name.
   nlohmann::ordered_json out;
   out["coordinates"] = facts.coordinate_names;
+  if (!facts.joint_parents.empty()) {  // a tree: its joints depth-first, each one's parent
+    out["joints"] = facts.joint_names;
+    out["joint_parents"] = facts.joint_parents;
+  }
+  if (facts.dims.num_end_effectors > 1) out["end_effectors"] = facts.end_effector_names;
   for (const auto& [input, v] : in.values)
     if (input == Input::q || used.count(input))
       out[info(input).name] = std::vector<double>(v.data(), v.data() + v.size());

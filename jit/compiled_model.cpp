@@ -1072,7 +1072,7 @@ CompiledModel CompiledModel::open_verified(const ModelRecipe& recipe, const Fd& 
   // The model's facts, as the library states them.
   m.name_ = reinterpret_cast<const char* (*)()>(sym("spacearm_name"))();
   m.dims_ = {number("spacearm_nq"), number("spacearm_nv"), number("spacearm_num_links"),
-             number("spacearm_spatial") != 0};
+             number("spacearm_spatial") != 0, number("spacearm_num_end_effectors")};
   m.num_base_ = number("spacearm_num_base");
   m.free_floating_ = number("spacearm_free_floating") != 0;
   m.passive_forces_ = number("spacearm_passive_forces") != 0;
@@ -1083,7 +1083,8 @@ CompiledModel CompiledModel::open_verified(const ModelRecipe& recipe, const Fd& 
   auto parameter = reinterpret_cast<const char* (*)(int)>(sym("spacearm_parameter_name"));
   auto nominal = reinterpret_cast<double (*)(int)>(sym("spacearm_nominal_parameter"));
   auto actuated = reinterpret_cast<int (*)(int)>(sym("spacearm_actuated_coordinate"));
-  if (m.dims_.nq < 0 || m.dims_.nv < 0 || m.dims_.num_links < 0 || np < 0) {
+  if (m.dims_.nq < 0 || m.dims_.nv < 0 || m.dims_.num_links < 0 || np < 0 ||
+      m.dims_.num_end_effectors < 1) {
     why = "it states negative sizes";
     return m;
   }
@@ -1129,6 +1130,7 @@ CompiledModel CompiledModel::open_verified(const ModelRecipe& recipe, const Fd& 
 std::string CompiledModel::mismatch_with(const ModelFacts& expected) const {
   if (name_ != expected.name || dims_.nq != expected.dims.nq || dims_.nv != expected.dims.nv ||
       dims_.num_links != expected.dims.num_links || dims_.spatial != expected.dims.spatial ||
+      dims_.num_end_effectors != expected.dims.num_end_effectors ||
       parameter_names_ != expected.parameter_names || outputs_ != output_mask(expected.outputs) ||
       free_floating_ != expected.free_floating)
     return "its facts do not match the scene";

@@ -43,7 +43,7 @@ record() {
 }
 
 # Lines allowed to differ: the C interface's version and the facts it states about the model.
-interface_lines='kCInterfaceVersion|spacearm_c_interface_version|spacearm_free_floating|spacearm_passive_forces|spacearm_configuration_layout|spacearm_num_base'
+interface_lines='kCInterfaceVersion|spacearm_c_interface_version|spacearm_free_floating|spacearm_passive_forces|spacearm_configuration_layout|spacearm_num_base|spacearm_num_end_effectors'
 
 compare() {
   local old=$1 new=$2 status=0

@@ -4,7 +4,9 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -299,6 +301,26 @@ std::string quoted_list(const std::vector<std::string>& items) {
   return s;
 }
 
+// Untrusted text (a URDF's link names) as C++ string literals: every byte but letters, digits
+// and '_' as a three-digit octal escape, which no following character can extend.
+std::string escaped_list(const std::vector<std::string>& items) {
+  std::string s;
+  for (const auto& item : items) {
+    s += (s.empty() ? "\"" : ", \"");
+    for (unsigned char c : item) {
+      if (std::isalnum(c) || c == '_') {
+        s += static_cast<char>(c);
+      } else {
+        char octal[8];
+        std::snprintf(octal, sizeof octal, "\\%03o", c);
+        s += octal;
+      }
+    }
+    s += '"';
+  }
+  return s;
+}
+
 // The values of the scene's range checks (ModelFacts::checks), each printed inline.
 std::vector<std::string> check_values(const ModelFacts& facts, Spelling spelling) {
   std::vector<Assignment> values;
@@ -387,6 +409,12 @@ std::string header_constants(const ModelFacts& facts) {
     << comma_list(actuated_coordinates(facts)) << "};\n"
     << "inline constexpr std::array<bool, kNumLinks> kMotorAngleSlots = {"
     << comma_list(facts.motor_angle_slots) << "};\n";
+  if (facts.dims.num_end_effectors > 1)  // a tree's: the poses' and Jacobian rows' blocks
+    h << "// The end effectors, in the order of the pose's blocks of 7 and the Jacobian's of 6 "
+         "rows.\n"
+      << "inline constexpr int kNumEndEffectors = " << facts.dims.num_end_effectors << ";\n"
+      << "inline constexpr std::array<const char*, kNumEndEffectors> kEndEffectorNames = {"
+      << escaped_list(facts.end_effector_names) << "};\n";
   h << "\ntemplate <typename T> using Coordinates = Eigen::Matrix<T, kNq, 1>;\n"
     << "template <typename T> using Velocities = Eigen::Matrix<T, kNv, 1>;\n"
     << "template <typename T> using Parameters = Eigen::Matrix<T, kNumParams, 1>;\n"
@@ -483,6 +511,7 @@ std::string c_facts(const ModelFacts& facts) {
     << "int spacearm_nq() { return " << facts.dims.nq << "; }\n"
     << "int spacearm_nv() { return " << facts.dims.nv << "; }\n"
     << "int spacearm_num_links() { return " << facts.dims.num_links << "; }\n"
+    << "int spacearm_num_end_effectors() { return " << facts.dims.num_end_effectors << "; }\n"
     << "int spacearm_num_params() { return " << facts.parameter_names.size() << "; }\n"
     << "int spacearm_num_base() { return " << facts.num_base << "; }\n"
     << "int spacearm_spatial() { return " << facts.dims.spatial << "; }\n"

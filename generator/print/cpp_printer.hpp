@@ -21,8 +21,8 @@ namespace spacearm {
 // _passive_forces, _configuration_layout, _outputs, ...), so a loader needs no scene. 7: the
 // self-description. 8: per joint, whether its slot holds a motor angle (_slot_holds_motor).
 // 9: the numbers whose span a failure names (_num_span_fields, _span_field, _span_value,
-// _span_parameter).
-inline constexpr int kCInterfaceVersion = 9;
+// _span_parameter). 10: the end effectors (_num_end_effectors; a tree may have several).
+inline constexpr int kCInterfaceVersion = 10;
 // Beside some of them (FunctionSpec::lanes), spacearm_<name>_x4 of the same signature takes four
 // states per call: entry i of lane l of every input, parameter and result at [4 i + l]. A
 // library without them still loads (the caller takes one state per call).

@@ -359,5 +359,151 @@ parameters: {m: 5, p: 50}
                        "'link1'");
 }
 
+// Issue 52: trees. MuJoCo's view of a tree by the exporter's names: the state in (rotors at
+// qm = p q), and the chain's dofs out.
+struct TreeInMujoco {
+  const spatial::ChainDescription& c;
+  MjcfNames names;
+  const test::MujocoModel& mj;
+  int dof(int j) const {
+    return mj.m->jnt_dofadr[mj_name2id(mj.m.get(), mjOBJ_JOINT, names.joints[j].c_str())];
+  }
+  Eigen::VectorXd set(const State& x) const {
+    const int N = static_cast<int>(c.links.size());
+    Eigen::VectorXd D = Eigen::VectorXd::Ones(c.nv());
+    mju_zero(mj.d->qfrc_applied, mj.m->nv);
+    const int base = mj_name2id(mj.m.get(), mjOBJ_JOINT, names.base_joint.c_str());
+    for (int i = 0; i < 7; ++i) mj.d->qpos[mj.m->jnt_qposadr[base] + i] = x.q[i];
+    for (int i = 0; i < 6; ++i) mj.d->qvel[mj.m->jnt_dofadr[base] + i] = x.v[i];
+    for (int j = 0; j < N; ++j) {
+      const spatial::Gear& g = c.links[j].gear;
+      D[6 + j] = g.present ? g.ratio.value : 1;
+      const int joint = mj_name2id(mj.m.get(), mjOBJ_JOINT, names.joints[j].c_str());
+      mj.d->qpos[mj.m->jnt_qposadr[joint]] = x.q[7 + j] / D[6 + j];
+      mj.d->qvel[mj.m->jnt_dofadr[joint]] = x.v[6 + j] / D[6 + j];
+      mj.d->qfrc_applied[mj.m->jnt_dofadr[joint]] = x.tau[j];
+      if (names.rotors[j].empty()) continue;
+      const int r = mj_name2id(mj.m.get(), mjOBJ_JOINT, names.rotors[j].c_str());
+      mj.d->qpos[mj.m->jnt_qposadr[r]] = x.q[7 + j];
+      mj.d->qvel[mj.m->jnt_dofadr[r]] = x.v[6 + j];
+    }
+    return D;
+  }
+  Eigen::VectorXd dofs(const mjtNum* x) const {
+    Eigen::VectorXd out(c.nv());
+    const int base = mj_name2id(mj.m.get(), mjOBJ_JOINT, names.base_joint.c_str());
+    for (int i = 0; i < 6; ++i) out[i] = x[mj.m->jnt_dofadr[base] + i];
+    for (size_t j = 0; j < c.links.size(); ++j) out[6 + j] = x[dof(static_cast<int>(j))];
+    return out;
+  }
+};
+
+// A random tree of 10 joints (each link's parent one of the three bodies before it, so that
+// several leave the base and inner links) with physical inertias, ungeared or with armature.
+SpatialScene random_tree_scene(std::mt19937& rng, bool armature) {
+  std::uniform_real_distribution<double> u(-1, 1);
+  SpatialScene s;
+  s.name = "tree";
+  s.chain.base.mass = 80;
+  s.chain.base.inertia = {9, 0.3, 0, 11, -0.2, 10};
+  s.chain.end_effectors.clear();
+  for (int i = 1; i <= 10; ++i) {
+    spatial::Link l;
+    l.parent = std::uniform_int_distribution<int>(std::max(0, i - 3), i - 1)(rng);
+    l.origin_xyz = {0.3 + 0.2 * u(rng), 0.2 * u(rng), 0.2 * u(rng)};
+    l.origin_rpy = {u(rng), u(rng), u(rng)};
+    l.axis = {u(rng), u(rng), u(rng)};
+    l.mass = 2 + u(rng);
+    l.com = {0.15, 0.05 * u(rng), 0.05 * u(rng)};
+    const double a = 0.05 + 0.01 * u(rng), b = 0.05 + 0.01 * u(rng);
+    l.inertia = {a, 0, 0, b, 0, 0.5 * (a + b)};
+    if (armature) l.gear = {true, 20 + 30 * (1 + u(rng)), 1e-4, 5e-5, false};
+    s.chain.links.push_back(l);
+  }
+  for (int i = 1; i <= 10; ++i) {
+    bool leaf = true;
+    for (const auto& l : s.chain.links) leaf = leaf && l.parent != i;
+    if (leaf) s.chain.end_effectors.push_back({"leaf" + std::to_string(i), i, {0.1, 0, 0}, {}});
+  }
+  return s;
+}
+
+// Issue 52: trees exported to MuJoCo, a body per link nested in its parent's (and a rotor body
+// per exact gear on the parent, a branch's first joint's on the base): models/dual_arm7 (two
+// 7-joint arms) and random trees, ungeared and with armature, agree with MuJoCo on M, the bias
+// and the forward dynamics to 1e-12 relative; with exact rotors to the equalities' tolerance.
+TEST(MujocoAgreement, ExportedTreesAgreeToRounding) {
+  const std::string path = std::string(SPACEARM_SOURCE_DIR) + "/models/dual_arm7.yaml";
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  const SpatialScene dual = parse_spatial_scene(text.str(), path);
+  std::mt19937 rng(11);
+  std::vector<std::pair<std::string, SpatialScene>> scenes;
+  for (const bool geared : {false, true}) {
+    SpatialScene d = dual;
+    for (auto& l : d.chain.links) {
+      if (!geared) l.gear = {};
+      l.gear.exact = false;
+    }
+    scenes.push_back({geared ? "dual arm, armature" : "dual arm", d});
+    scenes.push_back(
+        {geared ? "random tree, armature" : "random tree", random_tree_scene(rng, geared)});
+  }
+  for (const auto& [name, s] : scenes) {
+    SCOPED_TRACE(name);
+    const spatial::ChainDescription& c = s.chain;
+    ASSERT_FALSE(c.serial());
+    const test::MujocoModel mj(export_mjcf(s));
+    const TreeInMujoco tree{c, mjcf_names(s), mj};
+    ASSERT_EQ(mj.m->nv, c.nv());
+    for (int trial = 0; trial < 4; ++trial) {
+      const State x = random_state(c, rng);
+      const Eigen::VectorXd D = tree.set(x);
+      mj_forward(mj.m.get(), mj.d.get());
+      const int nv = c.nv();
+      Eigen::MatrixXd M_full(nv, nv);
+      mj_fullM(mj.m.get(), M_full.data(), mj.d->qM);
+      Eigen::VectorXi order(nv);  // MuJoCo's dof of each chain velocity
+      for (int i = 0; i < 6; ++i) order[i] = i;
+      for (int j = 0; j < nv - 6; ++j) order[6 + j] = tree.dof(j);
+      Eigen::MatrixXd M_mj(nv, nv);
+      for (int a = 0; a < nv; ++a)
+        for (int b = 0; b < nv; ++b) M_mj(a, b) = M_full(order[a], order[b]);
+      Eigen::VectorXd Q = Eigen::VectorXd::Zero(nv);
+      Q.tail(x.tau.size()) = x.tau.cwiseQuotient(D.tail(x.tau.size()));
+      const Eigen::VectorXd Mv = chain_output(c, Output::mass_matrix, x.q, x.v, Q);
+      const Eigen::MatrixXd M =
+          D.asDiagonal() * Eigen::Map<const Eigen::MatrixXd>(Mv.data(), nv, nv) * D.asDiagonal();
+      EXPECT_LT((M - M_mj).norm(), 1e-12 * M_mj.norm()) << trial;
+      const Eigen::VectorXd b_mj = tree.dofs(mj.d->qfrc_bias);
+      const Eigen::VectorXd b = D.asDiagonal() * chain_output(c, Output::bias_forces, x.q, x.v, Q);
+      EXPECT_LT((b - b_mj).norm(), 1e-12 * (1 + b_mj.norm())) << trial;
+      const Eigen::VectorXd qacc_mj = tree.dofs(mj.d->qacc);
+      const Eigen::VectorXd qacc =
+          chain_output(c, Output::forward_dynamics, x.q, x.v, Q).cwiseQuotient(D);
+      EXPECT_LT((qacc - qacc_mj).norm(), 1e-12 * (1 + qacc_mj.norm())) << trial;
+    }
+  }
+  // Exact rotors on both arms, the shoulders' on the satellite.
+  const test::MujocoModel mj(export_mjcf(dual));
+  const TreeInMujoco tree{dual.chain, mjcf_names(dual), mj};
+  ASSERT_EQ(mj.m->nv, dual.chain.nv() + 14);
+  double worst = 0;
+  for (int trial = 0; trial < 4; ++trial) {
+    const State x = random_state(dual.chain, rng);
+    const Eigen::VectorXd D = tree.set(x);
+    mj_forward(mj.m.get(), mj.d.get());
+    Eigen::VectorXd Q = Eigen::VectorXd::Zero(dual.chain.nv());
+    Q.tail(x.tau.size()) = x.tau.cwiseQuotient(D.tail(x.tau.size()));
+    const Eigen::VectorXd qacc =
+        chain_output(dual.chain, Output::forward_dynamics, x.q, x.v, Q).cwiseQuotient(D);
+    const Eigen::VectorXd qacc_mj = tree.dofs(mj.d->qacc);
+    worst = std::max(worst, (qacc - qacc_mj).norm() / (1 + qacc_mj.norm()));
+  }
+  std::printf("dual arm, exact rotors: MuJoCo's forward dynamics within %.1e relative\n", worst);
+  EXPECT_LT(worst, 2e-4);
+}
+
 }  // namespace
 }  // namespace spacearm
