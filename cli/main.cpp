@@ -361,6 +361,15 @@ CLI::App* add_plan(CLI::App& app, spacearm::PlanArgs& a) {
           "--q0", a.q0_text,
           "Start configuration guess instead of --elbow (all coordinates; its base ones are kept)")
       ->excludes(elbow_opt);
+  command->add_option("--end-effector", a.end_effector,
+                      "A tree's end effector that follows the line, by name (eval lists them; "
+                      "default: the first)");
+  command
+      ->add_option("--hold", a.hold,
+                   "A tree's other arms while it moves: joints (every joint that does not carry "
+                   "the moving end effector keeps its angle) or pose (the other end effectors "
+                   "stay put in the inertial frame)")
+      ->check(CLI::IsMember({"joints", "pose"}));
   command
       ->add_option("--param", a.param_assignments,
                    "Run-time parameter name=value (repeatable, once per name)")

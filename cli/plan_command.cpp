@@ -89,6 +89,19 @@ StraightLineTask task_from_options(const PlanArgs& a, const ModelFacts& facts) {
   task.law = time_law_from_string(a.time_law);
   task.elbow = a.elbow;
   if (!a.q0_text.empty()) task.q0 = cli::parse_vector(a.q0_text, "--q0", facts.dims.nq);
+  task.hold = hold_from_string(a.hold);
+  if (!a.end_effector.empty()) {
+    const auto& names = facts.end_effector_names;
+    const auto it = std::find(names.begin(), names.end(), a.end_effector);
+    if (it == names.end() || facts.dims.num_end_effectors == 1) {
+      std::string listed;
+      for (const auto& n : names) listed += (listed.empty() ? "" : ", ") + quoted_text(n);
+      throw std::invalid_argument("--end-effector: " + quoted_text(a.end_effector) +
+                                  " is not an end effector of '" + facts.name + "' (" + listed +
+                                  ")");
+    }
+    task.end_effector = static_cast<int>(it - names.begin());
+  }
   DynamicModel sizes;
   sizes.name = facts.name;
   sizes.nq = facts.dims.nq;
@@ -96,8 +109,10 @@ StraightLineTask task_from_options(const PlanArgs& a, const ModelFacts& facts) {
   sizes.num_links = facts.dims.num_links;
   sizes.free_floating = facts.free_floating;
   sizes.spatial = facts.dims.spatial;
+  if (facts.dims.num_end_effectors > 1) sizes.end_effector_names = facts.end_effector_names;
   sizes.set_layout(facts.num_base, facts.quaternion_offset);
-  check_task(sizes, task, {"--from", "--to", "--duration", "--dt", "--elbow", "--q0"});
+  check_task(sizes, task,
+             {"--from", "--to", "--duration", "--dt", "--elbow", "--q0", "--end-effector"});
   return task;
 }
 

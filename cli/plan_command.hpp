@@ -13,6 +13,7 @@ struct PlanArgs {
   std::string engine = "auto";  // --engine: CompileOptions::engine (compiled_model.hpp)
   std::string scene_path, from_text, to_text, output_file, torque_file, cache_dir;
   std::string time_law = "quintic", q0_text;
+  std::string end_effector, hold = "joints";  // a tree's (--end-effector, --hold)
   int elbow = +1;
   double duration = 0, dt = 0.01;
   std::vector<std::string> param_assignments;

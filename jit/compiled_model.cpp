@@ -805,6 +805,7 @@ CompiledModel CompiledModel::interpreted(const ModelRecipe& recipe, const Compil
   m.quaternion_offset_ = facts.quaternion_offset;
   m.outputs_ = output_mask(facts.outputs);
   m.coordinate_names_ = facts.coordinate_names;
+  m.end_effector_names_ = facts.end_effector_names;
   m.parameter_names_ = facts.parameter_names;
   m.nominal_ = facts.nominal_parameters;
   m.actuated_ = spacearm::actuated_coordinates(facts);
@@ -1089,6 +1090,8 @@ CompiledModel CompiledModel::open_verified(const ModelRecipe& recipe, const Fd& 
     return m;
   }
   for (int i = 0; i < m.dims_.nq; ++i) m.coordinate_names_.push_back(coordinate(i));
+  // A tree's end effectors are named as the scene names them (the hash says it is this scene's).
+  if (m.dims_.num_end_effectors > 1) m.end_effector_names_ = recipe.facts().end_effector_names;
   for (int i = 0; i < np; ++i) {
     m.parameter_names_.push_back(parameter(i));
     m.nominal_.push_back(nominal(i));

@@ -186,6 +186,8 @@ class CompiledModel {
   const Dimensions& dimensions() const { return dims_; }
   bool has(Output o) const;
   const std::vector<std::string>& coordinate_names() const { return coordinate_names_; }
+  // A tree's end effectors (by link where the scene gives them; empty for one end effector).
+  const std::vector<std::string>& end_effector_names() const { return end_effector_names_; }
   const std::vector<std::string>& parameter_names() const { return parameter_names_; }
   const std::vector<double>& nominal_parameters() const { return nominal_; }
   bool free_floating() const { return free_floating_; }
@@ -311,7 +313,7 @@ class CompiledModel {
   // The library's parameter_error() (cpp_printer.cpp), or the interpreter's: nullptr or what is
   // wrong.
   const char* parameter_error(const double* params) const;
-  std::vector<std::string> coordinate_names_, parameter_names_;
+  std::vector<std::string> coordinate_names_, parameter_names_, end_effector_names_;
   std::vector<double> nominal_;
   std::vector<int> actuated_;
   std::vector<bool> motor_angle_slots_;

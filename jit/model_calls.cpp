@@ -543,6 +543,7 @@ DynamicModelFacts LoadedSource::facts() const {
   f.base_velocities = m_->num_base();
   f.quaternion_offset = m_->quaternion_offset();
   f.spatial = m_->dimensions().spatial;
+  if (m_->dimensions().num_end_effectors > 1) f.end_effector_names = m_->end_effector_names();
   return f;
 }
 

@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 
+#include <cctype>
 #include <functional>
 #include <stdexcept>
 #include <string>
@@ -48,6 +49,11 @@ struct DynamicModelFacts {
   // In 3D: the pose is [x, y, z, qw, qx, qy, qz], the momentum [P (3), L (3)]; in the plane
   // [x, y, phi] and [Px, Py, L].
   bool spatial = false;
+  // A tree's end effectors, whose poses follow one another (empty: one end effector).
+  std::vector<std::string> end_effector_names;
+  int num_end_effectors() const {
+    return end_effector_names.empty() ? 1 : static_cast<int>(end_effector_names.size());
+  }
 };
 
 struct DynamicModel : DynamicModelFacts {
@@ -254,8 +260,21 @@ inline std::vector<std::string> momentum_columns(const DynamicModel& m) {
   if (m.spatial) return {"Px", "Py", "Pz", "Lx", "Ly", "Lz"};
   return {"Px", "Py", "L"};
 }
+// Several end effectors (a tree's): each one's columns, ee_NAME_x or (a name that is not a
+// short identifier: untrusted text stays out of a table's header) eeK_x.
 inline std::vector<std::string> end_effector_columns(const DynamicModel& m) {
-  return m.end_effector_pose ? end_effector_columns(m.spatial) : std::vector<std::string>{};
+  if (!m.end_effector_pose) return {};
+  const std::vector<std::string> one = end_effector_columns(m.spatial);
+  if (m.num_end_effectors() == 1) return one;
+  std::vector<std::string> columns;
+  for (int e = 0; e < m.num_end_effectors(); ++e) {
+    const std::string& name = m.end_effector_names[e];
+    bool identifier = !name.empty() && name.size() <= 64 && !std::isdigit(name[0]);
+    for (unsigned char c : name) identifier = identifier && (std::isalnum(c) || c == '_');
+    const std::string prefix = identifier ? "ee_" + name + "_" : "ee" + std::to_string(e + 1) + "_";
+    for (const std::string& c : one) columns.push_back(prefix + c.substr(3));
+  }
+  return columns;
 }
 
 // The one adapter. A Source states the model's facts (facts()), whether it has each function
@@ -350,6 +369,10 @@ class LinkedSource {
     f.base_velocities = M::kNumBase;
     f.quaternion_offset = M::kQuaternionOffset;
     f.spatial = M::kSpatial;
+    // A tree's poses follow one another: 7 (3 in the plane) numbers each.
+    constexpr int poses = M::Pose::RowsAtCompileTime / (M::kSpatial ? 7 : 3);
+    for (int e = 0; poses > 1 && e < poses; ++e)
+      f.end_effector_names.push_back("end_effector_" + std::to_string(e + 1));
     return f;
   }
 

@@ -73,6 +73,10 @@ int check_task(const DynamicModel& m, const StraightLineTask& task, const TaskNa
       fail(names.q0 + " values " + std::to_string(k + 1) + " to " + std::to_string(k + 4) +
            ", the base's quaternion, must have a norm in [1e-6, 1e6], got " + text(norm));
   }
+  if (task.end_effector < 0 || task.end_effector >= m.num_end_effectors())
+    fail(names.end_effector + " must name one of the model's " +
+         std::to_string(m.num_end_effectors()) + " end effectors, got index " +
+         std::to_string(task.end_effector));
   if (task.q0.size() == 0 && task.elbow != 1 && task.elbow != -1)
     fail(names.elbow + " must be +1 or -1, got " + std::to_string(task.elbow));
   return rows;
@@ -116,7 +120,39 @@ struct MinimumNorm {
 struct TaskMap {
   Eigen::MatrixXd A, E;
 };
-TaskMap task_map(const DynamicModel& m, int rows, const Eigen::VectorXd& q) {
+// The task's rows of A: the moving end effector's (rows of its Jacobian block), then what a tree
+// holds: the other end effectors' Jacobian rows (velocity 0), or a unit row per held joint (z_j
+// = 0).
+struct TaskShape {
+  int rows = 0;             // the moving end effector's task rows
+  int jacobian_offset = 0;  // its first row in the stacked Jacobians
+  int pose_offset = 0;      // its first value in the stacked poses
+  std::vector<int> held_rows, held_joints;
+  int total() const { return rows + int(held_rows.size()) + int(held_joints.size()); }
+};
+TaskShape task_shape(const DynamicModel& m, const StraightLineTask& task, int rows,
+                     const Eigen::VectorXd& q) {
+  TaskShape shape;
+  shape.rows = rows;
+  const int per = m.spatial ? 6 : 3, E = m.num_end_effectors();
+  shape.jacobian_offset = per * task.end_effector;
+  shape.pose_offset = (m.spatial ? 7 : 3) * task.end_effector;
+  if (E == 1) return shape;
+  if (task.hold == Hold::pose) {
+    for (int e = 0; e < E; ++e)
+      for (int r = 0; e != task.end_effector && r < per; ++r)
+        shape.held_rows.push_back(per * e + r);
+    return shape;
+  }
+  // A joint carries the end effector where its Jacobian column's angular part, its unit axis in
+  // the world, is not zero; the columns of joints on other branches are exact zeros.
+  const Eigen::MatrixXd J = m.end_effector_jacobian(q).middleRows(shape.jacobian_offset, per);
+  for (int j = 0; j < m.num_links; ++j)
+    if (J.col(m.num_base() + j).tail(m.spatial ? 3 : 1).isZero(0)) shape.held_joints.push_back(j);
+  return shape;
+}
+
+TaskMap task_map(const DynamicModel& m, const TaskShape& shape, const Eigen::VectorXd& q) {
   const int nb = m.num_base(), n = m.num_links;
   TaskMap t;
   t.E = Eigen::MatrixXd::Zero(m.nv, n);
@@ -128,7 +164,12 @@ TaskMap task_map(const DynamicModel& m, int rows, const Eigen::VectorXd& q) {
     t.E.topRows(nb) =
         -M.topLeftCorner(nb, nb).ldlt().solve(M.topRightCorner(nb, n)) * m.gear_ratios.asDiagonal();
   }
-  t.A = m.end_effector_jacobian(q).topRows(rows) * t.E;
+  const Eigen::MatrixXd J = m.end_effector_jacobian(q);
+  t.A.resize(shape.total(), n);
+  t.A.topRows(shape.rows) = J.middleRows(shape.jacobian_offset, shape.rows) * t.E;
+  int row = shape.rows;
+  for (int r : shape.held_rows) t.A.row(row++) = J.row(r) * t.E;
+  for (int j : shape.held_joints) t.A.row(row++) = Eigen::RowVectorXd::Unit(n, j);
   return t;
 }
 
@@ -184,14 +225,26 @@ Eigen::VectorXd pose_error(const DynamicModel& m, int rows, const Eigen::VectorX
   return e;
 }
 
+// The moving end effector's pose among the stacked ones.
+Eigen::VectorXd moving_pose(const DynamicModel& m, const TaskShape& shape, const Eigen::VectorXd& q,
+                            Eigen::Index values) {
+  return m.end_effector_pose(q).segment(shape.pose_offset, values);
+}
+// The task's velocity or acceleration with zeros for what is held.
+Eigen::VectorXd padded(const TaskShape& shape, const Eigen::VectorXd& x) {
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(shape.total());
+  out.head(x.size()) = x;
+  return out;
+}
+
 // One sample's rates: z = A^+ v (minimum norm on the link side), qd = E z.
 struct Rates {
   TaskMap map;
   Eigen::VectorXd scale, z, lambda, qd;
 };
-Rates rates(const DynamicModel& m, int rows, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
-            double t) {
-  Rates r{task_map(m, rows, q), {}, {}, {}, {}};
+Rates rates(const DynamicModel& m, const TaskShape& shape, const Eigen::VectorXd& q,
+            const Eigen::VectorXd& v, double t) {
+  Rates r{task_map(m, shape, q), {}, {}, {}, {}};
   r.scale = row_scales(r.map.A);
   const MinimumNorm mn(r.scale.asDiagonal() * r.map.A);
   // Near a singularity of the generalized Jacobian (the arm stretched or folded at the edge
@@ -202,7 +255,7 @@ Rates rates(const DynamicModel& m, int rows, const Eigen::VectorXd& q, const Eig
         << ") at t = " << t << " s: the path leaves the workspace or crosses a singularity";
     throw std::runtime_error(msg.str());
   }
-  const Eigen::VectorXd y = mn.y(r.scale.cwiseProduct(v));
+  const Eigen::VectorXd y = mn.y(r.scale.cwiseProduct(padded(shape, v)));
   r.z = mn.x(y);
   r.lambda = r.scale.asDiagonal() * mn.lambda(y);  // z = A^T lambda for the unscaled A
   r.qd = r.map.E * r.z;
@@ -215,20 +268,20 @@ Rates rates(const DynamicModel& m, int rows, const Eigen::VectorXd& q, const Eig
 // qdd_j = P zd and the base from no force on it (eq. 5 base rows, M_bb qdd_b = -b_b - M_bj qdd_j);
 // on a zero-momentum motion this is the derivative of the base rates, since b_b - (Mdot qd)_b =
 // -dT/dq_b = 0 there (dT/dx0 = dT/dy0 = 0, dT/dq0 = -r0d x P).
-Eigen::VectorXd accelerations(const DynamicModel& m, int rows, const Eigen::VectorXd& q,
-                              const Rates& r, const Eigen::VectorXd& a, const Eigen::MatrixXd& M,
-                              const Eigen::VectorXd& b) {
+Eigen::VectorXd accelerations(const DynamicModel& m, const TaskShape& shape,
+                              const Eigen::VectorXd& q, const Rates& r, const Eigen::VectorXd& a,
+                              const Eigen::MatrixXd& M, const Eigen::VectorXd& b) {
   const int nb = m.num_base(), n = m.num_links;
   const Eigen::VectorXd qdot = m.configuration_rate(q, r.qd);
   const double speed = qdot.cwiseAbs().maxCoeff();
-  Eigen::MatrixXd Adot = Eigen::MatrixXd::Zero(rows, n);
+  Eigen::MatrixXd Adot = Eigen::MatrixXd::Zero(shape.total(), n);
   if (speed > 0) {
     const double h = 1e-6 / speed;
-    Adot = (task_map(m, rows, q + h * qdot).A - task_map(m, rows, q - h * qdot).A) / (2 * h);
+    Adot = (task_map(m, shape, q + h * qdot).A - task_map(m, shape, q - h * qdot).A) / (2 * h);
   }
   const MinimumNorm mn(r.scale.asDiagonal() * r.map.A);
   const Eigen::VectorXd At_lambda_dot = Adot.transpose() * r.lambda;
-  const Eigen::VectorXd rhs = a - Adot * r.z - r.map.A * At_lambda_dot;
+  const Eigen::VectorXd rhs = padded(shape, a) - Adot * r.z - r.map.A * At_lambda_dot;
   const Eigen::VectorXd zd = At_lambda_dot + mn.x(mn.y(r.scale.cwiseProduct(rhs)));
   Eigen::VectorXd qdd(m.nv);
   qdd.tail(n) = m.gear_ratios.cwiseProduct(zd);
@@ -236,6 +289,27 @@ Eigen::VectorXd accelerations(const DynamicModel& m, int rows, const Eigen::Vect
     qdd.head(nb) =
         M.topLeftCorner(nb, nb).ldlt().solve(-b.head(nb) - M.topRightCorner(nb, n) * qdd.tail(n));
   return qdd;
+}
+
+// How far what a tree holds has moved from where it started: the held end effectors' poses
+// (position, and the angle of R R_start^T), or the held joints' link-side angles.
+double hold_error(const DynamicModel& m, const TaskShape& shape, const Eigen::VectorXd& q,
+                  const Eigen::VectorXd& q_start, const Eigen::VectorXd& start_poses) {
+  double worst = 0;
+  if (!shape.held_rows.empty()) {
+    const Eigen::VectorXd poses = m.end_effector_pose(q);
+    const int values = m.spatial ? 7 : 3, rows = m.spatial ? 6 : 3;
+    for (size_t k = 0; k < shape.held_rows.size(); k += size_t(rows)) {
+      const int at = shape.held_rows[k] / rows * values;
+      worst = std::max(
+          worst, pose_error(m, rows, poses.segment(at, values), start_poses.segment(at, values))
+                     .cwiseAbs()
+                     .maxCoeff());
+    }
+  }
+  const Eigen::VectorXd angles = m.joint_angles(q), start = m.joint_angles(q_start);
+  for (int j : shape.held_joints) worst = std::max(worst, std::abs(angles[j] - start[j]));
+  return worst;
 }
 
 // Independent checks of a plan: qdd by central differences of the planned qd, and the forces
@@ -276,12 +350,15 @@ Eigen::VectorXd initial_configuration(const DynamicModel& m, const StraightLineT
                              : -0.5 / (n - 2));
   }
   const Eigen::VectorXd seed = q.segment(jq, n).cwiseQuotient(p);  // link side
+  const detail::TaskShape shape = detail::task_shape(m, task, rows, q);
   auto error = [&](const Eigen::VectorXd& x) {
-    return detail::pose_error(m, rows, m.end_effector_pose(x), task.start);
+    return detail::pose_error(m, rows, detail::moving_pose(m, shape, x, task.start.size()),
+                              task.start);
   };
   for (int it = 0; it < 300; ++it) {
     const Eigen::VectorXd err = error(q);
-    const Eigen::MatrixXd J = m.end_effector_jacobian(q).block(0, jv, rows, n) * p.asDiagonal();
+    const Eigen::MatrixXd J =
+        m.end_effector_jacobian(q).block(shape.jacobian_offset, jv, rows, n) * p.asDiagonal();
     const auto cod = J.completeOrthogonalDecomposition();
     const Eigen::VectorXd pull = seed - q.segment(jq, n).cwiseQuotient(p);
     const Eigen::VectorXd null_pull = pull - cod.solve(J * pull);
@@ -320,6 +397,8 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
   // Integrate q' = qd(q, t) on the grid.
   Plan plan;
   VectorXd q = initial_configuration(m, task);
+  const detail::TaskShape shape = detail::task_shape(m, task, rows, q);
+  const VectorXd start_poses = m.end_effector_pose(q);
   IntegratorOptions opt;
   opt.method = Method::rkf78;
   opt.rtol = 1e-13;
@@ -327,7 +406,7 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
   const ConfigurationSpace space = m.configuration_space();
   opt.project = [space](Eigen::Ref<VectorXd> x) { space.project(x); };
   auto f = [&](const VectorXd& s, VectorXd& dsdt, double t) {
-    dsdt = space.rate(s, detail::rates(m, rows, s, detail::desired(m, task, t).v, t).qd);
+    dsdt = space.rate(s, detail::rates(m, shape, s, detail::desired(m, task, t).v, t).qd);
   };
   auto observe = [&](const VectorXd& s, double t) {
     plan.t.push_back(t);
@@ -336,7 +415,7 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
   try {
     integrate(opt, f, q, 0.0, task.duration, task.dt, observe);
   } catch (const IntegrationError& e) {
-    const detail::TaskMap map = detail::task_map(m, rows, e.state());
+    const detail::TaskMap map = detail::task_map(m, shape, e.state());
     const double rcond =
         detail::MinimumNorm(detail::row_scales(map.A).asDiagonal() * map.A).rcond();
     std::ostringstream msg;
@@ -352,19 +431,23 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
   for (size_t k = 0; k < plan.t.size(); ++k) {
     const VectorXd& qk = plan.q[k];
     const detail::Desired d = detail::desired(m, task, plan.t[k]);
-    const detail::Rates r = detail::rates(m, rows, qk, d.v, plan.t[k]);
+    const detail::Rates r = detail::rates(m, shape, qk, d.v, plan.t[k]);
     Eigen::MatrixXd Mk;
     VectorXd b;
     m.mass_matrix_and_bias(qk, r.qd, Mk, b);
-    const VectorXd qdd = detail::accelerations(m, rows, qk, r, d.a, Mk, b);
+    const VectorXd qdd = detail::accelerations(m, shape, qk, r, d.a, Mk, b);
     const VectorXd Q = Mk * qdd + b;  // eq. 5
     plan.qd.push_back(r.qd);
     plan.qdd.push_back(qdd);
     plan.tau.push_back(Q.tail(n).cwiseProduct(m.gear_ratios));
     if (nb > 0) plan.base_residual.push_back(Q.head(nb).cwiseAbs().maxCoeff());
-    plan.max_path_error =
-        std::max(plan.max_path_error,
-                 detail::pose_error(m, rows, m.end_effector_pose(qk), d.x).cwiseAbs().maxCoeff());
+    plan.max_path_error = std::max(
+        plan.max_path_error,
+        detail::pose_error(m, rows, detail::moving_pose(m, shape, qk, task.start.size()), d.x)
+            .cwiseAbs()
+            .maxCoeff());
+    plan.max_hold_error =
+        std::max(plan.max_hold_error, detail::hold_error(m, shape, qk, q, start_poses));
     if (m.momentum && nb > 0)
       plan.max_momentum = std::max(plan.max_momentum, m.momentum(qk, r.qd).cwiseAbs().maxCoeff());
   }
@@ -376,6 +459,11 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
     throw std::runtime_error("planner, model " + m.name + ": the plan misses the line by " +
                              detail::format(plan.max_path_error) +
                              " (integration failed to follow it; a bug: please report it)");
+  plan.held = !shape.held_rows.empty() || !shape.held_joints.empty();
+  if (plan.held && !(plan.max_hold_error <= 1e-8 * scale))
+    throw std::runtime_error("planner, model " + m.name + ": what the plan holds moves by " +
+                             detail::format(plan.max_hold_error) +
+                             " (integration failed to hold it; a bug: please report it)");
   // Rates and torques grow as 1/duration and 1/duration^2: a duration of 1e-300 s overflows.
   for (size_t k = 0; k < plan.t.size(); ++k)
     if (!plan.qd[k].allFinite() || !plan.qdd[k].allFinite() || !plan.tau[k].allFinite())

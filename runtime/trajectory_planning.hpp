@@ -51,6 +51,17 @@ inline Eigen::Vector3d time_law(TimeLaw law, double tau) {
           60 * tau - 180 * t2 + 120 * t3};
 }
 
+// What a tree's other end effectors do while one follows the line: hold their joints (every
+// joint that does not carry the moving end effector keeps its angle) or hold their poses (each
+// other end effector stays put in the inertial frame, the base moving under it).
+enum class Hold { joints, pose };
+
+inline Hold hold_from_string(const std::string& s) {
+  if (s == "joints") return Hold::joints;
+  if (s == "pose") return Hold::pose;
+  throw std::invalid_argument("unknown hold '" + s + "' (known: joints, pose)");
+}
+
 struct StraightLineTask {
   // End-effector [x, y] (a position task) or [x, y, phi] (a pose task) at t = 0 and t = T; in
   // 3D [x, y, z] or [x, y, z, qw, qx, qy, qz] (the pose output's layout; any nonzero quaternion,
@@ -64,6 +75,10 @@ struct StraightLineTask {
   // Non-empty: the start configuration's guess (nq values) instead of the elbow seed. Its
   // base coordinates are kept; its joint angles are refined to put the end-effector at start.
   Eigen::VectorXd q0;
+  // A tree's: the end effector that follows the line (its index among the model's), and what
+  // the others do. A chain has one end effector and nothing to hold.
+  int end_effector = 0;
+  Hold hold = Hold::joints;
 };
 
 // A plan on the output grid. Vector: the model's coordinates; JointVector: link-side torques.
@@ -81,6 +96,10 @@ struct BasicPlan {
   double max_acceleration_mismatch = 0;
   double max_path_error = 0;  // max |x_task(q(t)) - x_desired(t)| (3D: and the angle's error)
   double max_momentum = 0;    // max |h(q, qd)| along the plan (free base; NaN if not emitted)
+  // A tree's held end effectors' largest drift from their start poses (hold pose: position and
+  // angle), or the held joints' from their start angles (hold joints); 0 for a chain.
+  double max_hold_error = 0;
+  bool held = false;  // a tree's plan: something held
 };
 using Plan = BasicPlan<>;
 template <class G>
@@ -89,7 +108,7 @@ using ModelPlan = BasicPlan<typename Model<G>::Vector, typename Model<G>::JointV
 // The names a caller gives the task's fields, for error messages (the CLI: its options).
 struct TaskNames {
   std::string start = "start", goal = "goal", duration = "duration", dt = "dt", elbow = "elbow",
-              q0 = "q0";
+              q0 = "q0", end_effector = "end_effector";
 };
 
 // Largest plan accepted: samples are held in memory until the plan is complete.
@@ -120,12 +139,18 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task);
 // A plan's own checks in one line, as `spacearm plan` and a sweep that plans print them: its
 // samples, the largest path error and the largest |qdd - central differences of qd|.
 inline std::string plan_checks_text(const Plan& plan) {
-  char text[200];
+  char text[260];
   std::snprintf(text, sizeof text,
                 "plan of %zu samples: max path error %.2e, max |qdd - central differences of qd| "
                 "%.2e",
                 plan.t.size(), plan.max_path_error, plan.max_acceleration_mismatch);
-  return text;
+  std::string out = text;
+  if (plan.held) {
+    std::snprintf(text, sizeof text, ", held end effectors or joints within %.2e",
+                  plan.max_hold_error);
+    out += text;
+  }
+  return out;
 }
 
 // The plan as a table, as `spacearm plan` writes it and Python returns it: t, q, qd, qdd (by
