@@ -1,13 +1,16 @@
 // Spatial arms against MuJoCo, in one run: forward dynamics and M + bias of models/space_arm7
-// (a 7-joint arm on a free base from its URDF, 13 velocities) without gears, with armature gears
-// and with exact rotors, compiled through the compile-and-load cache with its default flags and
-// called through its C interface without checks, against MuJoCo 2.2's mj_forward and its M + bias
-// stages on the same MJCF (spacearm export --mjcf), without gears and with armature.
+// (a 7-joint arm on a free base from its URDF, 13 velocities), of the trees models/dual_arm7 (two
+// 7-joint arms, 20 velocities) and bench/scenes/quad_arm6 (four 6-joint arms, 30 velocities),
+// each without gears, with armature gears and with exact rotors, compiled through the
+// compile-and-load cache with its default flags and called through its C interface without
+// checks, against MuJoCo 2.2's mj_forward and its M + bias stages on the same MJCF (spacearm
+// export --mjcf: a tree's bodies nested depth-first, MuJoCo's dofs in spacearm's order), without
+// gears and with armature.
 // MuJoCo has armature gears only; the exact rotors run on the same states for their cost against
 // the ungeared arm's. Forward dynamics is the articulated-body algorithm. Before anything is timed,
 // the ungeared and the armature model's forward dynamics must equal MuJoCo's to 1e-12. The first/
 // rows time the URDF to a first result through an empty cache, with one compiler and with one per
-// CPU.
+// CPU, for space_arm7 and the dual arm.
 //   scripts/bench.sh --spatial
 #include <benchmark/benchmark.h>
 
@@ -20,6 +23,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <random>
 #include <sstream>
 
@@ -34,10 +38,14 @@ namespace {
 
 constexpr int kStates = 64;
 
-// The arm without gears, with armature gears (MuJoCo's model of a rotor) or with exact rotors.
+// The robots, by scene path relative to the source folder.
+const char* const kRobots[] = {"models/space_arm7.yaml", "models/dual_arm7.yaml",
+                               "bench/scenes/quad_arm6.yaml"};
+
+// The robot without gears, with armature gears (MuJoCo's model of a rotor) or with exact rotors.
 enum class Gears { none, armature, exact };
-SpatialScene arm7(Gears gears) {
-  const std::string path = std::string(SPACEARM_SOURCE_DIR) + "/models/space_arm7.yaml";
+SpatialScene robot(const std::string& relative, Gears gears) {
+  const std::string path = std::string(SPACEARM_SOURCE_DIR) + "/" + relative;
   std::ifstream in(path);
   std::stringstream text;
   text << in.rdbuf();
@@ -47,7 +55,7 @@ SpatialScene arm7(Gears gears) {
     l.gear.exact = gears == Gears::exact;
     l.gear.present = gears != Gears::none;
   }
-  s.name = std::string("space_arm7_") + kind[static_cast<int>(gears)];
+  s.name += std::string("_") + kind[static_cast<int>(gears)];
   s.content += std::string("\n# ") + kind[static_cast<int>(gears)];  // one cache entry each
   return s;
 }
@@ -71,23 +79,24 @@ States random_states(const spatial::ChainDescription& c) {
   return s;
 }
 
-States states;  // the timed states, the same for every model
-
 struct Loaded {
   CompiledModel model;
   spatial::ChainDescription chain;
   std::string mjcf;  // spacearm export --mjcf of the same scene
+  States states;     // the timed states, the same for each robot's models
 };
-Loaded load(Gears gears) {
-  const SpatialScene s = arm7(gears);
+Loaded load(const std::string& relative, Gears gears) {
+  const SpatialScene s = robot(relative, gears);
   CompileOptions options;
   options.cache_dir = (std::filesystem::temp_directory_path() / "spacearm-bench-spatial").string();
   options.flags = compile_flags();  // the default, what eval, simulate and Python get
-  return {CompiledModel::load(ModelRecipe(s), options), s.chain, export_mjcf(s)};
+  return {CompiledModel::load(ModelRecipe(s), options), s.chain, export_mjcf(s),
+          random_states(s.chain)};
 }
 
 // MuJoCo's qacc at the states, in the chain's coordinates (qdd_m = p qdd), against ours.
-double worst_disagreement(const Loaded& ours, test::MujocoModel& mj, const States& s) {
+double worst_disagreement(const Loaded& ours, test::MujocoModel& mj) {
+  const States& s = ours.states;
   const auto& c = ours.chain;
   double worst = 0;
   for (int k = 0; k < kStates; ++k) {
@@ -111,39 +120,45 @@ double worst_disagreement(const Loaded& ours, test::MujocoModel& mj, const State
 
 // Forward dynamics and M + b (mass_matrix_and_bias, one call as MuJoCo's stages are) of a
 // model, under its name.
-void register_ours(const Loaded& m, int nv) {
+void register_ours(const Loaded& m) {
   const std::string name = m.model.name();
+  const int nv = m.chain.nv();
+  const States& states = m.states;
   const CompiledModel::Function fd = m.model.function(Output::forward_dynamics);
-  benchmark::RegisterBenchmark(("spacearm/FD/" + name).c_str(), [fd, nv](benchmark::State& st) {
-    std::vector<double> qdd(nv), pivots(nv), scaled(nv);
-    double* results[] = {qdd.data(), pivots.data(), scaled.data()};
-    int k = 0;
-    for (auto _ : st) {
-      const double* inputs[] = {states.q[k].data(), states.v[k].data(), states.Q[k].data()};
-      fd(inputs, nullptr, results);
-      benchmark::DoNotOptimize(qdd.data());
-      k = (k + 1) % kStates;
-    }
-  });
+  benchmark::RegisterBenchmark(
+      ("spacearm/FD/" + name).c_str(), [fd, nv, &states](benchmark::State& st) {
+        std::vector<double> qdd(nv), pivots(nv), scaled(nv);
+        double* results[] = {qdd.data(), pivots.data(), scaled.data()};
+        int k = 0;
+        for (auto _ : st) {
+          const double* inputs[] = {states.q[k].data(), states.v[k].data(), states.Q[k].data()};
+          fd(inputs, nullptr, results);
+          benchmark::DoNotOptimize(qdd.data());
+          k = (k + 1) % kStates;
+        }
+      });
   const CompiledModel::Function mb = m.model.function(kMassMatrixAndBias);
-  benchmark::RegisterBenchmark(("spacearm/M+bias/" + name).c_str(), [mb, nv](benchmark::State& st) {
-    std::vector<double> M(nv * nv), b(nv);
-    double* results[] = {M.data(), b.data()};
-    int k = 0;
-    for (auto _ : st) {
-      const double* inputs[] = {states.q[k].data(), states.v[k].data()};
-      mb(inputs, nullptr, results);
-      benchmark::DoNotOptimize(M.data());
-      benchmark::DoNotOptimize(b.data());
-      k = (k + 1) % kStates;
-    }
-  });
+  benchmark::RegisterBenchmark(
+      ("spacearm/M+bias/" + name).c_str(), [mb, nv, &states](benchmark::State& st) {
+        std::vector<double> M(nv * nv), b(nv);
+        double* results[] = {M.data(), b.data()};
+        int k = 0;
+        for (auto _ : st) {
+          const double* inputs[] = {states.q[k].data(), states.v[k].data()};
+          mb(inputs, nullptr, results);
+          benchmark::DoNotOptimize(M.data());
+          benchmark::DoNotOptimize(b.data());
+          k = (k + 1) % kStates;
+        }
+      });
 }
 
 // mj_forward and M + bias of MuJoCo's model of the arm, under its name.
-void register_mujoco(test::MujocoModel& mj, const std::string& name, int nv) {
-  auto timed = [&mj, nv](auto body) {
-    return [&mj, nv, body](benchmark::State& st) {
+void register_mujoco(test::MujocoModel& mj, const std::string& name, const Loaded& m) {
+  const int nv = m.chain.nv();
+  const States& states = m.states;
+  auto timed = [&mj, nv, &states](auto body) {
+    return [&mj, nv, body, &states](benchmark::State& st) {
       int k = 0;
       for (auto _ : st) {
         for (int i = 0; i < nv + 1; ++i) mj.d->qpos[i] = states.q[k][i];
@@ -167,12 +182,13 @@ void register_mujoco(test::MujocoModel& mj, const std::string& name, int nv) {
 // From the URDF to a first forward-dynamics result with a fresh cache: read the scene and the
 // URDF, generate (the default outputs), compile, load, one call; with one compiler and with one
 // per CPU (the cache's default, at most 4). A peer-free row: the goal is 2 s.
-void register_first_use() {
+void register_first_use(const std::string& relative, const std::string& robot,
+                        const States& states) {
   for (int jobs : {1, 0}) {
     const std::string label = jobs == 1 ? "1 compiler" : "compilers per CPU";
     benchmark::RegisterBenchmark(
-        ("first/URDF to result/space_arm7/" + label).c_str(),
-        [jobs](benchmark::State& st) {
+        ("first/URDF to result/" + robot + "/" + label).c_str(),
+        [jobs, relative, &states](benchmark::State& st) {
           const auto folder = std::filesystem::temp_directory_path() /
                               ("spacearm-bench-first-" + std::to_string(::getpid()));
           for (auto _ : st) {
@@ -182,7 +198,7 @@ void register_first_use() {
             options.cache_dir = folder.string();
             options.jobs = jobs;
             const ModelRecipe recipe =
-                ModelRecipe::load(SPACEARM_SOURCE_DIR "/models/space_arm7.yaml");
+                ModelRecipe::load(std::string(SPACEARM_SOURCE_DIR) + "/" + relative);
             const CompiledModel m = CompiledModel::load(recipe, options);
             auto qdd = m.forward_dynamics(states.q[0], states.v[0], states.Q[0], Eigen::VectorXd());
             benchmark::DoNotOptimize(qdd);
@@ -197,22 +213,29 @@ void register_first_use() {
   }
 }
 
-void register_all() {
-  static const Loaded ungeared = load(Gears::none), armature = load(Gears::armature),
-                      exact = load(Gears::exact);
-  static test::MujocoModel mj_ungeared(ungeared.mjcf), mj_armature(armature.mjcf);
-  states = random_states(armature.chain);
-  for (auto [ours, mj] : {std::pair{&ungeared, &mj_ungeared}, {&armature, &mj_armature}}) {
-    const double worst = worst_disagreement(*ours, *mj, states);
+// One robot's models, checked against MuJoCo before anything is timed; kept for the run.
+void register_robot(const std::string& relative) {
+  static std::vector<std::unique_ptr<Loaded>> loaded;
+  static std::vector<std::unique_ptr<test::MujocoModel>> mujoco;
+  const size_t first = loaded.size();
+  for (Gears g : {Gears::none, Gears::armature, Gears::exact})
+    loaded.push_back(std::make_unique<Loaded>(load(relative, g)));
+  for (size_t k = first; k < first + 2; ++k) {  // ungeared and armature: MuJoCo has both
+    mujoco.push_back(std::make_unique<test::MujocoModel>(loaded[k]->mjcf));
+    const double worst = worst_disagreement(*loaded[k], *mujoco.back());
     std::printf("check %s: forward dynamics against MuJoCo, max relative %.1e  %s\n",
-                ours->model.name().c_str(), worst, worst < 1e-12 ? "ok" : "DISAGREE");
+                loaded[k]->model.name().c_str(), worst, worst < 1e-12 ? "ok" : "DISAGREE");
     if (!(worst < 1e-12)) std::exit(1);
+    register_mujoco(*mujoco.back(), loaded[k]->model.name(), *loaded[k]);
   }
-  const int nv = armature.chain.nv();
-  for (const Loaded* m : {&ungeared, &armature, &exact}) register_ours(*m, nv);
-  register_mujoco(mj_ungeared, "space_arm7_ungeared", nv);
-  register_mujoco(mj_armature, "space_arm7_armature", nv);
-  register_first_use();
+  for (size_t k = first; k < first + 3; ++k) register_ours(*loaded[k]);
+  if (relative.rfind("models/", 0) == 0)  // the URDF robots
+    register_first_use(relative, std::filesystem::path(relative).stem().string(),
+                       loaded[first]->states);
+}
+
+void register_all() {
+  for (const char* relative : kRobots) register_robot(relative);
 }
 
 }  // namespace

@@ -297,11 +297,29 @@ Frames frames_of(const LoadedScene& s, const RunTable& table, const StateReader&
 // shapes, joints and rods scaled to the reach.
 json geometry(const LoadedScene& s, const Frames& f) {
   const DynamicModel& m = s.dyn;
+  // A tree's rods (or a chain's with several end effectors): each link to its children's joints
+  // and its end effectors, as pairs of points (joints 0..n-1, then the end effectors); struts
+  // from the base to the joints that leave it. A chain's: each joint to the next.
+  const ModelFacts& facts = s.recipe->facts();
+  const int n = m.num_links;
+  std::vector<std::array<int, 2>> segments;
+  std::vector<int> struts;
+  for (int j = 1; j <= n; ++j) {
+    const int parent = facts.joint_parents.empty() ? j - 1 : facts.joint_parents[j - 1];
+    if (parent == 0)
+      struts.push_back(j - 1);
+    else
+      segments.push_back({parent - 1, j - 1});
+  }
+  if (facts.end_effector_bodies.empty()) segments.push_back({n - 1, n});
+  for (size_t e = 0; e < facts.end_effector_bodies.size(); ++e)
+    if (const int b = facts.end_effector_bodies[e]; b > 0)
+      segments.push_back({b - 1, n + static_cast<int>(e)});
   double reach = 0;
   const auto& p0 = f.run["points"][0];
-  for (int i = 0; i < m.num_links; ++i) {
+  for (const auto& [from, to] : segments) {
     Eigen::Vector3d a, b;
-    for (int r = 0; r < 3; ++r) a[r] = p0[3 * i + r], b[r] = p0[3 * i + 3 + r];
+    for (int r = 0; r < 3; ++r) a[r] = p0[3 * from + r], b[r] = p0[3 * to + r];
     reach += (b - a).norm();
   }
   reach = std::max(reach, 1e-3);
@@ -322,13 +340,19 @@ json geometry(const LoadedScene& s, const Frames& f) {
   const double radius = 0.025 * reach;
   std::vector<bool> rotors;
   for (int i = 0; i < m.num_links; ++i) rotors.push_back(has_rotor(m, i));
-  return {{"base_box", box},
-          {"base_center", center},
-          {"link_radius", std::vector<double>(m.num_links, radius)},
-          {"joint_radius", 1.6 * radius},
-          {"rotor_radius", 2.2 * radius},
-          {"rotors", rotors},
-          {"free_base", m.num_base() > 0}};
+  json out = {{"base_box", box},
+              {"base_center", center},
+              {"link_radius", std::vector<double>(m.num_links, radius)},
+              {"joint_radius", 1.6 * radius},
+              {"rotor_radius", 2.2 * radius},
+              {"rotors", rotors},
+              {"free_base", m.num_base() > 0}};
+  if (!facts.joint_parents.empty()) {  // a chain's page stays as it was
+    out["num_joints"] = n;
+    out["segments"] = segments;
+    out["struts"] = struts;
+  }
+  return out;
 }
 
 json plot(const std::string& title, const std::string& unit, const std::vector<std::string>& labels,

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # CTest: spacearm view's pages in a real browser (web/test/view_test.mjs: Debian's Chromium,
 # headless, driven by playwright-core, offline). Makes the paper's plan and its p = 10 replay, a
-# spatial arm's free motion, a scene with a hostile name and a small study with time series,
+# spatial arm's free motion, two arms on one satellite (a plan holding one tool, flown), a scene
+# with a hostile name and a small study with time series,
 # checks what the CLI says (thinning, errors), then runs the browser checks. Screenshots are left
-# in $SPACEARM_VIEW_OUT if set. About 40 s (four models compiled). Skipped (77) without Chromium.
+# in $SPACEARM_VIEW_OUT if set. About 50 s (five models compiled). Skipped (77) without Chromium.
 # Usage: view_browser.sh SPACEARM SOURCE_DIR NODE_MODULES
 set -euo pipefail
 cli=$(realpath "$1") source_dir=$(realpath "$2") modules=$(realpath "$3")
@@ -86,6 +87,14 @@ expect_error "names the scene '.*scene.fifo', not a regular file" timeout 20 "$c
 expect_error "is the run's provenance file" "$cli" view "$work/replay.csv" \
   -o "$work/replay.csv.provenance.json" "${cache[@]}"
 [[ ! -e $work/bad.html ]] || fail "a page was written for bad input"
+
+# Issue 52: two arms on one satellite, the left one planned while the right one holds its pose,
+# flown and drawn (every branch, both tools).
+run "$cli" plan "$source_dir/models/dual_arm7.yaml" --from 0.6,0.5,2.67 --to 0.9,0.6,2.3 \
+  --duration 4 --end-effector l_tool_flange --hold pose -o "$work/dual_plan.csv" "${cache[@]}"
+run "$cli" simulate "$source_dir/models/dual_arm7.yaml" --plan "$work/dual_plan.csv" \
+  --dt-out 0.1 -o "$work/dual.csv" "${cache[@]}"
+run "$cli" view "$work/dual.csv" -o "$work/dual.html" "${cache[@]}"
 
 # A URDF arm (identified inertias) drawn with its <visual> shapes, an STL mesh on Link_2 (a
 # tetrahedron, binary STL, by package:// path) among them.

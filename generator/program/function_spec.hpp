@@ -59,10 +59,12 @@ struct ModelFacts {
   std::vector<std::string> coordinate_names, parameter_names;
   // Each end effector's name (a tree's by their links, untrusted text), dims.num_end_effectors.
   std::vector<std::string> end_effector_names;
-  // A tree's joints (empty for a serial chain), depth-first from the root: each one's name (a
+  // A tree's joints (empty for a serial chain with one end effector), depth-first from the
+  // root: each one's name (a
   // URDF's, else jointK) and the body it leaves (0 the base, k joint k's link).
   std::vector<std::string> joint_names;
   std::vector<int> joint_parents;
+  std::vector<int> end_effector_bodies;  // each end effector's (0 the base, k joint k's link)
   std::vector<double> nominal_parameters;
   std::string scene_hash;   // "fnv1a64:..."
   std::string formulation;  // the scene's: "auto", "closed" or "recursive"

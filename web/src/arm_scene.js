@@ -119,12 +119,26 @@ function placeGroup(group, pose, at = 0) {
   group.quaternion.set(pose[at + 4], pose[at + 5], pose[at + 6], pose[at + 3]).normalize();
 }
 
-// One run's meshes: base, mount strut, links, joints, rotors and tip; a URDF's shapes on the
-// base and on each link where it gives them (the rods and joints stay: the kinematic chain).
+// The rods of an arm, as pairs of point indices (joints 0..n-1, then the end effectors), and
+// the joints a strut joins to the base: a chain's each joint to the next and the last to its
+// tip; a tree's (geometry.segments, geometry.struts) each link to its children and end effectors.
+function skeleton(geometry, run) {
+  if (geometry.segments) return { n: geometry.num_joints, segments: geometry.segments,
+                                  struts: geometry.struts };
+  const n = run.points[0].length / 3 - 1;
+  return { n, segments: Array.from({ length: n }, (_, i) => [i, i + 1]), struts: [0] };
+}
+
+// One run's meshes: base, mount struts, links, joints, rotors and tips; a URDF's shapes on the
+// base and on each link where it gives them (the rods and joints stay: the kinematic tree).
 class ArmMeshes {
   constructor(scene, geometry, run, ghost, meshes) {
     this.run = run;
-    this.n = run.points[0].length / 3 - 1;
+    const { n, segments, struts } = skeleton(geometry, run);
+    this.n = n;
+    this.segments = segments;
+    this.strutJoints = struts;
+    this.numTips = run.points[0].length / 3 - n;
     const opacity = ghost ? 0.35 : 1;
     const material = (color) =>
       new THREE.MeshStandardMaterial({ color, transparent: ghost, opacity });
@@ -141,18 +155,21 @@ class ArmMeshes {
         bodyGroup(list, material(COLORS.link[ghost ? 1 : 0] + (i % 2) * 0x101010), meshes))
       : [];
     this.base.visible = !shaped;
-    this.strut = rod(geometry.joint_radius * 0.6, COLORS.base, opacity);
-    this.links = geometry.link_radius.map((r, i) =>
-      rod(r, COLORS.link[ghost ? 1 : 0] + (i % 2) * 0x101010, opacity));
+    this.struts = struts.map(() => rod(geometry.joint_radius * 0.6, COLORS.base, opacity));
+    this.links = segments.map(([a], i) =>
+      rod(geometry.link_radius[Math.min(a, n - 1)], COLORS.link[ghost ? 1 : 0] + (i % 2) * 0x101010,
+          opacity));
     const sphere = new THREE.SphereGeometry(geometry.joint_radius, 20, 14);
-    this.joints = this.links.map(() => new THREE.Mesh(sphere, material(COLORS.joint)));
-    this.tip = new THREE.Mesh(new THREE.SphereGeometry(geometry.joint_radius * 0.9, 20, 14),
-                              material(COLORS.tip));
+    this.joints = Array.from({ length: n }, () => new THREE.Mesh(sphere, material(COLORS.joint)));
+    const tipSphere = new THREE.SphereGeometry(geometry.joint_radius * 0.9, 20, 14);
+    this.tips = Array.from({ length: this.numTips },
+                           () => new THREE.Mesh(tipSphere, material(COLORS.tip)));
+    this.tip = this.tips[0];
     this.rotors = geometry.rotors.map((present) =>
       present && !ghost && run.rotor ? this.rotorMesh(geometry.rotor_radius) : null);
     this.group = new THREE.Group();
-    this.group.add(this.base, this.shapes, this.strut, ...this.links, ...this.joints, this.tip,
-                   ...this.linkShapes);
+    this.group.add(this.base, this.shapes, ...this.struts, ...this.links, ...this.joints,
+                   ...this.tips, ...this.linkShapes);
     for (const r of this.rotors) if (r) this.group.add(r);
     scene.add(this.group);
   }
@@ -182,12 +199,10 @@ class ArmMeshes {
     this.base.position.copy(this.baseCenter).applyQuaternion(q).add(origin);
     this.shapes.quaternion.copy(q);
     this.shapes.position.copy(origin);
-    placeRod(this.strut, this.base.position, point(0));
-    for (let i = 0; i < this.n; ++i) {
-      placeRod(this.links[i], point(i), point(i + 1));
-      this.joints[i].position.copy(point(i));
-    }
-    this.tip.position.copy(point(this.n));
+    this.strutJoints.forEach((j, k) => placeRod(this.struts[k], this.base.position, point(j)));
+    this.segments.forEach(([a, b], k) => placeRod(this.links[k], point(a), point(b)));
+    for (let i = 0; i < this.n; ++i) this.joints[i].position.copy(point(i));
+    this.tips.forEach((tip, e) => tip.position.copy(point(this.n + e)));
     if (this.linkShapes.length) {
       const frames = blendPoses(this.run.bodies, at);
       this.linkShapes.forEach((group, i) => placeGroup(group, frames, 7 * (i + 1)));
@@ -198,7 +213,8 @@ class ArmMeshes {
       if (!rotor) return;
       const axis = axes ? new THREE.Vector3(axes[3 * i], axes[3 * i + 1], axes[3 * i + 2])
                         : new THREE.Vector3(0, 0, 1);
-      placeRotor(rotor, point(i), axis.normalize(), point(i + 1), angles[i]);
+      const next = this.segments.find(([a]) => a === i);  // the link's first rod
+      placeRotor(rotor, point(i), axis.normalize(), point(next ? next[1] : i + 1), angles[i]);
     });
   }
 }
@@ -220,14 +236,17 @@ function placeRotor(rotor, a, axis, b, angle) {
   rotor.position.copy(a);
 }
 
-// The end effector's path over the whole run.
-function pathLine(run, color) {
-  const n = run.points[0].length / 3 - 1;
-  const positions = new Float32Array(run.points.length * 3);
-  run.points.forEach((p, k) => positions.set(p.slice(3 * n, 3 * n + 3), 3 * k));
-  const geometry = new THREE.BufferGeometry();
-  geometry.setAttribute('position', new THREE.BufferAttribute(positions, 3));
-  return new THREE.Line(geometry, new THREE.LineBasicMaterial({ color }));
+// Each end effector's path over the whole run (the points after the n joints).
+function pathLines(run, n, color) {
+  const lines = [];
+  for (let at = 3 * n; at < run.points[0].length; at += 3) {
+    const positions = new Float32Array(run.points.length * 3);
+    run.points.forEach((p, k) => positions.set(p.slice(at, at + 3), 3 * k));
+    const geometry = new THREE.BufferGeometry();
+    geometry.setAttribute('position', new THREE.BufferAttribute(positions, 3));
+    lines.push(new THREE.Line(geometry, new THREE.LineBasicMaterial({ color })));
+  }
+  return lines;
 }
 
 export class ArmScene {
@@ -247,7 +266,8 @@ export class ArmScene {
     const meshes = stlGeometries(data.meshes);
     this.arms = data.runs.map((run, i) =>
       new ArmMeshes(this.scene, data.geometry, run, i > 0, meshes));
-    data.runs.forEach((run, i) => this.scene.add(pathLine(run, COLORS.path[Math.min(i, 1)])));
+    data.runs.forEach((run, i) => this.scene.add(
+      ...pathLines(run, skeleton(data.geometry, run).n, COLORS.path[Math.min(i, 1)])));
     this.setCamera(data);
     this.fitButtons(parent);
     if (((data.geometry.body_visuals || [])[0] || []).length) this.boxToggle(parent);
@@ -394,5 +414,14 @@ export class ArmScene {
     const arm = this.arms[i];
     if (!arm || !arm.group.visible) return null;
     return arm.tip.position.toArray();
+  }
+
+  // Every drawn end effector of run i (a tree's several), or null where the run is hidden; and
+  // the rods drawn.
+  endEffectors(i) {
+    const arm = this.arms[i];
+    if (!arm || !arm.group.visible) return null;
+    return { tips: arm.tips.map((t) => t.position.toArray()), rods: arm.links.length,
+             struts: arm.struts.length };
   }
 }

@@ -77,6 +77,7 @@ function main() {
       play: () => timeline.play(),
       pause: () => timeline.pause(),
       endEffector: (run = 0) => scene.endEffector(run),
+      endEffectors: (run = 0) => scene.endEffectors(run),
       baseShapes: () => scene.baseShapes(),
       view: () => scene.view(),
       render: () => scene.render(),

@@ -92,6 +92,24 @@ try {
     await drawsAndShoots(page, 'spatial', 'spatial_view.png');
     check(errors.length === 0, 'spatial: no console errors ' + JSON.stringify(errors));
   }
+  {  // Issue 52: two arms on one satellite, each rod and both tools drawn where the CSV has them.
+    const { page, errors } = await open(browser, 'dual.html');
+    check(await page.evaluate(() => window.spacearmView.ready), 'dual: ready');
+    const rows = readCsv('dual.csv');
+    let worst = 0;
+    for (let k = 0; k < rows.length; k += Math.max(1, Math.floor(rows.length / 10))) {
+      const r = rows[k];
+      const drawn = await page.evaluate((t) => (window.spacearmView.setTime(t), window.spacearmView.endEffectors(0)), r.t);
+      check(drawn.tips.length === 2 && drawn.rods === 14 && drawn.struts === 2,
+            'dual: two tools, 14 rods and two struts (' + JSON.stringify(drawn) + ')');
+      ['l', 'r'].forEach((side, e) => ['x', 'y', 'z'].forEach((c, i) => {
+        worst = Math.max(worst, Math.abs(r['ee_' + side + '_tool_flange_' + c] - drawn.tips[e][i]));
+      }));
+    }
+    check(worst < 1e-6, 'dual: both tools at the CSV rows (max error ' + worst.toExponential(2) + ' m)');
+    await drawsAndShoots(page, 'dual', 'dual_view.png');
+    check(errors.length === 0, 'dual: no console errors ' + JSON.stringify(errors));
+  }
   {  // A URDF arm: its base drawn with the URDF's own shapes, the inertia box on request.
     const { page, errors } = await open(browser, 'urdf.html');
     check(await page.evaluate(() => window.spacearmView.ready), 'urdf: ready');

@@ -78,11 +78,14 @@ ModelFacts spatial_facts(const SpatialScene& scene) {
   f.num_base = c.num_base();
   f.quaternion_offset = c.free_base ? 3 : -1;
   f.coordinate_names = coordinate_names(c);
-  for (int i = 1; !c.serial() && i <= static_cast<int>(c.links.size()); ++i) {
+  const bool tree = !c.serial() || c.num_end_effectors() > 1;
+  for (int i = 1; tree && i <= static_cast<int>(c.links.size()); ++i) {
     f.joint_names.push_back(size_t(i) <= scene.joint_names.size() ? scene.joint_names[i - 1]
                                                                   : "joint" + std::to_string(i));
     f.joint_parents.push_back(c.parent(i));
   }
+  for (int e = 0; tree && e < c.num_end_effectors(); ++e)
+    f.end_effector_bodies.push_back(c.end_effector_body(e));
   for (int e = 0; e < c.num_end_effectors(); ++e)
     f.end_effector_names.push_back(c.end_effectors[e].link.empty()
                                        ? "end_effector_" + std::to_string(e + 1)
