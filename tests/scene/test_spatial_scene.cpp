@@ -294,5 +294,85 @@ TEST(SpatialScene, YamlLinksNameTheFieldAndTheRemedy) {
       << s.warnings[0];
 }
 
+// Issue 52: the native form's trees. Links name their parents (base, or a link listed before;
+// default: the one before); the end effectors are the leaves, or those end_effector_links names,
+// each moved by its point in end_effector's mapping; a serial chain keeps its one unnamed end
+// effector. Every malformed tree field is named.
+const std::string kTwoArms = R"(name: two_arms
+space: spatial
+base: {type: free_floating, mass: 400, com: [0, 0, 0], inertia: [60, 0, 0, 60, 0, 80]}
+links:
+  - {name: l1, parent: base, origin: [0.6, 0.5, 0.5], axis: [0, 0, 1], mass: 5, inertia: [0.1, 0, 0, 0.1, 0, 0.1]}
+  - {name: l2, origin: [0, 0, 0.3], axis: [0, 1, 0], mass: 4, inertia: [0.1, 0, 0, 0.1, 0, 0.1]}
+  - {name: r1, parent: base, origin: [0.6, -0.5, 0.5], axis: [0, 0, 1], mass: 5, inertia: [0.1, 0, 0, 0.1, 0, 0.1]}
+  - {name: r2, parent: r1, origin: [0, 0, 0.3], axis: [0, 1, 0], mass: 4, inertia: [0.1, 0, 0, 0.1, 0, 0.1]}
+)";
+
+TEST(SpatialScene, ReadsANativeTree) {
+  const SpatialScene s = parse_spatial_scene(
+      kTwoArms + "end_effector: {r2: [0.2, 0, 0], l2: [0.1, 0, 0]}\n", "t.yaml");
+  const spatial::ChainDescription& c = s.chain;
+  EXPECT_FALSE(c.serial());
+  std::vector<int> parents;
+  for (int i = 1; i <= 4; ++i) parents.push_back(c.parent(i));
+  EXPECT_EQ(parents, (std::vector<int>{0, 1, 0, 3}));
+  ASSERT_EQ(c.num_end_effectors(), 2);
+  EXPECT_EQ(c.end_effectors[0].link, "l2");
+  EXPECT_EQ(c.end_effector_body(0), 2);
+  EXPECT_EQ(c.end_effectors[0].xyz, (std::array<double, 3>{0.1, 0, 0}));
+  EXPECT_EQ(c.end_effectors[1].link, "r2");
+  EXPECT_EQ(c.end_effectors[1].xyz, (std::array<double, 3>{0.2, 0, 0}));
+  const ModelFacts f = ModelRecipe(s).facts();
+  EXPECT_EQ(f.dims.num_end_effectors, 2);
+  EXPECT_EQ(f.joint_parents, (std::vector<int>{0, 1, 0, 3}));
+  EXPECT_EQ(f.joint_names, (std::vector<std::string>{"joint1", "joint2", "joint3", "joint4"}));
+  const SpatialScene picked =
+      parse_spatial_scene(kTwoArms + "end_effector_links: [r1, l2, r2]\n", "t.yaml");
+  ASSERT_EQ(picked.chain.num_end_effectors(), 3);
+  EXPECT_EQ(picked.chain.end_effector_body(0), 3);
+  // A chain: one end effector, unnamed, at the last link (the generated code as before trees).
+  const SpatialScene chain = parse_spatial_scene(kArm, "arm2.yaml");
+  ASSERT_EQ(chain.chain.num_end_effectors(), 1);
+  EXPECT_EQ(chain.chain.end_effectors[0].link, "");
+  EXPECT_EQ(chain.chain.end_effector_body(0), 2);
+  EXPECT_TRUE(ModelRecipe(chain).facts().joint_parents.empty());
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"parent: r1,", "parent: r2,"},     {"name: r2,", "name: l1,"},
+      {"name: r2,", "name: base,"},       {"name: r2,", "name: [x],"},
+      {"parent: r1,", "parent: {a: 1},"}, {"parent: r1,", "parent: 2,"},
+  };
+  const std::vector<std::string> messages = {
+      "field 'links[3].parent': expected base or the name of a link listed before this one, got "
+      "'r2'",
+      "field 'links[3].name': 'l1' names an earlier link too",
+      "field 'links[3].name': expected an identifier other than 'base', got 'base'",
+      "field 'links[3].name'",
+      "field 'links[3].parent'",
+      "field 'links[3].parent': expected base or the name of a link listed before this one, got "
+      "'2'",
+  };
+  for (size_t k = 0; k < bad.size(); ++k) {
+    std::string text = kTwoArms;
+    const size_t at = text.rfind(bad[k].first);
+    ASSERT_NE(at, std::string::npos) << bad[k].first;
+    text.replace(at, bad[k].first.size(), bad[k].second);
+    SCOPED_TRACE(bad[k].second);
+    EXPECT_THROW_MESSAGE(parse_spatial_scene(text, "t.yaml"), SceneError, messages[k]);
+  }
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(kTwoArms + "end_effector: [0, 0, 1]\n", "t.yaml"),
+                       SceneError,
+                       "field 'end_effector': a point [x, y, z] is for one end effector; this "
+                       "scene has 2 ('l2', 'r2'): give a mapping from end effector link to point");
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(kTwoArms + "end_effector: {r1: [0, 0, 1]}\n", "t.yaml"),
+                       SceneError, "field 'end_effector.r1': is no end effector of this scene");
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(kTwoArms + "end_effector_links: [l2, hand]\n", "t.yaml"),
+                       SceneError, "field 'end_effector_links': no link is named 'hand'");
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(kTwoArms + "end_effector_links: [l2, l2]\n", "t.yaml"),
+                       SceneError, "field 'end_effector_links': 'l2' is listed twice");
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(kTwoArms + "end_effector_links: []\n", "t.yaml"),
+                       SceneError,
+                       "field 'end_effector_links': expected a list of 1 to 16 link names");
+}
+
 }  // namespace
 }  // namespace spacearm
