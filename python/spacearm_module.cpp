@@ -7,6 +7,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -108,9 +109,12 @@ class PyModel {
 
   // The zero-momentum straight line (runtime/trajectory_planning.hpp) at the model's
   // parameters (or `params`): arrays and the table's named columns, as `spacearm plan` writes.
+  // A tree's end_effector (by name; "" the first) follows the line while the others hold
+  // (`hold`: "joints" or "pose").
   py::dict plan(const Eigen::VectorXd& start, const Eigen::VectorXd& goal, double duration,
                 double dt, const std::string& time_law, int elbow, const py::object& q0,
-                const py::object& params) const;
+                const py::object& params, const std::string& end_effector,
+                const std::string& hold) const;
 
   // The motion under sampled joint torques (or none), as `spacearm simulate` computes it.
   // t_end: nullopt for a plan's end.
@@ -273,8 +277,23 @@ py::array_t<double> table_columns(const PlanTable& table, size_t first, size_t c
 
 py::dict PyModel::plan(const Eigen::VectorXd& start, const Eigen::VectorXd& goal, double duration,
                        double dt, const std::string& time_law, int elbow, const py::object& q0,
-                       const py::object& params_given) const {
+                       const py::object& params_given, const std::string& end_effector,
+                       const std::string& hold) const {
   StraightLineTask task;
+  try {
+    task.hold = hold_from_string(hold);
+  } catch (const std::invalid_argument& e) {
+    throw py::value_error(std::string("hold: ") + e.what());
+  }
+  if (!end_effector.empty()) {
+    const auto& names = model_.end_effector_names();
+    const auto it = std::find(names.begin(), names.end(), end_effector);
+    if (it == names.end())
+      throw py::value_error("end_effector: '" + end_effector + "' is not an end effector of '" +
+                            model_.name() + "' (" + std::to_string(names.size()) +
+                            " named: see end_effector_names)");
+    task.end_effector = static_cast<int>(it - names.begin());
+  }
   task.start = start;
   task.goal = goal;
   task.duration = duration;
@@ -678,6 +697,10 @@ void bind_model_facts(py::class_<PyModel>& model) {
       .def_property_readonly("num_links", [](const PyModel& m) { return m.model().num_links(); })
       .def_property_readonly("coordinate_names",
                              [](const PyModel& m) { return m.model().coordinate_names(); })
+      .def_property_readonly(
+          "end_effector_names", [](const PyModel& m) { return m.model().end_effector_names(); },
+          "A tree's end effectors in the order of the pose's blocks of 7 and the Jacobians' of 6 "
+          "rows (empty: one end effector)")
       .def_property_readonly("parameter_names",
                              [](const PyModel& m) { return m.model().parameter_names(); })
       .def_property_readonly("params",
@@ -700,9 +723,11 @@ void bind_model_runs(py::class_<PyModel>& model) {
   model.def("plan", &PyModel::plan, py::arg("start"), py::arg("goal"), py::arg("duration"),
             py::arg("dt") = 0.01, py::arg("time_law") = "quintic", py::arg("elbow") = 1,
             py::arg("q0") = py::none(), py::arg("params") = py::none(),
+            py::arg("end_effector") = "", py::arg("hold") = "joints",
             "The zero-momentum straight line of the end-effector from start to goal (x, y or x, y, "
             "phi; in 3D x, y, z or a pose x, y, z, qw, qx, qy, qz) in `duration` s, as `spacearm "
-            "plan`: a dict of t, q, qd, qdd, tau (link side), "
+            "plan` (a tree: `end_effector` by name follows it, the others `hold` their 'joints' "
+            "or their 'pose'): a dict of t, q, qd, qdd, tau (link side), "
             "tau_motor (geared), base_residual (free base) and 'columns', the CSV's columns by "
             "name.");
   model.def(

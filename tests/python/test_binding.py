@@ -516,3 +516,28 @@ def test_engines_give_the_same_bits(geared):
     assert np.array_equal(interpreted.mass_matrix(q[0]), compiled.mass_matrix(q[0]))
     with pytest.raises(ValueError, match="engine: expected auto, interpreter or compiled, got 'jit'"):
         spacearm.load(path, engine="jit")
+
+
+def test_a_tree_names_its_end_effectors_and_plans_one_while_the_other_holds():
+    """Issue 52: models/dual_arm7 (two arms on one satellite) gives each tool's pose (7 values
+    each) and Jacobian rows (6 each), named; plan moves the left tool while the right one holds
+    its pose, and an unknown end effector is a ValueError naming it."""
+    tree = spacearm.load(os.path.join(SOURCE, "models", "dual_arm7.yaml"), cache_dir=CACHE)
+    assert tree.end_effector_names == ["l_tool_flange", "r_tool_flange"]
+    q = np.zeros(tree.nq)
+    q[3] = 1
+    assert tree.end_effector_pose(q).shape == (14,)
+    assert tree.end_effector_jacobian(q).shape == (12, tree.nv)
+    assert tree.generalized_jacobian(q).shape == (12, tree.num_links)
+    plan = tree.plan([0.6, 0.5, 2.67], [0.9, 0.6, 2.3], 2.0, end_effector="l_tool_flange",
+                     hold="pose")
+    columns = plan["columns"]
+    left = np.array([columns["ee_l_tool_flange_" + c][-1] for c in "xyz"])
+    assert np.abs(left - [0.9, 0.6, 2.3]).max() < 1e-10
+    for c in "xyz":
+        right = columns["ee_r_tool_flange_" + c]
+        assert np.abs(right - right[0]).max() < 1e-10
+    with pytest.raises(ValueError, match="end_effector: 'hand' is not an end effector"):
+        tree.plan([0.6, 0.5, 2.67], [0.9, 0.6, 2.3], 2.0, end_effector="hand")
+    with pytest.raises(ValueError, match="hold: unknown hold 'both'"):
+        tree.plan([0.6, 0.5, 2.67], [0.9, 0.6, 2.3], 2.0, hold="both")
