@@ -342,15 +342,26 @@ CLI::App* add_plan(CLI::App& app, spacearm::PlanArgs& a) {
       ->add_option(
           "--from", a.from_text,
           "End-effector start: x,y (position; 2 joints or more) or x,y,phi (pose; 3 or more); "
-          "for a spatial arm x,y,z (3 or more) or x,y,z,qw,qx,qy,qz (pose; 6 or more)")
-      ->required();
-  command->add_option("--to", a.to_text, "End-effector goal, as --from")->required();
+          "for a spatial arm x,y,z (3 or more) or x,y,z,qw,qx,qy,qz (pose; 6 or more); a tree: "
+          "once per --end-effector, in the same order")
+      ->required()
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  command->add_option("--to", a.to_text, "End-effector goal, as --from (as often)")
+      ->required()
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   command->add_option("--duration", a.duration, "Duration T [s]")
       ->required()
       ->check(positive_number())
       ->default_str("");
   command->add_option("--dt", a.dt, "Output grid [s]")->check(positive_number());
-  command->add_option("--time-law", a.time_law, "quintic (default) or cubic")
+  command
+      ->add_option("--time-law", a.time_laws,
+                   "quintic (default) or cubic; a tree: once for every line, or once per "
+                   "--end-effector")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
       ->check(CLI::IsMember({"quintic", "cubic"}));
   auto* elbow_opt = command->add_option(
       "--elbow", a.elbow,
@@ -361,9 +372,13 @@ CLI::App* add_plan(CLI::App& app, spacearm::PlanArgs& a) {
           "--q0", a.q0_text,
           "Start configuration guess instead of --elbow (all coordinates; its base ones are kept)")
       ->excludes(elbow_opt);
-  command->add_option("--end-effector", a.end_effector,
-                      "A tree's end effector that follows the line, by name (eval lists them; "
-                      "default: the first)");
+  command
+      ->add_option("--end-effector", a.end_effectors,
+                   "A tree's end effector that follows the line, by name (eval lists them; "
+                   "default: the first); repeated, several move at once, each along its own "
+                   "--from/--to line")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   command
       ->add_option("--hold", a.hold,
                    "A tree's other arms while it moves: joints (every joint that does not carry "

@@ -78,30 +78,57 @@ void refuse_same_outputs(const PlanArgs& a) {
 }
 
 // The task from the options, checked against the scene's sizes before anything is compiled.
+// A tree's end effector by name: its index among the model's.
+int end_effector_index(const std::string& name, const ModelFacts& facts) {
+  const auto& names = facts.end_effector_names;
+  const auto it = std::find(names.begin(), names.end(), name);
+  if (it == names.end() || facts.dims.num_end_effectors == 1) {
+    std::string listed;
+    for (const auto& n : names) listed += (listed.empty() ? "" : ", ") + quoted_text(n);
+    throw std::invalid_argument("--end-effector: " + quoted_text(name) +
+                                " is not an end effector of '" + facts.name + "' (" + listed + ")");
+  }
+  return static_cast<int>(it - names.begin());
+}
+
+Eigen::VectorXd numbers(const std::string& text, const std::string& option) {
+  const std::vector<double> x = parse_number_list(text, option);
+  return Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size()));
+}
+
 StraightLineTask task_from_options(const PlanArgs& a, const ModelFacts& facts) {
   StraightLineTask task;
-  const std::vector<double> from = parse_number_list(a.from_text, "--from"),
-                            to = parse_number_list(a.to_text, "--to");
-  task.start = Eigen::Map<const Eigen::VectorXd>(from.data(), static_cast<int>(from.size()));
-  task.goal = Eigen::Map<const Eigen::VectorXd>(to.data(), static_cast<int>(to.size()));
+  // One line per --end-effector (or one line without it): --from, --to and --time-law in the
+  // same order (one --time-law serves every line).
+  const size_t lines = std::max<size_t>(1, a.end_effectors.size());
+  for (const auto& [given, option] : {std::pair{&a.from_text, "--from"}, {&a.to_text, "--to"}})
+    if (given->size() != lines)
+      throw std::invalid_argument(std::string(option) + ": given " + std::to_string(given->size()) +
+                                  " times for " + std::to_string(lines) +
+                                  " end effector line(s) (one " + option +
+                                  " per --end-effector, in the same order)");
+  if (a.time_laws.size() > 1 && a.time_laws.size() != lines)
+    throw std::invalid_argument("--time-law: given " + std::to_string(a.time_laws.size()) +
+                                " times for " + std::to_string(lines) +
+                                " end effector lines (once for all, or once per --end-effector)");
+  auto law = [&a](size_t k) {
+    return a.time_laws.empty()
+               ? TimeLaw::quintic
+               : time_law_from_string(a.time_laws[std::min(k, a.time_laws.size() - 1)]);
+  };
+  task.start = numbers(a.from_text[0], "--from");
+  task.goal = numbers(a.to_text[0], "--to");
+  task.law = law(0);
+  if (!a.end_effectors.empty()) task.end_effector = end_effector_index(a.end_effectors[0], facts);
+  for (size_t k = 1; k < lines; ++k)
+    task.more_lines.push_back({end_effector_index(a.end_effectors[k], facts),
+                               numbers(a.from_text[k], "--from"), numbers(a.to_text[k], "--to"),
+                               law(k)});
   task.duration = a.duration;
   task.dt = a.dt;
-  task.law = time_law_from_string(a.time_law);
   task.elbow = a.elbow;
   if (!a.q0_text.empty()) task.q0 = cli::parse_vector(a.q0_text, "--q0", facts.dims.nq);
   task.hold = hold_from_string(a.hold);
-  if (!a.end_effector.empty()) {
-    const auto& names = facts.end_effector_names;
-    const auto it = std::find(names.begin(), names.end(), a.end_effector);
-    if (it == names.end() || facts.dims.num_end_effectors == 1) {
-      std::string listed;
-      for (const auto& n : names) listed += (listed.empty() ? "" : ", ") + quoted_text(n);
-      throw std::invalid_argument("--end-effector: " + quoted_text(a.end_effector) +
-                                  " is not an end effector of '" + facts.name + "' (" + listed +
-                                  ")");
-    }
-    task.end_effector = static_cast<int>(it - names.begin());
-  }
   DynamicModel sizes;
   sizes.name = facts.name;
   sizes.nq = facts.dims.nq;

@@ -11,9 +11,10 @@ namespace spacearm {
 
 struct PlanArgs {
   std::string engine = "auto";  // --engine: CompileOptions::engine (compiled_model.hpp)
-  std::string scene_path, from_text, to_text, output_file, torque_file, cache_dir;
-  std::string time_law = "quintic", q0_text;
-  std::string end_effector, hold = "joints";  // a tree's (--end-effector, --hold)
+  std::string scene_path, output_file, torque_file, cache_dir, q0_text;
+  // --from, --to and --time-law: once, or once per --end-effector (a tree's lines, in order).
+  std::vector<std::string> from_text, to_text, time_laws, end_effectors;
+  std::string hold = "joints";  // a tree's --hold
   int elbow = +1;
   double duration = 0, dt = 0.01;
   std::vector<std::string> param_assignments;

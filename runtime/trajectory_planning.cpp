@@ -73,10 +73,37 @@ int check_task(const DynamicModel& m, const StraightLineTask& task, const TaskNa
       fail(names.q0 + " values " + std::to_string(k + 1) + " to " + std::to_string(k + 4) +
            ", the base's quaternion, must have a norm in [1e-6, 1e6], got " + text(norm));
   }
-  if (task.end_effector < 0 || task.end_effector >= m.num_end_effectors())
-    fail(names.end_effector + " must name one of the model's " +
-         std::to_string(m.num_end_effectors()) + " end effectors, got index " +
-         std::to_string(task.end_effector));
+  std::vector<int> moving = {task.end_effector};
+  int all_rows = rows;
+  for (const auto& line : task.more_lines) {
+    const int v = static_cast<int>(line.start.size());
+    if (v != position && v != (m.spatial ? 7 : 3))
+      fail(names.start + " of end effector " + std::to_string(line.end_effector + 1) +
+           ": expected a position or a pose, got " + std::to_string(v) + " values");
+    if (line.goal.size() != v)
+      fail(names.goal + " of end effector " + std::to_string(line.end_effector + 1) + " has " +
+           std::to_string(line.goal.size()) + " values and its " + names.start + " " +
+           std::to_string(v));
+    for (const Eigen::VectorXd* x : {&line.start, &line.goal})
+      if (!(x->cwiseAbs().maxCoeff() < 1e6) || (v == 7 && !(x->tail<4>().norm() > 1e-6)))
+        fail(names.start + " and " + names.goal + " of end effector " +
+             std::to_string(line.end_effector + 1) +
+             ": finite values below 1e6 in size, a nonzero quaternion");
+    moving.push_back(line.end_effector);
+    all_rows += task_rows(m, v);
+  }
+  for (size_t k = 0; k < moving.size(); ++k) {
+    if (moving[k] < 0 || moving[k] >= m.num_end_effectors())
+      fail(names.end_effector + " must name one of the model's " +
+           std::to_string(m.num_end_effectors()) + " end effectors, got index " +
+           std::to_string(moving[k]));
+    if (std::count(moving.begin(), moving.begin() + long(k), moving[k]))
+      fail(names.end_effector + ": end effector " + std::to_string(moving[k] + 1) +
+           " is given two lines");
+  }
+  if (m.num_links < all_rows)
+    fail("a " + std::to_string(m.num_links) + "-joint tree cannot follow " +
+         std::to_string(all_rows) + " task coordinates at once");
   if (task.q0.size() == 0 && task.elbow != 1 && task.elbow != -1)
     fail(names.elbow + " must be +1 or -1, got " + std::to_string(task.elbow));
   return rows;
@@ -123,32 +150,58 @@ struct TaskMap {
 // The task's rows of A: the moving end effector's (rows of its Jacobian block), then what a tree
 // holds: the other end effectors' Jacobian rows (velocity 0), or a unit row per held joint (z_j
 // = 0).
+// A moving end effector's lines: the task's own, then a tree's more_lines.
+std::vector<StraightLineTask::Line> lines_of(const StraightLineTask& task) {
+  std::vector<StraightLineTask::Line> lines = {
+      {task.end_effector, task.start, task.goal, task.law}};
+  lines.insert(lines.end(), task.more_lines.begin(), task.more_lines.end());
+  return lines;
+}
+
 struct TaskShape {
-  int rows = 0;             // the moving end effector's task rows
-  int jacobian_offset = 0;  // its first row in the stacked Jacobians
-  int pose_offset = 0;      // its first value in the stacked poses
+  struct Block {              // a moving end effector's
+    int rows = 0;             // task rows
+    int jacobian_offset = 0;  // its first row in the stacked Jacobians
+    int pose_offset = 0;      // its first value in the stacked poses
+    int values = 0;           // its line's values (position or pose)
+  };
+  std::vector<Block> moving;
   std::vector<int> held_rows, held_joints;
-  int total() const { return rows + int(held_rows.size()) + int(held_joints.size()); }
+  int moving_rows() const {
+    int r = 0;
+    for (const Block& b : moving) r += b.rows;
+    return r;
+  }
+  int total() const { return moving_rows() + int(held_rows.size()) + int(held_joints.size()); }
 };
-TaskShape task_shape(const DynamicModel& m, const StraightLineTask& task, int rows,
+TaskShape task_shape(const DynamicModel& m, const StraightLineTask& task,
                      const Eigen::VectorXd& q) {
   TaskShape shape;
-  shape.rows = rows;
   const int per = m.spatial ? 6 : 3, E = m.num_end_effectors();
-  shape.jacobian_offset = per * task.end_effector;
-  shape.pose_offset = (m.spatial ? 7 : 3) * task.end_effector;
+  std::vector<bool> moves(E, false);
+  for (const auto& line : lines_of(task)) {
+    const int values = static_cast<int>(line.start.size());
+    shape.moving.push_back({task_rows(m, values), per * line.end_effector,
+                            (m.spatial ? 7 : 3) * line.end_effector, values});
+    moves[line.end_effector] = true;
+  }
   if (E == 1) return shape;
   if (task.hold == Hold::pose) {
     for (int e = 0; e < E; ++e)
-      for (int r = 0; e != task.end_effector && r < per; ++r)
-        shape.held_rows.push_back(per * e + r);
+      for (int r = 0; !moves[e] && r < per; ++r) shape.held_rows.push_back(per * e + r);
     return shape;
   }
-  // A joint carries the end effector where its Jacobian column's angular part, its unit axis in
+  // A joint carries an end effector where its Jacobian column's angular part, its unit axis in
   // the world, is not zero; the columns of joints on other branches are exact zeros.
-  const Eigen::MatrixXd J = m.end_effector_jacobian(q).middleRows(shape.jacobian_offset, per);
-  for (int j = 0; j < m.num_links; ++j)
-    if (J.col(m.num_base() + j).tail(m.spatial ? 3 : 1).isZero(0)) shape.held_joints.push_back(j);
+  const Eigen::MatrixXd J = m.end_effector_jacobian(q);
+  for (int j = 0; j < m.num_links; ++j) {
+    bool carries = false;
+    for (const auto& b : shape.moving)
+      carries = carries || !J.block(b.jacobian_offset + (m.spatial ? 3 : 2), m.num_base() + j,
+                                    m.spatial ? 3 : 1, 1)
+                                .isZero(0);
+    if (!carries) shape.held_joints.push_back(j);
+  }
   return shape;
 }
 
@@ -166,8 +219,11 @@ TaskMap task_map(const DynamicModel& m, const TaskShape& shape, const Eigen::Vec
   }
   const Eigen::MatrixXd J = m.end_effector_jacobian(q);
   t.A.resize(shape.total(), n);
-  t.A.topRows(shape.rows) = J.middleRows(shape.jacobian_offset, shape.rows) * t.E;
-  int row = shape.rows;
+  int row = 0;
+  for (const auto& b : shape.moving) {
+    t.A.middleRows(row, b.rows) = J.middleRows(b.jacobian_offset, b.rows) * t.E;
+    row += b.rows;
+  }
   for (int r : shape.held_rows) t.A.row(row++) = J.row(r) * t.E;
   for (int j : shape.held_joints) t.A.row(row++) = Eigen::RowVectorXd::Unit(n, j);
   return t;
@@ -189,8 +245,7 @@ struct Desired {
 Eigen::Quaterniond quaternion_of(const Eigen::VectorXd& v, int at) {  // (w, x, y, z)
   return Eigen::Quaterniond(v[at], v[at + 1], v[at + 2], v[at + 3]).normalized();
 }
-Desired desired(const DynamicModel& m, const StraightLineTask& task, double t) {
-  const double T = task.duration;
+Desired desired(const DynamicModel& m, const StraightLineTask::Line& task, double T, double t) {
   const Eigen::Vector3d s = time_law(task.law, t / T);
   if (!(m.spatial && task.start.size() == 7)) {
     const Eigen::VectorXd d = task.goal - task.start;
@@ -225,10 +280,32 @@ Eigen::VectorXd pose_error(const DynamicModel& m, int rows, const Eigen::VectorX
   return e;
 }
 
-// The moving end effector's pose among the stacked ones.
-Eigen::VectorXd moving_pose(const DynamicModel& m, const TaskShape& shape, const Eigen::VectorXd& q,
-                            Eigen::Index values) {
-  return m.end_effector_pose(q).segment(shape.pose_offset, values);
+// Every line's desired pose, velocity and acceleration at t, stacked in the lines' order.
+Desired desired(const DynamicModel& m, const StraightLineTask& task, double t) {
+  Desired all;
+  for (const auto& line : lines_of(task)) {
+    const Desired d = desired(m, line, task.duration, t);
+    for (auto [to, from] : {std::pair{&all.x, &d.x}, {&all.v, &d.v}, {&all.a, &d.a}}) {
+      to->conservativeResize(to->size() + from->size());
+      to->tail(from->size()) = *from;
+    }
+  }
+  return all;
+}
+
+// The moving end effectors' errors from their desired poses (stacked as Desired::x), in task rows.
+Eigen::VectorXd moving_error(const DynamicModel& m, const TaskShape& shape,
+                             const Eigen::VectorXd& q, const Eigen::VectorXd& desired_x) {
+  const Eigen::VectorXd poses = m.end_effector_pose(q);
+  Eigen::VectorXd e(shape.moving_rows());
+  int row = 0, at = 0;
+  for (const auto& b : shape.moving) {
+    e.segment(row, b.rows) = pose_error(m, b.rows, poses.segment(b.pose_offset, b.values),
+                                        desired_x.segment(at, b.values));
+    row += b.rows;
+    at += b.values;
+  }
+  return e;
 }
 // The task's velocity or acceleration with zeros for what is held.
 Eigen::VectorXd padded(const TaskShape& shape, const Eigen::VectorXd& x) {
@@ -333,7 +410,8 @@ void check_by_central_differences(const DynamicModel& m, Plan& plan) {
 }  // namespace detail
 
 Eigen::VectorXd initial_configuration(const DynamicModel& m, const StraightLineTask& task) {
-  const int rows = check_task(m, task), jv = m.num_base(), n = m.num_links;
+  check_task(m, task);
+  const int jv = m.num_base(), n = m.num_links;
   const int jq = m.q_index(jv);
   const Eigen::VectorXd p = m.gear_ratios;
   Eigen::VectorXd q = m.neutral_configuration();
@@ -350,15 +428,18 @@ Eigen::VectorXd initial_configuration(const DynamicModel& m, const StraightLineT
                              : -0.5 / (n - 2));
   }
   const Eigen::VectorXd seed = q.segment(jq, n).cwiseQuotient(p);  // link side
-  const detail::TaskShape shape = detail::task_shape(m, task, rows, q);
-  auto error = [&](const Eigen::VectorXd& x) {
-    return detail::pose_error(m, rows, detail::moving_pose(m, shape, x, task.start.size()),
-                              task.start);
-  };
+  const detail::TaskShape shape = detail::task_shape(m, task, q);
+  const Eigen::VectorXd starts = detail::desired(m, task, 0.0).x;
+  auto error = [&](const Eigen::VectorXd& x) { return detail::moving_error(m, shape, x, starts); };
   for (int it = 0; it < 300; ++it) {
     const Eigen::VectorXd err = error(q);
-    const Eigen::MatrixXd J =
-        m.end_effector_jacobian(q).block(shape.jacobian_offset, jv, rows, n) * p.asDiagonal();
+    const Eigen::MatrixXd J_all = m.end_effector_jacobian(q);
+    Eigen::MatrixXd J(shape.moving_rows(), n);
+    int row = 0;
+    for (const auto& b : shape.moving) {
+      J.middleRows(row, b.rows) = J_all.block(b.jacobian_offset, jv, b.rows, n) * p.asDiagonal();
+      row += b.rows;
+    }
     const auto cod = J.completeOrthogonalDecomposition();
     const Eigen::VectorXd pull = seed - q.segment(jq, n).cwiseQuotient(p);
     const Eigen::VectorXd null_pull = pull - cod.solve(J * pull);
@@ -388,7 +469,8 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
     throw std::invalid_argument("planner, model " + m.name +
                                 ": plans models without springs, dampers or friction; plan on the "
                                 "scene without them and start the full model from that plan");
-  const int rows = check_task(m, task), nb = m.num_base(), n = m.num_links;
+  check_task(m, task);
+  const int nb = m.num_base(), n = m.num_links;
   if (!m.end_effector_pose || !m.end_effector_jacobian || !m.mass_matrix_and_bias)
     throw std::invalid_argument("planner, model " + m.name +
                                 ": needs end_effector_pose, end_effector_jacobian, mass_matrix "
@@ -397,7 +479,7 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
   // Integrate q' = qd(q, t) on the grid.
   Plan plan;
   VectorXd q = initial_configuration(m, task);
-  const detail::TaskShape shape = detail::task_shape(m, task, rows, q);
+  const detail::TaskShape shape = detail::task_shape(m, task, q);
   const VectorXd start_poses = m.end_effector_pose(q);
   IntegratorOptions opt;
   opt.method = Method::rkf78;
@@ -441,11 +523,8 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
     plan.qdd.push_back(qdd);
     plan.tau.push_back(Q.tail(n).cwiseProduct(m.gear_ratios));
     if (nb > 0) plan.base_residual.push_back(Q.head(nb).cwiseAbs().maxCoeff());
-    plan.max_path_error = std::max(
-        plan.max_path_error,
-        detail::pose_error(m, rows, detail::moving_pose(m, shape, qk, task.start.size()), d.x)
-            .cwiseAbs()
-            .maxCoeff());
+    plan.max_path_error = std::max(plan.max_path_error,
+                                   detail::moving_error(m, shape, qk, d.x).cwiseAbs().maxCoeff());
     plan.max_hold_error =
         std::max(plan.max_hold_error, detail::hold_error(m, shape, qk, q, start_poses));
     if (m.momentum && nb > 0)
@@ -453,8 +532,9 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
   }
   // A plan off its line is an error, never a table (a step over a whole short span once gave
   // one 0.6 m off with exit 0); good plans are within 1e-13 of it.
-  const double scale =
-      std::max({1.0, task.start.cwiseAbs().maxCoeff(), task.goal.cwiseAbs().maxCoeff()});
+  double scale = 1;
+  for (const auto& line : detail::lines_of(task))
+    scale = std::max({scale, line.start.cwiseAbs().maxCoeff(), line.goal.cwiseAbs().maxCoeff()});
   if (!(plan.max_path_error <= 1e-8 * scale))
     throw std::runtime_error("planner, model " + m.name + ": the plan misses the line by " +
                              detail::format(plan.max_path_error) +

@@ -79,6 +79,14 @@ struct StraightLineTask {
   // the others do. A chain has one end effector and nothing to hold.
   int end_effector = 0;
   Hold hold = Hold::joints;
+  // A tree's other end effectors that move at the same time, each along its own line (a position
+  // or a pose, as start) with its own time law, over the same duration.
+  struct Line {
+    int end_effector = 0;
+    Eigen::VectorXd start, goal;
+    TimeLaw law = TimeLaw::quintic;
+  };
+  std::vector<Line> more_lines;
 };
 
 // A plan on the output grid. Vector: the model's coordinates; JointVector: link-side torques.

@@ -662,7 +662,8 @@ TEST_F(PlanCommand, IdentifiedUrdfPlansFliesAndReportsItsLimits) {
 // while the right one holds its pose in the inertial frame (the base and the right arm's joints
 // moving under it) or its joints; replayed by simulate (exact rotors, RK4 at 0.01 s, torques
 // linear between samples) the left tool reaches the goal, the held one stays put, and the
-// momentum stays zero. An end effector the scene lacks is named with the ones it has.
+// momentum stays zero. Both tools move at once, each along its own line and time law; an end
+// effector the scene lacks, or a --from per line missing, is named.
 TEST_F(PlanCommand, ATreePlansOneArmWhileTheOtherHoldsItsPose) {
   const std::string scene = (fs::path(SPACEARM_SOURCE_DIR) / "models/dual_arm7.yaml").string();
   const std::string line = " --from 0.6,0.5,2.67 --to 0.9,0.6,2.3 --duration 10 ";
@@ -701,10 +702,45 @@ TEST_F(PlanCommand, ATreePlansOneArmWhileTheOtherHoldsItsPose) {
     // Open-loop replay: the left tool measured 7e-5 m (hold pose) and 3.2e-4 m (hold joints)
     // from the goal, the held right one 3e-6 m from its start.
     EXPECT_LT((tool(run, end, "l") - Eigen::Vector3d(0.9, 0.6, 2.3)).norm(), 5e-4);
-    if (hold == "pose") EXPECT_LT((tool(run, end, "r") - tool(run, 0, "r")).norm(), 3e-5);
+    if (hold == "pose") {
+      EXPECT_LT((tool(run, end, "r") - tool(run, 0, "r")).norm(), 3e-5);
+    }
     EXPECT_LT(run.values(end, {"Px", "Py", "Pz", "Lx", "Ly", "Lz"}).norm(), 1e-8);
   }
+  // Both tools at once, each along its own line with its own time law.
   int status = 0;
+  const std::string both = (dir() / "dual_both.csv").string();
+  const std::string out = test::run_command(
+      cli() + "plan " + scene +
+          " --end-effector l_tool_flange --from 0.6,0.5,2.67 --to 0.9,0.6,2.3 --time-law quintic"
+          " --end-effector r_tool_flange --from 0.6,-0.5,2.67 --to 0.8,-0.7,2.4 --time-law cubic"
+          " --duration 4 -o " +
+          both + cache() + " 2>&1",
+      &status);
+  ASSERT_EQ(status, 0) << out;
+  const Csv plan = read_csv(both);
+  const size_t last = plan.rows.size() - 1, quarter = last / 4;
+  EXPECT_LT((tool(plan, last, "l") - Eigen::Vector3d(0.9, 0.6, 2.3)).norm(), 1e-10);
+  EXPECT_LT((tool(plan, last, "r") - Eigen::Vector3d(0.8, -0.7, 2.4)).norm(), 1e-10);
+  // At a quarter of the time: s = 0.15625 on the cubic law (3 s^2 - 2 s^3), 0.103515625 on the
+  // quintic.
+  EXPECT_LT((tool(plan, quarter, "r") -
+             (Eigen::Vector3d(0.6, -0.5, 2.67) + 0.15625 * Eigen::Vector3d(0.2, -0.2, -0.27)))
+                .norm(),
+            1e-10);
+  EXPECT_LT((tool(plan, quarter, "l") -
+             (Eigen::Vector3d(0.6, 0.5, 2.67) + 0.103515625 * Eigen::Vector3d(0.3, 0.1, -0.37)))
+                .norm(),
+            1e-10);
+  const std::string uneven = test::run_command(
+      cli() + "plan " + scene +
+          " --end-effector l_tool_flange --end-effector r_tool_flange --from 0.6,0.5,2.67 "
+          "--to 0.9,0.6,2.3 --duration 4 -o " +
+          both + cache() + " 2>&1",
+      &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(uneven.find("--from: given 1 times for 2 end effector line(s)"), std::string::npos)
+      << uneven;
   const std::string bad =
       test::run_command(cli() + "plan " + scene + line + "--end-effector hand -o " +
                             (dir() / "x.csv").string() + cache() + " 2>&1",
