@@ -24,7 +24,9 @@ std::string number_text(double v) {
   return text;
 }
 
-constexpr int kMaxLinks = 30;  // as in the plane
+// A tree's moving joints, and those on one path from the base (a chain's: 30, as in the plane).
+// The generated code grows with their product (each joint's column of M walks its path).
+constexpr int kMaxLinks = 60, kMaxDepth = 30;
 
 // A body's inertia about its centre as its principal moments, and which rules it keeps.
 struct PrincipalMoments {
@@ -119,6 +121,7 @@ class SpatialReader {
       for (size_t i = 0; i < links.size(); ++i)
         s.chain.links.push_back(read_link(links[i], "links[" + std::to_string(i) + "]"));
       read_tree(links, root["end_effector_links"], s.chain);
+      check_depth(s.chain, links);
     }
     s.chain.exact_right_angles = snap_;
     if (root["gears"]) read_gears(root["gears"], s.chain);
@@ -483,6 +486,21 @@ class SpatialReader {
       if (it == names.end())
         r_.fail("end_effector_links", "no link is named " + quoted_text(link), wanted);
       c.end_effectors.push_back({link, static_cast<int>(it - names.begin()) + 1, {}, {}});
+    }
+  }
+
+  // At most kMaxDepth joints on a path from the base (the first link past it named).
+  void check_depth(const spatial::ChainDescription& c, const YAML::Node& links) const {
+    std::vector<int> depth(c.links.size() + 1, 0);
+    for (int i = 1; i <= static_cast<int>(c.links.size()); ++i) {
+      depth[i] = depth[c.parent(i)] + 1;
+      if (depth[i] > kMaxDepth)
+        r_.fail("links[" + std::to_string(i - 1) + "]",
+                "is joint " + std::to_string(depth[i]) + " on its path from the base; at most " +
+                    std::to_string(kMaxDepth) +
+                    " on one path (a chain: " + std::to_string(kMaxDepth) +
+                    " links; a tree: " + std::to_string(kMaxLinks) + " in all)",
+                links[i - 1]);
     }
   }
 

@@ -67,8 +67,10 @@ std::array<double, 3> matrix_rpy(const Eigen::Matrix3d& R) {
 // the bound must hold before the parse, which no option of tinyxml2 offers.
 constexpr int kMaxAttributes = 64, kMaxDepth = 64;
 constexpr long kMaxElements = 100000;
-// The moving joints a robot may have (as a scene's links: compile time grows with them).
-constexpr size_t kMaxMovingJoints = 30;
+// The moving joints a robot may have, and those on one path from the root (as a scene's links:
+// the generated code grows with their product).
+constexpr size_t kMaxMovingJoints = 60;
+constexpr int kMaxPathJoints = 30;
 
 void bound_the_parse(const std::string& xml, const std::string& source) {
   int line = 1, depth = 0;
@@ -515,7 +517,7 @@ class UrdfReader {
     out.root_link = roots[0];
     out.chain.free_base = free_base;
     Walk walk;
-    add_body(roots[0], nullptr, {}, {}, 0, out, walk);
+    add_body(roots[0], nullptr, {}, {}, 0, 0, out, walk);
     if (out.chain.links.empty()) fail(links_.at(roots[0]), "no moving joint");
     if (walk.seen.size() != links_.size())
       fail(nullptr, "links not connected to the root " + quoted_text(roots[0]));
@@ -535,7 +537,8 @@ class UrdfReader {
   // `parent`) and, depth-first, the bodies after it: the moving joints that leave its welded
   // links in the order the URDF lists them (MuJoCo's URDF import numbers its bodies so).
   void add_body(const std::string& link, const Joint* carrier, std::array<double, 3> joint_xyz,
-                std::array<double, 3> joint_rpy, int parent, UrdfChain& out, Walk& walk) {
+                std::array<double, 3> joint_rpy, int parent, int depth, UrdfChain& out,
+                Walk& walk) {
     std::vector<std::pair<std::string, Frame>> welded;
     std::vector<const Joint*> moving;
     weld(link, Frame{}, welded, moving);
@@ -568,6 +571,9 @@ class UrdfReader {
     for (const Joint* next : moving) {
       if (out.chain.links.size() >= kMaxMovingJoints)
         fail(next->element, "more than " + std::to_string(kMaxMovingJoints) + " moving joints");
+      if (depth + 1 > kMaxPathJoints)
+        fail(next->element, "more than " + std::to_string(kMaxPathJoints) +
+                                " moving joints on one path from the root");
       // The joint's frame in this body: as written where it leaves the body's own link, else
       // composed through the welded link it leaves from.
       std::array<double, 3> xyz = next->xyz, rpy = next->rpy;
@@ -577,7 +583,7 @@ class UrdfReader {
           xyz = {composed.p[0], composed.p[1], composed.p[2]};
           rpy = angles(composed.R);
         }
-      add_body(next->child, next, xyz, rpy, body, out, walk);
+      add_body(next->child, next, xyz, rpy, body, depth + 1, out, walk);
     }
   }
 

@@ -99,7 +99,11 @@ TEST(SpatialScene, NamesEveryBadField) {
   std::string many = "name: long\nspace: spatial\nbase: {type: fixed}\nlinks:\n";
   for (int i = 0; i < 31; ++i) many += "  - {mass: 1, inertia: [1, 0, 0, 1, 0, 1]}\n";
   EXPECT_THROW_MESSAGE(parse_spatial_scene(many, "long.yaml"), SceneError,
-                       "field 'links': expected a list of 1 to 30 links");
+                       "field 'links[30]': is joint 31 on its path from the base; at most "
+                       "30 on one path (a chain: 30 links; a tree: 60 in all)");
+  for (int i = 31; i < 61; ++i) many += "  - {mass: 1, inertia: [1, 0, 0, 1, 0, 1]}\n";
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(many, "long.yaml"), SceneError,
+                       "field 'links': expected a list of 1 to 60 links");
   std::string gears = kArm;
   gears.replace(gears.find("gears: {"), 8, "gears: [{");
   gears.replace(gears.find("armature}"), 9, "armature}]");

@@ -588,5 +588,32 @@ TEST(UrdfReader, SceneNamesTheUrdfAndChecksItsBodies) {
                        "'/dev/zero' is not a regular file");
 }
 
+// A tree has at most 60 moving joints and 30 on one path from the root: two 30-joint arms are
+// read; a 31st joint on an arm, or a 61st joint in a third arm, is refused naming the joint.
+TEST(UrdfReader, ATreeTakesSixtyJointsAndThirtyOnAPath) {
+  auto link = [](const std::string& name) {
+    return "<link name=\"" + name +
+           "\"><inertial><mass value=\"1\"/><inertia ixx=\"0.1\" ixy=\"0\" ixz=\"0\" "
+           "iyy=\"0.1\" iyz=\"0\" izz=\"0.1\"/></inertial></link>\n";
+  };
+  auto arm = [&](const std::string& side, int joints) {
+    std::string text;
+    for (int j = 1; j <= joints; ++j) {
+      const std::string child = side + std::to_string(j);
+      const std::string parent = j == 1 ? "sat" : side + std::to_string(j - 1);
+      text += link(child) + joint(side + "_j" + std::to_string(j), "revolute", parent, child,
+                                  "<origin xyz=\"0 0 0.1\"/><axis xyz=\"0 0 1\"/>");
+    }
+    return text;
+  };
+  const std::string two = link("sat") + arm("l", 30) + arm("r", 30);
+  EXPECT_EQ(read_urdf(robot(two), "r.urdf", true, "").chain.links.size(), 60u);
+  EXPECT_THROW_MESSAGE(
+      read_urdf(robot(link("sat") + arm("l", 31)), "r.urdf", true, ""), SceneError,
+      "<joint name='l_j31'>: more than 30 moving joints on one path from the root");
+  EXPECT_THROW_MESSAGE(read_urdf(robot(two + arm("c", 1)), "r.urdf", true, ""), SceneError,
+                       "<joint name='c_j1'>: more than 60 moving joints");
+}
+
 }  // namespace
 }  // namespace spacearm
