@@ -92,7 +92,10 @@ RunSetup::RunSetup(const Study& s, const LoadedStudy& loaded, long r)
 void RunMetrics::observe(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                          const Eigen::VectorXd& pose, const Eigen::VectorXd& h,
                          const Eigen::VectorXd& tau) {
-  pose_ = pose;
+  // A study measures the first end effector (the one its manoeuvre plans): a tree's pose holds
+  // one block per end effector.
+  const Eigen::Index values = model_.spatial ? 7 : 3;
+  pose_ = pose.head(values);
   if (model_.num_base()) {  // the base's drift (its origin) and turn (angle, or 3D the rotation's)
     const bool spatial = model_.spatial;
     const int moves = spatial ? 3 : 2;
@@ -117,7 +120,7 @@ void RunMetrics::observe(double t, const Eigen::VectorXd& q, const Eigen::Vector
     csv_ += buf;
     for (double v : q) append_number(csv_, v);
     for (double v : qd) append_number(csv_, v);
-    for (double v : pose) append_number(csv_, v);
+    for (double v : pose_) append_number(csv_, v);
     csv_ += "\n";
   }
   ++samples_;

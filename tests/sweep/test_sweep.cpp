@@ -775,5 +775,42 @@ TEST(Sweep, SpatialArmSweepsAPayloadAndTheRatioWithOneModel) {
   fs::remove_all(dir);
 }
 
+// Issue 52: a study of a tree (models/dual_arm7) measures the first end effector, the one its
+// manoeuvre plans: each row has the header's fields, its ee_ columns are the left tool's (ee_error
+// their distance from the goal), and the nominal run ends near the goal, keeping its momentum.
+TEST(Sweep, ATreesStudyMeasuresItsFirstEndEffector) {
+  const fs::path here = scratch("tree_scene");
+  fs::copy_file(fs::path(SPACEARM_SOURCE_DIR) / "models/dual_arm7.urdf", here / "dual_arm7.urdf");
+  std::ofstream(here / "dual_p.yaml")
+      << "name: dual_p\nspace: spatial\nurdf: dual_arm7.urdf\nbase: {type: free_floating}\n"
+         "parameters: {p: 100}\ngears: {ratio: p, rotor_inertia: [1.2e-4, 7.0e-5]}\n";
+  const Study s = parse_study("scene: " + (here / "dual_p.yaml").string() + R"(
+manoeuvre:
+  plan: {from: [0.6, 0.5, 2.67], to: [0.9, 0.6, 2.3], duration: 4}
+integrator: {method: rk4, dt: 0.01}
+grid:
+  p: [100]
+)",
+                              (here / "tree_study.yaml").string());
+  const StudyRunner runner(s, cache());
+  const fs::path dir = scratch("tree");
+  EXPECT_EQ(sweep(runner, dir, 1).failed, 0);
+  std::istringstream rows(read(dir / "results.csv"));
+  std::string header, row;
+  std::getline(rows, header);
+  const auto columns = std::count(header.begin(), header.end(), ',') + 1;
+  EXPECT_EQ(header.find("run,status,p,ee_x,ee_y,ee_z,ee_qw,ee_qx,ee_qy,ee_qz,ee_error,"), 0u)
+      << header;
+  ASSERT_TRUE(std::getline(rows, row));
+  EXPECT_EQ(std::count(row.begin(), row.end(), ',') + 1, columns) << row;
+  const std::vector<double> v = row_numbers(row);
+  // RK4 at 0.01 s with torques linear between the plan's samples: measured 2.0e-3 m from the
+  // goal and a momentum drift of 2.8e-7 (5.0e-4 and 1.8e-8 at 0.005 s: second and fourth order).
+  EXPECT_LT((Eigen::Vector3d(v[3], v[4], v[5]) - Eigen::Vector3d(0.9, 0.6, 2.3)).norm(), 3e-3);
+  EXPECT_NEAR(v[10], (Eigen::Vector3d(v[3], v[4], v[5]) - Eigen::Vector3d(0.9, 0.6, 2.3)).norm(),
+              1e-12);
+  EXPECT_LT(v[13], 1e-6);  // momentum drift
+}
+
 }  // namespace
 }  // namespace spacearm
