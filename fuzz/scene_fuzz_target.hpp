@@ -126,10 +126,21 @@ inline Verdict check_spatial_text(const std::string& text, const UrdfFileReader&
 inline Verdict check_urdf_text(const std::string& text) {
   try {
     const spatial::ChainDescription c = read_urdf(text, "fuzz-input.urdf", true, "").chain;
-    // The reader's promises (the scene then checks masses and inertias): 1 to 30 joints,
-    // finite numbers, nonzero axes.
-    if (c.links.empty() || c.links.size() > 30)
+    // The reader's promises (the scene then checks masses and inertias): 1 to 60 joints, at
+    // most 30 on a path, each one's parent before it, end effectors on moving bodies, finite
+    // numbers, nonzero axes.
+    if (c.links.empty() || c.links.size() > 60)
       throw std::logic_error("URDF: number of joints out of range");
+    std::vector<int> depth(c.links.size() + 1, 0);
+    for (int i = 1; i <= static_cast<int>(c.links.size()); ++i) {
+      if (c.parent(i) < 0 || c.parent(i) >= i)
+        throw std::logic_error("URDF: a parent after its link");
+      if ((depth[i] = depth[c.parent(i)] + 1) > 30) throw std::logic_error("URDF: a path too long");
+    }
+    if (c.end_effectors.empty()) throw std::logic_error("URDF: no end effector");
+    for (int e = 0; e < c.num_end_effectors(); ++e)
+      if (c.end_effector_body(e) < 1 || c.end_effector_body(e) > static_cast<int>(c.links.size()))
+        throw std::logic_error("URDF: an end effector off the moving bodies");
     for (const auto& l : c.links)
       if (!all_finite(l.origin_xyz) || !all_finite(l.origin_rpy) || !all_finite(l.com) ||
           !all_finite(l.inertia) || !std::isfinite(l.mass.value) ||
