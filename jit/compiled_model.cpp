@@ -805,7 +805,7 @@ CompiledModel CompiledModel::interpreted(const ModelRecipe& recipe, const Compil
   m.quaternion_offset_ = facts.quaternion_offset;
   m.outputs_ = output_mask(facts.outputs);
   m.coordinate_names_ = facts.coordinate_names;
-  m.end_effector_names_ = facts.end_effector_names;
+  if (facts.dims.num_end_effectors > 1) m.end_effector_names_ = facts.end_effector_names;
   m.parameter_names_ = facts.parameter_names;
   m.nominal_ = facts.nominal_parameters;
   m.actuated_ = spacearm::actuated_coordinates(facts);

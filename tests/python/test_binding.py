@@ -524,6 +524,9 @@ def test_a_tree_names_its_end_effectors_and_plans_one_while_the_other_holds():
     its pose, and an unknown end effector is a ValueError naming it."""
     tree = spacearm.load(os.path.join(SOURCE, "models", "dual_arm7.yaml"), cache_dir=CACHE)
     assert tree.end_effector_names == ["l_tool_flange", "r_tool_flange"]
+    chain = spacearm.load(os.path.join(SOURCE, "tests", "scenes", "spatial_arm2.yaml"),
+                          cache_dir=CACHE)
+    assert chain.end_effector_names == []  # one end effector
     q = np.zeros(tree.nq)
     q[3] = 1
     assert tree.end_effector_pose(q).shape == (14,)
