@@ -251,7 +251,12 @@ int run_eval(const EvalArgs& a) {
     evaluate_symbolic(scene, in, a.verbose, out);
   else
     evaluate_compiled(scene, a, in, out);
-  std::cout << (a.compact_json ? out.dump() : out.dump(2)) << "\n";
+  // A URDF's names need not be UTF-8: such bytes print as U+FFFD, never an exception that loses
+  // the output.
+  const auto replace = nlohmann::ordered_json::error_handler_t::replace;
+  std::cout << (a.compact_json ? out.dump(-1, ' ', false, replace)
+                               : out.dump(2, ' ', false, replace))
+            << "\n";
   return 0;
 }
 

@@ -301,6 +301,9 @@ class MjcfWriter {
                                           ? "the base's body"
                                           : "joint " + quoted_text(joint_name(b - 1)) + "'s body"});
     if (s_.chain.free_base) joints.push_back({body_name(0), "the base's free joint"});
+    std::vector<std::pair<std::string, std::string>> sites;
+    for (int e = 0; e < s_.chain.num_end_effectors(); ++e)
+      sites.push_back({site_name(e), "end effector " + std::to_string(e + 1) + "'s site"});
     for (size_t j = 0; j < s_.chain.links.size(); ++j) {
       joints.push_back({joint_name(j), "a joint"});
       if (exact_rotor(j)) {
@@ -308,7 +311,7 @@ class MjcfWriter {
         joints.push_back({rotor_name(j), "an exact rotor's joint"});
       }
     }
-    for (const auto* list : {&bodies, &joints})
+    for (const auto* list : {&bodies, &joints, &sites})
       for (size_t a = 0; a < list->size(); ++a) {
         const auto& [name, what] = (*list)[a];
         if (!xml_safe(name))

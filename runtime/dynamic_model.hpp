@@ -369,8 +369,7 @@ class LinkedSource {
     f.base_velocities = M::kNumBase;
     f.quaternion_offset = M::kQuaternionOffset;
     f.spatial = M::kSpatial;
-    // A tree's poses follow one another: 7 (3 in the plane) numbers each.
-    constexpr int poses = M::Pose::RowsAtCompileTime / (M::kSpatial ? 7 : 3);
+    constexpr int poses = M::kNumEndEffectors;
     for (int e = 0; poses > 1 && e < poses; ++e)
       f.end_effector_names.push_back("end_effector_" + std::to_string(e + 1));
     return f;

@@ -19,6 +19,17 @@
 
 namespace spacearm {
 
+// The end effectors of generated code: a tree's header states several (kNumEndEffectors), a
+// chain's one.
+template <class G, class = void>
+struct end_effectors_of {
+  static constexpr int value = 1;
+};
+template <class G>
+struct end_effectors_of<G, std::void_t<decltype(G::kNumEndEffectors)>> {
+  static constexpr int value = G::kNumEndEffectors;
+};
+
 template <class Generated>
 class Model {
  public:
@@ -40,8 +51,10 @@ class Model {
   using Pose = typename Generated::template Pose<double>;
   using Vector3 = Pose;  // its former name
   using PoseJacobian = typename Generated::template PoseJacobian<double>;
-  // A spatial arm (a base floating in 3D, or fixed): its pose has 7 entries.
-  static constexpr bool kSpatial = Pose::RowsAtCompileTime == 7;
+  // A spatial arm (a base floating in 3D, or fixed): its pose has 7 entries per end effector
+  // (a tree's poses follow one another).
+  static constexpr int kNumEndEffectors = end_effectors_of<Generated>::value;
+  static constexpr bool kSpatial = Pose::RowsAtCompileTime == 7 * kNumEndEffectors;
   // The base's momentum: [px, py, L] in the plane; [P (3), L (3)] in 3D, L about the world origin.
   using Momentum = Eigen::Matrix<double, kSpatial ? 6 : 3, 1>;
   using ConfigurationJacobian = Eigen::Matrix<double, kNv, kNq>;  // d(velocity-sized)/dq

@@ -106,9 +106,26 @@ inline std::vector<Eigen::VectorXd> plan_end_effector(
     const std::vector<std::pair<long, std::string>>& lines,
     const std::map<std::string, size_t>& column, bool spatial, const std::string& where) {
   std::vector<Eigen::VectorXd> poses;
-  const std::vector<std::string> ee = end_effector_columns(spatial);
-  if (!std::all_of(ee.begin(), ee.end(), [&](const auto& n) { return column.count(n); }))
-    return poses;
+  const std::vector<std::string> one = end_effector_columns(spatial);
+  std::vector<std::string> ee = one;
+  if (!std::all_of(ee.begin(), ee.end(), [&](const auto& n) { return column.count(n); })) {
+    // A tree's plan: each end effector's columns (PREFIX_x ... as end_effector_columns names
+    // them), in the table's order, stacked as the model's poses are.
+    ee.clear();
+    std::vector<std::pair<size_t, std::string>> ordered;
+    for (const auto& [name, at] : column) ordered.push_back({at, name});
+    std::sort(ordered.begin(), ordered.end());
+    for (const auto& [at, name] : ordered) {
+      if (name.rfind("ee", 0) != 0 || name.size() < 3 || name.substr(name.size() - 2) != "_x")
+        continue;
+      const std::string prefix = name.substr(0, name.size() - 1);  // up to the "_"
+      std::vector<std::string> block;
+      for (const std::string& c : one) block.push_back(prefix + c.substr(3));
+      if (std::all_of(block.begin(), block.end(), [&](const auto& n) { return column.count(n); }))
+        ee.insert(ee.end(), block.begin(), block.end());
+    }
+    if (ee.empty()) return poses;
+  }
   for (const size_t r : {size_t(1), lines.size() - 1}) {
     const auto fields = split_csv_line(lines[r].second);
     Eigen::VectorXd x(static_cast<Eigen::Index>(ee.size()));
@@ -213,26 +230,34 @@ inline std::string plan_kinematics_mismatch(const DynamicModel& model, const Pla
     const Eigen::VectorXd mine =
         model.end_effector_pose(model.from_joint_angles(plan.base[r], plan.angles[r]));
     const Eigen::VectorXd& theirs = plan.end_effector[static_cast<size_t>(k)];
-    if (mine.size() != theirs.size()) return "the plan's end-effector pose has another size";
-    const int np = model.spatial ? 3 : 2;
-    const double apart = (mine.head(np) - theirs.head(np)).norm();
-    double turn = 0;  // the angle between the two orientations
-    if (model.spatial) {
-      const double dot = std::abs(mine.tail(4).normalized().dot(theirs.tail(4).normalized()));
-      turn = 2 * std::acos(std::min(1.0, dot));
-    } else {
-      turn = std::abs(std::remainder(mine[2] - theirs[2], 2 * M_PI));
+    if (mine.size() != theirs.size())
+      return "the plan's end-effector poses have another size (" + std::to_string(theirs.size()) +
+             " values, this scene's " + std::to_string(mine.size()) + ")";
+    const int np = model.spatial ? 3 : 2, values = model.spatial ? 7 : 3;
+    for (Eigen::Index at = 0; at < mine.size(); at += values) {  // each end effector's pose
+      const Eigen::VectorXd a = mine.segment(at, values), b = theirs.segment(at, values);
+      const double apart = (a.head(np) - b.head(np)).norm();
+      double turn = 0;  // the angle between the two orientations
+      if (model.spatial) {
+        const double dot = std::abs(a.tail(4).normalized().dot(b.tail(4).normalized()));
+        turn = 2 * std::acos(std::min(1.0, dot));
+      } else {
+        turn = std::abs(std::remainder(a[2] - b[2], 2 * M_PI));
+      }
+      if (apart <= 1e-6 * std::max(1.0, b.head(np).norm()) && turn <= 1e-6) continue;
+      std::ostringstream m;
+      m.precision(6);
+      m << "at t = " << plan.torques.t0 + static_cast<double>(r) * plan.torques.dt
+        << " s the plan's "
+        << (mine.size() > values ? "end effector " + std::to_string(at / values + 1)
+                                 : std::string("end effector"))
+        << " is at (";
+      for (int i = 0; i < np; ++i) m << (i ? ", " : "") << b[i];
+      m << ") and this scene's, from the same base pose and joint angles, at (";
+      for (int i = 0; i < np; ++i) m << (i ? ", " : "") << a[i];
+      m << "): " << apart << " m apart, orientations " << turn << " rad apart";
+      return m.str();
     }
-    if (apart <= 1e-6 * std::max(1.0, theirs.head(np).norm()) && turn <= 1e-6) continue;
-    std::ostringstream m;
-    m.precision(6);
-    m << "at t = " << plan.torques.t0 + static_cast<double>(r) * plan.torques.dt
-      << " s the plan's end effector is at (";
-    for (int i = 0; i < np; ++i) m << (i ? ", " : "") << theirs[i];
-    m << ") and this scene's, from the same base pose and joint angles, at (";
-    for (int i = 0; i < np; ++i) m << (i ? ", " : "") << mine[i];
-    m << "): " << apart << " m apart, orientations " << turn << " rad apart";
-    return m.str();
   }
   return "";
 }

@@ -205,6 +205,16 @@ TaskShape task_shape(const DynamicModel& m, const StraightLineTask& task,
   return shape;
 }
 
+// The minimum-norm rates need no more task rows than joints: what moves and what is held.
+void check_shape(const DynamicModel& m, const TaskShape& shape) {
+  if (shape.total() <= m.num_links) return;
+  throw std::invalid_argument(
+      "planner, model " + m.name + ": " + std::to_string(shape.moving_rows()) +
+      " task coordinates and " + std::to_string(shape.held_rows.size() + shape.held_joints.size()) +
+      " held (the other end effectors' or joints', --hold) are more than its " +
+      std::to_string(m.num_links) + " joints can follow");
+}
+
 TaskMap task_map(const DynamicModel& m, const TaskShape& shape, const Eigen::VectorXd& q) {
   const int nb = m.num_base(), n = m.num_links;
   TaskMap t;
@@ -429,6 +439,7 @@ Eigen::VectorXd initial_configuration(const DynamicModel& m, const StraightLineT
   }
   const Eigen::VectorXd seed = q.segment(jq, n).cwiseQuotient(p);  // link side
   const detail::TaskShape shape = detail::task_shape(m, task, q);
+  detail::check_shape(m, shape);
   const Eigen::VectorXd starts = detail::desired(m, task, 0.0).x;
   auto error = [&](const Eigen::VectorXd& x) { return detail::moving_error(m, shape, x, starts); };
   for (int it = 0; it < 300; ++it) {

@@ -447,6 +447,8 @@ std::string model_struct(const LoweredModel& model, const std::string& ns) {
     h << "  static constexpr bool kHas_" << o.name << " = " << ns << "::kHas_" << o.name << ";\n";
   for (const char* c : {"kNumBase", "kQuaternionOffset"})
     h << "  static constexpr int " << c << " = " << ns << "::" << c << ";\n";
+  if (model.facts.dims.num_end_effectors > 1)  // a tree's (runtime/model.hpp: 1 without it)
+    h << "  static constexpr int kNumEndEffectors = " << ns << "::kNumEndEffectors;\n";
   h << "  static constexpr bool kPassiveForces = " << ns << "::kPassiveForces;\n"
     << "  static constexpr const std::array<int, kNumLinks>& actuated_coordinates() { return "
        "kActuatedCoordinates; }\n"

@@ -421,9 +421,14 @@ class SpatialReader {
       move(c.end_effectors[0], vec3(n, "end_effector"));
       return;
     }
+    if (n.size() == 0) r_.fail("end_effector", "an empty mapping names no end effector", n);
+    std::vector<std::string> given;
     for (const auto& kv : n) {
       const std::string link = r_.key_text(kv.first, "end_effector");
       const std::string field = "end_effector." + (is_identifier(link) ? link : quoted_text(link));
+      if (std::count(given.begin(), given.end(), link))
+        r_.fail(field, "given more than once", kv.first);
+      given.push_back(link);
       auto it = std::find_if(c.end_effectors.begin(), c.end_effectors.end(),
                              [&](const spatial::EndEffector& e) { return e.link == link; });
       if (it == c.end_effectors.end())
@@ -457,6 +462,11 @@ class SpatialReader {
         if (std::count(names.begin(), names.end(), name))
           r_.fail(field + ".name", quoted_text(name) + " names an earlier link too", n);
         tree = true;
+      } else if (const auto it = std::find(names.begin(), names.end(), name); it != names.end()) {
+        r_.fail("links[" + std::to_string(it - names.begin()) + "].name",
+                quoted_text(name) + " is the default name of links[" + std::to_string(i) +
+                    "], which has none: give it a name, or this link another",
+                links[it - names.begin()]["name"]);
       }
       names.push_back(name);
       if (const YAML::Node n = links[i]["parent"]) {

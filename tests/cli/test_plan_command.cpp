@@ -741,6 +741,19 @@ TEST_F(PlanCommand, ATreePlansOneArmWhileTheOtherHoldsItsPose) {
   EXPECT_NE(status, 0);
   EXPECT_NE(uneven.find("--from: given 1 times for 2 end effector line(s)"), std::string::npos)
       << uneven;
+  // More rows than joints (a 3-joint tree: a position and the other tool's pose held) is named,
+  // never solved (the minimum-norm solve read past its factors).
+  const std::string small =
+      test::run_command(cli() +
+                            "plan tests/scenes/spatial_tree3.yaml --end-effector b2 --hold pose "
+                            "--from 0.8,-0.3,0.2 --to 0.8,-0.2,0.2 --duration 1 -o " +
+                            both + cache() + " 2>&1",
+                        &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(small.find("3 task coordinates and 6 held (the other end effectors' or joints', "
+                       "--hold) are more than its 3 joints can follow"),
+            std::string::npos)
+      << small;
   const std::string bad =
       test::run_command(cli() + "plan " + scene + line + "--end-effector hand -o " +
                             (dir() / "x.csv").string() + cache() + " 2>&1",

@@ -17,6 +17,7 @@
 #include "spatial_arm2.hpp"
 #include "spatial_chain.hpp"
 #include "spatial_scene.hpp"
+#include "spatial_tree3.hpp"
 #include "support.hpp"
 #include "symbolic_model.hpp"
 
@@ -412,6 +413,50 @@ TEST(LinkedSpatialModel, ModelOfTheGeneratedCodeIsTheChain) {
   }
   EXPECT_GT((traj.q.back() - q).norm(), 0.1);  // it moved
   EXPECT_TRUE(dynamic_model(arm).spatial);
+}
+
+// Issue 52: a tree linked as a library (tests/scenes/spatial_tree3: two arms on a free base, the
+// first joints' exact rotors on the base). Model<G> knows its two end effectors (poses of 7 each,
+// so it is spatial), gives the tree's forward dynamics and poses, flies it keeping the momentum,
+// and the DynamicModel adapter names both end effectors' columns.
+TEST(LinkedSpatialModel, ATreeIsTheChainsTreeWithTwoEndEffectors) {
+  using Tree = Model<models::spatial_tree3::Model>;
+  static_assert(Tree::kSpatial && Tree::kNumEndEffectors == 2 && Tree::kNv == 9);
+  static_assert(Tree::Pose::RowsAtCompileTime == 14 && Tree::Momentum::RowsAtCompileTime == 6);
+  static_assert(models::spatial_tree3::kEndEffectorNames.size() == 2);
+  const std::string path = std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/spatial_tree3.yaml";
+  const SpatialScene scene = parse_spatial_scene(test::read_text_file(path), path);
+  ASSERT_FALSE(scene.chain.serial());
+  const Tree tree;
+  std::mt19937 rng(45);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Tree::Vector q = Tree::Vector::NullaryExpr([&] { return u(rng); });
+  q.segment<4>(3).normalize();
+  const Tree::Velocity qd = Tree::Velocity::NullaryExpr([&] { return u(rng); });
+  const Tree::Velocity Q = Tree::Velocity::NullaryExpr([&] { return u(rng); });
+  auto input = [&](const std::string& a, int i) {
+    return a == "q" ? q[i] : a == "qd" ? qd[i] : a == "Q" ? Q[i] : 0.0;
+  };
+  auto chain = [&](Output o) {
+    const std::vector<double> v = evaluate_chain<spatial::Chain>(scene.chain, o, input)[0];
+    return Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size())).eval();
+  };
+  const Eigen::VectorXd qdd = tree.forward_dynamics(q, qd, Q);
+  EXPECT_LT((qdd - chain(Output::forward_dynamics)).norm(), 1e-10 * qdd.norm());
+  EXPECT_LT((Eigen::VectorXd(tree.end_effector_pose(q)) - chain(Output::end_effector_pose)).norm(),
+            1e-12);
+  IntegratorOptions options;
+  options.method = Method::rkf78;
+  options.rtol = 1e-11;
+  options.atol = 1e-12;
+  const auto traj = simulate(
+      tree, q, qd, [](double) { return Tree::JointVector::Zero().eval(); }, 1.0, 0.1, options);
+  for (size_t k = 0; k < traj.q.size(); ++k)
+    EXPECT_LT((traj.momentum[k] - traj.momentum[0]).norm(), 1e-9 * traj.momentum[0].norm());
+  const DynamicModel d = dynamic_model(tree);
+  EXPECT_TRUE(d.spatial);
+  EXPECT_EQ(d.num_end_effectors(), 2);
+  EXPECT_EQ(end_effector_columns(d).size(), 14u);
 }
 
 }  // namespace

@@ -373,6 +373,18 @@ TEST(SpatialScene, ReadsANativeTree) {
                        SceneError, "field 'end_effector_links': no link is named 'hand'");
   EXPECT_THROW_MESSAGE(parse_spatial_scene(kTwoArms + "end_effector_links: [l2, l2]\n", "t.yaml"),
                        SceneError, "field 'end_effector_links': 'l2' is listed twice");
+  EXPECT_THROW_MESSAGE(
+      parse_spatial_scene(kTwoArms + "end_effector: {l2: [0, 0, 1], l2: [0, 0, 1]}\n", "t.yaml"),
+      SceneError, "field 'end_effector.l2': given more than once");
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(kTwoArms + "end_effector: {}\n", "t.yaml"), SceneError,
+                       "field 'end_effector': an empty mapping names no end effector");
+  // A name that is another link's default (linkK) would put two end effectors on one link.
+  std::string defaults = kTwoArms;
+  defaults.replace(defaults.find("name: l1"), 8, "name: link2");
+  defaults.replace(defaults.find("{name: l2, "), 11, "{parent: base, ");
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(defaults, "t.yaml"), SceneError,
+                       "field 'links[0].name': 'link2' is the default name of links[1], which has "
+                       "none");
   EXPECT_THROW_MESSAGE(parse_spatial_scene(kTwoArms + "end_effector_links: []\n", "t.yaml"),
                        SceneError,
                        "field 'end_effector_links': expected a list of 1 to 16 link names");
