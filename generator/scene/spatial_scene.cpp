@@ -455,6 +455,7 @@ class SpatialReader {
       const std::string field = "links[" + std::to_string(i) + "]";
       std::string name = "link" + std::to_string(i + 1);
       if (const YAML::Node n = links[i]["name"]) {
+        if (!n.IsScalar()) r_.fail(field + ".name", "expected an identifier other than 'base'", n);
         name = r_.bounded(n, field + ".name").Scalar();
         if (!is_identifier(name) || name == "base")
           r_.fail(field + ".name",
@@ -470,6 +471,9 @@ class SpatialReader {
       }
       names.push_back(name);
       if (const YAML::Node n = links[i]["parent"]) {
+        if (!n.IsScalar())
+          r_.fail(field + ".parent", "expected base or the name of a link listed before this one",
+                  n);
         const std::string parent = r_.bounded(n, field + ".parent").Scalar();
         const auto it = std::find(names.begin(), names.end() - 1, parent);
         if (parent != "base" && it == names.end() - 1)
@@ -521,8 +525,9 @@ class SpatialReader {
     if (!n.IsSequence() || n.size() < 1 || n.size() > 16)
       r_.fail("end_effector_links", "expected a list of 1 to 16 link names", n);
     for (size_t k = 0; k < n.size(); ++k) {
-      const std::string link =
-          r_.bounded(n[k], "end_effector_links[" + std::to_string(k) + "]").Scalar();
+      const std::string field = "end_effector_links[" + std::to_string(k) + "]";
+      if (!n[k].IsScalar()) r_.fail(field, "expected a link's name", n[k]);
+      const std::string link = r_.bounded(n[k], field).Scalar();
       if (std::count(links.begin(), links.end(), link))
         r_.fail("end_effector_links", quoted_text(link) + " is listed twice", n[k]);
       links.push_back(link);

@@ -351,7 +351,7 @@ TEST(SpatialScene, ReadsANativeTree) {
       "field 'links[3].name': 'l1' names an earlier link too",
       "field 'links[3].name': expected an identifier other than 'base', got 'base'",
       "field 'links[3].name'",
-      "field 'links[3].parent'",
+      "field 'links[3].parent': expected base or the name of a link listed before this one",
       "field 'links[3].parent': expected base or the name of a link listed before this one, got "
       "'2'",
   };
@@ -385,6 +385,8 @@ TEST(SpatialScene, ReadsANativeTree) {
   EXPECT_THROW_MESSAGE(parse_spatial_scene(defaults, "t.yaml"), SceneError,
                        "field 'links[0].name': 'link2' is the default name of links[1], which has "
                        "none");
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(kTwoArms + "end_effector_links: [[l2], r2]\n", "t.yaml"),
+                       SceneError, "field 'end_effector_links[0]': expected a link's name");
   EXPECT_THROW_MESSAGE(parse_spatial_scene(kTwoArms + "end_effector_links: []\n", "t.yaml"),
                        SceneError,
                        "field 'end_effector_links': expected a list of 1 to 16 link names");
