@@ -24,14 +24,31 @@ int check_task(const DynamicModel& m, const StraightLineTask& task, const TaskNa
     return std::string(buf, r.ptr);
   };
   const int position = m.spatial ? 3 : 2;
-  if (values != position && values != (m.spatial ? 7 : 3))
-    fail(names.start +
-         (m.spatial ? " must be x,y,z (position) or x,y,z,qw,qx,qy,qz (pose), got "
-                    : " must be x,y (position) or x,y,phi (pose), got ") +
-         std::to_string(values) + " values");
-  if (task.goal.size() != values)
-    fail(names.goal + " has " + std::to_string(task.goal.size()) + " values and " + names.start +
-         " " + std::to_string(values));
+  // A line's start and goal: a position or a pose, as many values each, finite and below 1e6,
+  // a pose's quaternion nonzero (of any size: it is a rotation).
+  auto check_line = [&](const Eigen::VectorXd& start, const Eigen::VectorXd& goal,
+                        const std::string& start_name, const std::string& goal_name) {
+    const int values = static_cast<int>(start.size());
+    if (values != position && values != (m.spatial ? 7 : 3))
+      fail(start_name +
+           (m.spatial ? " must be x,y,z (position) or x,y,z,qw,qx,qy,qz (pose), got "
+                      : " must be x,y (position) or x,y,phi (pose), got ") +
+           std::to_string(values) + " values");
+    if (goal.size() != values)
+      fail(goal_name + " has " + std::to_string(goal.size()) + " values and " + start_name + " " +
+           std::to_string(values));
+    for (const auto& [v, name] : {std::make_pair(&start, start_name), {&goal, goal_name}})
+      for (Eigen::Index i = 0; i < v->size(); ++i)
+        if (!(std::abs((*v)[i]) < 1e6))
+          fail(name + " value " + std::to_string(i + 1) +
+               " must be finite and below 1e6 in size, got " + text((*v)[i]));
+    if (values == 7)
+      for (const auto& [v, name] : {std::make_pair(&start, start_name), {&goal, goal_name}})
+        if (!(v->tail<4>().norm() > 1e-6))
+          fail(name + "'s quaternion (values 4 to 7) must be nonzero, got norm " +
+               text(v->tail<4>().norm()));
+  };
+  check_line(task.start, task.goal, names.start, names.goal);
   if (m.num_links < rows)
     fail("a " + std::to_string(m.num_links) + "-link arm cannot follow a " +
          (rows > position ? "pose" : "position") + " (" + std::to_string(rows) +
@@ -51,21 +68,9 @@ int check_task(const DynamicModel& m, const StraightLineTask& task, const TaskNa
   if (std::abs(steps - std::round(steps)) > 1e-9 * std::max(1.0, steps))
     fail(names.duration + " (" + text(task.duration) + " s) must be a whole multiple of " +
          names.dt + " (" + text(task.dt) + " s)");
-  for (const auto& [v, name] :
-       {std::make_pair(&task.start, names.start), std::make_pair(&task.goal, names.goal)})
-    for (Eigen::Index i = 0; i < v->size(); ++i)
-      if (!(std::abs((*v)[i]) < 1e6))
-        fail(name + " value " + std::to_string(i + 1) +
-             " must be finite and below 1e6 in size, got " + text((*v)[i]));
   if (task.q0.size() != 0 && (task.q0.size() != m.nq || !task.q0.allFinite()))
     fail(names.q0 + " must have " + std::to_string(m.nq) + " finite values, got " +
          std::to_string(task.q0.size()));
-  if (values == 7)  // a quaternion of any nonzero size is a rotation
-    for (const auto& [v, name] :
-         {std::make_pair(&task.start, names.start), std::make_pair(&task.goal, names.goal)})
-      if (!(v->tail<4>().norm() > 1e-6))
-        fail(name + "'s quaternion (values 4 to 7) must be nonzero, got norm " +
-             text(v->tail<4>().norm()));
   if (task.q0.size() != 0 && m.quaternion_offset >= 0) {
     const int k = m.quaternion_offset;
     const double norm = task.q0.segment<4>(k).stableNorm();  // no overflow for 1e300
@@ -75,22 +80,12 @@ int check_task(const DynamicModel& m, const StraightLineTask& task, const TaskNa
   }
   std::vector<int> moving = {task.end_effector};
   int all_rows = rows;
-  for (const auto& line : task.more_lines) {
-    const int v = static_cast<int>(line.start.size());
-    if (v != position && v != (m.spatial ? 7 : 3))
-      fail(names.start + " of end effector " + std::to_string(line.end_effector + 1) +
-           ": expected a position or a pose, got " + std::to_string(v) + " values");
-    if (line.goal.size() != v)
-      fail(names.goal + " of end effector " + std::to_string(line.end_effector + 1) + " has " +
-           std::to_string(line.goal.size()) + " values and its " + names.start + " " +
-           std::to_string(v));
-    for (const Eigen::VectorXd* x : {&line.start, &line.goal})
-      if (!(x->cwiseAbs().maxCoeff() < 1e6) || (v == 7 && !(x->tail<4>().norm() > 1e-6)))
-        fail(names.start + " and " + names.goal + " of end effector " +
-             std::to_string(line.end_effector + 1) +
-             ": finite values below 1e6 in size, a nonzero quaternion");
+  for (size_t k = 0; k < task.more_lines.size(); ++k) {
+    const auto& line = task.more_lines[k];
+    const std::string line_name = " " + std::to_string(k + 2);  // the CLI's order of lines
+    check_line(line.start, line.goal, names.start + line_name, names.goal + line_name);
     moving.push_back(line.end_effector);
-    all_rows += task_rows(m, v);
+    all_rows += task_rows(m, static_cast<int>(line.start.size()));
   }
   for (size_t k = 0; k < moving.size(); ++k) {
     if (moving[k] < 0 || moving[k] >= m.num_end_effectors())
@@ -147,10 +142,7 @@ struct MinimumNorm {
 struct TaskMap {
   Eigen::MatrixXd A, E;
 };
-// The task's rows of A: the moving end effector's (rows of its Jacobian block), then what a tree
-// holds: the other end effectors' Jacobian rows (velocity 0), or a unit row per held joint (z_j
-// = 0).
-// A moving end effector's lines: the task's own, then a tree's more_lines.
+// The moving end effectors' lines: the task's own, then a tree's more_lines.
 std::vector<StraightLineTask::Line> lines_of(const StraightLineTask& task) {
   std::vector<StraightLineTask::Line> lines = {
       {task.end_effector, task.start, task.goal, task.law}};
@@ -158,6 +150,9 @@ std::vector<StraightLineTask::Line> lines_of(const StraightLineTask& task) {
   return lines;
 }
 
+// The task's rows of A: each moving end effector's (rows of its Jacobian block), then what a
+// tree holds: the other end effectors' Jacobian rows (velocity 0), or a unit row per held joint
+// (z_j = 0).
 struct TaskShape {
   struct Block {              // a moving end effector's
     int rows = 0;             // task rows
@@ -166,18 +161,23 @@ struct TaskShape {
     int values = 0;           // its line's values (position or pose)
   };
   std::vector<Block> moving;
-  std::vector<int> held_rows, held_joints;
+  std::vector<int> held_end_effectors, held_joints;
+  int per_end_effector = 6;  // Jacobian rows (3 in the plane)
   int moving_rows() const {
     int r = 0;
     for (const Block& b : moving) r += b.rows;
     return r;
   }
-  int total() const { return moving_rows() + int(held_rows.size()) + int(held_joints.size()); }
+  int held_rows() const {
+    return per_end_effector * int(held_end_effectors.size()) + int(held_joints.size());
+  }
+  int total() const { return moving_rows() + held_rows(); }
 };
 TaskShape task_shape(const DynamicModel& m, const StraightLineTask& task,
                      const Eigen::VectorXd& q) {
   TaskShape shape;
   const int per = m.spatial ? 6 : 3, E = m.num_end_effectors();
+  shape.per_end_effector = per;
   std::vector<bool> moves(E, false);
   for (const auto& line : lines_of(task)) {
     const int values = static_cast<int>(line.start.size());
@@ -188,7 +188,7 @@ TaskShape task_shape(const DynamicModel& m, const StraightLineTask& task,
   if (E == 1) return shape;
   if (task.hold == Hold::pose) {
     for (int e = 0; e < E; ++e)
-      for (int r = 0; !moves[e] && r < per; ++r) shape.held_rows.push_back(per * e + r);
+      if (!moves[e]) shape.held_end_effectors.push_back(e);
     return shape;
   }
   // A joint carries an end effector where its Jacobian column's angular part, its unit axis in
@@ -210,7 +210,7 @@ void check_shape(const DynamicModel& m, const TaskShape& shape) {
   if (shape.total() <= m.num_links) return;
   throw std::invalid_argument(
       "planner, model " + m.name + ": " + std::to_string(shape.moving_rows()) +
-      " task coordinates and " + std::to_string(shape.held_rows.size() + shape.held_joints.size()) +
+      " task coordinates and " + std::to_string(shape.held_rows()) +
       " held (the other end effectors' or joints', --hold) are more than its " +
       std::to_string(m.num_links) + " joints can follow");
 }
@@ -234,7 +234,11 @@ TaskMap task_map(const DynamicModel& m, const TaskShape& shape, const Eigen::Vec
     t.A.middleRows(row, b.rows) = J.middleRows(b.jacobian_offset, b.rows) * t.E;
     row += b.rows;
   }
-  for (int r : shape.held_rows) t.A.row(row++) = J.row(r) * t.E;
+  for (int e : shape.held_end_effectors) {
+    t.A.middleRows(row, shape.per_end_effector) =
+        J.middleRows(shape.per_end_effector * e, shape.per_end_effector) * t.E;
+    row += shape.per_end_effector;
+  }
   for (int j : shape.held_joints) t.A.row(row++) = Eigen::RowVectorXd::Unit(n, j);
   return t;
 }
@@ -303,10 +307,10 @@ Desired desired(const DynamicModel& m, const StraightLineTask& task, double t) {
   return all;
 }
 
-// The moving end effectors' errors from their desired poses (stacked as Desired::x), in task rows.
+// The moving end effectors' errors from their desired poses (stacked as Desired::x), in task rows,
+// from every end effector's pose (the model's end_effector_pose).
 Eigen::VectorXd moving_error(const DynamicModel& m, const TaskShape& shape,
-                             const Eigen::VectorXd& q, const Eigen::VectorXd& desired_x) {
-  const Eigen::VectorXd poses = m.end_effector_pose(q);
+                             const Eigen::VectorXd& poses, const Eigen::VectorXd& desired_x) {
   Eigen::VectorXd e(shape.moving_rows());
   int row = 0, at = 0;
   for (const auto& b : shape.moving) {
@@ -380,22 +384,17 @@ Eigen::VectorXd accelerations(const DynamicModel& m, const TaskShape& shape,
 
 // How far what a tree holds has moved from where it started: the held end effectors' poses
 // (position, and the angle of R R_start^T), or the held joints' link-side angles.
-double hold_error(const DynamicModel& m, const TaskShape& shape, const Eigen::VectorXd& q,
-                  const Eigen::VectorXd& q_start, const Eigen::VectorXd& start_poses) {
+double hold_error(const DynamicModel& m, const TaskShape& shape, const Eigen::VectorXd& poses,
+                  const Eigen::VectorXd& angles, const Eigen::VectorXd& start_poses,
+                  const Eigen::VectorXd& start_angles) {
   double worst = 0;
-  if (!shape.held_rows.empty()) {
-    const Eigen::VectorXd poses = m.end_effector_pose(q);
-    const int values = m.spatial ? 7 : 3, rows = m.spatial ? 6 : 3;
-    for (size_t k = 0; k < shape.held_rows.size(); k += size_t(rows)) {
-      const int at = shape.held_rows[k] / rows * values;
-      worst = std::max(
-          worst, pose_error(m, rows, poses.segment(at, values), start_poses.segment(at, values))
-                     .cwiseAbs()
-                     .maxCoeff());
-    }
-  }
-  const Eigen::VectorXd angles = m.joint_angles(q), start = m.joint_angles(q_start);
-  for (int j : shape.held_joints) worst = std::max(worst, std::abs(angles[j] - start[j]));
+  const int values = m.spatial ? 7 : 3;
+  for (int e : shape.held_end_effectors)
+    worst = std::max(worst, pose_error(m, shape.per_end_effector, poses.segment(values * e, values),
+                                       start_poses.segment(values * e, values))
+                                .cwiseAbs()
+                                .maxCoeff());
+  for (int j : shape.held_joints) worst = std::max(worst, std::abs(angles[j] - start_angles[j]));
   return worst;
 }
 
@@ -441,7 +440,9 @@ Eigen::VectorXd initial_configuration(const DynamicModel& m, const StraightLineT
   const detail::TaskShape shape = detail::task_shape(m, task, q);
   detail::check_shape(m, shape);
   const Eigen::VectorXd starts = detail::desired(m, task, 0.0).x;
-  auto error = [&](const Eigen::VectorXd& x) { return detail::moving_error(m, shape, x, starts); };
+  auto error = [&](const Eigen::VectorXd& x) {
+    return detail::moving_error(m, shape, m.end_effector_pose(x), starts);
+  };
   for (int it = 0; it < 300; ++it) {
     const Eigen::VectorXd err = error(q);
     const Eigen::MatrixXd J_all = m.end_effector_jacobian(q);
@@ -491,7 +492,7 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
   Plan plan;
   VectorXd q = initial_configuration(m, task);
   const detail::TaskShape shape = detail::task_shape(m, task, q);
-  const VectorXd start_poses = m.end_effector_pose(q);
+  const VectorXd start_poses = m.end_effector_pose(q), start_angles = m.joint_angles(q);
   IntegratorOptions opt;
   opt.method = Method::rkf78;
   opt.rtol = 1e-13;
@@ -534,10 +535,13 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
     plan.qdd.push_back(qdd);
     plan.tau.push_back(Q.tail(n).cwiseProduct(m.gear_ratios));
     if (nb > 0) plan.base_residual.push_back(Q.head(nb).cwiseAbs().maxCoeff());
-    plan.max_path_error = std::max(plan.max_path_error,
-                                   detail::moving_error(m, shape, qk, d.x).cwiseAbs().maxCoeff());
-    plan.max_hold_error =
-        std::max(plan.max_hold_error, detail::hold_error(m, shape, qk, q, start_poses));
+    const VectorXd poses = m.end_effector_pose(qk);  // once per sample, for both checks
+    plan.max_path_error = std::max(
+        plan.max_path_error, detail::moving_error(m, shape, poses, d.x).cwiseAbs().maxCoeff());
+    if (shape.held_rows() > 0)
+      plan.max_hold_error = std::max(
+          plan.max_hold_error,
+          detail::hold_error(m, shape, poses, m.joint_angles(qk), start_poses, start_angles));
     if (m.momentum && nb > 0)
       plan.max_momentum = std::max(plan.max_momentum, m.momentum(qk, r.qd).cwiseAbs().maxCoeff());
   }
@@ -550,7 +554,7 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
     throw std::runtime_error("planner, model " + m.name + ": the plan misses the line by " +
                              detail::format(plan.max_path_error) +
                              " (integration failed to follow it; a bug: please report it)");
-  plan.held = !shape.held_rows.empty() || !shape.held_joints.empty();
+  plan.held = shape.held_rows() > 0;
   if (plan.held && !(plan.max_hold_error <= 1e-8 * scale))
     throw std::runtime_error("planner, model " + m.name + ": what the plan holds moves by " +
                              detail::format(plan.max_hold_error) +
