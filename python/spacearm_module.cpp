@@ -110,11 +110,15 @@ class PyModel {
   // The zero-momentum straight line (runtime/trajectory_planning.hpp) at the model's
   // parameters (or `params`): arrays and the table's named columns, as `spacearm plan` writes.
   // A tree's end_effector (by name; "" the first) follows the line while the others hold
-  // (`hold`: "joints" or "pose").
-  py::dict plan(const Eigen::VectorXd& start, const Eigen::VectorXd& goal, double duration,
-                double dt, const std::string& time_law, int elbow, const py::object& q0,
-                const py::object& params, const std::string& end_effector,
+  // (`hold`: "joints" or "pose"); a list of names moves each along its own line (start and
+  // goal then one row per name, time_law one or one per name).
+  py::dict plan(const py::object& start, const py::object& goal, double duration, double dt,
+                const py::object& time_law, int elbow, const py::object& q0,
+                const py::object& params, const py::object& end_effector,
                 const std::string& hold) const;
+  // The lines of plan()'s arguments, into task (its start, goal, law, end effector, more_lines).
+  void plan_lines(const py::object& start, const py::object& goal, const py::object& time_law,
+                  const py::object& end_effector, StraightLineTask& task) const;
 
   // The motion under sampled joint torques (or none), as `spacearm simulate` computes it.
   // t_end: nullopt for a plan's end.
@@ -275,9 +279,88 @@ py::array_t<double> table_columns(const PlanTable& table, size_t first, size_t c
   return a;
 }
 
-py::dict PyModel::plan(const Eigen::VectorXd& start, const Eigen::VectorXd& goal, double duration,
-                       double dt, const std::string& time_law, int elbow, const py::object& q0,
-                       const py::object& params_given, const std::string& end_effector,
+// A str, or a list or tuple of them (not a str's characters), as names; nullopt for one str.
+std::optional<std::vector<std::string>> name_list(const py::object& value,
+                                                  const std::string& what) {
+  if (py::isinstance<py::str>(value)) return std::nullopt;
+  if (!py::isinstance<py::list>(value) && !py::isinstance<py::tuple>(value))
+    throw py::type_error(what + ": a name or a list of names, not " +
+                         std::string(py::str(py::type::of(value).attr("__name__"))));
+  std::vector<std::string> names;
+  for (const py::handle& item : value) {
+    if (!py::isinstance<py::str>(item))
+      throw py::type_error(what + "[" + std::to_string(names.size()) + "]: a name, not " +
+                           std::string(py::str(py::type::of(item).attr("__name__"))));
+    names.push_back(item.cast<std::string>());
+  }
+  return names;
+}
+
+void PyModel::plan_lines(const py::object& start, const py::object& goal,
+                         const py::object& time_law, const py::object& end_effector,
+                         StraightLineTask& task) const {
+  auto index_of = [&](const std::string& name, const std::string& what) {
+    const auto& names = model_.end_effector_names();
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it == names.end())
+      throw py::value_error(what + ": '" + name + "' is not an end effector of '" + model_.name() +
+                            "' (" + std::to_string(names.size()) +
+                            " named: see end_effector_names)");
+    return static_cast<int>(it - names.begin());
+  };
+  auto law = [](const std::string& text, const std::string& what) {
+    try {
+      return time_law_from_string(text);
+    } catch (const std::invalid_argument& e) {
+      throw py::value_error(what + ": " + e.what());
+    }
+  };
+  const auto names = name_list(end_effector, "end_effector");
+  const auto laws = name_list(time_law, "time_law");
+  if (!names) {  // one line
+    if (laws) throw py::type_error("time_law: one name for one end_effector");
+    const std::string name = end_effector.cast<std::string>();
+    if (!name.empty()) task.end_effector = index_of(name, "end_effector");
+    task.start = vector_argument(start, "start");
+    task.goal = vector_argument(goal, "goal");
+    task.law = law(time_law.cast<std::string>(), "time_law");
+    return;
+  }
+  // One line per name: start and goal one row each (a list of arrays, or a 2-D array).
+  const size_t lines = names->size();
+  if (lines == 0) throw py::value_error("end_effector: an empty list (give one name or more)");
+  if (laws && laws->size() != lines)
+    throw py::value_error("time_law: " + std::to_string(laws->size()) + " names for " +
+                          std::to_string(lines) + " end effectors (one for all, or one each)");
+  std::vector<Eigen::VectorXd> rows[2];
+  for (int g = 0; g < 2; ++g) {
+    const py::object& given = g ? goal : start;
+    const std::string what = g ? "goal" : "start";
+    if (py::isinstance<py::str>(given) || !py::isinstance<py::sequence>(given))
+      throw py::type_error(what + ": one row per end effector (a list of arrays or a 2-D array)");
+    const py::sequence rows_given = given;
+    if (rows_given.size() != lines)
+      throw py::value_error(what + ": " + std::to_string(rows_given.size()) + " rows for " +
+                            std::to_string(lines) + " end effectors (one row each)");
+    for (size_t k = 0; k < lines; ++k)
+      rows[g].push_back(vector_argument(rows_given[k], what + "[" + std::to_string(k) + "]"));
+  }
+  for (size_t k = 0; k < lines; ++k) {
+    const std::string at = "[" + std::to_string(k) + "]";
+    const TimeLaw l =
+        laws ? law((*laws)[k], "time_law" + at) : law(time_law.cast<std::string>(), "time_law");
+    const int e = index_of((*names)[k], "end_effector" + at);
+    if (k == 0) {
+      task.end_effector = e, task.start = rows[0][0], task.goal = rows[1][0], task.law = l;
+      continue;
+    }
+    task.more_lines.push_back({e, rows[0][k], rows[1][k], l});
+  }
+}
+
+py::dict PyModel::plan(const py::object& start, const py::object& goal, double duration, double dt,
+                       const py::object& time_law, int elbow, const py::object& q0,
+                       const py::object& params_given, const py::object& end_effector,
                        const std::string& hold) const {
   StraightLineTask task;
   try {
@@ -285,20 +368,9 @@ py::dict PyModel::plan(const Eigen::VectorXd& start, const Eigen::VectorXd& goal
   } catch (const std::invalid_argument& e) {
     throw py::value_error(std::string("hold: ") + e.what());
   }
-  if (!end_effector.empty()) {
-    const auto& names = model_.end_effector_names();
-    const auto it = std::find(names.begin(), names.end(), end_effector);
-    if (it == names.end())
-      throw py::value_error("end_effector: '" + end_effector + "' is not an end effector of '" +
-                            model_.name() + "' (" + std::to_string(names.size()) +
-                            " named: see end_effector_names)");
-    task.end_effector = static_cast<int>(it - names.begin());
-  }
-  task.start = start;
-  task.goal = goal;
+  plan_lines(start, goal, time_law, end_effector, task);
   task.duration = duration;
   task.dt = dt;
-  task.law = time_law_from_string(time_law);
   task.elbow = elbow;
   if (!q0.is_none()) task.q0 = vector_argument(q0, "q0");
   if (task.q0.size() && task.q0.size() != model_.nq())
@@ -306,6 +378,9 @@ py::dict PyModel::plan(const Eigen::VectorXd& start, const Eigen::VectorXd& goal
                           std::to_string(task.q0.size()));
   const Eigen::VectorXd params = named_parameters(model_, params_, params_given);
   const DynamicModel m = dynamic_model(model_, params);
+  TaskNames names;
+  names.lines_indexed = !py::isinstance<py::str>(end_effector);  // a list of end effectors
+  check_task(m, task, names);
   const PlanTable table = [&] {
     py::gil_scoped_release release;
     return plan_table(plan_straight_line(m, task), m, recipe_.facts().geared);
@@ -727,7 +802,9 @@ void bind_model_runs(py::class_<PyModel>& model) {
             "The zero-momentum straight line of the end-effector from start to goal (x, y or x, y, "
             "phi; in 3D x, y, z or a pose x, y, z, qw, qx, qy, qz) in `duration` s, as `spacearm "
             "plan` (a tree: `end_effector` by name follows it, the others `hold` their 'joints' "
-            "or their 'pose'): a dict of t, q, qd, qdd, tau (link side), "
+            "or their 'pose'; a list of names moves each along its own line at once, start and "
+            "goal one row per name, time_law one or one per name): a dict of t, q, qd, qdd, "
+            "tau (link side), "
             "tau_motor (geared), base_residual (free base) and 'columns', the CSV's columns by "
             "name.");
   model.def(

@@ -48,7 +48,12 @@ int check_task(const DynamicModel& m, const StraightLineTask& task, const TaskNa
           fail(name + "'s quaternion (values 4 to 7) must be nonzero, got norm " +
                text(v->tail<4>().norm()));
   };
-  check_line(task.start, task.goal, names.start, names.goal);
+  // Line k's start or goal: the task's own is line 0, more_lines[k - 1] line k.
+  auto line_name = [&](const std::string& base, size_t k) {
+    if (names.lines_indexed) return base + "[" + std::to_string(k) + "]";
+    return k == 0 ? base : base + " " + std::to_string(k + 1);  // the CLI's K-th line
+  };
+  check_line(task.start, task.goal, line_name(names.start, 0), line_name(names.goal, 0));
   if (m.num_links < rows)
     fail("a " + std::to_string(m.num_links) + "-link arm cannot follow a " +
          (rows > position ? "pose" : "position") + " (" + std::to_string(rows) +
@@ -82,8 +87,7 @@ int check_task(const DynamicModel& m, const StraightLineTask& task, const TaskNa
   int all_rows = rows;
   for (size_t k = 0; k < task.more_lines.size(); ++k) {
     const auto& line = task.more_lines[k];
-    const std::string line_name = " " + std::to_string(k + 2);  // the CLI's order of lines
-    check_line(line.start, line.goal, names.start + line_name, names.goal + line_name);
+    check_line(line.start, line.goal, line_name(names.start, k + 1), line_name(names.goal, k + 1));
     moving.push_back(line.end_effector);
     all_rows += task_rows(m, static_cast<int>(line.start.size()));
   }

@@ -117,6 +117,9 @@ using ModelPlan = BasicPlan<typename Model<G>::Vector, typename Model<G>::JointV
 struct TaskNames {
   std::string start = "start", goal = "goal", duration = "duration", dt = "dt", elbow = "elbow",
               q0 = "q0", end_effector = "end_effector";
+  // A later line's start and goal: "start[k]" (a list's index, from 0) instead of the CLI's
+  // "start K" (its K-th line, from 1).
+  bool lines_indexed = false;
 };
 
 // Largest plan accepted: samples are held in memory until the plan is complete.

@@ -544,3 +544,46 @@ def test_a_tree_names_its_end_effectors_and_plans_one_while_the_other_holds():
         tree.plan([0.6, 0.5, 2.67], [0.9, 0.6, 2.3], 2.0, end_effector="hand")
     with pytest.raises(ValueError, match="hold: unknown hold 'both'"):
         tree.plan([0.6, 0.5, 2.67], [0.9, 0.6, 2.3], 2.0, hold="both")
+
+
+def test_a_tree_plans_several_end_effectors_at_once():
+    """Issue 52: a list of end effectors moves each along its own line with its own time law
+    (as `spacearm plan` repeats --end-effector); each reaches its goal, each law holds a quarter
+    of the way (where the two differ), and malformed lists are errors naming the argument and the row."""
+    tree = spacearm.load(os.path.join(SOURCE, "models", "dual_arm7.yaml"), cache_dir=CACHE)
+    starts = [[0.6, 0.5, 2.67], [0.6, -0.5, 2.67]]
+    goals = np.array([[0.9, 0.6, 2.3], [0.8, -0.7, 2.4]])
+    plan = tree.plan(starts, goals, 2.0, end_effector=["l_tool_flange", "r_tool_flange"],
+                     time_law=["quintic", "cubic"])
+    columns = plan["columns"]
+    middle = len(plan["t"]) // 4  # tau = 1/4, where the two laws differ
+    for name, start, goal, law in zip(("l_tool_flange", "r_tool_flange"), starts, goals,
+                                      (lambda s: 10 * s**3 - 15 * s**4 + 6 * s**5,
+                                       lambda s: 3 * s**2 - 2 * s**3)):
+        tool = np.array([columns["ee_%s_%s" % (name, c)] for c in "xyz"])
+        assert np.abs(tool[:, 0] - start).max() < 1e-10
+        assert np.abs(tool[:, -1] - goal).max() < 1e-10
+        s = law(plan["t"][middle] / 2.0)  # along the line as its law says
+        assert np.abs(tool[:, middle] - (np.array(start) + s * (goal - start))).max() < 1e-8
+    # One law (a str, the default quintic) serves every line: the right tool now moves quintic.
+    one_law = tree.plan(starts, goals, 2.0, end_effector=("l_tool_flange", "r_tool_flange"))
+    right = np.array([one_law["columns"]["ee_r_tool_flange_" + c][middle] for c in "xyz"])
+    s = plan["t"][middle] / 2.0
+    s = 10 * s**3 - 15 * s**4 + 6 * s**5
+    assert np.abs(right - (np.array(starts[1]) + s * (goals[1] - starts[1]))).max() < 1e-8
+    with pytest.raises(ValueError, match=r"start: 1 rows for 2 end effectors"):
+        tree.plan(starts[:1], goals, 2.0, end_effector=["l_tool_flange", "r_tool_flange"])
+    with pytest.raises(ValueError, match=r"time_law: 1 names for 2 end effectors"):
+        tree.plan(starts, goals, 2.0, end_effector=["l_tool_flange", "r_tool_flange"],
+                  time_law=["cubic"])
+    with pytest.raises(ValueError, match=r"end_effector\[1\]: 'hand' is not an end effector"):
+        tree.plan(starts, goals, 2.0, end_effector=["l_tool_flange", "hand"])
+    with pytest.raises(ValueError, match=r"goal\[1\] has 2 values and start\[1\] 3"):
+        tree.plan(starts, [goals[0], [0.8, -0.7]], 2.0,
+                  end_effector=["l_tool_flange", "r_tool_flange"])
+    with pytest.raises(ValueError, match=r"end effector 1 is given two lines"):
+        tree.plan(starts, goals, 2.0, end_effector=["l_tool_flange", "l_tool_flange"])
+    with pytest.raises(TypeError, match=r"end_effector\[0\]: a name, not int"):
+        tree.plan(starts, goals, 2.0, end_effector=[0, 1])
+    with pytest.raises(TypeError, match=r"start: one row per end effector"):
+        tree.plan("0.6", goals, 2.0, end_effector=["l_tool_flange", "r_tool_flange"])
