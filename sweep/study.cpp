@@ -138,7 +138,8 @@ class StudyReader {
 
   void manoeuvre(Study& s, const YAML::Node& n) const;
   void torque_manoeuvre(Study& s, const YAML::Node& n) const;
-  void plan(Study& s, const YAML::Node& p) const;
+  void plan(Study& s, const YAML::Node& p, const YAML::Node& end_effector_given) const;
+  int end_effector(const StudyScene& scene, const YAML::Node& n, const std::string& field) const;
   void integrator(Study& s, const YAML::Node& n) const;
   void grid(Study& s, const YAML::Node& n) const;
   void random(Study& s, const YAML::Node& n) const;
@@ -150,8 +151,11 @@ class StudyReader {
 };
 
 void StudyReader::manoeuvre(Study& s, const YAML::Node& n) const {
-  r_.check_keys(n, "manoeuvre",
-                {"plan", "torques", "q0", "target", "command_ratio", "feedforward"});
+  r_.check_keys(
+      n, "manoeuvre",
+      {"plan", "torques", "q0", "target", "command_ratio", "feedforward", "end_effector"});
+  if (n["end_effector"].IsDefined())
+    s.end_effector = end_effector(s.scene, n["end_effector"], "manoeuvre.end_effector");
   if (n["feedforward"].IsDefined()) {
     const std::string f = text(n["feedforward"], "manoeuvre.feedforward");
     if (f != "none" && f != "friction")
@@ -189,7 +193,7 @@ void StudyReader::manoeuvre(Study& s, const YAML::Node& n) const {
               "belongs to a torque manoeuvre; a plan starts at "
               "its line's start and aims at its end",
               n[f]);
-  plan(s, n["plan"]);
+  plan(s, n["plan"], n["end_effector"]);
 }
 
 // Torques from a file, from q0 (the base pose and link-side angles; 3D: origin, quaternion).
@@ -208,11 +212,26 @@ void StudyReader::torque_manoeuvre(Study& s, const YAML::Node& n) const {
   s.q0.segment(k, 4).normalize();
 }
 
+// A tree's end effector by name (manoeuvre.end_effector): its index in the scene's.
+int StudyReader::end_effector(const StudyScene& scene, const YAML::Node& n,
+                              const std::string& field) const {
+  const std::string name = text(n, field);
+  const auto& names = scene.end_effector_names;
+  const auto it = std::find(names.begin(), names.end(), name);
+  if (it != names.end()) return static_cast<int>(it - names.begin());
+  std::string listed;
+  for (const auto& e : names) listed += (listed.empty() ? "'" : ", '") + e + "'";
+  r_.fail(field,
+          "'" + name + "' is not an end effector of scene '" + scene.name + "' (" +
+              (names.empty() ? "a planar arm has one, unnamed" : listed) + ")",
+          n);
+}
+
 // A straight line of the end effector, a position or a pose (3D: with the orientation slerped).
-void StudyReader::plan(Study& s, const YAML::Node& p) const {
+void StudyReader::plan(Study& s, const YAML::Node& p, const YAML::Node& end_effector_given) const {
   const bool spatial = s.scene.is_spatial();
   r_.check_keys(p, "manoeuvre.plan",
-                {"from", "to", "duration", "time_law", "elbow", "scene", "q0"});
+                {"from", "to", "duration", "time_law", "elbow", "scene", "q0", "hold"});
   StraightLineTask task;
   task.start = position_or_pose(r_.require(p, "from", "manoeuvre.plan"), "manoeuvre.plan.from",
                                 spatial, true);
@@ -234,6 +253,21 @@ void StudyReader::plan(Study& s, const YAML::Node& p) const {
     task.elbow = static_cast<int>(e);
   }
   if (p["scene"].IsDefined()) s.plan_scene = scene(p["scene"], "manoeuvre.plan.scene");
+  // The measured end effector is the planned one, found by name in the plan's scene.
+  task.end_effector = end_effector_given.IsDefined() && s.plan_scene
+                          ? end_effector(*s.plan_scene, end_effector_given,
+                                         "manoeuvre.end_effector (in manoeuvre.plan.scene)")
+                          : s.end_effector;
+  if (p["hold"].IsDefined()) {
+    const std::string hold = text(p["hold"], "manoeuvre.plan.hold");
+    if (hold != "joints" && hold != "pose")
+      r_.fail("manoeuvre.plan.hold",
+              "expected joints (the other arms keep their joint angles) or pose (their end "
+              "effectors keep their poses), got '" +
+                  hold + "'",
+              p["hold"]);
+    task.hold = hold_from_string(hold);
+  }
   // The planner's start guess, as plan --q0: the plan scene's coordinates (the base pose, then
   // each joint's slot: a geared joint's motor angle qm = p q), which picks the IK branch.
   if (p["q0"].IsDefined()) {
@@ -410,6 +444,8 @@ StudyScene load_study_scene(const std::string& path) {
     s.quaternion_offset = s.free_floating ? 3 : -1;
     s.features = spatial_features(sc);
     s.outputs = spatial_outputs(sc);
+    for (int e = 0; e < sc.chain.num_end_effectors(); ++e)
+      s.end_effector_names.push_back(sc.chain.end_effector_name(e));
     return s;
   }
   s.planar = std::make_shared<const Scene>(parse_scene(text, path));

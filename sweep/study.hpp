@@ -50,6 +50,7 @@ struct StudyScene {
   int quaternion_offset = -1;
   unsigned features = 0;  // needs:: bits (outputs.hpp)
   std::vector<Output> outputs;
+  std::vector<std::string> end_effector_names;  // a spatial scene's, in its pose's order
   bool is_spatial() const { return spatial != nullptr; }
   bool wants(Output o) const;
 };
@@ -65,6 +66,9 @@ struct Study {
   // plan_scene (the run scene if not given) and replayed open loop into every run (the paper's
   // experiment, Section 3); or torques from a file, from q0.
   std::optional<StraightLineTask> plan;
+  // The end effector measured (its pose, ee_error) and planned: an index into the scene's
+  // end_effector_names (manoeuvre.end_effector), the first by default.
+  int end_effector = 0;
   std::optional<StudyScene> plan_scene;
   std::optional<TorqueTable> torques;
   std::string torque_path;

@@ -92,10 +92,10 @@ RunSetup::RunSetup(const Study& s, const LoadedStudy& loaded, long r)
 void RunMetrics::observe(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                          const Eigen::VectorXd& pose, const Eigen::VectorXd& h,
                          const Eigen::VectorXd& tau) {
-  // A study measures the first end effector (the one its manoeuvre plans): a tree's pose holds
-  // one block per end effector.
+  // A study measures one end effector (the one its manoeuvre plans): a tree's pose holds one
+  // block per end effector.
   const Eigen::Index values = model_.spatial ? 7 : 3;
-  pose_ = pose.head(values);
+  pose_ = pose.segment(values * s_.end_effector, values);
   if (model_.num_base()) {  // the base's drift (its origin) and turn (angle, or 3D the rotation's)
     const bool spatial = model_.spatial;
     const int moves = spatial ? 3 : 2;

@@ -122,6 +122,11 @@ struct ChainDescription {
     return true;
   }
   int num_end_effectors() const { return static_cast<int>(end_effectors.size()); }
+  // End effector e's name: its link's, or end_effector_<e + 1> (a chain's tool, unnamed).
+  std::string end_effector_name(int e) const {
+    const std::string& link = end_effectors.at(e).link;
+    return link.empty() ? "end_effector_" + std::to_string(e + 1) : link;
+  }
   // The body end effector e sits on.
   int end_effector_body(int e) const {
     const int b = end_effectors.at(e).body;

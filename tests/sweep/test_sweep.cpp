@@ -812,5 +812,54 @@ grid:
   EXPECT_LT(v[13], 1e-6);  // momentum drift
 }
 
+// Issue 52: manoeuvre.end_effector names the tool a tree's study plans and measures (the right
+// one here, the left holding its pose); an unknown name or hold is an error naming the field.
+TEST(Sweep, ATreesStudyMeasuresTheEndEffectorItNames) {
+  const fs::path here = scratch("tree_scene_named");
+  fs::copy_file(fs::path(SPACEARM_SOURCE_DIR) / "models/dual_arm7.urdf", here / "dual_arm7.urdf");
+  std::ofstream(here / "dual_p.yaml")
+      << "name: dual_p\nspace: spatial\nurdf: dual_arm7.urdf\nbase: {type: free_floating}\n"
+         "parameters: {p: 100}\ngears: {ratio: p, rotor_inertia: [1.2e-4, 7.0e-5]}\n";
+  auto study = [&](const std::string& end_effector, const std::string& hold) {
+    return parse_study("scene: " + (here / "dual_p.yaml").string() +
+                           "\nmanoeuvre:\n  end_effector: " + end_effector +
+                           "\n  plan: {from: [0.6, -0.5, 2.67], to: [0.8, -0.7, 2.4], duration: 4, "
+                           "hold: " +
+                           hold + "}\nintegrator: {method: rk4, dt: 0.01}\ngrid:\n  p: [100]\n",
+                       (here / "tree_study.yaml").string());
+  };
+  const Study s = study("r_tool_flange", "pose");
+  EXPECT_EQ(s.end_effector, 1);
+  EXPECT_EQ(s.plan->end_effector, 1);
+  EXPECT_EQ(s.plan->hold, Hold::pose);
+  const StudyRunner runner(s, cache());
+  const fs::path dir = scratch("tree_named");
+  EXPECT_EQ(sweep(runner, dir, 1).failed, 0);
+  std::istringstream rows(read(dir / "results.csv"));
+  std::string header, row;
+  std::getline(rows, header);
+  ASSERT_TRUE(std::getline(rows, row));
+  const std::vector<double> v = row_numbers(row);
+  const Eigen::Vector3d goal(0.8, -0.7, 2.4);
+  EXPECT_LT((Eigen::Vector3d(v[3], v[4], v[5]) - goal).norm(), 3e-3);  // the right tool's pose
+  EXPECT_NEAR(v[10], (Eigen::Vector3d(v[3], v[4], v[5]) - goal).norm(), 1e-12);
+  auto error_of = [](const auto& read) -> std::string {
+    try {
+      read();
+    } catch (const StudyError& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  const std::string unknown = error_of([&] { study("hand", "pose"); });
+  EXPECT_NE(unknown.find("field 'manoeuvre.end_effector': 'hand' is not an end effector of scene "
+                         "'dual_p' ('l_tool_flange', 'r_tool_flange')"),
+            std::string::npos)
+      << unknown;
+  const std::string hold = error_of([&] { study("r_tool_flange", "both"); });
+  EXPECT_NE(hold.find("field 'manoeuvre.plan.hold': expected joints"), std::string::npos) << hold;
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace spacearm

@@ -87,9 +87,7 @@ ModelFacts spatial_facts(const SpatialScene& scene) {
   for (int e = 0; tree && e < c.num_end_effectors(); ++e)
     f.end_effector_bodies.push_back(c.end_effector_body(e));
   for (int e = 0; e < c.num_end_effectors(); ++e)
-    f.end_effector_names.push_back(c.end_effectors[e].link.empty()
-                                       ? "end_effector_" + std::to_string(e + 1)
-                                       : c.end_effectors[e].link);
+    f.end_effector_names.push_back(c.end_effector_name(e));
   for (const auto& l : c.links) {
     f.geared = f.geared || l.gear.present;
     f.motor_angle_slots.push_back(motor_angle_slot(l));
