@@ -947,11 +947,11 @@ void friction_forces([[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] 
   ff(8) = t7 * (params(5) + t2 * t8) + params(4) * qd(8);
 }
 
-// State Jacobian of forward dynamics at constant Q, d qdd/dq = -M^-1 (dM/dq qdd + dh/dq) and d qdd/dqd = -M^-1 dh/dqd (h: bias, springs, dampers, friction), from the exact symbolic derivatives and the same LDL^T solve as forward_dynamics; qdd at the same point. Paper eq. 8.
+// State Jacobian of forward dynamics at constant Q, d qdd/dq = -M^-1 (dM/dq qdd + dh/dq) and d qdd/dqd = -M^-1 dh/dqd (h: bias, springs, dampers, friction), from the exact symbolic derivatives and the same LDL^T solve as forward_dynamics; qdd at the same point. d qdd/dq is on the tangent space (nv columns): q moves as q + dq, a 3D base's quaternion turned by d omega in its own frame (MuJoCo's mj_integratePos, Pinocchio's integrate). Paper eq. 8.
 // Operations: 1122 add, 1275 mul, 12 div, 8 sin/cos, 6 tanh/exp.
 // Formulation: closed form.
 template <typename T>
-void forward_dynamics_derivatives([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& Q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, kNv, kNq>& dqdd_dq, Eigen::Matrix<T, kNv, kNv>& dqdd_dqd, Velocities<T>& qdd) {
+void forward_dynamics_derivatives([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& Q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, kNv, kNv>& dqdd_dq, Eigen::Matrix<T, kNv, kNv>& dqdd_dqd, Velocities<T>& qdd) {
   using std::exp;
   using std::tanh;
   const T t0 = q(2) + q(3);
@@ -1613,7 +1613,7 @@ template void forward_dynamics<float>(const Coordinates<float>&, const Velocitie
 template float potential_energy<float>(const Coordinates<float>&, const Parameters<float>&);
 template void spring_damper_forces<float>(const Coordinates<float>&, const Velocities<float>&, const Parameters<float>&, Velocities<float>&);
 template void friction_forces<float>(const Velocities<float>&, const Parameters<float>&, Velocities<float>&);
-template void forward_dynamics_derivatives<float>(const Coordinates<float>&, const Velocities<float>&, const Velocities<float>&, const Parameters<float>&, Eigen::Matrix<float, kNv, kNq>&, Eigen::Matrix<float, kNv, kNv>&, Velocities<float>&);
+template void forward_dynamics_derivatives<float>(const Coordinates<float>&, const Velocities<float>&, const Velocities<float>&, const Parameters<float>&, Eigen::Matrix<float, kNv, kNv>&, Eigen::Matrix<float, kNv, kNv>&, Velocities<float>&);
 template void gear_ratios<float>(const Parameters<float>&, JointVector<float>&);
 template void mass_matrix<double>(const Coordinates<double>&, const Parameters<double>&, Eigen::Matrix<double, kNv, kNv>&);
 template void bias_forces<double>(const Coordinates<double>&, const Velocities<double>&, const Parameters<double>&, Velocities<double>&);
@@ -1629,7 +1629,7 @@ template void forward_dynamics<double>(const Coordinates<double>&, const Velocit
 template double potential_energy<double>(const Coordinates<double>&, const Parameters<double>&);
 template void spring_damper_forces<double>(const Coordinates<double>&, const Velocities<double>&, const Parameters<double>&, Velocities<double>&);
 template void friction_forces<double>(const Velocities<double>&, const Parameters<double>&, Velocities<double>&);
-template void forward_dynamics_derivatives<double>(const Coordinates<double>&, const Velocities<double>&, const Velocities<double>&, const Parameters<double>&, Eigen::Matrix<double, kNv, kNq>&, Eigen::Matrix<double, kNv, kNv>&, Velocities<double>&);
+template void forward_dynamics_derivatives<double>(const Coordinates<double>&, const Velocities<double>&, const Velocities<double>&, const Parameters<double>&, Eigen::Matrix<double, kNv, kNv>&, Eigen::Matrix<double, kNv, kNv>&, Velocities<double>&);
 template void gear_ratios<double>(const Parameters<double>&, JointVector<double>&);
 template void mass_matrix<long double>(const Coordinates<long double>&, const Parameters<long double>&, Eigen::Matrix<long double, kNv, kNv>&);
 template void bias_forces<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Parameters<long double>&, Velocities<long double>&);
@@ -1645,7 +1645,7 @@ template void forward_dynamics<long double>(const Coordinates<long double>&, con
 template long double potential_energy<long double>(const Coordinates<long double>&, const Parameters<long double>&);
 template void spring_damper_forces<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Parameters<long double>&, Velocities<long double>&);
 template void friction_forces<long double>(const Velocities<long double>&, const Parameters<long double>&, Velocities<long double>&);
-template void forward_dynamics_derivatives<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Velocities<long double>&, const Parameters<long double>&, Eigen::Matrix<long double, kNv, kNq>&, Eigen::Matrix<long double, kNv, kNv>&, Velocities<long double>&);
+template void forward_dynamics_derivatives<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Velocities<long double>&, const Parameters<long double>&, Eigen::Matrix<long double, kNv, kNv>&, Eigen::Matrix<long double, kNv, kNv>&, Velocities<long double>&);
 template void gear_ratios<long double>(const Parameters<long double>&, JointVector<long double>&);
 
 }  // namespace spacearm::models::paper_flexible

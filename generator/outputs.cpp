@@ -156,12 +156,14 @@ const std::vector<OutputInfo>& output_registry() {
        "+ (Fs - Fc) exp(-(w/vst)^2) tanh(w/vs); it enters as M qdd + b + ff = Q."},
       {O::forward_dynamics_derivatives, "forward_dynamics_derivatives", "dqdd",
        {I::q, I::qd, I::generalized_forces},
-       {{"dqdd_dq", S::nv, S::nq, false}, {"dqdd_dqd", S::nv, S::nv, false},
+       {{"dqdd_dq", S::nv, S::nv, false}, {"dqdd_dqd", S::nv, S::nv, false},
         {"qdd", S::nv, S::one, false}},
        kAnyBase, kOnRequest, {O::mass_matrix, O::bias_forces}, "8",
        "State Jacobian of forward dynamics at constant Q, d qdd/dq = -M^-1 (dM/dq qdd + dh/dq) and "
        "d qdd/dqd = -M^-1 dh/dqd (h: bias, springs, dampers, friction), from the exact symbolic "
-       "derivatives and the same LDL^T solve as forward_dynamics; qdd at the same point."},
+       "derivatives and the same LDL^T solve as forward_dynamics; qdd at the same point. d qdd/dq "
+       "is on the tangent space (nv columns): q moves as q + dq, a 3D base's quaternion turned by "
+       "d omega in its own frame (MuJoCo's mj_integratePos, Pinocchio's integrate)."},
   };
   // clang-format on
   return registry;

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <cmath>
 #include <cstdio>
@@ -64,6 +65,45 @@ struct ConfigurationSpace {
         oy, -oz, 0, ox,         //
         oz, oy, -ox, 0;
     by_q.block<4, 4>(k, k) = 0.5 * Omega;
+  }
+
+  // q ⊕ delta: q moved by delta (nv values) on its tangent space, the origin and the joints by
+  // their entries, the quaternion turned by delta's omega in the base's own frame, q exp(omega /
+  // 2) (MuJoCo's mj_integratePos over unit time, Pinocchio's integrate). The convention of the
+  // derivatives with respect to q (forward_dynamics_derivatives' dqdd_dq).
+  Eigen::VectorXd integrate(const Eigen::Ref<const Eigen::VectorXd>& q,
+                            const Eigen::Ref<const Eigen::VectorXd>& delta) const {
+    const int k = quaternion_offset;
+    if (k < 0) return q + delta;
+    Eigen::VectorXd out(nq);
+    out.head(k) = q.head(k) + delta.head(k);
+    const Eigen::Vector3d omega = delta.segment<3>(k);
+    const double angle = omega.norm();
+    const Eigen::Quaterniond turn =
+        angle > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(angle, omega / angle))
+                  : Eigen::Quaterniond::Identity();
+    const Eigen::Quaterniond turned = Eigen::Quaterniond(q[k], q[k + 1], q[k + 2], q[k + 3]) * turn;
+    out.segment<4>(k) << turned.w(), turned.x(), turned.y(), turned.z();
+    out.tail(nq - k - 4) = q.tail(nq - k - 4) + delta.tail(nv - k - 3);
+    return out;
+  }
+
+  // W (nv x nq): the tangent d(delta) = W dq that a change dq of the coordinates makes, for a
+  // function of q that ignores the quaternion's norm (every model's: spatial_chain.cpp). A
+  // Jacobian J on the tangent space is J W with respect to the coordinates (an implicit
+  // integrator's). Its quaternion block is 4 G(q)^T / |q|^2, G's left inverse on the tangent.
+  Eigen::MatrixXd tangent_map(const Eigen::Ref<const Eigen::VectorXd>& q) const {
+    const int k = quaternion_offset;
+    Eigen::MatrixXd W = Eigen::MatrixXd::Zero(nv, nq);
+    if (k < 0) {
+      W.setIdentity();
+      return W;
+    }
+    W.topLeftCorner(k, k).setIdentity();
+    const Eigen::Vector4d quat = q.segment<4>(k);
+    W.block<3, 4>(k, k) = 4 / quat.squaredNorm() * quaternion_matrix(quat).transpose();
+    W.bottomRightCorner(nv - k - 3, nq - k - 4).setIdentity();
+    return W;
   }
 
   // The configuration at rest: zeros, and the identity rotation (w = 1) for a quaternion.

@@ -57,13 +57,13 @@ struct DynamicModelFacts {
 };
 
 struct DynamicModel : DynamicModelFacts {
-  using Vector = Eigen::VectorXd;                 // configuration q (nq)
-  using Velocity = Eigen::VectorXd;               // qd, qdd, generalized forces Q, bias b (nv)
-  using JointVector = Eigen::VectorXd;            // one value per joint
-  using Pose = Eigen::VectorXd;                   // the registry's pose: [x, y, phi] in the plane
-  using Momentum = Eigen::VectorXd;               // [Px, Py, L] in the plane
-  using Matrix = Eigen::MatrixXd;                 // nv x nv
-  using ConfigurationJacobian = Eigen::MatrixXd;  // nv x nq
+  using Vector = Eigen::VectorXd;           // configuration q (nq)
+  using Velocity = Eigen::VectorXd;         // qd, qdd, generalized forces Q, bias b (nv)
+  using JointVector = Eigen::VectorXd;      // one value per joint
+  using Pose = Eigen::VectorXd;             // the registry's pose: [x, y, phi] in the plane
+  using Momentum = Eigen::VectorXd;         // [Px, Py, L] in the plane
+  using Matrix = Eigen::MatrixXd;           // nv x nv
+  using TangentJacobian = Eigen::MatrixXd;  // nv x nv, on q's tangent space
 
   // The functions a source may have; dynamic_model() asks it for each.
   enum class Function {
@@ -93,9 +93,10 @@ struct DynamicModel : DynamicModelFacts {
   using ForwardDynamicsCall =
       std::function<void(const double* q, const double* qd, const double* Q, double* qdd)>;
   std::function<ForwardDynamicsCall()> make_forward_dynamics_call;
-  // The state Jacobian dqdd/dq (nv x nq), dqdd/dqd (nv x nv) at constant Q; returns qdd.
+  // The state Jacobian dqdd/dq (nv x nv, on q's tangent space), dqdd/dqd (nv x nv) at constant
+  // Q; returns qdd.
   std::function<Velocity(const Vector& q, const Velocity& qd, const Velocity& Q,
-                         ConfigurationJacobian& dqdd_dq, Matrix& dqdd_dqd)>
+                         TangentJacobian& dqdd_dq, Matrix& dqdd_dqd)>
       forward_dynamics_derivatives;
   std::function<double(const Vector& q, const Velocity& qd)> kinetic_energy;
   std::function<Momentum(const Vector& q, const Velocity& qd)> momentum;
@@ -414,7 +415,7 @@ class LinkedSource {
   V forward_dynamics_derivatives(const V& q, const V& qd, const V& Q, Mx& dqdd_dq,
                                  Mx& dqdd_dqd) const {
     if constexpr (has(F::forward_dynamics_derivatives)) {
-      typename M::ConfigurationJacobian dq;
+      typename M::TangentJacobian dq;
       typename M::Matrix dqd;
       const V qdd = m_->forward_dynamics_derivatives(q, qd, Q, dq, dqd);
       dqdd_dq = dq;

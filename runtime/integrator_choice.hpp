@@ -26,8 +26,8 @@ struct StiffestMode {
 };
 
 namespace detail {
-// dqdd/dq and dqdd/dqd: the model's state Jacobian, else central differences of forward
-// dynamics (steps of 1e-6 relative, error about 1e-12 of the entries).
+// dqdd/dq (on q's tangent space, nv x nv) and dqdd/dqd: the model's state Jacobian, else central
+// differences of forward dynamics (steps of 1e-6 relative, error about 1e-12 of the entries).
 inline void state_jacobian(const DynamicModel& m, const Eigen::VectorXd& q,
                            const Eigen::VectorXd& qd, const Eigen::VectorXd& Q, Eigen::MatrixXd& dq,
                            Eigen::MatrixXd& dqd) {
@@ -35,17 +35,23 @@ inline void state_jacobian(const DynamicModel& m, const Eigen::VectorXd& q,
     m.forward_dynamics_derivatives(q, qd, Q, dq, dqd);
     return;
   }
-  dq.resize(m.nv, m.nq);
+  const ConfigurationSpace space = m.configuration_space();
+  dq.resize(m.nv, m.nv);
   dqd.resize(m.nv, m.nv);
-  for (int i = 0; i < m.nq + m.nv; ++i) {
-    Eigen::VectorXd a = q, b = qd;
-    double& x = i < m.nq ? a[i] : b[i - m.nq];
-    const double h = 1e-6 * std::max(1.0, std::abs(x)), x0 = x;
-    x = x0 + h;
-    const Eigen::VectorXd plus = m.forward_dynamics(a, b, Q);
-    x = x0 - h;
-    const Eigen::VectorXd column = (plus - m.forward_dynamics(a, b, Q)) / (2 * h);
-    (i < m.nq ? dq.col(i) : dqd.col(i - m.nq)) = column;
+  for (int i = 0; i < 2 * m.nv; ++i) {
+    const bool along_q = i < m.nv;
+    const int j = along_q ? i : i - m.nv;
+    // The coordinate that moves: past a quaternion's turn (3 tangent entries, 4 in q) by one.
+    const int k = space.quaternion_offset;
+    const double x = !along_q ? qd[j] : k < 0 || j < k ? q[j] : j < k + 3 ? 0.0 : q[j + 1];
+    const double h = 1e-6 * std::max(1.0, std::abs(x));
+    auto at = [&](double step) {
+      Eigen::VectorXd delta = Eigen::VectorXd::Zero(m.nv), b = qd;
+      (along_q ? delta[j] : b[j]) += step;
+      return m.forward_dynamics(along_q ? space.integrate(q, delta) : q, b, Q);
+    };
+    const Eigen::VectorXd column = (at(h) - at(-h)) / (2 * h);
+    (along_q ? dq.col(j) : dqd.col(j)) = column;
   }
 }
 }  // namespace detail
@@ -59,7 +65,7 @@ inline StiffestMode stiffest_mode(const DynamicModel& m, const Eigen::VectorXd& 
   m.configuration_space().rate_jacobians(q, qd, rate_by_q, rate_by_v);
   const int nq = m.nq, nv = m.nv;
   Eigen::MatrixXd A(nq + nv, nq + nv);
-  A << rate_by_q, rate_by_v, dq, dqd;
+  A << rate_by_q, rate_by_v, dq * m.configuration_space().tangent_map(q), dqd;
   StiffestMode mode;
   if (!A.allFinite()) {
     mode.rate = std::numeric_limits<double>::infinity();

@@ -57,7 +57,8 @@ class Model {
   static constexpr bool kSpatial = Pose::RowsAtCompileTime == 7 * kNumEndEffectors;
   // The base's momentum: [px, py, L] in the plane; [P (3), L (3)] in 3D, L about the world origin.
   using Momentum = Eigen::Matrix<double, kSpatial ? 6 : 3, 1>;
-  using ConfigurationJacobian = Eigen::Matrix<double, kNv, kNq>;  // d(velocity-sized)/dq
+  // d(velocity-sized)/dq on q's tangent space (configuration_space.hpp's integrate): nv x nv.
+  using TangentJacobian = Eigen::Matrix<double, kNv, kNv>;
   // The base's velocities (x0, y0, q0 in the plane; none for a fixed base); joint 1's slot
   // follows them (a flexible joint's motor coordinates follow the joint slots:
   // actuated_coordinates()). Where a quaternion sits in q (-1: none).
@@ -209,12 +210,13 @@ class Model {
     return qdd;
   }
 
-  // The state Jacobian of forward dynamics at constant Q: dqdd/dq and dqdd/dqd, exact (from
-  // the symbolic derivatives); returns qdd. Exists where the scene emits
-  // forward_dynamics_derivatives. Throws DynamicsError as forward_dynamics does.
+  // The state Jacobian of forward dynamics at constant Q: dqdd/dq (on q's tangent space: q moves
+  // as q ⊕ delta, configuration_space.hpp) and dqdd/dqd, exact (from the symbolic derivatives);
+  // returns qdd. Exists where the scene emits forward_dynamics_derivatives. Throws DynamicsError
+  // as forward_dynamics does.
   template <class G2 = Generated, std::enable_if_t<G2::kHas_forward_dynamics_derivatives, int> = 0>
   Velocity forward_dynamics_derivatives(const Vector& q, const Velocity& qd, const Velocity& Q,
-                                        ConfigurationJacobian& dqdd_dq, Matrix& dqdd_dqd) const {
+                                        TangentJacobian& dqdd_dq, Matrix& dqdd_dqd) const {
     check_finite_inputs(q, qd, Q, Generated::kName, Generated::coordinate_names());
     Velocity qdd;
     Generated::forward_dynamics_derivatives(q, qd, Q, params_, dqdd_dq, dqdd_dqd, qdd);

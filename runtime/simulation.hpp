@@ -61,18 +61,18 @@ typename Mdl::Velocity force_slope(const Mdl& model, const Torque& tau, double t
 // df/dt = (0, M^-1 dQ/dt), which is qdd(Q + dQ/dt) - qdd(Q) since qdd is affine in Q.
 template <class Mdl, class Torque>
 auto motion_jacobian(const Mdl& model, const Torque& tau, Eigen::Index nq, Eigen::Index nv, int)
-    -> decltype(model.forward_dynamics_derivatives(
-                    std::declval<typename Mdl::Vector>(), std::declval<typename Mdl::Velocity>(),
-                    std::declval<typename Mdl::Velocity>(),
-                    std::declval<typename Mdl::ConfigurationJacobian&>(),
-                    std::declval<typename Mdl::Matrix&>()),
+    -> decltype(model.forward_dynamics_derivatives(std::declval<typename Mdl::Vector>(),
+                                                   std::declval<typename Mdl::Velocity>(),
+                                                   std::declval<typename Mdl::Velocity>(),
+                                                   std::declval<typename Mdl::TangentJacobian&>(),
+                                                   std::declval<typename Mdl::Matrix&>()),
                 decltype(IntegratorOptions::jacobian)()) {
   return [&model, &tau, nq, nv](const Eigen::VectorXd& x, double t, Eigen::MatrixXd& J,
                                 Eigen::VectorXd& dfdt) {
     const typename Mdl::Vector q = x.head(nq);
     const typename Mdl::Velocity qd = x.tail(nv);
     const typename Mdl::Velocity Q = model.generalized_forces(tau(t));
-    typename Mdl::ConfigurationJacobian dq;
+    typename Mdl::TangentJacobian dq;
     typename Mdl::Matrix dqd;
     const typename Mdl::Velocity qdd = model.forward_dynamics_derivatives(q, qd, Q, dq, dqd);
     J = Eigen::MatrixXd::Zero(nq + nv, nq + nv);
@@ -80,7 +80,8 @@ auto motion_jacobian(const Mdl& model, const Torque& tau, Eigen::Index nq, Eigen
     model.configuration_space().rate_jacobians(q, qd, rate_by_q, rate_by_v);
     J.topLeftCorner(nq, nq) = rate_by_q;
     J.topRightCorner(nq, nv) = rate_by_v;
-    J.bottomLeftCorner(nv, nq) = dq;
+    // dqdd/dq on the tangent space, turned into q's coordinates.
+    J.bottomLeftCorner(nv, nq) = dq * model.configuration_space().tangent_map(q);
     J.bottomRightCorner(nv, nv) = dqd;
     dfdt = Eigen::VectorXd::Zero(nq + nv);
     const typename Mdl::Velocity dQ = force_slope(model, tau, t, Q);

@@ -114,6 +114,27 @@ std::vector<T> configuration_rate_matrix(const Description& d, const Values<T>& 
   return G;
 }
 
+// dy/dδ (row-major, nv columns) of y = f(chain) on the configuration's tangent space: q moves as
+// q ⊕ δ, its tangent G δ (G = d(qdot)/dv), so a base's quaternion turns by δω in the base's own
+// frame (MuJoCo's mj_integratePos, Pinocchio's integrate). One forward pass per velocity; where
+// nq = nv, G = 1 and this is jacobian(Input::q).
+template <template <class> class Chain, class T, class Description, class F>
+std::vector<T> tangent_jacobian(const Description& d, const Values<T>& values, const F& f) {
+  const Dimensions dims = Chain<T>::dimensions(d);
+  if (dims.nq == dims.nv) return jacobian<Chain>(d, values, Input::q, f);
+  const std::vector<T> G = configuration_rate_matrix<Chain>(d, values);
+  const char* name = info(Input::q).name;
+  std::vector<T> J;
+  for (int k = 0; k < dims.nv; ++k) {
+    const Values<Dual<T>> along = seeded<T>(
+        values, [&](const std::string& a, int i) { return a == name ? G[i * dims.nv + k] : T{}; });
+    const std::vector<T> column = tangents(f(Chain<Dual<T>>(d, along)));
+    if (J.empty()) J.resize(column.size() * dims.nv);
+    for (size_t r = 0; r < column.size(); ++r) J[r * dims.nv + k] = column[r];
+  }
+  return J;
+}
+
 // Whether a chain has quasi-velocities whose directions do not commute (the spatial chain's
 // base angular velocity in its own frame): it then gives their Hamel coupling as a matrix.
 template <class C, class = void>
@@ -136,7 +157,7 @@ std::vector<std::vector<T>> differentiated(const Description& d, const Values<T>
       return c.forward_dynamics(inputs(d, c, Input::generalized_forces))[0];
     };
     const Chain<T> chain(d, values);
-    return {jacobian<Chain>(d, values, Input::q, qdd), jacobian<Chain>(d, values, Input::qd, qdd),
+    return {tangent_jacobian<Chain>(d, values, qdd), jacobian<Chain>(d, values, Input::qd, qdd),
             chain.forward_dynamics(inputs(d, chain, Input::generalized_forces))[0]};
   }
   const std::vector<T> Mdot = tangents(along_configuration_rate<Chain>(d, values).mass_matrix());

@@ -627,10 +627,26 @@ TEST(SpatialChain, ForwardDynamicsIsTheArticulatedBodyAlgorithm) {
   }
 }
 
+// q ⊕ delta on the tangent space, written here with Eigen alone: the origin and the joints move
+// by delta, the base's quaternion turns by delta's omega in its own frame, q exp(omega / 2).
+Eigen::VectorXd moved_along_tangent(const Eigen::VectorXd& q, const Eigen::VectorXd& delta) {
+  Eigen::VectorXd out = q;
+  out.head<3>() += delta.head<3>();
+  const Eigen::Vector3d omega = delta.segment<3>(3);
+  const Eigen::Quaterniond turned =
+      Eigen::Quaterniond(q[3], q[4], q[5], q[6]) *
+      Eigen::Quaterniond(Eigen::AngleAxisd(omega.norm(), omega.normalized()));
+  out.segment<4>(3) << turned.w(), turned.x(), turned.y(), turned.z();
+  out.tail(q.size() - 7) += delta.tail(delta.size() - 6);
+  return out;
+}
+
 // The registry's outputs through recursive_algorithms.hpp, written once for any chain: forward
 // dynamics solves M qdd + b + f = Q (f: springs and dampers) with positive pivots, and the state
-// Jacobian (dual numbers; q's columns include the quaternion's four entries, nv x nq) is that of
-// central differences of forward dynamics, with rigid gears and with flexible joints.
+// Jacobian (dual numbers; dqdd/dq on q's tangent space, nv x nv, the base's quaternion turned in
+// its own frame) is that of central differences of forward dynamics along q ⊕ delta, with rigid
+// gears and with flexible joints; it is the same for the quaternion scaled by 3 (every model
+// ignores its norm).
 TEST(SpatialChain, GivesTheRegistrysRecursiveOutputs) {
   std::mt19937 rng(38);
   for (const bool flexible : {false, true}) {
@@ -652,18 +668,25 @@ TEST(SpatialChain, GivesTheRegistrysRecursiveOutputs) {
     EXPECT_LT((M * qdd + b + f - Q).norm(), 1e-12 * (1 + Q.norm() + (M * qdd).norm()));
     EXPECT_GT(as_eigen(output(Output::forward_dynamics, s)[1]).minCoeff(), 0);
     const auto J = output(Output::forward_dynamics_derivatives, s);
+    ASSERT_EQ(J[0].size(), size_t(d.nv() * d.nv()));
     const Eigen::MatrixXd dq = Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(
-                              J[0].data(), d.nv(), d.nq()),
+                              J[0].data(), d.nv(), d.nv()),
                           dv = Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(
                               J[1].data(), d.nv(), d.nv());
+    State scaled = s;
+    scaled.q.segment<4>(3) *= 3;
+    const auto J3 = output(Output::forward_dynamics_derivatives, scaled);
+    for (size_t k = 0; k < J[0].size(); ++k)
+      EXPECT_NEAR(J3[0][k], J[0][k], 1e-9 * (1 + std::abs(J[0][k]))) << k;
     const double h = 1e-6;
     // Central differences round off by about eps |qdd| / h: with flexible joints a light rotor's
     // own acceleration (Q_m / J, J = 1e-4) makes |qdd| some 1e4, so 1e-9 |qdd| is added.
     const double rounding = 1e-9 * qdd.norm();
-    for (int k = 0; k < d.nq(); ++k) {
+    for (int k = 0; k < d.nv(); ++k) {
       State plus = s, minus = s;
-      plus.q[k] += h;
-      minus.q[k] -= h;
+      const Eigen::VectorXd step = h * Eigen::VectorXd::Unit(d.nv(), k);
+      plus.q = moved_along_tangent(s.q, step);
+      minus.q = moved_along_tangent(s.q, -step);
       const Eigen::VectorXd column = (as_eigen(output(Output::forward_dynamics, plus)[0]) -
                                       as_eigen(output(Output::forward_dynamics, minus)[0])) /
                                      (2 * h);

@@ -1,7 +1,7 @@
 // runtime/configuration_space.hpp: dq/dt of MuJoCo's free-joint layout (the quaternion's rate
 // 1/2 q (0, omega), omega in the base frame) against the exact rotation at a constant omega, its
-// Jacobians against differences, the projection, and every integrator keeping the quaternion on
-// the unit sphere while it follows the exact rotation.
+// Jacobians against differences, q ⊕ delta and the tangent map, the projection, and every
+// integrator keeping the quaternion on the unit sphere while it follows the exact rotation.
 #include "configuration_space.hpp"
 
 #include <gtest/gtest.h>
@@ -50,6 +50,37 @@ TEST(ConfigurationSpace, RateIsTheDerivativeOfTheExactRotation) {
   // Without a quaternion dq/dt = v.
   const ConfigurationSpace planar{8, 8, -1};
   EXPECT_EQ(planar.rate(v, v), v);
+}
+
+// q ⊕ delta (the derivatives' tangent space) is the exact turn in the base's own frame, and
+// tangent_map W undoes the rate's G: W G = 1, for a quaternion of any norm; its rows turn a
+// change of q into the tangent that a norm-blind function sees (differences of integrate).
+TEST(ConfigurationSpace, IntegrateTurnsInTheBaseFrameAndTangentMapInvertsTheRate) {
+  const Eigen::VectorXd q = start(), v = velocity();
+  const Eigen::VectorXd moved = kSpace.integrate(q, 0.3 * v);
+  EXPECT_LT((moved.segment<4>(3) - turned(q, v.segment<3>(3), 0.3)).norm(), 1e-15);
+  EXPECT_EQ(moved.head(3), q.head(3) + 0.3 * v.head(3));
+  EXPECT_EQ(moved.tail(2), q.tail(2) + 0.3 * v.tail(2));
+  EXPECT_EQ(kSpace.integrate(q, Eigen::VectorXd::Zero(8)), q);
+  Eigen::MatrixXd by_q, G;
+  for (const double scale : {1.0, 3.0, 0.01}) {
+    Eigen::VectorXd x = q;
+    x.segment<4>(3) *= scale;
+    kSpace.rate_jacobians(x, v, by_q, G);
+    EXPECT_LT((kSpace.tangent_map(x) * G - Eigen::MatrixXd::Identity(8, 8)).norm(), 1e-13)
+        << scale;
+  }
+  // A change dq of the quaternion: the turn it makes is W dq, as q ⊕ (W dq) is q + dq normalized.
+  const Eigen::Vector4d dq(0.3, -0.2, 0.5, 0.1);
+  Eigen::VectorXd change = Eigen::VectorXd::Zero(9);
+  change.segment<4>(3) = 1e-7 * dq;
+  Eigen::VectorXd nudged = q + change;
+  kSpace.project(nudged);
+  const Eigen::VectorXd via_tangent = kSpace.integrate(q, kSpace.tangent_map(q) * change);
+  EXPECT_LT((via_tangent - nudged).norm(), 1e-13);
+  const ConfigurationSpace planar{8, 8, -1};
+  EXPECT_EQ(planar.integrate(v, v), 2 * v);
+  EXPECT_EQ(planar.tangent_map(v), Eigen::MatrixXd::Identity(8, 8));
 }
 
 TEST(ConfigurationSpace, JacobiansEqualCentralDifferences) {
