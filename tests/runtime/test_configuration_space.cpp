@@ -67,8 +67,7 @@ TEST(ConfigurationSpace, IntegrateTurnsInTheBaseFrameAndTangentMapInvertsTheRate
     Eigen::VectorXd x = q;
     x.segment<4>(3) *= scale;
     kSpace.rate_jacobians(x, v, by_q, G);
-    EXPECT_LT((kSpace.tangent_map(x) * G - Eigen::MatrixXd::Identity(8, 8)).norm(), 1e-13)
-        << scale;
+    EXPECT_LT((kSpace.tangent_map(x) * G - Eigen::MatrixXd::Identity(8, 8)).norm(), 1e-13) << scale;
   }
   // A change dq of the quaternion: the turn it makes is W dq, as q ⊕ (W dq) is q + dq normalized.
   const Eigen::Vector4d dq(0.3, -0.2, 0.5, 0.1);
