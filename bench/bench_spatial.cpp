@@ -11,8 +11,9 @@
 // the ungeared and the armature model's forward dynamics must equal MuJoCo's to 1e-12. The first/
 // rows time the URDF to a first result through an empty cache, with one compiler, with one per
 // CPU and under --engine auto (the interpreter's answer), for space_arm7 and the dual arm.
-// One row calls two single-arm models in turn: an instruction working set the size of the dual
-// arm's, without a tree.
+// space_arm7's models also give their state Jacobian (forward_dynamics_derivatives), timed against
+// MuJoCo's mjd_transitionFD. One row calls two single-arm models in turn: an instruction working
+// set the size of the dual arm's, without a tree.
 //   scripts/bench.sh --spatial
 #include <benchmark/benchmark.h>
 
@@ -44,6 +45,9 @@ constexpr int kStates = 64;
 const char* const kRobots[] = {"models/space_arm7.yaml", "models/dual_arm7.yaml",
                                "bench/scenes/quad_arm6.yaml"};
 
+// The robot whose state Jacobian (forward_dynamics_derivatives) is timed.
+const std::string kDerivativesRobot = "models/space_arm7.yaml";
+
 // The robot without gears, with armature gears (MuJoCo's model of a rotor) or with exact rotors.
 enum class Gears { none, armature, exact };
 SpatialScene robot(const std::string& relative, Gears gears) {
@@ -59,6 +63,11 @@ SpatialScene robot(const std::string& relative, Gears gears) {
   }
   s.name += std::string("_") + kind[static_cast<int>(gears)];
   s.content += std::string("\n# ") + kind[static_cast<int>(gears)];  // one cache entry each
+  if (relative == kDerivativesRobot) {  // the state Jacobian too, for its rows
+    s.outputs = spatial_outputs(s);
+    s.outputs.push_back(Output::forward_dynamics_derivatives);
+    s.content += "\n# with forward_dynamics_derivatives";
+  }
   return s;
 }
 
@@ -182,6 +191,46 @@ void register_alternated(const Loaded& a, const Loaded& b) {
       });
 }
 
+// The state Jacobian (dqdd/dq on the tangent space, dqdd/dqd, and qdd: one call), under the
+// model's name.
+void register_derivatives(const Loaded& m) {
+  const int nv = m.chain.nv();
+  const States& states = m.states;
+  const CompiledModel::Function dd = m.model.function(Output::forward_dynamics_derivatives);
+  benchmark::RegisterBenchmark(
+      ("spacearm/FD derivatives/" + m.model.name()).c_str(),
+      [dd, nv, &states](benchmark::State& st) {
+        std::vector<double> dq(nv * nv), dv(nv * nv), qdd(nv);
+        double* results[] = {dq.data(), dv.data(), qdd.data()};
+        int k = 0;
+        for (auto _ : st) {
+          const double* inputs[] = {states.q[k].data(), states.v[k].data(), states.Q[k].data()};
+          dd(inputs, nullptr, results);
+          benchmark::DoNotOptimize(dq.data());
+          k = (k + 1) % kStates;
+        }
+      });
+}
+
+// MuJoCo's step Jacobian by forward differences (mjd_transitionFD, eps 1e-6, not centered: its
+// cheapest), A (2 nv x 2 nv) at the same states.
+void register_mujoco_derivatives(test::MujocoModel& mj, const std::string& name, const Loaded& m) {
+  const int nv = m.chain.nv();
+  const States& states = m.states;
+  auto A = std::make_shared<std::vector<mjtNum>>(4 * nv * nv);
+  benchmark::RegisterBenchmark(
+      ("mujoco/transitionFD/" + name).c_str(), [&mj, nv, A, &states](benchmark::State& st) {
+        int k = 0;
+        for (auto _ : st) {
+          for (int i = 0; i < nv + 1; ++i) mj.d->qpos[i] = states.q[k][i];
+          for (int i = 0; i < nv; ++i) mj.d->qvel[i] = states.v[k][i];
+          mjd_transitionFD(mj.m.get(), mj.d.get(), 1e-6, 0, A->data(), nullptr, nullptr, nullptr);
+          benchmark::DoNotOptimize(A->data());
+          k = (k + 1) % kStates;
+        }
+      });
+}
+
 // mj_forward and M + bias of MuJoCo's model of the arm, under its name.
 void register_mujoco(test::MujocoModel& mj, const std::string& name, const Loaded& m) {
   const int nv = m.chain.nv();
@@ -260,8 +309,12 @@ void register_robot(const std::string& relative) {
                 loaded[k]->model.name().c_str(), worst, worst < 1e-12 ? "ok" : "DISAGREE");
     if (!(worst < 1e-12)) std::exit(1);
     register_mujoco(*mujoco.back(), loaded[k]->model.name(), *loaded[k]);
+    if (relative == kDerivativesRobot)
+      register_mujoco_derivatives(*mujoco.back(), loaded[k]->model.name(), *loaded[k]);
   }
   for (size_t k = first; k < first + 3; ++k) register_ours(*loaded[k]);
+  for (size_t k = first; k < first + 3 && relative == kDerivativesRobot; ++k)
+    register_derivatives(*loaded[k]);
   if (first == 0) register_alternated(*loaded[0], *loaded[1]);  // space_arm7 ungeared, armature
   if (relative.rfind("models/", 0) == 0)                        // the URDF robots
     register_first_use(relative, std::filesystem::path(relative).stem().string(),
