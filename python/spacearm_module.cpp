@@ -793,6 +793,41 @@ void bind_model_facts(py::class_<PyModel>& model) {
                     "kinetic_energy; the same bits) or 1");
 }
 
+// Model.integrate and difference: q ⊕ delta and q1 ⊖ q0 on the tangent space that the
+// derivatives take (configuration_space.hpp), sizes checked by name.
+void bind_model_tangent(py::class_<PyModel>& model) {
+  auto sized = [](const py::object& value, const char* what, int size) {
+    const Eigen::VectorXd v = vector_argument(value, what);
+    if (v.size() != size)
+      throw py::value_error(std::string(what) + ": expected " + std::to_string(size) +
+                            " values, got " + std::to_string(v.size()));
+    if (!v.allFinite()) throw py::value_error(std::string(what) + ": not finite");
+    return v;
+  };
+  auto space = [](const PyModel& m) {
+    return dynamic_model(m.model(), m.params()).configuration_space();
+  };
+  model.def(
+      "integrate",
+      [sized, space](const PyModel& m, const py::object& q, const py::object& delta) {
+        return space(m).integrate(sized(q, "q", m.model().nq()),
+                                  sized(delta, "delta", m.model().nv()));
+      },
+      py::arg("q"), py::arg("delta"),
+      "q ⊕ delta: q moved by delta (nv values) on its tangent space, the base's quaternion "
+      "turned by delta's omega in the base's own frame (MuJoCo's mj_integratePos, Pinocchio's "
+      "integrate); forward_dynamics_derivatives' dqdd_dq is taken along it.");
+  model.def(
+      "difference",
+      [sized, space](const PyModel& m, const py::object& q0, const py::object& q1) {
+        return space(m).difference(sized(q0, "q0", m.model().nq()),
+                                   sized(q1, "q1", m.model().nq()));
+      },
+      py::arg("q0"), py::arg("q1"),
+      "q1 ⊖ q0: the tangent delta (nv values) with integrate(q0, delta) == q1, the shorter turn "
+      "(Pinocchio's difference).");
+}
+
 // Model.plan, simulate and closed_loop: what `spacearm plan` and `simulate` do.
 void bind_model_runs(py::class_<PyModel>& model) {
   model.def("plan", &PyModel::plan, py::arg("start"), py::arg("goal"), py::arg("duration"),
@@ -914,6 +949,7 @@ PYBIND11_MODULE(_spacearm, module) {
   bind_study(module);
   py::class_<PyModel> model(module, "Model");
   bind_model_facts(model);
+  bind_model_tangent(model);
   bind_model_runs(model);
   bind_model_outputs(model);
   module.def("load", &load, py::arg("scene"), py::arg("params") = py::none(),

@@ -88,6 +88,22 @@ struct ConfigurationSpace {
     return out;
   }
 
+  // q1 ⊖ q0: the tangent delta with q0 ⊕ delta = q1 (Pinocchio's difference), the shorter of
+  // the two turns; quaternions of any nonzero norm.
+  Eigen::VectorXd difference(const Eigen::Ref<const Eigen::VectorXd>& q0,
+                             const Eigen::Ref<const Eigen::VectorXd>& q1) const {
+    const int k = quaternion_offset;
+    if (k < 0) return q1 - q0;
+    Eigen::VectorXd delta(nv);
+    delta.head(k) = q1.head(k) - q0.head(k);
+    const Eigen::Quaterniond a = Eigen::Quaterniond(q0[k], q0[k + 1], q0[k + 2], q0[k + 3]);
+    const Eigen::Quaterniond b = Eigen::Quaterniond(q1[k], q1[k + 1], q1[k + 2], q1[k + 3]);
+    const Eigen::AngleAxisd turn(a.normalized().conjugate() * b.normalized());  // angle in [0, pi]
+    delta.segment<3>(k) = turn.angle() * turn.axis();
+    delta.tail(nv - k - 3) = q1.tail(nq - k - 4) - q0.tail(nq - k - 4);
+    return delta;
+  }
+
   // W (nv x nq): the tangent d(delta) = W dq that a change dq of the coordinates makes, for a
   // function of q that ignores the quaternion's norm (every model's: spatial_chain.cpp). A
   // Jacobian J on the tangent space is J W with respect to the coordinates (an implicit

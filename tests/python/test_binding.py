@@ -518,6 +518,32 @@ def test_engines_give_the_same_bits(geared):
         spacearm.load(path, engine="jit")
 
 
+def test_the_state_jacobian_is_on_the_tangent_space():
+    """Issue 53: a spatial arm's dqdd_dq is nv x nv, the derivative along q ⊕ delta
+    (Model.integrate: the base's quaternion turned in its own frame), equal to central differences
+    of forward dynamics along it; difference undoes integrate; sizes are checked by name."""
+    with open(os.path.join(SOURCE, "tests", "scenes", "spatial_arm2.yaml")) as f:
+        text = f.read().replace("name: spatial_arm2", "name: spatial_arm2_derivatives")
+    arm = spacearm.load(text + "outputs: [forward_dynamics, forward_dynamics_derivatives]\n",
+                        cache_dir=CACHE)
+    q = np.array([0.1, 0.2, 0.3, 0.5, 0.5, -0.5, 0.5, 3.0, -7.0])
+    qd = np.array([0.1, -0.2, 0.3, 0.4, -0.5, 0.6, 0.7, -0.8])
+    Q = np.array([0, 0, 0, 0, 0, 0, 0.5, -0.3])
+    jacobian = arm.forward_dynamics_derivatives(q, qd, Q)
+    dq = jacobian["dqdd_dq"]
+    assert dq.shape == (8, 8) and jacobian["dqdd_dqd"].shape == (8, 8)
+    h = 1e-6
+    for k in range(8):
+        step = h * np.eye(8)[k]
+        column = (arm.forward_dynamics(arm.integrate(q, step), qd, Q) -
+                  arm.forward_dynamics(arm.integrate(q, -step), qd, Q)) / (2 * h)
+        assert np.abs(dq[:, k] - column).max() < 1e-6 * (1 + np.abs(column).max()), k
+    delta = np.array([0.3, -0.1, 0.2, 0.4, 0.5, -0.6, 0.1, 0.2])
+    assert np.abs(arm.difference(q, arm.integrate(q, delta)) - delta).max() < 1e-13
+    with pytest.raises(ValueError, match="delta: expected 8 values, got 9"):
+        arm.integrate(q, q)
+
+
 def test_a_tree_names_its_end_effectors_and_plans_one_while_the_other_holds():
     """Issue 52: models/dual_arm7 (two arms on one satellite) gives each tool's pose (7 values
     each) and Jacobian rows (6 each), named; plan moves the left tool while the right one holds

@@ -54,7 +54,8 @@ TEST(ConfigurationSpace, RateIsTheDerivativeOfTheExactRotation) {
 
 // q ⊕ delta (the derivatives' tangent space) is the exact turn in the base's own frame, and
 // tangent_map W undoes the rate's G: W G = 1, for a quaternion of any norm; its rows turn a
-// change of q into the tangent that a norm-blind function sees (differences of integrate).
+// change of q into the tangent that a norm-blind function sees (differences of integrate);
+// difference (q1 ⊖ q0) undoes integrate, the shorter way round.
 TEST(ConfigurationSpace, IntegrateTurnsInTheBaseFrameAndTangentMapInvertsTheRate) {
   const Eigen::VectorXd q = start(), v = velocity();
   const Eigen::VectorXd moved = kSpace.integrate(q, 0.3 * v);
@@ -77,8 +78,25 @@ TEST(ConfigurationSpace, IntegrateTurnsInTheBaseFrameAndTangentMapInvertsTheRate
   kSpace.project(nudged);
   const Eigen::VectorXd via_tangent = kSpace.integrate(q, kSpace.tangent_map(q) * change);
   EXPECT_LT((via_tangent - nudged).norm(), 1e-13);
+  // difference undoes integrate for turns below pi (the shorter turn), whatever the norms.
+  for (const double scale : {0.3, 2.0, 4.0}) {
+    const Eigen::VectorXd delta = scale * v;  // turns of 0.3 to 4 times |omega| = 1.37 rad
+    Eigen::VectorXd there = kSpace.integrate(q, delta), from = q;
+    from.segment<4>(3) *= scale;
+    there.segment<4>(3) *= 7;
+    const Eigen::VectorXd back = kSpace.difference(from, there);
+    if (scale * v.segment<3>(3).norm() < M_PI) {
+      EXPECT_LT((back - delta).norm(), 1e-13) << scale;
+    } else {  // the other way round, by 2 pi - angle
+      EXPECT_NEAR(back.segment<3>(3).norm(), 2 * M_PI - scale * v.segment<3>(3).norm(), 1e-12);
+      EXPECT_LT((kSpace.integrate(q, back).segment<4>(3) + kSpace.integrate(q, delta).segment<4>(3))
+                    .norm(),
+                1e-13);  // the same rotation: q and -q
+    }
+  }
   const ConfigurationSpace planar{8, 8, -1};
   EXPECT_EQ(planar.integrate(v, v), 2 * v);
+  EXPECT_EQ(planar.difference(v, 2 * v), v);
   EXPECT_EQ(planar.tangent_map(v), Eigen::MatrixXd::Identity(8, 8));
 }
 
