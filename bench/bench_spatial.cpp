@@ -191,17 +191,18 @@ void register_alternated(const Loaded& a, const Loaded& b) {
       });
 }
 
-// The state Jacobian (dqdd/dq on the tangent space, dqdd/dqd, and qdd: one call), under the
-// model's name.
+// The state Jacobian (dqdd/dq on the tangent space, dqdd/dqd, qdd and dqdd/dtau: one call),
+// under the model's name.
 void register_derivatives(const Loaded& m) {
   const int nv = m.chain.nv();
   const States& states = m.states;
+  const int N = static_cast<int>(m.chain.links.size());
   const CompiledModel::Function dd = m.model.function(Output::forward_dynamics_derivatives);
   benchmark::RegisterBenchmark(
       ("spacearm/FD derivatives/" + m.model.name()).c_str(),
-      [dd, nv, &states](benchmark::State& st) {
-        std::vector<double> dq(nv * nv), dv(nv * nv), qdd(nv);
-        double* results[] = {dq.data(), dv.data(), qdd.data()};
+      [dd, nv, N, &states](benchmark::State& st) {
+        std::vector<double> dq(nv * nv), dv(nv * nv), qdd(nv), dtau(nv * N);
+        double* results[] = {dq.data(), dv.data(), qdd.data(), dtau.data()};
         int k = 0;
         for (auto _ : st) {
           const double* inputs[] = {states.q[k].data(), states.v[k].data(), states.Q[k].data()};

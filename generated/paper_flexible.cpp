@@ -947,11 +947,11 @@ void friction_forces([[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] 
   ff(8) = t7 * (params(5) + t2 * t8) + params(4) * qd(8);
 }
 
-// State Jacobian of forward dynamics at constant Q, d qdd/dq = -M^-1 (dM/dq qdd + dh/dq) and d qdd/dqd = -M^-1 dh/dqd (h: bias, springs, dampers, friction), from the exact symbolic derivatives and the same LDL^T solve as forward_dynamics; qdd at the same point. d qdd/dq is on the tangent space (nv columns): q moves as q + dq, a 3D base's quaternion turned by d omega in its own frame (MuJoCo's mj_integratePos, Pinocchio's integrate). Paper eq. 8.
-// Operations: 1122 add, 1275 mul, 12 div, 8 sin/cos, 6 tanh/exp.
+// State Jacobian of forward dynamics at constant Q, d qdd/dq = -M^-1 (dM/dq qdd + dh/dq) and d qdd/dqd = -M^-1 dh/dqd (h: bias, springs, dampers, friction), from the exact symbolic derivatives and the same LDL^T solve as forward_dynamics; qdd at the same point. d qdd/dq is on the tangent space (nv columns): q moves as q + dq, a 3D base's quaternion turned by d omega in its own frame (MuJoCo's mj_integratePos, Pinocchio's integrate). d qdd/dtau (nv x N) by the link-side joint torques, Q = tau / p on each actuated coordinate: those columns of M^-1 over p. Paper eq. 8.
+// Operations: 1195 add, 1372 mul, 12 div, 8 sin/cos, 6 tanh/exp.
 // Formulation: closed form.
 template <typename T>
-void forward_dynamics_derivatives([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& Q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, kNv, kNv>& dqdd_dq, Eigen::Matrix<T, kNv, kNv>& dqdd_dqd, Velocities<T>& qdd) {
+void forward_dynamics_derivatives([[maybe_unused]] const Coordinates<T>& q, [[maybe_unused]] const Velocities<T>& qd, [[maybe_unused]] const Velocities<T>& Q, [[maybe_unused]] const Parameters<T>& params, Eigen::Matrix<T, kNv, kNv>& dqdd_dq, Eigen::Matrix<T, kNv, kNv>& dqdd_dqd, Velocities<T>& qdd, Eigen::Matrix<T, kNv, kNumLinks>& dqdd_dtau) {
   using std::exp;
   using std::tanh;
   const T t0 = q(2) + q(3);
@@ -1415,6 +1415,28 @@ void forward_dynamics_derivatives([[maybe_unused]] const Coordinates<T>& q, [[ma
   const T t455 = t156 * t453 + t170 * t452 - t140 * t454 - t183 * t451;
   const T t456 = t125 * t455 + t144 * t454 + t155 * t453 + t172 * t452 + t172 * t451;
   const T t457 = t108 * t456 + t157 * t453 - t128 * t455 - t143 * t454 - t157 * t452 - t157 * t451;
+  const T t458 = t18 * t169;
+  const T t459 = t186 * (t182 * t458 - t18 * t185);
+  const T t460 = t175 * t458 + t182 * t459;
+  const T t461 = t18 * t160 + t169 * t460 - t185 * t459;
+  const T t462 = t171 * t460 + t184 * t459 - t154 * t461;
+  const T t463 = t140 * t462 + t156 * t461 + t170 * t460 + t183 * t459;
+  const T t464 = t125 * t463 + t155 * t461 + t172 * t460 - t144 * t462 - t172 * t459;
+  const T t465 = t128 * t463 + t157 * t460 - t108 * t464 - t143 * t462 - t157 * t461 - t157 * t459;
+  const T t466 = t186 * t18 * t182;
+  const T t467 = t18 * t175 + t182 * t466;
+  const T t468 = t185 * t466 - t169 * t467;
+  const T t469 = t154 * t468 + t171 * t467 + t184 * t466;
+  const T t470 = t140 * t469 + t170 * t467 + t183 * t466 - t156 * t468;
+  const T t471 = t144 * t469 + t155 * t468 + t172 * t466 - t125 * t470 - t172 * t467;
+  const T t472 = t143 * t469 + t157 * t466 - t108 * t471 - t128 * t470 - t157 * t468 - t157 * t467;
+  const T t473 = t18 * t186;
+  const T t474 = t182 * t473;
+  const T t475 = t169 * t474 - t185 * t473;
+  const T t476 = t171 * t474 + t184 * t473 - t154 * t475;
+  const T t477 = t140 * t476 + t156 * t475 + t170 * t474 + t183 * t473;
+  const T t478 = t125 * t477 + t155 * t475 + t172 * t474 - t144 * t476 - t172 * t473;
+  const T t479 = t128 * t477 + t157 * t474 - t108 * t478 - t143 * t476 - t157 * t475 - t157 * t473;
   dqdd_dq(0, 0) = T(0);
   dqdd_dq(0, 1) = T(0);
   dqdd_dq(0, 2) = t11 * t198 - t74 * t225 - t109 * t224 - t126 * t223 - t141 * t222;
@@ -1586,6 +1608,33 @@ void forward_dynamics_derivatives([[maybe_unused]] const Coordinates<T>& q, [[ma
   qdd(6) = t189;
   qdd(7) = t188;
   qdd(8) = t187;
+  dqdd_dtau(0, 0) = t126 * t463 - t74 * t465 - t109 * t464 - t141 * t462;
+  dqdd_dtau(0, 1) = t141 * t469 - t74 * t472 - t109 * t471 - t126 * t470;
+  dqdd_dtau(0, 2) = t126 * t477 - t74 * t479 - t109 * t478 - t141 * t476;
+  dqdd_dtau(1, 0) = t127 * t463 - t75 * t465 - t110 * t464 - t142 * t462;
+  dqdd_dtau(1, 1) = t142 * t469 - t75 * t472 - t110 * t471 - t127 * t470;
+  dqdd_dtau(1, 2) = t127 * t477 - t75 * t479 - t110 * t478 - t142 * t476;
+  dqdd_dtau(2, 0) = t465;
+  dqdd_dtau(2, 1) = t472;
+  dqdd_dtau(2, 2) = t479;
+  dqdd_dtau(3, 0) = t464;
+  dqdd_dtau(3, 1) = t471;
+  dqdd_dtau(3, 2) = t478;
+  dqdd_dtau(4, 0) = -t463;
+  dqdd_dtau(4, 1) = t470;
+  dqdd_dtau(4, 2) = -t477;
+  dqdd_dtau(5, 0) = t462;
+  dqdd_dtau(5, 1) = -t469;
+  dqdd_dtau(5, 2) = t476;
+  dqdd_dtau(6, 0) = t461;
+  dqdd_dtau(6, 1) = t468;
+  dqdd_dtau(6, 2) = t475;
+  dqdd_dtau(7, 0) = -t460;
+  dqdd_dtau(7, 1) = t467;
+  dqdd_dtau(7, 2) = -t474;
+  dqdd_dtau(8, 0) = t459;
+  dqdd_dtau(8, 1) = -t466;
+  dqdd_dtau(8, 2) = t473;
 }
 
 // Gear ratio p_i of each joint (1 for the reference model): Q_g = tau / p. Paper eq. 14.
@@ -1613,7 +1662,7 @@ template void forward_dynamics<float>(const Coordinates<float>&, const Velocitie
 template float potential_energy<float>(const Coordinates<float>&, const Parameters<float>&);
 template void spring_damper_forces<float>(const Coordinates<float>&, const Velocities<float>&, const Parameters<float>&, Velocities<float>&);
 template void friction_forces<float>(const Velocities<float>&, const Parameters<float>&, Velocities<float>&);
-template void forward_dynamics_derivatives<float>(const Coordinates<float>&, const Velocities<float>&, const Velocities<float>&, const Parameters<float>&, Eigen::Matrix<float, kNv, kNv>&, Eigen::Matrix<float, kNv, kNv>&, Velocities<float>&);
+template void forward_dynamics_derivatives<float>(const Coordinates<float>&, const Velocities<float>&, const Velocities<float>&, const Parameters<float>&, Eigen::Matrix<float, kNv, kNv>&, Eigen::Matrix<float, kNv, kNv>&, Velocities<float>&, Eigen::Matrix<float, kNv, kNumLinks>&);
 template void gear_ratios<float>(const Parameters<float>&, JointVector<float>&);
 template void mass_matrix<double>(const Coordinates<double>&, const Parameters<double>&, Eigen::Matrix<double, kNv, kNv>&);
 template void bias_forces<double>(const Coordinates<double>&, const Velocities<double>&, const Parameters<double>&, Velocities<double>&);
@@ -1629,7 +1678,7 @@ template void forward_dynamics<double>(const Coordinates<double>&, const Velocit
 template double potential_energy<double>(const Coordinates<double>&, const Parameters<double>&);
 template void spring_damper_forces<double>(const Coordinates<double>&, const Velocities<double>&, const Parameters<double>&, Velocities<double>&);
 template void friction_forces<double>(const Velocities<double>&, const Parameters<double>&, Velocities<double>&);
-template void forward_dynamics_derivatives<double>(const Coordinates<double>&, const Velocities<double>&, const Velocities<double>&, const Parameters<double>&, Eigen::Matrix<double, kNv, kNv>&, Eigen::Matrix<double, kNv, kNv>&, Velocities<double>&);
+template void forward_dynamics_derivatives<double>(const Coordinates<double>&, const Velocities<double>&, const Velocities<double>&, const Parameters<double>&, Eigen::Matrix<double, kNv, kNv>&, Eigen::Matrix<double, kNv, kNv>&, Velocities<double>&, Eigen::Matrix<double, kNv, kNumLinks>&);
 template void gear_ratios<double>(const Parameters<double>&, JointVector<double>&);
 template void mass_matrix<long double>(const Coordinates<long double>&, const Parameters<long double>&, Eigen::Matrix<long double, kNv, kNv>&);
 template void bias_forces<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Parameters<long double>&, Velocities<long double>&);
@@ -1645,7 +1694,7 @@ template void forward_dynamics<long double>(const Coordinates<long double>&, con
 template long double potential_energy<long double>(const Coordinates<long double>&, const Parameters<long double>&);
 template void spring_damper_forces<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Parameters<long double>&, Velocities<long double>&);
 template void friction_forces<long double>(const Velocities<long double>&, const Parameters<long double>&, Velocities<long double>&);
-template void forward_dynamics_derivatives<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Velocities<long double>&, const Parameters<long double>&, Eigen::Matrix<long double, kNv, kNv>&, Eigen::Matrix<long double, kNv, kNv>&, Velocities<long double>&);
+template void forward_dynamics_derivatives<long double>(const Coordinates<long double>&, const Velocities<long double>&, const Velocities<long double>&, const Parameters<long double>&, Eigen::Matrix<long double, kNv, kNv>&, Eigen::Matrix<long double, kNv, kNv>&, Velocities<long double>&, Eigen::Matrix<long double, kNv, kNumLinks>&);
 template void gear_ratios<long double>(const Parameters<long double>&, JointVector<long double>&);
 
 }  // namespace spacearm::models::paper_flexible

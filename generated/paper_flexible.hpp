@@ -176,9 +176,9 @@ void spring_damper_forces(const Coordinates<T>& q, const Velocities<T>& qd, cons
 template <typename T>
 void friction_forces(const Velocities<T>& qd, const Parameters<T>& params, Velocities<T>& ff);
 
-// State Jacobian of forward dynamics at constant Q, d qdd/dq = -M^-1 (dM/dq qdd + dh/dq) and d qdd/dqd = -M^-1 dh/dqd (h: bias, springs, dampers, friction), from the exact symbolic derivatives and the same LDL^T solve as forward_dynamics; qdd at the same point. d qdd/dq is on the tangent space (nv columns): q moves as q + dq, a 3D base's quaternion turned by d omega in its own frame (MuJoCo's mj_integratePos, Pinocchio's integrate). Paper eq. 8.
+// State Jacobian of forward dynamics at constant Q, d qdd/dq = -M^-1 (dM/dq qdd + dh/dq) and d qdd/dqd = -M^-1 dh/dqd (h: bias, springs, dampers, friction), from the exact symbolic derivatives and the same LDL^T solve as forward_dynamics; qdd at the same point. d qdd/dq is on the tangent space (nv columns): q moves as q + dq, a 3D base's quaternion turned by d omega in its own frame (MuJoCo's mj_integratePos, Pinocchio's integrate). d qdd/dtau (nv x N) by the link-side joint torques, Q = tau / p on each actuated coordinate: those columns of M^-1 over p. Paper eq. 8.
 template <typename T>
-void forward_dynamics_derivatives(const Coordinates<T>& q, const Velocities<T>& qd, const Velocities<T>& Q, const Parameters<T>& params, Eigen::Matrix<T, kNv, kNv>& dqdd_dq, Eigen::Matrix<T, kNv, kNv>& dqdd_dqd, Velocities<T>& qdd);
+void forward_dynamics_derivatives(const Coordinates<T>& q, const Velocities<T>& qd, const Velocities<T>& Q, const Parameters<T>& params, Eigen::Matrix<T, kNv, kNv>& dqdd_dq, Eigen::Matrix<T, kNv, kNv>& dqdd_dqd, Velocities<T>& qdd, Eigen::Matrix<T, kNv, kNumLinks>& dqdd_dtau);
 
 // Gear ratio p_i of each joint (1 for the reference model): Q_g = tau / p. Paper eq. 14.
 template <typename T>
@@ -290,8 +290,8 @@ struct Model {
     return spacearm::models::paper_flexible::friction_forces<T>(qd, params, ff);
   }
   template <typename T>
-  static void forward_dynamics_derivatives(const Coordinates<T>& q, const Velocities<T>& qd, const Velocities<T>& Q, const Parameters<T>& params, Eigen::Matrix<T, kNv, kNv>& dqdd_dq, Eigen::Matrix<T, kNv, kNv>& dqdd_dqd, Velocities<T>& qdd) {
-    return spacearm::models::paper_flexible::forward_dynamics_derivatives<T>(q, qd, Q, params, dqdd_dq, dqdd_dqd, qdd);
+  static void forward_dynamics_derivatives(const Coordinates<T>& q, const Velocities<T>& qd, const Velocities<T>& Q, const Parameters<T>& params, Eigen::Matrix<T, kNv, kNv>& dqdd_dq, Eigen::Matrix<T, kNv, kNv>& dqdd_dqd, Velocities<T>& qdd, Eigen::Matrix<T, kNv, kNumLinks>& dqdd_dtau) {
+    return spacearm::models::paper_flexible::forward_dynamics_derivatives<T>(q, qd, Q, params, dqdd_dq, dqdd_dqd, qdd, dqdd_dtau);
   }
   template <typename T>
   static void gear_ratios(const Parameters<T>& params, JointVector<T>& p) {

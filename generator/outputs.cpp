@@ -157,13 +157,15 @@ const std::vector<OutputInfo>& output_registry() {
       {O::forward_dynamics_derivatives, "forward_dynamics_derivatives", "dqdd",
        {I::q, I::qd, I::generalized_forces},
        {{"dqdd_dq", S::nv, S::nv, false}, {"dqdd_dqd", S::nv, S::nv, false},
-        {"qdd", S::nv, S::one, false}},
+        {"qdd", S::nv, S::one, false}, {"dqdd_dtau", S::nv, S::num_links, false}},
        kAnyBase, kOnRequest, {O::mass_matrix, O::bias_forces}, "8",
        "State Jacobian of forward dynamics at constant Q, d qdd/dq = -M^-1 (dM/dq qdd + dh/dq) and "
        "d qdd/dqd = -M^-1 dh/dqd (h: bias, springs, dampers, friction), from the exact symbolic "
        "derivatives and the same LDL^T solve as forward_dynamics; qdd at the same point. d qdd/dq "
        "is on the tangent space (nv columns): q moves as q + dq, a 3D base's quaternion turned by "
-       "d omega in its own frame (MuJoCo's mj_integratePos, Pinocchio's integrate)."},
+       "d omega in its own frame (MuJoCo's mj_integratePos, Pinocchio's integrate). d qdd/dtau "
+       "(nv x N) by the link-side joint torques, Q = tau / p on each actuated coordinate: those "
+       "columns of M^-1 over p."},
   };
   // clang-format on
   return registry;

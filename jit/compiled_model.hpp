@@ -271,13 +271,14 @@ class CompiledModel {
     // The emitted function (Function below); empty: the Cholesky path.
     ModelFunction emitted_;
   };
-  // The state Jacobian dqdd/dq, dqdd/dqd at constant Q; returns qdd. DynamicsError where a
-  // result is not finite (as Model<G>'s).
+  // The state Jacobian dqdd/dq (on q's tangent space), dqdd/dqd at constant Q, and where given
+  // dqdd/dtau (by the link-side joint torques); returns qdd. DynamicsError where a result is not
+  // finite (as Model<G>'s).
   Eigen::VectorXd forward_dynamics_derivatives(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                                                const Eigen::VectorXd& Q,
                                                const Eigen::VectorXd& params,
-                                               Eigen::MatrixXd& dqdd_dq,
-                                               Eigen::MatrixXd& dqdd_dqd) const;
+                                               Eigen::MatrixXd& dqdd_dq, Eigen::MatrixXd& dqdd_dqd,
+                                               Eigen::MatrixXd* dqdd_dtau = nullptr) const;
 
   // The exported C function of an output, called as cpp_printer.hpp says, with no checks:
   // for callers that check their inputs once and then call it many times (benchmarks). Valid

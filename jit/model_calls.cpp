@@ -424,7 +424,8 @@ bool CompiledModel::has_forward_dynamics() const {
 }
 Eigen::VectorXd CompiledModel::forward_dynamics_derivatives(
     const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& Q,
-    const Eigen::VectorXd& params, Eigen::MatrixXd& dqdd_dq, Eigen::MatrixXd& dqdd_dqd) const {
+    const Eigen::VectorXd& params, Eigen::MatrixXd& dqdd_dq, Eigen::MatrixXd& dqdd_dqd,
+    Eigen::MatrixXd* dqdd_dtau) const {
   auto r = evaluate(Output::forward_dynamics_derivatives, {q, qd, Q}, params);
   for (const auto& part : r)
     if (!part.allFinite())
@@ -432,6 +433,7 @@ Eigen::VectorXd CompiledModel::forward_dynamics_derivatives(
                           ": the state Jacobian is not finite (mass matrix singular?)");
   dqdd_dq = std::move(r[0]);
   dqdd_dqd = std::move(r[1]);
+  if (dqdd_dtau) *dqdd_dtau = std::move(r[3]);
   return r[2];
 }
 Eigen::VectorXd CompiledModel::forward_dynamics(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,

@@ -59,6 +59,7 @@ class Model {
   using Momentum = Eigen::Matrix<double, kSpatial ? 6 : 3, 1>;
   // d(velocity-sized)/dq on q's tangent space (configuration_space.hpp's integrate): nv x nv.
   using TangentJacobian = Eigen::Matrix<double, kNv, kNv>;
+  using TorqueJacobian = Eigen::Matrix<double, kNv, kNumLinks>;  // d(velocity-sized)/dtau
   // The base's velocities (x0, y0, q0 in the plane; none for a fixed base); joint 1's slot
   // follows them (a flexible joint's motor coordinates follow the joint slots:
   // actuated_coordinates()). Where a quaternion sits in q (-1: none).
@@ -214,16 +215,24 @@ class Model {
   // as q ⊕ delta, configuration_space.hpp) and dqdd/dqd, exact (from the symbolic derivatives);
   // returns qdd. Exists where the scene emits forward_dynamics_derivatives. Throws DynamicsError
   // as forward_dynamics does.
+  // With dqdd_dtau: by the link-side joint torques (Q = tau / p on each actuated coordinate).
   template <class G2 = Generated, std::enable_if_t<G2::kHas_forward_dynamics_derivatives, int> = 0>
   Velocity forward_dynamics_derivatives(const Vector& q, const Velocity& qd, const Velocity& Q,
-                                        TangentJacobian& dqdd_dq, Matrix& dqdd_dqd) const {
+                                        TangentJacobian& dqdd_dq, Matrix& dqdd_dqd,
+                                        TorqueJacobian& dqdd_dtau) const {
     check_finite_inputs(q, qd, Q, Generated::kName, Generated::coordinate_names());
     Velocity qdd;
-    Generated::forward_dynamics_derivatives(q, qd, Q, params_, dqdd_dq, dqdd_dqd, qdd);
-    if (!dqdd_dq.allFinite() || !dqdd_dqd.allFinite() || !qdd.allFinite())
+    Generated::forward_dynamics_derivatives(q, qd, Q, params_, dqdd_dq, dqdd_dqd, qdd, dqdd_dtau);
+    if (!dqdd_dq.allFinite() || !dqdd_dqd.allFinite() || !qdd.allFinite() || !dqdd_dtau.allFinite())
       throw DynamicsError(std::string("model ") + Generated::kName +
                           ": the state Jacobian is not finite (mass matrix singular?)");
     return qdd;
+  }
+  template <class G2 = Generated, std::enable_if_t<G2::kHas_forward_dynamics_derivatives, int> = 0>
+  Velocity forward_dynamics_derivatives(const Vector& q, const Velocity& qd, const Velocity& Q,
+                                        TangentJacobian& dqdd_dq, Matrix& dqdd_dqd) const {
+    TorqueJacobian dqdd_dtau;
+    return forward_dynamics_derivatives(q, qd, Q, dqdd_dq, dqdd_dqd, dqdd_dtau);
   }
 
   // 2-norm condition number of M(q) (symmetric positive definite: ratio of eigenvalues).

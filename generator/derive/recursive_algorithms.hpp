@@ -135,6 +135,28 @@ std::vector<T> tangent_jacobian(const Description& d, const Values<T>& values, c
   return J;
 }
 
+// dy/dtau (row-major, N columns) of y = f(chain) by the link-side joint torques: joint j's
+// enters as Q = tau_j / p_j on the coordinate it drives (chain.torque_coordinate(j),
+// chain.per_torque(j) = 1 / p_j; 1-based j), one forward pass per joint.
+template <template <class> class Chain, class T, class Description, class F>
+std::vector<T> torque_jacobian(const Description& d, const Values<T>& values, const Chain<T>& chain,
+                               const F& f) {
+  const int N = Chain<T>::dimensions(d).num_links;
+  const char* name = info(Input::generalized_forces).name;
+  std::vector<T> J;
+  for (int j = 0; j < N; ++j) {
+    const int coordinate = chain.torque_coordinate(j + 1);
+    const T per_torque = chain.per_torque(j + 1);
+    const Values<Dual<T>> along = seeded<T>(values, [&](const std::string& a, int i) {
+      return a == name && i == coordinate ? per_torque : T{};
+    });
+    const std::vector<T> column = tangents(f(Chain<Dual<T>>(d, along)));
+    if (J.empty()) J.resize(column.size() * N);
+    for (size_t r = 0; r < column.size(); ++r) J[r * N + j] = column[r];
+  }
+  return J;
+}
+
 // Whether a chain has quasi-velocities whose directions do not commute (the spatial chain's
 // base angular velocity in its own frame): it then gives their Hamel coupling as a matrix.
 template <class C, class = void>
@@ -158,7 +180,8 @@ std::vector<std::vector<T>> differentiated(const Description& d, const Values<T>
     };
     const Chain<T> chain(d, values);
     return {tangent_jacobian<Chain>(d, values, qdd), jacobian<Chain>(d, values, Input::qd, qdd),
-            chain.forward_dynamics(inputs(d, chain, Input::generalized_forces))[0]};
+            chain.forward_dynamics(inputs(d, chain, Input::generalized_forces))[0],
+            torque_jacobian<Chain>(d, values, chain, qdd)};
   }
   const std::vector<T> Mdot = tangents(along_configuration_rate<Chain>(d, values).mass_matrix());
   if (o == Output::mass_matrix_derivative) return {Mdot};

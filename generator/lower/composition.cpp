@@ -121,7 +121,16 @@ struct Composer {
       }
       return J;
     };
-    return {jacobian(model.residual_dq), jacobian(model.residual_dqd), qdd};
+    // dqdd/dtau: M^-1's actuated columns over p (Q = tau / p, eq. 14).
+    const std::vector<int> actuated = actuated_coordinates(derived.facts);
+    std::vector<SRef> by_torque(n * N);
+    for (int j = 0; j < N; ++j) {
+      std::vector<SRef> unit(n, SRef{});
+      unit[actuated[j]] = fb.build(1 / model.ratios[j]);
+      const std::vector<SRef> col = ldlt_solve(p, f, unit);
+      for (int i = 0; i < n; ++i) by_torque[i * N + j] = col[i];
+    }
+    return {jacobian(model.residual_dq), jacobian(model.residual_dqd), qdd, by_torque};
   }
 
   // M_bb a_b = -(M_bm a + b_b); Q_m = M_mb a_b + M_mm a + b_m, with a the joint rows of qdd

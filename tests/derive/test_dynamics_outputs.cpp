@@ -165,8 +165,8 @@ void check_joint_state(Dyn<G>& d) {
 
 // The state Jacobian against fourth-order central differences of forward_dynamics, column by
 // column, compared row by row (a flexible joint's motor row is k / I_m times larger than a
-// link row); qdd is forward dynamics' own. Rates of size `rate` (small: inside the steep
-// part of tanh friction). Nominal parameters.
+// link row); qdd is forward dynamics' own; dqdd/dtau against differences in the joint torques.
+// Rates of size `rate` (small: inside the steep part of tanh friction). Nominal parameters.
 template <class G>
 void check_state_jacobian(double rate) {
   const typename G::template Parameters<double> params =
@@ -184,9 +184,21 @@ void check_state_jacobian(double rate) {
     const Vec q = test::random_vector(rng, n, 1.0), qd = test::random_vector(rng, n, rate),
               Q = test::random_vector(rng, n, 5.0);
     Eigen::Matrix<double, n, n> dq, dqd, fd_q, fd_qd;
+    Eigen::Matrix<double, n, G::kNumLinks> dtau;
     Vec qdd;
-    G::forward_dynamics_derivatives(q, qd, Q, params, dq, dqd, qdd);
+    G::forward_dynamics_derivatives(q, qd, Q, params, dq, dqd, qdd, dtau);
     EXPECT_MATRIX_NEAR(qdd, qdd_at(q, qd, Q), 1e-12);
+    // dqdd/dtau through the runtime's own map of joint torques (Q = tau / p on each actuated
+    // coordinate): qdd is affine in tau, so one central difference per joint is exact but for
+    // rounding.
+    for (int j = 0; j < G::kNumLinks; ++j) {
+      const typename Model<G>::JointVector step = Model<G>::JointVector::Unit(j);
+      const Vec column = (qdd_at(q, qd, Q + model.generalized_forces(step)) -
+                          qdd_at(q, qd, Q - model.generalized_forces(step))) /
+                         2;
+      SCOPED_TRACE("tau " + std::to_string(j));
+      EXPECT_MATRIX_NEAR(dtau.col(j), column, 1e-9 * (1 + column.norm()));
+    }
     for (int k = 0; k < n; ++k) {
       const Vec e = Vec::Unit(k);  // steps of 1e-3 (derivative_along)
       fd_q.col(k) = derivative_along([&](const Vec& x) { return qdd_at(x, qd, Q); }, q, e);

@@ -228,11 +228,23 @@ TEST(RecursiveDynamics, DerivativesAgreeWithDifferencesOnLongChains) {
         minus.arrays[wrt][k] -= h;
         (wrt[1] ? dqd : dq).col(k) = (qdd(plus) - qdd(minus)) / (2 * h);
       }
+    // dqdd/dtau: joint j's torque as tau / p on its motor coordinate (parameters at nominal).
+    const int N = s.num_links();
+    Eigen::MatrixXd dtau(n, N);
+    for (int j = 0; j < N; ++j) {
+      State plus = x, minus = x;
+      const double per_torque = s.has_gear(j) ? 1 / s.gears[j]->ratio.value : 1;
+      plus.arrays["Q"][s.motor_coordinate(j)] += per_torque;
+      minus.arrays["Q"][s.motor_coordinate(j)] -= per_torque;
+      dtau.col(j) = (qdd(plus) - qdd(minus)) / 2;  // qdd is affine in Q
+    }
     const auto [run, recorded] = recursive(s, Output::forward_dynamics_derivatives, x);
     for (const auto& r : {run, recorded}) {
       EXPECT_MATRIX_NEAR(rows_of(r[0], n), dq, 1e-6);
       EXPECT_MATRIX_NEAR(rows_of(r[1], n), dqd, 1e-6);
       EXPECT_MATRIX_NEAR(rows_of(r[2], n), qdd(x), 1e-15);
+      ASSERT_EQ(r[3].size(), size_t(n * N));
+      EXPECT_MATRIX_NEAR(rows_of(r[3], n), dtau, 1e-9 * (1 + dtau.norm()));
     }
     // eval --symbolic's values where no closed form was derived.
     const SymbolicModel model = derive(s);
@@ -240,6 +252,7 @@ TEST(RecursiveDynamics, DerivativesAgreeWithDifferencesOnLongChains) {
                                           {q, qd, x.arrays.at("Q")}, x.arrays.at("params"));
     EXPECT_MATRIX_NEAR(symbolic[0], rows_of(run[0], n), 1e-15);
     EXPECT_MATRIX_NEAR(symbolic[1], rows_of(run[1], n), 1e-15);
+    EXPECT_MATRIX_NEAR(symbolic[3], dtau, 1e-9 * (1 + dtau.norm()));
   }
 }
 

@@ -646,7 +646,7 @@ Eigen::VectorXd moved_along_tangent(const Eigen::VectorXd& q, const Eigen::Vecto
 // Jacobian (dual numbers; dqdd/dq on q's tangent space, nv x nv, the base's quaternion turned in
 // its own frame) is that of central differences of forward dynamics along q ⊕ delta, with rigid
 // gears and with flexible joints; it is the same for the quaternion scaled by 3 (every model
-// ignores its norm).
+// ignores its norm); dqdd/dtau is the response to each joint's torque.
 TEST(SpatialChain, GivesTheRegistrysRecursiveOutputs) {
   std::mt19937 rng(38);
   for (const bool flexible : {false, true}) {
@@ -678,6 +678,26 @@ TEST(SpatialChain, GivesTheRegistrysRecursiveOutputs) {
     const auto J3 = output(Output::forward_dynamics_derivatives, scaled);
     for (size_t k = 0; k < J[0].size(); ++k)
       EXPECT_NEAR(J3[0][k], J[0][k], 1e-9 * (1 + std::abs(J[0][k]))) << k;
+    // dqdd/dtau: joint j's torque enters as tau / p on the coordinate it drives (the
+    // description's motor_coordinate); qdd is affine in Q, so one difference per joint.
+    const int N = static_cast<int>(d.links.size());
+    ASSERT_EQ(J.size(), 4u);
+    ASSERT_EQ(J[3].size(), size_t(d.nv() * N));
+    auto qdd_with = [&](const Eigen::VectorXd& Qx) {
+      return as_eigen(
+          evaluate_chain<Chain>(d, Output::forward_dynamics, [&](const std::string& a, int i) {
+            return a == "q" ? s.q[i] : a == "Q" ? Qx[i] : s.v[i];
+          })[0]);
+    };
+    for (int j = 0; j < N; ++j) {
+      const Gear& g = d.links[j].gear;
+      ASSERT_FALSE(g.ratio.is_parameter());
+      Eigen::VectorXd dQ = Eigen::VectorXd::Zero(d.nv());
+      dQ[d.motor_coordinate(j)] = g.present ? 1 / g.ratio.value : 1;
+      const Eigen::VectorXd column = (qdd_with(Q + dQ) - qdd_with(Q - dQ)) / 2;
+      for (int r = 0; r < d.nv(); ++r)
+        EXPECT_NEAR(J[3][r * N + j], column[r], 1e-9 * (1 + column.norm())) << "tau " << j;
+    }
     const double h = 1e-6;
     // Central differences round off by about eps |qdd| / h: with flexible joints a light rotor's
     // own acceleration (Q_m / J, J = 1e-4) makes |qdd| some 1e4, so 1e-9 |qdd| is added.

@@ -521,7 +521,8 @@ def test_engines_give_the_same_bits(geared):
 def test_the_state_jacobian_is_on_the_tangent_space():
     """Issue 53: a spatial arm's dqdd_dq is nv x nv, the derivative along q ⊕ delta
     (Model.integrate: the base's quaternion turned in its own frame), equal to central differences
-    of forward dynamics along it; difference undoes integrate; sizes are checked by name."""
+    of forward dynamics along it; dqdd_dtau is the response to each joint's link-side torque;
+    difference undoes integrate; sizes are checked by name."""
     with open(os.path.join(SOURCE, "tests", "scenes", "spatial_arm2.yaml")) as f:
         text = f.read().replace("name: spatial_arm2", "name: spatial_arm2_derivatives")
     arm = spacearm.load(text + "outputs: [forward_dynamics, forward_dynamics_derivatives]\n",
@@ -538,6 +539,13 @@ def test_the_state_jacobian_is_on_the_tangent_space():
         column = (arm.forward_dynamics(arm.integrate(q, step), qd, Q) -
                   arm.forward_dynamics(arm.integrate(q, -step), qd, Q)) / (2 * h)
         assert np.abs(dq[:, k] - column).max() < 1e-6 * (1 + np.abs(column).max()), k
+    # dqdd/dtau by the link-side torques: tau / p on each joint's slot (ratios 50 and 20).
+    dtau = jacobian["dqdd_dtau"]
+    assert dtau.shape == (8, 2)
+    for j, ratio in enumerate((50, 20)):
+        dQ = np.eye(8)[6 + j] / ratio
+        column = (arm.forward_dynamics(q, qd, Q + dQ) - arm.forward_dynamics(q, qd, Q - dQ)) / 2
+        assert np.abs(dtau[:, j] - column).max() < 1e-9 * (1 + np.abs(column).max()), j
     delta = np.array([0.3, -0.1, 0.2, 0.4, 0.5, -0.6, 0.1, 0.2])
     assert np.abs(arm.difference(q, arm.integrate(q, delta)) - delta).max() < 1e-13
     with pytest.raises(ValueError, match="delta: expected 8 values, got 9"):

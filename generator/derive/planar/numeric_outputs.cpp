@@ -92,7 +92,15 @@ std::vector<Eigen::MatrixXd> composed(const SymbolicModel& model, Output o, cons
               v.data(), n, n);
       return Eigen::MatrixXd(-ldlt.solve(d));
     };
-    return {minus_solve(model.residual_dq), minus_solve(model.residual_dqd), qdd};
+    // dqdd/dtau: M^-1's actuated columns over p (Q = tau / p, eq. 14).
+    Eigen::MatrixXd by_torque(n, N);
+    for (int j = 0; j < N; ++j) {
+      Eigen::VectorXd unit = Eigen::VectorXd::Zero(n);
+      unit[model.scene.motor_coordinate(j)] =
+          1 / evaluate(model, model.ratios[j], s.q, s.qd, s.params);
+      by_torque.col(j) = ldlt.solve(unit);
+    }
+    return {minus_solve(model.residual_dq), minus_solve(model.residual_dqd), qdd, by_torque};
   }
   if (o == Output::free_base_inverse_dynamics) {
     // extra: link-side joint accelerations; the motor ones are p times them, and tau = p Q.

@@ -129,6 +129,9 @@ class PlanarChain {
   // origin, as symbolic_model.cpp defines it. Free base only.
   std::vector<T> momentum() const;
   T input(const std::string& array, int i) const { return val_.input(array, i); }
+  // Joint j's (1-based) torque tau enters as Q = tau / p on its motor coordinate (eq. 14).
+  int torque_coordinate(int j) const { return joint_[j].m; }
+  T per_torque(int j) const { return joint_[j].inv_p; }
   int nq() const { return n_; }
   int nv() const { return n_; }
   static Dimensions dimensions(const Scene& scene) { return scene.dimensions(); }

@@ -48,6 +48,13 @@ class Chain {
   int nq() const { return d_.nq(); }
   int nv() const { return d_.nv(); }
   T input(const std::string& array, int i) const { return values_.input(array, i); }
+  // Joint j's (1-based) torque tau enters as Q = tau / p on the coordinate it drives (its slot,
+  // or a flexible joint's motor: ChainDescription::motor_coordinate).
+  int torque_coordinate(int j) const { return motor_[j]; }
+  T per_torque(int j) const {
+    const Gear& g = d_.links[j - 1].gear;
+    return g.present ? inverse(g.ratio) : num(1.0);
+  }
   std::vector<T> mass_matrix() const;  // row-major nv x nv
   // Q = M vdot + b (recursive Newton-Euler; no gravity: a satellite in free fall).
   std::vector<T> inverse_dynamics(const std::vector<T>& vdot) const;
