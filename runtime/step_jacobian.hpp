@@ -1,0 +1,108 @@
+// The Jacobians of one RK4 step of the motion, the form iLQR/DDP and MPC solvers take: x+ =
+// step(x, tau) over dt with the joint torques tau held through the step, x = (q, v) on the
+// tangent space (q ⊕ delta, configuration_space.hpp; the convention of MuJoCo's
+// mjd_transitionFD), A = dx+/dx (2 nv x 2 nv) and B = dx+/dtau (2 nv x N, link-side torques).
+// The step is the runtime's rk4 (integrators.hpp: Odeint's classic stages on (q, v) with dq/dt =
+// G(q) v, the quaternion projected after the step), differentiated stage by stage with the
+// model's exact state Jacobian (forward_dynamics_derivatives; central differences where the
+// scene lacks it), so A and B are exact but for rounding.
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <stdexcept>
+#include <string>
+
+#include "configuration_space.hpp"
+#include "dynamic_model.hpp"
+#include "integrator_choice.hpp"
+
+namespace spacearm {
+
+struct StepJacobians {
+  Eigen::VectorXd q, v;  // the state after the step (the quaternion projected)
+  Eigen::MatrixXd A, B;  // d(q+, v+)/d(q, v) and d(q+, v+)/dtau, on the tangent spaces
+};
+
+namespace detail {
+
+// One stage of the step at x = (q, v): the right-hand side f = (dq/dt, qdd) and its Jacobians in
+// q's coordinates, J = df/dx (nq + nv square) and T = df/dtau (nq + nv by N).
+struct StageDerivatives {
+  Eigen::VectorXd f;
+  Eigen::MatrixXd J, T;
+};
+inline StageDerivatives stage_derivatives(const DynamicModel& m, const Eigen::VectorXd& x,
+                                          const Eigen::VectorXd& Q) {
+  const ConfigurationSpace space = m.configuration_space();
+  const int nq = m.nq, nv = m.nv, N = m.num_links;
+  const Eigen::VectorXd q = x.head(nq), v = x.tail(nv);
+  StageDerivatives s;
+  const Eigen::VectorXd qdd = m.forward_dynamics(q, v, Q);
+  s.f.resize(nq + nv);
+  s.f << space.rate(q, v), qdd;
+  Eigen::MatrixXd dq, dqd, by_q, by_v;
+  state_jacobian(m, q, v, Q, dq, dqd);
+  space.rate_jacobians(q, v, by_q, by_v);
+  s.J.resize(nq + nv, nq + nv);
+  s.J << by_q, by_v, dq * space.tangent_map(q), dqd;
+  // qdd is affine in Q: each joint's column is the difference of two solves, exact but for
+  // rounding (DynamicModel carries no dqdd/dtau of its own).
+  s.T = Eigen::MatrixXd::Zero(nq + nv, N);
+  for (int j = 0; j < N; ++j)
+    s.T.col(j).tail(nv) =
+        m.forward_dynamics(q, v, Q + m.generalized_forces(Eigen::VectorXd::Unit(N, j))) - qdd;
+  return s;
+}
+
+}  // namespace detail
+
+// A and B of one rk4 step of dt from (q, v) under the link-side joint torques tau.
+inline StepJacobians rk4_step_jacobians(const DynamicModel& m, const Eigen::VectorXd& q,
+                                        const Eigen::VectorXd& v, const Eigen::VectorXd& tau,
+                                        double dt) {
+  const int nq = m.nq, nv = m.nv, n = nq + nv;
+  if (q.size() != nq || v.size() != nv || tau.size() != m.num_links)
+    throw std::invalid_argument("step Jacobians of model " + m.name + ": q, v and tau need " +
+                                std::to_string(nq) + ", " + std::to_string(nv) + " and " +
+                                std::to_string(m.num_links) + " values");
+  if (!(dt > 0) || !std::isfinite(dt))
+    throw std::invalid_argument("step Jacobians of model " + m.name +
+                                ": dt must be positive and finite, got " + std::to_string(dt));
+  const ConfigurationSpace space = m.configuration_space();
+  const Eigen::VectorXd Q = m.generalized_forces(tau);
+  Eigen::VectorXd x(n);
+  x << q, v;
+  // The classic stages, k_i = f(x + c_i dt k_{i-1}), each with dk_i/dx (D) and dk_i/dtau (E).
+  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
+  const double c[] = {0, dt / 2, dt / 2, dt}, w[] = {1, 2, 2, 1};
+  Eigen::VectorXd k = Eigen::VectorXd::Zero(n), sum = Eigen::VectorXd::Zero(n);
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(n, n), E = Eigen::MatrixXd::Zero(n, m.num_links);
+  Eigen::MatrixXd D_sum = D, E_sum = E;
+  for (int i = 0; i < 4; ++i) {
+    const detail::StageDerivatives s = detail::stage_derivatives(m, x + c[i] * k, Q);
+    D = s.J * (I + c[i] * D);
+    E = s.J * (c[i] * E) + s.T;
+    k = s.f;
+    sum += w[i] * k, D_sum += w[i] * D, E_sum += w[i] * E;
+  }
+  const Eigen::VectorXd raw = x + dt / 6 * sum;
+  // Into the tangent spaces: dq = G(q) delta at the start, delta+ = W(q+) dq+ at the end (the
+  // projection's own derivative is radial, which W ignores).
+  Eigen::MatrixXd by_q, G;
+  space.rate_jacobians(q, v, by_q, G);
+  Eigen::MatrixXd into = Eigen::MatrixXd::Zero(n, 2 * nv), out = Eigen::MatrixXd::Zero(2 * nv, n);
+  into.topLeftCorner(nq, nv) = G;
+  into.bottomRightCorner(nv, nv).setIdentity();
+  out.topLeftCorner(nv, nq) = space.tangent_map(raw.head(nq));
+  out.bottomRightCorner(nv, nv).setIdentity();
+  StepJacobians r;
+  r.A = out * (I + dt / 6 * D_sum) * into;
+  r.B = out * (dt / 6 * E_sum);
+  r.q = raw.head(nq);
+  space.project(r.q);
+  r.v = raw.tail(nv);
+  return r;
+}
+
+}  // namespace spacearm
