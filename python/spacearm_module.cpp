@@ -29,6 +29,7 @@
 #include "simulation.hpp"
 #include "simulation_table.hpp"
 #include "torque_csv.hpp"
+#include "step_jacobian.hpp"
 #include "trajectory_planning.hpp"
 
 namespace py = pybind11;
@@ -826,6 +827,31 @@ void bind_model_tangent(py::class_<PyModel>& model) {
       py::arg("q0"), py::arg("q1"),
       "q1 ⊖ q0: the tangent delta (nv values) with integrate(q0, delta) == q1, the shorter turn "
       "(Pinocchio's difference).");
+  model.def(
+      "step_jacobians",
+      [sized](const PyModel& m, const py::object& q, const py::object& v, const py::object& tau,
+              double dt) {
+        const Eigen::VectorXd qs = sized(q, "q", m.model().nq()),
+                              vs = sized(v, "v", m.model().nv()),
+                              taus = sized(tau, "tau", m.model().num_links());
+        const DynamicModel dm = dynamic_model(m.model(), m.params());
+        StepJacobians J;
+        try {
+          py::gil_scoped_release release;
+          J = rk4_step_jacobians(dm, qs, vs, taus, dt);
+        } catch (const std::invalid_argument& e) {
+          throw py::value_error(e.what());
+        }
+        py::dict d;
+        d["A"] = J.A, d["B"] = J.B, d["q"] = J.q, d["v"] = J.v;
+        return d;
+      },
+      py::arg("q"), py::arg("v"), py::arg("tau"), py::arg("dt"),
+      "One rk4 step of dt from (q, v) under the link-side joint torques tau, held through it "
+      "(runtime/step_jacobian.hpp): a dict of the state after it (q, v) and its Jacobians on the "
+      "tangent spaces, A = dx+/dx (2 nv x 2 nv, x = (q ⊕ delta, v)) and B = dx+/dtau (2 nv x "
+      "N), the form iLQR, DDP and MPC take; exact from the state Jacobian where the scene "
+      "emits forward_dynamics_derivatives, else from its central differences.");
 }
 
 // Model.plan, simulate and closed_loop: what `spacearm plan` and `simulate` do.

@@ -522,7 +522,8 @@ def test_the_state_jacobian_is_on_the_tangent_space():
     """Issue 53: a spatial arm's dqdd_dq is nv x nv, the derivative along q ⊕ delta
     (Model.integrate: the base's quaternion turned in its own frame), equal to central differences
     of forward dynamics along it; dqdd_dtau is the response to each joint's link-side torque;
-    difference undoes integrate; sizes are checked by name."""
+    difference undoes integrate; step_jacobians' step is simulate's rk4 step and its A, B are
+    the step's derivatives; sizes are checked by name."""
     with open(os.path.join(SOURCE, "tests", "scenes", "spatial_arm2.yaml")) as f:
         text = f.read().replace("name: spatial_arm2", "name: spatial_arm2_derivatives")
     arm = spacearm.load(text + "outputs: [forward_dynamics, forward_dynamics_derivatives]\n",
@@ -548,6 +549,31 @@ def test_the_state_jacobian_is_on_the_tangent_space():
         assert np.abs(dtau[:, j] - column).max() < 1e-9 * (1 + np.abs(column).max()), j
     delta = np.array([0.3, -0.1, 0.2, 0.4, 0.5, -0.6, 0.1, 0.2])
     assert np.abs(arm.difference(q, arm.integrate(q, delta)) - delta).max() < 1e-13
+    # One rk4 step's Jacobians: the step is simulate's (rk4, the torques held), and A, B equal
+    # central differences of it on the tangent spaces.
+    tau, dt = np.array([0.5, -0.3]), 0.01
+    step = arm.step_jacobians(q, qd, tau, dt)
+    assert step["A"].shape == (16, 16) and step["B"].shape == (16, 2)
+    run = arm.simulate(dt, torques=np.array([[0, *tau], [dt, *tau]]), q0=q, qd0=qd,
+                       integrator="rk4", dt=dt)
+    assert np.abs(run["q"][-1] - step["q"]).max() < 1e-14
+    assert np.abs(run["qd"][-1] - step["v"]).max() < 1e-13
+
+    def after(q0, v0, tau0):
+        s = arm.step_jacobians(q0, v0, tau0, dt)
+        return np.concatenate([arm.difference(step["q"], s["q"]), s["v"] - step["v"]])
+
+    for k in range(16):
+        e = h * np.eye(16)[k]
+        column = (after(arm.integrate(q, e[:8]), qd + e[8:], tau) -
+                  after(arm.integrate(q, -e[:8]), qd - e[8:], tau)) / (2 * h)
+        assert np.abs(step["A"][:, k] - column).max() < 1e-6 * (1 + np.abs(column).max()), k
+    for j in range(2):
+        e = 1e-5 * np.eye(2)[j]
+        column = (after(q, qd, tau + e) - after(q, qd, tau - e)) / 2e-5
+        assert np.abs(step["B"][:, j] - column).max() < 1e-6 * (1 + np.abs(column).max()), j
+    with pytest.raises(ValueError, match="dt must be positive"):
+        arm.step_jacobians(q, qd, tau, 0)
     with pytest.raises(ValueError, match="delta: expected 8 values, got 9"):
         arm.integrate(q, q)
 
