@@ -11,9 +11,10 @@
 // the ungeared and the armature model's forward dynamics must equal MuJoCo's to 1e-12. The first/
 // rows time the URDF to a first result through an empty cache, with one compiler, with one per
 // CPU and under --engine auto (the interpreter's answer), for space_arm7 and the dual arm.
-// space_arm7's models also give their state Jacobian (forward_dynamics_derivatives), timed against
-// MuJoCo's mjd_transitionFD. One row calls two single-arm models in turn: an instruction working
-// set the size of the dual arm's, without a tree.
+// space_arm7's models also give their state Jacobian (forward_dynamics_derivatives) and one rk4
+// step's Jacobians (runtime/step_jacobian.hpp), timed against MuJoCo's mjd_transitionFD. One row
+// calls two single-arm models in turn: an instruction working set the size of the dual arm's,
+// without a tree.
 //   scripts/bench.sh --spatial
 #include <benchmark/benchmark.h>
 
@@ -35,6 +36,7 @@
 #include "mjcf_export.hpp"
 #include "mujoco_model.hpp"
 #include "spatial_scene.hpp"
+#include "step_jacobian.hpp"
 
 namespace spacearm {
 namespace {
@@ -213,6 +215,27 @@ void register_derivatives(const Loaded& m) {
       });
 }
 
+// One rk4 step's A and B (runtime/step_jacobian.hpp, 1 ms: the peer's default step) through the
+// DynamicModel the tools use, at the model's parameters: the quantity mjd_transitionFD gives.
+void register_step_jacobians(const Loaded& m) {
+  const States& states = m.states;
+  const Eigen::VectorXd params = Eigen::Map<const Eigen::VectorXd>(
+      m.model.nominal_parameters().data(),
+      static_cast<Eigen::Index>(m.model.nominal_parameters().size()));
+  const auto model = std::make_shared<DynamicModel>(dynamic_model(m.model, params));
+  benchmark::RegisterBenchmark(
+      ("spacearm/step Jacobians/" + m.model.name()).c_str(),
+      [model, &states](benchmark::State& st) {
+        const Eigen::VectorXd tau = Eigen::VectorXd::Zero(model->num_links);
+        int k = 0;
+        for (auto _ : st) {
+          StepJacobians J = rk4_step_jacobians(*model, states.q[k], states.v[k], tau, 1e-3);
+          benchmark::DoNotOptimize(J.A.data());
+          k = (k + 1) % kStates;
+        }
+      });
+}
+
 // MuJoCo's step Jacobian by forward differences (mjd_transitionFD, eps 1e-6, not centered: its
 // cheapest), A (2 nv x 2 nv) at the same states.
 void register_mujoco_derivatives(test::MujocoModel& mj, const std::string& name, const Loaded& m) {
@@ -314,8 +337,10 @@ void register_robot(const std::string& relative) {
       register_mujoco_derivatives(*mujoco.back(), loaded[k]->model.name(), *loaded[k]);
   }
   for (size_t k = first; k < first + 3; ++k) register_ours(*loaded[k]);
-  for (size_t k = first; k < first + 3 && relative == kDerivativesRobot; ++k)
+  for (size_t k = first; k < first + 3 && relative == kDerivativesRobot; ++k) {
     register_derivatives(*loaded[k]);
+    register_step_jacobians(*loaded[k]);
+  }
   if (first == 0) register_alternated(*loaded[0], *loaded[1]);  // space_arm7 ungeared, armature
   if (relative.rfind("models/", 0) == 0)                        // the URDF robots
     register_first_use(relative, std::filesystem::path(relative).stem().string(),
