@@ -6,7 +6,8 @@
 // angle q, the chain's the motor angle qm = p q: v = D v_mj with D = diag(1 (base), p), so
 // M_mj = D M D, b_mj = D b and a joint torque tau is Q = tau / p on the chain's coordinate.
 // Exact rotors are rotor bodies held by MuJoCo's soft joint equalities: the forward dynamics to
-// the tolerance those allow (measured: below 2e-4 relative; stated in docs/cli.md).
+// the tolerance those allow (measured: below 2e-4 relative; stated in docs/cli.md). The state
+// Jacobian on the tangent space against differences of MuJoCo's qacc along its mj_integratePos.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -134,6 +135,53 @@ TEST(MujocoAgreement, ExportedRigidAndArmatureArmsAgreeToRounding) {
           chain_output(c, Output::forward_dynamics, x.q, x.v, Q).cwiseQuotient(D);  // qdd_m / p
       EXPECT_LT((qacc_ours - qacc_mj).norm(), 1e-12 * (1 + qacc_mj.norm())) << trial;
     }
+  }
+}
+
+// Issue 53: the chain's state Jacobian on the tangent space is MuJoCo's: central differences of
+// mj_forward's qacc along mj_integratePos (MuJoCo's own q ⊕ delta: the free joint's angular
+// velocity in the body's frame), along qvel and along qfrc_applied, for the ungeared arm.
+TEST(MujocoAgreement, TheStateJacobianIsMujocosOnItsTangentSpace) {
+  const SpatialScene s = arm7(Gears::none);
+  const spatial::ChainDescription& c = s.chain;
+  const test::MujocoModel mj(export_mjcf(s));
+  const int nv = c.nv(), N = static_cast<int>(c.links.size());
+  std::mt19937 rng(8);
+  const State x = random_state(c, rng);
+  Eigen::VectorXd Q = Eigen::VectorXd::Zero(nv);
+  Q.tail(N) = x.tau;
+  auto input = [&](const std::string& a, int i) {
+    return a == "q" ? x.q[i] : a == "qd" ? x.v[i] : a == "Q" ? Q[i] : 0.0;
+  };
+  const auto J = evaluate_chain<spatial::Chain>(c, Output::forward_dynamics_derivatives, input);
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const Eigen::MatrixXd dq = Eigen::Map<const RowMajor>(J[0].data(), nv, nv),
+                        dqd = Eigen::Map<const RowMajor>(J[1].data(), nv, nv),
+                        dtau = Eigen::Map<const RowMajor>(J[3].data(), nv, N);
+  // MuJoCo's qacc in the chain's dofs with one input moved by +-h along direction k. Its qacc
+  // reaches 1.8e3 here (a light wrist) and agrees with ours to about 1e-12 of that, so steps of
+  // 1e-6 would difference its rounding (1e-3 of a column); 1e-4 keeps both it and the step's
+  // own error near 1e-6.
+  const double h = 1e-4;
+  auto qacc = [&](int what, int k, double step) {
+    set_state(s, mj, x);
+    std::vector<mjtNum> direction(nv, 0.0);
+    direction[k] = 1;
+    if (what == 0) mj_integratePos(mj.m.get(), mj.d->qpos, direction.data(), step);
+    if (what == 1) mj.d->qvel[k] += step;
+    if (what == 2) mj.d->qfrc_applied[6 + k] += step;
+    mj_forward(mj.m.get(), mj.d.get());
+    return chain_dofs(s, mj, mj.d->qacc);
+  };
+  for (int k = 0; k < nv; ++k)
+    for (int what : {0, 1}) {
+      const Eigen::VectorXd column = (qacc(what, k, h) - qacc(what, k, -h)) / (2 * h);
+      const Eigen::VectorXd ours = what == 0 ? dq.col(k) : dqd.col(k);
+      EXPECT_LT((ours - column).norm(), 1e-5 * (1 + column.norm())) << what << " " << k;
+    }
+  for (int j = 0; j < N; ++j) {
+    const Eigen::VectorXd column = (qacc(2, j, 1.0) - qacc(2, j, -1.0)) / 2;  // affine in tau
+    EXPECT_LT((dtau.col(j) - column).norm(), 1e-9 * (1 + column.norm())) << "tau " << j;
   }
 }
 
