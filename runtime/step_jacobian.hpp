@@ -31,6 +31,24 @@ namespace detail {
 struct StageDerivatives {
   Eigen::VectorXd f;
   Eigen::MatrixXd J, T;
+  int nq = 0, nv = 0, quaternion_offset = -1;
+  // J X at half the work of a dense product: the rate's rows [d(dq/dt)/dq, G] are zero and the
+  // identity but for the quaternion's 4 rows, so only the dynamics' rows are multiplied out.
+  Eigen::MatrixXd times(const Eigen::MatrixXd& X) const {
+    const int k = quaternion_offset;
+    const auto Xq = X.topRows(nq), Xv = X.bottomRows(nv);
+    Eigen::MatrixXd out(nq + nv, X.cols());
+    if (k < 0) {
+      out.topRows(nq) = Xv;
+    } else {
+      out.topRows(k) = Xv.topRows(k);
+      out.middleRows(k, 4) = J.block(k, k, 4, 4) * Xq.middleRows(k, 4) +
+                             J.block(k, nq + k, 4, 3) * Xv.middleRows(k, 3);
+      out.middleRows(k + 4, nq - k - 4) = Xv.bottomRows(nv - k - 3);
+    }
+    out.bottomRows(nv).noalias() = J.bottomRows(nv) * X;
+    return out;
+  }
 };
 inline StageDerivatives stage_derivatives(const DynamicModel& m, const Eigen::VectorXd& x,
                                           const Eigen::VectorXd& Q) {
@@ -38,6 +56,7 @@ inline StageDerivatives stage_derivatives(const DynamicModel& m, const Eigen::Ve
   const int nq = m.nq, nv = m.nv, N = m.num_links;
   const Eigen::VectorXd q = x.head(nq), v = x.tail(nv);
   StageDerivatives s;
+  s.nq = nq, s.nv = nv, s.quaternion_offset = space.quaternion_offset;
   const Eigen::VectorXd qdd = m.forward_dynamics(q, v, Q);
   s.f.resize(nq + nv);
   s.f << space.rate(q, v), qdd;
@@ -81,8 +100,8 @@ inline StepJacobians rk4_step_jacobians(const DynamicModel& m, const Eigen::Vect
   Eigen::MatrixXd D_sum = D, E_sum = E;
   for (int i = 0; i < 4; ++i) {
     const detail::StageDerivatives s = detail::stage_derivatives(m, x + c[i] * k, Q);
-    D = s.J * (I + c[i] * D);
-    E = s.J * (c[i] * E) + s.T;
+    D = s.J + c[i] * s.times(D);
+    E = c[i] * s.times(E) + s.T;
     k = s.f;
     sum += w[i] * k, D_sum += w[i] * D, E_sum += w[i] * E;
   }
