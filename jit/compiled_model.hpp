@@ -361,8 +361,9 @@ class LoadedSource {
   V forward_dynamics(const V& q, const V& qd, const V& Q) const {
     return m_->forward_dynamics(q, qd, Q, params_);
   }
-  V forward_dynamics_derivatives(const V& q, const V& qd, const V& Q, Mx& dq, Mx& dqd) const {
-    return m_->forward_dynamics_derivatives(q, qd, Q, params_, dq, dqd);
+  V forward_dynamics_derivatives(const V& q, const V& qd, const V& Q, Mx& dq, Mx& dqd,
+                                 Mx* dtau = nullptr) const {
+    return m_->forward_dynamics_derivatives(q, qd, Q, params_, dq, dqd, dtau);
   }
   DynamicModel::ForwardDynamicsCall forward_dynamics_call() const {
     return [call = CompiledModel::ForwardDynamicsCall(*m_, params_)](

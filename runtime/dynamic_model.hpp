@@ -98,6 +98,10 @@ struct DynamicModel : DynamicModelFacts {
   std::function<Velocity(const Vector& q, const Velocity& qd, const Velocity& Q,
                          TangentJacobian& dqdd_dq, Matrix& dqdd_dqd)>
       forward_dynamics_derivatives;
+  // The same and dqdd/dtau (nv x N, by the link-side joint torques), from the same call.
+  std::function<Velocity(const Vector& q, const Velocity& qd, const Velocity& Q,
+                         TangentJacobian& dqdd_dq, Matrix& dqdd_dqd, Matrix& dqdd_dtau)>
+      state_and_torque_jacobian;
   std::function<double(const Vector& q, const Velocity& qd)> kinetic_energy;
   std::function<Momentum(const Vector& q, const Velocity& qd)> momentum;
   std::function<double(const Vector& q)> potential_energy;      // V of the joint springs
@@ -304,10 +308,15 @@ DynamicModel dynamic_model_of(const Source& s) {
     };
     d.make_forward_dynamics_call = [s] { return s.forward_dynamics_call(); };
   }
-  if (s.has(F::forward_dynamics_derivatives))
+  if (s.has(F::forward_dynamics_derivatives)) {
     d.forward_dynamics_derivatives = [s](const V& q, const V& qd, const V& Q, Mx& dq, Mx& dqd) {
       return s.forward_dynamics_derivatives(q, qd, Q, dq, dqd);
     };
+    d.state_and_torque_jacobian = [s](const V& q, const V& qd, const V& Q, Mx& dq, Mx& dqd,
+                                      Mx& dtau) {
+      return s.forward_dynamics_derivatives(q, qd, Q, dq, dqd, &dtau);
+    };
+  }
   if (s.has(F::kinetic_energy))
     d.kinetic_energy = [s](const V& q, const V& qd) { return s.kinetic_energy(q, qd); };
   if (s.has(F::potential_energy))
@@ -412,14 +421,16 @@ class LinkedSource {
     }
     absent();
   }
-  V forward_dynamics_derivatives(const V& q, const V& qd, const V& Q, Mx& dqdd_dq,
-                                 Mx& dqdd_dqd) const {
+  V forward_dynamics_derivatives(const V& q, const V& qd, const V& Q, Mx& dqdd_dq, Mx& dqdd_dqd,
+                                 Mx* dqdd_dtau = nullptr) const {
     if constexpr (has(F::forward_dynamics_derivatives)) {
       typename M::TangentJacobian dq;
       typename M::Matrix dqd;
-      const V qdd = m_->forward_dynamics_derivatives(q, qd, Q, dq, dqd);
+      typename M::TorqueJacobian dtau;
+      const V qdd = m_->forward_dynamics_derivatives(q, qd, Q, dq, dqd, dtau);
       dqdd_dq = dq;
       dqdd_dqd = dqd;
+      if (dqdd_dtau) *dqdd_dtau = dtau;
       return qdd;
     }
     absent();

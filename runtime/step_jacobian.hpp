@@ -60,17 +60,22 @@ inline StageDerivatives stage_derivatives(const DynamicModel& m, const Eigen::Ve
   const Eigen::VectorXd qdd = m.forward_dynamics(q, v, Q);
   s.f.resize(nq + nv);
   s.f << space.rate(q, v), qdd;
-  Eigen::MatrixXd dq, dqd, by_q, by_v;
-  state_jacobian(m, q, v, Q, dq, dqd);
+  Eigen::MatrixXd dq, dqd, dtau, by_q, by_v;
+  s.T = Eigen::MatrixXd::Zero(nq + nv, N);
+  if (m.state_and_torque_jacobian) {
+    m.state_and_torque_jacobian(q, v, Q, dq, dqd, dtau);
+    s.T.bottomRows(nv) = dtau;
+  } else {
+    // The Jacobian by differences; qdd is affine in Q, so each joint's column is the difference
+    // of two solves, exact but for rounding.
+    state_jacobian(m, q, v, Q, dq, dqd);
+    for (int j = 0; j < N; ++j)
+      s.T.col(j).tail(nv) =
+          m.forward_dynamics(q, v, Q + m.generalized_forces(Eigen::VectorXd::Unit(N, j))) - qdd;
+  }
   space.rate_jacobians(q, v, by_q, by_v);
   s.J.resize(nq + nv, nq + nv);
   s.J << by_q, by_v, dq * space.tangent_map(q), dqd;
-  // qdd is affine in Q: each joint's column is the difference of two solves, exact but for
-  // rounding (DynamicModel carries no dqdd/dtau of its own).
-  s.T = Eigen::MatrixXd::Zero(nq + nv, N);
-  for (int j = 0; j < N; ++j)
-    s.T.col(j).tail(nv) =
-        m.forward_dynamics(q, v, Q + m.generalized_forces(Eigen::VectorXd::Unit(N, j))) - qdd;
   return s;
 }
 
