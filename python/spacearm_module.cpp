@@ -808,11 +808,22 @@ void bind_model_tangent(py::class_<PyModel>& model) {
   auto space = [](const PyModel& m) {
     return dynamic_model(m.model(), m.params()).configuration_space();
   };
+  // A configuration: nq finite values, a base quaternion of a norm the model takes.
+  auto configuration = [sized, space](const PyModel& m, const py::object& value, const char* what) {
+    const Eigen::VectorXd q = sized(value, what, m.model().nq());
+    const int k = space(m).quaternion_offset;
+    if (k >= 0 && !ConfigurationSpace::takes_quaternion_norm(q.segment<4>(k).norm()))
+      throw py::value_error(std::string(what) + "[" + std::to_string(k) + ".." +
+                            std::to_string(k + 3) +
+                            "], the base's quaternion, must have a norm in [1e-6, 1e6], got " +
+                            std::to_string(q.segment<4>(k).norm()));
+    return q;
+  };
   model.def(
       "integrate",
-      [sized, space](const PyModel& m, const py::object& q, const py::object& delta) {
-        return space(m).integrate(sized(q, "q", m.model().nq()),
-                                  sized(delta, "delta", m.model().nv()));
+      [sized, space, configuration](const PyModel& m, const py::object& q,
+                                    const py::object& delta) {
+        return space(m).integrate(configuration(m, q, "q"), sized(delta, "delta", m.model().nv()));
       },
       py::arg("q"), py::arg("delta"),
       "q ⊕ delta: q moved by delta (nv values) on its tangent space, the base's quaternion "
@@ -820,19 +831,17 @@ void bind_model_tangent(py::class_<PyModel>& model) {
       "integrate); forward_dynamics_derivatives' dqdd_dq is taken along it.");
   model.def(
       "difference",
-      [sized, space](const PyModel& m, const py::object& q0, const py::object& q1) {
-        return space(m).difference(sized(q0, "q0", m.model().nq()),
-                                   sized(q1, "q1", m.model().nq()));
+      [space, configuration](const PyModel& m, const py::object& q0, const py::object& q1) {
+        return space(m).difference(configuration(m, q0, "q0"), configuration(m, q1, "q1"));
       },
       py::arg("q0"), py::arg("q1"),
       "q1 ⊖ q0: the tangent delta (nv values) with integrate(q0, delta) == q1, the shorter turn "
       "(Pinocchio's difference).");
   model.def(
       "step_jacobians",
-      [sized](const PyModel& m, const py::object& q, const py::object& v, const py::object& tau,
-              double dt) {
-        const Eigen::VectorXd qs = sized(q, "q", m.model().nq()),
-                              vs = sized(v, "v", m.model().nv()),
+      [sized, configuration](const PyModel& m, const py::object& q, const py::object& v,
+                             const py::object& tau, double dt) {
+        const Eigen::VectorXd qs = configuration(m, q, "q"), vs = sized(v, "v", m.model().nv()),
                               taus = sized(tau, "tau", m.model().num_links());
         const DynamicModel dm = dynamic_model(m.model(), m.params());
         StepJacobians J;

@@ -574,6 +574,10 @@ def test_the_state_jacobian_is_on_the_tangent_space():
         assert np.abs(step["B"][:, j] - column).max() < 1e-6 * (1 + np.abs(column).max()), j
     with pytest.raises(ValueError, match="dt must be positive"):
         arm.step_jacobians(q, qd, tau, 0)
+    unturned = q.copy()
+    unturned[3:7] = 0
+    with pytest.raises(ValueError, match=r"q1\[3..6\], the base's quaternion, must have a norm"):
+        arm.difference(q, unturned)
     with pytest.raises(ValueError, match="delta: expected 8 values, got 9"):
         arm.integrate(q, q)
 
