@@ -336,15 +336,17 @@ Eigen::VectorXd padded(const TaskShape& shape, const Eigen::VectorXd& x) {
 struct Rates {
   TaskMap map;
   Eigen::VectorXd scale, z, lambda, qd;
+  double rcond = 0;  // of the row-scaled map (MinimumNorm::rcond)
 };
 Rates rates(const DynamicModel& m, const TaskShape& shape, const Eigen::VectorXd& q,
             const Eigen::VectorXd& v, double t) {
   Rates r{task_map(m, shape, q), {}, {}, {}, {}};
   r.scale = row_scales(r.map.A);
   const MinimumNorm mn(r.scale.asDiagonal() * r.map.A);
+  r.rcond = mn.rcond();
   // Near a singularity of the generalized Jacobian (the arm stretched or folded at the edge
   // of the workspace) the joint rates blow up: stop with a reason instead of integrating noise.
-  if (!(mn.rcond() > 1e-10)) {
+  if (!(r.rcond > kMinJacobianRcond)) {
     std::ostringstream msg;
     msg << "planner, model " << m.name << ": generalized Jacobian singular (rcond " << mn.rcond()
         << ") at t = " << t << " s: the path leaves the workspace or crosses a singularity";
@@ -530,6 +532,8 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
     const VectorXd& qk = plan.q[k];
     const detail::Desired d = detail::desired(m, task, plan.t[k]);
     const detail::Rates r = detail::rates(m, shape, qk, d.v, plan.t[k]);
+    if (r.rcond < plan.min_jacobian_rcond)
+      plan.min_jacobian_rcond = r.rcond, plan.min_jacobian_rcond_t = plan.t[k];
     Eigen::MatrixXd Mk;
     VectorXd b;
     m.mass_matrix_and_bias(qk, r.qd, Mk, b);

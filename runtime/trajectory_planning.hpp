@@ -108,6 +108,12 @@ struct BasicPlan {
   // angle), or the held joints' from their start angles (hold joints); 0 for a chain.
   double max_hold_error = 0;
   bool held = false;  // a tree's plan: something held
+  // How near the plan passes to a singularity of the generalized Jacobian (dynamic
+  // singularities, Papadopoulos and Dubowsky): the smallest ratio of its row-scaled QR's
+  // smallest to largest |R_ii| over the samples (an estimate of 1 / cond; the planner refuses
+  // at kMinJacobianRcond and below), and where.
+  double min_jacobian_rcond = 1;
+  double min_jacobian_rcond_t = 0;
 };
 using Plan = BasicPlan<>;
 template <class G>
@@ -124,6 +130,10 @@ struct TaskNames {
 
 // Largest plan accepted: samples are held in memory until the plan is complete.
 inline constexpr double kMaxPlanSamples = 1e6;
+
+// The margin: a generalized Jacobian whose rcond (BasicPlan::min_jacobian_rcond) falls to this
+// is singular, and the planner stops with the time and the reason.
+inline constexpr double kMinJacobianRcond = 1e-10;
 
 // The task's rows of the end-effector Jacobian for `values` pose values: in 3D a quaternion's
 // four values are three angular velocities.
@@ -161,6 +171,10 @@ inline std::string plan_checks_text(const Plan& plan) {
                   plan.max_hold_error);
     out += text;
   }
+  std::snprintf(text, sizeof text,
+                ", generalized Jacobian's rcond at least %.2e (at t = %.6g s; singular at %.0e)",
+                plan.min_jacobian_rcond, plan.min_jacobian_rcond_t, kMinJacobianRcond);
+  out += text;
   return out;
 }
 
@@ -186,6 +200,10 @@ ModelPlan<G> plan_straight_line(const Model<G>& model, const StraightLineTask& t
   out.max_acceleration_mismatch = p.max_acceleration_mismatch;
   out.max_path_error = p.max_path_error;
   out.max_momentum = p.max_momentum;
+  out.max_hold_error = p.max_hold_error;
+  out.held = p.held;
+  out.min_jacobian_rcond = p.min_jacobian_rcond;
+  out.min_jacobian_rcond_t = p.min_jacobian_rcond_t;
   for (size_t k = 0; k < p.t.size(); ++k) {
     out.q.emplace_back(p.q[k]);
     out.qd.emplace_back(p.qd[k]);

@@ -79,6 +79,25 @@ TEST(TrajectoryPlanning, StraightLineConstantOrientationZeroMomentum) {
   }
 }
 
+// Issue 53: a plan reports how near it passes to a singularity of the generalized Jacobian. The
+// paper's line runs inwards, away from the stretched arm: its smallest rcond is at the start. A
+// line outwards, towards the stretched arm, has a smaller one at its end; both stay clear of the
+// margin at which the planner stops, and the checks' line says so.
+TEST(TrajectoryPlanning, APlanReportsHowNearItPassesToASingularity) {
+  const Ref ref;
+  StraightLineTask inwards, outwards;
+  outwards.goal = Eigen::Vector3d(1.55, 0.0, M_PI / 6);
+  const auto in = plan_straight_line(ref, inwards), out = plan_straight_line(ref, outwards);
+  // The time law rests at both ends, so the extremes are flat there: near the start, near the end.
+  EXPECT_LT(in.min_jacobian_rcond_t, 0.1 * inwards.duration);
+  EXPECT_GT(out.min_jacobian_rcond_t, 0.9 * outwards.duration);
+  EXPECT_LT(out.min_jacobian_rcond, 0.8 * in.min_jacobian_rcond);  // measured 0.14 and 0.26
+  EXPECT_GT(out.min_jacobian_rcond, 100 * kMinJacobianRcond);
+  const std::string text = plan_checks_text(plan_straight_line(dynamic_model(ref), outwards));
+  EXPECT_NE(text.find("generalized Jacobian's rcond at least 1.41e-01 (at t = "), std::string::npos)
+      << text;
+}
+
 TEST(TrajectoryPlanning, ReplayIntoReferenceReproducesTheLine) {
   StraightLineTask task;
   const auto r = plan_and_replay(task);
