@@ -122,6 +122,20 @@ struct ConfigurationSpace {
     return W;
   }
 
+  // d(dq/dt, qdd)/d(q, v) in q's coordinates ((nq + nv) square), for an implicit method or a
+  // linearisation of the motion: the rate's rows (rate_jacobians) above the dynamics' rows, whose
+  // dqdd/dq (on the tangent space, nv x nv: forward_dynamics_derivatives) turns into q's
+  // coordinates by tangent_map.
+  Eigen::MatrixXd motion_jacobian(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                  const Eigen::Ref<const Eigen::VectorXd>& v,
+                                  const Eigen::Ref<const Eigen::MatrixXd>& dqdd_dq,
+                                  const Eigen::Ref<const Eigen::MatrixXd>& dqdd_dv) const {
+    Eigen::MatrixXd by_q, by_v, J(nq + nv, nq + nv);
+    rate_jacobians(q, v, by_q, by_v);
+    J << by_q, by_v, dqdd_dq * tangent_map(q), dqdd_dv;
+    return J;
+  }
+
   // The configuration at rest: zeros, and the identity rotation (w = 1) for a quaternion.
   Eigen::VectorXd neutral() const {
     Eigen::VectorXd q = Eigen::VectorXd::Zero(nq);

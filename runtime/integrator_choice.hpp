@@ -59,13 +59,9 @@ inline void state_jacobian(const DynamicModel& m, const Eigen::VectorXd& q,
 // The stiffest linearised mode of the model at (q, qd) under generalized forces Q.
 inline StiffestMode stiffest_mode(const DynamicModel& m, const Eigen::VectorXd& q,
                                   const Eigen::VectorXd& qd, const Eigen::VectorXd& Q) {
-  Eigen::MatrixXd dq, dqd, rate_by_q, rate_by_v;
+  Eigen::MatrixXd dq, dqd;
   detail::state_jacobian(m, q, qd, Q, dq, dqd);
-  // The first row d(dq/dt)/d(q, qd): [0, I] without a quaternion (configuration_space.hpp).
-  m.configuration_space().rate_jacobians(q, qd, rate_by_q, rate_by_v);
-  const int nq = m.nq, nv = m.nv;
-  Eigen::MatrixXd A(nq + nv, nq + nv);
-  A << rate_by_q, rate_by_v, dq * m.configuration_space().tangent_map(q), dqd;
+  const Eigen::MatrixXd A = m.configuration_space().motion_jacobian(q, qd, dq, dqd);
   StiffestMode mode;
   if (!A.allFinite()) {
     mode.rate = std::numeric_limits<double>::infinity();
@@ -77,7 +73,7 @@ inline StiffestMode stiffest_mode(const DynamicModel& m, const Eigen::VectorXd& 
   mode.rate = std::abs(eig.eigenvalues()[k]);
   mode.frequency = std::abs(eig.eigenvalues()[k].imag());
   Eigen::Index c = 0;
-  eig.eigenvectors().col(k).head(nq).cwiseAbs().maxCoeff(&c);
+  eig.eigenvectors().col(k).head(m.nq).cwiseAbs().maxCoeff(&c);
   mode.coordinate = m.coordinate_names.at(static_cast<size_t>(c));
   return mode;
 }

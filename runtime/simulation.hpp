@@ -75,14 +75,7 @@ auto motion_jacobian(const Mdl& model, const Torque& tau, Eigen::Index nq, Eigen
     typename Mdl::TangentJacobian dq;
     typename Mdl::Matrix dqd;
     const typename Mdl::Velocity qdd = model.forward_dynamics_derivatives(q, qd, Q, dq, dqd);
-    J = Eigen::MatrixXd::Zero(nq + nv, nq + nv);
-    Eigen::MatrixXd rate_by_q, rate_by_v;  // of dq/dt (configuration_space.hpp)
-    model.configuration_space().rate_jacobians(q, qd, rate_by_q, rate_by_v);
-    J.topLeftCorner(nq, nq) = rate_by_q;
-    J.topRightCorner(nq, nv) = rate_by_v;
-    // dqdd/dq on the tangent space, turned into q's coordinates.
-    J.bottomLeftCorner(nv, nq) = dq * model.configuration_space().tangent_map(q);
-    J.bottomRightCorner(nv, nv) = dqd;
+    J = model.configuration_space().motion_jacobian(q, qd, dq, dqd);
     dfdt = Eigen::VectorXd::Zero(nq + nv);
     const typename Mdl::Velocity dQ = force_slope(model, tau, t, Q);
     if (!dQ.isZero(0)) dfdt.tail(nv) = model.forward_dynamics(q, qd, Q + dQ) - qdd;

@@ -57,25 +57,24 @@ inline StageDerivatives stage_derivatives(const DynamicModel& m, const Eigen::Ve
   const Eigen::VectorXd q = x.head(nq), v = x.tail(nv);
   StageDerivatives s;
   s.nq = nq, s.nv = nv, s.quaternion_offset = space.quaternion_offset;
-  const Eigen::VectorXd qdd = m.forward_dynamics(q, v, Q);
-  s.f.resize(nq + nv);
-  s.f << space.rate(q, v), qdd;
-  Eigen::MatrixXd dq, dqd, dtau, by_q, by_v;
+  Eigen::VectorXd qdd;
+  Eigen::MatrixXd dq, dqd, dtau;
   s.T = Eigen::MatrixXd::Zero(nq + nv, N);
-  if (m.state_and_torque_jacobian) {
-    m.state_and_torque_jacobian(q, v, Q, dq, dqd, dtau);
+  if (m.state_and_torque_jacobian) {  // qdd from the same call
+    qdd = m.state_and_torque_jacobian(q, v, Q, dq, dqd, dtau);
     s.T.bottomRows(nv) = dtau;
   } else {
     // The Jacobian by differences; qdd is affine in Q, so each joint's column is the difference
     // of two solves, exact but for rounding.
+    qdd = m.forward_dynamics(q, v, Q);
     state_jacobian(m, q, v, Q, dq, dqd);
     for (int j = 0; j < N; ++j)
       s.T.col(j).tail(nv) =
           m.forward_dynamics(q, v, Q + m.generalized_forces(Eigen::VectorXd::Unit(N, j))) - qdd;
   }
-  space.rate_jacobians(q, v, by_q, by_v);
-  s.J.resize(nq + nv, nq + nv);
-  s.J << by_q, by_v, dq * space.tangent_map(q), dqd;
+  s.f.resize(nq + nv);
+  s.f << space.rate(q, v), qdd;
+  s.J = space.motion_jacobian(q, v, dq, dqd);
   return s;
 }
 

@@ -348,7 +348,7 @@ Rates rates(const DynamicModel& m, const TaskShape& shape, const Eigen::VectorXd
   // of the workspace) the joint rates blow up: stop with a reason instead of integrating noise.
   if (!(r.rcond > kMinJacobianRcond)) {
     std::ostringstream msg;
-    msg << "planner, model " << m.name << ": generalized Jacobian singular (rcond " << mn.rcond()
+    msg << "planner, model " << m.name << ": generalized Jacobian singular (rcond " << r.rcond
         << ") at t = " << t << " s: the path leaves the workspace or crosses a singularity";
     throw std::runtime_error(msg.str());
   }
