@@ -60,24 +60,34 @@ inline bool has_recursive_form(Output o) { return recursive_algorithm(o) != null
 
 namespace chain_algorithms {
 
-// dy/dx, row-major, of y = f(chain) with x the input array `x` (q: nq columns; qd: nv), one
-// forward pass per entry: each costs what the entry's dependents cost, so O(N) here.
+// The derivatives of y = f(chain) along n directions, row-major (one column per direction), one
+// forward pass each: direction(k) gives input entry (array, i)'s tangent along direction k.
 // f: const Chain<Dual<T>>& -> std::vector<Dual<T>>.
-template <template <class> class Chain, class T, class Description, class F>
-std::vector<T> jacobian(const Description& d, const Values<T>& values, Input x, const F& f) {
-  const Dimensions dims = Chain<T>::dimensions(d);
-  const int n = dims(info(x).size);
-  const char* name = info(x).name;
+template <template <class> class Chain, class T, class Description, class F, class Direction>
+std::vector<T> along_directions(const Description& d, const Values<T>& values, int n,
+                                const Direction& direction, const F& f) {
   std::vector<T> J;
   for (int k = 0; k < n; ++k) {
-    const Values<Dual<T>> unit = seeded<T>(values, [&values, name, k](const std::string& a, int i) {
-      return a == name && i == k ? values.number(1.0) : T{};
-    });
-    const std::vector<T> column = tangents(f(Chain<Dual<T>>(d, unit)));
+    const Values<Dual<T>> along = seeded<T>(
+        values, [&direction, k](const std::string& a, int i) { return direction(k, a, i); });
+    const std::vector<T> column = tangents(f(Chain<Dual<T>>(d, along)));
     if (J.empty()) J.resize(column.size() * n);
     for (size_t r = 0; r < column.size(); ++r) J[r * n + k] = column[r];
   }
   return J;
+}
+
+// dy/dx, row-major, of y = f(chain) with x the input array `x` (q: nq columns; qd: nv), one
+// forward pass per entry: each costs what the entry's dependents cost, so O(N) here.
+template <template <class> class Chain, class T, class Description, class F>
+std::vector<T> jacobian(const Description& d, const Values<T>& values, Input x, const F& f) {
+  const char* name = info(x).name;
+  return along_directions<Chain>(
+      d, values, Chain<T>::dimensions(d)(info(x).size),
+      [&values, name](int k, const std::string& a, int i) {
+        return a == name && i == k ? values.number(1.0) : T{};
+      },
+      f);
 }
 
 // The chain's input array x (sized by the registry: q has nq entries, qdd_joints num_links).
@@ -124,15 +134,13 @@ std::vector<T> tangent_jacobian(const Description& d, const Values<T>& values, c
   if (dims.nq == dims.nv) return jacobian<Chain>(d, values, Input::q, f);
   const std::vector<T> G = configuration_rate_matrix<Chain>(d, values);
   const char* name = info(Input::q).name;
-  std::vector<T> J;
-  for (int k = 0; k < dims.nv; ++k) {
-    const Values<Dual<T>> along = seeded<T>(
-        values, [&](const std::string& a, int i) { return a == name ? G[i * dims.nv + k] : T{}; });
-    const std::vector<T> column = tangents(f(Chain<Dual<T>>(d, along)));
-    if (J.empty()) J.resize(column.size() * dims.nv);
-    for (size_t r = 0; r < column.size(); ++r) J[r * dims.nv + k] = column[r];
-  }
-  return J;
+  const int nv = dims.nv;
+  return along_directions<Chain>(
+      d, values, nv,
+      [&G, name, nv](int k, const std::string& a, int i) {
+        return a == name ? G[i * nv + k] : T{};
+      },
+      f);
 }
 
 // dy/dtau (row-major, N columns) of y = f(chain) by the link-side joint torques: joint j's
@@ -141,20 +149,13 @@ std::vector<T> tangent_jacobian(const Description& d, const Values<T>& values, c
 template <template <class> class Chain, class T, class Description, class F>
 std::vector<T> torque_jacobian(const Description& d, const Values<T>& values, const Chain<T>& chain,
                                const F& f) {
-  const int N = Chain<T>::dimensions(d).num_links;
   const char* name = info(Input::generalized_forces).name;
-  std::vector<T> J;
-  for (int j = 0; j < N; ++j) {
-    const int coordinate = chain.torque_coordinate(j + 1);
-    const T per_torque = chain.per_torque(j + 1);
-    const Values<Dual<T>> along = seeded<T>(values, [&](const std::string& a, int i) {
-      return a == name && i == coordinate ? per_torque : T{};
-    });
-    const std::vector<T> column = tangents(f(Chain<Dual<T>>(d, along)));
-    if (J.empty()) J.resize(column.size() * N);
-    for (size_t r = 0; r < column.size(); ++r) J[r * N + j] = column[r];
-  }
-  return J;
+  return along_directions<Chain>(
+      d, values, Chain<T>::dimensions(d).num_links,
+      [&chain, name](int j, const std::string& a, int i) {
+        return a == name && i == chain.torque_coordinate(j + 1) ? chain.per_torque(j + 1) : T{};
+      },
+      f);
 }
 
 // Whether a chain has quasi-velocities whose directions do not commute (the spatial chain's
