@@ -775,15 +775,21 @@ TEST(Sweep, SpatialArmSweepsAPayloadAndTheRatioWithOneModel) {
   fs::remove_all(dir);
 }
 
+// models/dual_arm7's URDF with a scene dual_p.yaml beside it in `here`: the gear ratio a run-time
+// parameter p (100).
+void write_dual_arm_scene(const fs::path& here) {
+  fs::copy_file(fs::path(SPACEARM_SOURCE_DIR) / "models/dual_arm7.urdf", here / "dual_arm7.urdf");
+  std::ofstream(here / "dual_p.yaml")
+      << "name: dual_p\nspace: spatial\nurdf: dual_arm7.urdf\nbase: {type: free_floating}\n"
+         "parameters: {p: 100}\ngears: {ratio: p, rotor_inertia: [1.2e-4, 7.0e-5]}\n";
+}
+
 // Issue 52: a study of a tree (models/dual_arm7) measures the first end effector, the one its
 // manoeuvre plans: each row has the header's fields, its ee_ columns are the left tool's (ee_error
 // their distance from the goal), and the nominal run ends near the goal, keeping its momentum.
 TEST(Sweep, ATreesStudyMeasuresItsFirstEndEffector) {
   const fs::path here = scratch("tree_scene");
-  fs::copy_file(fs::path(SPACEARM_SOURCE_DIR) / "models/dual_arm7.urdf", here / "dual_arm7.urdf");
-  std::ofstream(here / "dual_p.yaml")
-      << "name: dual_p\nspace: spatial\nurdf: dual_arm7.urdf\nbase: {type: free_floating}\n"
-         "parameters: {p: 100}\ngears: {ratio: p, rotor_inertia: [1.2e-4, 7.0e-5]}\n";
+  write_dual_arm_scene(here);
   const Study s = parse_study("scene: " + (here / "dual_p.yaml").string() + R"(
 manoeuvre:
   plan: {from: [0.6, 0.5, 2.67], to: [0.9, 0.6, 2.3], duration: 4}
@@ -816,10 +822,7 @@ grid:
 // one here, the left holding its pose); an unknown name or hold is an error naming the field.
 TEST(Sweep, ATreesStudyMeasuresTheEndEffectorItNames) {
   const fs::path here = scratch("tree_scene_named");
-  fs::copy_file(fs::path(SPACEARM_SOURCE_DIR) / "models/dual_arm7.urdf", here / "dual_arm7.urdf");
-  std::ofstream(here / "dual_p.yaml")
-      << "name: dual_p\nspace: spatial\nurdf: dual_arm7.urdf\nbase: {type: free_floating}\n"
-         "parameters: {p: 100}\ngears: {ratio: p, rotor_inertia: [1.2e-4, 7.0e-5]}\n";
+  write_dual_arm_scene(here);
   auto study = [&](const std::string& end_effector, const std::string& hold) {
     return parse_study("scene: " + (here / "dual_p.yaml").string() +
                            "\nmanoeuvre:\n  end_effector: " + end_effector +
