@@ -131,39 +131,38 @@ double worst_disagreement(const Loaded& ours, test::MujocoModel& mj) {
   return worst;
 }
 
+// Calls the C functions `calls` in turn at one timed state after another (inputs q, v, Q: a
+// function reads those it takes), their results into buffers of the given sizes; with several
+// calls the time is that of all of them, and items count the calls.
+void register_calls(const std::string& name, const std::vector<CompiledModel::Function>& calls,
+                    const std::vector<int>& result_sizes, const States& states) {
+  benchmark::RegisterBenchmark(name.c_str(), [calls, result_sizes, &states](benchmark::State& st) {
+    std::vector<std::vector<double>> buffers;
+    std::vector<double*> results;
+    for (int size : result_sizes) buffers.emplace_back(size);
+    for (auto& buffer : buffers) results.push_back(buffer.data());
+    int k = 0;
+    for (auto _ : st) {
+      const double* inputs[] = {states.q[k].data(), states.v[k].data(), states.Q[k].data()};
+      for (const auto& call : calls) {
+        call(inputs, nullptr, results.data());
+        benchmark::DoNotOptimize(results.data());
+      }
+      k = (k + 1) % kStates;
+    }
+    if (calls.size() > 1)
+      st.SetItemsProcessed(static_cast<int64_t>(calls.size()) * st.iterations());
+  });
+}
+
 // Forward dynamics and M + b (mass_matrix_and_bias, one call as MuJoCo's stages are) of a
 // model, under its name.
 void register_ours(const Loaded& m) {
-  const std::string name = m.model.name();
   const int nv = m.chain.nv();
-  const States& states = m.states;
-  const CompiledModel::Function fd = m.model.function(Output::forward_dynamics);
-  benchmark::RegisterBenchmark(
-      ("spacearm/FD/" + name).c_str(), [fd, nv, &states](benchmark::State& st) {
-        std::vector<double> qdd(nv), pivots(nv), scaled(nv);
-        double* results[] = {qdd.data(), pivots.data(), scaled.data()};
-        int k = 0;
-        for (auto _ : st) {
-          const double* inputs[] = {states.q[k].data(), states.v[k].data(), states.Q[k].data()};
-          fd(inputs, nullptr, results);
-          benchmark::DoNotOptimize(qdd.data());
-          k = (k + 1) % kStates;
-        }
-      });
-  const CompiledModel::Function mb = m.model.function(kMassMatrixAndBias);
-  benchmark::RegisterBenchmark(
-      ("spacearm/M+bias/" + name).c_str(), [mb, nv, &states](benchmark::State& st) {
-        std::vector<double> M(nv * nv), b(nv);
-        double* results[] = {M.data(), b.data()};
-        int k = 0;
-        for (auto _ : st) {
-          const double* inputs[] = {states.q[k].data(), states.v[k].data()};
-          mb(inputs, nullptr, results);
-          benchmark::DoNotOptimize(M.data());
-          benchmark::DoNotOptimize(b.data());
-          k = (k + 1) % kStates;
-        }
-      });
+  register_calls("spacearm/FD/" + m.model.name(), {m.model.function(Output::forward_dynamics)},
+                 {nv, nv, nv}, m.states);
+  register_calls("spacearm/M+bias/" + m.model.name(), {m.model.function(kMassMatrixAndBias)},
+                 {nv * nv, nv}, m.states);
 }
 
 // Forward dynamics of two models called in turn (the time of both calls): together their code is
@@ -171,48 +170,20 @@ void register_ours(const Loaded& m) {
 // CPU's L1 instruction cache 32 KB on the machines measured), so this row against the two models
 // alone shows what an instruction working set over the cache costs, apart from the tree.
 void register_alternated(const Loaded& a, const Loaded& b) {
-  const CompiledModel::Function fa = a.model.function(Output::forward_dynamics);
-  const CompiledModel::Function fb = b.model.function(Output::forward_dynamics);
   const int nv = a.chain.nv();
-  const States& states = a.states;
-  benchmark::RegisterBenchmark(
-      ("spacearm/FD/" + a.model.name() + " and " + b.model.name() + " in turn (two calls)").c_str(),
-      [fa, fb, nv, &states](benchmark::State& st) {
-        std::vector<double> qdd(nv), pivots(nv), scaled(nv);
-        double* results[] = {qdd.data(), pivots.data(), scaled.data()};
-        int k = 0;
-        for (auto _ : st) {
-          const double* inputs[] = {states.q[k].data(), states.v[k].data(), states.Q[k].data()};
-          fa(inputs, nullptr, results);
-          benchmark::DoNotOptimize(qdd.data());
-          fb(inputs, nullptr, results);
-          benchmark::DoNotOptimize(qdd.data());
-          k = (k + 1) % kStates;
-        }
-        st.SetItemsProcessed(2 * st.iterations());
-      });
+  register_calls(
+      "spacearm/FD/" + a.model.name() + " and " + b.model.name() + " in turn (two calls)",
+      {a.model.function(Output::forward_dynamics), b.model.function(Output::forward_dynamics)},
+      {nv, nv, nv}, a.states);
 }
 
 // The state Jacobian (dqdd/dq on the tangent space, dqdd/dqd, qdd and dqdd/dtau: one call),
 // under the model's name.
 void register_derivatives(const Loaded& m) {
-  const int nv = m.chain.nv();
-  const States& states = m.states;
-  const int N = static_cast<int>(m.chain.links.size());
-  const CompiledModel::Function dd = m.model.function(Output::forward_dynamics_derivatives);
-  benchmark::RegisterBenchmark(
-      ("spacearm/FD derivatives/" + m.model.name()).c_str(),
-      [dd, nv, N, &states](benchmark::State& st) {
-        std::vector<double> dq(nv * nv), dv(nv * nv), qdd(nv), dtau(nv * N);
-        double* results[] = {dq.data(), dv.data(), qdd.data(), dtau.data()};
-        int k = 0;
-        for (auto _ : st) {
-          const double* inputs[] = {states.q[k].data(), states.v[k].data(), states.Q[k].data()};
-          dd(inputs, nullptr, results);
-          benchmark::DoNotOptimize(dq.data());
-          k = (k + 1) % kStates;
-        }
-      });
+  const int nv = m.chain.nv(), N = static_cast<int>(m.chain.links.size());
+  register_calls("spacearm/FD derivatives/" + m.model.name(),
+                 {m.model.function(Output::forward_dynamics_derivatives)},
+                 {nv * nv, nv * nv, nv, nv * N}, m.states);
 }
 
 // One rk4 step's A and B (runtime/step_jacobian.hpp, 1 ms: the peer's default step) through the
