@@ -386,6 +386,13 @@ CLI::App* add_plan(CLI::App& app, spacearm::PlanArgs& a) {
                    "stay put in the inertial frame)")
       ->check(CLI::IsMember({"joints", "pose"}));
   command
+      ->add_option("--objective", a.objective,
+                   "line (default: the base turns as momentum conservation makes it) or "
+                   "reactionless (a free base's angular velocity held at zero through the "
+                   "reaction null space: the task's rows plus 3 in 3D, 1 in the plane, need as "
+                   "many joints)")
+      ->check(CLI::IsMember({"line", "reactionless"}));
+  command
       ->add_option("--param", a.param_assignments,
                    "Run-time parameter name=value (repeatable, once per name)")
       ->default_str("");

@@ -132,6 +132,7 @@ StraightLineTask task_from_options(const PlanArgs& a, const ModelFacts& facts) {
   task.elbow = a.elbow;
   if (!a.q0_text.empty()) task.q0 = cli::parse_vector(a.q0_text, "--q0", facts.dims.nq);
   task.hold = hold_from_string(a.hold);
+  task.objective = objective_from_string(a.objective);
   DynamicModel sizes;
   sizes.name = facts.name;
   sizes.nq = facts.dims.nq;

@@ -14,7 +14,8 @@ struct PlanArgs {
   std::string scene_path, output_file, torque_file, cache_dir, q0_text;
   // --from, --to and --time-law: once, or once per --end-effector (a tree's lines, in order).
   std::vector<std::string> from_text, to_text, time_laws, end_effectors;
-  std::string hold = "joints";  // a tree's --hold
+  std::string hold = "joints";     // a tree's --hold
+  std::string objective = "line";  // --objective (Objective)
   int elbow = +1;
   double duration = 0, dt = 0.01;
   std::vector<std::string> param_assignments;

@@ -115,8 +115,8 @@ class PyModel {
   // goal then one row per name, time_law one or one per name).
   py::dict plan(const py::object& start, const py::object& goal, double duration, double dt,
                 const py::object& time_law, int elbow, const py::object& q0,
-                const py::object& params, const py::object& end_effector,
-                const std::string& hold) const;
+                const py::object& params, const py::object& end_effector, const std::string& hold,
+                const std::string& objective) const;
   // The lines of plan()'s arguments, into task (its start, goal, law, end effector, more_lines).
   void plan_lines(const py::object& start, const py::object& goal, const py::object& time_law,
                   const py::object& end_effector, StraightLineTask& task) const;
@@ -362,12 +362,17 @@ void PyModel::plan_lines(const py::object& start, const py::object& goal,
 py::dict PyModel::plan(const py::object& start, const py::object& goal, double duration, double dt,
                        const py::object& time_law, int elbow, const py::object& q0,
                        const py::object& params_given, const py::object& end_effector,
-                       const std::string& hold) const {
+                       const std::string& hold, const std::string& objective) const {
   StraightLineTask task;
   try {
     task.hold = hold_from_string(hold);
   } catch (const std::invalid_argument& e) {
     throw py::value_error(std::string("hold: ") + e.what());
+  }
+  try {
+    task.objective = objective_from_string(objective);
+  } catch (const std::invalid_argument& e) {
+    throw py::value_error(std::string("objective: ") + e.what());
   }
   plan_lines(start, goal, time_law, end_effector, task);
   task.duration = duration;
@@ -382,9 +387,11 @@ py::dict PyModel::plan(const py::object& start, const py::object& goal, double d
   TaskNames names;
   names.lines_indexed = !py::isinstance<py::str>(end_effector);  // a list of end effectors
   check_task(m, task, names);
+  Plan plan;
   const PlanTable table = [&] {
     py::gil_scoped_release release;
-    return plan_table(plan_straight_line(m, task), m, recipe_.facts().geared);
+    plan = plan_straight_line(m, task);
+    return plan_table(plan, m, recipe_.facts().geared);
   }();
   // The table's columns by name, and its groups as arrays: t, q, qd, qdd, tau, ...
   py::dict out, named;
@@ -401,6 +408,11 @@ py::dict PyModel::plan(const py::object& start, const py::object& goal, double d
   if (recipe_.facts().geared) out["tau_motor"] = table_columns(table, at, n, true), at += n;
   if (at < table.names.size()) out["base_residual"] = table_columns(table, at, 1, false);
   out["columns"] = named;
+  // The plan's own checks (plan_checks_text): how near a singularity, how far the base turned.
+  out["min_jacobian_rcond"] = plan.min_jacobian_rcond;
+  out["min_jacobian_rcond_t"] = plan.min_jacobian_rcond_t;
+  out["max_base_rotation"] = plan.max_base_rotation;
+  out["final_base_rotation"] = plan.final_base_rotation;
   return out;
 }
 
@@ -868,7 +880,7 @@ void bind_model_runs(py::class_<PyModel>& model) {
   model.def("plan", &PyModel::plan, py::arg("start"), py::arg("goal"), py::arg("duration"),
             py::arg("dt") = 0.01, py::arg("time_law") = "quintic", py::arg("elbow") = 1,
             py::arg("q0") = py::none(), py::arg("params") = py::none(),
-            py::arg("end_effector") = "", py::arg("hold") = "joints",
+            py::arg("end_effector") = "", py::arg("hold") = "joints", py::arg("objective") = "line",
             "The zero-momentum straight line of the end-effector from start to goal (x, y or x, y, "
             "phi; in 3D x, y, z or a pose x, y, z, qw, qx, qy, qz) in `duration` s, as `spacearm "
             "plan` (a tree: `end_effector` by name follows it, the others `hold` their 'joints' "
@@ -876,7 +888,9 @@ void bind_model_runs(py::class_<PyModel>& model) {
             "goal one row per name, time_law one or one per name): a dict of t, q, qd, qdd, "
             "tau (link side), "
             "tau_motor (geared), base_residual (free base) and 'columns', the CSV's columns by "
-            "name.");
+            "name, and its checks: min_jacobian_rcond (and _t), max_base_rotation and "
+            "final_base_rotation (rad). objective='reactionless' holds a free base's angular "
+            "velocity at zero (the reaction null space), as plan --objective.");
   model.def(
       "simulate",
       [](const PyModel& m, const py::object& t_end, const py::object& torques, const py::object& q0,

@@ -103,6 +103,8 @@ int check_task(const DynamicModel& m, const StraightLineTask& task, const TaskNa
   if (m.num_links < all_rows)
     fail("a " + std::to_string(m.num_links) + "-joint tree cannot follow " +
          std::to_string(all_rows) + " task coordinates at once");
+  if (task.objective == Objective::reactionless && m.num_base() == 0)
+    fail("objective reactionless keeps a free base from turning; this model's base is fixed");
   if (task.q0.size() == 0 && task.elbow != 1 && task.elbow != -1)
     fail(names.elbow + " must be +1 or -1, got " + std::to_string(task.elbow));
   return rows;
@@ -120,6 +122,13 @@ struct MinimumNorm {
     const auto d = qr.matrixR().diagonal().cwiseAbs();
     const Eigen::Index m = qr.cols();
     return d.head(m).minCoeff() / d.head(m).maxCoeff();
+  }
+  // The rows' rank in effect: |R_ii| above 1e-6 of the largest (the rates grow as the inverse
+  // of the others, and the planner's steps shrink to nothing before rcond reaches its margin).
+  int rank() const {
+    const auto d = qr.matrixR().diagonal().cwiseAbs();
+    const Eigen::Index m = qr.cols();
+    return int((d.head(m).array() > 1e-6 * d.head(m).maxCoeff()).count());
   }
   // y = R^-T P^T r; x = Q y; lambda = P R^-1 y.
   Eigen::VectorXd y(const Eigen::VectorXd& r) const {
@@ -166,6 +175,8 @@ struct TaskShape {
   };
   std::vector<Block> moving;
   std::vector<int> held_end_effectors, held_joints;
+  // Reactionless: the base's angular velocities (their indices in v), held at zero.
+  std::vector<int> base_attitude;
   int per_end_effector = 6;  // Jacobian rows (3 in the plane)
   int moving_rows() const {
     int r = 0;
@@ -173,7 +184,8 @@ struct TaskShape {
     return r;
   }
   int held_rows() const {
-    return per_end_effector * int(held_end_effectors.size()) + int(held_joints.size());
+    return per_end_effector * int(held_end_effectors.size()) + int(held_joints.size()) +
+           int(base_attitude.size());
   }
   int total() const { return moving_rows() + held_rows(); }
 };
@@ -189,6 +201,8 @@ TaskShape task_shape(const DynamicModel& m, const StraightLineTask& task,
                             (m.spatial ? 7 : 3) * line.end_effector, values});
     moves[line.end_effector] = true;
   }
+  if (task.objective == Objective::reactionless)
+    shape.base_attitude = m.spatial ? std::vector<int>{3, 4, 5} : std::vector<int>{2};
   if (E == 1) return shape;
   if (task.hold == Hold::pose) {
     for (int e = 0; e < E; ++e)
@@ -212,11 +226,18 @@ TaskShape task_shape(const DynamicModel& m, const StraightLineTask& task,
 // The minimum-norm rates need no more task rows than joints: what moves and what is held.
 void check_shape(const DynamicModel& m, const TaskShape& shape) {
   if (shape.total() <= m.num_links) return;
-  throw std::invalid_argument(
-      "planner, model " + m.name + ": " + std::to_string(shape.moving_rows()) +
-      " task coordinates and " + std::to_string(shape.held_rows()) +
-      " held (the other end effectors' or joints', --hold) are more than its " +
-      std::to_string(m.num_links) + " joints can follow");
+  const int attitude = int(shape.base_attitude.size()), others = shape.held_rows() - attitude;
+  std::string held;
+  if (others > 0)
+    held +=
+        " and " + std::to_string(others) + " held (the other end effectors' or joints', --hold)";
+  if (attitude > 0)
+    held += " and the base's " + std::to_string(attitude) +
+            " angular velocities held at zero (reactionless)";
+  throw std::invalid_argument("planner, model " + m.name + ": " +
+                              std::to_string(shape.moving_rows()) + " task coordinates" + held +
+                              " are " + std::to_string(shape.total()) + " rows, more than its " +
+                              std::to_string(m.num_links) + " joints can follow");
 }
 
 TaskMap task_map(const DynamicModel& m, const TaskShape& shape, const Eigen::VectorXd& q) {
@@ -244,6 +265,7 @@ TaskMap task_map(const DynamicModel& m, const TaskShape& shape, const Eigen::Vec
     row += shape.per_end_effector;
   }
   for (int j : shape.held_joints) t.A.row(row++) = Eigen::RowVectorXd::Unit(n, j);
+  for (int v : shape.base_attitude) t.A.row(row++) = t.E.row(v);  // reaction null space
   return t;
 }
 
@@ -332,6 +354,18 @@ Eigen::VectorXd padded(const TaskShape& shape, const Eigen::VectorXd& x) {
   return out;
 }
 
+// What lost rank near a singularity: the generalized Jacobian's rows (the task's and what is
+// held), and for a reactionless plan the reaction null space's.
+std::string rank_text(const TaskShape& shape, const MinimumNorm& mn) {
+  std::ostringstream msg;
+  msg << (shape.base_attitude.empty()
+              ? "generalized Jacobian singular: its "
+              : "reaction null space lost: the task's and the base's attitude rows, ")
+      << shape.total() << " rows, have rank " << mn.rank() << " in effect (rcond " << mn.rcond()
+      << ")";
+  return msg.str();
+}
+
 // One sample's rates: z = A^+ v (minimum norm on the link side), qd = E z.
 struct Rates {
   TaskMap map;
@@ -348,8 +382,8 @@ Rates rates(const DynamicModel& m, const TaskShape& shape, const Eigen::VectorXd
   // of the workspace) the joint rates blow up: stop with a reason instead of integrating noise.
   if (!(r.rcond > kMinJacobianRcond)) {
     std::ostringstream msg;
-    msg << "planner, model " << m.name << ": generalized Jacobian singular (rcond " << r.rcond
-        << ") at t = " << t << " s: the path leaves the workspace or crosses a singularity";
+    msg << "planner, model " << m.name << ": " << rank_text(shape, mn) << " at t = " << t
+        << " s: the path leaves the workspace or crosses a singularity";
     throw std::runtime_error(msg.str());
   }
   const Eigen::VectorXd y = mn.y(r.scale.cwiseProduct(padded(shape, v)));
@@ -402,6 +436,16 @@ double hold_error(const DynamicModel& m, const TaskShape& shape, const Eigen::Ve
                                 .maxCoeff());
   for (int j : shape.held_joints) worst = std::max(worst, std::abs(angles[j] - start_angles[j]));
   return worst;
+}
+
+// The angle the base turned from q_start's attitude to q's (0 for a fixed base).
+double base_rotation(const DynamicModel& m, const Eigen::VectorXd& q,
+                     const Eigen::VectorXd& q_start) {
+  if (m.num_base() == 0) return 0;
+  if (!m.spatial) return std::abs(q[2] - q_start[2]);  // x0, y0, q0
+  const Eigen::Quaterniond turn = quaternion_of(q, m.quaternion_offset) *
+                                  quaternion_of(q_start, m.quaternion_offset).conjugate();
+  return 2 * std::atan2(turn.vec().norm(), std::abs(turn.w()));
 }
 
 // Independent checks of a plan: qdd by central differences of the planned qd, and the forces
@@ -516,13 +560,12 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
     integrate(opt, f, q, 0.0, task.duration, task.dt, observe);
   } catch (const IntegrationError& e) {
     const detail::TaskMap map = detail::task_map(m, shape, e.state());
-    const double rcond =
-        detail::MinimumNorm(detail::row_scales(map.A).asDiagonal() * map.A).rcond();
+    const detail::MinimumNorm mn(detail::row_scales(map.A).asDiagonal() * map.A);
     std::ostringstream msg;
     msg << "planner, model " << m.name << ": cannot follow the line beyond t = " << e.t()
-        << " s: the generalized Jacobian becomes singular there (rcond " << rcond
-        << "; the arm is stretched or folded, or the line leaves the workspace): the planner's "
-        << "steps shrank to nothing there. Shorten the line or move its start.";
+        << " s: " << detail::rank_text(shape, mn)
+        << " there (the arm is stretched or folded, or the line leaves the workspace): the "
+        << "planner's steps shrank to nothing there. Shorten the line or move its start.";
     throw std::runtime_error(msg.str());
   }
 
@@ -550,6 +593,8 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
       plan.max_hold_error = std::max(
           plan.max_hold_error,
           detail::hold_error(m, shape, poses, m.joint_angles(qk), start_poses, start_angles));
+    plan.final_base_rotation = detail::base_rotation(m, qk, plan.q.front());
+    plan.max_base_rotation = std::max(plan.max_base_rotation, plan.final_base_rotation);
     if (m.momentum && nb > 0)
       plan.max_momentum = std::max(plan.max_momentum, m.momentum(qk, r.qd).cwiseAbs().maxCoeff());
   }
@@ -562,11 +607,16 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
     throw std::runtime_error("planner, model " + m.name + ": the plan misses the line by " +
                              detail::format(plan.max_path_error) +
                              " (integration failed to follow it; a bug: please report it)");
-  plan.held = shape.held_rows() > 0;
+  plan.held = !shape.held_end_effectors.empty() || !shape.held_joints.empty();
   if (plan.held && !(plan.max_hold_error <= 1e-8 * scale))
     throw std::runtime_error("planner, model " + m.name + ": what the plan holds moves by " +
                              detail::format(plan.max_hold_error) +
                              " (integration failed to hold it; a bug: please report it)");
+  if (task.objective == Objective::reactionless && !(plan.max_base_rotation <= 1e-8))
+    throw std::runtime_error("planner, model " + m.name +
+                             ": the reactionless plan turns the base by " +
+                             detail::format(plan.max_base_rotation) +
+                             " rad (integration failed to hold it; a bug: please report it)");
   // Rates and torques grow as 1/duration and 1/duration^2: a duration of 1e-300 s overflows.
   for (size_t k = 0; k < plan.t.size(); ++k)
     if (!plan.qd[k].allFinite() || !plan.qdd[k].allFinite() || !plan.tau[k].allFinite())

@@ -62,6 +62,18 @@ inline Hold hold_from_string(const std::string& s) {
   throw std::invalid_argument("unknown hold '" + s + "' (known: joints, pose)");
 }
 
+// What a plan asks of a free base besides the line: nothing (the base turns as momentum
+// conservation makes it), or no turn at all (reactionless: the base's angular velocity is held
+// at zero through the reaction null space of a redundant arm, Nenchev and Yoshida; the task's
+// rows and the base's attitude rows, 3 in 3D and 1 in the plane, need as many joints).
+enum class Objective { line, reactionless };
+
+inline Objective objective_from_string(const std::string& s) {
+  if (s == "line") return Objective::line;
+  if (s == "reactionless") return Objective::reactionless;
+  throw std::invalid_argument("unknown objective '" + s + "' (known: line, reactionless)");
+}
+
 struct StraightLineTask {
   // End-effector [x, y] (a position task) or [x, y, phi] (a pose task) at t = 0 and t = T; in
   // 3D [x, y, z] or [x, y, z, qw, qx, qy, qz] (the pose output's layout; any nonzero quaternion,
@@ -87,6 +99,7 @@ struct StraightLineTask {
     TimeLaw law = TimeLaw::quintic;
   };
   std::vector<Line> more_lines;
+  Objective objective = Objective::line;
 };
 
 // A plan on the output grid. Vector: the model's coordinates; JointVector: link-side torques.
@@ -114,6 +127,10 @@ struct BasicPlan {
   // at kMinJacobianRcond and below), and where.
   double min_jacobian_rcond = 1;
   double min_jacobian_rcond_t = 0;
+  // How far the base turned from its start attitude: the largest angle over the plan and the
+  // angle at its end (rad; 0 for a fixed base). In 3D the angle of R0(t) R0(0)^T.
+  double max_base_rotation = 0;
+  double final_base_rotation = 0;
 };
 using Plan = BasicPlan<>;
 template <class G>
@@ -175,7 +192,10 @@ inline std::string plan_checks_text(const Plan& plan) {
                 ", generalized Jacobian's rcond at least %.2e (at t = %.6g s; singular at %.0e)",
                 plan.min_jacobian_rcond, plan.min_jacobian_rcond_t, kMinJacobianRcond);
   out += text;
-  return out;
+  if (plan.base_residual.empty()) return out;  // a fixed base
+  std::snprintf(text, sizeof text, ", base turned at most %.2e rad (%.2e at the end)",
+                plan.max_base_rotation, plan.final_base_rotation);
+  return out + text;
 }
 
 // The plan as a table, as `spacearm plan` writes it and Python returns it: t, q, qd, qdd (by
@@ -204,6 +224,8 @@ ModelPlan<G> plan_straight_line(const Model<G>& model, const StraightLineTask& t
   out.held = p.held;
   out.min_jacobian_rcond = p.min_jacobian_rcond;
   out.min_jacobian_rcond_t = p.min_jacobian_rcond_t;
+  out.max_base_rotation = p.max_base_rotation;
+  out.final_base_rotation = p.final_base_rotation;
   for (size_t k = 0; k < p.t.size(); ++k) {
     out.q.emplace_back(p.q[k]);
     out.qd.emplace_back(p.qd[k]);

@@ -230,8 +230,9 @@ int StudyReader::end_effector(const StudyScene& scene, const YAML::Node& n,
 // A straight line of the end effector, a position or a pose (3D: with the orientation slerped).
 void StudyReader::plan(Study& s, const YAML::Node& p, const YAML::Node& end_effector_given) const {
   const bool spatial = s.scene.is_spatial();
-  r_.check_keys(p, "manoeuvre.plan",
-                {"from", "to", "duration", "time_law", "elbow", "scene", "q0", "hold"});
+  r_.check_keys(
+      p, "manoeuvre.plan",
+      {"from", "to", "duration", "time_law", "elbow", "scene", "q0", "hold", "objective"});
   StraightLineTask task;
   task.start = position_or_pose(r_.require(p, "from", "manoeuvre.plan"), "manoeuvre.plan.from",
                                 spatial, true);
@@ -267,6 +268,16 @@ void StudyReader::plan(Study& s, const YAML::Node& p, const YAML::Node& end_effe
                   hold + "'",
               p["hold"]);
     task.hold = hold_from_string(hold);
+  }
+  if (p["objective"].IsDefined()) {
+    const std::string objective = text(p["objective"], "manoeuvre.plan.objective");
+    if (objective != "line" && objective != "reactionless")
+      r_.fail("manoeuvre.plan.objective",
+              "expected line (the base turns freely) or reactionless (its angular velocity held "
+              "at zero), got '" +
+                  objective + "'",
+              p["objective"]);
+    task.objective = objective_from_string(objective);
   }
   // The planner's start guess, as plan --q0: the plan scene's coordinates (the base pose, then
   // each joint's slot: a geared joint's motor angle qm = p q), which picks the IK branch.

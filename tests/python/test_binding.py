@@ -452,6 +452,25 @@ def test_a_spatial_plan_gives_its_arrays_by_size():
     assert np.array_equal(plan["tau"][:, 0], cols["tau1"])
 
 
+def test_a_reactionless_plan_keeps_the_base_still():
+    """objective='reactionless' holds the base's angular velocity at zero (the reaction null
+    space of the 7-joint arm): the plan's own report, its base rates and its quaternion say so,
+    where the straight line turns the base. Cost: space_arm7 from the cache, about 1 s."""
+    arm = spacearm.load(os.path.join(SOURCE, "models", "space_arm7.yaml"), cache_dir=CACHE)
+    q0 = [0, 0, 0, 1, 0, 0, 0, 30, 50, -20, -160, 40, 90, 10]  # motor angles qm = 100 q
+    start = np.array([1.5199002392044572, 0.20122055952054133, 1.243704490684638])
+    goal = start + [-0.1, 0.1, 0.1]
+    line = arm.plan(start, goal, 4, q0=q0)
+    still = arm.plan(start, goal, 4, q0=q0, objective="reactionless")
+    assert line["max_base_rotation"] > 1e-3
+    assert still["max_base_rotation"] < 1e-12
+    assert np.abs(still["qd"][:, 3:6]).max() < 1e-14 * np.abs(still["qd"][:, 6:]).max()
+    assert np.abs(still["q"][:, 3:7] - [1, 0, 0, 0]).max() < 1e-12
+    assert 0 < still["min_jacobian_rcond"] <= 1
+    with pytest.raises(ValueError, match="objective: unknown objective 'still'"):
+        arm.plan(start, goal, 4, q0=q0, objective="still")
+
+
 def test_hostile_input_third_round(geared, tmp_path):
     """Issue 49: a failed run keeps its rows (IntegrationError.partial), a plan for another arm
     is refused, one angle rule, sizes named one by one, write_csv never onto a folder."""

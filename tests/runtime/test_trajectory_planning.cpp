@@ -27,6 +27,17 @@ using GG = models::paper_geared::Model;
 using Ref = Model<RG>;
 using Geared = Model<GG>;
 
+// f throws an E whose message contains `text`.
+template <class E, class F>
+void expect_throw_with(F f, const std::string& text) {
+  try {
+    f();
+    ADD_FAILURE() << "no exception; expected one containing: " << text;
+  } catch (const E& e) {
+    EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
+  }
+}
+
 struct Replay {
   ModelPlan<RG> plan;
   Trajectory<RG> reference;
@@ -352,6 +363,101 @@ TEST(TrajectoryPlanning, SpatialArmFollowsALineAndASlerpWithZeroMomentum) {
   // Off by the torques' linear interpolation only (measured 4.3e-6 m); the momentum stays zero.
   EXPECT_LT((replayed.head<3>() - task.goal.head<3>()).norm(), 5e-5);
   EXPECT_LT(m.momentum(q_end, qd_end).norm(), 1e-12);
+}
+
+// The base's largest rotation from its start when the planned torques are replayed through
+// forward dynamics (linear between samples), at rkf78's tolerance.
+double replayed_base_rotation(const DynamicModel& m, const Plan& plan, double dt) {
+  const TorqueSignal<Eigen::Dynamic> tau(0.0, dt, plan.tau, Interpolation::linear);
+  IntegratorOptions opt;
+  opt.method = Method::rkf78;
+  opt.rtol = 1e-10;
+  opt.atol = 1e-12;
+  const Eigen::Quaterniond start(plan.q[0][3], plan.q[0][4], plan.q[0][5], plan.q[0][6]);
+  double turned = 0;
+  integrate_motion(m, plan.q.front(), Eigen::VectorXd::Zero(m.nv), tau, plan.t.back(), dt, opt,
+                   [&](double, const Eigen::VectorXd& q, const Eigen::VectorXd&) {
+                     const Eigen::Quaterniond now(q[3], q[4], q[5], q[6]);
+                     turned = std::max(turned, now.normalized().angularDistance(start));
+                   });
+  return turned;
+}
+
+// Reactionless (the reaction null space, Nenchev and Yoshida): the 7-joint arm follows a line
+// with its base's angular velocity held at zero. The plan says the base did not turn, its
+// base rates say so independently, and the planned torques replayed through forward dynamics
+// turn the base far less than the straight line's on the same task.
+TEST(TrajectoryPlanning, AReactionlessPlanLeavesTheBasesAttitudeAlone) {
+  const DynamicModel m = spatial_arm7();
+  StraightLineTask task;
+  task.q0 = m.neutral_configuration();
+  task.q0.tail(7) << 0.3, 0.5, -0.2, -1.6, 0.4, 0.9, 0.1;
+  task.start = m.end_effector_pose(task.q0).head<3>();
+  task.goal = task.start + Eigen::Vector3d(-0.1, 0.1, 0.1);
+  task.duration = 4;
+  const Plan line = plan_straight_line(m, task);
+  task.objective = Objective::reactionless;
+  const Plan plan = plan_straight_line(m, task);
+  EXPECT_LT(plan.max_path_error, 1e-10);
+  EXPECT_LT(plan.max_momentum, 1e-12);
+  EXPECT_LT(plan.max_base_rotation, 1e-12);
+  EXPECT_GT(line.max_base_rotation, 1e-3) << "the task must turn a free base to test anything";
+  double omega = 0, rate = 0;
+  for (size_t k = 0; k < plan.t.size(); ++k) {
+    omega = std::max(omega, plan.qd[k].segment<3>(3).cwiseAbs().maxCoeff());
+    rate = std::max(rate, plan.qd[k].tail(7).cwiseAbs().maxCoeff());
+  }
+  EXPECT_LT(omega, 1e-14 * rate) << "joint rates up to " << rate;
+  // Replayed open loop, the torques' linear interpolation is all that turns the base.
+  const double line_turn = replayed_base_rotation(m, line, task.dt),
+               turn = replayed_base_rotation(m, plan, task.dt);
+  std::printf("replayed base rotation: line %.3e rad, reactionless %.3e rad\n", line_turn, turn);
+  EXPECT_LT(turn, 1e-7);  // measured 2.2e-9 rad against the line's 2.5e-2
+  EXPECT_GT(line_turn, 1e-3);
+}
+
+// In the plane the base's one attitude row makes a 3-joint position task square; a pose task
+// (3 rows + 1) and a fixed base are refused, naming why.
+TEST(TrajectoryPlanning, ReactionlessInThePlaneAndItsRefusals) {
+  const Ref ref;
+  StraightLineTask task;
+  task.start = Eigen::Vector2d(1.5, 0.0);
+  task.goal = Eigen::Vector2d(1.1, 0.2);
+  task.objective = Objective::reactionless;
+  const auto plan = plan_straight_line(ref, task);
+  EXPECT_LT(plan.max_path_error, 1e-10);
+  EXPECT_LT(plan.max_base_rotation, 1e-12);
+  for (const auto& qd : plan.qd) EXPECT_LT(std::abs(qd[2]), 1e-13);
+  task.objective = Objective::line;
+  EXPECT_GT(plan_straight_line(ref, task).max_base_rotation, 1e-3);
+
+  task.objective = Objective::reactionless;
+  task.start = Eigen::Vector3d(1.5, 0.0, M_PI / 6);
+  task.goal = Eigen::Vector3d(1.1, 0.2, M_PI / 6);
+  expect_throw_with<std::invalid_argument>(
+      [&] { plan_straight_line(ref, task); },
+      "3 task coordinates and the base's 1 angular velocities held at zero (reactionless) are "
+      "4 rows, more than its 3 joints can follow");
+  const Model<models::fixed_n5_geared_params::Model> fixed;
+  task.start = Eigen::Vector2d(1.5, 0.0);
+  task.goal = Eigen::Vector2d(1.1, 0.2);
+  expect_throw_with<std::invalid_argument>([&] { plan_straight_line(fixed, task); },
+                                           "this model's base is fixed");
+}
+
+// Where the redundancy does not allow it, the plan stops and names the rank lost: the arm
+// upright, joints 1, 3, 5 and 7 on one axis.
+TEST(TrajectoryPlanning, AReactionlessPlanNamesTheRankItLoses) {
+  const DynamicModel m = spatial_arm7();
+  StraightLineTask task;
+  task.q0 = m.neutral_configuration();
+  task.start = m.end_effector_pose(task.q0).head<3>();
+  task.goal = task.start + Eigen::Vector3d(0.1, 0, -0.1);
+  task.duration = 4;
+  task.objective = Objective::reactionless;
+  expect_throw_with<std::runtime_error>(
+      [&] { plan_straight_line(m, task); },
+      "reaction null space lost: the task's and the base's attitude rows, 6 rows, have rank 5");
 }
 
 }  // namespace

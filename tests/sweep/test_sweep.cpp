@@ -673,6 +673,8 @@ TEST(Sweep, SpatialArmSweepsAPayloadAndTheRatioWithOneModel) {
   const std::string scene = std::string(SPACEARM_SOURCE_DIR) + "/models/space_arm7_payload.yaml";
   const std::vector<std::pair<std::string, std::string>> cases = {
       {replace(text, "    duration: 4", "    duration: 4\n    elbow: 2"), "manoeuvre.plan.elbow"},
+      {replace(text, "    duration: 4", "    duration: 4\n    objective: still"),
+       "field 'manoeuvre.plan.objective': expected line (the base turns freely) or reactionless"},
       {replace(text, "from: [0.9890759074845017, ", "from: ["),
        "field 'manoeuvre.plan.from': "
        "expected a position (3 numbers) "
