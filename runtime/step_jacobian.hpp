@@ -80,6 +80,43 @@ inline StageDerivatives stage_derivatives(const DynamicModel& m, const Eigen::Ve
 
 }  // namespace detail
 
+// One rk4 step of dt from x = (q, v) in q's coordinates, before the quaternion's projection,
+// under link-side torques linear in time from tau_start to tau_end over the step (as a replay
+// interpolates a plan's samples), with its Jacobians there: X = dx+/dx ((nq + nv) square) and
+// U_start, U_end = dx+/dtau_start, dx+/dtau_end. A direct multiple-shooting planner takes these
+// (optimal_plan.cpp): exact in coordinates, as the dynamics see the quaternion only normalized.
+struct CoordinateStep {
+  Eigen::VectorXd x;
+  Eigen::MatrixXd X, U_start, U_end;
+};
+inline CoordinateStep rk4_step_in_coordinates(const DynamicModel& m, const Eigen::VectorXd& x,
+                                              const Eigen::VectorXd& tau_start,
+                                              const Eigen::VectorXd& tau_end, double dt) {
+  const int n = m.nq + m.nv, N = m.num_links;
+  // The classic stages, k_i = f(x + c_i dt k_{i-1}, tau(c_i)), each with dk_i/dx (D) and
+  // dk_i/dtau_start, dk_i/dtau_end (Ea, Eb).
+  const double c[] = {0, dt / 2, dt / 2, dt}, w[] = {1, 2, 2, 1};
+  Eigen::VectorXd k = Eigen::VectorXd::Zero(n), sum = Eigen::VectorXd::Zero(n);
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(n, n), Ea = Eigen::MatrixXd::Zero(n, N), Eb = Ea;
+  Eigen::MatrixXd D_sum = D, Ea_sum = Ea, Eb_sum = Eb;
+  for (int i = 0; i < 4; ++i) {
+    const double along = c[i] / dt;  // the stage's place in the step: its torque's weights
+    const Eigen::VectorXd Q = m.generalized_forces((1 - along) * tau_start + along * tau_end);
+    const detail::StageDerivatives s = detail::stage_derivatives(m, x + c[i] * k, Q);
+    D = s.J + c[i] * s.times(D);
+    Ea = c[i] * s.times(Ea) + (1 - along) * s.T;
+    Eb = c[i] * s.times(Eb) + along * s.T;
+    k = s.f;
+    sum += w[i] * k, D_sum += w[i] * D, Ea_sum += w[i] * Ea, Eb_sum += w[i] * Eb;
+  }
+  CoordinateStep r;
+  r.x = x + dt / 6 * sum;
+  r.X = Eigen::MatrixXd::Identity(n, n) + dt / 6 * D_sum;
+  r.U_start = dt / 6 * Ea_sum;
+  r.U_end = dt / 6 * Eb_sum;
+  return r;
+}
+
 // A and B of one rk4 step of dt from (q, v) under the link-side joint torques tau.
 inline StepJacobians rk4_step_jacobians(const DynamicModel& m, const Eigen::VectorXd& q,
                                         const Eigen::VectorXd& v, const Eigen::VectorXd& tau,
@@ -93,23 +130,9 @@ inline StepJacobians rk4_step_jacobians(const DynamicModel& m, const Eigen::Vect
     throw std::invalid_argument("step Jacobians of model " + m.name +
                                 ": dt must be positive and finite, got " + std::to_string(dt));
   const ConfigurationSpace space = m.configuration_space();
-  const Eigen::VectorXd Q = m.generalized_forces(tau);
   Eigen::VectorXd x(n);
   x << q, v;
-  // The classic stages, k_i = f(x + c_i dt k_{i-1}), each with dk_i/dx (D) and dk_i/dtau (E).
-  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
-  const double c[] = {0, dt / 2, dt / 2, dt}, w[] = {1, 2, 2, 1};
-  Eigen::VectorXd k = Eigen::VectorXd::Zero(n), sum = Eigen::VectorXd::Zero(n);
-  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(n, n), E = Eigen::MatrixXd::Zero(n, m.num_links);
-  Eigen::MatrixXd D_sum = D, E_sum = E;
-  for (int i = 0; i < 4; ++i) {
-    const detail::StageDerivatives s = detail::stage_derivatives(m, x + c[i] * k, Q);
-    D = s.J + c[i] * s.times(D);
-    E = c[i] * s.times(E) + s.T;
-    k = s.f;
-    sum += w[i] * k, D_sum += w[i] * D, E_sum += w[i] * E;
-  }
-  const Eigen::VectorXd raw = x + dt / 6 * sum;
+  const CoordinateStep step = rk4_step_in_coordinates(m, x, tau, tau, dt);
   // Into the tangent spaces: dq = G(q) delta at the start, delta+ = W(q+) dq+ at the end (the
   // projection's own derivative is radial, which W ignores).
   Eigen::MatrixXd by_q, G;
@@ -117,14 +140,14 @@ inline StepJacobians rk4_step_jacobians(const DynamicModel& m, const Eigen::Vect
   Eigen::MatrixXd into = Eigen::MatrixXd::Zero(n, 2 * nv), out = Eigen::MatrixXd::Zero(2 * nv, n);
   into.topLeftCorner(nq, nv) = G;
   into.bottomRightCorner(nv, nv).setIdentity();
-  out.topLeftCorner(nv, nq) = space.tangent_map(raw.head(nq));
+  out.topLeftCorner(nv, nq) = space.tangent_map(step.x.head(nq));
   out.bottomRightCorner(nv, nv).setIdentity();
   StepJacobians r;
-  r.A = out * (I + dt / 6 * D_sum) * into;
-  r.B = out * (dt / 6 * E_sum);
-  r.q = raw.head(nq);
+  r.A = out * step.X * into;
+  r.B = out * (step.U_start + step.U_end);
+  r.q = step.x.head(nq);
   space.project(r.q);
-  r.v = raw.tail(nv);
+  r.v = step.x.tail(nv);
   return r;
 }
 

@@ -438,6 +438,12 @@ double hold_error(const DynamicModel& m, const TaskShape& shape, const Eigen::Ve
   return worst;
 }
 
+double generalized_jacobian_rcond(const DynamicModel& m, const StraightLineTask& task,
+                                  const Eigen::VectorXd& q) {
+  const TaskMap map = task_map(m, task_shape(m, task, q), q);
+  return MinimumNorm(row_scales(map.A).asDiagonal() * map.A).rcond();
+}
+
 // The angle the base turned from q_start's attitude to q's (0 for a fixed base).
 double base_rotation(const DynamicModel& m, const Eigen::VectorXd& q,
                      const Eigen::VectorXd& q_start) {
@@ -450,10 +456,11 @@ double base_rotation(const DynamicModel& m, const Eigen::VectorXd& q,
 
 // Independent checks of a plan: qdd by central differences of the planned qd, and the forces
 // on the base (eq. 5 base rows) with those.
-void check_by_central_differences(const DynamicModel& m, Plan& plan) {
+void check_by_central_differences(const DynamicModel& m, Plan& plan, int kinks_every) {
   using Eigen::VectorXd;
   const int nb = m.num_base();
   for (size_t k = 1; k + 1 < plan.t.size(); ++k) {
+    if (kinks_every > 0 && k % kinks_every == 0) continue;
     const VectorXd qdd_fd = (plan.qd[k + 1] - plan.qd[k - 1]) / (plan.t[k + 1] - plan.t[k - 1]);
     plan.max_acceleration_mismatch =
         std::max(plan.max_acceleration_mismatch, (qdd_fd - plan.qdd[k]).cwiseAbs().maxCoeff());
@@ -531,6 +538,10 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task) {
     throw std::invalid_argument("planner, model " + m.name +
                                 ": plans models without springs, dampers or friction; plan on the "
                                 "scene without them and start the full model from that plan");
+  if (point_to_point(task.objective))
+    throw std::invalid_argument("planner, model " + m.name +
+                                ": a point-to-point objective is planned by plan_task "
+                                "(optimal_plan.hpp), not along a line");
   check_task(m, task);
   const int nb = m.num_base(), n = m.num_links;
   if (!m.end_effector_pose || !m.end_effector_jacobian || !m.mass_matrix_and_bias)

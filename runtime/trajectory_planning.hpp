@@ -62,16 +62,24 @@ inline Hold hold_from_string(const std::string& s) {
   throw std::invalid_argument("unknown hold '" + s + "' (known: joints, pose)");
 }
 
-// What a plan asks of a free base besides the line: nothing (the base turns as momentum
-// conservation makes it), or no turn at all (reactionless: the base's angular velocity is held
-// at zero through the reaction null space of a redundant arm, Nenchev and Yoshida; the task's
-// rows and the base's attitude rows, 3 in 3D and 1 in the plane, need as many joints).
-enum class Objective { line, reactionless };
+// What a plan asks. Along the straight line: nothing more (the base turns as momentum
+// conservation makes it), or no turn of a free base at all (reactionless: its angular velocity
+// held at zero through the reaction null space of a redundant arm, Nenchev and Yoshida; the
+// task's rows and the base's attitude rows, 3 in 3D and 1 in the plane, need as many joints).
+// From start to goal by any path, at rest at both ends (optimal_plan.hpp, IPOPT): the least
+// base rotation (the integral of |omega_base|^2) or the least effort (of |tau|^2).
+enum class Objective { line, reactionless, min_base_rotation, min_effort };
 
 inline Objective objective_from_string(const std::string& s) {
   if (s == "line") return Objective::line;
   if (s == "reactionless") return Objective::reactionless;
-  throw std::invalid_argument("unknown objective '" + s + "' (known: line, reactionless)");
+  if (s == "min_base_rotation") return Objective::min_base_rotation;
+  if (s == "min_effort") return Objective::min_effort;
+  throw std::invalid_argument("unknown objective '" + s +
+                              "' (known: line, reactionless, min_base_rotation, min_effort)");
+}
+inline bool point_to_point(Objective o) {
+  return o == Objective::min_base_rotation || o == Objective::min_effort;
 }
 
 struct StraightLineTask {
@@ -100,6 +108,14 @@ struct StraightLineTask {
   };
   std::vector<Line> more_lines;
   Objective objective = Objective::line;
+  // A point-to-point plan's (optimal_plan.hpp): the intervals of its torques' piecewise-linear
+  // profile (T / knots a whole multiple of dt), and per joint the link-side bounds it keeps,
+  // |tau_j| <= effort[j] and |q_j'| <= velocity[j] (empty, or 0 for a joint: none).
+  int knots = 50;
+  Eigen::VectorXd effort, velocity;
+  // min_base_rotation's cost: the integral of |omega_base|^2 relative to the straight line's,
+  // plus effort_weight times the integral of |tau|^2 relative to the first guess's.
+  double effort_weight = 1e-2;
 };
 
 // A plan on the output grid. Vector: the model's coordinates; JointVector: link-side torques.
@@ -131,6 +147,12 @@ struct BasicPlan {
   // angle at its end (rad; 0 for a fixed base). In 3D the angle of R0(t) R0(0)^T.
   double max_base_rotation = 0;
   double final_base_rotation = 0;
+  // A point-to-point plan's (knots > 0): the flown end effector's distance from the goal at T,
+  // the flight's largest distance from the solver's knots (its RK4 steps' error), the solver's
+  // iterations, wall time and cost.
+  int knots = 0;
+  double goal_error = 0, max_knot_error = 0, cost = 0, solve_seconds = 0;
+  int iterations = 0;
 };
 using Plan = BasicPlan<>;
 template <class G>
@@ -174,14 +196,34 @@ Eigen::VectorXd initial_configuration(const DynamicModel& m, const StraightLineT
 // The straight line of `task` for model `m` on the grid t = 0, dt, ..., T.
 Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task);
 
+namespace detail {
+// For any plan's checks: the row-scaled rcond of the generalized Jacobian of task's moving end
+// effectors at q, and qdd by central differences of the planned qd (max_acceleration_mismatch,
+// and max_base_residual with it), skipping every kinks_every-th sample (> 0: where a
+// point-to-point plan's torques turn, qdd's slope jumps and the differences are first order).
+double generalized_jacobian_rcond(const DynamicModel& m, const StraightLineTask& task,
+                                  const Eigen::VectorXd& q);
+void check_by_central_differences(const DynamicModel& m, Plan& plan, int kinks_every = 0);
+double base_rotation(const DynamicModel& m, const Eigen::VectorXd& q,
+                     const Eigen::VectorXd& q_start);
+}  // namespace detail
+
 // A plan's own checks in one line, as `spacearm plan` and a sweep that plans print them: its
 // samples, the largest path error and the largest |qdd - central differences of qd|.
 inline std::string plan_checks_text(const Plan& plan) {
   char text[260];
-  std::snprintf(text, sizeof text,
-                "plan of %zu samples: max path error %.2e, max |qdd - central differences of qd| "
-                "%.2e",
-                plan.t.size(), plan.max_path_error, plan.max_acceleration_mismatch);
+  if (plan.knots > 0)
+    std::snprintf(text, sizeof text,
+                  "plan of %zu samples (%d knots, %d solver iterations in %.3g s, cost %.3e): "
+                  "flown %.2e from the goal and %.2e from the knots, max |qdd - central "
+                  "differences of qd| %.2e",
+                  plan.t.size(), plan.knots, plan.iterations, plan.solve_seconds, plan.cost,
+                  plan.goal_error, plan.max_knot_error, plan.max_acceleration_mismatch);
+  else
+    std::snprintf(text, sizeof text,
+                  "plan of %zu samples: max path error %.2e, max |qdd - central differences of "
+                  "qd| %.2e",
+                  plan.t.size(), plan.max_path_error, plan.max_acceleration_mismatch);
   std::string out = text;
   if (plan.held) {
     std::snprintf(text, sizeof text, ", held end effectors or joints within %.2e",
@@ -226,6 +268,12 @@ ModelPlan<G> plan_straight_line(const Model<G>& model, const StraightLineTask& t
   out.min_jacobian_rcond_t = p.min_jacobian_rcond_t;
   out.max_base_rotation = p.max_base_rotation;
   out.final_base_rotation = p.final_base_rotation;
+  out.knots = p.knots;
+  out.goal_error = p.goal_error;
+  out.max_knot_error = p.max_knot_error;
+  out.cost = p.cost;
+  out.solve_seconds = p.solve_seconds;
+  out.iterations = p.iterations;
   for (size_t k = 0; k < p.t.size(); ++k) {
     out.q.emplace_back(p.q[k]);
     out.qd.emplace_back(p.qd[k]);

@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 build_dir=${1:-build}
 shift || true
 
-packages=(g++ cmake ninja-build pkg-config libginac-dev libeigen3-dev libyaml-cpp-dev libcli11-dev libtinyxml2-dev
+packages=(g++ cmake ninja-build pkg-config libginac-dev coinor-libipopt-dev libeigen3-dev libyaml-cpp-dev libcli11-dev libtinyxml2-dev
           libgtest-dev libboost-dev gnuplot-nox nlohmann-json3-dev libmujoco-dev
           libssl-dev pybind11-dev python3-dev python3-numpy python3-pytest python3-distributed
           python3-venv python3-pip)

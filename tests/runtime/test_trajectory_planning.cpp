@@ -15,6 +15,7 @@
 #include "free_n8.hpp"
 #include "paper_geared.hpp"
 #include "paper_reference.hpp"
+#include "plain_arm7.hpp"
 #include "simulation.hpp"
 #include "support.hpp"
 #include "torque_signal.hpp"
@@ -293,24 +294,6 @@ TEST(TrajectoryPlanning, GearedFixedBaseArmTorquesAreInverseDynamics) {
     const Model<G>::JointVector tau = Q.cwiseProduct(model.gear_ratios());
     if (k > 0) EXPECT_MATRIX_NEAR(plan.tau[k], tau, 1e-12);
   }
-}
-
-// models/space_arm7 without its gears, compiled through the cache (about 6 s the first time).
-DynamicModel spatial_arm7() {
-  const std::string dir = std::string(SPACEARM_SOURCE_DIR) + "/models/";
-  std::ifstream in(dir + "space_arm7.yaml");
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string scene = text.str();
-  scene.erase(scene.find("gears:"));  // the last line
-  CompileOptions options;
-  options.cache_dir =
-      (std::filesystem::temp_directory_path() / ("spacearm-test-plan-" + std::to_string(getpid())))
-          .string();
-  static const CompiledModel m =
-      CompiledModel::load(ModelRecipe::parse(scene, dir + "space_arm7_plain.yaml"), options);
-  std::filesystem::remove_all(options.cache_dir);
-  return dynamic_model(m, Eigen::VectorXd(0));
 }
 
 // In 3D: the end effector moves along a line while its orientation turns about one axis

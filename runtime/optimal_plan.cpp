@@ -1,0 +1,433 @@
+// The point-to-point planner (optimal_plan.hpp): direct multiple shooting with IPOPT.
+#include "optimal_plan.hpp"
+
+#include <IpIpoptApplication.hpp>
+#include <IpSolveStatistics.hpp>
+#include <IpTNLP.hpp>
+
+#include <chrono>
+#include <cstdlib>
+#include <cmath>
+#include <limits>
+
+#include "integrators_detail.hpp"
+#include "simulation.hpp"
+#include "step_jacobian.hpp"
+#include "torque_signal.hpp"
+
+namespace spacearm {
+namespace {
+
+using Eigen::VectorXd;
+using Ipopt::Index;
+using Ipopt::Number;
+
+constexpr double kInfinity = 1e19;  // IPOPT's "no bound"
+
+// The problem's sizes and layout: per knot k = 0..K the block [x_k (nq + nv), u_k (N)].
+struct Layout {
+  int nq, nv, N, K, nx, block;
+  double h;
+  int x(int k) const { return k * block; }
+  int u(int k) const { return k * block + nx; }
+  int variables() const { return (K + 1) * block; }
+};
+
+// The end effector's position at q and its derivative by q's coordinates (the Jacobian's
+// position rows, by v, times the tangent map).
+struct Goal {
+  int rows = 3, offset = 0;  // task rows; the end effector's first row in pose and Jacobian
+};
+
+struct Guess {
+  VectorXd x, line;  // the first guess; the straight line's knots (empty: none)
+};
+
+class MultipleShooting : public Ipopt::TNLP {
+ public:
+  MultipleShooting(const DynamicModel& m, const StraightLineTask& task, Layout layout,
+                   const Guess& guess, VectorXd q_start)
+      : m_(m), task_(task), L_(layout), guess_(guess.x), q_start_(std::move(q_start)) {
+    goal_.rows = m.spatial ? 3 : 2;
+    goal_.offset = (m.spatial ? 6 : 3) * task.end_effector;
+    pose_offset_ = (m.spatial ? 7 : 3) * task.end_effector;
+    omega_ = m.spatial ? std::vector<int>{3, 4, 5} : std::vector<int>{2};
+    if (m.num_base() == 0) omega_.clear();
+    steps_.resize(L_.K);
+    // The cost's two sums relative to the straight line's rotation (else the guess's) and the
+    // guess's effort, so that it starts near 1 (IPOPT's tolerances are absolute). For the least
+    // rotation, task.effort_weight of the effort keeps the torques determined where the
+    // rotation does not care, and the problem well enough conditioned to solve.
+    const VectorXd& scale = guess.line.size() ? guess.line : guess.x;
+    const double rotation = std::max(sum(scale.data(), true), 1e-300),
+                 effort = std::max(sum(guess.x.data(), false), 1e-300);
+    if (task.objective == Objective::min_effort) {
+      w_effort_ = 1 / effort;
+    } else {
+      w_rotation_ = 1 / rotation;
+      w_effort_ = task.effort_weight / effort;
+    }
+  }
+
+  VectorXd solution;
+  double cost = 0;
+
+  bool get_nlp_info(Index& n, Index& m, Index& nnz_jac, Index& nnz_h,
+                    IndexStyleEnum& style) override {
+    n = L_.variables();
+    m = L_.K * L_.nx + goal_.rows;
+    nnz_jac = L_.K * L_.nx * (L_.block + L_.N + 1) + goal_.rows * L_.nq;
+    nnz_h = 0;  // a limited-memory Hessian
+    style = C_STYLE;
+    return true;
+  }
+
+  bool get_bounds_info(Index n, Number* lo, Number* hi, Index m, Number* g_lo,
+                       Number* g_hi) override {
+    std::fill(lo, lo + n, -kInfinity);
+    std::fill(hi, hi + n, kInfinity);
+    // At rest at q_start at t = 0, at rest at T.
+    for (int i = 0; i < L_.nq; ++i) lo[i] = hi[i] = q_start_[i];
+    for (int i = 0; i < L_.nv; ++i) {
+      lo[L_.nq + i] = hi[L_.nq + i] = 0;
+      lo[L_.x(L_.K) + L_.nq + i] = hi[L_.x(L_.K) + L_.nq + i] = 0;
+    }
+    // The joints' limits on the link side: a motor slot's rate is p q'.
+    for (int k = 0; k <= L_.K; ++k)
+      for (int j = 0; j < L_.N; ++j) {
+        if (task_.effort.size() && task_.effort[j] > 0)
+          lo[L_.u(k) + j] = -task_.effort[j], hi[L_.u(k) + j] = task_.effort[j];
+        if (task_.velocity.size() && task_.velocity[j] > 0 && k > 0 && k < L_.K) {
+          const double p = m_.slot_holds_motor(j) ? std::abs(m_.gear_ratios[j]) : 1;
+          const int at = L_.x(k) + L_.nq + m_.joint_v_offsets[j];
+          lo[at] = -p * task_.velocity[j], hi[at] = p * task_.velocity[j];
+        }
+      }
+    std::fill(g_lo, g_lo + m, 0.0);
+    std::fill(g_hi, g_hi + m, 0.0);
+    return true;
+  }
+
+  bool get_starting_point(Index n, bool, Number* x, bool, Number*, Number*, Index, bool,
+                          Number*) override {
+    std::copy(guess_.data(), guess_.data() + n, x);
+    return true;
+  }
+
+  bool eval_f(Index, const Number* x, bool, Number& f) override {
+    f = w_rotation_ * sum(x, true) + w_effort_ * sum(x, false);
+    return true;
+  }
+
+  bool eval_grad_f(Index n, const Number* x, bool, Number* grad) override {
+    std::fill(grad, grad + n, 0.0);
+    for (int k = 0; k <= L_.K; ++k) {
+      const double w = weight(k);
+      for (int i : omega_) grad[L_.x(k) + L_.nq + i] = 2 * w * w_rotation_ * x[L_.x(k) + L_.nq + i];
+      for (int j = 0; j < L_.N; ++j) grad[L_.u(k) + j] = 2 * w * w_effort_ * x[L_.u(k) + j];
+    }
+    return true;
+  }
+
+  bool eval_g(Index n, const Number* x, bool new_x, Index, Number* g) override {
+    if (!update(n, x, new_x)) return false;
+    for (int k = 0; k < L_.K; ++k)
+      for (int r = 0; r < L_.nx; ++r) g[k * L_.nx + r] = x[L_.x(k + 1) + r] - steps_[k].x[r];
+    const VectorXd pose = m_.end_effector_pose(Eigen::Map<const VectorXd>(x + L_.x(L_.K), L_.nq));
+    for (int r = 0; r < goal_.rows; ++r)
+      g[L_.K * L_.nx + r] = pose[pose_offset_ + r] - task_.goal[r];
+    return true;
+  }
+
+  bool eval_jac_g(Index n, const Number* x, bool new_x, Index, Index, Index* rows, Index* cols,
+                  Number* values) override {
+    if (values == nullptr) {
+      structure(rows, cols);
+      return true;
+    }
+    if (!update(n, x, new_x)) return false;
+    Index e = 0;
+    for (int k = 0; k < L_.K; ++k) {
+      const CoordinateStep& s = steps_[k];
+      for (int r = 0; r < L_.nx; ++r) {
+        for (int c = 0; c < L_.nx; ++c) values[e++] = -s.X(r, c);
+        for (int c = 0; c < L_.N; ++c) values[e++] = -s.U_start(r, c);
+        for (int c = 0; c < L_.N; ++c) values[e++] = -s.U_end(r, c);
+        values[e++] = 1;
+      }
+    }
+    const VectorXd q = Eigen::Map<const VectorXd>(x + L_.x(L_.K), L_.nq);
+    const Eigen::MatrixXd dp = m_.end_effector_jacobian(q).middleRows(goal_.offset, goal_.rows) *
+                               m_.configuration_space().tangent_map(q);
+    for (int r = 0; r < goal_.rows; ++r)
+      for (int c = 0; c < L_.nq; ++c) values[e++] = dp(r, c);
+    return true;
+  }
+
+  void finalize_solution(Ipopt::SolverReturn, Index n, const Number* x, const Number*,
+                         const Number*, Index, const Number*, const Number*, Number f,
+                         const Ipopt::IpoptData*, Ipopt::IpoptCalculatedQuantities*) override {
+    solution = Eigen::Map<const VectorXd>(x, n);
+    cost = f;
+  }
+
+ private:
+  // Trapezoidal weights of the knots in the integrals over [0, T].
+  double weight(int k) const { return (k == 0 || k == L_.K ? 0.5 : 1.0) * L_.h; }
+  // The integral of |omega_base|^2 (rotation) or |u|^2 (effort) over the knots.
+  double sum(const Number* x, bool rotation) const {
+    double s = 0;
+    for (int k = 0; k <= L_.K; ++k) {
+      double at = 0;
+      if (rotation)
+        for (int i : omega_) at += x[L_.x(k) + L_.nq + i] * x[L_.x(k) + L_.nq + i];
+      else
+        for (int j = 0; j < L_.N; ++j) at += x[L_.u(k) + j] * x[L_.u(k) + j];
+      s += weight(k) * at;
+    }
+    return s;
+  }
+
+  // The steps of every interval at x (once per new point: g and its Jacobian share them).
+  bool update(Index n, const Number* x, bool new_x) {
+    if (!new_x && have_steps_) return true;
+    have_steps_ = false;
+    try {
+      for (int k = 0; k < L_.K; ++k) {
+        const VectorXd xk = Eigen::Map<const VectorXd>(x + L_.x(k), L_.nx);
+        steps_[k] =
+            rk4_step_in_coordinates(m_, xk, Eigen::Map<const VectorXd>(x + L_.u(k), L_.N),
+                                    Eigen::Map<const VectorXd>(x + L_.u(k + 1), L_.N), L_.h);
+        if (!steps_[k].x.allFinite() || !steps_[k].X.allFinite()) return false;
+      }
+    } catch (const std::exception&) {
+      return false;  // IPOPT then tries a shorter step
+    }
+    (void)n;
+    have_steps_ = true;
+    return true;
+  }
+
+  // The Jacobian's pattern, in eval_jac_g's order: per defect row, x_k and u_k (contiguous),
+  // u_{k+1}, and x_{k+1}'s own entry; then the goal's rows by q_K.
+  void structure(Index* rows, Index* cols) const {
+    Index e = 0;
+    for (int k = 0; k < L_.K; ++k)
+      for (int r = 0; r < L_.nx; ++r) {
+        const Index row = k * L_.nx + r;
+        for (int c = 0; c < L_.block; ++c) rows[e] = row, cols[e++] = L_.x(k) + c;
+        for (int c = 0; c < L_.N; ++c) rows[e] = row, cols[e++] = L_.u(k + 1) + c;
+        rows[e] = row, cols[e++] = L_.x(k + 1) + r;
+      }
+    for (int r = 0; r < goal_.rows; ++r)
+      for (int c = 0; c < L_.nq; ++c) rows[e] = L_.K * L_.nx + r, cols[e++] = L_.x(L_.K) + c;
+  }
+
+  const DynamicModel& m_;
+  const StraightLineTask& task_;
+  Layout L_;
+  VectorXd guess_, q_start_;
+  Goal goal_;
+  int pose_offset_ = 0;
+  std::vector<int> omega_;  // the base's angular velocities in v
+  double w_rotation_ = 0, w_effort_ = 0;
+  std::vector<CoordinateStep> steps_;
+  bool have_steps_ = false;
+};
+
+// The first guess: a straight line's knots (its grid holds them), for the least rotation the
+// reactionless line's where the arm can follow it; or rest at the start where no line can be
+// followed.
+Guess first_guess(const DynamicModel& m, const StraightLineTask& task, const Layout& L,
+                  const VectorXd& q_start) {
+  auto knots = [&](Objective objective) {
+    StraightLineTask line = task;
+    line.objective = objective;
+    VectorXd x(L.variables());
+    try {
+      const Plan p = plan_straight_line(m, line);
+      const int per = static_cast<int>(std::lround(L.h / task.dt));
+      for (int k = 0; k <= L.K; ++k) {
+        x.segment(L.x(k), L.nq) = p.q[k * per];
+        x.segment(L.x(k) + L.nq, L.nv) = p.qd[k * per];
+        x.segment(L.u(k), L.N) = p.tau[k * per];
+      }
+    } catch (const std::exception&) {
+      x.resize(0);
+    }
+    return x;
+  };
+  Guess g{VectorXd(), knots(Objective::line)};
+  if (task.objective == Objective::min_base_rotation) g.x = knots(Objective::reactionless);
+  if (g.x.size() == 0) g.x = g.line;
+  if (g.x.size() == 0) {
+    g.x = VectorXd::Zero(L.variables());
+    for (int k = 0; k <= L.K; ++k) g.x.segment(L.x(k), L.nq) = q_start;
+  }
+  return g;
+}
+
+// The plan's rows: the solver's torques (linear between knots) flown from rest at q_start by
+// rkf78, sampled on the output grid, with its checks.
+Plan fly(const DynamicModel& m, const StraightLineTask& task, const Layout& L,
+         const VectorXd& solution, const VectorXd& q_start) {
+  const int samples = static_cast<int>(std::lround(task.duration / task.dt)) + 1;
+  std::vector<VectorXd> tau(samples);
+  for (int i = 0; i < samples; ++i) {
+    const double s = i * task.dt / L.h;
+    const int k = std::min(static_cast<int>(s), L.K - 1);
+    const double a = std::clamp(s - k, 0.0, 1.0);
+    tau[i] = (1 - a) * solution.segment(L.u(k), L.N) + a * solution.segment(L.u(k + 1), L.N);
+  }
+  const TorqueSignal<Eigen::Dynamic> signal(0.0, task.dt, tau, Interpolation::linear);
+  IntegratorOptions opt;
+  opt.method = Method::rkf78;
+  opt.rtol = 1e-12;
+  opt.atol = 1e-13;
+  Plan plan;
+  integrate_motion(m, q_start, VectorXd::Zero(m.nv), signal, task.duration, task.dt, opt,
+                   [&](double t, const VectorXd& q, const VectorXd& v) {
+                     plan.t.push_back(t);
+                     plan.q.push_back(q);
+                     plan.qd.push_back(v);
+                   });
+  const int per = static_cast<int>(std::lround(L.h / task.dt)), nb = m.num_base();
+  for (size_t i = 0; i < plan.t.size(); ++i) {
+    const VectorXd Q = m.generalized_forces(tau[i]);
+    plan.qdd.push_back(m.forward_dynamics(plan.q[i], plan.qd[i], Q));
+    plan.tau.push_back(tau[i]);
+    Eigen::MatrixXd M;
+    VectorXd b;
+    m.mass_matrix_and_bias(plan.q[i], plan.qd[i], M, b);
+    if (nb > 0)
+      plan.base_residual.push_back((M * plan.qdd[i] + b - Q).head(nb).cwiseAbs().maxCoeff());
+    if (i % per == 0) {
+      const int k = static_cast<int>(i) / per;
+      VectorXd knot = solution.segment(L.x(k), L.nx), flown(L.nx);
+      flown << plan.q[i], plan.qd[i];
+      plan.max_knot_error = std::max(plan.max_knot_error, (knot - flown).cwiseAbs().maxCoeff());
+    }
+  }
+  return plan;
+}
+
+// The plan's own checks, as a line's: singularity, momentum, the base's rotation, the goal.
+void check(const DynamicModel& m, const StraightLineTask& task, Plan& plan) {
+  plan.max_momentum =
+      m.momentum || m.num_base() == 0 ? 0.0 : std::numeric_limits<double>::quiet_NaN();
+  for (size_t i = 0; i < plan.t.size(); ++i) {
+    const double rcond = detail::generalized_jacobian_rcond(m, task, plan.q[i]);
+    if (rcond < plan.min_jacobian_rcond)
+      plan.min_jacobian_rcond = rcond, plan.min_jacobian_rcond_t = plan.t[i];
+    plan.final_base_rotation = detail::base_rotation(m, plan.q[i], plan.q.front());
+    plan.max_base_rotation = std::max(plan.max_base_rotation, plan.final_base_rotation);
+    if (m.momentum && m.num_base() > 0)
+      plan.max_momentum =
+          std::max(plan.max_momentum, m.momentum(plan.q[i], plan.qd[i]).cwiseAbs().maxCoeff());
+  }
+  const int rows = m.spatial ? 3 : 2, at = (m.spatial ? 7 : 3) * task.end_effector;
+  plan.goal_error =
+      (m.end_effector_pose(plan.q.back()).segment(at, rows) - task.goal.head(rows)).norm();
+  detail::check_by_central_differences(
+      m, plan, static_cast<int>(std::lround(task.duration / task.knots / task.dt)));
+}
+
+}  // namespace
+
+void check_point_to_point(const DynamicModel& m, const StraightLineTask& task,
+                          const TaskNames& names) {
+  check_task(m, task, names);
+  auto fail = [&](const std::string& why) {
+    throw std::invalid_argument("planner, model " + m.name + ": " + why);
+  };
+  const std::string objective =
+      task.objective == Objective::min_effort ? "min_effort" : "min_base_rotation";
+  if (task.start.size() != (m.spatial ? 3 : 2))
+    fail("objective " + objective + " plans to a position: give " + (m.spatial ? "x,y,z" : "x,y") +
+         " in " + names.start + " and " + names.goal);
+  if (!task.more_lines.empty()) fail("objective " + objective + " moves one end effector");
+  if (task.objective == Objective::min_base_rotation && m.num_base() == 0)
+    fail("objective min_base_rotation spares a free base; this model's base is fixed");
+  if (m.passive_forces)
+    fail("plans models without springs, dampers or friction; plan on the scene without them");
+  if (!(task.knots >= 1 && task.knots <= 1000))
+    fail("knots must be from 1 to 1000, got " + std::to_string(task.knots));
+  const double per = task.duration / task.dt / task.knots;
+  if (std::abs(per - std::round(per)) > 1e-9 * per || std::round(per) < 1)
+    fail(names.duration + " / " + names.dt + " (" + number_text(task.duration / task.dt, 6) +
+         " samples) must be a whole multiple of the " + std::to_string(task.knots) +
+         " knots' intervals, so that the knots lie on the output grid");
+  if (!(task.effort_weight >= 0 && task.effort_weight <= 1e6))
+    fail("the effort's weight must be from 0 to 1e6, got " + number_text(task.effort_weight, 6));
+  for (const auto& [v, name] : {std::pair{&task.effort, "effort"}, {&task.velocity, "velocity"}}) {
+    if (v->size() != 0 && v->size() != m.num_links)
+      fail(std::string(name) + " limits: " + std::to_string(m.num_links) + " values, got " +
+           std::to_string(v->size()));
+    for (Eigen::Index j = 0; j < v->size(); ++j)
+      if (!((*v)[j] >= 0))
+        fail(std::string(name) + " limit of joint " + std::to_string(j + 1) +
+             " must be 0 (none) or positive, got " + number_text((*v)[j], 6));
+  }
+}
+
+Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task) {
+  check_point_to_point(m, task);
+  if (!m.end_effector_pose || !m.end_effector_jacobian || !m.mass_matrix_and_bias ||
+      !m.forward_dynamics)
+    throw std::invalid_argument("planner, model " + m.name +
+                                ": needs end_effector_pose, end_effector_jacobian, mass_matrix, "
+                                "bias_forces and forward_dynamics among the scene's outputs");
+  Layout L{m.nq,
+           m.nv,
+           m.num_links,
+           task.knots,
+           m.nq + m.nv,
+           m.nq + m.nv + m.num_links,
+           task.duration / task.knots};
+  const VectorXd q_start = initial_configuration(m, task);
+  Ipopt::SmartPtr<MultipleShooting> nlp =
+      new MultipleShooting(m, task, L, first_guess(m, task, L, q_start), q_start);
+  Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
+  // SPACEARM_IPOPT_PRINT_LEVEL: IPOPT's own report on stdout (0 to 12), to see a solve.
+  const char* print_level = std::getenv("SPACEARM_IPOPT_PRINT_LEVEL");
+  app->Options()->SetIntegerValue("print_level",
+                                  print_level ? std::clamp(std::atoi(print_level), 0, 12) : 0);
+  app->Options()->SetStringValue("sb", "yes");
+  app->Options()->SetStringValue("option_file_name", "");  // no ipopt.opt from the folder
+  // The Lagrangian's Hessian would need the dynamics' second derivatives: a limited-memory
+  // quasi-Newton one instead (a Gauss-Newton one, the cost's alone, diverged here).
+  app->Options()->SetStringValue("hessian_approximation", "limited-memory");
+  app->Options()->SetStringValue("mu_strategy", "adaptive");
+  app->Options()->SetNumericValue("tol", 1e-8);
+  app->Options()->SetNumericValue("constr_viol_tol", 1e-10);
+  // A quasi-Newton Hessian leaves the dual infeasibility slow to fall: a plan is also taken
+  // once its knots join within 1e-7 and its cost has changed by less than 1e-4 (relative) for
+  // 10 iterations. The flight below measures what that leaves at the goal.
+  app->Options()->SetNumericValue("acceptable_tol", 1e20);
+  app->Options()->SetNumericValue("acceptable_constr_viol_tol", 1e-7);
+  app->Options()->SetNumericValue("acceptable_obj_change_tol", 1e-4);
+  app->Options()->SetIntegerValue("acceptable_iter", 10);
+  app->Options()->SetIntegerValue("max_iter", 1000);
+  if (app->Initialize() != Ipopt::Solve_Succeeded)
+    throw std::runtime_error("planner: IPOPT failed to start");
+  const auto start = std::chrono::steady_clock::now();
+  const Ipopt::ApplicationReturnStatus status = app->OptimizeTNLP(nlp);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const int iterations = IsValid(app->Statistics()) ? app->Statistics()->IterationCount() : 0;
+  if (status != Ipopt::Solve_Succeeded && status != Ipopt::Solved_To_Acceptable_Level)
+    throw std::runtime_error("planner, model " + m.name + ": IPOPT found no plan (status " +
+                             std::to_string(static_cast<int>(status)) + " after " +
+                             std::to_string(iterations) +
+                             " iterations): the goal may be out of reach in " +
+                             number_text(task.duration, 6) + " s or within the limits");
+  Plan plan = fly(m, task, L, nlp->solution, q_start);
+  plan.knots = task.knots;
+  plan.iterations = iterations;
+  plan.solve_seconds = seconds;
+  plan.cost = nlp->cost;
+  check(m, task, plan);
+  return plan;
+}
+
+}  // namespace spacearm

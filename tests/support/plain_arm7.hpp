@@ -1,0 +1,33 @@
+// Tests' models/space_arm7 without its gears, compiled through the cache into a temporary
+// folder (about 6 s the first time in a process), as a DynamicModel.
+#pragma once
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "compiled_model.hpp"
+
+namespace spacearm {
+
+inline DynamicModel spatial_arm7() {
+  const std::string dir = std::string(SPACEARM_SOURCE_DIR) + "/models/";
+  std::ifstream in(dir + "space_arm7.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string scene = text.str();
+  scene.erase(scene.find("gears:"));  // the last line
+  CompileOptions options;
+  options.cache_dir =
+      (std::filesystem::temp_directory_path() / ("spacearm-test-plan-" + std::to_string(getpid())))
+          .string();
+  static const CompiledModel m =
+      CompiledModel::load(ModelRecipe::parse(scene, dir + "space_arm7_plain.yaml"), options);
+  std::filesystem::remove_all(options.cache_dir);
+  return dynamic_model(m, Eigen::VectorXd(0));
+}
+
+}  // namespace spacearm
