@@ -387,11 +387,19 @@ CLI::App* add_plan(CLI::App& app, spacearm::PlanArgs& a) {
       ->check(CLI::IsMember({"joints", "pose"}));
   command
       ->add_option("--objective", a.objective,
-                   "line (default: the base turns as momentum conservation makes it) or "
+                   "line (default: the base turns as momentum conservation makes it), "
                    "reactionless (a free base's angular velocity held at zero through the "
                    "reaction null space: the task's rows plus 3 in 3D, 1 in the plane, need as "
-                   "many joints)")
-      ->check(CLI::IsMember({"line", "reactionless"}));
+                   "many joints), or from rest to rest at the --to position by any path, "
+                   "min_base_rotation (the least integral of |omega_base|^2) or min_effort (of "
+                   "|tau|^2), solved by IPOPT within the URDF's effort and velocity limits")
+      ->check(CLI::IsMember({"line", "reactionless", "min_base_rotation", "min_effort"}));
+  command->add_option("--knots", a.knots,
+                      "min_base_rotation, min_effort: intervals of the piecewise-linear torques "
+                      "(default 50; duration / dt a whole multiple of them)");
+  command->add_option("--effort-weight", a.effort_weight,
+                      "min_base_rotation: weight of the effort (relative to the first guess's) "
+                      "beside the rotation (relative to the straight line's); default 0.01");
   command
       ->add_option("--param", a.param_assignments,
                    "Run-time parameter name=value (repeatable, once per name)")

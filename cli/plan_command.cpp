@@ -10,6 +10,7 @@
 #include "joint_limits.hpp"
 #include "compiled_model.hpp"
 #include "row_writer.hpp"
+#include "optimal_plan.hpp"
 #include "trajectory_planning.hpp"
 
 namespace spacearm {
@@ -133,6 +134,8 @@ StraightLineTask task_from_options(const PlanArgs& a, const ModelFacts& facts) {
   if (!a.q0_text.empty()) task.q0 = cli::parse_vector(a.q0_text, "--q0", facts.dims.nq);
   task.hold = hold_from_string(a.hold);
   task.objective = objective_from_string(a.objective);
+  task.knots = a.knots;
+  task.effort_weight = a.effort_weight;
   DynamicModel sizes;
   sizes.name = facts.name;
   sizes.nq = facts.dims.nq;
@@ -142,8 +145,10 @@ StraightLineTask task_from_options(const PlanArgs& a, const ModelFacts& facts) {
   sizes.spatial = facts.dims.spatial;
   if (facts.dims.num_end_effectors > 1) sizes.end_effector_names = facts.end_effector_names;
   sizes.set_layout(facts.num_base, facts.quaternion_offset);
-  check_task(sizes, task,
-             {"--from", "--to", "--duration", "--dt", "--elbow", "--q0", "--end-effector"});
+  const TaskNames names{"--from",  "--to", "--duration",    "--dt",
+                        "--elbow", "--q0", "--end-effector"};
+  check_task(sizes, task, names);
+  if (point_to_point(task.objective)) check_point_to_point(sizes, task, names);
   return task;
 }
 
@@ -155,10 +160,29 @@ StraightLineTask task_from_options(const PlanArgs& a, const ModelFacts& facts) {
 constexpr double kSpike = 100;
 
 int run_plan(const PlanArgs& a) {
-  const ModelRecipe recipe = cli::load_scene(a.scene_path);
+  const ModelRecipe scene = cli::load_scene(a.scene_path);
+  check_outputs(scene.facts());
+  StraightLineTask task = task_from_options(a, scene.facts());
+  // A point-to-point plan keeps the URDF's effort and velocity limits, and takes its step
+  // Jacobians from the exact state Jacobian: the scene compiled with it where it lacks it.
+  const auto& emitted = scene.facts().outputs;
+  const bool add_derivatives = point_to_point(task.objective) &&
+                               std::find(emitted.begin(), emitted.end(),
+                                         Output::forward_dynamics_derivatives) == emitted.end();
+  const ModelRecipe recipe = add_derivatives
+                                 ? scene.with_outputs({Output::forward_dynamics_derivatives},
+                                                      "\n# plan --objective: the state Jacobian\n")
+                                 : scene;
   const ModelFacts& facts = recipe.facts();
-  check_outputs(facts);
-  const StraightLineTask task = task_from_options(a, facts);
+  if (point_to_point(task.objective)) {
+    const std::vector<spatial::JointLimits> limits = recipe.joint_limits();
+    task.effort = Eigen::VectorXd::Zero(facts.dims.num_links);
+    task.velocity = task.effort;
+    for (size_t j = 0; j < limits.size(); ++j) {
+      task.effort[long(j)] = limits[j].effort;
+      task.velocity[long(j)] = limits[j].velocity;
+    }
+  }
   refuse_same_outputs(a);
   const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, facts);
 
@@ -171,7 +195,7 @@ int run_plan(const PlanArgs& a) {
   };
   const auto model = CompiledModel::load(recipe, options);
   const DynamicModel dynamic = dynamic_model(model, params);
-  const Plan plan = plan_straight_line(dynamic, task);
+  const Plan plan = plan_task(dynamic, task);
 
   const auto inputs = cli::scene_inputs(a.scene_path, recipe);
   refuse_input_as_output(a.output_file, inputs);

@@ -16,6 +16,8 @@ struct PlanArgs {
   std::vector<std::string> from_text, to_text, time_laws, end_effectors;
   std::string hold = "joints";     // a tree's --hold
   std::string objective = "line";  // --objective (Objective)
+  int knots = 50;                  // --knots: a point-to-point plan's
+  double effort_weight = 1e-2;     // --effort-weight: min_base_rotation's
   int elbow = +1;
   double duration = 0, dt = 0.01;
   std::vector<std::string> param_assignments;

@@ -114,6 +114,24 @@ class MultipleShooting : public Ipopt::TNLP {
     return true;
   }
 
+  // A geared slot's angle and rate are the motor's, p times the link's: the problem is scaled
+  // to the link side, so that every joint's variables and defects are alike in size.
+  bool get_scaling_parameters(Number& obj_scaling, bool& use_x_scaling, Index n, Number* x_scaling,
+                              bool& use_g_scaling, Index m, Number* g_scaling) override {
+    obj_scaling = 1;
+    use_x_scaling = use_g_scaling = true;
+    std::fill(x_scaling, x_scaling + n, 1.0);
+    std::fill(g_scaling, g_scaling + m, 1.0);
+    for (int j = 0; j < L_.N; ++j) {
+      if (!m_.slot_holds_motor(j)) continue;
+      const double s = 1 / std::abs(m_.gear_ratios[j]);
+      const int q = m_.joint_q_offsets[j], v = L_.nq + m_.joint_v_offsets[j];
+      for (int k = 0; k <= L_.K; ++k) x_scaling[L_.x(k) + q] = x_scaling[L_.x(k) + v] = s;
+      for (int k = 0; k < L_.K; ++k) g_scaling[k * L_.nx + q] = g_scaling[k * L_.nx + v] = s;
+    }
+    return true;
+  }
+
   bool eval_f(Index, const Number* x, bool, Number& f) override {
     f = w_rotation_ * sum(x, true) + w_effort_ * sum(x, false);
     return true;
@@ -129,8 +147,8 @@ class MultipleShooting : public Ipopt::TNLP {
     return true;
   }
 
-  bool eval_g(Index n, const Number* x, bool new_x, Index, Number* g) override {
-    if (!update(n, x, new_x)) return false;
+  bool eval_g(Index, const Number* x, bool new_x, Index, Number* g) override {
+    if (!update(x, new_x, false)) return false;
     for (int k = 0; k < L_.K; ++k)
       for (int r = 0; r < L_.nx; ++r) g[k * L_.nx + r] = x[L_.x(k + 1) + r] - steps_[k].x[r];
     const VectorXd pose = m_.end_effector_pose(Eigen::Map<const VectorXd>(x + L_.x(L_.K), L_.nq));
@@ -139,13 +157,13 @@ class MultipleShooting : public Ipopt::TNLP {
     return true;
   }
 
-  bool eval_jac_g(Index n, const Number* x, bool new_x, Index, Index, Index* rows, Index* cols,
+  bool eval_jac_g(Index, const Number* x, bool new_x, Index, Index, Index* rows, Index* cols,
                   Number* values) override {
     if (values == nullptr) {
       structure(rows, cols);
       return true;
     }
-    if (!update(n, x, new_x)) return false;
+    if (!update(x, new_x, true)) return false;
     Index e = 0;
     for (int k = 0; k < L_.K; ++k) {
       const CoordinateStep& s = steps_[k];
@@ -188,23 +206,27 @@ class MultipleShooting : public Ipopt::TNLP {
     return s;
   }
 
-  // The steps of every interval at x (once per new point: g and its Jacobian share them).
-  bool update(Index n, const Number* x, bool new_x) {
-    if (!new_x && have_steps_) return true;
-    have_steps_ = false;
+  // The steps of every interval at x, their ends alone or with their Jacobians (once per new
+  // point: g and its Jacobian share them; a line search's trial points need only the ends).
+  bool update(const Number* x, bool new_x, bool jacobians) {
+    if (new_x) have_ends_ = have_jacobians_ = false;
+    if (have_jacobians_ || (have_ends_ && !jacobians)) return true;
     try {
       for (int k = 0; k < L_.K; ++k) {
         const VectorXd xk = Eigen::Map<const VectorXd>(x + L_.x(k), L_.nx);
-        steps_[k] =
-            rk4_step_in_coordinates(m_, xk, Eigen::Map<const VectorXd>(x + L_.u(k), L_.N),
-                                    Eigen::Map<const VectorXd>(x + L_.u(k + 1), L_.N), L_.h);
-        if (!steps_[k].x.allFinite() || !steps_[k].X.allFinite()) return false;
+        const auto u0 = Eigen::Map<const VectorXd>(x + L_.u(k), L_.N);
+        const auto u1 = Eigen::Map<const VectorXd>(x + L_.u(k + 1), L_.N);
+        if (jacobians)
+          steps_[k] = rk4_step_in_coordinates(m_, xk, u0, u1, L_.h);
+        else
+          steps_[k].x = rk4_step_end(m_, xk, u0, u1, L_.h);
+        if (!steps_[k].x.allFinite() || (jacobians && !steps_[k].X.allFinite())) return false;
       }
     } catch (const std::exception&) {
       return false;  // IPOPT then tries a shorter step
     }
-    (void)n;
-    have_steps_ = true;
+    have_ends_ = true;
+    have_jacobians_ = jacobians;
     return true;
   }
 
@@ -232,7 +254,7 @@ class MultipleShooting : public Ipopt::TNLP {
   std::vector<int> omega_;  // the base's angular velocities in v
   double w_rotation_ = 0, w_effort_ = 0;
   std::vector<CoordinateStep> steps_;
-  bool have_steps_ = false;
+  bool have_ends_ = false, have_jacobians_ = false;
 };
 
 // The first guess: a straight line's knots (its grid holds them), for the least rotation the
@@ -397,6 +419,7 @@ Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task) {
   // The Lagrangian's Hessian would need the dynamics' second derivatives: a limited-memory
   // quasi-Newton one instead (a Gauss-Newton one, the cost's alone, diverged here).
   app->Options()->SetStringValue("hessian_approximation", "limited-memory");
+  app->Options()->SetStringValue("nlp_scaling_method", "user-scaling");
   app->Options()->SetStringValue("mu_strategy", "adaptive");
   app->Options()->SetNumericValue("tol", 1e-8);
   app->Options()->SetNumericValue("constr_viol_tol", 1e-10);
@@ -404,8 +427,8 @@ Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task) {
   // once its knots join within 1e-7 and its cost has changed by less than 1e-4 (relative) for
   // 10 iterations. The flight below measures what that leaves at the goal.
   app->Options()->SetNumericValue("acceptable_tol", 1e20);
-  app->Options()->SetNumericValue("acceptable_constr_viol_tol", 1e-7);
-  app->Options()->SetNumericValue("acceptable_obj_change_tol", 1e-4);
+  app->Options()->SetNumericValue("acceptable_constr_viol_tol", 1e-6);
+  app->Options()->SetNumericValue("acceptable_obj_change_tol", 1e-3);
   app->Options()->SetIntegerValue("acceptable_iter", 10);
   app->Options()->SetIntegerValue("max_iter", 1000);
   if (app->Initialize() != Ipopt::Solve_Succeeded)

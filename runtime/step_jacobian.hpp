@@ -117,6 +117,24 @@ inline CoordinateStep rk4_step_in_coordinates(const DynamicModel& m, const Eigen
   return r;
 }
 
+// The same step's end alone, without its Jacobians (a line search's trial points).
+inline Eigen::VectorXd rk4_step_end(const DynamicModel& m, const Eigen::VectorXd& x,
+                                    const Eigen::VectorXd& tau_start,
+                                    const Eigen::VectorXd& tau_end, double dt) {
+  const ConfigurationSpace space = m.configuration_space();
+  const int nq = m.nq, nv = m.nv;
+  const double c[] = {0, dt / 2, dt / 2, dt}, w[] = {1, 2, 2, 1};
+  Eigen::VectorXd k = Eigen::VectorXd::Zero(nq + nv), sum = k, s(nq + nv);
+  for (int i = 0; i < 4; ++i) {
+    const double along = c[i] / dt;
+    const Eigen::VectorXd Q = m.generalized_forces((1 - along) * tau_start + along * tau_end);
+    s = x + c[i] * k;
+    k << space.rate(s.head(nq), s.tail(nv)), m.forward_dynamics(s.head(nq), s.tail(nv), Q);
+    sum += w[i] * k;
+  }
+  return x + dt / 6 * sum;
+}
+
 // A and B of one rk4 step of dt from (q, v) under the link-side joint torques tau.
 inline StepJacobians rk4_step_jacobians(const DynamicModel& m, const Eigen::VectorXd& q,
                                         const Eigen::VectorXd& v, const Eigen::VectorXd& tau,

@@ -1,6 +1,6 @@
 // runtime/optimal_plan.hpp: point-to-point plans by direct multiple shooting with IPOPT, on
 // models/space_arm7 without gears (its state Jacobian by central differences: no
-// forward_dynamics_derivatives among its outputs). Cost: about 20 s (3, 5 and 10 s solves).
+// forward_dynamics_derivatives among its outputs). Cost: about 10 s (1, 2 and 4 s solves).
 #include "optimal_plan.hpp"
 
 #include <gtest/gtest.h>
@@ -35,11 +35,11 @@ double effort(const Plan& p) {
 void expect_a_flown_plan(const DynamicModel& m, const StraightLineTask& task, const Plan& plan) {
   ASSERT_EQ(plan.t.size(), 401u);
   EXPECT_EQ(plan.knots, task.knots);
-  // The solver's knots are one RK4 step apart (0.08 s on 50 knots, 0.2 s on 20); the flight
-  // is rkf78's: measured 2e-7 m from the goal and 7e-7 from the knots on 50, 2e-6 m and 3e-5
-  // on 20.
+  // The solver takes knots that join within 1e-6 (acceptable_constr_viol_tol), one RK4 step
+  // apart (0.08 s on 50 knots, 0.2 s on 20); the flight is rkf78's: measured 7e-7 m from the
+  // goal and 2e-6 from the knots on 50, 2e-6 m and 3e-5 on 20.
   const bool fine = task.knots >= 50;
-  EXPECT_LT(plan.goal_error, fine ? 1e-6 : 1e-5);
+  EXPECT_LT(plan.goal_error, fine ? 5e-6 : 1e-5);
   const Eigen::Vector3d end = m.end_effector_pose(plan.q.back()).head<3>();
   EXPECT_NEAR((end - task.goal).norm(), plan.goal_error, 1e-15);
   EXPECT_EQ(plan.qd.front().norm(), 0);
@@ -56,7 +56,7 @@ void expect_a_flown_plan(const DynamicModel& m, const StraightLineTask& task, co
   Eigen::VectorXd q_end;
   integrate_motion(m, plan.q.front(), Eigen::VectorXd::Zero(m.nv), tau, task.duration, task.dt, opt,
                    [&](double, const Eigen::VectorXd& q, const Eigen::VectorXd&) { q_end = q; });
-  EXPECT_LT((m.end_effector_pose(q_end).head<3>() - task.goal).norm(), fine ? 1e-6 : 1e-5);
+  EXPECT_LT((m.end_effector_pose(q_end).head<3>() - task.goal).norm(), fine ? 5e-6 : 1e-5);
 }
 
 TEST(OptimalPlan, TheLeastBaseRotationTurnsTheBaseFarLessThanTheLine) {
