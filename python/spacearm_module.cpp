@@ -30,6 +30,7 @@
 #include "simulation_table.hpp"
 #include "torque_csv.hpp"
 #include "step_jacobian.hpp"
+#include "optimal_plan.hpp"
 #include "trajectory_planning.hpp"
 
 namespace py = pybind11;
@@ -116,7 +117,7 @@ class PyModel {
   py::dict plan(const py::object& start, const py::object& goal, double duration, double dt,
                 const py::object& time_law, int elbow, const py::object& q0,
                 const py::object& params, const py::object& end_effector, const std::string& hold,
-                const std::string& objective) const;
+                const std::string& objective, int knots, double effort_weight) const;
   // The lines of plan()'s arguments, into task (its start, goal, law, end effector, more_lines).
   void plan_lines(const py::object& start, const py::object& goal, const py::object& time_law,
                   const py::object& end_effector, StraightLineTask& task) const;
@@ -362,7 +363,8 @@ void PyModel::plan_lines(const py::object& start, const py::object& goal,
 py::dict PyModel::plan(const py::object& start, const py::object& goal, double duration, double dt,
                        const py::object& time_law, int elbow, const py::object& q0,
                        const py::object& params_given, const py::object& end_effector,
-                       const std::string& hold, const std::string& objective) const {
+                       const std::string& hold, const std::string& objective, int knots,
+                       double effort_weight) const {
   StraightLineTask task;
   try {
     task.hold = hold_from_string(hold);
@@ -387,10 +389,20 @@ py::dict PyModel::plan(const py::object& start, const py::object& goal, double d
   TaskNames names;
   names.lines_indexed = !py::isinstance<py::str>(end_effector);  // a list of end effectors
   check_task(m, task, names);
+  if (point_to_point(task.objective)) {
+    // As plan --objective: within the URDF's effort and velocity limits.
+    task.knots = knots;
+    task.effort_weight = effort_weight;
+    const std::vector<spatial::JointLimits> limits = recipe_.joint_limits();
+    task.effort = task.velocity = Eigen::VectorXd::Zero(m.num_links);
+    for (size_t j = 0; j < limits.size(); ++j)
+      task.effort[long(j)] = limits[j].effort, task.velocity[long(j)] = limits[j].velocity;
+    check_point_to_point(m, task, names);
+  }
   Plan plan;
   const PlanTable table = [&] {
     py::gil_scoped_release release;
-    plan = plan_straight_line(m, task);
+    plan = plan_task(m, task);
     return plan_table(plan, m, recipe_.facts().geared);
   }();
   // The table's columns by name, and its groups as arrays: t, q, qd, qdd, tau, ...
@@ -413,6 +425,13 @@ py::dict PyModel::plan(const py::object& start, const py::object& goal, double d
   out["min_jacobian_rcond_t"] = plan.min_jacobian_rcond_t;
   out["max_base_rotation"] = plan.max_base_rotation;
   out["final_base_rotation"] = plan.final_base_rotation;
+  if (plan.knots > 0) {  // a point-to-point plan's
+    out["goal_error"] = plan.goal_error;
+    out["max_knot_error"] = plan.max_knot_error;
+    out["iterations"] = plan.iterations;
+    out["solve_seconds"] = plan.solve_seconds;
+    out["cost"] = plan.cost;
+  }
   return out;
 }
 
@@ -881,6 +900,7 @@ void bind_model_runs(py::class_<PyModel>& model) {
             py::arg("dt") = 0.01, py::arg("time_law") = "quintic", py::arg("elbow") = 1,
             py::arg("q0") = py::none(), py::arg("params") = py::none(),
             py::arg("end_effector") = "", py::arg("hold") = "joints", py::arg("objective") = "line",
+            py::arg("knots") = 50, py::arg("effort_weight") = 1e-2,
             "The zero-momentum straight line of the end-effector from start to goal (x, y or x, y, "
             "phi; in 3D x, y, z or a pose x, y, z, qw, qx, qy, qz) in `duration` s, as `spacearm "
             "plan` (a tree: `end_effector` by name follows it, the others `hold` their 'joints' "
@@ -890,7 +910,10 @@ void bind_model_runs(py::class_<PyModel>& model) {
             "tau_motor (geared), base_residual (free base) and 'columns', the CSV's columns by "
             "name, and its checks: min_jacobian_rcond (and _t), max_base_rotation and "
             "final_base_rotation (rad). objective='reactionless' holds a free base's angular "
-            "velocity at zero (the reaction null space), as plan --objective.");
+            "velocity at zero (the reaction null space); 'min_base_rotation' and 'min_effort' "
+            "go from rest to rest at the goal position by any path (IPOPT, `knots` intervals, "
+            "`effort_weight`), as plan --objective, and add goal_error, max_knot_error, "
+            "iterations, solve_seconds and cost.");
   model.def(
       "simulate",
       [](const PyModel& m, const py::object& t_end, const py::object& torques, const py::object& q0,

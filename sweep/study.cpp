@@ -271,10 +271,12 @@ void StudyReader::plan(Study& s, const YAML::Node& p, const YAML::Node& end_effe
   }
   if (p["objective"].IsDefined()) {
     const std::string objective = text(p["objective"], "manoeuvre.plan.objective");
-    if (objective != "line" && objective != "reactionless")
+    if (objective != "line" && objective != "reactionless" && objective != "min_base_rotation" &&
+        objective != "min_effort")
       r_.fail("manoeuvre.plan.objective",
-              "expected line (the base turns freely) or reactionless (its angular velocity held "
-              "at zero), got '" +
+              "expected line (the base turns freely), reactionless (its angular velocity held "
+              "at zero), min_base_rotation or min_effort (from rest to rest at the goal, "
+              "IPOPT), got '" +
                   objective + "'",
               p["objective"]);
     task.objective = objective_from_string(objective);

@@ -8,6 +8,7 @@
 
 #include "consistent_start.hpp"
 #include "model_recipe.hpp"
+#include "optimal_plan.hpp"
 #include "plan_replay.hpp"
 #include "simulation.hpp"
 #include "study_run.hpp"
@@ -196,7 +197,7 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
         dynamic_model(pm, Eigen::Map<const Eigen::VectorXd>(
                               pm.nominal_parameters().data(),
                               static_cast<Eigen::Index>(pm.nominal_parameters().size())));
-    const Plan plan = plan_straight_line(planner, *s.plan);
+    const Plan plan = plan_task(planner, *s.plan);
     plan_report_ = plan_checks_text(plan);
     // Friction fed forward is the believed one; each run's own friction may differ.
     PlanSamples samples = plan_samples(plan, planner);

@@ -471,6 +471,25 @@ def test_a_reactionless_plan_keeps_the_base_still():
         arm.plan(start, goal, 4, q0=q0, objective="still")
 
 
+def test_a_least_effort_plan_lands_at_rest_on_its_goal():
+    """objective='min_effort' (IPOPT): from rest to rest at the goal by any path, with less
+    effort than the straight line, and the solver's report in the dict. Cost: about 3 s."""
+    arm = spacearm.load(os.path.join(SOURCE, "models", "space_arm7.yaml"), cache_dir=CACHE)
+    q0 = [0, 0, 0, 1, 0, 0, 0, 30, 50, -20, -160, 40, 90, 10]
+    start = np.array([1.5199002392044572, 0.20122055952054133, 1.243704490684638])
+    goal = start + [-0.1, 0.1, 0.1]
+    line = arm.plan(start, goal, 4, q0=q0)
+    least = arm.plan(start, goal, 4, q0=q0, objective="min_effort", knots=25)
+    assert least["goal_error"] < 5e-6 and least["iterations"] > 0
+    assert np.abs(least["qd"][-1]).max() < 1e-4 and np.abs(least["qd"][0]).max() == 0
+    ee = [least["columns"][c][-1] for c in ("ee_x", "ee_y", "ee_z")]
+    assert np.linalg.norm(np.array(ee) - goal) == pytest.approx(least["goal_error"], abs=1e-15)
+    effort = lambda p: np.trapz((p["tau"] ** 2).sum(axis=1), p["t"])
+    assert effort(least) < effort(line)
+    with pytest.raises(ValueError, match="must be a whole multiple of the 7 knots"):
+        arm.plan(start, goal, 4, q0=q0, objective="min_effort", knots=7)
+
+
 def test_hostile_input_third_round(geared, tmp_path):
     """Issue 49: a failed run keeps its rows (IntegrationError.partial), a plan for another arm
     is refused, one angle rule, sizes named one by one, write_csv never onto a folder."""

@@ -674,7 +674,7 @@ TEST(Sweep, SpatialArmSweepsAPayloadAndTheRatioWithOneModel) {
   const std::vector<std::pair<std::string, std::string>> cases = {
       {replace(text, "    duration: 4", "    duration: 4\n    elbow: 2"), "manoeuvre.plan.elbow"},
       {replace(text, "    duration: 4", "    duration: 4\n    objective: still"),
-       "field 'manoeuvre.plan.objective': expected line (the base turns freely) or reactionless"},
+       "field 'manoeuvre.plan.objective': expected line (the base turns freely), reactionless"},
       {replace(text, "from: [0.9890759074845017, ", "from: ["),
        "field 'manoeuvre.plan.from': "
        "expected a position (3 numbers) "
