@@ -14,7 +14,9 @@
 // space_arm7's models also give their state Jacobian (forward_dynamics_derivatives) and one rk4
 // step's Jacobians (runtime/step_jacobian.hpp), timed against MuJoCo's mjd_transitionFD. One row
 // calls two single-arm models in turn: an instruction working set the size of the dual arm's,
-// without a tree.
+// without a tree. The plan/ rows time `plan --objective`'s planners on one task of space_arm7
+// (the tool 0.17 m in 4 s) against the straight line's, with each plan's base rotation, effort
+// and distance from the goal as counters (optimal_plan.hpp).
 //   scripts/bench.sh --spatial
 #include <benchmark/benchmark.h>
 
@@ -35,6 +37,7 @@
 #include "compiled_model.hpp"
 #include "mjcf_export.hpp"
 #include "mujoco_model.hpp"
+#include "optimal_plan.hpp"
 #include "spatial_scene.hpp"
 #include "step_jacobian.hpp"
 
@@ -207,6 +210,46 @@ void register_step_jacobians(const Loaded& m) {
       });
 }
 
+// The planners on one task (scripts/plans.sh's, README): the time to a plan, once each, and its
+// quality: the base's largest rotation [rad], the integral of |tau|^2 and the distance from the
+// goal at the end.
+void register_plans(const Loaded& m) {
+  const Eigen::VectorXd params = Eigen::Map<const Eigen::VectorXd>(
+      m.model.nominal_parameters().data(),
+      static_cast<Eigen::Index>(m.model.nominal_parameters().size()));
+  const auto model = std::make_shared<DynamicModel>(dynamic_model(m.model, params));
+  StraightLineTask task;
+  Eigen::VectorXd angles(7);
+  angles << 0.3, 0.5, -0.2, -1.6, 0.4, 0.9, 0.1;
+  task.q0 = model->from_joint_angles(model->neutral_configuration().head(7), angles);
+  task.start = model->end_effector_pose(task.q0).head<3>();
+  task.goal = task.start + Eigen::Vector3d(-0.1, 0.1, 0.1);
+  task.duration = 4;
+  for (Objective o : {Objective::line, Objective::reactionless, Objective::min_base_rotation,
+                      Objective::min_effort}) {
+    const char* names[] = {"line", "reactionless", "min_base_rotation", "min_effort"};
+    task.objective = o;
+    benchmark::RegisterBenchmark(
+        ("spacearm/plan " + std::string(names[static_cast<int>(o)]) + "/" + m.model.name())
+            .c_str(),
+        [model, task](benchmark::State& st) {
+          Plan plan;
+          for (auto _ : st) plan = plan_task(*model, task);
+          double effort = 0;
+          for (size_t k = 0; k + 1 < plan.t.size(); ++k)
+            effort += (plan.t[k + 1] - plan.t[k]) / 2 *
+                      (plan.tau[k].squaredNorm() + plan.tau[k + 1].squaredNorm());
+          const Eigen::Vector3d end = model->end_effector_pose(plan.q.back()).head<3>();
+          st.counters["base_rotation"] = plan.max_base_rotation;
+          st.counters["effort"] = effort;
+          st.counters["goal_error"] = (end - task.goal).norm();
+          st.counters["iterations"] = plan.iterations;
+        })
+        ->Iterations(1)
+        ->Unit(benchmark::kMillisecond);
+  }
+}
+
 // MuJoCo's step Jacobian by forward differences (mjd_transitionFD, eps 1e-6, not centered: its
 // cheapest), A (2 nv x 2 nv) at the same states.
 void register_mujoco_derivatives(test::MujocoModel& mj, const std::string& name, const Loaded& m) {
@@ -311,6 +354,7 @@ void register_robot(const std::string& relative) {
   for (size_t k = first; k < first + 3 && relative == kDerivativesRobot; ++k) {
     register_derivatives(*loaded[k]);
     register_step_jacobians(*loaded[k]);
+    if (k != first + 1) register_plans(*loaded[k]);  // ungeared and exact rotors
   }
   if (first == 0) register_alternated(*loaded[0], *loaded[1]);  // space_arm7 ungeared, armature
   if (relative.rfind("models/", 0) == 0)                        // the URDF robots
