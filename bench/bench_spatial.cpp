@@ -230,8 +230,7 @@ void register_plans(const Loaded& m) {
     const char* names[] = {"line", "reactionless", "min_base_rotation", "min_effort"};
     task.objective = o;
     benchmark::RegisterBenchmark(
-        ("spacearm/plan " + std::string(names[static_cast<int>(o)]) + "/" + m.model.name())
-            .c_str(),
+        ("spacearm/plan " + std::string(names[static_cast<int>(o)]) + "/" + m.model.name()).c_str(),
         [model, task](benchmark::State& st) {
           Plan plan;
           for (auto _ : st) plan = plan_task(*model, task);
