@@ -266,6 +266,40 @@ TEST_F(PlanCommand, RigidPlanReplaysIntoTheFlexibleTwinWithoutHandWork) {
   EXPECT_NE(out.find("planned on a free-floating base"), std::string::npos) << out;
 }
 
+// Issue 53: a point-to-point plan (min_effort, IPOPT) is a plan like a line's: simulate --plan
+// flies it in the model it was planned on to the goal, and into the flexible twin near it.
+TEST_F(PlanCommand, ALeastEffortPlanReplaysIntoItsTwins) {
+  const std::string csv = (dir() / "least.csv").string(),
+                    sim = (dir() / "least_flown.csv").string();
+  int status = 0;
+  std::string out = test::run_command(cli() +
+                                          "plan models/paper_geared.yaml --param p=10 --from "
+                                          "0.9,0.3 --to 0.7,0.6 --duration 5 --objective "
+                                          "min_effort -o " +
+                                          csv + cache() + " 2>&1",
+                                      &status);
+  ASSERT_EQ(status, 0) << out;
+  EXPECT_NE(out.find("(50 knots, "), std::string::npos) << out;
+  const Eigen::Vector2d goal(0.7, 0.6);
+  auto end_position = [&] {
+    const Csv s = read_csv(sim);
+    return Eigen::Vector2d(s.values(s.rows.size() - 1, {"ee_x", "ee_y"}));
+  };
+  out = test::run_command(cli() + "simulate models/paper_geared.yaml --param p=10 --plan " + csv +
+                              " -o " + sim + cache() + " 2>&1",
+                          &status);
+  ASSERT_EQ(status, 0) << out;
+  EXPECT_LT((end_position() - goal).norm(), 1e-5) << end_position().transpose();
+  // The flexible twin with its friction fed forward: measured 1.3e-3 m from the goal.
+  out = test::run_command(cli() +
+                              "simulate models/paper_flexible.yaml --param fs=5e-3 --param "
+                              "fc=5e-3 --feedforward friction --plan " +
+                              csv + " --dt-out 0.05 -o " + sim + cache() + " 2>&1",
+                          &status);
+  ASSERT_EQ(status, 0) << out;
+  EXPECT_LT((end_position() - goal).norm(), 3e-3) << end_position().transpose();
+}
+
 // Issue 49: a named output never replaces what is not a regular file. view's page and
 // generate's sources are renamed into place, so a FIFO or a link at the name (as /dev/stdout
 // is) is refused by name and left as it was; nothing is written.
