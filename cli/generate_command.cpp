@@ -58,9 +58,10 @@ int run_generate(const GenerateArgs& a) {
   options.scene_path = a.scene_path;
   options.command = "spacearm generate " + a.scene_path + " -o " + a.out_dir +
                     (a.file_stem.empty() ? "" : " --file-stem " + a.file_stem) +
-                    (a.plain ? " --plain" : "");
+                    (a.plain ? " --plain" : "") + (a.casadi ? " --casadi" : "");
   options.file_stem = a.file_stem;
   options.plain = a.plain;
+  options.casadi = a.casadi;
   const Generated generated = generate(text, a.scene_path, options);
   const EmittedModel& emitted = generated.emitted;
   const std::string header = a.out_dir + "/" + emitted.header_name,
@@ -80,6 +81,12 @@ int run_generate(const GenerateArgs& a) {
   const double write_ms = ms_since(t);
   std::cout << "wrote " << header << " and " << source << " (" << generated.coordinates
             << " coordinates, " << generated.parameters << " parameters)\n";
+  if (!emitted.c_file_name.empty())
+    std::cout << "wrote " << a.out_dir << "/" << emitted.c_file_name
+              << " (the C interface with CasADi's external functions spacearm_casadi_<output>: "
+                 "g++ -O2 -shared -fPIC "
+              << a.out_dir << "/" << emitted.c_file_name << " -o lib"
+              << emitted.c_file_name.substr(0, emitted.c_file_name.size() - 6) << ".so)\n";
   if (a.stats) {
     print_stats(emitted, std::cout);
     std::cout << "derive " << std::lround(generated.derive_ms) << " ms, emit "

@@ -7,7 +7,7 @@ namespace spacearm {
 
 struct GenerateArgs {
   std::string scene_path, out_dir, file_stem;
-  bool stats = false, check = false, plain = false;
+  bool stats = false, check = false, plain = false, casadi = false;
 };
 // Writes (or, check, compares) the files; returns the exit status. Throws on errors.
 int run_generate(const GenerateArgs& args);

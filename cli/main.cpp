@@ -142,6 +142,10 @@ CLI::App* add_generate(CLI::App& app, spacearm::GenerateArgs& a) {
   command->add_flag("--check", a.check,
                     "Write nothing; exit 1 if the files in the output folder differ from what "
                     "would be generated");
+  command->add_flag("--casadi", a.casadi,
+                    "Also write STEM_c.cpp: the C interface, with every output as a CasADi "
+                    "external function spacearm_casadi_<output> (casadi.external, acados); "
+                    "compile it with -shared -fPIC");
   return command;
 }
 

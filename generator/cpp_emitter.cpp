@@ -27,6 +27,7 @@ EmittedModel emit_cpp(const DerivedModel& model, const EmitOptions& options) {
   po.c_units = options.c_units;
   po.leading_units = options.leading_units;
   po.interpreted = options.interpreted;
+  po.casadi = options.casadi;
   return print_cpp(lower(model, lo), po);
 }
 

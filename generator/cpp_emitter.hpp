@@ -21,6 +21,7 @@ struct EmitOptions {
   int c_units = 1;         // PrintOptions::c_units
   std::vector<std::vector<std::string>> leading_units{};  // PrintOptions::leading_units
   bool interpreted = false;                               // PrintOptions::interpreted
+  bool casadi = false;                                    // PrintOptions::casadi
 };
 
 EmittedModel emit_cpp(const SymbolicModel& model, const EmitOptions& options);

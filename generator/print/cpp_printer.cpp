@@ -613,6 +613,93 @@ std::vector<int> unit_of_functions(const std::vector<CFunction>& functions,
   return unit_of;
 }
 
+// CasADi's sparsity pattern of a dense rows x cols array (compressed columns: rows, cols, the
+// columns' offsets, then every entry's row).
+std::string dense_sparsity(int rows, int cols) {
+  std::string s = std::to_string(rows) + ", " + std::to_string(cols);
+  for (int j = 0; j <= cols; ++j) s += ", " + std::to_string(j * rows);
+  for (int j = 0; j < cols; ++j)
+    for (int i = 0; i < rows; ++i) s += ", " + std::to_string(i);
+  return s;
+}
+
+// The names and sparsity patterns of a CasADi external function's inputs or outputs (kind "in"
+// or "out"): NAME_name_KIND(i) and NAME_sparsity_KIND(i), null past the last.
+std::string casadi_tables(const std::string& name, const std::string& kind,
+                          const std::vector<std::string>& names,
+                          const std::vector<std::string>& sparsity) {
+  const std::string type = "spacearm_casadi_int", n = std::to_string(names.size());
+  std::string s = "const char* " + name + "_name_" + kind + "(" + type + " i) {\n" +
+                  "  static const char* const names[] = {" +
+                  (names.empty() ? "\"\"" : quoted_list(names)) + "};\n  return i >= 0 && i < " +
+                  n + " ? names[i] : nullptr;\n}\n";
+  s += "const " + type + "* " + name + "_sparsity_" + kind + "(" + type + " i) {\n";
+  std::string all;
+  for (size_t k = 0; k < names.size(); ++k) {
+    s += "  static const " + type + " s" + std::to_string(k) + "[] = {" + sparsity[k] + "};\n";
+    all += (k ? ", s" : "s") + std::to_string(k);
+  }
+  return s + "  static const " + type + "* const s[] = {" + (all.empty() ? "nullptr" : all) +
+         "};\n  return i >= 0 && i < " + n + " ? s[i] : nullptr;\n}\n";
+}
+
+// Function f in CasADi's external form (PrintOptions::casadi), inside unit 0's extern "C" block
+// (kNominalParameters is that unit's). Written out here because CasADi's own code generator
+// would need CasADi to derive the model; its calling convention is what casadi::external and
+// acados' external functions load.
+std::string casadi_wrapper(const FunctionSpec& f, const ModelFacts& facts) {
+  const std::string name = "spacearm_casadi_" + f.name, type = "spacearm_casadi_int";
+  const int inputs = static_cast<int>(f.inputs.size()),
+            results = static_cast<int>(f.results.size());
+  const int params = static_cast<int>(facts.parameter_names.size());
+  const int n_in = inputs + (params > 0 ? 1 : 0);
+  std::vector<std::string> in_names, out_names, in_sparsity, out_sparsity;
+  std::vector<int> in_sizes, out_sizes;
+  for (const ArraySpec& a : f.inputs) {
+    in_names.push_back(a.name);
+    in_sizes.push_back(facts.dims(a.rows) * facts.dims(a.cols));
+    in_sparsity.push_back(dense_sparsity(facts.dims(a.rows), facts.dims(a.cols)));
+  }
+  if (params > 0) in_names.push_back("params"), in_sparsity.push_back(dense_sparsity(params, 1));
+  for (const ArraySpec& r : f.results) {
+    out_names.push_back(r.name);
+    out_sizes.push_back(facts.dims(r.rows) * facts.dims(r.cols));
+    out_sparsity.push_back(dense_sparsity(facts.dims(r.rows), facts.dims(r.cols)));
+  }
+  int work = 0;
+  for (int n : in_sizes) work += n;
+  for (int n : out_sizes) work += n;
+  const std::string parameters = params > 0 ? "arg[" + std::to_string(inputs) + "] ? arg[" +
+                                                  std::to_string(inputs) + "] : kNominalParameters"
+                                            : "kNominalParameters";
+  std::ostringstream s;
+  s << "\n// " << f.name << " in CasADi's external form (PrintOptions::casadi).\n"
+    << type << " " << name << "_n_in() { return " << n_in << "; }\n"
+    << type << " " << name << "_n_out() { return " << results << "; }\n"
+    << casadi_tables(name, "in", in_names, in_sparsity)
+    << casadi_tables(name, "out", out_names, out_sparsity) << "int " << name << "_work(" << type
+    << "* sz_arg, " << type << "* sz_res, " << type << "* sz_iw, " << type << "* sz_w) {\n"
+    << "  if (sz_arg) *sz_arg = " << n_in << ";\n  if (sz_res) *sz_res = " << results
+    << ";\n  if (sz_iw) *sz_iw = 0;\n  if (sz_w) *sz_w = " << work << ";\n  return 0;\n}\n"
+    << "int " << name << "(const double** arg, double** res, " << type << "*, double* w, int) {\n"
+    << "  // A null input is zeros and a null result is not wanted (CasADi's convention): both\n"
+    << "  // take room in w. Null parameters are the nominal ones.\n"
+    << "  [[maybe_unused]] static const int in_size[] = {" << (inputs ? comma_list(in_sizes) : "0")
+    << "}, out_size[] = {" << (results ? comma_list(out_sizes) : "0") << "};\n"
+    << "  const double* in[" << std::max(inputs, 1) << "] = {};\n"
+    << "  double* out[" << std::max(results, 1) << "] = {};\n"
+    << "  for (int i = 0; i < " << inputs << "; ++i) {\n"
+    << "    in[i] = arg[i];\n"
+    << "    if (in[i]) continue;\n"
+    << "    for (int k = 0; k < in_size[i]; ++k) w[k] = 0;\n"
+    << "    in[i] = w, w += in_size[i];\n  }\n"
+    << "  for (int i = 0; i < " << results << "; ++i) {\n"
+    << "    out[i] = res[i];\n"
+    << "    if (!out[i]) out[i] = w, w += out_size[i];\n  }\n"
+    << "  spacearm_" << f.name << "(in, " << parameters << ", out);\n  return 0;\n}\n";
+  return s.str();
+}
+
 // The C interface's translation units (PrintOptions::c_units, leading_units); unit 0 also
 // states the model's facts.
 std::vector<std::string> c_interface(const LoweredModel& model, const PrintOptions& options,
@@ -642,10 +729,17 @@ std::vector<std::string> c_interface(const LoweredModel& model, const PrintOptio
       << (trig_batches ? kTrigBatchIncludes : "") << "\nnamespace {\nusing T = double;\n"
       << (trig_batches ? kTrigBatchHelper : "") << kLanesHelper
       << (trig_batches ? kLanesTrigHelper : "");
-    if (u > 0)
+    if (u > 0) {
       s << "}  // namespace\n\nextern \"C\" {" << texts << "}\n";
-    else
-      s << c_facts(facts) << texts << "}\n";
+    } else {
+      s << c_facts(facts) << texts;
+      if (options.casadi) {
+        s << "\n// CasADi's integer (casadi_int, long long by default).\ntypedef long long "
+             "spacearm_casadi_int;\n";
+        for (const auto& f : model.functions) s << casadi_wrapper(f, facts);
+      }
+      s << "}\n";
+    }
     result.push_back(s.str());
   }
   return result;
@@ -737,7 +831,21 @@ EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
       result.interpreted_error = e.what();
     }
   if (result.c_units.size() == 1) result.c_interface = result.c_units[0];
+  if (options.casadi) {
+    if (result.c_units.size() != 1)
+      throw std::logic_error("print_cpp: the CasADi form is written as one file (c_units = 1)");
+    result.c_file_name = stem + "_c.cpp";
+  }
   return result;
+}
+
+// The files a generation writes, by name: the header, the source and, for CasADi, the C
+// interface (PrintOptions::casadi).
+std::vector<std::pair<std::string, const std::string*>> emitted_files(const EmittedModel& e) {
+  std::vector<std::pair<std::string, const std::string*>> files = {{e.header_name, &e.header},
+                                                                   {e.source_name, &e.source}};
+  if (!e.c_file_name.empty()) files.push_back({e.c_file_name, &e.c_interface});
+  return files;
 }
 
 // Each file is written to a new temporary of a random name, created with O_EXCL | O_NOFOLLOW
@@ -748,12 +856,12 @@ void write_files(const EmittedModel& emitted, const std::string& dir) {
   const Fd folder(::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
   if (!folder.valid()) throw FolderError("cannot open '" + dir + "': " + std::strerror(errno));
   // A device, FIFO or link at a file's name is refused before anything is written.
-  for (const std::string& name : {emitted.header_name, emitted.source_name})
+  const auto files = emitted_files(emitted);
+  for (const auto& [name, text] : files)
     refuse_replacing_special_at(folder.get(), name, dir + "/" + name);
   std::vector<std::pair<std::string, std::string>> staged;  // temporary, final name
   try {
-    for (const auto& [name, text] : {std::make_pair(emitted.header_name, &emitted.header),
-                                     std::make_pair(emitted.source_name, &emitted.source)}) {
+    for (const auto& [name, text] : files) {
       const std::string tmp = unique_name("." + name + ".tmp-");
       write_new_file_at(folder.get(), tmp, *text, dir + "/" + tmp, 0644);
       staged.push_back({tmp, name});
@@ -769,8 +877,7 @@ void write_files(const EmittedModel& emitted, const std::string& dir) {
 
 std::vector<std::string> stale_files(const EmittedModel& emitted, const std::string& dir) {
   std::vector<std::string> stale;
-  for (const auto& [name, text] : {std::make_pair(emitted.header_name, &emitted.header),
-                                   std::make_pair(emitted.source_name, &emitted.source)}) {
+  for (const auto& [name, text] : emitted_files(emitted)) {
     const std::string path = dir + "/" + name;
     std::ifstream in(path, std::ios::binary);
     std::ostringstream existing;

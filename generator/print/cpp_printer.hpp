@@ -48,6 +48,13 @@ struct PrintOptions {
   std::vector<std::vector<std::string>> leading_units;
   // Also the interpreter's form of the C interface (EmittedModel::interpreted).
   bool interpreted = false;
+  // Also the C interface as one file (EmittedModel::c_file_name, c_units = 1) with every
+  // function in CasADi's external form as well (casadi::external, acados' external functions):
+  // spacearm_casadi_<name>(arg, res, iw, w, mem), its inputs, then the run-time parameters
+  // where the model has them (a null parameters argument: the nominal values; a null input:
+  // zeros; a null result: not wanted), dense column-major, with _n_in, _n_out, _name_in,
+  // _name_out, _sparsity_in, _sparsity_out and _work.
+  bool casadi = false;
 };
 
 struct FunctionStats {
@@ -61,6 +68,7 @@ struct EmittedModel {
   std::string header_name, source_name;
   std::string header, source;
   std::string c_interface;  // extern "C" wrappers of every function, for dlopen (c_units = 1)
+  std::string c_file_name;  // PrintOptions::casadi: STEM_c.cpp, holding c_interface
   std::vector<std::string> c_units;  // the same in PrintOptions::c_units translation units
   std::vector<std::vector<std::string>> c_unit_functions;  // the functions of each of them
   std::vector<FunctionStats> stats;

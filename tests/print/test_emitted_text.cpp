@@ -11,6 +11,7 @@
 #include <dlfcn.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -339,6 +340,129 @@ std::map<std::string, std::vector<double>> call_every_function(const LoweredMode
                                                                const fs::path& dir,
                                                                const std::string& extra = "") {
   return call_every_function(model, std::vector<std::string>{c_interface}, dir, extra);
+}
+
+// PrintOptions::casadi: every function in CasADi's external form, loaded and called as
+// casadi::external does (sizes from _n_in/_n_out and _work, shapes from the sparsity patterns),
+// computes what the C function computes; a null input is zeros, a null result is skipped, null
+// parameters are the nominal ones, and the work array of _work's size is enough.
+// Cost: one compile of the paper's geared model's C interface at -O1, about 2 s.
+TEST(EmittedText, CasadisExternalFormIsTheCInterface) {
+  const fs::path dir = fs::temp_directory_path() / ("spacearm-casadi-" + std::to_string(getpid()));
+  const LoweredModel model = lowered_scene("/models/paper_geared.yaml");
+  PrintOptions options;
+  options.casadi = true;
+  options.file_stem = "arm";
+  const EmittedModel e = print_cpp(model, options);
+  EXPECT_EQ(e.c_file_name, "arm_c.cpp");
+  fs::create_directories(dir);
+  std::ofstream(dir / "arm_c.cpp") << e.c_interface;
+  const auto [ok, log] =
+      run(std::string(SPACEARM_CXX) + " -O1 -std=c++17 -Wall -Wextra -Werror -fPIC -shared '" +
+          (dir / "arm_c.cpp").string() + "' -o '" + (dir / "arm.so").string() + "'");
+  ASSERT_TRUE(ok) << log;
+  void* lib = dlopen((dir / "arm.so").c_str(), RTLD_NOW | RTLD_LOCAL);
+  ASSERT_NE(lib, nullptr) << dlerror();
+  using Int = long long;
+  using Direct = void (*)(const double* const*, const double*, double* const*);
+  using External = int (*)(const double**, double**, Int*, double*, int);
+  const Dimensions& dims = model.facts.dims;
+  const std::vector<double> nominal = model.facts.nominal_parameters;
+  ASSERT_EQ(nominal.size(), 2u);  // p and Im
+  for (const FunctionSpec& f : model.functions) {
+    const std::string name = "spacearm_casadi_" + f.name;
+    auto sym = [&](const std::string& suffix) { return dlsym(lib, (name + suffix).c_str()); };
+    const auto n_in = reinterpret_cast<Int (*)()>(sym("_n_in"));
+    const auto n_out = reinterpret_cast<Int (*)()>(sym("_n_out"));
+    const auto name_in = reinterpret_cast<const char* (*)(Int)>(sym("_name_in"));
+    const auto sparsity_in = reinterpret_cast<const Int* (*)(Int)>(sym("_sparsity_in"));
+    const auto sparsity_out = reinterpret_cast<const Int* (*)(Int)>(sym("_sparsity_out"));
+    const auto work = reinterpret_cast<int (*)(Int*, Int*, Int*, Int*)>(sym("_work"));
+    const auto external = reinterpret_cast<External>(sym(""));
+    const auto direct = reinterpret_cast<Direct>(dlsym(lib, ("spacearm_" + f.name).c_str()));
+    ASSERT_TRUE(n_in && n_out && name_in && sparsity_in && sparsity_out && work && external &&
+                direct)
+        << f.name;
+    const size_t inputs = f.inputs.size(), results = f.results.size();
+    ASSERT_EQ(n_in(), Int(inputs + 1)) << f.name;
+    ASSERT_EQ(n_out(), Int(results)) << f.name;
+    EXPECT_STREQ(name_in(Int(inputs)), "params");
+    EXPECT_EQ(name_in(Int(inputs + 1)), nullptr);
+    EXPECT_EQ(sparsity_in(-1), nullptr);
+    // Each array's shape from its pattern: rows, cols, dense column offsets.
+    auto shape = [](const Int* s) {
+      for (Int j = 0; j <= s[1]; ++j) EXPECT_EQ(s[2 + j], j * s[0]);
+      return std::make_pair(s[0], s[1]);
+    };
+    for (size_t i = 0; i < inputs; ++i) {
+      EXPECT_STREQ(name_in(Int(i)), f.inputs[i].name.c_str());
+      EXPECT_EQ(shape(sparsity_in(Int(i))),
+                std::make_pair(Int(dims(f.inputs[i].rows)), Int(dims(f.inputs[i].cols))));
+    }
+    EXPECT_EQ(shape(sparsity_in(Int(inputs))), std::make_pair(Int(2), Int(1)));
+    Int sz_arg = 0, sz_res = 0, sz_iw = -1, sz_w = -1;
+    ASSERT_EQ(work(&sz_arg, &sz_res, &sz_iw, &sz_w), 0);
+    EXPECT_EQ(sz_arg, n_in());
+    EXPECT_EQ(sz_res, n_out());
+    EXPECT_EQ(sz_iw, 0);
+    // Inputs 0.3, 0.4, ...; parameters off their nominal values.
+    std::vector<std::vector<double>> in, want, got;
+    for (const ArraySpec& a : f.inputs) {
+      in.emplace_back(dims(a.rows) * dims(a.cols));
+      for (size_t i = 0; i < in.back().size(); ++i) in.back()[i] = 0.3 + 0.1 * i;
+    }
+    const std::vector<double> params = {nominal[0] * 1.5, nominal[1] * 2};
+    for (size_t k = 0; k < results; ++k) {
+      const auto [rows, cols] = shape(sparsity_out(Int(k)));
+      EXPECT_EQ(rows * cols, Int(dims(f.results[k].rows) * dims(f.results[k].cols)));
+      want.emplace_back(rows * cols, -1.0);
+      got.emplace_back(rows * cols, -2.0);
+    }
+    auto call_direct = [&](const std::vector<std::vector<double>>& x, const double* p) {
+      std::vector<const double*> x_ptr;
+      std::vector<double*> out_ptr;
+      for (const auto& v : x) x_ptr.push_back(v.data());
+      for (auto& v : want) out_ptr.push_back(v.data());
+      direct(x_ptr.data(), p, out_ptr.data());
+    };
+    // The work array of _work's size, guarded at its end.
+    std::vector<double> w(sz_w + 4, 7.0);
+    auto call_external = [&](std::vector<const double*> arg, std::vector<double*> res) {
+      ASSERT_EQ(external(arg.data(), res.data(), nullptr, w.data(), 0), 0);
+      for (Int i = sz_w; i < sz_w + 4; ++i) EXPECT_EQ(w[i], 7.0) << f.name << ": w overrun";
+    };
+    std::vector<const double*> arg;
+    std::vector<double*> res;
+    for (const auto& v : in) arg.push_back(v.data());
+    arg.push_back(params.data());
+    for (auto& v : got) res.push_back(v.data());
+    call_direct(in, params.data());
+    call_external(arg, res);
+    EXPECT_EQ(got, want) << f.name;
+    // Null parameters: the nominal ones.
+    arg.back() = nullptr;
+    call_direct(in, nominal.data());
+    call_external(arg, res);
+    EXPECT_EQ(got, want) << f.name << ", nominal parameters";
+    // A null first input is zeros; a null first result is skipped, the others written.
+    if (inputs == 0) continue;
+    std::vector<std::vector<double>> zero_first = in;
+    std::fill(zero_first[0].begin(), zero_first[0].end(), 0.0);
+    call_direct(zero_first, nominal.data());
+    for (auto& v : got) std::fill(v.begin(), v.end(), -2.0);
+    arg[0] = nullptr;
+    res[0] = nullptr;
+    call_external(arg, res);
+    EXPECT_TRUE(std::all_of(got[0].begin(), got[0].end(), [](double x) { return x == -2.0; }));
+    for (size_t k = 1; k < results; ++k) EXPECT_EQ(got[k], want[k]) << f.name << " result " << k;
+  }
+  dlclose(lib);
+  fs::remove_all(dir);
+  // A model without run-time parameters takes none.
+  const EmittedModel plain = print_cpp(lowered_scene("/models/paper_reference.yaml"), options);
+  EXPECT_NE(plain.c_interface.find("spacearm_casadi_int spacearm_casadi_mass_matrix_n_in() { "
+                                   "return 1; }"),
+            std::string::npos);
 }
 
 // A body split into parts (PrintOptions::statements_per_part, here 40 statements instead of
