@@ -145,8 +145,8 @@ StraightLineTask task_from_options(const PlanArgs& a, const ModelFacts& facts) {
   sizes.spatial = facts.dims.spatial;
   if (facts.dims.num_end_effectors > 1) sizes.end_effector_names = facts.end_effector_names;
   sizes.set_layout(facts.num_base, facts.quaternion_offset);
-  const TaskNames names{"--from",  "--to", "--duration",    "--dt",
-                        "--elbow", "--q0", "--end-effector"};
+  const TaskNames names{"--from", "--to",           "--duration", "--dt",           "--elbow",
+                        "--q0",   "--end-effector", "--knots",    "--effort-weight"};
   check_task(sizes, task, names);
   if (point_to_point(task.objective)) check_point_to_point(sizes, task, names);
   return task;

@@ -400,11 +400,19 @@ py::dict PyModel::plan(const py::object& start, const py::object& goal, double d
     check_point_to_point(m, task, names);
   }
   Plan plan;
-  const PlanTable table = [&] {
+  PlanTable table;
+  bool interrupted = false;  // Ctrl-C during a solve: Python's KeyboardInterrupt
+  try {
     py::gil_scoped_release release;
-    plan = plan_task(m, task);
-    return plan_table(plan, m, recipe_.facts().geared);
-  }();
+    plan = plan_task(m, task, [&interrupted] {
+      py::gil_scoped_acquire acquire;
+      return interrupted = PyErr_CheckSignals() != 0;
+    });
+    table = plan_table(plan, m, recipe_.facts().geared);
+  } catch (const std::runtime_error&) {
+    if (interrupted) throw py::error_already_set();
+    throw;
+  }
   // The table's columns by name, and its groups as arrays: t, q, qd, qdd, tau, ...
   py::dict out, named;
   for (size_t c = 0; c < table.names.size(); ++c)

@@ -6,6 +6,8 @@
 #include <IpTNLP.hpp>
 
 #include <chrono>
+#include <functional>
+#include <mutex>
 #include <cstdlib>
 #include <cmath>
 #include <limits>
@@ -41,7 +43,17 @@ struct Goal {
 
 struct Guess {
   VectorXd x, line;  // the first guess; the straight line's knots (empty: none)
+  // The straight line's largest base rotation and integral of |tau|^2 (NaN: no line).
+  double line_rotation = NAN, line_effort = NAN;
 };
+
+// The integral of |tau|^2 over a plan's samples (trapezoidal).
+double effort_of(const Plan& p) {
+  double sum = 0;
+  for (size_t k = 0; k + 1 < p.t.size(); ++k)
+    sum += (p.t[k + 1] - p.t[k]) / 2 * (p.tau[k].squaredNorm() + p.tau[k + 1].squaredNorm());
+  return sum;
+}
 
 class MultipleShooting : public Ipopt::TNLP {
  public:
@@ -58,9 +70,12 @@ class MultipleShooting : public Ipopt::TNLP {
     // guess's effort, so that it starts near 1 (IPOPT's tolerances are absolute). For the least
     // rotation, task.effort_weight of the effort keeps the torques determined where the
     // rotation does not care, and the problem well enough conditioned to solve.
+    // Without a straight line (or where it needs none), the scales are 1e-2 rad/s and 1 N m
+    // over the duration.
     const VectorXd& scale = guess.line.size() ? guess.line : guess.x;
-    const double rotation = std::max(sum(scale.data(), true), 1e-300),
-                 effort = std::max(sum(guess.x.data(), false), 1e-300);
+    double rotation = sum(scale.data(), true), effort = sum(guess.x.data(), false);
+    if (!(rotation > 1e-12 * task.duration)) rotation = 1e-4 * task.duration;
+    if (!(effort > 1e-12 * task.duration)) effort = task.duration;
     if (task.objective == Objective::min_effort) {
       w_effort_ = 1 / effort;
     } else {
@@ -71,6 +86,14 @@ class MultipleShooting : public Ipopt::TNLP {
 
   VectorXd solution;
   double cost = 0;
+  // Asked at every iteration: true stops the solve (User_Requested_Stop).
+  std::function<bool()> interrupted;
+
+  bool intermediate_callback(Ipopt::AlgorithmMode, Index, Number, Number, Number, Number, Number,
+                             Number, Number, Number, Index, const Ipopt::IpoptData*,
+                             Ipopt::IpoptCalculatedQuantities*) override {
+    return !(interrupted && interrupted());
+  }
 
   bool get_nlp_info(Index& n, Index& m, Index& nnz_jac, Index& nnz_h,
                     IndexStyleEnum& style) override {
@@ -262,12 +285,15 @@ class MultipleShooting : public Ipopt::TNLP {
 // followed.
 Guess first_guess(const DynamicModel& m, const StraightLineTask& task, const Layout& L,
                   const VectorXd& q_start) {
+  Guess g;
   auto knots = [&](Objective objective) {
     StraightLineTask line = task;
     line.objective = objective;
     VectorXd x(L.variables());
     try {
       const Plan p = plan_straight_line(m, line);
+      if (objective == Objective::line)
+        g.line_rotation = p.max_base_rotation, g.line_effort = effort_of(p);
       const int per = static_cast<int>(std::lround(L.h / task.dt));
       for (int k = 0; k <= L.K; ++k) {
         x.segment(L.x(k), L.nq) = p.q[k * per];
@@ -279,7 +305,7 @@ Guess first_guess(const DynamicModel& m, const StraightLineTask& task, const Lay
     }
     return x;
   };
-  Guess g{VectorXd(), knots(Objective::line)};
+  g.line = knots(Objective::line);
   if (task.objective == Objective::min_base_rotation) g.x = knots(Objective::reactionless);
   if (g.x.size() == 0) g.x = g.line;
   if (g.x.size() == 0) {
@@ -368,19 +394,23 @@ void check_point_to_point(const DynamicModel& m, const StraightLineTask& task,
     fail("objective " + objective + " plans to a position: give " + (m.spatial ? "x,y,z" : "x,y") +
          " in " + names.start + " and " + names.goal);
   if (!task.more_lines.empty()) fail("objective " + objective + " moves one end effector");
+  if (m.num_end_effectors() > 1)
+    fail("objective " + objective +
+         " plans a chain: on a tree it would move every arm, holding none (plan a tree with "
+         "objective line or reactionless)");
   if (task.objective == Objective::min_base_rotation && m.num_base() == 0)
     fail("objective min_base_rotation spares a free base; this model's base is fixed");
   if (m.passive_forces)
     fail("plans models without springs, dampers or friction; plan on the scene without them");
   if (!(task.knots >= 1 && task.knots <= 1000))
-    fail("knots must be from 1 to 1000, got " + std::to_string(task.knots));
+    fail(names.knots + " must be from 1 to 1000, got " + std::to_string(task.knots));
   const double per = task.duration / task.dt / task.knots;
   if (std::abs(per - std::round(per)) > 1e-9 * per || std::round(per) < 1)
     fail(names.duration + " / " + names.dt + " (" + number_text(task.duration / task.dt, 6) +
-         " samples) must be a whole multiple of the " + std::to_string(task.knots) +
-         " knots' intervals, so that the knots lie on the output grid");
+         " samples) must be a whole multiple of " + names.knots + " (" +
+         std::to_string(task.knots) + "), so that the knots lie on the output grid");
   if (!(task.effort_weight >= 0 && task.effort_weight <= 1e6))
-    fail("the effort's weight must be from 0 to 1e6, got " + number_text(task.effort_weight, 6));
+    fail(names.effort_weight + " must be from 0 to 1e6, got " + number_text(task.effort_weight, 6));
   for (const auto& [v, name] : {std::pair{&task.effort, "effort"}, {&task.velocity, "velocity"}}) {
     if (v->size() != 0 && v->size() != m.num_links)
       fail(std::string(name) + " limits: " + std::to_string(m.num_links) + " values, got " +
@@ -392,7 +422,40 @@ void check_point_to_point(const DynamicModel& m, const StraightLineTask& task,
   }
 }
 
-Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task) {
+namespace {
+
+// IPOPT's statuses that end without a plan, in words.
+std::string status_text(Ipopt::ApplicationReturnStatus status) {
+  switch (status) {
+    case Ipopt::Maximum_Iterations_Exceeded:
+      return "no convergence in 1000 iterations";
+    case Ipopt::Maximum_CpuTime_Exceeded:
+      return "no convergence in 300 s";
+    case Ipopt::Restoration_Failed:
+      return "its restoration phase found no feasible point";
+    case Ipopt::Infeasible_Problem_Detected:
+      return "the problem looks infeasible";
+    case Ipopt::Invalid_Number_Detected:
+      return "the dynamics gave a number that is not finite";
+    case Ipopt::Search_Direction_Becomes_Too_Small:
+      return "its steps became too small";
+    case Ipopt::Diverging_Iterates:
+      return "its iterates diverged";
+    default:
+      return "IPOPT status " + std::to_string(static_cast<int>(status));
+  }
+}
+
+// IPOPT's solver (MUMPS, sequential) keeps global state: one solve at a time in a process.
+std::mutex& solver_mutex() {
+  static std::mutex m;
+  return m;
+}
+
+}  // namespace
+
+Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task,
+                         const std::function<bool()>& interrupted) {
   check_point_to_point(m, task);
   if (!m.end_effector_pose || !m.end_effector_jacobian || !m.mass_matrix_and_bias ||
       !m.forward_dynamics)
@@ -407,13 +470,12 @@ Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task) {
            m.nq + m.nv + m.num_links,
            task.duration / task.knots};
   const VectorXd q_start = initial_configuration(m, task);
-  Ipopt::SmartPtr<MultipleShooting> nlp =
-      new MultipleShooting(m, task, L, first_guess(m, task, L, q_start), q_start);
+  const Guess guess = first_guess(m, task, L, q_start);
+  Ipopt::SmartPtr<MultipleShooting> nlp = new MultipleShooting(m, task, L, guess, q_start);
+  nlp->interrupted = interrupted;
+  const std::lock_guard<std::mutex> one_at_a_time(solver_mutex());
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
-  // SPACEARM_IPOPT_PRINT_LEVEL: IPOPT's own report on stdout (0 to 12), to see a solve.
-  const char* print_level = std::getenv("SPACEARM_IPOPT_PRINT_LEVEL");
-  app->Options()->SetIntegerValue("print_level",
-                                  print_level ? std::clamp(std::atoi(print_level), 0, 12) : 0);
+  app->Options()->SetIntegerValue("print_level", 0);  // nothing on stdout (-o - is the CSV)
   app->Options()->SetStringValue("sb", "yes");
   app->Options()->SetStringValue("option_file_name", "");  // no ipopt.opt from the folder
   // The Lagrangian's Hessian would need the dynamics' second derivatives: a limited-memory
@@ -424,13 +486,15 @@ Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task) {
   app->Options()->SetNumericValue("tol", 1e-8);
   app->Options()->SetNumericValue("constr_viol_tol", 1e-10);
   // A quasi-Newton Hessian leaves the dual infeasibility slow to fall: a plan is also taken
-  // once its knots join within 1e-7 and its cost has changed by less than 1e-4 (relative) for
-  // 10 iterations. The flight below measures what that leaves at the goal.
-  app->Options()->SetNumericValue("acceptable_tol", 1e20);
+  // once its knots join within 1e-6, its scaled optimality error is below 0.1 and its cost has
+  // changed by less than 1e-3 of max(1, cost) for 10 iterations. The flight below measures what
+  // that leaves at the goal, and a plan that misses it is refused.
+  app->Options()->SetNumericValue("acceptable_tol", 0.1);
   app->Options()->SetNumericValue("acceptable_constr_viol_tol", 1e-6);
   app->Options()->SetNumericValue("acceptable_obj_change_tol", 1e-3);
   app->Options()->SetIntegerValue("acceptable_iter", 10);
   app->Options()->SetIntegerValue("max_iter", 1000);
+  app->Options()->SetNumericValue("max_cpu_time", 300);
   if (app->Initialize() != Ipopt::Solve_Succeeded)
     throw std::runtime_error("planner: IPOPT failed to start");
   const auto start = std::chrono::steady_clock::now();
@@ -438,18 +502,40 @@ Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task) {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const int iterations = IsValid(app->Statistics()) ? app->Statistics()->IterationCount() : 0;
+  if (status == Ipopt::User_Requested_Stop)
+    throw std::runtime_error("planner, model " + m.name + ": interrupted");
   if (status != Ipopt::Solve_Succeeded && status != Ipopt::Solved_To_Acceptable_Level)
-    throw std::runtime_error("planner, model " + m.name + ": IPOPT found no plan (status " +
-                             std::to_string(static_cast<int>(status)) + " after " +
-                             std::to_string(iterations) +
-                             " iterations): the goal may be out of reach in " +
-                             number_text(task.duration, 6) + " s or within the limits");
+    throw std::runtime_error("planner, model " + m.name + ": IPOPT found no plan after " +
+                             std::to_string(iterations) + " iterations (" + status_text(status) +
+                             "): the goal may be out of reach in " + number_text(task.duration, 6) +
+                             " s or within the limits, or the knots too few (" +
+                             std::to_string(task.knots) + ")");
+
   Plan plan = fly(m, task, L, nlp->solution, q_start);
   plan.knots = task.knots;
   plan.iterations = iterations;
   plan.solve_seconds = seconds;
   plan.cost = nlp->cost;
   check(m, task, plan);
+  // The flight is what a replay does: one that misses the goal is refused, never a table.
+  double scale = 1;
+  scale = std::max({scale, task.start.cwiseAbs().maxCoeff(), task.goal.cwiseAbs().maxCoeff()});
+  if (!(plan.goal_error <= 1e-5 * scale))
+    throw std::runtime_error("planner, model " + m.name + ": the flown plan ends " +
+                             number_text(plan.goal_error, 3) + " m from the goal (" +
+                             number_text(plan.max_knot_error, 3) +
+                             " from the solver's knots: more knots make its steps finer)");
+  // Worse than the straight line at what it minimises: a poor local minimum, refused.
+  const bool rotation = task.objective == Objective::min_base_rotation;
+  const double got = rotation ? plan.max_base_rotation : effort_of(plan),
+               line = rotation ? guess.line_rotation : guess.line_effort;
+  if (got > line)
+    throw std::runtime_error("planner, model " + m.name + ": the plan " +
+                             (rotation ? "turns the base by " + number_text(got, 3) + " rad"
+                                       : "takes an effort of " + number_text(got, 3)) +
+                             ", more than the straight line's " + number_text(line, 3) +
+                             " (a poor local minimum): plan with objective line or reactionless, "
+                             "or move the start");
   return plan;
 }
 

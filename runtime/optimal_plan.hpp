@@ -12,6 +12,8 @@
 // IPOPT; the runtime proper needs only Eigen.
 #pragma once
 
+#include <functional>
+
 #include "dynamic_model.hpp"
 #include "trajectory_planning.hpp"
 
@@ -22,12 +24,16 @@ namespace spacearm {
 void check_point_to_point(const DynamicModel& m, const StraightLineTask& task,
                           const TaskNames& names = {});
 
-// The plan of task.objective min_base_rotation or min_effort.
-Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task);
+// The plan of task.objective min_base_rotation or min_effort. `interrupted` (where given) is
+// asked at every iteration of the solver; true stops it with an error ("interrupted"). One
+// solve runs at a time in a process (IPOPT's sequential MUMPS keeps global state): others wait.
+Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task,
+                         const std::function<bool()>& interrupted = {});
 
 // Any objective: the straight line (line, reactionless) or point to point.
-inline Plan plan_task(const DynamicModel& m, const StraightLineTask& task) {
-  return point_to_point(task.objective) ? plan_point_to_point(m, task)
+inline Plan plan_task(const DynamicModel& m, const StraightLineTask& task,
+                      const std::function<bool()>& interrupted = {}) {
+  return point_to_point(task.objective) ? plan_point_to_point(m, task, interrupted)
                                         : plan_straight_line(m, task);
 }
 

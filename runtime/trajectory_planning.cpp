@@ -460,7 +460,7 @@ void check_by_central_differences(const DynamicModel& m, Plan& plan, int kinks_e
   using Eigen::VectorXd;
   const int nb = m.num_base();
   for (size_t k = 1; k + 1 < plan.t.size(); ++k) {
-    if (kinks_every > 0 && k % kinks_every == 0) continue;
+    if (kinks_every > 1 && k % kinks_every == 0) continue;  // every sample a knot: check all
     const VectorXd qdd_fd = (plan.qd[k + 1] - plan.qd[k - 1]) / (plan.t[k + 1] - plan.t[k - 1]);
     plan.max_acceleration_mismatch =
         std::max(plan.max_acceleration_mismatch, (qdd_fd - plan.qdd[k]).cwiseAbs().maxCoeff());

@@ -161,7 +161,8 @@ using ModelPlan = BasicPlan<typename Model<G>::Vector, typename Model<G>::JointV
 // The names a caller gives the task's fields, for error messages (the CLI: its options).
 struct TaskNames {
   std::string start = "start", goal = "goal", duration = "duration", dt = "dt", elbow = "elbow",
-              q0 = "q0", end_effector = "end_effector";
+              q0 = "q0", end_effector = "end_effector", knots = "knots",
+              effort_weight = "effort_weight";
   // A later line's start and goal: "start[k]" (a list's index, from 0) instead of the CLI's
   // "start K" (its K-th line, from 1).
   bool lines_indexed = false;
@@ -199,7 +200,7 @@ Plan plan_straight_line(const DynamicModel& m, const StraightLineTask& task);
 namespace detail {
 // For any plan's checks: the row-scaled rcond of the generalized Jacobian of task's moving end
 // effectors at q, and qdd by central differences of the planned qd (max_acceleration_mismatch,
-// and max_base_residual with it), skipping every kinks_every-th sample (> 0: where a
+// and max_base_residual with it), skipping every kinks_every-th sample (> 1: where a
 // point-to-point plan's torques turn, qdd's slope jumps and the differences are first order).
 double generalized_jacobian_rcond(const DynamicModel& m, const StraightLineTask& task,
                                   const Eigen::VectorXd& q);

@@ -230,9 +230,9 @@ int StudyReader::end_effector(const StudyScene& scene, const YAML::Node& n,
 // A straight line of the end effector, a position or a pose (3D: with the orientation slerped).
 void StudyReader::plan(Study& s, const YAML::Node& p, const YAML::Node& end_effector_given) const {
   const bool spatial = s.scene.is_spatial();
-  r_.check_keys(
-      p, "manoeuvre.plan",
-      {"from", "to", "duration", "time_law", "elbow", "scene", "q0", "hold", "objective"});
+  r_.check_keys(p, "manoeuvre.plan",
+                {"from", "to", "duration", "time_law", "elbow", "scene", "q0", "hold", "objective",
+                 "knots", "effort_weight"});
   StraightLineTask task;
   task.start = position_or_pose(r_.require(p, "from", "manoeuvre.plan"), "manoeuvre.plan.from",
                                 spatial, true);
@@ -280,6 +280,19 @@ void StudyReader::plan(Study& s, const YAML::Node& p, const YAML::Node& end_effe
                   objective + "'",
               p["objective"]);
     task.objective = objective_from_string(objective);
+  }
+  if (p["knots"].IsDefined()) {
+    const double k = number(p["knots"], "manoeuvre.plan.knots");
+    if (!(k >= 1 && k <= 1000 && k == std::floor(k)))
+      r_.fail("manoeuvre.plan.knots", "expected a whole number from 1 to 1000", p["knots"]);
+    task.knots = static_cast<int>(k);
+  }
+  if (p["effort_weight"].IsDefined()) {
+    const double w = number(p["effort_weight"], "manoeuvre.plan.effort_weight");
+    if (!(w >= 0 && w <= 1e6))
+      r_.fail("manoeuvre.plan.effort_weight", "expected a number from 0 to 1e6",
+              p["effort_weight"]);
+    task.effort_weight = w;
   }
   // The planner's start guess, as plan --q0: the plan scene's coordinates (the base pose, then
   // each joint's slot: a geared joint's motor angle qm = p q), which picks the IK branch.

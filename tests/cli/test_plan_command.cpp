@@ -300,6 +300,32 @@ TEST_F(PlanCommand, ALeastEffortPlanReplaysIntoItsTwins) {
   EXPECT_LT((end_position() - goal).norm(), 3e-3) << end_position().transpose();
 }
 
+// Issue 53, an attacker's review: a point-to-point plan whose flight misses the goal (6 knots:
+// steps of 0.5 s) is an error, never a table; a tree is refused (it would move every arm).
+TEST_F(PlanCommand, APointToPointPlanThatMissesItsGoalIsRefused) {
+  const std::string csv = (dir() / "missed.csv").string();
+  int status = 0;
+  std::string out = test::run_command(
+      cli() +
+          "plan models/paper_reference.yaml --q0 0,0,0,0.3,0.8,0.5 --from 0.99269851,0.88958051 "
+          "--to 0.9,0.95 --duration 3 --objective min_effort --knots 6 -o " +
+          csv + cache() + " 2>&1",
+      &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(out.find("the flown plan ends 0.0301 m from the goal"), std::string::npos) << out;
+  EXPECT_NE(out.find("more knots make its steps finer"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(csv));
+  out = test::run_command(cli() +
+                              "plan models/dual_arm7.yaml --from 0.6,0.5,2.67 --to 0.9,0.6,2.3 "
+                              "--duration 10 --objective min_effort -o " +
+                              csv + cache() + " 2>&1",
+                          &status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(out.find("objective min_effort plans a chain: on a tree it would move every arm"),
+            std::string::npos)
+      << out;
+}
+
 // Issue 49: a named output never replaces what is not a regular file. view's page and
 // generate's sources are renamed into place, so a FIFO or a link at the name (as /dev/stdout
 // is) is refused by name and left as it was; nothing is written.

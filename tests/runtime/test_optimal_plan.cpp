@@ -116,7 +116,7 @@ TEST(OptimalPlan, RefusesWhatItCannotPlanNamingWhy) {
             std::string::npos);
   StraightLineTask knots = task;
   knots.knots = 7;
-  EXPECT_NE(error(knots).find("(400 samples) must be a whole multiple of the 7 knots' intervals"),
+  EXPECT_NE(error(knots).find("(400 samples) must be a whole multiple of knots (7)"),
             std::string::npos)
       << error(knots);
   StraightLineTask limits = task;
@@ -127,7 +127,7 @@ TEST(OptimalPlan, RefusesWhatItCannotPlanNamingWhy) {
             std::string::npos);
   StraightLineTask weight = task;
   weight.effort_weight = NAN;
-  EXPECT_NE(error(weight).find("the effort's weight must be from 0 to 1e6, got nan"),
+  EXPECT_NE(error(weight).find("effort_weight must be from 0 to 1e6, got nan"),
             std::string::npos)
       << error(weight);
   EXPECT_THROW(plan_straight_line(m, task), std::invalid_argument);
