@@ -127,8 +127,7 @@ TEST(OptimalPlan, RefusesWhatItCannotPlanNamingWhy) {
             std::string::npos);
   StraightLineTask weight = task;
   weight.effort_weight = NAN;
-  EXPECT_NE(error(weight).find("effort_weight must be from 0 to 1e6, got nan"),
-            std::string::npos)
+  EXPECT_NE(error(weight).find("effort_weight must be from 0 to 1e6, got nan"), std::string::npos)
       << error(weight);
   EXPECT_THROW(plan_straight_line(m, task), std::invalid_argument);
 }
