@@ -129,7 +129,10 @@ inline Eigen::VectorXd rk4_step_end(const DynamicModel& m, const Eigen::VectorXd
     const double along = c[i] / dt;
     const Eigen::VectorXd Q = m.generalized_forces((1 - along) * tau_start + along * tau_end);
     s = x + c[i] * k;
-    k << space.rate(s.head(nq), s.tail(nv)), m.forward_dynamics(s.head(nq), s.tail(nv), Q);
+    // Each part on its own (a comma initializer of the two calls failed Eigen's size assertion
+    // in the sanitizers' -O1 build, though both sizes were right).
+    k.head(nq) = space.rate(s.head(nq), s.tail(nv));
+    k.tail(nv) = m.forward_dynamics(s.head(nq), s.tail(nv), Q);
     sum += w[i] * k;
   }
   return x + dt / 6 * sum;
