@@ -234,13 +234,9 @@ void register_plans(const Loaded& m) {
         [model, task](benchmark::State& st) {
           Plan plan;
           for (auto _ : st) plan = plan_task(*model, task);
-          double effort = 0;
-          for (size_t k = 0; k + 1 < plan.t.size(); ++k)
-            effort += (plan.t[k + 1] - plan.t[k]) / 2 *
-                      (plan.tau[k].squaredNorm() + plan.tau[k + 1].squaredNorm());
           const Eigen::Vector3d end = model->end_effector_pose(plan.q.back()).head<3>();
           st.counters["base_rotation"] = plan.max_base_rotation;
-          st.counters["effort"] = effort;
+          st.counters["effort"] = plan_effort(plan);
           st.counters["goal_error"] = (end - task.goal).norm();
           st.counters["iterations"] = plan.iterations;
         })

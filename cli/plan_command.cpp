@@ -11,6 +11,7 @@
 #include "compiled_model.hpp"
 #include "row_writer.hpp"
 #include "optimal_plan.hpp"
+#include "plan_limits.hpp"
 #include "trajectory_planning.hpp"
 
 namespace spacearm {
@@ -174,15 +175,7 @@ int run_plan(const PlanArgs& a) {
                                                       "\n# plan --objective: the state Jacobian\n")
                                  : scene;
   const ModelFacts& facts = recipe.facts();
-  if (point_to_point(task.objective)) {
-    const std::vector<spatial::JointLimits> limits = recipe.joint_limits();
-    task.effort = Eigen::VectorXd::Zero(facts.dims.num_links);
-    task.velocity = task.effort;
-    for (size_t j = 0; j < limits.size(); ++j) {
-      task.effort[long(j)] = limits[j].effort;
-      task.velocity[long(j)] = limits[j].velocity;
-    }
-  }
+  if (point_to_point(task.objective)) set_plan_limits(recipe, task);
   refuse_same_outputs(a);
   const Eigen::VectorXd params = cli::parse_parameters(a.param_assignments, facts);
 

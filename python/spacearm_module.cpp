@@ -31,6 +31,7 @@
 #include "torque_csv.hpp"
 #include "step_jacobian.hpp"
 #include "optimal_plan.hpp"
+#include "plan_limits.hpp"
 #include "trajectory_planning.hpp"
 
 namespace py = pybind11;
@@ -393,10 +394,7 @@ py::dict PyModel::plan(const py::object& start, const py::object& goal, double d
     // As plan --objective: within the URDF's effort and velocity limits.
     task.knots = knots;
     task.effort_weight = effort_weight;
-    const std::vector<spatial::JointLimits> limits = recipe_.joint_limits();
-    task.effort = task.velocity = Eigen::VectorXd::Zero(m.num_links);
-    for (size_t j = 0; j < limits.size(); ++j)
-      task.effort[long(j)] = limits[j].effort, task.velocity[long(j)] = limits[j].velocity;
+    set_plan_limits(recipe_, task);
     check_point_to_point(m, task, names);
   }
   Plan plan;

@@ -47,14 +47,6 @@ struct Guess {
   double line_rotation = NAN, line_effort = NAN;
 };
 
-// The integral of |tau|^2 over a plan's samples (trapezoidal).
-double effort_of(const Plan& p) {
-  double sum = 0;
-  for (size_t k = 0; k + 1 < p.t.size(); ++k)
-    sum += (p.t[k + 1] - p.t[k]) / 2 * (p.tau[k].squaredNorm() + p.tau[k + 1].squaredNorm());
-  return sum;
-}
-
 class MultipleShooting : public Ipopt::TNLP {
  public:
   MultipleShooting(const DynamicModel& m, const StraightLineTask& task, Layout layout,
@@ -293,7 +285,7 @@ Guess first_guess(const DynamicModel& m, const StraightLineTask& task, const Lay
     try {
       const Plan p = plan_straight_line(m, line);
       if (objective == Objective::line)
-        g.line_rotation = p.max_base_rotation, g.line_effort = effort_of(p);
+        g.line_rotation = p.max_base_rotation, g.line_effort = plan_effort(p);
       const int per = static_cast<int>(std::lround(L.h / task.dt));
       for (int k = 0; k <= L.K; ++k) {
         x.segment(L.x(k), L.nq) = p.q[k * per];
@@ -527,7 +519,7 @@ Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task,
                              " from the solver's knots: more knots make its steps finer)");
   // Worse than the straight line at what it minimises: a poor local minimum, refused.
   const bool rotation = task.objective == Objective::min_base_rotation;
-  const double got = rotation ? plan.max_base_rotation : effort_of(plan),
+  const double got = rotation ? plan.max_base_rotation : plan_effort(plan),
                line = rotation ? guess.line_rotation : guess.line_effort;
   if (got > line)
     throw std::runtime_error("planner, model " + m.name + ": the plan " +

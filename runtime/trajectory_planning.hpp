@@ -158,6 +158,15 @@ using Plan = BasicPlan<>;
 template <class G>
 using ModelPlan = BasicPlan<typename Model<G>::Vector, typename Model<G>::JointVector>;
 
+// The integral of |tau|^2 over a plan's samples (trapezoidal): min_effort's cost.
+template <class Vector, class JointVector>
+double plan_effort(const BasicPlan<Vector, JointVector>& p) {
+  double sum = 0;
+  for (size_t k = 0; k + 1 < p.t.size(); ++k)
+    sum += (p.t[k + 1] - p.t[k]) / 2 * (p.tau[k].squaredNorm() + p.tau[k + 1].squaredNorm());
+  return sum;
+}
+
 // The names a caller gives the task's fields, for error messages (the CLI: its options).
 struct TaskNames {
   std::string start = "start", goal = "goal", duration = "duration", dt = "dt", elbow = "elbow",

@@ -12,24 +12,6 @@
 namespace spacearm {
 namespace {
 
-StraightLineTask arm7_task(const DynamicModel& m) {
-  StraightLineTask task;
-  task.q0 = m.neutral_configuration();
-  task.q0.tail(7) << 0.3, 0.5, -0.2, -1.6, 0.4, 0.9, 0.1;
-  task.start = m.end_effector_pose(task.q0).head<3>();
-  task.goal = task.start + Eigen::Vector3d(-0.1, 0.1, 0.1);
-  task.duration = 4;
-  return task;
-}
-
-// The integral of |tau|^2 over the plan's samples (trapezoidal).
-double effort(const Plan& p) {
-  double sum = 0;
-  for (size_t k = 0; k + 1 < p.t.size(); ++k)
-    sum += (p.t[k + 1] - p.t[k]) / 2 * (p.tau[k].squaredNorm() + p.tau[k + 1].squaredNorm());
-  return sum;
-}
-
 // What every point-to-point plan promises: from rest at the start to rest at the goal, the
 // momentum zero, its rows the flight of its torques.
 void expect_a_flown_plan(const DynamicModel& m, const StraightLineTask& task, const Plan& plan) {
@@ -78,10 +60,10 @@ TEST(OptimalPlan, TheLeastEffortTakesLessThanTheLine) {
   const Plan line = plan_task(m, task);
   task.objective = Objective::min_effort;
   const Plan plan = plan_task(m, task);
-  std::printf("%s\neffort %.4e, line's %.4e\n", plan_checks_text(plan).c_str(), effort(plan),
-              effort(line));
+  std::printf("%s\neffort %.4e, line's %.4e\n", plan_checks_text(plan).c_str(), plan_effort(plan),
+              plan_effort(line));
   expect_a_flown_plan(m, task, plan);
-  EXPECT_LT(effort(plan), effort(line));
+  EXPECT_LT(plan_effort(plan), plan_effort(line));
   // Bounded to 80% of that plan's peak torque per joint, the plan keeps the bounds (on 20 knots:
   // an interior point takes a few hundred iterations here).
   task.knots = 20;

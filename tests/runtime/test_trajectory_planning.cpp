@@ -372,12 +372,7 @@ double replayed_base_rotation(const DynamicModel& m, const Plan& plan, double dt
 // turn the base far less than the straight line's on the same task.
 TEST(TrajectoryPlanning, AReactionlessPlanLeavesTheBasesAttitudeAlone) {
   const DynamicModel m = spatial_arm7();
-  StraightLineTask task;
-  task.q0 = m.neutral_configuration();
-  task.q0.tail(7) << 0.3, 0.5, -0.2, -1.6, 0.4, 0.9, 0.1;
-  task.start = m.end_effector_pose(task.q0).head<3>();
-  task.goal = task.start + Eigen::Vector3d(-0.1, 0.1, 0.1);
-  task.duration = 4;
+  StraightLineTask task = arm7_task(m);
   const Plan line = plan_straight_line(m, task);
   task.objective = Objective::reactionless;
   const Plan plan = plan_straight_line(m, task);

@@ -1,5 +1,5 @@
 // Tests' models/space_arm7 without its gears, compiled through the cache into a temporary
-// folder (about 6 s the first time in a process), as a DynamicModel.
+// folder (about 6 s the first time in a process), as a DynamicModel, and a task on it.
 #pragma once
 
 #include <unistd.h>
@@ -10,6 +10,7 @@
 #include <string>
 
 #include "compiled_model.hpp"
+#include "trajectory_planning.hpp"
 
 namespace spacearm {
 
@@ -28,6 +29,17 @@ inline DynamicModel spatial_arm7() {
       CompiledModel::load(ModelRecipe::parse(scene, dir + "space_arm7_plain.yaml"), options);
   std::filesystem::remove_all(options.cache_dir);
   return dynamic_model(m, Eigen::VectorXd(0));
+}
+
+// A task both planners' tests take: the tool 0.17 m from a bent start in 4 s, a position.
+inline StraightLineTask arm7_task(const DynamicModel& m) {
+  StraightLineTask task;
+  task.q0 = m.neutral_configuration();
+  task.q0.tail(7) << 0.3, 0.5, -0.2, -1.6, 0.4, 0.9, 0.1;
+  task.start = m.end_effector_pose(task.q0).head<3>();
+  task.goal = task.start + Eigen::Vector3d(-0.1, 0.1, 0.1);
+  task.duration = 4;
+  return task;
 }
 
 }  // namespace spacearm
