@@ -48,7 +48,7 @@ inline const char* recursive_algorithm(Output o) {
     case Output::christoffel_coriolis_matrix:
       return "CRBA and momenta, forward-mode";
     case Output::forward_dynamics_derivatives:
-      return "ABA, forward-mode";
+      return "RNEA and ABA, forward-mode";
     default:
       return nullptr;
   }
@@ -165,6 +165,41 @@ struct has_quasi_velocities : std::false_type {};
 template <class C>
 struct has_quasi_velocities<C, std::void_t<decltype(&C::hamel_coupling)>> : std::true_type {};
 
+// The state Jacobian of forward dynamics at constant Q: {dqdd/dq (tangent), dqdd/dqd, qdd,
+// dqdd/dtau}. Along q, Carpentier and Mansard's split (RSS 2018): with R(q, qd) = M qdd + b +
+// passive forces at the solved qdd held, dqdd/dq = -M^-1 dR/dq, R's partials by RNEA forward
+// (cheaper than ABA's, whose articulated inertias depend on q) and M^-1 by ABA's force pass
+// alone (a tangent along Q: the articulated inertias do not depend on it, so they fold away).
+// Along qd, ABA forward directly: its inertias do not depend on qd either, and RNEA's partials
+// and the solve together cost more there (measured by `spacearm generate --stats`).
+template <template <class> class Chain, class T, class Description>
+std::vector<std::vector<T>> state_jacobian(const Description& d, const Values<T>& values) {
+  auto qdd_of = [&d](const Chain<Dual<T>>& c) {
+    return c.forward_dynamics(inputs(d, c, Input::generalized_forces))[0];
+  };
+  const Chain<T> chain(d, values);
+  const std::vector<T> qdd = chain.forward_dynamics(inputs(d, chain, Input::generalized_forces))[0];
+  auto residual = [&qdd](const Chain<Dual<T>>& c) {
+    std::vector<Dual<T>> held;
+    for (const T& x : qdd) held.push_back({x, T{}});
+    std::vector<Dual<T>> R = c.inverse_dynamics(held);
+    const std::vector<Dual<T>> passive = c.passive_forces();
+    for (size_t k = 0; k < R.size(); ++k) R[k] += passive[k];
+    return R;
+  };
+  const std::vector<T> dR_dq = tangent_jacobian<Chain>(d, values, residual);
+  const int nv = Chain<T>::dimensions(d).nv;
+  const char* Q = info(Input::generalized_forces).name;
+  const std::vector<T> dqdd_dq = along_directions<Chain>(
+      d, values, nv,
+      [&dR_dq, Q, nv](int k, const std::string& a, int i) {
+        return a == Q ? -dR_dq[i * nv + k] : T{};
+      },
+      qdd_of);
+  return {dqdd_dq, jacobian<Chain>(d, values, Input::qd, qdd_of), qdd,
+          torque_jacobian<Chain>(d, values, chain, qdd_of)};
+}
+
 // The outputs made by differentiating the algorithms forward: Mdot = dM/dq qdot; with P =
 // d(M v)/dq (v held), C of eq. 7 = Mdot - P^T / 2 and the Christoffel form (Mdot + P - P^T) / 2
 // (where nq = nv); the state Jacobian of forward dynamics at constant Q. With quasi-velocities
@@ -175,15 +210,7 @@ template <template <class> class Chain, class T, class Description>
 std::vector<std::vector<T>> differentiated(const Description& d, const Values<T>& values,
                                            Output o) {
   const int n = Chain<T>::dimensions(d).nv;
-  if (o == Output::forward_dynamics_derivatives) {
-    auto qdd = [&d](const Chain<Dual<T>>& c) {
-      return c.forward_dynamics(inputs(d, c, Input::generalized_forces))[0];
-    };
-    const Chain<T> chain(d, values);
-    return {tangent_jacobian<Chain>(d, values, qdd), jacobian<Chain>(d, values, Input::qd, qdd),
-            chain.forward_dynamics(inputs(d, chain, Input::generalized_forces))[0],
-            torque_jacobian<Chain>(d, values, chain, qdd)};
-  }
+  if (o == Output::forward_dynamics_derivatives) return state_jacobian<Chain>(d, values);
   const std::vector<T> Mdot = tangents(along_configuration_rate<Chain>(d, values).mass_matrix());
   if (o == Output::mass_matrix_derivative) return {Mdot};
   std::vector<T> P = jacobian<Chain>(

@@ -297,7 +297,7 @@ TEST(RecursiveDynamics, FormulationIsChosenPerFunctionAndCanBeForced) {
   EXPECT_EQ(long_chain["mass_matrix_derivative"], "recursive (CRBA, forward-mode)");
   EXPECT_EQ(long_chain["christoffel_coriolis_matrix"],
             "recursive (CRBA and momenta, forward-mode)");
-  EXPECT_EQ(long_chain["forward_dynamics_derivatives"], "recursive (ABA, forward-mode)");
+  EXPECT_EQ(long_chain["forward_dynamics_derivatives"], "recursive (RNEA and ABA, forward-mode)");
 }
 
 }  // namespace
