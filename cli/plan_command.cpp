@@ -164,7 +164,7 @@ int run_plan(const PlanArgs& a) {
   const ModelRecipe scene = cli::load_scene(a.scene_path);
   check_outputs(scene.facts());
   StraightLineTask task = task_from_options(a, scene.facts());
-  // A point-to-point plan keeps the URDF's effort and velocity limits, and takes its step
+  // A point-to-point plan keeps the URDF's effort, velocity and angle limits, and takes its step
   // Jacobians from the exact state Jacobian: the scene compiled with it where it lacks it.
   const auto& emitted = scene.facts().outputs;
   const bool add_derivatives = point_to_point(task.objective) &&
@@ -228,9 +228,10 @@ int run_plan(const PlanArgs& a) {
                  "%.2e (largest |qdd| %.2e): --dt is coarse for this motion, or the plan is "
                  "inaccurate\n",
                  plan.max_acceleration_mismatch, qdd_peak);
-  std::vector<Eigen::VectorXd> rates;  // link side: q' = qm' / p where the slot holds qm
+  std::vector<Eigen::VectorXd> rates, angles;  // link side: q' = qm' / p where the slot holds qm
   for (const auto& qd : plan.qd) rates.push_back(dynamic.joint_rates(qd));
-  cli::report_limit_use(cli::limit_use(recipe, plan.tau, rates));
+  for (const auto& q : plan.q) angles.push_back(dynamic.joint_angles(q));
+  cli::report_limit_use(cli::limit_use(recipe, plan.tau, rates, angles));
   if (!plan.base_residual.empty())
     std::fprintf(stderr,
                  "spacearm: free base: max |momentum| %.2e, max force on the base (eq. 5 base "

@@ -443,7 +443,7 @@ int simulate_loaded(const SimulateArgs& a, const ModelRecipe& scene, const Compi
   if (plan) {
     prepare_replay(a, model, *plan, q0, qd0);
     // The torques it applies and the plan's rates against the URDF's joint limits.
-    cli::report_limit_use(cli::limit_use(scene, plan->torques.samples, plan->rates));
+    cli::report_limit_use(cli::limit_use(scene, plan->torques.samples, plan->rates, plan->angles));
   }
   const auto tau = torque_signal(a, N, plan ? &plan->torques : torque_file);
   if (a.consistent_start) consistent_start(model, q0, qd0, (*tau)(0.0));

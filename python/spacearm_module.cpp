@@ -391,7 +391,7 @@ py::dict PyModel::plan(const py::object& start, const py::object& goal, double d
   names.lines_indexed = !py::isinstance<py::str>(end_effector);  // a list of end effectors
   check_task(m, task, names);
   if (point_to_point(task.objective)) {
-    // As plan --objective: within the URDF's effort and velocity limits.
+    // As plan --objective: within the URDF's effort, velocity and angle limits.
     task.knots = knots;
     task.effort_weight = effort_weight;
     set_plan_limits(recipe_, task);

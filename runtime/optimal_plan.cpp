@@ -26,6 +26,11 @@ using Ipopt::Number;
 
 constexpr double kInfinity = 1e19;  // IPOPT's "no bound"
 
+// Whether the task bounds joint j's angle (lower < upper).
+bool has_range(const StraightLineTask& task, int j) {
+  return task.lower.size() > j && task.upper.size() > j && task.lower[j] < task.upper[j];
+}
+
 // The problem's sizes and layout: per knot k = 0..K the block [x_k (nq + nv), u_k (N)].
 struct Layout {
   int nq, nv, N, K, nx, block;
@@ -107,15 +112,20 @@ class MultipleShooting : public Ipopt::TNLP {
       lo[L_.nq + i] = hi[L_.nq + i] = 0;
       lo[L_.x(L_.K) + L_.nq + i] = hi[L_.x(L_.K) + L_.nq + i] = 0;
     }
-    // The joints' limits on the link side: a motor slot's rate is p q'.
+    // The joints' limits on the link side: a motor slot's angle and rate are p q and p q'.
     for (int k = 0; k <= L_.K; ++k)
       for (int j = 0; j < L_.N; ++j) {
+        const double p = m_.slot_holds_motor(j) ? m_.gear_ratios[j] : 1;
         if (task_.effort.size() && task_.effort[j] > 0)
           lo[L_.u(k) + j] = -task_.effort[j], hi[L_.u(k) + j] = task_.effort[j];
         if (task_.velocity.size() && task_.velocity[j] > 0 && k > 0 && k < L_.K) {
-          const double p = m_.slot_holds_motor(j) ? std::abs(m_.gear_ratios[j]) : 1;
           const int at = L_.x(k) + L_.nq + m_.joint_v_offsets[j];
-          lo[at] = -p * task_.velocity[j], hi[at] = p * task_.velocity[j];
+          lo[at] = -std::abs(p) * task_.velocity[j], hi[at] = std::abs(p) * task_.velocity[j];
+        }
+        if (has_range(task_, j) && k > 0) {
+          const int at = L_.x(k) + m_.joint_q_offsets[j];
+          lo[at] = std::min(p * task_.lower[j], p * task_.upper[j]);
+          hi[at] = std::max(p * task_.lower[j], p * task_.upper[j]);
         }
       }
     std::fill(g_lo, g_lo + m, 0.0);
@@ -403,16 +413,38 @@ void check_point_to_point(const DynamicModel& m, const StraightLineTask& task,
          std::to_string(task.knots) + "), so that the knots lie on the output grid");
   if (!(task.effort_weight >= 0 && task.effort_weight <= 1e6))
     fail(names.effort_weight + " must be from 0 to 1e6, got " + number_text(task.effort_weight, 6));
-  for (const auto& [v, name] : {std::pair{&task.effort, "effort"}, {&task.velocity, "velocity"}}) {
+  for (const auto& [v, name] : {std::pair{&task.effort, "effort"},
+                                {&task.velocity, "velocity"},
+                                {&task.lower, "lower"},
+                                {&task.upper, "upper"}}) {
     if (v->size() != 0 && v->size() != m.num_links)
       fail(std::string(name) + " limits: " + std::to_string(m.num_links) + " values, got " +
            std::to_string(v->size()));
+    const bool angle = v == &task.lower || v == &task.upper;
     for (Eigen::Index j = 0; j < v->size(); ++j)
-      if (!((*v)[j] >= 0))
+      if (angle ? !std::isfinite((*v)[j]) : !((*v)[j] >= 0))
         fail(std::string(name) + " limit of joint " + std::to_string(j + 1) +
-             " must be 0 (none) or positive, got " + number_text((*v)[j], 6));
+             (angle ? " must be finite" : " must be 0 (none) or positive") + ", got " +
+             number_text((*v)[j], 6));
   }
+  if (task.lower.size() != task.upper.size()) fail("lower and upper limits: give both or neither");
 }
+
+namespace {
+
+// The plan starts inside every joint's range: IPOPT would seek a plan from outside in vain.
+void check_start_in_range(const DynamicModel& m, const StraightLineTask& task,
+                          const VectorXd& q_start) {
+  const VectorXd angles = m.joint_angles(q_start);
+  for (int j = 0; j < m.num_links; ++j)
+    if (has_range(task, j) && !(angles[j] >= task.lower[j] && angles[j] <= task.upper[j]))
+      throw std::invalid_argument(
+          "planner, model " + m.name + ": joint " + std::to_string(j + 1) + " starts at " +
+          number_text(angles[j], 6) + " rad, outside its range [" + number_text(task.lower[j], 6) +
+          ", " + number_text(task.upper[j], 6) + "] (the URDF's <limit lower upper>)");
+}
+
+}  // namespace
 
 namespace {
 
@@ -462,6 +494,7 @@ Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task,
            m.nq + m.nv + m.num_links,
            task.duration / task.knots};
   const VectorXd q_start = initial_configuration(m, task);
+  check_start_in_range(m, task, q_start);
   const Guess guess = first_guess(m, task, L, q_start);
   Ipopt::SmartPtr<MultipleShooting> nlp = new MultipleShooting(m, task, L, guess, q_start);
   nlp->interrupted = interrupted;

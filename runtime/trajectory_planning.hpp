@@ -110,9 +110,10 @@ struct StraightLineTask {
   Objective objective = Objective::line;
   // A point-to-point plan's (optimal_plan.hpp): the intervals of its torques' piecewise-linear
   // profile (T / knots a whole multiple of dt), and per joint the link-side bounds it keeps,
-  // |tau_j| <= effort[j] and |q_j'| <= velocity[j] (empty, or 0 for a joint: none).
+  // |tau_j| <= effort[j] and |q_j'| <= velocity[j] (empty, or 0 for a joint: none), and
+  // lower[j] <= q_j <= upper[j] (empty, or lower[j] = upper[j] for a joint: none).
   int knots = 50;
-  Eigen::VectorXd effort, velocity;
+  Eigen::VectorXd effort, velocity, lower, upper;
   // min_base_rotation's cost: the integral of |omega_base|^2 relative to the straight line's,
   // plus effort_weight times the integral of |tau|^2 relative to the first guess's.
   double effort_weight = 1e-2;

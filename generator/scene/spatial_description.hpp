@@ -157,14 +157,18 @@ struct ChainDescription {
 };
 
 // A URDF joint's <limit> and <dynamics>, on the link side: effort [N m] and velocity [rad/s]
-// (0 or absent: none given, as URDFs write placeholders), and damping [N m s/rad] and friction
-// [N m]. Not part of the model: plans and runs are measured against the limits, and the scene's
-// `friction: {from_urdf: true}` turns the dynamics into joint friction.
+// (0 or absent: none given, as URDFs write placeholders), a revolute joint's range lower..upper
+// [rad] (both 0 or absent, or a continuous joint: none), and damping [N m s/rad] and friction
+// [N m]. Not part of the model: plans and runs are measured against the limits, a point-to-point
+// plan keeps them, and the scene's `friction: {from_urdf: true}` turns the dynamics into joint
+// friction.
 struct JointLimits {
   double effort = 0, velocity = 0;
+  double lower = 0, upper = 0;
   double damping = 0, friction = 0;
   bool has_effort() const { return effort > 0; }
   bool has_velocity() const { return velocity > 0; }
+  bool has_range() const { return lower < upper; }
 };
 
 // A URDF <visual> shape of a body (its link or a link welded to it), in the body's frame, for

@@ -244,8 +244,9 @@ class UrdfReader {
     return r;
   }
 
-  // A joint's <limit effort velocity> and <dynamics damping friction>, each not negative.
-  spatial::JointLimits limits(const tinyxml2::XMLElement* joint) const {
+  // A joint's <limit effort velocity> and <dynamics damping friction>, each not negative, and a
+  // revolute joint's <limit lower upper> (lower not above upper; a continuous joint has none).
+  spatial::JointLimits limits(const tinyxml2::XMLElement* joint, const std::string& type) const {
     spatial::JointLimits l;
     auto read = [&](const tinyxml2::XMLElement* e, const char* name, double& to) {
       to = numbers<1>(e, name, std::array<double, 1>{0})[0];
@@ -254,6 +255,13 @@ class UrdfReader {
     if (const tinyxml2::XMLElement* e = only_child(joint, "limit")) {
       read(e, "effort", l.effort);
       read(e, "velocity", l.velocity);
+      if (type == "revolute") {
+        l.lower = numbers<1>(e, "lower", std::array<double, 1>{0})[0];
+        l.upper = numbers<1>(e, "upper", std::array<double, 1>{0})[0];
+        if (l.lower > l.upper)
+          fail(e, "attributes 'lower' " + number_text(l.lower) + " and 'upper' " +
+                      number_text(l.upper) + ": lower must not be above upper");
+      }
     }
     if (const tinyxml2::XMLElement* e = only_child(joint, "dynamics")) {
       read(e, "damping", l.damping);
@@ -362,7 +370,7 @@ class UrdfReader {
             std::sqrt(j.axis[0] * j.axis[0] + j.axis[1] * j.axis[1] + j.axis[2] * j.axis[2]);
         if (!(n > 1e-12)) fail(axis, "attribute 'xyz': the axis must not be zero");
       }
-      j.limits = limits(e);
+      j.limits = limits(e, j.type);
       if (j.type != "revolute" && j.type != "continuous" && j.type != "fixed")
         fail(e, "joint type " + quoted_text(j.type) +
                     ": only revolute, continuous and fixed joints are read (prismatic, "

@@ -674,6 +674,23 @@ TEST_F(PlanCommand, IdentifiedUrdfPlansFliesAndReportsItsLimits) {
             std::string::npos)
       << out;
   EXPECT_EQ(out.find("beyond the URDF's limits"), std::string::npos) << out;
+  // Each joint's range is [-3, 3] or [-2.5, 2.5]: the peak |q| over half of it, from the CSV.
+  const std::string ranges = "URDF ranges, peak |q - centre| / half the range per joint: ";
+  ASSERT_NE(out.find(ranges), std::string::npos) << out;
+  {
+    const Csv plan = read_csv(csv);
+    std::string expected;
+    char text[64];
+    const double half[3] = {3.0, 2.5, 2.5};
+    for (int j = 0; j < 3; ++j) {
+      double peak = 0;
+      for (size_t r = 0; r < plan.rows.size(); ++r)
+        peak = std::max(peak, std::abs(plan.values(r, {"q" + std::to_string(j + 1)})[0]));
+      std::snprintf(text, sizeof text, "%s'Joint_%d' %.2g", j ? ", " : "", j + 1, peak / half[j]);
+      expected += text;
+    }
+    EXPECT_NE(out.find(ranges + expected + "\n"), std::string::npos) << expected << "\n" << out;
+  }
   EXPECT_NE(out.find("<dynamics damping friction> of joints 'Joint_1', 'Joint_2', 'Joint_3' are "
                      "ignored"),
             std::string::npos)
@@ -685,6 +702,9 @@ TEST_F(PlanCommand, IdentifiedUrdfPlansFliesAndReportsItsLimits) {
   EXPECT_EQ(sim.substr(sim.find(limits), sim.find('\n', sim.find(limits)) - sim.find(limits)),
             out.substr(out.find(limits), out.find('\n', out.find(limits)) - out.find(limits)))
       << sim;  // the replay reports the plan's use of the limits
+  EXPECT_EQ(sim.substr(sim.find(ranges), sim.find('\n', sim.find(ranges)) - sim.find(ranges)),
+            out.substr(out.find(ranges), out.find('\n', out.find(ranges)) - out.find(ranges)))
+      << sim;
   const Csv run = read_csv(flown);
   const size_t last = run.rows.size() - 1;
   EXPECT_LT((run.values(last, {"ee_x", "ee_y", "ee_z"}) - Eigen::Vector3d(2.3, 0.6, 1.1)).norm(),

@@ -1,6 +1,7 @@
 // runtime/optimal_plan.hpp: point-to-point plans by direct multiple shooting with IPOPT, on
 // models/space_arm7 without gears (its state Jacobian by central differences: no
-// forward_dynamics_derivatives among its outputs). Cost: about 10 s (1, 2 and 4 s solves).
+// forward_dynamics_derivatives among its outputs). Cost: about 14 s (1, 2 and 4 s solves, and two
+// of 20 knots).
 #include "optimal_plan.hpp"
 
 #include <gtest/gtest.h>
@@ -79,6 +80,58 @@ TEST(OptimalPlan, TheLeastEffortTakesLessThanTheLine) {
     for (int j = 0; j < 7; ++j) EXPECT_LE(std::abs(tau[j]), task.effort[j] * (1 + 1e-8));
 }
 
+// A joint's range (the URDF's <limit lower upper>) is kept at every knot: the joint that
+// overshoots its final angle most in the free plan is held halfway back, and the plan still
+// reaches the goal. A start outside a range is refused, naming the joint.
+TEST(OptimalPlan, AJointsRangeIsKept) {
+  const DynamicModel m = spatial_arm7();
+  StraightLineTask task = arm7_task(m);
+  task.objective = Objective::min_effort;
+  task.knots = 20;
+  const Plan free = plan_task(m, task);
+  int joint = 0;
+  double overshoot = 0, bound = 0;
+  bool above = true;
+  for (int j = 0; j < 7; ++j) {
+    const double a0 = m.joint_angles(free.q.front())[j], a1 = m.joint_angles(free.q.back())[j];
+    const double lo = std::min(a0, a1), hi = std::max(a0, a1);
+    for (const auto& q : free.q) {
+      const double a = m.joint_angles(q)[j], beyond = a > hi ? a - hi : a < lo ? lo - a : 0;
+      if (beyond > overshoot)
+        joint = j, overshoot = beyond, above = a > hi,
+        bound = above ? hi + beyond / 2 : lo - beyond / 2;
+    }
+  }
+  std::printf("joint %d overshoots its start and final angles by %.3e rad\n", joint + 1, overshoot);
+  ASSERT_GT(overshoot, 1e-3);
+  task.lower = Eigen::VectorXd::Constant(7, -3), task.upper = Eigen::VectorXd::Constant(7, 3);
+  (above ? task.upper : task.lower)[joint] = bound;
+  const Plan held = plan_task(m, task);
+  std::printf("%s\n", plan_checks_text(held).c_str());
+  expect_a_flown_plan(m, task, held);
+  const int per = static_cast<int>(held.t.size() - 1) / task.knots;
+  double worst = -INFINITY;  // beyond the range (negative: inside), at the knots and between
+  for (size_t i = 0; i < held.q.size(); ++i) {
+    const double a = m.joint_angles(held.q[i])[joint];
+    const double out = std::max(task.lower[joint] - a, a - task.upper[joint]);
+    if (i % per == 0) EXPECT_LE(out, 1e-6) << "knot at t = " << held.t[i];
+    worst = std::max(worst, out);
+  }
+  std::printf("joint %d at most %.3e rad beyond its range between knots\n", joint + 1, worst);
+  EXPECT_LT(worst, 0.05 * overshoot);
+  EXPECT_GT(worst, -0.05 * overshoot);  // it holds the joint at the bound: the bound acts
+  StraightLineTask outside = task;
+  const double start = m.joint_angles(held.q.front())[2];
+  outside.lower[2] = start + 0.1, outside.upper[2] = start + 0.2;
+  try {
+    plan_task(m, outside);
+    ADD_FAILURE() << "a start outside joint 3's range was planned";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("joint 3 starts at"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("outside its range"), std::string::npos) << e.what();
+  }
+}
+
 TEST(OptimalPlan, RefusesWhatItCannotPlanNamingWhy) {
   const DynamicModel m = spatial_arm7();
   StraightLineTask task = arm7_task(m);
@@ -107,6 +160,12 @@ TEST(OptimalPlan, RefusesWhatItCannotPlanNamingWhy) {
   limits.effort = -Eigen::VectorXd::Ones(7);
   EXPECT_NE(error(limits).find("effort limit of joint 1 must be 0 (none) or positive, got -1"),
             std::string::npos);
+  limits.effort.resize(0);
+  limits.lower = Eigen::VectorXd::Zero(7);
+  EXPECT_NE(error(limits).find("lower and upper limits: give both or neither"), std::string::npos);
+  limits.upper = Eigen::VectorXd::Constant(7, NAN);
+  EXPECT_NE(error(limits).find("upper limit of joint 1 must be finite, got nan"), std::string::npos)
+      << error(limits);
   StraightLineTask weight = task;
   weight.effort_weight = NAN;
   EXPECT_NE(error(weight).find("effort_weight must be from 0 to 1e6, got nan"), std::string::npos)

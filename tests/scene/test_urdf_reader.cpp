@@ -320,6 +320,39 @@ TEST(UrdfReader, AbsentAxisIsXAndErrorsNameTheElement) {
       "end effector link 'a' is the base's (welded to the root): it moves with no joint");
 }
 
+// <limit>: effort and velocity on any moving joint, a range only on a revolute one (a
+// continuous joint turns freely, and lower = upper = 0 is URDF's placeholder: none); a range
+// upside down names both attributes.
+TEST(UrdfReader, JointLimitsAndRangesAreRead) {
+  const std::string limit = "<limit lower=\"-1.5\" upper=\"2\" effort=\"30\" velocity=\"1.2\"/>";
+  const UrdfChain revolute =
+      read_urdf(robot(kTwoLinks + joint("j", "revolute", "a", "b", limit)), "r.urdf", true, "");
+  ASSERT_EQ(revolute.limits.size(), 1u);
+  const spatial::JointLimits& l = revolute.limits[0];
+  EXPECT_EQ(l.effort, 30);
+  EXPECT_EQ(l.velocity, 1.2);
+  EXPECT_EQ(l.lower, -1.5);
+  EXPECT_EQ(l.upper, 2);
+  EXPECT_TRUE(l.has_range());
+  const UrdfChain continuous =
+      read_urdf(robot(kTwoLinks + joint("j", "continuous", "a", "b", limit)), "r.urdf", true, "");
+  EXPECT_FALSE(continuous.limits[0].has_range());
+  EXPECT_EQ(continuous.limits[0].effort, 30);
+  const UrdfChain placeholder = read_urdf(
+      robot(kTwoLinks + joint("j", "revolute", "a", "b", "<limit effort=\"1\" velocity=\"1\"/>")),
+      "r.urdf", true, "");
+  EXPECT_FALSE(placeholder.limits[0].has_range());
+  EXPECT_THROW_MESSAGE(
+      read_urdf(robot(kTwoLinks + joint("j", "revolute", "a", "b",
+                                        "<limit lower=\"1\" upper=\"-1\" effort=\"1\"/>")),
+                "r.urdf", true, ""),
+      SceneError, "<limit>: attributes 'lower' 1 and 'upper' -1: lower must not be above upper");
+  EXPECT_THROW_MESSAGE(
+      read_urdf(robot(kTwoLinks + joint("j", "revolute", "a", "b", "<limit lower=\"inf\"/>")),
+                "r.urdf", true, ""),
+      SceneError, "<limit>: attribute 'lower': expected 1 number");
+}
+
 // Issue 52: a body may carry several moving joints. Two arms on a satellite, the right one on a
 // mount welded to it, listed interleaved: the joints are numbered depth-first from the root, a
 // body's in the URDF's order (left_1, left_2, right_1, right_2: parents 0, 1, 0, 3), the right
