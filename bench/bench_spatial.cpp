@@ -16,7 +16,9 @@
 // calls two single-arm models in turn: an instruction working set the size of the dual arm's,
 // without a tree. The plan/ rows time `plan --objective`'s planners on one task of space_arm7
 // (the tool 0.17 m in 4 s) against the straight line's, with each plan's base rotation, effort
-// and distance from the goal as counters (optimal_plan.hpp).
+// and distance from the goal as counters (optimal_plan.hpp). Built with -DPINOCCHIO_DIR=an install
+// of Pinocchio (bench/peers/pinocchio.sh), space_arm7's ungeared and armature models are also
+// timed against Pinocchio's aba and computeABADerivatives (pinocchio_peer.hpp).
 //   scripts/bench.sh --spatial
 #include <benchmark/benchmark.h>
 
@@ -40,6 +42,9 @@
 #include "optimal_plan.hpp"
 #include "spatial_scene.hpp"
 #include "step_jacobian.hpp"
+#ifdef SPACEARM_BENCH_WITH_PINOCCHIO
+#include "pinocchio_peer.hpp"
+#endif
 
 namespace spacearm {
 namespace {
@@ -264,6 +269,57 @@ void register_mujoco_derivatives(test::MujocoModel& mj, const std::string& name,
       });
 }
 
+#ifdef SPACEARM_BENCH_WITH_PINOCCHIO
+// Pinocchio's model of the same MJCF: its forward dynamics must equal ours to 1e-12 and the
+// joint blocks of its ABA derivatives ours to 1e-9 (relative) before anything is timed; then
+// aba and computeABADerivatives at the same states.
+void register_pinocchio(const Loaded& m) {
+  const int nv = m.chain.nv(), N = static_cast<int>(m.chain.links.size());
+  Eigen::VectorXd ratios = Eigen::VectorXd::Ones(N);
+  for (int j = 0; j < N; ++j)
+    if (m.chain.links[j].gear.present) ratios[j] = m.chain.links[j].gear.ratio.value;
+  auto peer = std::make_shared<bench::PinocchioPeer>(m.mjcf, ratios);
+  const States& s = m.states;
+  peer->set_states(s.q, s.v, s.Q);
+  const auto derivatives = m.model.function(Output::forward_dynamics_derivatives);
+  std::vector<double> dq(nv * nv), dv(nv * nv), qdd(nv), dtau(nv * N);
+  double worst = 0, worst_derivative = 0;
+  using Matrix = Eigen::MatrixXd;  // the C interface's results are column-major
+  for (int k = 0; k < kStates; ++k) {
+    const double* inputs[] = {s.q[k].data(), s.v[k].data(), s.Q[k].data()};
+    double* results[] = {dq.data(), dv.data(), qdd.data(), dtau.data()};
+    derivatives(inputs, nullptr, results);
+    const Eigen::VectorXd theirs = peer->forward_dynamics(k);
+    worst = std::max(
+        worst, (Eigen::Map<Eigen::VectorXd>(qdd.data(), nv) - theirs).norm() / (1 + theirs.norm()));
+    Eigen::MatrixXd P_dq, P_dv, P_dtau;
+    peer->joint_blocks(k, P_dq, P_dv, P_dtau);
+    const Matrix O_dq = Eigen::Map<Matrix>(dq.data(), nv, nv).bottomRightCorner(N, N),
+                 O_dv = Eigen::Map<Matrix>(dv.data(), nv, nv).bottomRightCorner(N, N),
+                 O_dtau = Eigen::Map<Matrix>(dtau.data(), nv, N).bottomRows(N);
+    for (const auto& [a, b] : {std::pair{&O_dq, &P_dq}, {&O_dv, &P_dv}, {&O_dtau, &P_dtau}})
+      worst_derivative = std::max(worst_derivative, (*a - *b).norm() / (1 + b->norm()));
+  }
+  std::printf(
+      "check %s: against Pinocchio, forward dynamics max relative %.1e, the derivatives' "
+      "joint blocks %.1e  %s\n",
+      m.model.name().c_str(), worst, worst_derivative,
+      worst < 1e-12 && worst_derivative < 1e-9 ? "ok" : "DISAGREE");
+  if (!(worst < 1e-12 && worst_derivative < 1e-9)) std::exit(1);
+  auto timed = [peer](bool derivatives) {
+    return [peer, derivatives](benchmark::State& st) {
+      int k = 0;
+      for (auto _ : st) {
+        derivatives ? peer->aba_derivatives(k) : peer->aba(k);
+        k = (k + 1) % kStates;
+      }
+    };
+  };
+  benchmark::RegisterBenchmark(("pinocchio/FD/" + m.model.name()).c_str(), timed(false));
+  benchmark::RegisterBenchmark(("pinocchio/FD derivatives/" + m.model.name()).c_str(), timed(true));
+}
+#endif
+
 // mj_forward and M + bias of MuJoCo's model of the arm, under its name.
 void register_mujoco(test::MujocoModel& mj, const std::string& name, const Loaded& m) {
   const int nv = m.chain.nv();
@@ -342,8 +398,12 @@ void register_robot(const std::string& relative) {
                 loaded[k]->model.name().c_str(), worst, worst < 1e-12 ? "ok" : "DISAGREE");
     if (!(worst < 1e-12)) std::exit(1);
     register_mujoco(*mujoco.back(), loaded[k]->model.name(), *loaded[k]);
-    if (relative == kDerivativesRobot)
+    if (relative == kDerivativesRobot) {
       register_mujoco_derivatives(*mujoco.back(), loaded[k]->model.name(), *loaded[k]);
+#ifdef SPACEARM_BENCH_WITH_PINOCCHIO
+      register_pinocchio(*loaded[k]);
+#endif
+    }
   }
   for (size_t k = first; k < first + 3; ++k) register_ours(*loaded[k]);
   for (size_t k = first; k < first + 3 && relative == kDerivativesRobot; ++k) {

@@ -398,12 +398,16 @@ CLI::App* add_plan(CLI::App& app, spacearm::PlanArgs& a) {
                    "min_base_rotation (the least integral of |omega_base|^2) or min_effort (of "
                    "|tau|^2), solved by IPOPT within the URDF's effort and velocity limits")
       ->check(CLI::IsMember({"line", "reactionless", "min_base_rotation", "min_effort"}));
-  command->add_option("--knots", a.knots,
-                      "min_base_rotation, min_effort: intervals of the piecewise-linear torques "
-                      "(default 50; duration / dt a whole multiple of them)");
-  command->add_option("--effort-weight", a.effort_weight,
-                      "min_base_rotation: weight of the effort (relative to the first guess's) "
-                      "beside the rotation (relative to the straight line's); default 0.01");
+  command
+      ->add_option("--knots", a.knots,
+                   "min_base_rotation, min_effort: intervals of the piecewise-linear torques "
+                   "(default 50; duration / dt a whole multiple of them)")
+      ->each([&a](const std::string&) { a.knots_given = true; });
+  command
+      ->add_option("--effort-weight", a.effort_weight,
+                   "min_base_rotation: weight of the effort (relative to the first guess's) "
+                   "beside the rotation (relative to the straight line's); default 0.01")
+      ->each([&a](const std::string&) { a.effort_weight_given = true; });
   command
       ->add_option("--param", a.param_assignments,
                    "Run-time parameter name=value (repeatable, once per name)")

@@ -18,6 +18,8 @@ struct PlanArgs {
   std::string objective = "line";  // --objective (Objective)
   int knots = 50;                  // --knots: a point-to-point plan's
   double effort_weight = 1e-2;     // --effort-weight: min_base_rotation's
+  // Whether they were given: another objective refuses them rather than ignore them.
+  bool knots_given = false, effort_weight_given = false;
   int elbow = +1;
   double duration = 0, dt = 0.01;
   std::vector<std::string> param_assignments;

@@ -460,6 +460,18 @@ TEST_F(PlanCommand, BadRequestsNameTheOption) {
        "--from must be x,y,z (position) or x,y,z,qw,qx,qy,qz (pose), got 2 values"},
       {"spatial_arm2 --from 1,0,0 --to 1.1,0,0 --duration 4",
        "a 2-link arm cannot follow a position (3 task coordinates)"},
+      // An option the objective does not use is refused, not ignored.
+      {line + "--duration 4 --knots 20",
+       "--knots: not used by --objective line (it is min_base_rotation's and min_effort's)"},
+      {line + "--duration 4 --objective reactionless --effort-weight 0.1",
+       "--effort-weight: not used by --objective reactionless"},
+      {"free_n5 --from 1.6,0.2 --to 1.2,-0.2 --duration 4 --objective min_effort "
+       "--effort-weight 0.1",
+       "--effort-weight: not used by --objective min_effort (min_effort minimises the effort "
+       "alone"},
+      {"free_n5 --from 1.6,0.2 --to 1.2,-0.2 --duration 4 --objective min_effort "
+       "--time-law cubic",
+       "--time-law: not used by --objective min_effort (a point-to-point plan goes by any path"},
   };
   for (const auto& [args, want] : cases) {
     SCOPED_TRACE(args);

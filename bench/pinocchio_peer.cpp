@@ -1,0 +1,108 @@
+// bench/pinocchio_peer.hpp: Pinocchio's model, states and calls.
+#include "pinocchio_peer.hpp"
+
+#include <pinocchio/algorithm/aba-derivatives.hpp>
+#include <pinocchio/algorithm/aba.hpp>
+#include <pinocchio/multibody/data.hpp>
+#include <pinocchio/multibody/model.hpp>
+#include <pinocchio/parsers/mjcf.hpp>
+
+#include <Eigen/Geometry>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+
+namespace spacearm::bench {
+
+struct PinocchioPeer::Impl {
+  pinocchio::Model model;
+  std::unique_ptr<pinocchio::Data> data;
+  Eigen::VectorXd ratios;  // per joint
+  std::vector<Eigen::VectorXd> q, v, tau;
+  std::vector<Eigen::Matrix3d> R;  // the base's orientation per state
+  // Per velocity: spacearm's slot over Pinocchio's (p for a geared joint's rate, else 1).
+  Eigen::VectorXd D() const {
+    Eigen::VectorXd d = Eigen::VectorXd::Ones(model.nv);
+    d.tail(ratios.size()) = ratios;
+    return d;
+  }
+};
+
+PinocchioPeer::PinocchioPeer(const std::string& mjcf, const Eigen::VectorXd& ratios)
+    : impl_(std::make_unique<Impl>()) {
+  // From a file: Pinocchio 3.7's buildModelFromXML reads its argument as a file name too.
+  const auto file = std::filesystem::temp_directory_path() /
+                    ("spacearm-pinocchio-" + std::to_string(::getpid()) + ".xml");
+  std::ofstream(file) << mjcf;
+  pinocchio::mjcf::buildModel(file.string(), impl_->model);
+  std::filesystem::remove(file);
+  impl_->model.gravity.setZero();  // in space (its parser does not read <option gravity>)
+  if (impl_->model.nv != 6 + ratios.size() || impl_->model.nq != 7 + ratios.size())
+    throw std::runtime_error("pinocchio peer: the MJCF gave nq " + std::to_string(impl_->model.nq) +
+                             ", nv " + std::to_string(impl_->model.nv) + " (a free base and " +
+                             std::to_string(ratios.size()) + " joints expected)");
+  impl_->data = std::make_unique<pinocchio::Data>(impl_->model);
+  impl_->ratios = ratios;
+}
+
+PinocchioPeer::~PinocchioPeer() = default;
+
+// Pinocchio's free flyer: q = [origin, x y z w], v = [linear velocity in the base frame,
+// angular velocity in the base frame], tau = [force, torque] in the base frame.
+void PinocchioPeer::set_states(const std::vector<Eigen::VectorXd>& q,
+                               const std::vector<Eigen::VectorXd>& v,
+                               const std::vector<Eigen::VectorXd>& Q) {
+  Impl& p = *impl_;
+  const int N = static_cast<int>(p.ratios.size());
+  for (size_t k = 0; k < q.size(); ++k) {
+    const Eigen::Quaterniond r(q[k][3], q[k][4], q[k][5], q[k][6]);
+    const Eigen::Matrix3d R = r.normalized().toRotationMatrix();
+    Eigen::VectorXd qp(7 + N), vp(6 + N), tp(6 + N);
+    qp << q[k].head<3>(), r.x(), r.y(), r.z(), r.w(), q[k].tail(N).cwiseQuotient(p.ratios);
+    vp << R.transpose() * v[k].head<3>(), v[k].segment<3>(3), v[k].tail(N).cwiseQuotient(p.ratios);
+    tp << R.transpose() * Q[k].head<3>(), Q[k].segment<3>(3), Q[k].tail(N).cwiseProduct(p.ratios);
+    p.q.push_back(qp), p.v.push_back(vp), p.tau.push_back(tp), p.R.push_back(R);
+  }
+}
+
+int PinocchioPeer::num_states() const { return static_cast<int>(impl_->q.size()); }
+
+void PinocchioPeer::aba(int k) {
+  Impl& p = *impl_;
+  pinocchio::aba(p.model, *p.data, p.q[k], p.v[k], p.tau[k]);
+}
+
+void PinocchioPeer::aba_derivatives(int k) {
+  Impl& p = *impl_;
+  pinocchio::computeABADerivatives(p.model, *p.data, p.q[k], p.v[k], p.tau[k]);
+}
+
+// The base's linear acceleration in the world: v_world = R v_local, so a_world = R (a_local +
+// omega x v_local).
+Eigen::VectorXd PinocchioPeer::forward_dynamics(int k) {
+  Impl& p = *impl_;
+  const Eigen::VectorXd& a = pinocchio::aba(p.model, *p.data, p.q[k], p.v[k], p.tau[k]);
+  Eigen::VectorXd qdd = a.cwiseProduct(p.D());
+  qdd.head<3>() = p.R[k] * (a.head<3>() + p.v[k].segment<3>(3).cross(p.v[k].head<3>()));
+  return qdd;
+}
+
+void PinocchioPeer::joint_blocks(int k, Eigen::MatrixXd& dqdd_dq, Eigen::MatrixXd& dqdd_dv,
+                                 Eigen::MatrixXd& dqdd_dtau) {
+  Impl& p = *impl_;
+  aba_derivatives(k);
+  const int N = static_cast<int>(p.ratios.size());
+  const Eigen::MatrixXd Minv =
+      p.data->Minv.selfadjointView<Eigen::Upper>();  // its upper triangle holds M^-1
+  // Slot i holds p_i q_i: d(p_i qdd_i)/d(p_j q_j) = p_i / p_j d qdd_i / d q_j, and by the
+  // link-side torque tau_j (spacearm's dqdd_dtau) p_i M^-1_ij.
+  const Eigen::VectorXd r = p.ratios, inv = r.cwiseInverse();
+  dqdd_dq = r.asDiagonal() * p.data->ddq_dq.bottomRightCorner(N, N) * inv.asDiagonal();
+  dqdd_dv = r.asDiagonal() * p.data->ddq_dv.bottomRightCorner(N, N) * inv.asDiagonal();
+  dqdd_dtau = r.asDiagonal() * Minv.bottomRightCorner(N, N);
+}
+
+}  // namespace spacearm::bench
