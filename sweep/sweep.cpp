@@ -9,6 +9,7 @@
 #include "consistent_start.hpp"
 #include "model_recipe.hpp"
 #include "optimal_plan.hpp"
+#include "plan_limits.hpp"
 #include "plan_replay.hpp"
 #include "simulation.hpp"
 #include "study_run.hpp"
@@ -190,14 +191,29 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
         pf.is_spatial() != f.is_spatial())
       throw StudyError("study '" + s.source_path + "', field 'manoeuvre.plan.scene': scene '" +
                        pf.source_path + "' must have the run scene's base and joints");
+    // A point-to-point plan as `plan --objective` makes it: within the URDF's limits, its steps'
+    // Jacobians from the exact state Jacobian (the plan scene compiled with it where it lacks it).
+    StraightLineTask task = *s.plan;
+    const ModelRecipe plan_recipe = recipe(pf);
+    const auto& emitted = plan_recipe.facts().outputs;
+    const bool add_derivatives = point_to_point(task.objective) &&
+                                 std::find(emitted.begin(), emitted.end(),
+                                           Output::forward_dynamics_derivatives) == emitted.end();
+    if (point_to_point(task.objective)) set_plan_limits(plan_recipe, task);
     std::optional<CompiledModel> own;
-    if (s.plan_scene) own.emplace(CompiledModel::load(recipe(*s.plan_scene), options));
+    if (add_derivatives)
+      own.emplace(CompiledModel::load(
+          plan_recipe.with_outputs({Output::forward_dynamics_derivatives},
+                                   "\n# manoeuvre.plan.objective: the state Jacobian\n"),
+          options));
+    else if (s.plan_scene)
+      own.emplace(CompiledModel::load(plan_recipe, options));
     const CompiledModel& pm = own ? *own : loaded_->model;
     const DynamicModel planner =
         dynamic_model(pm, Eigen::Map<const Eigen::VectorXd>(
                               pm.nominal_parameters().data(),
                               static_cast<Eigen::Index>(pm.nominal_parameters().size())));
-    const Plan plan = plan_task(planner, *s.plan);
+    const Plan plan = plan_task(planner, task);
     plan_report_ = plan_checks_text(plan);
     // Friction fed forward is the believed one; each run's own friction may differ.
     PlanSamples samples = plan_samples(plan, planner);
