@@ -189,14 +189,7 @@ int run_plan(const PlanArgs& a) {
   StraightLineTask task = task_from_options(a, scene.facts());
   // A point-to-point plan keeps the URDF's effort, velocity and angle limits, and takes its step
   // Jacobians from the exact state Jacobian: the scene compiled with it where it lacks it.
-  const auto& emitted = scene.facts().outputs;
-  const bool add_derivatives = point_to_point(task.objective) &&
-                               std::find(emitted.begin(), emitted.end(),
-                                         Output::forward_dynamics_derivatives) == emitted.end();
-  const ModelRecipe recipe = add_derivatives
-                                 ? scene.with_outputs({Output::forward_dynamics_derivatives},
-                                                      "\n# plan --objective: the state Jacobian\n")
-                                 : scene;
+  const ModelRecipe recipe = planning_recipe(scene, task).value_or(scene);
   const ModelFacts& facts = recipe.facts();
   if (point_to_point(task.objective)) set_plan_limits(recipe, task);
   refuse_same_outputs(a);

@@ -195,19 +195,11 @@ StudyRunner::StudyRunner(Study study, const CompileOptions& options) : study_(st
     // Jacobians from the exact state Jacobian (the plan scene compiled with it where it lacks it).
     StraightLineTask task = *s.plan;
     const ModelRecipe plan_recipe = recipe(pf);
-    const auto& emitted = plan_recipe.facts().outputs;
-    const bool add_derivatives = point_to_point(task.objective) &&
-                                 std::find(emitted.begin(), emitted.end(),
-                                           Output::forward_dynamics_derivatives) == emitted.end();
     if (point_to_point(task.objective)) set_plan_limits(plan_recipe, task);
+    const std::optional<ModelRecipe> with_derivatives = planning_recipe(plan_recipe, task);
     std::optional<CompiledModel> own;
-    if (add_derivatives)
-      own.emplace(CompiledModel::load(
-          plan_recipe.with_outputs({Output::forward_dynamics_derivatives},
-                                   "\n# manoeuvre.plan.objective: the state Jacobian\n"),
-          options));
-    else if (s.plan_scene)
-      own.emplace(CompiledModel::load(plan_recipe, options));
+    if (with_derivatives || s.plan_scene)
+      own.emplace(CompiledModel::load(with_derivatives.value_or(plan_recipe), options));
     const CompiledModel& pm = own ? *own : loaded_->model;
     const DynamicModel planner =
         dynamic_model(pm, Eigen::Map<const Eigen::VectorXd>(
