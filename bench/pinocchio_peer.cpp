@@ -58,8 +58,9 @@ void PinocchioPeer::set_states(const std::vector<Eigen::VectorXd>& q,
   Impl& p = *impl_;
   const int N = static_cast<int>(p.ratios.size());
   for (size_t k = 0; k < q.size(); ++k) {
-    const Eigen::Quaterniond r(q[k][3], q[k][4], q[k][5], q[k][6]);
-    const Eigen::Matrix3d R = r.normalized().toRotationMatrix();
+    const Eigen::Quaterniond r =
+        Eigen::Quaterniond(q[k][3], q[k][4], q[k][5], q[k][6]).normalized();
+    const Eigen::Matrix3d R = r.toRotationMatrix();
     Eigen::VectorXd qp(7 + N), vp(6 + N), tp(6 + N);
     qp << q[k].head<3>(), r.x(), r.y(), r.z(), r.w(), q[k].tail(N).cwiseQuotient(p.ratios);
     vp << R.transpose() * v[k].head<3>(), v[k].segment<3>(3), v[k].tail(N).cwiseQuotient(p.ratios);

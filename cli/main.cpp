@@ -396,7 +396,7 @@ CLI::App* add_plan(CLI::App& app, spacearm::PlanArgs& a) {
                    "reaction null space: the task's rows plus 3 in 3D, 1 in the plane, need as "
                    "many joints), or from rest to rest at the --to position by any path, "
                    "min_base_rotation (the least integral of |omega_base|^2) or min_effort (of "
-                   "|tau|^2), solved by IPOPT within the URDF's effort and velocity limits")
+                   "|tau|^2), solved by IPOPT within the URDF's effort, velocity and angle limits")
       ->check(CLI::IsMember({"line", "reactionless", "min_base_rotation", "min_effort"}));
   command
       ->add_option("--knots", a.knots,

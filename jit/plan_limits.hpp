@@ -1,7 +1,8 @@
-// What a point-to-point plan takes from its scene, in one place for `spacearm plan --objective`,
-// studies and Python: its joint bounds (StraightLineTask::effort, velocity, lower and upper) from
-// the URDF's <limit effort velocity lower upper>, and the model it is planned on (with the exact
-// state Jacobian for its steps).
+// What a point-to-point plan takes from its scene, in one place: its joint bounds
+// (StraightLineTask::effort, velocity, lower and upper) from the URDF's <limit effort velocity
+// lower upper> (`spacearm plan --objective`, studies and Python), and the model it is planned on,
+// with the exact state Jacobian for its steps (`plan` and studies; Python plans on the model it
+// was given, by central differences where that lacks the state Jacobian).
 #pragma once
 
 #include <algorithm>

@@ -428,6 +428,10 @@ void check_point_to_point(const DynamicModel& m, const StraightLineTask& task,
              number_text((*v)[j], 6));
   }
   if (task.lower.size() != task.upper.size()) fail("lower and upper limits: give both or neither");
+  for (Eigen::Index j = 0; j < task.lower.size(); ++j)
+    if (task.lower[j] > task.upper[j])
+      fail("lower limit of joint " + std::to_string(j + 1) + " (" + number_text(task.lower[j], 6) +
+           ") is above its upper limit (" + number_text(task.upper[j], 6) + ")");
 }
 
 namespace {
@@ -441,7 +445,9 @@ void check_start_in_range(const DynamicModel& m, const StraightLineTask& task,
       throw std::invalid_argument(
           "planner, model " + m.name + ": joint " + std::to_string(j + 1) + " starts at " +
           number_text(angles[j], 6) + " rad, outside its range [" + number_text(task.lower[j], 6) +
-          ", " + number_text(task.upper[j], 6) + "] (the URDF's <limit lower upper>)");
+          ", " + number_text(task.upper[j], 6) +
+          "] (the URDF's <limit lower upper>): start from another configuration (q0, or the "
+          "other elbow)");
 }
 
 }  // namespace

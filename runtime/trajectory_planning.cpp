@@ -492,6 +492,14 @@ Eigen::VectorXd initial_configuration(const DynamicModel& m, const StraightLineT
                    : i == 0  ? -0.3
                    : i == 1  ? 1.2
                              : -0.5 / (n - 2));
+    // A joint's range (a point-to-point plan's task has them) keeps the seed inside it: its
+    // centre where the seed is outside.
+    for (int i = 0; i < n; ++i)
+      if (task.lower.size() > i && task.upper.size() > i && task.lower[i] < task.upper[i]) {
+        const double angle = q[jq + i] / p[i];
+        if (angle < task.lower[i] || angle > task.upper[i])
+          q[jq + i] = p[i] * (task.lower[i] + task.upper[i]) / 2;
+      }
   }
   const Eigen::VectorXd seed = q.segment(jq, n).cwiseQuotient(p);  // link side
   const detail::TaskShape shape = detail::task_shape(m, task, q);

@@ -294,6 +294,18 @@ void StudyReader::plan(Study& s, const YAML::Node& p, const YAML::Node& end_effe
               p["effort_weight"]);
     task.effort_weight = w;
   }
+  // A field the objective does not use is an error, as the same option is for `plan`.
+  const bool p2p = point_to_point(task.objective);
+  for (const auto& [field, used] :
+       {std::pair{"knots", p2p},
+        {"effort_weight", task.objective == Objective::min_base_rotation},
+        {"time_law", !p2p}})
+    if (p[field].IsDefined() && !used)
+      r_.fail(std::string("manoeuvre.plan.") + field,
+              std::string("not used by objective ") +
+                  (p["objective"].IsDefined() ? text(p["objective"], "manoeuvre.plan.objective")
+                                              : std::string("line")),
+              p[field]);
   // The planner's start guess, as plan --q0: the plan scene's coordinates (the base pose, then
   // each joint's slot: a geared joint's motor angle qm = p q), which picks the IK branch.
   if (p["q0"].IsDefined()) {

@@ -261,6 +261,9 @@ class UrdfReader {
         if (l.lower > l.upper)
           fail(e, "attributes 'lower' " + number_text(l.lower) + " and 'upper' " +
                       number_text(l.upper) + ": lower must not be above upper");
+        if (l.lower == l.upper && l.lower != 0)
+          fail(e, "attributes 'lower' and 'upper' are both " + number_text(l.lower) +
+                      ": a joint its limits lock (make it a fixed joint; both 0 means no range)");
       }
     }
     if (const tinyxml2::XMLElement* e = only_child(joint, "dynamics")) {

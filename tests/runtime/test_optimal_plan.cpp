@@ -166,6 +166,10 @@ TEST(OptimalPlan, RefusesWhatItCannotPlanNamingWhy) {
   limits.upper = Eigen::VectorXd::Constant(7, NAN);
   EXPECT_NE(error(limits).find("upper limit of joint 1 must be finite, got nan"), std::string::npos)
       << error(limits);
+  limits.upper = Eigen::VectorXd::Constant(7, -1);
+  EXPECT_NE(error(limits).find("lower limit of joint 1 (0) is above its upper limit (-1)"),
+            std::string::npos)
+      << error(limits);
   StraightLineTask weight = task;
   weight.effort_weight = NAN;
   EXPECT_NE(error(weight).find("effort_weight must be from 0 to 1e6, got nan"), std::string::npos)

@@ -348,6 +348,11 @@ TEST(UrdfReader, JointLimitsAndRangesAreRead) {
                 "r.urdf", true, ""),
       SceneError, "<limit>: attributes 'lower' 1 and 'upper' -1: lower must not be above upper");
   EXPECT_THROW_MESSAGE(
+      read_urdf(robot(kTwoLinks + joint("j", "revolute", "a", "b",
+                                        "<limit lower=\"0.5\" upper=\"0.5\" effort=\"1\"/>")),
+                "r.urdf", true, ""),
+      SceneError, "<limit>: attributes 'lower' and 'upper' are both 0.5: a joint its limits lock");
+  EXPECT_THROW_MESSAGE(
       read_urdf(robot(kTwoLinks + joint("j", "revolute", "a", "b", "<limit lower=\"inf\"/>")),
                 "r.urdf", true, ""),
       SceneError, "<limit>: attribute 'lower': expected 1 number");

@@ -675,6 +675,11 @@ TEST(Sweep, SpatialArmSweepsAPayloadAndTheRatioWithOneModel) {
       {replace(text, "    duration: 4", "    duration: 4\n    elbow: 2"), "manoeuvre.plan.elbow"},
       {replace(text, "    duration: 4", "    duration: 4\n    objective: still"),
        "field 'manoeuvre.plan.objective': expected line (the base turns freely), reactionless"},
+      {replace(text, "    duration: 4", "    duration: 4\n    knots: 20"),
+       "field 'manoeuvre.plan.knots': not used by objective line"},
+      {replace(text, "    duration: 4",
+               "    duration: 4\n    objective: min_effort\n    time_law: cubic"),
+       "field 'manoeuvre.plan.time_law': not used by objective min_effort"},
       {replace(text, "from: [0.9890759074845017, ", "from: ["),
        "field 'manoeuvre.plan.from': "
        "expected a position (3 numbers) "
