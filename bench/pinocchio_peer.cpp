@@ -9,10 +9,10 @@
 
 #include <Eigen/Geometry>
 
+#include <stdlib.h>
 #include <unistd.h>
 
 #include <filesystem>
-#include <fstream>
 #include <stdexcept>
 
 namespace spacearm::bench {
@@ -33,12 +33,17 @@ struct PinocchioPeer::Impl {
 
 PinocchioPeer::PinocchioPeer(const std::string& mjcf, const Eigen::VectorXd& ratios)
     : impl_(std::make_unique<Impl>()) {
-  // From a file: Pinocchio 3.7's buildModelFromXML reads its argument as a file name too.
-  const auto file = std::filesystem::temp_directory_path() /
-                    ("spacearm-pinocchio-" + std::to_string(::getpid()) + ".xml");
-  std::ofstream(file) << mjcf;
-  pinocchio::mjcf::buildModel(file.string(), impl_->model);
+  // From a file: Pinocchio 3.7's buildModelFromXML reads its argument as a file name too. The
+  // file is made by mkstemps (created exclusively, mode 0600: no link followed, none replaced).
+  std::string file =
+      (std::filesystem::temp_directory_path() / "spacearm-pinocchio-XXXXXX.xml").string();
+  const int fd = ::mkstemps(file.data(), 4);
+  if (fd < 0) throw std::runtime_error("pinocchio peer: cannot create a temporary file");
+  const bool written = ::write(fd, mjcf.data(), mjcf.size()) == static_cast<ssize_t>(mjcf.size());
+  ::close(fd);
+  if (written) pinocchio::mjcf::buildModel(file, impl_->model);
   std::filesystem::remove(file);
+  if (!written) throw std::runtime_error("pinocchio peer: cannot write " + file);
   impl_->model.gravity.setZero();  // in space (its parser does not read <option gravity>)
   if (impl_->model.nv != 6 + ratios.size() || impl_->model.nq != 7 + ratios.size())
     throw std::runtime_error("pinocchio peer: the MJCF gave nq " + std::to_string(impl_->model.nq) +
@@ -68,8 +73,6 @@ void PinocchioPeer::set_states(const std::vector<Eigen::VectorXd>& q,
     p.q.push_back(qp), p.v.push_back(vp), p.tau.push_back(tp), p.R.push_back(R);
   }
 }
-
-int PinocchioPeer::num_states() const { return static_cast<int>(impl_->q.size()); }
 
 void PinocchioPeer::aba(int k) {
   Impl& p = *impl_;

@@ -24,7 +24,6 @@ class PinocchioPeer {
   // angular velocity, slot rates], Q likewise) into Pinocchio's once, before anything is timed.
   void set_states(const std::vector<Eigen::VectorXd>& q, const std::vector<Eigen::VectorXd>& v,
                   const std::vector<Eigen::VectorXd>& Q);
-  int num_states() const;
   // The timed calls at state k.
   void aba(int k);
   void aba_derivatives(int k);

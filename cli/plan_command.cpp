@@ -101,26 +101,22 @@ Eigen::VectorXd numbers(const std::string& text, const std::string& option) {
   return Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size()));
 }
 
-// An option the objective does not use is an error, not silently dropped.
+// An option the objective does not use (uses_knots, ...) is an error, not silently dropped.
 void refuse_unused_options(const PlanArgs& a, Objective objective) {
   auto fail = [&a](const std::string& option, const std::string& why) {
     throw std::invalid_argument(option + ": not used by --objective " + a.objective + " (" + why +
                                 ")");
   };
-  if (!point_to_point(objective)) {
-    const std::string why = "it is min_base_rotation's and min_effort's";
-    if (a.knots_given) fail("--knots", why);
-    if (a.effort_weight_given) fail("--effort-weight", "it is min_base_rotation's");
-    return;
-  }
-  if (objective == Objective::min_effort && a.effort_weight_given)
-    fail("--effort-weight",
-         "min_effort minimises the effort alone; the weight is "
-         "min_base_rotation's");
-  if (!a.time_laws.empty())
+  if (a.knots_given && !uses_knots(objective))
+    fail("--knots", "it is min_base_rotation's and min_effort's");
+  if (a.effort_weight_given && !uses_effort_weight(objective))
+    fail("--effort-weight", objective == Objective::min_effort
+                                ? "min_effort minimises the effort alone; the weight is "
+                                  "min_base_rotation's"
+                                : "it is min_base_rotation's");
+  if (!a.time_laws.empty() && !uses_time_law(objective))
     fail("--time-law",
-         "a point-to-point plan goes by any path; the time law is the straight "
-         "line's");
+         "a point-to-point plan goes by any path; the time law is the straight line's");
 }
 
 StraightLineTask task_from_options(const PlanArgs& a, const ModelFacts& facts) {

@@ -26,11 +26,6 @@ using Ipopt::Number;
 
 constexpr double kInfinity = 1e19;  // IPOPT's "no bound"
 
-// Whether the task bounds joint j's angle (lower < upper).
-bool has_range(const StraightLineTask& task, int j) {
-  return task.lower.size() > j && task.upper.size() > j && task.lower[j] < task.upper[j];
-}
-
 // The problem's sizes and layout: per knot k = 0..K the block [x_k (nq + nv), u_k (N)].
 struct Layout {
   int nq, nv, N, K, nx, block;
@@ -122,7 +117,7 @@ class MultipleShooting : public Ipopt::TNLP {
           const int at = L_.x(k) + L_.nq + m_.joint_v_offsets[j];
           lo[at] = -std::abs(p) * task_.velocity[j], hi[at] = std::abs(p) * task_.velocity[j];
         }
-        if (has_range(task_, j) && k > 0) {
+        if (task_.has_range(j) && k > 0) {
           const int at = L_.x(k) + m_.joint_q_offsets[j];
           lo[at] = std::min(p * task_.lower[j], p * task_.upper[j]);
           hi[at] = std::max(p * task_.lower[j], p * task_.upper[j]);
@@ -441,7 +436,7 @@ void check_start_in_range(const DynamicModel& m, const StraightLineTask& task,
                           const VectorXd& q_start) {
   const VectorXd angles = m.joint_angles(q_start);
   for (int j = 0; j < m.num_links; ++j)
-    if (has_range(task, j) && !(angles[j] >= task.lower[j] && angles[j] <= task.upper[j]))
+    if (task.has_range(j) && !(angles[j] >= task.lower[j] && angles[j] <= task.upper[j]))
       throw std::invalid_argument(
           "planner, model " + m.name + ": joint " + std::to_string(j + 1) + " starts at " +
           number_text(angles[j], 6) + " rad, outside its range [" + number_text(task.lower[j], 6) +
@@ -449,10 +444,6 @@ void check_start_in_range(const DynamicModel& m, const StraightLineTask& task,
           "] (the URDF's <limit lower upper>): start from another configuration (q0, or the "
           "other elbow)");
 }
-
-}  // namespace
-
-namespace {
 
 // IPOPT's statuses that end without a plan, in words.
 std::string status_text(Ipopt::ApplicationReturnStatus status) {
@@ -549,8 +540,8 @@ Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task,
   plan.cost = nlp->cost;
   check(m, task, plan);
   // The flight is what a replay does: one that misses the goal is refused, never a table.
-  double scale = 1;
-  scale = std::max({scale, task.start.cwiseAbs().maxCoeff(), task.goal.cwiseAbs().maxCoeff()});
+  const double scale =
+      std::max({1.0, task.start.cwiseAbs().maxCoeff(), task.goal.cwiseAbs().maxCoeff()});
   if (!(plan.goal_error <= 1e-5 * scale))
     throw std::runtime_error("planner, model " + m.name + ": the flown plan ends " +
                              number_text(plan.goal_error, 3) + " m from the goal (" +

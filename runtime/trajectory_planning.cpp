@@ -495,7 +495,7 @@ Eigen::VectorXd initial_configuration(const DynamicModel& m, const StraightLineT
     // A joint's range (a point-to-point plan's task has them) keeps the seed inside it: its
     // centre where the seed is outside.
     for (int i = 0; i < n; ++i)
-      if (task.lower.size() > i && task.upper.size() > i && task.lower[i] < task.upper[i]) {
+      if (task.has_range(i)) {
         const double angle = q[jq + i] / p[i];
         if (angle < task.lower[i] || angle > task.upper[i])
           q[jq + i] = p[i] * (task.lower[i] + task.upper[i]) / 2;

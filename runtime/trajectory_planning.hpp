@@ -81,6 +81,11 @@ inline Objective objective_from_string(const std::string& s) {
 inline bool point_to_point(Objective o) {
   return o == Objective::min_base_rotation || o == Objective::min_effort;
 }
+// The task's fields an objective uses (another objective refuses them, never ignores them):
+// knots point to point, the effort's weight in min_base_rotation, a time law on a line.
+inline bool uses_knots(Objective o) { return point_to_point(o); }
+inline bool uses_effort_weight(Objective o) { return o == Objective::min_base_rotation; }
+inline bool uses_time_law(Objective o) { return !point_to_point(o); }
 
 struct StraightLineTask {
   // End-effector [x, y] (a position task) or [x, y, phi] (a pose task) at t = 0 and t = T; in
@@ -114,6 +119,10 @@ struct StraightLineTask {
   // lower[j] <= q_j <= upper[j] (empty, or lower[j] = upper[j] for a joint: none).
   int knots = 50;
   Eigen::VectorXd effort, velocity, lower, upper;
+  // Whether the task bounds joint j's angle (lower[j] < upper[j]).
+  bool has_range(int j) const {
+    return lower.size() > j && upper.size() > j && lower[j] < upper[j];
+  }
   // min_base_rotation's cost: the integral of |omega_base|^2 relative to the straight line's,
   // plus effort_weight times the integral of |tau|^2 relative to the first guess's.
   double effort_weight = 1e-2;

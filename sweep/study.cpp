@@ -295,11 +295,9 @@ void StudyReader::plan(Study& s, const YAML::Node& p, const YAML::Node& end_effe
     task.effort_weight = w;
   }
   // A field the objective does not use is an error, as the same option is for `plan`.
-  const bool p2p = point_to_point(task.objective);
-  for (const auto& [field, used] :
-       {std::pair{"knots", p2p},
-        {"effort_weight", task.objective == Objective::min_base_rotation},
-        {"time_law", !p2p}})
+  for (const auto& [field, used] : {std::pair{"knots", uses_knots(task.objective)},
+                                    {"effort_weight", uses_effort_weight(task.objective)},
+                                    {"time_law", uses_time_law(task.objective)}})
     if (p[field].IsDefined() && !used)
       r_.fail(std::string("manoeuvre.plan.") + field,
               std::string("not used by objective ") +
