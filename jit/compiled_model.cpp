@@ -404,14 +404,15 @@ double CompileOptions::default_max_code_mb() {
                      quoted_text(text));
 }
 
-// Seconds and peak megabytes of one g++ 12 -O1 per MB of a unit, from the build of three
-// flexible chains with friction and every output (0.2 to 3.1 MB a unit: 7 to 10.5 s/MB and
-// 420 MB/MB, docs/performance.md); larger units grow faster than linearly, so this is a floor.
-constexpr double kCompileSecondsPerMb = 10.5, kCompileMemoryMbPerMb = 420;
+// Seconds and peak megabytes of one g++ 12 -O1 per MB of a unit, a floor: the units of
+// space_arm7, dual_arm7 and the planar N = 30 chain, with and without the state Jacobian (0.17 to
+// 1.4 MB a unit, in parts of 200 statements), each compiled alone on an AMD EPYC (2026-11-29),
+// took 0.25 s + 3.5 to 4.0 s/MB and 60 MB + 235 to 360 MB/MB.
+constexpr double kCompileSecondsPerMb = 3.5, kCompileMemoryMbPerMb = 230;
 
 CompileEstimate compile_estimate(size_t largest_unit_bytes) {
   const double mb = static_cast<double>(largest_unit_bytes) / 1e6;
-  return {kCompileSecondsPerMb * mb + 0.5, kCompileMemoryMbPerMb * mb + 60};
+  return {kCompileSecondsPerMb * mb + 0.2, kCompileMemoryMbPerMb * mb + 60};
 }
 
 namespace {

@@ -103,11 +103,24 @@ std::string lanes_prologue(const FunctionSpec& f) {
   return s + "};\n";
 }
 
+// The linkage of a scalar part of the C interface: inside the units' extern "C" block, so C
+// linkage, and hidden, so that the library exports only the interface.
+const std::string kSharedPartLinkage = "[[gnu::visibility(\"hidden\")]] ";
+
 // A function's body, and the functions of its parts where it is split (BodyPrinter).
 struct Body {
-  std::string parts;  // definitions, printed before the function
+  // Each part's definition, printed before the function. A scalar part of the C interface has C
+  // linkage, hidden from the library's users, so that it may be compiled in another unit
+  // (unit_of_functions) than its function, whose text then declares it (`declarations`).
+  std::vector<std::string> parts;
+  std::string declarations;
   std::string body;
   bool trig_batches = false;  // calls sincos_batch (kTrigBatchHelper)
+  std::string all_parts() const {
+    std::string s;
+    for (const auto& p : parts) s += p;
+    return s;
+  }
 };
 
 // C arrays: a 1 x 1 result is written to its array like any other, not returned. Eigen: a
@@ -136,7 +149,8 @@ Body function_body(const FunctionSpec& f, const Dimensions& dims, int per_part,
   const std::string usings =
       std::string(f.plain ? "  using std::cos;\n  using std::sin;\n  using std::pow;\n" : "") +
       (ops.functions ? "  using std::exp;\n  using std::tanh;\n" : "");
-  if (printer.num_parts() == 1) return {"", usings + printer.part(0), printer.has_trig_batches()};
+  if (printer.num_parts() == 1)
+    return {{}, "", usings + printer.part(0), printer.has_trig_batches()};
   // Split: each part a function of the same arguments and the work array.
   const bool c = spelling == Spelling::c_arrays;
   std::string args = c ? "in, params, out" : "";
@@ -145,21 +159,29 @@ Body function_body(const FunctionSpec& f, const Dimensions& dims, int per_part,
     args += "params";
     for (const auto& r : f.results) args += ", " + r.name;
   }
-  Body b{"", usings + "  T w[" + std::to_string(std::max(1, printer.work_size())) + "];\n",
+  Body b{{},
+         "",
+         usings + "  T w[" + std::to_string(std::max(1, printer.work_size())) + "];\n",
          printer.has_trig_batches()};
-  // A 4-lane part takes the lanes' parameters and results as the lane type (lanes_prologue).
+  // A 4-lane part takes the lanes' parameters and results as the lane type (lanes_prologue),
+  // which each unit defines for itself: it stays static, in its function's unit.
   const std::string scalar = lanes ? "spacearm_lanes4" : "double";
+  const std::string linkage = lanes ? "static " : kSharedPartLinkage;
   for (int k = 0; k < printer.num_parts(); ++k) {
     const std::string suffix =
         (lanes ? kLanesSuffix : "") + std::string("_part") + std::to_string(k);
-    b.parts += (c ? "[[gnu::noinline]] static void spacearm_" + f.name + suffix +
-                        "([[maybe_unused]] const double* const* in, [[maybe_unused]] const " +
-                        scalar + "* params, [[maybe_unused]] " + scalar +
-                        "* const* out, [[maybe_unused]] " + scalar + "* w) {\n" +
-                        (lanes ? "  using T = spacearm_lanes4;\n" : "") + c_input_aliases(f, lanes)
-                  : "template <typename T>\n[[gnu::noinline]] static " +
-                        signature(f, dims, "T", true, true, suffix) + " {\n") +
-               usings + printer.part(k) + "}\n\n";
+    if (c && !lanes)
+      b.declarations += kSharedPartLinkage + "void spacearm_" + f.name + suffix +
+                        "(const double* const*, const double*, double* const*, double*);\n";
+    b.parts.push_back(
+        (c ? "[[gnu::noinline]] " + linkage + "void spacearm_" + f.name + suffix +
+                 "([[maybe_unused]] const double* const* in, [[maybe_unused]] const " + scalar +
+                 "* params, [[maybe_unused]] " + scalar + "* const* out, [[maybe_unused]] " +
+                 scalar + "* w) {\n" + (lanes ? "  using T = spacearm_lanes4;\n" : "") +
+                 c_input_aliases(f, lanes)
+           : "template <typename T>\n[[gnu::noinline]] static " +
+                 signature(f, dims, "T", true, true, suffix) + " {\n") +
+        usings + printer.part(k) + "}\n\n");
     b.body += "  " + std::string(c ? "spacearm_" : "") + f.name + suffix + "(" + args + ", w);\n";
   }
   return b;
@@ -543,31 +565,36 @@ std::string c_facts(const ModelFacts& facts) {
 }
 
 // One function of the C interface: its C name (spacearm_ + name), text, whether it is a 4-lane
-// version and whether it batches sin/cos (the unit then includes the batch helper).
+// version and whether it batches sin/cos (the unit then includes the batch helper); or one part
+// of a scalar function's split body (part_of: that function's index), which may go to any unit.
 struct CFunction {
   std::string name, text;
   bool lanes = false, trig_batches = false;
+  int part_of = -1;
 };
 
-// Each function's C text, and its 4-lane version's.
-
+// Each function's C text, its parts' and its 4-lane version's.
 std::vector<CFunction> c_functions(const LoweredModel& model, int per_part) {
   const ModelFacts& facts = model.facts;
   std::vector<CFunction> functions;
   for (const auto& f : model.functions) {
     const Body b = function_body(f, facts.dims, per_part, Spelling::c_arrays);
+    const int index = static_cast<int>(functions.size());
     functions.push_back({f.name,
-                         "\n// " + f.doc + "\n" + b.parts + "void spacearm_" + f.name +
+                         "\n// " + f.doc + "\n" + b.declarations + "void spacearm_" + f.name +
                              "([[maybe_unused]] const double* const* in, [[maybe_unused]] const "
                              "double* params, double* const* out) {\n" +
                              (b.parts.empty() ? c_input_aliases(f) : "") + b.body + "}\n",
                          false, b.trig_batches});
+    for (size_t k = 0; k < b.parts.size(); ++k)
+      functions.push_back(
+          {f.name + "_part" + std::to_string(k), "\n" + b.parts[k], false, b.trig_batches, index});
     // Its 4-lane version: four states per call, every input, parameter and result interleaved.
     if (!f.lanes) continue;
     const Body l = function_body(f, facts.dims, per_part, Spelling::c_arrays, true);
     functions.push_back({f.name + kLanesSuffix,
-                         "\n// " + f.name + " of four states at once (kLanesHelper).\n" + l.parts +
-                             "void spacearm_" + f.name + kLanesSuffix +
+                         "\n// " + f.name + " of four states at once (kLanesHelper).\n" +
+                             l.all_parts() + "void spacearm_" + f.name + kLanesSuffix +
                              "([[maybe_unused]] const double* const* in, const double* "
                              "lane_params, double* const* lane_results) {\n" +
                              lanes_prologue(f) + (l.parts.empty() ? c_input_aliases(f, true) : "") +
@@ -578,11 +605,13 @@ std::vector<CFunction> c_functions(const LoweredModel& model, int per_part) {
 }
 
 // Which unit each function goes to: the named leading units first, in their order (a name the
-// model lacks is skipped), then the rest over `units` more, balanced by size (largest first).
-// With as many compilers as units at once, the last unit starts when the leading ones end: it is
-// balanced as if it held them too, so that all end together. A function's weight is its size,
-// doubled for a 4-lane one: bench_compile measured those 1.6-2.2x as long to compile as scalar
-// functions of about the same size.
+// model lacks is skipped; a leading function's parts with it, so that the unit links alone), then
+// the rest over `units` more, balanced by size (largest first), the parts of a split function
+// each on its own: a long function's compile is shared by the compilers. With as many compilers
+// as units at once, the last unit starts when the leading ones end: it is balanced as if it held
+// them too, so that all end together. A function's weight is its size, doubled for a 4-lane one:
+// bench_compile measured those 1.6-2.2x as long to compile as scalar functions of about the same
+// size.
 std::vector<int> unit_of_functions(const std::vector<CFunction>& functions,
                                    const std::vector<std::vector<std::string>>& leading,
                                    int units) {
@@ -590,7 +619,11 @@ std::vector<int> unit_of_functions(const std::vector<CFunction>& functions,
   for (size_t u = 0; u < leading.size(); ++u)
     for (const auto& name : leading[u])
       for (size_t i = 0; i < functions.size(); ++i)
-        if (functions[i].name == name && unit_of[i] < 0) unit_of[i] = static_cast<int>(u);
+        if (functions[i].part_of < 0 && functions[i].name == name && unit_of[i] < 0)
+          unit_of[i] = static_cast<int>(u);
+  for (size_t i = 0; i < functions.size(); ++i)
+    if (const int parent = functions[i].part_of; parent >= 0 && unit_of[parent] >= 0)
+      unit_of[i] = unit_of[parent];
   size_t rest = 0;
   for (int u : unit_of) rest += u < 0;
   units = std::max(1, std::min<int>(units, static_cast<int>(rest)));
@@ -718,7 +751,7 @@ std::vector<std::string> c_interface(const LoweredModel& model, const PrintOptio
       if (unit_of[i] == u) {
         texts += functions[i].text;
         trig_batches = trig_batches || functions[i].trig_batches;
-        names[u].push_back(functions[i].name);
+        if (functions[i].part_of < 0) names[u].push_back(functions[i].name);
       }
     std::ostringstream s;
     s << "// C interface of model " << facts.name << " for dlopen (written by spacearm; do not edit"
@@ -808,7 +841,7 @@ EmittedModel print_cpp(const LoweredModel& model, const PrintOptions& options) {
     }
     const Body b = function_body(f, facts.dims, options.statements_per_part);
     trig_batches |= b.trig_batches;
-    functions << b.parts << "template <typename T>\n"
+    functions << b.all_parts() << "template <typename T>\n"
               << signature(f, facts.dims, "T", true, true) << " {\n"
               << b.body << "}\n";
   }

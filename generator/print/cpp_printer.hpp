@@ -37,8 +37,10 @@ struct PrintOptions {
   // own non-inlined function: a compiler's register allocation grows faster than linearly with one
   // function's length (N = 30's state Jacobian, 42 000 statements in one function, took 259 s
   // and 8.9 GB to compile at -O1; in parts of 2000, 33 s and 0.6 GB). Values a later part reads
-  // pass through a work array on the stack whose slots are reused after their last reader.
-  int statements_per_part = 2000;
+  // pass through a work array on the stack whose slots are reused after their last reader. Parts
+  // of 200 against 2000 halve the compile of space_arm7's state Jacobian (4.1 to 2.2 s in one
+  // unit) and leave the generated functions' speed within a few per cent (docs/performance.md).
+  int statements_per_part = 200;
   // The C interface in this many translation units (c_units), for as many compilers at once,
   // after the leading ones: unit k < leading_units.size() holds the functions named in
   // leading_units[k] (C names without "spacearm_"; 4-lane ones end in kLanesSuffix; a name the

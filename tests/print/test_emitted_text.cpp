@@ -466,7 +466,7 @@ TEST(EmittedText, CasadisExternalFormIsTheCInterface) {
 }
 
 // A body split into parts (PrintOptions::statements_per_part, here 40 statements instead of
-// 2000) computes exactly what the whole body computes: every function of the paper's geared
+// 200) computes exactly what the whole body computes: every function of the paper's geared
 // model and of a flexible model with friction, compiled both ways, agrees bit for bit.
 // Cost: four compiles of the C interface at -O1, about 3 s.
 // Issue 28, item 7: valid scenes whose numbers span too many decades for double (gear ratio
@@ -520,13 +520,30 @@ TEST(EmittedText, GeneratedFilesNeverWriteThroughALinkPlantedInTheFolder) {
 
 // The C interface in units (one compiler each, at once) computes what one unit computes, bit
 // for bit; each unit compiles alone without a warning, and the model's facts are in the first.
+// The parts of a split scalar function are spread over the units too (one function's compile
+// shared by the compilers): some part is in another unit than its function.
 TEST(EmittedText, UnitsComputeWhatOneUnitComputes) {
   const fs::path dir = fs::temp_directory_path() / ("spacearm-units-" + std::to_string(getpid()));
   const LoweredModel model = lowered_scene("/models/paper_flexible.yaml");
   PrintOptions three;
   three.c_units = 3;
-  three.statements_per_part = 40;  // parts stay in their function's unit
+  three.statements_per_part = 40;
   const EmittedModel one = print_cpp(model, {}), units = print_cpp(model, three);
+  const auto unit_defining = [&units](const std::string& function) {
+    for (size_t u = 0; u < units.c_units.size(); ++u)
+      if (units.c_units[u].find("void spacearm_" + function +
+                                "([[maybe_unused]] const double* "
+                                "const* in") != std::string::npos)
+        return static_cast<int>(u);
+    return -1;
+  };
+  int parts = 0, parts_elsewhere = 0;
+  for (const auto& f : model.functions)
+    for (int k = 0; unit_defining(f.name + "_part" + std::to_string(k)) >= 0; ++k, ++parts)
+      parts_elsewhere +=
+          unit_defining(f.name + "_part" + std::to_string(k)) != unit_defining(f.name);
+  EXPECT_GT(parts, 20);
+  EXPECT_GT(parts_elsewhere, 0);
   ASSERT_EQ(one.c_units.size(), 1u);
   ASSERT_EQ(one.c_units[0], one.c_interface);
   ASSERT_EQ(units.c_units.size(), 3u);
@@ -560,6 +577,7 @@ TEST(EmittedText, LeadingUnitsHoldTheNamedFunctionsFirst) {
   const LoweredModel model = lowered_scene("/models/paper_flexible.yaml");
   PrintOptions first;
   first.c_units = 2;
+  first.statements_per_part = 40;  // a leading function's parts stay in its unit
   first.leading_units = {{"forward_dynamics", "no_such_function", "momentum_x4"}};
   const EmittedModel one = print_cpp(model, {}), units = print_cpp(model, first);
   ASSERT_EQ(units.c_units.size(), 3u);
@@ -578,6 +596,9 @@ TEST(EmittedText, LeadingUnitsHoldTheNamedFunctionsFirst) {
       EXPECT_NE(units.c_units[u].find("void spacearm_" + name + "("), std::string::npos) << name;
   }
   EXPECT_EQ(units.c_units[1].find("void spacearm_forward_dynamics("), std::string::npos);
+  ASSERT_NE(units.c_units[0].find("void spacearm_forward_dynamics_part2("), std::string::npos);
+  for (size_t u = 1; u < 3; ++u)
+    EXPECT_EQ(units.c_units[u].find("void spacearm_forward_dynamics_part"), std::string::npos) << u;
   const auto values = call_every_function(model, one.c_interface, dir / "one");
   const auto got = call_every_function(model, units.c_units, dir / "leading");
   ASSERT_EQ(got.size(), values.size());
@@ -591,9 +612,10 @@ TEST(EmittedText, SplitBodiesComputeWhatWholeBodiesCompute) {
   for (const char* scene : {"/models/paper_geared.yaml", "/models/paper_flexible.yaml"}) {
     SCOPED_TRACE(scene);
     const LoweredModel model = lowered_scene(scene);
-    PrintOptions split;
+    PrintOptions one_part, split;
+    one_part.statements_per_part = 0;
     split.statements_per_part = 40;
-    const EmittedModel whole = print_cpp(model, {}), parts = print_cpp(model, split);
+    const EmittedModel whole = print_cpp(model, one_part), parts = print_cpp(model, split);
     ASSERT_EQ(whole.c_interface.find("_part"), std::string::npos);
     ASSERT_NE(parts.c_interface.find("_part3("), std::string::npos);     // split, several times
     ASSERT_NE(parts.c_interface.find("_x4_part3("), std::string::npos);  // 4-lane versions too

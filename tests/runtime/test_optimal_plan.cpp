@@ -114,7 +114,9 @@ TEST(OptimalPlan, AJointsRangeIsKept) {
   for (size_t i = 0; i < held.q.size(); ++i) {
     const double a = m.joint_angles(held.q[i])[joint];
     const double out = std::max(task.lower[joint] - a, a - task.upper[joint]);
-    if (i % per == 0) EXPECT_LE(out, 1e-6) << "knot at t = " << held.t[i];
+    if (i % per == 0) {
+      EXPECT_LE(out, 1e-6) << "knot at t = " << held.t[i];
+    }
     worst = std::max(worst, out);
   }
   std::printf("joint %d at most %.3e rad beyond its range between knots\n", joint + 1, worst);
