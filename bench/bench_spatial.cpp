@@ -11,14 +11,15 @@
 // the ungeared and the armature model's forward dynamics must equal MuJoCo's to 1e-12. The first/
 // rows time the URDF to a first result through an empty cache, with one compiler, with one per
 // CPU and under --engine auto (the interpreter's answer), for space_arm7 and the dual arm.
-// space_arm7's models also give their state Jacobian (forward_dynamics_derivatives) and one rk4
-// step's Jacobians (runtime/step_jacobian.hpp), timed against MuJoCo's mjd_transitionFD. One row
-// calls two single-arm models in turn: an instruction working set the size of the dual arm's,
-// without a tree. The plan/ rows time `plan --objective`'s planners on one task of space_arm7
-// (the tool 0.17 m in 4 s) against the straight line's, with each plan's base rotation, effort
-// and distance from the goal as counters (optimal_plan.hpp). Built with -DPINOCCHIO_DIR=an install
-// of Pinocchio (bench/peers/pinocchio.sh), space_arm7's ungeared and armature models are also
-// timed against Pinocchio's aba and computeABADerivatives (pinocchio_peer.hpp).
+// space_arm7's models also give their state Jacobian (forward_dynamics_derivatives; also four
+// states per call, its 4-lane version) and one rk4 step's Jacobians (runtime/step_jacobian.hpp),
+// timed against MuJoCo's mjd_transitionFD. One row calls two single-arm models in turn: an
+// instruction working set the size of the dual arm's, without a tree. The plan/ rows time `plan
+// --objective`'s planners on one task of space_arm7 (the tool 0.17 m in 4 s) against the straight
+// line's, with each plan's base rotation, effort and distance from the goal as counters
+// (optimal_plan.hpp). Built with -DPINOCCHIO_DIR=an install of Pinocchio
+// (bench/peers/pinocchio.sh), space_arm7's ungeared and armature models are also timed against
+// Pinocchio's aba and computeABADerivatives (pinocchio_peer.hpp).
 //   scripts/bench.sh --spatial
 #include <benchmark/benchmark.h>
 
@@ -26,6 +27,7 @@
 
 #include <unistd.h>
 
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -34,6 +36,7 @@
 #include <memory>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 
 #include "machine_context.hpp"
 #include "compiled_model.hpp"
@@ -76,7 +79,8 @@ SpatialScene robot(const std::string& relative, Gears gears) {
   if (relative == kDerivativesRobot) {  // the state Jacobian too, for its rows
     s.outputs = spatial_outputs(s);
     s.outputs.push_back(Output::forward_dynamics_derivatives);
-    s.content += "\n# with forward_dynamics_derivatives";
+    s.lanes.push_back(Output::forward_dynamics_derivatives);  // and its 4-lane version
+    s.content += "\n# with forward_dynamics_derivatives, on four lanes too";
   }
   return s;
 }
@@ -192,6 +196,42 @@ void register_derivatives(const Loaded& m) {
   register_calls("spacearm/FD derivatives/" + m.model.name(),
                  {m.model.function(Output::forward_dynamics_derivatives)},
                  {nv * nv, nv * nv, nv, nv * N}, m.states);
+}
+
+// The state Jacobian's 4-lane version (the scene's `lanes:`), four of the timed states per
+// call, interleaved (entry i of lane l at [4 i + l]); the counter per_state is the time per
+// state, against the scalar row's time per call.
+void register_derivatives_lanes(const Loaded& m) {
+  const int nv = m.chain.nv(), N = static_cast<int>(m.chain.links.size());
+  const auto four = m.model.lanes_function(Output::forward_dynamics_derivatives);
+  if (!four) throw std::logic_error("the derivatives model lacks its 4-lane state Jacobian");
+  std::vector<std::array<std::vector<double>, 3>> groups(kStates / 4);
+  for (int g = 0; g < kStates / 4; ++g)
+    for (int l = 0; l < 4; ++l) {
+      const int k = 4 * g + l;
+      const Eigen::VectorXd* x[] = {&m.states.q[k], &m.states.v[k], &m.states.Q[k]};
+      for (int a = 0; a < 3; ++a) {
+        groups[g][a].resize(4 * x[a]->size());
+        for (Eigen::Index i = 0; i < x[a]->size(); ++i) groups[g][a][4 * i + l] = (*x[a])[i];
+      }
+    }
+  benchmark::RegisterBenchmark(
+      ("spacearm/FD derivatives, 4 lanes/" + m.model.name()).c_str(),
+      [four, groups, nv, N](benchmark::State& st) {
+        std::vector<std::vector<double>> buffers;
+        for (int size : {nv * nv, nv * nv, nv, nv * N}) buffers.emplace_back(4 * size);
+        double* results[] = {buffers[0].data(), buffers[1].data(), buffers[2].data(),
+                             buffers[3].data()};
+        size_t g = 0;
+        for (auto _ : st) {
+          const double* inputs[] = {groups[g][0].data(), groups[g][1].data(), groups[g][2].data()};
+          four(inputs, nullptr, results);
+          benchmark::DoNotOptimize(results[0]);
+          g = (g + 1) % groups.size();
+        }
+        st.counters["per_state"] = benchmark::Counter(
+            4, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+      });
 }
 
 // One rk4 step's A and B (runtime/step_jacobian.hpp, 1 ms: the peer's default step) through the
@@ -408,6 +448,7 @@ void register_robot(const std::string& relative) {
   for (size_t k = first; k < first + 3; ++k) register_ours(*loaded[k]);
   for (size_t k = first; k < first + 3 && relative == kDerivativesRobot; ++k) {
     register_derivatives(*loaded[k]);
+    register_derivatives_lanes(*loaded[k]);
     register_step_jacobians(*loaded[k]);
     if (k != first + 1) register_plans(*loaded[k]);  // ungeared and exact rotors
   }

@@ -3,6 +3,8 @@
 #include <cctype>
 #include <stdexcept>
 
+#include "text_numbers.hpp"
+
 namespace spacearm {
 
 int Dimensions::operator()(Size s) const {
@@ -196,6 +198,11 @@ std::string to_string(Output output) { return info(output).name; }
 bool has_lanes_version(Output output) {
   return output == Output::forward_dynamics || output == Output::end_effector_pose ||
          output == Output::momentum || output == Output::kinetic_energy;
+}
+
+std::string lanes_error(const std::string& name, bool known) {
+  return known ? "'" + name + "' is not an output this scene emits (list it in 'outputs')"
+               : "unknown output " + quoted_text(name) + " (known: " + output_names() + ")";
 }
 
 std::optional<Output> output_from_string(const std::string& name) {

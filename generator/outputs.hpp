@@ -135,6 +135,8 @@ std::optional<Output> output_from_string(const std::string& name);
 // what a sweep and a batched simulation evaluate at every step. Only these: a 4-lane version
 // doubles a function's compile time (chain_n30's library 1.7 s to 4.8 s with every output's).
 bool has_lanes_version(Output output);
+// A scene's `lanes:` entry that is no output the scene emits: why, for the reader's message.
+std::string lanes_error(const std::string& name, bool known);
 // The bit of an output in the masks the C interface and the loader exchange.
 inline unsigned long output_bit(Output o) { return 1ul << static_cast<unsigned>(o); }
 // The bits of a set or list of outputs (what a compiled library reports it emits).

@@ -125,12 +125,13 @@ FunctionSpec cheapest_lowering(
   return best;
 }
 
-// The arrays of an output as the registry gives them.
-void describe(FunctionSpec& f, const OutputInfo& o) {
+// The arrays of an output as the registry gives them; a 4-lane version where the registry or
+// the scene (ModelFacts::lanes) asks for one.
+void describe(FunctionSpec& f, const OutputInfo& o, const ModelFacts& facts) {
   f.name = o.name;
   f.doc = o.doc;
   f.equation = o.equation;
-  f.lanes = has_lanes_version(o.id);
+  f.lanes = has_lanes_version(o.id) || std::count(facts.lanes.begin(), facts.lanes.end(), o.id);
   for (Input i : o.inputs) f.inputs.push_back({info(i).name, info(i).size, Size::one});
   for (const auto& r : o.results) f.results.push_back({r.name, r.rows, r.cols, r.symmetric});
 }
@@ -270,7 +271,7 @@ LoweredModel lower(const DerivedModel& model, const LowerOptions& options) {
   const bool has_mass_matrix = std::count(outputs.begin(), outputs.end(), Output::mass_matrix) != 0;
   for (Output o : outputs) {
     FunctionSpec f;
-    describe(f, info(o));
+    describe(f, info(o), lowered.facts);
     lowered.functions.push_back(lower_function(model, f, {o}, options.plain));
     // M and b together, sharing the sin/cos and common terms (what forward dynamics needs).
     if (o == Output::bias_forces && has_mass_matrix) {

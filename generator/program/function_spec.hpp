@@ -73,6 +73,9 @@ struct ModelFacts {
   std::string inertia_check;
   bool right_angles_snapped = false;  // a spatial scene's snap_right_angles
   std::vector<Output> outputs;
+  // Outputs whose C interface also takes four states per call besides has_lanes_version's (the
+  // scene's `lanes:`): each doubles its function's compile, so a scene asks for them.
+  std::vector<Output> lanes;
   unsigned features = 0;  // needs:: bits of the scene (outputs.hpp)
   // Springs, dampers or friction act besides M qdd + b.
   bool has_passive_forces() const { return spacearm::has_passive_forces(features); }

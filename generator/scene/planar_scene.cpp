@@ -204,7 +204,7 @@ class SceneReader {
              root["space"]);
     r.check_keys(root, "",
                  {"name", "description", "base", "links", "gears", "friction", "parameters",
-                  "outputs", "formulation"});
+                  "outputs", "lanes", "formulation"});
     s.source_path = source_name;
     s.content = yaml_text;
     read_name();
@@ -217,6 +217,7 @@ class SceneReader {
     read_formulation();  // before the outputs: it decides which are affordable
     coupling_formulation();
     read_outputs();
+    read_lanes();
     declared->refuse_unused(root["parameters"]);
     return s;
   }
@@ -535,6 +536,21 @@ class SceneReader {
     for (Output o : s.outputs) {
       if (const std::string why = missing_feature(info(o).needs, s.features()); !why.empty())
         r.fail("outputs", "'" + to_string(o) + "' " + why, root["outputs"]);
+    }
+  }
+
+  // Lanes: outputs the scene emits, also for four states per call.
+  void read_lanes() {
+    const YAML::Node n = root["lanes"];
+    if (!n.IsDefined()) return;
+    if (!n.IsSequence() || n.size() == 0)
+      r.fail("lanes", "expected a non-empty list of output names", n);
+    for (size_t i = 0; i < n.size(); ++i) {
+      const std::string field = "lanes[" + std::to_string(i) + "]";
+      const std::string name = n[i].IsScalar() ? n[i].Scalar() : "";
+      const std::optional<Output> o = output_from_string(name);
+      if (!o || !s.outputs.count(*o)) r.fail(field, lanes_error(name, o.has_value()), n[i]);
+      if (!s.lanes.insert(*o).second) r.fail(field, "output '" + name + "' listed twice", n[i]);
     }
   }
 };

@@ -100,6 +100,7 @@ struct Scene {
   std::vector<std::optional<Friction>> friction;
   std::vector<Parameter> parameters;
   std::set<Output> outputs;
+  std::set<Output> lanes;  // `lanes:` outputs also given for four states per call (ModelFacts)
   Formulation formulation = Formulation::automatic;
 
   // Whether the generator derives the closed forms of M and b, and tries the recursive ones.

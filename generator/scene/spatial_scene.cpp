@@ -90,7 +90,7 @@ class SpatialReader {
                     const UrdfFileReader& read_file) {
     r_.check_keys(root, "",
                   {"name", "description", "space", "base", "links", "urdf", "end_effector_link",
-                   "end_effector_links", "gears", "friction", "end_effector", "outputs",
+                   "end_effector_links", "gears", "friction", "end_effector", "outputs", "lanes",
                    "parameters", "inertials", "inertia_check", "snap_right_angles"});
     SpatialScene s;
     s.content = text;
@@ -134,6 +134,7 @@ class SpatialReader {
     if (!from_urdf) note_ignored_dynamics(s);
     if (root["end_effector"]) read_end_effector_points(root["end_effector"], s.chain);
     if (root["outputs"]) s.outputs = read_outputs(root["outputs"], s.chain);
+    if (root["lanes"]) s.lanes = read_lanes(root["lanes"], spatial_outputs(s));
     parameters_->refuse_unused(root["parameters"]);
     if (!not_physical_.empty()) s.warnings.push_back(accepted_text(not_physical_));
     name_joints_in_rules(s);
@@ -822,6 +823,23 @@ class SpatialReader {
     for (const OutputInfo& o : output_registry())
       if (std::count(listed.begin(), listed.end(), o.id)) ordered.push_back(o.id);
     return ordered;
+  }
+
+  // Lanes: outputs the scene emits, also for four states per call.
+  std::vector<Output> read_lanes(const YAML::Node& n, const std::vector<Output>& emitted) const {
+    if (!n.IsSequence() || n.size() == 0) r_.fail("lanes", "expected a list of outputs", n);
+    std::vector<Output> listed;
+    for (size_t i = 0; i < n.size(); ++i) {
+      const std::string field = "lanes[" + std::to_string(i) + "]";
+      const std::string name = n[i].IsScalar() ? r_.bounded(n[i], field).Scalar() : "";
+      const std::optional<Output> o = output_from_string(name);
+      if (!o || !std::count(emitted.begin(), emitted.end(), *o))
+        r_.fail(field, lanes_error(name, o.has_value()), n[i]);
+      if (std::count(listed.begin(), listed.end(), *o))
+        r_.fail(field, "'" + name + "' is listed twice", n[i]);
+      listed.push_back(*o);
+    }
+    return listed;
   }
 
   void read_gears(const YAML::Node& n, spatial::ChainDescription& c) {

@@ -45,6 +45,7 @@ struct SpatialScene {
   std::string content;      // every byte the model is made from (its hash names the library)
   spatial::ChainDescription chain;
   std::vector<Output> outputs;  // as listed (`outputs:`); empty: the defaults (spatial_model.hpp)
+  std::vector<Output> lanes;    // `lanes:` outputs also given for four states per call (ModelFacts)
   std::vector<Parameter> parameters;  // run-time parameters, params[i] in the generated code
   // The range rules on quantities that use a run-time parameter (parameter_rules.hpp): the
   // generated parameter_error() checks them for the parameters' values (the reader checks the

@@ -368,15 +368,18 @@ TEST(CompiledModel, TheHostInstructionSetGivesTheBitsOfSse2) {
 // computes for that lane's state and parameters, bit for bit: four different states and
 // parameter sets at once, through libmvec's sin and cos (the build's vector trig), friction's
 // tanh and exp, springs, and a base floating in 3D; built for this CPU and for SSE2 (where the
-// four lanes are two halves). Only the outputs of has_lanes_version have them.
+// four lanes are two halves). Only the outputs of has_lanes_version have them, and those a scene
+// lists under `lanes:` (the spatial arm's state Jacobian).
 TEST(CompiledModel, FourLanesComputeWhatTheScalarFunctionComputes) {
   const fs::path cache = fresh_cache("lanes");
   const std::string spatial =
       test::read_text_file(std::string(SPACEARM_SOURCE_DIR) + "/tests/scenes/spatial_arm2.yaml") +
-      "outputs: [mass_matrix, forward_dynamics, end_effector_pose, momentum, kinetic_energy]\n";
+      "outputs: [mass_matrix, forward_dynamics, end_effector_pose, momentum, kinetic_energy, "
+      "forward_dynamics_derivatives]\nlanes: [forward_dynamics_derivatives]\n";
   const std::vector<ModelRecipe> recipes = {
       ModelRecipe::load(std::string(SPACEARM_SOURCE_DIR) + "/models/paper_flexible.yaml"),
       ModelRecipe::parse(spatial, "spatial_arm2.yaml")};
+  ASSERT_EQ(recipes[1].facts().lanes, std::vector<Output>{Output::forward_dynamics_derivatives});
   for (const std::string& isa : {host_instruction_set(), std::string("sse2")})
     for (const ModelRecipe& recipe : recipes) {
       SCOPED_TRACE(recipe.name() + " built for " + isa);
@@ -387,6 +390,9 @@ TEST(CompiledModel, FourLanesComputeWhatTheScalarFunctionComputes) {
       ASSERT_NE(m.lanes_function(Output::forward_dynamics), nullptr);
       EXPECT_EQ(m.has(Output::mass_matrix) ? m.lanes_function(Output::mass_matrix) : nullptr,
                 nullptr);
+      const std::vector<Output>& asked = recipe.facts().lanes;  // the scene's `lanes:`
+      EXPECT_EQ(m.lanes_function(Output::forward_dynamics_derivatives) != nullptr,
+                std::count(asked.begin(), asked.end(), Output::forward_dynamics_derivatives) == 1);
       const Dimensions& d = m.dimensions();
       const size_t np = m.nominal_parameters().size();
       for (Output o : recipe.facts().outputs) {

@@ -711,3 +711,26 @@ def test_a_tree_plans_several_end_effectors_at_once():
         tree.plan(starts, goals, 2.0, end_effector=[0, 1])
     with pytest.raises(TypeError, match=r"start: one row per end effector"):
         tree.plan("0.6", goals, 2.0, end_effector=["l_tool_flange", "r_tool_flange"])
+
+
+def test_a_scenes_lanes_give_the_state_jacobian_four_states_per_call():
+    """`lanes: [forward_dynamics_derivatives]` gives the state Jacobian a 4-lane function: a
+    batch through it is the bits of one state per call."""
+    with open(os.path.join(SOURCE, "models", "paper_geared.yaml")) as f:
+        text = f.read()
+    start = text.index("outputs:")
+    end = text.index("]", start) + 1
+    scene = (text[:start] + "outputs: [forward_dynamics, forward_dynamics_derivatives]\n"
+             "lanes: [forward_dynamics_derivatives]" + text[end:])
+    m = spacearm.load(scene, cache_dir=CACHE)
+    q, qd = states(m, 9)
+    Q = np.random.default_rng(3).uniform(-5, 5, (9, m.nv))
+    four = m.forward_dynamics_derivatives(q, qd, Q)
+    m.lanes = 1
+    one = m.forward_dynamics_derivatives(q, qd, Q)
+    assert set(four) == {"dqdd_dq", "dqdd_dqd", "qdd", "dqdd_dtau"}
+    for name in four:
+        assert np.array_equal(four[name], one[name]), name
+    assert four["dqdd_dq"].shape == (9, m.nv, m.nv)
+    # forward_dynamics has its own program (closed forms here): equal to rounding
+    assert np.allclose(four["qdd"], m.forward_dynamics(q, qd, Q), rtol=1e-10, atol=1e-12)

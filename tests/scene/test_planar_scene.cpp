@@ -10,6 +10,7 @@
 
 #include "planar_scene.hpp"
 #include "scene_fuzz_target.hpp"
+#include "support.hpp"
 
 namespace spacearm {
 namespace {
@@ -67,6 +68,28 @@ TEST(Scene, DefaultsToTheRegistrysDefaultOutputsAndFixedBaseHasNoFreeBaseOnes) {
   }
   EXPECT_FALSE(fixed.wants(Output::momentum));
   EXPECT_EQ(fixed.num_coordinates(), 2);
+}
+
+// `lanes:` gives listed outputs a 4-lane version too (ModelFacts::lanes): only outputs the scene
+// emits, each once, by name.
+TEST(Scene, LanesListOutputsTheSceneEmits) {
+  const Scene s = parse_scene(std::string(kValid) +
+                                  "outputs: [forward_dynamics, forward_dynamics_derivatives]\n"
+                                  "lanes: [forward_dynamics_derivatives]\n",
+                              "t.yaml");
+  EXPECT_EQ(s.lanes, std::set<Output>{Output::forward_dynamics_derivatives});
+  EXPECT_TRUE(parse_scene(kValid, "t.yaml").lanes.empty());
+  const std::string listed = std::string(kValid) + "outputs: [forward_dynamics]\n";
+  EXPECT_THROW_MESSAGE(parse_scene(listed + "lanes: [mass_matrix]\n", "t.yaml"), SceneError,
+                       "field 'lanes[0]': 'mass_matrix' is not an output this scene emits "
+                       "(list it in 'outputs')");
+  EXPECT_THROW_MESSAGE(parse_scene(listed + "lanes: [fast]\n", "t.yaml"), SceneError,
+                       "field 'lanes[0]': unknown output 'fast' (known: mass_matrix,");
+  EXPECT_THROW_MESSAGE(
+      parse_scene(listed + "lanes: [forward_dynamics, forward_dynamics]\n", "t.yaml"), SceneError,
+      "field 'lanes[1]': output 'forward_dynamics' listed twice");
+  EXPECT_THROW_MESSAGE(parse_scene(listed + "lanes: forward_dynamics\n", "t.yaml"), SceneError,
+                       "field 'lanes': expected a non-empty list of output names");
 }
 
 TEST(Scene, ErrorsNameTheFieldAndValue) {

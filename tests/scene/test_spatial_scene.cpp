@@ -111,6 +111,20 @@ TEST(SpatialScene, NamesEveryBadField) {
                        "field 'gears': expected one mapping for all joints or a list of 2");
 }
 
+// `lanes:` as in the plane: outputs the scene emits (its defaults where it lists none).
+TEST(SpatialScene, LanesListOutputsTheSceneEmits) {
+  EXPECT_EQ(parse_spatial_scene(kArm + "lanes: [mass_matrix]\n", "arm2.yaml").lanes,
+            std::vector<Output>{Output::mass_matrix});
+  EXPECT_THROW_MESSAGE(
+      parse_spatial_scene(kArm + "lanes: [forward_dynamics_derivatives]\n", "arm2.yaml"),
+      SceneError,
+      "field 'lanes[0]': 'forward_dynamics_derivatives' is not an output this scene emits");
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(kArm + "lanes: [mass_matrix, mass_matrix]\n", "a.yaml"),
+                       SceneError, "field 'lanes[1]': 'mass_matrix' is listed twice");
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(kArm + "lanes: [\"a\\x01\"]\n", "a.yaml"), SceneError,
+                       "field 'lanes[0]': unknown output 'a?'");
+}
+
 // Friction as in the plane, per joint or for all; numbers only in 3D. It adds friction_forces
 // to the default outputs, and needs to be there for friction_forces to be listed.
 TEST(SpatialScene, ReadsFrictionAndNamesItsBadFields) {

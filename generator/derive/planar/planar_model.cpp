@@ -73,8 +73,10 @@ ModelFacts planar_facts(const Scene& scene) {
   facts.nominal_parameters = nominal_values(scene.parameters);
   facts.scene_hash = "fnv1a64:" + content_hash(scene.content);
   facts.formulation = to_string(scene.formulation);
-  for (const auto& o : output_registry())
+  for (const auto& o : output_registry()) {
     if (scene.wants(o.id)) facts.outputs.push_back(o.id);
+    if (scene.lanes.count(o.id)) facts.lanes.push_back(o.id);
+  }
   add_parameter_checks(range_rules(scene), facts);
   facts.span_fields = span_fields(scene);
   return facts;

@@ -101,6 +101,8 @@ ModelFacts spatial_facts(const SpatialScene& scene) {
   f.right_angles_snapped = scene.chain.exact_right_angles;
   f.features = spatial_features(scene);
   f.outputs = spatial_outputs(scene);
+  for (Output o : f.outputs)
+    if (std::count(scene.lanes.begin(), scene.lanes.end(), o)) f.lanes.push_back(o);
   f.parameter_names = parameter_names(scene.parameters);
   f.nominal_parameters = nominal_values(scene.parameters);
   add_parameter_checks(scene.run_time_rules, f);
