@@ -96,20 +96,20 @@ std::string lanes_prologue(const FunctionSpec& f) {
   std::string s =
       "  using T = spacearm_lanes4;\n"
       "  [[maybe_unused]] const T* params = reinterpret_cast<const T*>(lane_params);\n"
-      "  T* const out[] = {";
+      "  [[maybe_unused]] T* const out[] = {";
   for (size_t k = 0; k < f.results.size(); ++k)
     s += (k ? ", " : "") + std::string("reinterpret_cast<T*>(lane_results[") + std::to_string(k) +
          "])";
   return s + "};\n";
 }
 
-// The linkage of a scalar part of the C interface: inside the units' extern "C" block, so C
+// The linkage of a part of a C interface function: inside the units' extern "C" block, so C
 // linkage, and hidden, so that the library exports only the interface.
 const std::string kSharedPartLinkage = "[[gnu::visibility(\"hidden\")]] ";
 
 // A function's body, and the functions of its parts where it is split (BodyPrinter).
 struct Body {
-  // Each part's definition, printed before the function. A scalar part of the C interface has C
+  // Each part's definition, printed before the function. A part of the C interface has C
   // linkage, hidden from the library's users, so that it may be compiled in another unit
   // (unit_of_functions) than its function, whose text then declares it (`declarations`).
   std::vector<std::string> parts;
@@ -152,37 +152,44 @@ Body function_body(const FunctionSpec& f, const Dimensions& dims, int per_part,
   if (printer.num_parts() == 1)
     return {{}, "", usings + printer.part(0), printer.has_trig_batches()};
   // Split: each part a function of the same arguments and the work array.
-  const bool c = spelling == Spelling::c_arrays;
-  std::string args = c ? "in, params, out" : "";
-  if (!c) {
-    for (const auto& a : f.inputs) args += a.name + ", ";
-    args += "params";
-    for (const auto& r : f.results) args += ", " + r.name;
-  }
   Body b{{},
          "",
          usings + "  T w[" + std::to_string(std::max(1, printer.work_size())) + "];\n",
          printer.has_trig_batches()};
-  // A 4-lane part takes the lanes' parameters and results as the lane type (lanes_prologue),
-  // which each unit defines for itself: it stays static, in its function's unit.
-  const std::string scalar = lanes ? "spacearm_lanes4" : "double";
-  const std::string linkage = lanes ? "static " : kSharedPartLinkage;
-  for (int k = 0; k < printer.num_parts(); ++k) {
-    const std::string suffix =
-        (lanes ? kLanesSuffix : "") + std::string("_part") + std::to_string(k);
-    if (c && !lanes)
-      b.declarations += kSharedPartLinkage + "void spacearm_" + f.name + suffix +
+  if (spelling == Spelling::c_arrays) {
+    // A hidden C function of the interface's own arguments, so that it may be compiled in
+    // another unit (unit_of_functions); a 4-lane part views them as lanes itself, as its
+    // function does (each unit defines the lane type for itself).
+    const std::string params = lanes ? "lane_params" : "params",
+                      out = lanes ? "lane_results" : "out";
+    for (int k = 0; k < printer.num_parts(); ++k) {
+      const std::string name =
+          "spacearm_" + f.name + (lanes ? kLanesSuffix : "") + "_part" + std::to_string(k);
+      b.declarations += kSharedPartLinkage + "void " + name +
                         "(const double* const*, const double*, double* const*, double*);\n";
-    b.parts.push_back(
-        (c ? "[[gnu::noinline]] " + linkage + "void spacearm_" + f.name + suffix +
-                 "([[maybe_unused]] const double* const* in, [[maybe_unused]] const " + scalar +
-                 "* params, [[maybe_unused]] " + scalar + "* const* out, [[maybe_unused]] " +
-                 scalar + "* w) {\n" + (lanes ? "  using T = spacearm_lanes4;\n" : "") +
-                 c_input_aliases(f, lanes)
-           : "template <typename T>\n[[gnu::noinline]] static " +
-                 signature(f, dims, "T", true, true, suffix) + " {\n") +
-        usings + printer.part(k) + "}\n\n");
-    b.body += "  " + std::string(c ? "spacearm_" : "") + f.name + suffix + "(" + args + ", w);\n";
+      b.parts.push_back("[[gnu::noinline]] " + kSharedPartLinkage + "void " + name +
+                        "([[maybe_unused]] const double* const* in, [[maybe_unused]] const "
+                        "double* " +
+                        params + ", [[maybe_unused]] double* const* " + out + ", " +
+                        (lanes ? "double* lane_w) {\n" + lanes_prologue(f) +
+                                     "  T* w = reinterpret_cast<T*>(lane_w);\n"
+                               : "[[maybe_unused]] double* w) {\n") +
+                        c_input_aliases(f, lanes) + usings + printer.part(k) + "}\n\n");
+      b.body += "  " + name + "(in, " + params + ", " + out + ", " +
+                (lanes ? "reinterpret_cast<double*>(w)" : "w") + ");\n";
+    }
+    return b;
+  }
+  std::string args;
+  for (const auto& a : f.inputs) args += a.name + ", ";
+  args += "params";
+  for (const auto& r : f.results) args += ", " + r.name;
+  for (int k = 0; k < printer.num_parts(); ++k) {
+    const std::string suffix = "_part" + std::to_string(k);
+    b.parts.push_back("template <typename T>\n[[gnu::noinline]] static " +
+                      signature(f, dims, "T", true, true, suffix) + " {\n" + usings +
+                      printer.part(k) + "}\n\n");
+    b.body += "  " + f.name + suffix + "(" + args + ", w);\n";
   }
   return b;
 }
@@ -566,7 +573,7 @@ std::string c_facts(const ModelFacts& facts) {
 
 // One function of the C interface: its C name (spacearm_ + name), text, whether it is a 4-lane
 // version and whether it batches sin/cos (the unit then includes the batch helper); or one part
-// of a scalar function's split body (part_of: that function's index), which may go to any unit.
+// of a function's split body (part_of: that function's index), which may go to any unit.
 struct CFunction {
   std::string name, text;
   bool lanes = false, trig_batches = false;
@@ -592,14 +599,19 @@ std::vector<CFunction> c_functions(const LoweredModel& model, int per_part) {
     // Its 4-lane version: four states per call, every input, parameter and result interleaved.
     if (!f.lanes) continue;
     const Body l = function_body(f, facts.dims, per_part, Spelling::c_arrays, true);
+    const int lanes_index = static_cast<int>(functions.size());
     functions.push_back({f.name + kLanesSuffix,
                          "\n// " + f.name + " of four states at once (kLanesHelper).\n" +
-                             l.all_parts() + "void spacearm_" + f.name + kLanesSuffix +
+                             l.declarations + "void spacearm_" + f.name + kLanesSuffix +
                              "([[maybe_unused]] const double* const* in, const double* "
                              "lane_params, double* const* lane_results) {\n" +
-                             lanes_prologue(f) + (l.parts.empty() ? c_input_aliases(f, true) : "") +
+                             (l.parts.empty() ? lanes_prologue(f) + c_input_aliases(f, true)
+                                              : "  using T = spacearm_lanes4;\n") +
                              l.body + "}\n",
                          true, l.trig_batches});
+    for (size_t k = 0; k < l.parts.size(); ++k)
+      functions.push_back({f.name + kLanesSuffix + "_part" + std::to_string(k), "\n" + l.parts[k],
+                           true, l.trig_batches, lanes_index});
   }
   return functions;
 }

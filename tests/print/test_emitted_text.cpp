@@ -520,8 +520,8 @@ TEST(EmittedText, GeneratedFilesNeverWriteThroughALinkPlantedInTheFolder) {
 
 // The C interface in units (one compiler each, at once) computes what one unit computes, bit
 // for bit; each unit compiles alone without a warning, and the model's facts are in the first.
-// The parts of a split scalar function are spread over the units too (one function's compile
-// shared by the compilers): some part is in another unit than its function.
+// The parts of a split function (scalar or 4-lane) are spread over the units too (one function's
+// compile shared by the compilers): some part is in another unit than its function.
 TEST(EmittedText, UnitsComputeWhatOneUnitComputes) {
   const fs::path dir = fs::temp_directory_path() / ("spacearm-units-" + std::to_string(getpid()));
   const LoweredModel model = lowered_scene("/models/paper_flexible.yaml");
@@ -537,13 +537,19 @@ TEST(EmittedText, UnitsComputeWhatOneUnitComputes) {
         return static_cast<int>(u);
     return -1;
   };
-  int parts = 0, parts_elsewhere = 0;
+  int parts = 0, parts_elsewhere = 0, lanes_parts_elsewhere = 0;
   for (const auto& f : model.functions)
-    for (int k = 0; unit_defining(f.name + "_part" + std::to_string(k)) >= 0; ++k, ++parts)
-      parts_elsewhere +=
-          unit_defining(f.name + "_part" + std::to_string(k)) != unit_defining(f.name);
+    for (const std::string name : {f.name, f.name + kLanesSuffix}) {
+      const int home = unit_defining(name);
+      for (int k = 0; unit_defining(name + "_part" + std::to_string(k)) >= 0; ++k, ++parts) {
+        const bool elsewhere = unit_defining(name + "_part" + std::to_string(k)) != home;
+        parts_elsewhere += elsewhere;
+        lanes_parts_elsewhere += elsewhere && name != f.name;
+      }
+    }
   EXPECT_GT(parts, 20);
   EXPECT_GT(parts_elsewhere, 0);
+  EXPECT_GT(lanes_parts_elsewhere, 0);
   ASSERT_EQ(one.c_units.size(), 1u);
   ASSERT_EQ(one.c_units[0], one.c_interface);
   ASSERT_EQ(units.c_units.size(), 3u);
