@@ -1,8 +1,7 @@
 // What a point-to-point plan takes from its scene, in one place: its joint bounds
 // (StraightLineTask::effort, velocity, lower and upper) from the URDF's <limit effort velocity
 // lower upper> (`spacearm plan --objective`, studies and Python), and the model it is planned on,
-// with the exact state Jacobian for its steps (`plan` and studies; Python plans on the model it
-// was given, by central differences where that lacks the state Jacobian).
+// with the exact state Jacobian for its steps (`plan`, studies and Python's Model.plan).
 #pragma once
 
 #include <algorithm>

@@ -55,6 +55,18 @@ A converted(const py::handle& value, const std::string& what) {
   }
 }
 
+// A number argument (knots, effort_weight), named in the error where it is none.
+template <class T>
+T number_argument(const py::object& value, const std::string& what) {
+  try {
+    return value.cast<T>();
+  } catch (const py::cast_error&) {
+    throw py::type_error(what + ": expected " +
+                         (std::is_integral_v<T> ? "an integer" : "a number") + ", got " +
+                         std::string(py::str(py::type::of(value).attr("__name__"))));
+  }
+}
+
 // A vector argument (q0, qd0): a 1-D array of numbers, named in the error otherwise (pybind11's
 // own message, "Unable to cast Python instance...", names nothing).
 Eigen::VectorXd vector_argument(const py::handle& value, const std::string& what) {
@@ -83,8 +95,11 @@ struct SimulateOptions {
 // A loaded model and the parameter values its methods use unless given others.
 class PyModel {
  public:
-  PyModel(CompiledModel model, Eigen::VectorXd params, ModelRecipe recipe)
-      : model_(std::move(model)), params_(std::move(params)), recipe_(std::move(recipe)) {}
+  PyModel(CompiledModel model, Eigen::VectorXd params, ModelRecipe recipe, CompileOptions options)
+      : model_(std::move(model)),
+        params_(std::move(params)),
+        recipe_(std::move(recipe)),
+        options_(std::move(options)) {}
 
   const CompiledModel& model() const { return model_; }
   const Eigen::VectorXd& params() const { return params_; }
@@ -118,7 +133,8 @@ class PyModel {
   py::dict plan(const py::object& start, const py::object& goal, double duration, double dt,
                 const py::object& time_law, int elbow, const py::object& q0,
                 const py::object& params, const py::object& end_effector, const std::string& hold,
-                const std::string& objective, int knots, double effort_weight) const;
+                const std::string& objective, const py::object& knots,
+                const py::object& effort_weight) const;
   // The lines of plan()'s arguments, into task (its start, goal, law, end effector, more_lines).
   void plan_lines(const py::object& start, const py::object& goal, const py::object& time_law,
                   const py::object& end_effector, StraightLineTask& task) const;
@@ -154,7 +170,26 @@ class PyModel {
   Eigen::VectorXd params_;
   int lanes_ = 4;
   ModelRecipe recipe_;
+  CompileOptions options_;  // the load's (cache, engine): a sibling model is loaded alike
+  // A point-to-point plan's model (planning_recipe): the scene with its state Jacobian, loaded
+  // at the first such plan where the scene lacks it.
+  mutable std::shared_ptr<const CompiledModel> planning_model_;
+  const CompiledModel& planning_model(const StraightLineTask& task) const;
 };
+
+const CompiledModel& PyModel::planning_model(const StraightLineTask& task) const {
+  const std::optional<ModelRecipe> sibling = planning_recipe(recipe_, task);
+  if (!sibling) return model_;
+  if (!planning_model_) {  // called with the GIL, which guards planning_model_
+    std::shared_ptr<const CompiledModel> loaded;
+    {
+      py::gil_scoped_release release;  // a compile can take seconds; another thread may plan
+      loaded = std::make_shared<const CompiledModel>(CompiledModel::load(*sibling, options_));
+    }
+    if (!planning_model_) planning_model_ = std::move(loaded);
+  }
+  return *planning_model_;
+}
 
 // The values of named parameters: `values`, with those of `given` (None or a dict) replaced.
 // An unknown name is a ValueError naming it and the known ones.
@@ -364,8 +399,8 @@ void PyModel::plan_lines(const py::object& start, const py::object& goal,
 py::dict PyModel::plan(const py::object& start, const py::object& goal, double duration, double dt,
                        const py::object& time_law, int elbow, const py::object& q0,
                        const py::object& params_given, const py::object& end_effector,
-                       const std::string& hold, const std::string& objective, int knots,
-                       double effort_weight) const {
+                       const std::string& hold, const std::string& objective,
+                       const py::object& knots, const py::object& effort_weight) const {
   StraightLineTask task;
   try {
     task.hold = hold_from_string(hold);
@@ -377,7 +412,19 @@ py::dict PyModel::plan(const py::object& start, const py::object& goal, double d
   } catch (const std::invalid_argument& e) {
     throw py::value_error(std::string("objective: ") + e.what());
   }
-  plan_lines(start, goal, time_law, end_effector, task);
+  // An argument the objective does not use is an error, as plan's options are (uses_knots, ...).
+  auto refuse = [&objective](bool given, bool used, const std::string& arg,
+                             const std::string& why) {
+    if (given && !used)
+      throw py::value_error(arg + ": not used by objective '" + objective + "' (" + why + ")");
+  };
+  refuse(!knots.is_none(), uses_knots(task.objective), "knots",
+         "it is min_base_rotation's and min_effort's");
+  refuse(!effort_weight.is_none(), uses_effort_weight(task.objective), "effort_weight",
+         "it is min_base_rotation's");
+  refuse(!time_law.is_none(), uses_time_law(task.objective), "time_law",
+         "a point-to-point plan goes by any path; the time law is the straight line's");
+  plan_lines(start, goal, time_law.is_none() ? py::str("quintic") : time_law, end_effector, task);
   task.duration = duration;
   task.dt = dt;
   task.elbow = elbow;
@@ -386,14 +433,19 @@ py::dict PyModel::plan(const py::object& start, const py::object& goal, double d
     throw py::value_error("q0: expected " + std::to_string(model_.nq()) + " values, got " +
                           std::to_string(task.q0.size()));
   const Eigen::VectorXd params = named_parameters(model_, params_, params_given);
-  const DynamicModel m = dynamic_model(model_, params);
+  // Point to point: the step Jacobians from the exact state Jacobian, as plan --objective takes
+  // them (the scene compiled with it where it lacks it; the same parameters).
+  const DynamicModel m = dynamic_model(planning_model(task), params);
   TaskNames names;
   names.lines_indexed = !py::isinstance<py::str>(end_effector);  // a list of end effectors
   check_task(m, task, names);
   if (point_to_point(task.objective)) {
     // As plan --objective: within the URDF's effort, velocity and angle limits.
-    task.knots = knots;
-    task.effort_weight = effort_weight;
+    const StraightLineTask defaults;
+    task.knots = knots.is_none() ? defaults.knots : number_argument<int>(knots, "knots");
+    task.effort_weight = effort_weight.is_none()
+                             ? defaults.effort_weight
+                             : number_argument<double>(effort_weight, "effort_weight");
     set_plan_limits(recipe_, task);
     check_point_to_point(m, task, names);
   }
@@ -796,7 +848,7 @@ PyModel load(const std::string& scene_text, const py::object& params, const std:
       params);
   // The parameters' ranges, checked now: an error at load, not at the first call.
   dynamic_model(m, values);
-  return PyModel(std::move(m), values, scene);
+  return PyModel(std::move(m), values, scene, options);
 }
 
 // Model's read-only facts: name, sizes, names, parameter values, outputs, lanes.
@@ -902,24 +954,27 @@ void bind_model_tangent(py::class_<PyModel>& model) {
 
 // Model.plan, simulate and closed_loop: what `spacearm plan` and `simulate` do.
 void bind_model_runs(py::class_<PyModel>& model) {
-  model.def("plan", &PyModel::plan, py::arg("start"), py::arg("goal"), py::arg("duration"),
-            py::arg("dt") = 0.01, py::arg("time_law") = "quintic", py::arg("elbow") = 1,
-            py::arg("q0") = py::none(), py::arg("params") = py::none(),
-            py::arg("end_effector") = "", py::arg("hold") = "joints", py::arg("objective") = "line",
-            py::arg("knots") = 50, py::arg("effort_weight") = 1e-2,
-            "The zero-momentum straight line of the end-effector from start to goal (x, y or x, y, "
-            "phi; in 3D x, y, z or a pose x, y, z, qw, qx, qy, qz) in `duration` s, as `spacearm "
-            "plan` (a tree: `end_effector` by name follows it, the others `hold` their 'joints' "
-            "or their 'pose'; a list of names moves each along its own line at once, start and "
-            "goal one row per name, time_law one or one per name): a dict of t, q, qd, qdd, "
-            "tau (link side), "
-            "tau_motor (geared), base_residual (free base) and 'columns', the CSV's columns by "
-            "name, and its checks: min_jacobian_rcond (and _t), max_base_rotation and "
-            "final_base_rotation (rad). objective='reactionless' holds a free base's angular "
-            "velocity at zero (the reaction null space); 'min_base_rotation' and 'min_effort' "
-            "go from rest to rest at the goal position by any path (IPOPT, `knots` intervals, "
-            "`effort_weight`), as plan --objective, and add goal_error, max_knot_error, "
-            "iterations, solve_seconds and cost.");
+  model.def(
+      "plan", &PyModel::plan, py::arg("start"), py::arg("goal"), py::arg("duration"),
+      py::arg("dt") = 0.01, py::arg("time_law") = py::none(), py::arg("elbow") = 1,
+      py::arg("q0") = py::none(), py::arg("params") = py::none(), py::arg("end_effector") = "",
+      py::arg("hold") = "joints", py::arg("objective") = "line", py::arg("knots") = py::none(),
+      py::arg("effort_weight") = py::none(),
+      "The zero-momentum straight line of the end-effector from start to goal (x, y or x, y, "
+      "phi; in 3D x, y, z or a pose x, y, z, qw, qx, qy, qz) in `duration` s, as `spacearm "
+      "plan` (a tree: `end_effector` by name follows it, the others `hold` their 'joints' "
+      "or their 'pose'; a list of names moves each along its own line at once, start and "
+      "goal one row per name, time_law one or one per name): a dict of t, q, qd, qdd, "
+      "tau (link side), "
+      "tau_motor (geared), base_residual (free base) and 'columns', the CSV's columns by "
+      "name, and its checks: min_jacobian_rcond (and _t), max_base_rotation and "
+      "final_base_rotation (rad). objective='reactionless' holds a free base's angular "
+      "velocity at zero (the reaction null space); 'min_base_rotation' and 'min_effort' "
+      "go from rest to rest at the goal position by any path (IPOPT, `knots` intervals, "
+      "`effort_weight`; defaults 50 and 1e-2), as plan --objective (on the scene compiled with "
+      "its state Jacobian where it lacks it), and add goal_error, max_knot_error, "
+      "iterations, solve_seconds and cost. An argument the objective does not use (knots, "
+      "effort_weight, time_law) is a ValueError.");
   model.def(
       "simulate",
       [](const PyModel& m, const py::object& t_end, const py::object& torques, const py::object& q0,

@@ -479,7 +479,7 @@ def test_a_least_effort_plan_lands_at_rest_on_its_goal():
     start = np.array([1.5199002392044572, 0.20122055952054133, 1.243704490684638])
     goal = start + [-0.1, 0.1, 0.1]
     line = arm.plan(start, goal, 4, q0=q0)
-    least = arm.plan(start, goal, 4, q0=q0, objective="min_effort", knots=25)
+    least = arm.plan(start, goal, 4, q0=q0, objective="min_effort", knots=20)
     assert least["goal_error"] < 5e-6 and least["iterations"] > 0
     assert np.abs(least["qd"][-1]).max() < 1e-4 and np.abs(least["qd"][0]).max() == 0
     ee = [least["columns"][c][-1] for c in ("ee_x", "ee_y", "ee_z")]
@@ -488,6 +488,39 @@ def test_a_least_effort_plan_lands_at_rest_on_its_goal():
     assert effort(least) < effort(line)
     with pytest.raises(ValueError, match=r"must be a whole multiple of knots \(7\)"):
         arm.plan(start, goal, 4, q0=q0, objective="min_effort", knots=7)
+    # As plan --objective, an argument the objective does not use is an error, not dropped.
+    with pytest.raises(ValueError, match="knots: not used by objective 'line'"):
+        arm.plan(start, goal, 4, q0=q0, knots=25)
+    with pytest.raises(ValueError, match="effort_weight: not used by objective 'min_effort'"):
+        arm.plan(start, goal, 4, q0=q0, objective="min_effort", effort_weight=0.1)
+    with pytest.raises(ValueError, match="time_law: not used by objective 'min_effort'"):
+        arm.plan(start, goal, 4, q0=q0, objective="min_effort", time_law="cubic")
+    with pytest.raises(TypeError, match="knots: expected an integer, got str"):
+        arm.plan(start, goal, 4, q0=q0, objective="min_effort", knots="25")
+
+
+def test_a_point_to_point_plan_takes_the_exact_state_jacobian(tmp_path):
+    """A model without forward_dynamics_derivatives plans point to point on the scene compiled
+    with it (a second cache entry, as plan --objective does), not by central differences: its
+    plan is the one a model loaded with the state Jacobian makes. Cost: two planar compiles and
+    two solves, about 2 s."""
+    with open(os.path.join(SOURCE, "models", "paper_reference.yaml")) as f:
+        text = f.read()
+    start = text.index("outputs:")
+    end = text.index("]", start) + 1
+    lean = (text[:start] + "outputs: [mass_matrix, bias_forces, forward_dynamics, "
+            "end_effector_pose, end_effector_jacobian, generalized_jacobian]" + text[end:])
+    arm = spacearm.load(lean, cache_dir=str(tmp_path))
+    assert "forward_dynamics_derivatives" not in arm.outputs
+    plan = arm.plan([1.5, 0], [1.2, 0.2], 10, objective="min_effort")
+    entries = [e for e in os.listdir(tmp_path) if e.startswith("paper_reference-")]
+    assert len(entries) == 2  # the scene's entry and its sibling's
+    rich = spacearm.load(lean.replace("generalized_jacobian]",
+                                      "generalized_jacobian, forward_dynamics_derivatives]"),
+                         cache_dir=str(tmp_path))
+    again = rich.plan([1.5, 0], [1.2, 0.2], 10, objective="min_effort")
+    assert plan["iterations"] == again["iterations"]
+    assert np.array_equal(plan["tau"], again["tau"])
 
 
 def test_point_to_point_plans_from_threads_take_turns():
