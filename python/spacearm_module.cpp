@@ -10,7 +10,9 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
+#include <mutex>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -55,15 +57,27 @@ A converted(const py::handle& value, const std::string& what) {
   }
 }
 
-// A number argument (knots, effort_weight), named in the error where it is none.
+// A number argument (knots, effort_weight), named in the error where it is none (a bool is
+// none) or where an integer is out of T's range.
 template <class T>
 T number_argument(const py::object& value, const std::string& what) {
+  const std::string type = py::str(py::type::of(value).attr("__name__"));
+  if (py::isinstance<py::bool_>(value))
+    throw py::type_error(what + ": expected a number, got bool");
+  if (std::is_integral_v<T> && py::isinstance<py::int_>(value)) {
+    const long long v = PyLong_AsLongLong(value.ptr());
+    if (PyErr_Occurred())
+      PyErr_Clear();
+    else if (v >= std::numeric_limits<T>::min() && v <= std::numeric_limits<T>::max())
+      return static_cast<T>(v);
+    throw py::value_error(what + ": " + std::string(py::str(value)).substr(0, 40) +
+                          " is out of range");
+  }
   try {
     return value.cast<T>();
   } catch (const py::cast_error&) {
     throw py::type_error(what + ": expected " +
-                         (std::is_integral_v<T> ? "an integer" : "a number") + ", got " +
-                         std::string(py::str(py::type::of(value).attr("__name__"))));
+                         (std::is_integral_v<T> ? "an integer" : "a number") + ", got " + type);
   }
 }
 
@@ -173,21 +187,21 @@ class PyModel {
   CompileOptions options_;  // the load's (cache, engine): a sibling model is loaded alike
   // A point-to-point plan's model (planning_recipe): the scene with its state Jacobian, loaded
   // at the first such plan where the scene lacks it.
+  // Guarded by planning_mutex_ (taken with the GIL released), so that threads planning at once
+  // compile it once.
   mutable std::shared_ptr<const CompiledModel> planning_model_;
+  std::shared_ptr<std::mutex> planning_mutex_ = std::make_shared<std::mutex>();
   const CompiledModel& planning_model(const StraightLineTask& task) const;
 };
 
 const CompiledModel& PyModel::planning_model(const StraightLineTask& task) const {
   const std::optional<ModelRecipe> sibling = planning_recipe(recipe_, task);
   if (!sibling) return model_;
-  if (!planning_model_) {  // called with the GIL, which guards planning_model_
-    std::shared_ptr<const CompiledModel> loaded;
-    {
-      py::gil_scoped_release release;  // a compile can take seconds; another thread may plan
-      loaded = std::make_shared<const CompiledModel>(CompiledModel::load(*sibling, options_));
-    }
-    if (!planning_model_) planning_model_ = std::move(loaded);
-  }
+  py::gil_scoped_release release;  // a compile can take seconds; other threads wait here
+  const std::lock_guard<std::mutex> lock(*planning_mutex_);
+  if (!planning_model_)
+    planning_model_ =
+        std::make_shared<const CompiledModel>(CompiledModel::load(*sibling, options_));
   return *planning_model_;
 }
 
@@ -433,12 +447,8 @@ py::dict PyModel::plan(const py::object& start, const py::object& goal, double d
     throw py::value_error("q0: expected " + std::to_string(model_.nq()) + " values, got " +
                           std::to_string(task.q0.size()));
   const Eigen::VectorXd params = named_parameters(model_, params_, params_given);
-  // Point to point: the step Jacobians from the exact state Jacobian, as plan --objective takes
-  // them (the scene compiled with it where it lacks it; the same parameters).
-  const DynamicModel m = dynamic_model(planning_model(task), params);
   TaskNames names;
   names.lines_indexed = !py::isinstance<py::str>(end_effector);  // a list of end effectors
-  check_task(m, task, names);
   if (point_to_point(task.objective)) {
     // As plan --objective: within the URDF's effort, velocity and angle limits.
     const StraightLineTask defaults;
@@ -447,8 +457,17 @@ py::dict PyModel::plan(const py::object& start, const py::object& goal, double d
                              ? defaults.effort_weight
                              : number_argument<double>(effort_weight, "effort_weight");
     set_plan_limits(recipe_, task);
-    check_point_to_point(m, task, names);
   }
+  // The task checked on the scene's own model (the sibling's sizes, names and limits are its)
+  // before a sibling is compiled for it.
+  {
+    const DynamicModel own = dynamic_model(model_, params);
+    check_task(own, task, names);
+    if (point_to_point(task.objective)) check_point_to_point(own, task, names);
+  }
+  // Point to point: the step Jacobians from the exact state Jacobian, as plan --objective takes
+  // them (the scene compiled with it where it lacks it; the same parameters).
+  const DynamicModel m = dynamic_model(planning_model(task), params);
   Plan plan;
   PlanTable table;
   bool interrupted = false;  // Ctrl-C during a solve: Python's KeyboardInterrupt
@@ -879,8 +898,9 @@ void bind_model_facts(py::class_<PyModel>& model) {
       .def_property_readonly("outputs", &PyModel::outputs)
       .def_property("lanes", &PyModel::lanes, &PyModel::set_lanes,
                     "States per call of the generated code in a batch: 4 (the 4-lane "
-                    "functions of forward_dynamics, end_effector_pose, momentum and "
-                    "kinetic_energy; the same bits) or 1");
+                    "functions of forward_dynamics, end_effector_pose, momentum, "
+                    "kinetic_energy and those the scene lists under lanes:; the same bits) "
+                    "or 1");
 }
 
 // Model.integrate and difference: q ⊕ delta and q1 ⊖ q0 on the tangent space that the
@@ -954,27 +974,27 @@ void bind_model_tangent(py::class_<PyModel>& model) {
 
 // Model.plan, simulate and closed_loop: what `spacearm plan` and `simulate` do.
 void bind_model_runs(py::class_<PyModel>& model) {
-  model.def(
-      "plan", &PyModel::plan, py::arg("start"), py::arg("goal"), py::arg("duration"),
-      py::arg("dt") = 0.01, py::arg("time_law") = py::none(), py::arg("elbow") = 1,
-      py::arg("q0") = py::none(), py::arg("params") = py::none(), py::arg("end_effector") = "",
-      py::arg("hold") = "joints", py::arg("objective") = "line", py::arg("knots") = py::none(),
-      py::arg("effort_weight") = py::none(),
-      "The zero-momentum straight line of the end-effector from start to goal (x, y or x, y, "
-      "phi; in 3D x, y, z or a pose x, y, z, qw, qx, qy, qz) in `duration` s, as `spacearm "
-      "plan` (a tree: `end_effector` by name follows it, the others `hold` their 'joints' "
-      "or their 'pose'; a list of names moves each along its own line at once, start and "
-      "goal one row per name, time_law one or one per name): a dict of t, q, qd, qdd, "
-      "tau (link side), "
-      "tau_motor (geared), base_residual (free base) and 'columns', the CSV's columns by "
-      "name, and its checks: min_jacobian_rcond (and _t), max_base_rotation and "
-      "final_base_rotation (rad). objective='reactionless' holds a free base's angular "
-      "velocity at zero (the reaction null space); 'min_base_rotation' and 'min_effort' "
-      "go from rest to rest at the goal position by any path (IPOPT, `knots` intervals, "
-      "`effort_weight`; defaults 50 and 1e-2), as plan --objective (on the scene compiled with "
-      "its state Jacobian where it lacks it), and add goal_error, max_knot_error, "
-      "iterations, solve_seconds and cost. An argument the objective does not use (knots, "
-      "effort_weight, time_law) is a ValueError.");
+  model.def("plan", &PyModel::plan, py::arg("start"), py::arg("goal"), py::arg("duration"),
+            py::arg("dt") = 0.01, py::arg("time_law") = py::none(), py::arg("elbow") = 1,
+            py::arg("q0") = py::none(), py::arg("params") = py::none(),
+            py::arg("end_effector") = "", py::arg("hold") = "joints", py::arg("objective") = "line",
+            py::arg("knots") = py::none(), py::arg("effort_weight") = py::none(),
+            "The zero-momentum straight line of the end-effector from start to goal (x, y or x, y, "
+            "phi; in 3D x, y, z or a pose x, y, z, qw, qx, qy, qz) in `duration` s, as `spacearm "
+            "plan` (a tree: `end_effector` by name follows it, the others `hold` their 'joints' "
+            "or their 'pose'; a list of names moves each along its own line at once, start and "
+            "goal one row per name, time_law one or one per name): a dict of t, q, qd, qdd, "
+            "tau (link side), "
+            "tau_motor (geared), base_residual (free base) and 'columns', the CSV's columns by "
+            "name, and its checks: min_jacobian_rcond (and _t), max_base_rotation and "
+            "final_base_rotation (rad). objective='reactionless' holds a free base's angular "
+            "velocity at zero (the reaction null space); 'min_base_rotation' and 'min_effort' "
+            "go from rest to rest at the goal position by any path (IPOPT, `knots` intervals, "
+            "default 50; min_base_rotation's `effort_weight`, default 1e-2), as plan --objective "
+            "(on the scene compiled with "
+            "its state Jacobian where it lacks it), and add goal_error, max_knot_error, "
+            "iterations, solve_seconds and cost. An argument the objective does not use (knots, "
+            "effort_weight, time_law) is a ValueError.");
   model.def(
       "simulate",
       [](const PyModel& m, const py::object& t_end, const py::object& torques, const py::object& q0,

@@ -74,7 +74,8 @@ struct ModelFacts {
   bool right_angles_snapped = false;  // a spatial scene's snap_right_angles
   std::vector<Output> outputs;
   // Outputs whose C interface also takes four states per call besides has_lanes_version's (the
-  // scene's `lanes:`): each costs compile time (space_arm7's state Jacobian 3x), so a scene asks.
+  // scene's `lanes:`): each costs compile time (space_arm7's state Jacobian 2.4-3x), so a scene
+  // asks.
   std::vector<Output> lanes;
   unsigned features = 0;  // needs:: bits of the scene (outputs.hpp)
   // Springs, dampers or friction act besides M qdd + b.

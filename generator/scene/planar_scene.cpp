@@ -547,7 +547,8 @@ class SceneReader {
       r.fail("lanes", "expected a non-empty list of output names", n);
     for (size_t i = 0; i < n.size(); ++i) {
       const std::string field = "lanes[" + std::to_string(i) + "]";
-      const std::string name = n[i].IsScalar() ? n[i].Scalar() : "";
+      if (!n[i].IsScalar()) r.fail(field, "expected an output name", n[i]);
+      const std::string name = n[i].Scalar();
       const std::optional<Output> o = output_from_string(name);
       if (!o || !s.outputs.count(*o)) r.fail(field, lanes_error(name, o.has_value()), n[i]);
       if (!s.lanes.insert(*o).second) r.fail(field, "output '" + name + "' listed twice", n[i]);

@@ -827,11 +827,13 @@ class SpatialReader {
 
   // Lanes: outputs the scene emits, also for four states per call.
   std::vector<Output> read_lanes(const YAML::Node& n, const std::vector<Output>& emitted) const {
-    if (!n.IsSequence() || n.size() == 0) r_.fail("lanes", "expected a list of outputs", n);
+    if (!n.IsSequence() || n.size() == 0)
+      r_.fail("lanes", "expected a non-empty list of outputs", n);
     std::vector<Output> listed;
     for (size_t i = 0; i < n.size(); ++i) {
       const std::string field = "lanes[" + std::to_string(i) + "]";
-      const std::string name = n[i].IsScalar() ? r_.bounded(n[i], field).Scalar() : "";
+      if (!n[i].IsScalar()) r_.fail(field, "expected an output name", n[i]);
+      const std::string name = r_.bounded(n[i], field).Scalar();
       const std::optional<Output> o = output_from_string(name);
       if (!o || !std::count(emitted.begin(), emitted.end(), *o))
         r_.fail(field, lanes_error(name, o.has_value()), n[i]);

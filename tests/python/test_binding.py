@@ -497,6 +497,10 @@ def test_a_least_effort_plan_lands_at_rest_on_its_goal():
         arm.plan(start, goal, 4, q0=q0, objective="min_effort", time_law="cubic")
     with pytest.raises(TypeError, match="knots: expected an integer, got str"):
         arm.plan(start, goal, 4, q0=q0, objective="min_effort", knots="25")
+    with pytest.raises(TypeError, match="knots: expected a number, got bool"):
+        arm.plan(start, goal, 4, q0=q0, objective="min_effort", knots=True)
+    with pytest.raises(ValueError, match="knots: 1099511627776 is out of range"):
+        arm.plan(start, goal, 4, q0=q0, objective="min_effort", knots=2**40)
 
 
 def test_a_point_to_point_plan_takes_the_exact_state_jacobian(tmp_path):
@@ -510,11 +514,14 @@ def test_a_point_to_point_plan_takes_the_exact_state_jacobian(tmp_path):
     end = text.index("]", start) + 1
     lean = (text[:start] + "outputs: [mass_matrix, bias_forces, forward_dynamics, "
             "end_effector_pose, end_effector_jacobian, generalized_jacobian]" + text[end:])
-    arm = spacearm.load(lean, cache_dir=str(tmp_path))
+    arm = spacearm.load(lean, cache_dir=str(tmp_path), engine="compiled")  # its sibling alike
     assert "forward_dynamics_derivatives" not in arm.outputs
+    entries = lambda: [e for e in os.listdir(tmp_path) if e.startswith("paper_reference-")]
+    with pytest.raises(ValueError, match="must be a whole multiple of knots"):
+        arm.plan([1.5, 0], [1.2, 0.2], 10, objective="min_effort", knots=7)
+    assert len(entries()) == 1  # a task refused before the sibling is compiled
     plan = arm.plan([1.5, 0], [1.2, 0.2], 10, objective="min_effort")
-    entries = [e for e in os.listdir(tmp_path) if e.startswith("paper_reference-")]
-    assert len(entries) == 2  # the scene's entry and its sibling's
+    assert len(entries()) == 2  # the scene's entry and its sibling's
     rich = spacearm.load(lean.replace("generalized_jacobian]",
                                       "generalized_jacobian, forward_dynamics_derivatives]"),
                          cache_dir=str(tmp_path))
@@ -755,7 +762,7 @@ def test_a_scenes_lanes_give_the_state_jacobian_four_states_per_call():
     end = text.index("]", start) + 1
     scene = (text[:start] + "outputs: [forward_dynamics, forward_dynamics_derivatives]\n"
              "lanes: [forward_dynamics_derivatives]" + text[end:])
-    m = spacearm.load(scene, cache_dir=CACHE)
+    m = spacearm.load(scene, cache_dir=CACHE, engine="compiled")  # the library's, not the interpreter's
     q, qd = states(m, 9)
     Q = np.random.default_rng(3).uniform(-5, 5, (9, m.nv))
     four = m.forward_dynamics_derivatives(q, qd, Q)

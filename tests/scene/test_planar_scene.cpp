@@ -90,6 +90,8 @@ TEST(Scene, LanesListOutputsTheSceneEmits) {
       "field 'lanes[1]': output 'forward_dynamics' listed twice");
   EXPECT_THROW_MESSAGE(parse_scene(listed + "lanes: forward_dynamics\n", "t.yaml"), SceneError,
                        "field 'lanes': expected a non-empty list of output names");
+  EXPECT_THROW_MESSAGE(parse_scene(listed + "lanes: [{a: 1}]\n", "t.yaml"), SceneError,
+                       "field 'lanes[0]': expected an output name");
 }
 
 TEST(Scene, ErrorsNameTheFieldAndValue) {

@@ -123,6 +123,10 @@ TEST(SpatialScene, LanesListOutputsTheSceneEmits) {
                        SceneError, "field 'lanes[1]': 'mass_matrix' is listed twice");
   EXPECT_THROW_MESSAGE(parse_spatial_scene(kArm + "lanes: [\"a\\x01\"]\n", "a.yaml"), SceneError,
                        "field 'lanes[0]': unknown output 'a?'");
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(kArm + "lanes: [[mass_matrix]]\n", "a.yaml"), SceneError,
+                       "field 'lanes[0]': expected an output name");
+  EXPECT_THROW_MESSAGE(parse_spatial_scene(kArm + "lanes: []\n", "a.yaml"), SceneError,
+                       "field 'lanes': expected a non-empty list of outputs");
 }
 
 // Friction as in the plane, per joint or for all; numbers only in 3D. It adds friction_forces
