@@ -409,11 +409,16 @@ class MjcfWriter {
   }
 
   // armature = p^2 I_axial for an armature gear; damping = p^2 b for viscous friction b on the
-  // motor's rate (the force p b p q' on q).
+  // motor's rate (the force p b p q' on q). A URDF's range (link side, as MuJoCo's hinge angle)
+  // is kept but not enforced (limited="false"): spacearm's dynamics has no limit forces, so
+  // MuJoCo's would differ from it near a limit; set limited="true" to have MuJoCo's.
   std::string joint_extras(size_t j) const {
     const spatial::Link& l = link(j);
     const double p = ratio(j);
     std::string extras;
+    if (j < s_.joint_limits.size() && s_.joint_limits[j].has_range())
+      extras += " range=\"" + numbers({s_.joint_limits[j].lower, s_.joint_limits[j].upper}) +
+                "\" limited=\"false\"";
     if (l.gear.present && !exact_coupling(j) && value(l.gear.axial) != 0)
       extras += " armature=\"" + numbers({p * p * value(l.gear.axial)}) + "\"";
     if (l.friction.present && value(l.friction.viscous) != 0)

@@ -104,6 +104,25 @@ Eigen::VectorXd chain_dofs(const SpatialScene& s, const test::MujocoModel& mj, c
   return out;
 }
 
+// A URDF's joint ranges are exported (link side, MuJoCo's hinge angle) but not enforced: a joint
+// beyond its range meets no limit constraint in MuJoCo, as it meets no force in spacearm.
+TEST(MjcfExport, TheUrdfsRangesAreKeptNotEnforced) {
+  const SpatialScene s = arm7(Gears::armature);
+  ASSERT_EQ(s.joint_limits.size(), 7u);
+  const test::MujocoModel mj(export_mjcf(s));
+  for (size_t j = 0; j < 7; ++j) {
+    const int id = mj_name2id(mj.m.get(), mjOBJ_JOINT, s.joint_names[j].c_str());
+    ASSERT_GE(id, 0) << s.joint_names[j];
+    EXPECT_EQ(mj.m->jnt_range[2 * id], s.joint_limits[j].lower) << j;
+    EXPECT_EQ(mj.m->jnt_range[2 * id + 1], s.joint_limits[j].upper) << j;
+    EXPECT_EQ(mj.m->jnt_limited[id], 0) << j;
+  }
+  const int joint1 = mj_name2id(mj.m.get(), mjOBJ_JOINT, s.joint_names[0].c_str());
+  mj.d->qpos[mj.m->jnt_qposadr[joint1]] = s.joint_limits[0].upper + 0.5;
+  mj_forward(mj.m.get(), mj.d.get());
+  EXPECT_EQ(mj.d->nefc, 0);
+}
+
 TEST(MujocoAgreement, ExportedRigidAndArmatureArmsAgreeToRounding) {
   for (const Gears gears : {Gears::none, Gears::armature}) {
     SCOPED_TRACE(gears == Gears::armature ? "armature gears" : "no gears");
