@@ -168,9 +168,12 @@ struct DynamicModel : DynamicModelFacts {
   // divided by p; any other slot holds q itself. joint_rates does the same for qd.
   JointVector joint_angles(const Vector& q) const { return link_side(q, joint_q_offsets, nq); }
   JointVector joint_rates(const Velocity& qd) const { return link_side(qd, joint_v_offsets, nv); }
-  // Joint j's link-side rate alone (nothing allocated: a sweep's step reads it).
+  // Joint j's link-side rate or angle alone (nothing allocated: a sweep's step reads them).
   double joint_rate(const Velocity& qd, int j) const {
     return link_side_value(qd[joint_v_offsets[j]], j);
+  }
+  double joint_angle(const Vector& q, int j) const {
+    return link_side_value(q[joint_q_offsets[j]], j);
   }
 
   // Whether joint j's slot holds a motor angle (a rigid gear: qm_j, not q_j), so that tables add

@@ -57,7 +57,8 @@ class RunMetrics {
   const DynamicModel& model_;
   bool series_;
   Eigen::VectorXd base0_, h0_, pose_;
-  Eigen::VectorXd tau_peak_, rate_peak_;  // per joint, link side: for the URDF's limits
+  // Per joint, link side, for the URDF's limits: peak |tau| and |q'|, least and greatest angle.
+  Eigen::VectorXd tau_peak_, rate_peak_, angle_min_, angle_max_;
   double base_drift_ = 0, base_rotation_ = 0, momentum_drift_ = 0, tau_squares_ = 0;
   long samples_ = 0;
   std::string csv_;
@@ -65,13 +66,17 @@ class RunMetrics {
 
 // The URDF's joint limits as metrics, one place for the header and the rows: per joint with a
 // <limit effort> the peak |tau| / effort ("effort_use_J", J the joint's number from 1), then with
-// a <limit velocity> the peak |q'| / velocity ("velocity_use_J"); link side.
+// a <limit velocity> the peak |q'| / velocity ("velocity_use_J"), then with a <limit lower upper>
+// the peak |q - centre| / half the range ("angle_use_J", as plan's ranges line); link side.
 struct LimitMetric {
+  enum Kind { effort, velocity, angle };
   int joint;
-  bool effort;  // else velocity
-  double limit;
+  Kind kind;
+  double limit;       // the effort, the velocity or half the range
+  double centre = 0;  // an angle's: the range's middle
   std::string name() const {
-    return (effort ? "effort_use_" : "velocity_use_") + std::to_string(joint + 1);
+    const char* prefix[] = {"effort_use_", "velocity_use_", "angle_use_"};
+    return prefix[kind] + std::to_string(joint + 1);
   }
 };
 std::vector<LimitMetric> limit_metrics(const StudyScene& scene);

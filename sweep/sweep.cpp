@@ -67,10 +67,16 @@ std::vector<LimitMetric> limit_metrics(const StudyScene& scene) {
   if (!scene.is_spatial()) return metrics;
   const std::vector<spatial::JointLimits>& limits = scene.spatial->joint_limits;
   for (size_t j = 0; j < limits.size(); ++j)
-    if (limits[j].has_effort()) metrics.push_back({static_cast<int>(j), true, limits[j].effort});
+    if (limits[j].has_effort())
+      metrics.push_back({static_cast<int>(j), LimitMetric::effort, limits[j].effort});
   for (size_t j = 0; j < limits.size(); ++j)
     if (limits[j].has_velocity())
-      metrics.push_back({static_cast<int>(j), false, limits[j].velocity});
+      metrics.push_back({static_cast<int>(j), LimitMetric::velocity, limits[j].velocity});
+  for (size_t j = 0; j < limits.size(); ++j)
+    if (limits[j].has_range())
+      metrics.push_back({static_cast<int>(j), LimitMetric::angle,
+                         (limits[j].upper - limits[j].lower) / 2,
+                         (limits[j].upper + limits[j].lower) / 2});
   return metrics;
 }
 
@@ -109,12 +115,18 @@ void RunMetrics::observe(double t, const Eigen::VectorXd& q, const Eigen::Vector
     momentum_drift_ = std::max(momentum_drift_, (h - h0_).cwiseAbs().maxCoeff());
   }
   tau_squares_ += tau.squaredNorm();
-  // Peak link-side |tau| and |q'| per joint, in place (a step allocates nothing).
+  // Peak link-side |tau| and |q'| and the angles' extremes per joint, in place (a step allocates
+  // nothing).
   const int n = model_.num_links;
-  if (samples_ == 0) tau_peak_.setZero(n), rate_peak_.setZero(n);
+  if (samples_ == 0) {
+    tau_peak_.setZero(n), rate_peak_.setZero(n);
+    angle_min_.setConstant(n, INFINITY), angle_max_.setConstant(n, -INFINITY);
+  }
   for (int j = 0; j < n; ++j) {
     tau_peak_[j] = std::max(tau_peak_[j], std::abs(tau[j]));
     rate_peak_[j] = std::max(rate_peak_[j], std::abs(model_.joint_rate(qd, j)));
+    const double a = model_.joint_angle(q, j);
+    angle_min_[j] = std::min(angle_min_[j], a), angle_max_[j] = std::max(angle_max_[j], a);
   }
   if (series_ && samples_ % s_.series_every == 0) {
     char buf[32];
@@ -139,8 +151,14 @@ std::string RunMetrics::measured() const {
   if (model_.num_base())
     measures.insert(measures.end(), {base_drift_, base_rotation_, momentum_drift_});
   measures.push_back(std::sqrt(tau_squares_ / static_cast<double>(samples_ * model_.num_links)));
-  for (const LimitMetric& m : limit_metrics(s_.scene))
-    measures.push_back((m.effort ? tau_peak_ : rate_peak_)[m.joint] / m.limit);
+  for (const LimitMetric& m : limit_metrics(s_.scene)) {
+    const int j = m.joint;
+    const double peak = m.kind == LimitMetric::effort ? tau_peak_[j]
+                        : m.kind == LimitMetric::velocity
+                            ? rate_peak_[j]
+                            : std::max(angle_max_[j] - m.centre, m.centre - angle_min_[j]);
+    measures.push_back(peak / m.limit);
+  }
   std::string measured;
   for (double v : measures) append_number(measured, v);
   for (double v : measures)  // nan or inf: no metric to trust

@@ -637,11 +637,12 @@ TEST(Sweep, SpatialArmSweepsAPayloadAndTheRatioWithOneModel) {
             "run,status,p,Ia,mp,ee_x,ee_y,ee_z,ee_qw,ee_qx,ee_qy,ee_qz,ee_error,ee_angle_error,"
             "base_drift,base_rotation,momentum_drift,torque_rms,effort_use_1,effort_use_2,"
             "effort_use_3,effort_use_4,effort_use_5,effort_use_6,velocity_use_1,velocity_use_2,"
-            "velocity_use_3,velocity_use_4,velocity_use_5,velocity_use_6,command_ratio,message");
+            "velocity_use_3,velocity_use_4,velocity_use_5,velocity_use_6,angle_use_1,angle_use_2,"
+            "angle_use_3,angle_use_4,angle_use_5,angle_use_6,command_ratio,message");
   std::map<std::pair<double, double>, std::vector<double>> by;  // (p, mp) -> the row
   for (std::string row; std::getline(rows, row);) {
     const std::vector<double> v = row_numbers(row);
-    ASSERT_EQ(v.size(), 31u) << row;  // the empty message field ends the row
+    ASSERT_EQ(v.size(), 37u) << row;  // the empty message field ends the row
     by[{v[2], v[4]}] = v;
     EXPECT_NEAR(Eigen::Vector4d(v[8], v[9], v[10], v[11]).norm(), 1, 1e-9) << row;
     EXPECT_LT(v[16], 1e-8) << row;  // momentum: internal torques only
@@ -667,6 +668,12 @@ TEST(Sweep, SpatialArmSweepsAPayloadAndTheRatioWithOneModel) {
     EXPECT_NEAR(nominal[18 + j] * limits[j].effort, peak, 1e-9 * peak) << "joint " << j + 1;
     EXPECT_GT(nominal[24 + j], 0) << "joint " << j + 1;
     EXPECT_LT(nominal[24 + j], 1) << "joint " << j + 1;
+    // The peak |q - centre| over half the range: at least the start's (every joint at 0.4 rad),
+    // and inside the range.
+    const double centre = (limits[j].upper + limits[j].lower) / 2;
+    const double half = (limits[j].upper - limits[j].lower) / 2;
+    EXPECT_GE(nominal[30 + j], std::abs(0.4 - centre) / half - 1e-12) << "joint " << j + 1;
+    EXPECT_LT(nominal[30 + j], 1) << "joint " << j + 1;
   }
   // Errors in a 3D study name the field.
   const std::string text = read(fs::path(SPACEARM_SOURCE_DIR) / "studies/space_arm7_payload.yaml");
