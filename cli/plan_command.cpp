@@ -82,18 +82,14 @@ void refuse_same_outputs(const PlanArgs& a) {
 // The task from the options, checked against the scene's sizes before anything is compiled.
 // A tree's end effector by name: its index among the model's.
 int end_effector_index(const std::string& name, const ModelFacts& facts) {
-  const auto& names = facts.end_effector_names;
   if (facts.dims.num_end_effectors == 1)
     throw std::invalid_argument("--end-effector: scene '" + facts.name +
                                 "' has one end effector: --end-effector names one of a tree's");
-  const auto it = std::find(names.begin(), names.end(), name);
-  if (it == names.end()) {
-    std::string listed;
-    for (const auto& n : names) listed += (listed.empty() ? "" : ", ") + quoted_text(n);
-    throw std::invalid_argument("--end-effector: " + quoted_text(name) +
-                                " is not an end effector of '" + facts.name + "' (" + listed + ")");
+  try {
+    return spacearm::end_effector_index(facts.end_effector_names, name, facts.name);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("--end-effector: ") + e.what());
   }
-  return static_cast<int>(it - names.begin());
 }
 
 Eigen::VectorXd numbers(const std::string& text, const std::string& option) {

@@ -352,13 +352,11 @@ void PyModel::plan_lines(const py::object& start, const py::object& goal,
                          const py::object& time_law, const py::object& end_effector,
                          StraightLineTask& task) const {
   auto index_of = [&](const std::string& name, const std::string& what) {
-    const auto& names = model_.end_effector_names();
-    const auto it = std::find(names.begin(), names.end(), name);
-    if (it == names.end())
-      throw py::value_error(what + ": '" + name + "' is not an end effector of '" + model_.name() +
-                            "' (" + std::to_string(names.size()) +
-                            " named: see end_effector_names)");
-    return static_cast<int>(it - names.begin());
+    try {
+      return end_effector_index(model_.end_effector_names(), name, model_.name());
+    } catch (const std::invalid_argument& e) {
+      throw py::value_error(what + ": " + e.what());
+    }
   };
   auto law = [](const std::string& text, const std::string& what) {
     try {

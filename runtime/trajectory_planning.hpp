@@ -31,6 +31,7 @@
 #include "dynamic_model.hpp"
 #include "integrator_options.hpp"
 #include "model.hpp"
+#include "text_numbers.hpp"
 
 namespace spacearm {
 
@@ -86,6 +87,21 @@ inline bool point_to_point(Objective o) {
 inline bool uses_knots(Objective o) { return point_to_point(o); }
 inline bool uses_effort_weight(Objective o) { return o == Objective::min_base_rotation; }
 inline bool uses_time_law(Objective o) { return !point_to_point(o); }
+
+// A tree's end effector by name: its index among `names` (model `model`'s), else
+// std::invalid_argument "'hand' is not an end effector of 'dual_arm7' ('l_tool', 'r_tool')",
+// for the caller to prefix with its option or field. One place for plan's --end-effector,
+// Python's end_effector and a study's manoeuvre.end_effector; the names are untrusted text.
+inline int end_effector_index(const std::vector<std::string>& names, const std::string& name,
+                              const std::string& model) {
+  const auto it = std::find(names.begin(), names.end(), name);
+  if (it != names.end()) return static_cast<int>(it - names.begin());
+  std::string listed;
+  for (const auto& n : names) listed += (listed.empty() ? "" : ", ") + quoted_text(n);
+  throw std::invalid_argument(quoted_text(name) + " is not an end effector of " +
+                              quoted_text(model) + " (" +
+                              (names.empty() ? "a planar arm has one, unnamed" : listed) + ")");
+}
 
 struct StraightLineTask {
   // End-effector [x, y] (a position task) or [x, y, phi] (a pose task) at t = 0 and t = T; in

@@ -215,16 +215,11 @@ void StudyReader::torque_manoeuvre(Study& s, const YAML::Node& n) const {
 // A tree's end effector by name (manoeuvre.end_effector): its index in the scene's.
 int StudyReader::end_effector(const StudyScene& scene, const YAML::Node& n,
                               const std::string& field) const {
-  const std::string name = text(n, field);
-  const auto& names = scene.end_effector_names;
-  const auto it = std::find(names.begin(), names.end(), name);
-  if (it != names.end()) return static_cast<int>(it - names.begin());
-  std::string listed;
-  for (const auto& e : names) listed += (listed.empty() ? "'" : ", '") + e + "'";
-  r_.fail(field,
-          "'" + name + "' is not an end effector of scene '" + scene.name + "' (" +
-              (names.empty() ? "a planar arm has one, unnamed" : listed) + ")",
-          n);
+  try {
+    return end_effector_index(scene.end_effector_names, text(n, field), scene.name);
+  } catch (const std::invalid_argument& e) {
+    r_.fail(field, e.what(), n);
+  }
 }
 
 // A straight line of the end effector, a position or a pose (3D: with the orientation slerped).

@@ -904,7 +904,7 @@ TEST(Sweep, ATreesStudyMeasuresTheEndEffectorItNames) {
     return "accepted";
   };
   const std::string unknown = error_of([&] { study("hand", "pose"); });
-  EXPECT_NE(unknown.find("field 'manoeuvre.end_effector': 'hand' is not an end effector of scene "
+  EXPECT_NE(unknown.find("field 'manoeuvre.end_effector': 'hand' is not an end effector of "
                          "'dual_p' ('l_tool_flange', 'r_tool_flange')"),
             std::string::npos)
       << unknown;
