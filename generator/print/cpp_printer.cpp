@@ -584,34 +584,35 @@ struct CFunction {
 std::vector<CFunction> c_functions(const LoweredModel& model, int per_part) {
   const ModelFacts& facts = model.facts;
   std::vector<CFunction> functions;
-  for (const auto& f : model.functions) {
-    const Body b = function_body(f, facts.dims, per_part, Spelling::c_arrays);
+  // A function of body b, then its parts, each naming the function's index.
+  auto add = [&functions](const std::string& name, const std::string& text, bool lanes,
+                          const Body& b) {
     const int index = static_cast<int>(functions.size());
-    functions.push_back({f.name,
-                         "\n// " + f.doc + "\n" + b.declarations + "void spacearm_" + f.name +
-                             "([[maybe_unused]] const double* const* in, [[maybe_unused]] const "
-                             "double* params, double* const* out) {\n" +
-                             (b.parts.empty() ? c_input_aliases(f) : "") + b.body + "}\n",
-                         false, b.trig_batches});
+    functions.push_back({name, text, lanes, b.trig_batches});
     for (size_t k = 0; k < b.parts.size(); ++k)
       functions.push_back(
-          {f.name + "_part" + std::to_string(k), "\n" + b.parts[k], false, b.trig_batches, index});
+          {name + "_part" + std::to_string(k), "\n" + b.parts[k], lanes, b.trig_batches, index});
+  };
+  for (const auto& f : model.functions) {
+    const Body b = function_body(f, facts.dims, per_part, Spelling::c_arrays);
+    add(f.name,
+        "\n// " + f.doc + "\n" + b.declarations + "void spacearm_" + f.name +
+            "([[maybe_unused]] const double* const* in, [[maybe_unused]] const "
+            "double* params, double* const* out) {\n" +
+            (b.parts.empty() ? c_input_aliases(f) : "") + b.body + "}\n",
+        false, b);
     // Its 4-lane version: four states per call, every input, parameter and result interleaved.
     if (!f.lanes) continue;
     const Body l = function_body(f, facts.dims, per_part, Spelling::c_arrays, true);
-    const int lanes_index = static_cast<int>(functions.size());
-    functions.push_back({f.name + kLanesSuffix,
-                         "\n// " + f.name + " of four states at once (kLanesHelper).\n" +
-                             l.declarations + "void spacearm_" + f.name + kLanesSuffix +
-                             "([[maybe_unused]] const double* const* in, const double* "
-                             "lane_params, double* const* lane_results) {\n" +
-                             (l.parts.empty() ? lanes_prologue(f) + c_input_aliases(f, true)
-                                              : "  using T = spacearm_lanes4;\n") +
-                             l.body + "}\n",
-                         true, l.trig_batches});
-    for (size_t k = 0; k < l.parts.size(); ++k)
-      functions.push_back({f.name + kLanesSuffix + "_part" + std::to_string(k), "\n" + l.parts[k],
-                           true, l.trig_batches, lanes_index});
+    add(f.name + kLanesSuffix,
+        "\n// " + f.name + " of four states at once (kLanesHelper).\n" + l.declarations +
+            "void spacearm_" + f.name + kLanesSuffix +
+            "([[maybe_unused]] const double* const* in, const double* "
+            "lane_params, double* const* lane_results) {\n" +
+            (l.parts.empty() ? lanes_prologue(f) + c_input_aliases(f, true)
+                             : "  using T = spacearm_lanes4;\n") +
+            l.body + "}\n",
+        true, l);
   }
   return functions;
 }
