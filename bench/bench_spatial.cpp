@@ -40,6 +40,7 @@
 
 #include "machine_context.hpp"
 #include "compiled_model.hpp"
+#include "lane_layout.hpp"
 #include "mjcf_export.hpp"
 #include "mujoco_model.hpp"
 #include "optimal_plan.hpp"
@@ -205,15 +206,17 @@ void register_derivatives_lanes(const Loaded& m) {
   const int nv = m.chain.nv(), N = static_cast<int>(m.chain.links.size());
   const auto four = m.model.lanes_function(Output::forward_dynamics_derivatives);
   if (!four) throw std::logic_error("the derivatives model lacks its 4-lane state Jacobian");
+  const std::vector<Eigen::VectorXd>* inputs[] = {&m.states.q, &m.states.v, &m.states.Q};
   std::vector<std::array<std::vector<double>, 3>> groups(kStates / 4);
   for (int g = 0; g < kStates / 4; ++g)
-    for (int l = 0; l < 4; ++l) {
-      const int k = 4 * g + l;
-      const Eigen::VectorXd* x[] = {&m.states.q[k], &m.states.v[k], &m.states.Q[k]};
-      for (int a = 0; a < 3; ++a) {
-        groups[g][a].resize(4 * x[a]->size());
-        for (Eigen::Index i = 0; i < x[a]->size(); ++i) groups[g][a][4 * i + l] = (*x[a])[i];
-      }
+    for (int a = 0; a < 3; ++a) {
+      const auto& x = *inputs[a];
+      const int n = static_cast<int>(x[4 * g].size());
+      std::vector<double> four;  // the group's states one after the other
+      for (int l = 0; l < 4; ++l) four.insert(four.end(), x[4 * g + l].begin(), x[4 * g + l].end());
+      groups[g][a].resize(four.size());
+      if (!lanes::interleave(four.data(), n, groups[g][a].data()))
+        throw std::logic_error("a timed state is not finite");
     }
   benchmark::RegisterBenchmark(
       ("spacearm/FD derivatives, 4 lanes/" + m.model.name()).c_str(),
