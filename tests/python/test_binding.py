@@ -17,6 +17,15 @@ def geared():
     return spacearm.load(os.path.join(SOURCE, "models", "paper_geared.yaml"), cache_dir=CACHE)
 
 
+def with_outputs(model_file, outputs):
+    """The text of models/`model_file` with its `outputs: [...]` list replaced by `outputs` (YAML
+    lines: the list, and further fields)."""
+    with open(os.path.join(SOURCE, "models", model_file)) as f:
+        text = f.read()
+    start = text.index("outputs:")
+    return text[:start] + outputs + text[text.index("]", start) + 1:]
+
+
 def states(model, k, seed=1):
     rng = np.random.default_rng(seed)
     return rng.uniform(-1, 1, (k, model.nq)), rng.uniform(-1, 1, (k, model.nv))
@@ -508,12 +517,9 @@ def test_a_point_to_point_plan_takes_the_exact_state_jacobian(tmp_path):
     with it (a second cache entry, as plan --objective does), not by central differences: its
     plan is the one a model loaded with the state Jacobian makes. Cost: two planar compiles and
     two solves, about 2 s."""
-    with open(os.path.join(SOURCE, "models", "paper_reference.yaml")) as f:
-        text = f.read()
-    start = text.index("outputs:")
-    end = text.index("]", start) + 1
-    lean = (text[:start] + "outputs: [mass_matrix, bias_forces, forward_dynamics, "
-            "end_effector_pose, end_effector_jacobian, generalized_jacobian]" + text[end:])
+    lean = with_outputs("paper_reference.yaml",
+                        "outputs: [mass_matrix, bias_forces, forward_dynamics, end_effector_pose, "
+                        "end_effector_jacobian, generalized_jacobian]")
     arm = spacearm.load(lean, cache_dir=str(tmp_path), engine="compiled")  # its sibling alike
     assert "forward_dynamics_derivatives" not in arm.outputs
     entries = lambda: [e for e in os.listdir(tmp_path) if e.startswith("paper_reference-")]
@@ -756,12 +762,9 @@ def test_a_tree_plans_several_end_effectors_at_once():
 def test_a_scenes_lanes_give_the_state_jacobian_four_states_per_call():
     """`lanes: [forward_dynamics_derivatives]` gives the state Jacobian a 4-lane function: a
     batch through it is the bits of one state per call."""
-    with open(os.path.join(SOURCE, "models", "paper_geared.yaml")) as f:
-        text = f.read()
-    start = text.index("outputs:")
-    end = text.index("]", start) + 1
-    scene = (text[:start] + "outputs: [forward_dynamics, forward_dynamics_derivatives]\n"
-             "lanes: [forward_dynamics_derivatives]" + text[end:])
+    scene = with_outputs("paper_geared.yaml",
+                         "outputs: [forward_dynamics, forward_dynamics_derivatives]\n"
+                         "lanes: [forward_dynamics_derivatives]")
     m = spacearm.load(scene, cache_dir=CACHE, engine="compiled")  # the library's, not the interpreter's
     q, qd = states(m, 9)
     Q = np.random.default_rng(3).uniform(-5, 5, (9, m.nv))
