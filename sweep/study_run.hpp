@@ -41,8 +41,7 @@ struct RunSetup {
 // The metrics of one run, observed at every integrator step, and its time series.
 class RunMetrics {
  public:
-  RunMetrics(const Study& s, const DynamicModel& model, bool series)
-      : s_(s), model_(model), series_(series && s.series_every) {}
+  RunMetrics(const Study& s, const DynamicModel& model, bool series);
   // The state at t, its end-effector pose, the base's momentum (unused for a fixed base) and
   // the link-side torques there.
   void observe(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
@@ -56,6 +55,7 @@ class RunMetrics {
   const Study& s_;
   const DynamicModel& model_;
   bool series_;
+  bool limits_;  // the scene's URDF has limits (limit_metrics): their peaks are tracked
   Eigen::VectorXd base0_, h0_, pose_;
   // Per joint, link side, for the URDF's limits: peak |tau| and |q'|, least and greatest angle.
   Eigen::VectorXd tau_peak_, rate_peak_, angle_min_, angle_max_;

@@ -97,6 +97,12 @@ RunSetup::RunSetup(const Study& s, const LoadedStudy& loaded, long r)
     consistent_start(model, q0, qd0, scale.cwiseProduct((*loaded.tau)(0.0)));
 }
 
+RunMetrics::RunMetrics(const Study& s, const DynamicModel& model, bool series)
+    : s_(s),
+      model_(model),
+      series_(series && s.series_every),
+      limits_(!limit_metrics(s.scene).empty()) {}
+
 void RunMetrics::observe(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                          const Eigen::VectorXd& pose, const Eigen::VectorXd& h,
                          const Eigen::VectorXd& tau) {
@@ -116,17 +122,19 @@ void RunMetrics::observe(double t, const Eigen::VectorXd& q, const Eigen::Vector
   }
   tau_squares_ += tau.squaredNorm();
   // Peak link-side |tau| and |q'| and the angles' extremes per joint, in place (a step allocates
-  // nothing).
-  const int n = model_.num_links;
-  if (samples_ == 0) {
-    tau_peak_.setZero(n), rate_peak_.setZero(n);
-    angle_min_.setConstant(n, INFINITY), angle_max_.setConstant(n, -INFINITY);
-  }
-  for (int j = 0; j < n; ++j) {
-    tau_peak_[j] = std::max(tau_peak_[j], std::abs(tau[j]));
-    rate_peak_[j] = std::max(rate_peak_[j], std::abs(model_.joint_rate(qd, j)));
-    const double a = model_.joint_angle(q, j);
-    angle_min_[j] = std::min(angle_min_[j], a), angle_max_[j] = std::max(angle_max_[j], a);
+  // nothing), where the scene has limits to measure them against.
+  if (limits_) {
+    const int n = model_.num_links;
+    if (samples_ == 0) {
+      tau_peak_.setZero(n), rate_peak_.setZero(n);
+      angle_min_.setConstant(n, INFINITY), angle_max_.setConstant(n, -INFINITY);
+    }
+    for (int j = 0; j < n; ++j) {
+      tau_peak_[j] = std::max(tau_peak_[j], std::abs(tau[j]));
+      rate_peak_[j] = std::max(rate_peak_[j], std::abs(model_.joint_rate(qd, j)));
+      const double a = model_.joint_angle(q, j);
+      angle_min_[j] = std::min(angle_min_[j], a), angle_max_[j] = std::max(angle_max_[j], a);
+    }
   }
   if (series_ && samples_ % s_.series_every == 0) {
     char buf[32];
