@@ -5,6 +5,8 @@
 #include <IpSolveStatistics.hpp>
 #include <IpTNLP.hpp>
 
+#include <Eigen/SparseCholesky>
+
 #include <chrono>
 #include <functional>
 #include <mutex>
@@ -58,6 +60,7 @@ class MultipleShooting : public Ipopt::TNLP {
     omega_ = m.spatial ? std::vector<int>{3, 4, 5} : std::vector<int>{2};
     if (m.num_base() == 0) omega_.clear();
     steps_.resize(L_.K);
+    variable_scales_ = variable_scales();
     // The cost's two sums relative to the straight line's rotation (else the guess's) and the
     // guess's effort, so that it starts near 1 (IPOPT's tolerances are absolute). For the least
     // rotation, task.effort_weight of the effort keeps the torques determined where the
@@ -87,11 +90,50 @@ class MultipleShooting : public Ipopt::TNLP {
     return !(interrupted && interrupted());
   }
 
+  // Moves the solution the least distance (on the link side) that joins its knots and meets the
+  // goal within kJoined, by Gauss-Newton steps on the constraints with every variable at a bound
+  // held: IPOPT stops with its defects within 1e-6 (acceptable_constr_viol_tol), and the plan's
+  // knots are then one RK4 step apart but for rounding, its cost changed as little. Where the
+  // steps do not converge, the solution stays as IPOPT left it (the flight then measures it).
+  static constexpr double kJoined = 1e-11;
+  void polish_solution() {
+    const int n = L_.variables(), m = L_.K * L_.nx + goal_.rows;
+    VectorXd x = solution, lo(n), hi(n), g_lo(m), g_hi(m), g(m), values(jacobian_nonzeros());
+    get_bounds_info(n, lo.data(), hi.data(), m, g_lo.data(), g_hi.data());
+    std::vector<Index> rows(values.size()), cols(values.size());
+    structure(rows.data(), cols.data());
+    for (int pass = 0; pass < 6; ++pass) {
+      if (!eval_g(n, x.data(), true, m, g.data())) return;
+      double worst = 0;
+      for (int r = 0; r < m; ++r) worst = std::max(worst, std::abs(g[r]) * row_scale(r));
+      if (worst <= kJoined) {
+        solution = x;
+        eval_f(n, x.data(), false, cost);
+        return;
+      }
+      if (!eval_jac_g(n, x.data(), false, m, 0, nullptr, nullptr, values.data())) return;
+      // The least-norm step in the scaled variables, J~^T (J~ J~^T)^-1 (-g), J~ = J D^-1.
+      std::vector<Eigen::Triplet<double>> free;
+      for (size_t e = 0; e < rows.size(); ++e) {
+        const int c = cols[e];
+        const double d = variable_scales_[c];
+        if ((x[c] - lo[c]) * d > 1e-7 && (hi[c] - x[c]) * d > 1e-7)
+          free.emplace_back(rows[e], c, values[e] / d);
+      }
+      Eigen::SparseMatrix<double> J(m, n);
+      J.setFromTriplets(free.begin(), free.end());
+      const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> JJt(J * J.transpose());
+      if (JJt.info() != Eigen::Success) return;
+      x += (J.transpose() * JJt.solve(-g)).cwiseQuotient(variable_scales_);
+      x = x.cwiseMax(lo).cwiseMin(hi);
+    }
+  }
+
   bool get_nlp_info(Index& n, Index& m, Index& nnz_jac, Index& nnz_h,
                     IndexStyleEnum& style) override {
     n = L_.variables();
     m = L_.K * L_.nx + goal_.rows;
-    nnz_jac = L_.K * L_.nx * (L_.block + L_.N + 1) + goal_.rows * L_.nq;
+    nnz_jac = jacobian_nonzeros();
     nnz_h = 0;  // a limited-memory Hessian
     style = C_STYLE;
     return true;
@@ -101,12 +143,14 @@ class MultipleShooting : public Ipopt::TNLP {
                        Number* g_hi) override {
     std::fill(lo, lo + n, -kInfinity);
     std::fill(hi, hi + n, kInfinity);
-    // At rest at q_start at t = 0, at rest at T.
+    // At rest at q_start at t = 0, the joints at rest at T. A free base's rest at T follows from
+    // the momentum, zero at the start and conserved (its rates are the joints' times -H_b^-1
+    // H_bm): held too, its rows would be nearly dependent on the defects' (exactly, but for the
+    // RK4 steps' drift of the momentum), and IPOPT's multipliers would grow without bound.
     for (int i = 0; i < L_.nq; ++i) lo[i] = hi[i] = q_start_[i];
-    for (int i = 0; i < L_.nv; ++i) {
-      lo[L_.nq + i] = hi[L_.nq + i] = 0;
+    for (int i = 0; i < L_.nv; ++i) lo[L_.nq + i] = hi[L_.nq + i] = 0;
+    for (int i = m_.num_base(); i < L_.nv; ++i)
       lo[L_.x(L_.K) + L_.nq + i] = hi[L_.x(L_.K) + L_.nq + i] = 0;
-    }
     // The joints' limits on the link side: a motor slot's angle and rate are p q and p q'.
     for (int k = 0; k <= L_.K; ++k)
       for (int j = 0; j < L_.N; ++j) {
@@ -140,15 +184,8 @@ class MultipleShooting : public Ipopt::TNLP {
                               bool& use_g_scaling, Index m, Number* g_scaling) override {
     obj_scaling = 1;
     use_x_scaling = use_g_scaling = true;
-    std::fill(x_scaling, x_scaling + n, 1.0);
-    std::fill(g_scaling, g_scaling + m, 1.0);
-    for (int j = 0; j < L_.N; ++j) {
-      if (!m_.slot_holds_motor(j)) continue;
-      const double s = 1 / std::abs(m_.gear_ratios[j]);
-      const int q = m_.joint_q_offsets[j], v = L_.nq + m_.joint_v_offsets[j];
-      for (int k = 0; k <= L_.K; ++k) x_scaling[L_.x(k) + q] = x_scaling[L_.x(k) + v] = s;
-      for (int k = 0; k < L_.K; ++k) g_scaling[k * L_.nx + q] = g_scaling[k * L_.nx + v] = s;
-    }
+    std::copy(variable_scales_.data(), variable_scales_.data() + n, x_scaling);
+    for (int r = 0; r < m; ++r) g_scaling[r] = row_scale(r);
     return true;
   }
 
@@ -210,6 +247,27 @@ class MultipleShooting : public Ipopt::TNLP {
   }
 
  private:
+  int jacobian_nonzeros() const {
+    return L_.K * L_.nx * (L_.block + L_.N + 1) + goal_.rows * L_.nq;
+  }
+
+  // The solver's scaling of the variables: a geared slot's angle and rate are the motor's, p
+  // times the link's, so the problem is scaled to the link side.
+  VectorXd variable_scales() const {
+    VectorXd scale = VectorXd::Ones(L_.variables());
+    for (int j = 0; j < L_.N; ++j) {
+      if (!m_.slot_holds_motor(j)) continue;
+      const double s = 1 / std::abs(m_.gear_ratios[j]);
+      const int q = m_.joint_q_offsets[j], v = L_.nq + m_.joint_v_offsets[j];
+      for (int k = 0; k <= L_.K; ++k) scale[L_.x(k) + q] = scale[L_.x(k) + v] = s;
+    }
+    return scale;
+  }
+  // A constraint's scale: a defect's is its state's; the goal's rows are in metres.
+  double row_scale(int r) const {
+    return r < L_.K * L_.nx ? variable_scales_[L_.x(1) + r % L_.nx] : 1.0;
+  }
+
   // Trapezoidal weights of the knots in the integrals over [0, T].
   double weight(int k) const { return (k == 0 || k == L_.K ? 0.5 : 1.0) * L_.h; }
   // The integral of |omega_base|^2 (rotation) or |u|^2 (effort) over the knots.
@@ -274,6 +332,7 @@ class MultipleShooting : public Ipopt::TNLP {
   std::vector<int> omega_;  // the base's angular velocities in v
   double w_rotation_ = 0, w_effort_ = 0;
   std::vector<CoordinateStep> steps_;
+  VectorXd variable_scales_;
   bool have_ends_ = false, have_jacobians_ = false;
 };
 
@@ -533,6 +592,7 @@ Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task,
                              " s or within the limits, or the knots too few (" +
                              std::to_string(task.knots) + ")");
 
+  nlp->polish_solution();
   Plan plan = fly(m, task, L, nlp->solution, q_start);
   plan.knots = task.knots;
   plan.iterations = iterations;
