@@ -19,7 +19,8 @@
 // line's, with each plan's base rotation, effort and distance from the goal as counters
 // (optimal_plan.hpp). Built with -DPINOCCHIO_DIR=an install of Pinocchio
 // (bench/peers/pinocchio.sh), space_arm7's ungeared and armature models are also timed against
-// Pinocchio's aba and computeABADerivatives (pinocchio_peer.hpp).
+// Pinocchio's aba and computeABADerivatives (pinocchio_peer.hpp), and with
+// -DPINOCCHIO_CPPADCG_DIR (bench/peers/cppadcg.sh) its generated ABA derivatives too.
 //   scripts/bench.sh --spatial
 #include <benchmark/benchmark.h>
 
@@ -360,6 +361,25 @@ void register_pinocchio(const Loaded& m) {
   };
   benchmark::RegisterBenchmark(("pinocchio/FD/" + m.model.name()).c_str(), timed(false));
   benchmark::RegisterBenchmark(("pinocchio/FD derivatives/" + m.model.name()).c_str(), timed(true));
+  // Its generated derivatives (CppADCodeGen), where built with them: equal to its analytical
+  // ones to 1e-9 (relative) first.
+  if (!peer->build_codegen()) return;
+  double worst_generated = 0;
+  for (int k = 0; k < kStates; ++k)
+    worst_generated = std::max(worst_generated, peer->codegen_difference(k));
+  std::printf(
+      "check %s: Pinocchio's generated ABA derivatives against its analytical ones, max "
+      "relative %.1e  %s\n",
+      m.model.name().c_str(), worst_generated, worst_generated < 1e-9 ? "ok" : "DISAGREE");
+  if (!(worst_generated < 1e-9)) std::exit(1);
+  benchmark::RegisterBenchmark(("pinocchio/FD derivatives, generated/" + m.model.name()).c_str(),
+                               [peer](benchmark::State& st) {
+                                 int k = 0;
+                                 for (auto _ : st) {
+                                   peer->aba_derivatives_codegen(k);
+                                   k = (k + 1) % kStates;
+                                 }
+                               });
 }
 #endif
 

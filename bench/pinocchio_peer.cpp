@@ -1,6 +1,12 @@
 // bench/pinocchio_peer.hpp: Pinocchio's model, states and calls.
 #include "pinocchio_peer.hpp"
 
+// Pinocchio's code generation must come before its other headers (its scalar traits).
+#ifdef SPACEARM_PINOCCHIO_CODEGEN
+#include <pinocchio/codegen/cppadcg.hpp>
+#include <pinocchio/codegen/code-generator-algo.hpp>
+#endif
+
 #include <pinocchio/algorithm/aba-derivatives.hpp>
 #include <pinocchio/algorithm/aba.hpp>
 #include <pinocchio/multibody/data.hpp>
@@ -12,10 +18,23 @@
 #include <stdlib.h>
 #include <unistd.h>
 
+#include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <stdexcept>
 
 namespace spacearm::bench {
+
+#ifdef SPACEARM_PINOCCHIO_CODEGEN
+// Its results are protected members (Pinocchio's own tests read them through a subclass too).
+struct GeneratedAbaDerivatives : pinocchio::CodeGenABADerivatives<double> {
+  using CodeGenABADerivatives::CodeGenABADerivatives;
+  using CodeGenABADerivatives::dddq_dq;
+  using CodeGenABADerivatives::dddq_dtau;
+  using CodeGenABADerivatives::dddq_dv;
+};
+#endif
 
 struct PinocchioPeer::Impl {
   pinocchio::Model model;
@@ -23,6 +42,9 @@ struct PinocchioPeer::Impl {
   Eigen::VectorXd ratios;  // per joint
   std::vector<Eigen::VectorXd> q, v, tau;
   std::vector<Eigen::Matrix3d> R;  // the base's orientation per state
+#ifdef SPACEARM_PINOCCHIO_CODEGEN
+  std::unique_ptr<GeneratedAbaDerivatives> codegen;
+#endif
   // Per velocity: spacearm's slot over Pinocchio's (p for a geared joint's rate, else 1).
   Eigen::VectorXd D() const {
     Eigen::VectorXd d = Eigen::VectorXd::Ones(model.nv);
@@ -54,6 +76,50 @@ PinocchioPeer::PinocchioPeer(const std::string& mjcf, const Eigen::VectorXd& rat
 }
 
 PinocchioPeer::~PinocchioPeer() = default;
+
+// computeABADerivatives recorded on CppADCodeGen's scalars, printed as C and compiled by gcc
+// with Pinocchio's own flags (-Ofast) into a library in a fresh temporary folder, then loaded.
+bool PinocchioPeer::build_codegen() {
+#ifdef SPACEARM_PINOCCHIO_CODEGEN
+  char folder[] = "/tmp/spacearm-pinocchio-cg-XXXXXX";
+  if (!::mkdtemp(folder)) throw std::runtime_error("pinocchio peer: cannot create a folder");
+  const auto start = std::chrono::steady_clock::now();
+  impl_->codegen = std::make_unique<GeneratedAbaDerivatives>(
+      impl_->model, "partial_aba", std::string(folder) + "/cg_partial_aba_eval");
+  impl_->codegen->initLib();
+  impl_->codegen->loadLib(true);
+  std::printf(
+      "pinocchio peer: CppADCodeGen's ABA derivatives generated, compiled and loaded in "
+      "%.1f s\n",
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  return true;
+#else
+  return false;
+#endif
+}
+
+#ifdef SPACEARM_PINOCCHIO_CODEGEN
+void PinocchioPeer::aba_derivatives_codegen(int k) {
+  Impl& p = *impl_;
+  p.codegen->evalFunction(p.q[k], p.v[k], p.tau[k]);
+}
+
+double PinocchioPeer::codegen_difference(int k) {
+  Impl& p = *impl_;
+  aba_derivatives(k);
+  aba_derivatives_codegen(k);
+  const GeneratedAbaDerivatives& cg = *p.codegen;
+  const Eigen::MatrixXd Minv = p.data->Minv.selfadjointView<Eigen::Upper>();
+  auto relative = [](const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+    return (a - b).norm() / (1 + a.norm());
+  };
+  return std::max({relative(p.data->ddq_dq, cg.dddq_dq), relative(p.data->ddq_dv, cg.dddq_dv),
+                   relative(Minv, cg.dddq_dtau)});
+}
+#else
+void PinocchioPeer::aba_derivatives_codegen(int) {}
+double PinocchioPeer::codegen_difference(int) { return NAN; }
+#endif
 
 // Pinocchio's free flyer: q = [origin, x y z w], v = [linear velocity in the base frame,
 // angular velocity in the base frame], tau = [force, torque] in the base frame.

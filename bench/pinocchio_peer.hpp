@@ -27,6 +27,14 @@ class PinocchioPeer {
   // The timed calls at state k.
   void aba(int k);
   void aba_derivatives(int k);
+  // Pinocchio's generated ABA derivatives (CppADCodeGen), where this peer was built with them
+  // (PINOCCHIO_CPPADCG_DIR; bench/peers/cppadcg.sh): false where not. Generated and compiled
+  // here, once (tens of seconds).
+  bool build_codegen();
+  void aba_derivatives_codegen(int k);
+  // At state k, the largest difference (relative) of the generated derivatives from
+  // computeABADerivatives' (d qdd/dq, d qdd/dv and M^-1).
+  double codegen_difference(int k);
   // At state k, in spacearm's convention: the forward dynamics (nv), and the joint rows and
   // columns (N x N) of d qdd/dq, d qdd/dv and d qdd/dtau (the blocks both conventions share).
   Eigen::VectorXd forward_dynamics(int k);

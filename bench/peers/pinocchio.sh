@@ -7,6 +7,7 @@
 # Usage: bench/peers/pinocchio.sh [PREFIX] [TAG]   (default /opt/pinocchio, v3.7.0)
 #   then: scripts/setup.sh build-bench-pinocchio -DSPACEARM_BUILD_BENCH=ON -DSPACEARM_BENCH_QUICK=ON \
 #           -DSPACEARM_BUILD_TESTS=OFF -DCMAKE_CXX_FLAGS=-march=native -DPINOCCHIO_DIR=PREFIX
+# Its generated derivatives' row also needs CppAD and CppADCodeGen: bench/peers/cppadcg.sh.
 # Needs the network (git clone); as root it installs Boost's libraries first.
 set -euo pipefail
 prefix=$(realpath -m "${1:-/opt/pinocchio}")
