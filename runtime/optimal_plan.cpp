@@ -94,15 +94,17 @@ class MultipleShooting : public Ipopt::TNLP {
   // goal within kJoined, by Gauss-Newton steps on the constraints with every variable at a bound
   // held: IPOPT stops with its defects within 1e-6 (acceptable_constr_viol_tol), and the plan's
   // knots are then one RK4 step apart but for rounding, its cost changed as little. Where the
-  // steps do not converge, the solution stays as IPOPT left it (the flight then measures it).
-  static constexpr double kJoined = 1e-11;
+  // steps do not converge in kPolishSteps, or one would move a variable by more than kPolishMove
+  // (link side: not a polish), the solution stays as IPOPT left it (the flight then measures it).
+  static constexpr double kJoined = 1e-11, kPolishMove = 1e-4;
+  static constexpr int kPolishSteps = 5;
   void polish_solution() {
     const int n = L_.variables(), m = L_.K * L_.nx + goal_.rows;
     VectorXd x = solution, lo(n), hi(n), g_lo(m), g_hi(m), g(m), values(jacobian_nonzeros());
     get_bounds_info(n, lo.data(), hi.data(), m, g_lo.data(), g_hi.data());
     std::vector<Index> rows(values.size()), cols(values.size());
     structure(rows.data(), cols.data());
-    for (int pass = 0; pass < 6; ++pass) {
+    for (int step = 0;; ++step) {
       if (!eval_g(n, x.data(), true, m, g.data())) return;
       double worst = 0;
       for (int r = 0; r < m; ++r) worst = std::max(worst, std::abs(g[r]) * row_scale(r));
@@ -111,7 +113,9 @@ class MultipleShooting : public Ipopt::TNLP {
         eval_f(n, x.data(), false, cost);
         return;
       }
-      if (!eval_jac_g(n, x.data(), false, m, 0, nullptr, nullptr, values.data())) return;
+      if (step == kPolishSteps ||
+          !eval_jac_g(n, x.data(), false, m, 0, nullptr, nullptr, values.data()))
+        return;
       // The least-norm step in the scaled variables, J~^T (J~ J~^T)^-1 (-g), J~ = J D^-1.
       std::vector<Eigen::Triplet<double>> free;
       for (size_t e = 0; e < rows.size(); ++e) {
@@ -124,8 +128,9 @@ class MultipleShooting : public Ipopt::TNLP {
       J.setFromTriplets(free.begin(), free.end());
       const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> JJt(J * J.transpose());
       if (JJt.info() != Eigen::Success) return;
-      x += (J.transpose() * JJt.solve(-g)).cwiseQuotient(variable_scales_);
-      x = x.cwiseMax(lo).cwiseMin(hi);
+      const VectorXd move = J.transpose() * JJt.solve(-g);  // scaled
+      if (!(move.cwiseAbs().maxCoeff() <= kPolishMove)) return;
+      x = (x + move.cwiseQuotient(variable_scales_)).cwiseMax(lo).cwiseMin(hi);
     }
   }
 
@@ -504,6 +509,14 @@ void check_start_in_range(const DynamicModel& m, const StraightLineTask& task,
           "other elbow)");
 }
 
+// A state's rates on the link side: a motor slot's rate is p q'.
+VectorXd link_side_rates(const DynamicModel& m, VectorXd v) {
+  for (int j = 0; j < m.num_links; ++j)
+    if (m.slot_holds_motor(j)) v[m.joint_v_offsets[j]] /= std::abs(m.gear_ratios[j]);
+  return v;
+}
+constexpr double kRestAtEnd = 1e-3;  // a flown plan's rates at T, at most, of their peak
+
 // IPOPT's statuses that end without a plan, in words.
 std::string status_text(Ipopt::ApplicationReturnStatus status) {
   switch (status) {
@@ -599,12 +612,25 @@ Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task,
   plan.solve_seconds = seconds;
   plan.cost = nlp->cost;
   check(m, task, plan);
-  // The flight is what a replay does: one that misses the goal is refused, never a table.
+  // The flight is what a replay does: one that misses the goal, or is not at rest at T, is
+  // refused, never a table. The solver holds the joints' rates at zero at T, and the base's
+  // follow through the momentum, zero and conserved, which its RK4 steps conserve only nearly:
+  // the flown rates at T (link side) may be at most kRestAtEnd of their peak.
   const double scale =
       std::max({1.0, task.start.cwiseAbs().maxCoeff(), task.goal.cwiseAbs().maxCoeff()});
+  const double at_end = link_side_rates(m, plan.qd.back()).cwiseAbs().maxCoeff();
+  double peak = 0;
+  for (const VectorXd& v : plan.qd)
+    peak = std::max(peak, link_side_rates(m, v).cwiseAbs().maxCoeff());
+  std::string missed;
   if (!(plan.goal_error <= 1e-5 * scale))
-    throw std::runtime_error("planner, model " + m.name + ": the flown plan ends " +
-                             number_text(plan.goal_error, 3) + " m from the goal (" +
+    missed = number_text(plan.goal_error, 3) + " m from the goal";
+  if (!(at_end <= kRestAtEnd * peak))
+    missed += (missed.empty() ? "" : " and ") + std::string("with rates up to ") +
+              number_text(at_end, 3) + " (" + number_text(at_end / peak, 3) +
+              " of their peak), not at rest";
+  if (!missed.empty())
+    throw std::runtime_error("planner, model " + m.name + ": the flown plan ends " + missed + " (" +
                              number_text(plan.max_knot_error, 3) +
                              " from the solver's knots: more knots make its steps finer)");
   // Worse than the straight line at what it minimises: a poor local minimum, refused.
