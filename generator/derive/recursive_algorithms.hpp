@@ -7,6 +7,8 @@
 //   static T configuration_rate(const Description&, const Values<T>&, int i)
 //                                                  entry i of qdot = f(q, v) (v itself where nq =
 //                                                  nv)
+//   static int base_translations(const Description&)   a free base's translational velocities,
+//                                                  the first in v (0 for a fixed base)
 //   nq(), nv(), input(array, i)
 //   mass_matrix()                  row-major nv x nv      (CRBA)
 //   inverse_dynamics(qdd)          M qdd + b, nv          (RNEA; no passive forces)
@@ -171,7 +173,11 @@ struct has_quasi_velocities<C, std::void_t<decltype(&C::hamel_coupling)>> : std:
 // (cheaper than ABA's, whose articulated inertias depend on q) and M^-1 by ABA's force pass
 // alone (a tangent along Q: the articulated inertias do not depend on it, so they fold away).
 // Along qd, ABA forward directly: its inertias do not depend on qd either, and RNEA's partials
-// and the solve together cost more there (measured by `spacearm generate --stats`).
+// and the solve together cost more there (measured by `spacearm generate --stats`). Along a free
+// base's translational velocity (world frame) dqdd/dqd is zero: a Galilean boost of the whole
+// system changes no acceleration, as no force depends on the base's own velocity (the passive
+// forces act on the joints). Those columns are seeded with nothing: exact zeros, which the
+// recorded programs fold away.
 template <template <class> class Chain, class T, class Description>
 std::vector<std::vector<T>> state_jacobian(const Description& d, const Values<T>& values) {
   auto qdd_of = [&d](const Chain<Dual<T>>& c) {
@@ -196,8 +202,15 @@ std::vector<std::vector<T>> state_jacobian(const Description& d, const Values<T>
         return a == Q ? -dR_dq[i * nv + k] : T{};
       },
       qdd_of);
-  return {dqdd_dq, jacobian<Chain>(d, values, Input::qd, qdd_of), qdd,
-          torque_jacobian<Chain>(d, values, chain, qdd_of)};
+  const int boosts = Chain<T>::base_translations(d);
+  const char* qd = info(Input::qd).name;
+  const std::vector<T> dqdd_dqd = along_directions<Chain>(
+      d, values, nv,
+      [&values, qd, boosts](int k, const std::string& a, int i) {
+        return a == qd && i == k && k >= boosts ? values.number(1.0) : T{};
+      },
+      qdd_of);
+  return {dqdd_dq, dqdd_dqd, qdd, torque_jacobian<Chain>(d, values, chain, qdd_of)};
 }
 
 // The outputs made by differentiating the algorithms forward: Mdot = dM/dq qdot; with P =

@@ -135,6 +135,8 @@ class PlanarChain {
   int nq() const { return n_; }
   int nv() const { return n_; }
   static Dimensions dimensions(const Scene& scene) { return scene.dimensions(); }
+  // The base's x0 and y0 rates (world frame), v's first two entries for a free base.
+  static int base_translations(const Scene& scene) { return scene.num_base() > 0 ? 2 : 0; }
   // qdot = v: every planar coordinate is its own velocity's integral.
   static T configuration_rate(const Scene&, const Values<T>& values, int i) {
     return values.input(info(Input::qd).name, i);

@@ -45,6 +45,8 @@ class Chain {
   // Entry i of qdot = f(q, v): the base origin's velocity, the quaternion's rate
   // 1/2 q (0, omega) with omega in the base frame, the joint rates.
   static T configuration_rate(const ChainDescription& d, const Values<T>& values, int i);
+  // The base origin's velocity (world frame), v's first three entries for a free base.
+  static int base_translations(const ChainDescription& d) { return d.free_base ? 3 : 0; }
   int nq() const { return d_.nq(); }
   int nv() const { return d_.nv(); }
   T input(const std::string& array, int i) const { return values_.input(array, i); }
