@@ -9,6 +9,8 @@
 //                                                  nv)
 //   static int base_translations(const Description&)   a free base's translational velocities,
 //                                                  the first in v (0 for a fixed base)
+//   static int base_rotations(const Description&)  its turns, the next in v
+//   turned_about_base_axis(k, u)   a world vector u's rate as the base turns about its axis k
 //   nq(), nv(), input(array, i)
 //   mass_matrix()                  row-major nv x nv      (CRBA)
 //   inverse_dynamics(qdd)          M qdd + b, nv          (RNEA; no passive forces)
@@ -130,17 +132,26 @@ std::vector<T> configuration_rate_matrix(const Description& d, const Values<T>& 
 // q ⊕ δ, its tangent G δ (G = d(qdot)/dv), so a base's quaternion turns by δω in the base's own
 // frame (MuJoCo's mj_integratePos, Pinocchio's integrate). One forward pass per velocity; where
 // nq = nv, G = 1 and this is jacobian(Input::q).
+// Directions in [skip_from, skip_to) are not taken: their columns are zeros.
 template <template <class> class Chain, class T, class Description, class F>
-std::vector<T> tangent_jacobian(const Description& d, const Values<T>& values, const F& f) {
+std::vector<T> tangent_jacobian(const Description& d, const Values<T>& values, const F& f,
+                                int skip_from = 0, int skip_to = 0) {
   const Dimensions dims = Chain<T>::dimensions(d);
-  if (dims.nq == dims.nv) return jacobian<Chain>(d, values, Input::q, f);
-  const std::vector<T> G = configuration_rate_matrix<Chain>(d, values);
   const char* name = info(Input::q).name;
   const int nv = dims.nv;
+  auto taken = [skip_from, skip_to](int k) { return k < skip_from || k >= skip_to; };
+  if (dims.nq == dims.nv)
+    return along_directions<Chain>(
+        d, values, nv,
+        [&values, name, taken](int k, const std::string& a, int i) {
+          return a == name && i == k && taken(k) ? values.number(1.0) : T{};
+        },
+        f);
+  const std::vector<T> G = configuration_rate_matrix<Chain>(d, values);
   return along_directions<Chain>(
       d, values, nv,
-      [&G, name, nv](int k, const std::string& a, int i) {
-        return a == name ? G[i * nv + k] : T{};
+      [&G, name, nv, taken](int k, const std::string& a, int i) {
+        return a == name && taken(k) ? G[i * nv + k] : T{};
       },
       f);
 }
@@ -193,16 +204,34 @@ std::vector<std::vector<T>> state_jacobian(const Description& d, const Values<T>
     for (size_t k = 0; k < R.size(); ++k) R[k] += passive[k];
     return R;
   };
-  const std::vector<T> dR_dq = tangent_jacobian<Chain>(d, values, residual);
+  // A free base's turns (tangent directions [boosts, boosts + turns)) by the same symmetry:
+  // turning the whole system turns the world vectors (v's, Q's and qdd's base-linear rows, the
+  // first `boosts`) and leaves the rest. With dqdd/dv_lin = 0, dqdd along turn k is then
+  // (a_k x qdd_lin, 0) - dqdd/dQ_lin (a_k x Q_lin), a_k the base's axis k in the world: one
+  // force-pass solve, no RNEA partials.
+  const int boosts = Chain<T>::base_translations(d), turns = Chain<T>::base_rotations(d);
+  const std::vector<T> dR_dq = tangent_jacobian<Chain>(d, values, residual, boosts, boosts + turns);
   const int nv = Chain<T>::dimensions(d).nv;
+  const std::vector<T> Qs = inputs(d, chain, Input::generalized_forces);
+  const std::vector<T> Q_lin(Qs.begin(), Qs.begin() + boosts),
+      qdd_lin(qdd.begin(), qdd.begin() + boosts);
+  std::vector<std::vector<T>> turned_Q, turned_qdd;
+  for (int t = 0; t < turns; ++t) {
+    turned_Q.push_back(chain.turned_about_base_axis(t, Q_lin));
+    turned_qdd.push_back(chain.turned_about_base_axis(t, qdd_lin));
+  }
   const char* Q = info(Input::generalized_forces).name;
-  const std::vector<T> dqdd_dq = along_directions<Chain>(
+  std::vector<T> dqdd_dq = along_directions<Chain>(
       d, values, nv,
-      [&dR_dq, Q, nv](int k, const std::string& a, int i) {
-        return a == Q ? -dR_dq[i * nv + k] : T{};
+      [&dR_dq, &turned_Q, Q, nv, boosts, turns](int k, const std::string& a, int i) {
+        if (a != Q) return T{};
+        if (k >= boosts && k < boosts + turns) return i < boosts ? -turned_Q[k - boosts][i] : T{};
+        return -dR_dq[i * nv + k];
       },
       qdd_of);
-  const int boosts = Chain<T>::base_translations(d);
+  for (int t = 0; t < turns; ++t)
+    for (int i = 0; i < boosts; ++i)
+      dqdd_dq[i * nv + boosts + t] = dqdd_dq[i * nv + boosts + t] + turned_qdd[t][i];
   const char* qd = info(Input::qd).name;
   const std::vector<T> dqdd_dqd = along_directions<Chain>(
       d, values, nv,

@@ -135,8 +135,13 @@ class PlanarChain {
   int nq() const { return n_; }
   int nv() const { return n_; }
   static Dimensions dimensions(const Scene& scene) { return scene.dimensions(); }
-  // The base's x0 and y0 rates (world frame), v's first two entries for a free base.
+  // The base's x0 and y0 rates (world frame), v's first two entries for a free base; its turn,
+  // the next, and a world vector u's rate as the base turns: z x u.
   static int base_translations(const Scene& scene) { return scene.num_base() > 0 ? 2 : 0; }
+  static int base_rotations(const Scene& scene) { return scene.num_base() > 0 ? 1 : 0; }
+  std::vector<T> turned_about_base_axis(int, const std::vector<T>& u) const {
+    return {-u[1], u[0]};
+  }
   // qdot = v: every planar coordinate is its own velocity's integral.
   static T configuration_rate(const Scene&, const Values<T>& values, int i) {
     return values.input(info(Input::qd).name, i);

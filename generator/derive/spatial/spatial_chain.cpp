@@ -578,6 +578,13 @@ T Chain<T>::potential_energy() const {
 }
 
 template <class T>
+std::vector<T> Chain<T>::turned_about_base_axis(int k, const std::vector<T>& u) const {
+  const Mat3<T>& R = R_[0];
+  const Vec3<T> w = cross(Vec3<T>{R[k], R[3 + k], R[6 + k]}, Vec3<T>{u[0], u[1], u[2]});
+  return {w[0], w[1], w[2]};
+}
+
+template <class T>
 std::vector<T> Chain<T>::passive_forces() const {
   std::vector<T> f = friction_forces();
   if (d_.num_flexible() == 0) return f;

@@ -47,6 +47,10 @@ class Chain {
   static T configuration_rate(const ChainDescription& d, const Values<T>& values, int i);
   // The base origin's velocity (world frame), v's first three entries for a free base.
   static int base_translations(const ChainDescription& d) { return d.free_base ? 3 : 0; }
+  // The base's turns (its angular velocity in its own frame), the next three for a free base,
+  // and a world vector u's rate as the base turns about its axis k: (R e_k) x u.
+  static int base_rotations(const ChainDescription& d) { return d.free_base ? 3 : 0; }
+  std::vector<T> turned_about_base_axis(int k, const std::vector<T>& u) const;
   int nq() const { return d_.nq(); }
   int nv() const { return d_.nv(); }
   T input(const std::string& array, int i) const { return values_.input(array, i); }
