@@ -545,6 +545,43 @@ std::mutex& solver_mutex() {
   return m;
 }
 
+// The flight is what a replay does: one that misses the goal, or is not at rest at T, is
+// refused, never a table. The solver holds the joints' rates at zero at T, and the base's follow
+// through the momentum, zero and conserved, which its RK4 steps conserve only nearly: the flown
+// rates at T (link side) may be at most kRestAtEnd of their peak. A plan worse than the straight
+// line at what it minimises is a poor local minimum, refused too.
+void refuse_a_poor_flight(const DynamicModel& m, const StraightLineTask& task, const Plan& plan,
+                          const Guess& guess) {
+  const double scale =
+      std::max({1.0, task.start.cwiseAbs().maxCoeff(), task.goal.cwiseAbs().maxCoeff()});
+  const double at_end = link_side_rates(m, plan.qd.back()).cwiseAbs().maxCoeff();
+  double peak = 0;
+  for (const VectorXd& v : plan.qd)
+    peak = std::max(peak, link_side_rates(m, v).cwiseAbs().maxCoeff());
+  std::string missed;
+  if (!(plan.goal_error <= 1e-5 * scale))
+    missed = number_text(plan.goal_error, 3) + " m from the goal";
+  if (!(at_end <= kRestAtEnd * peak))
+    missed += (missed.empty() ? "" : " and ") + std::string("with rates up to ") +
+              number_text(at_end, 3) + " (" + number_text(at_end / peak, 3) +
+              " of their peak), not at rest";
+  if (!missed.empty())
+    throw std::runtime_error("planner, model " + m.name + ": the flown plan ends " + missed + " (" +
+                             number_text(plan.max_knot_error, 3) +
+                             " from the solver's knots: more knots make its steps finer)");
+  // Worse than the straight line at what it minimises: a poor local minimum, refused.
+  const bool rotation = task.objective == Objective::min_base_rotation;
+  const double got = rotation ? plan.max_base_rotation : plan_effort(plan),
+               line = rotation ? guess.line_rotation : guess.line_effort;
+  if (got > line)
+    throw std::runtime_error("planner, model " + m.name + ": the plan " +
+                             (rotation ? "turns the base by " + number_text(got, 3) + " rad"
+                                       : "takes an effort of " + number_text(got, 3)) +
+                             ", more than the straight line's " + number_text(line, 3) +
+                             " (a poor local minimum): plan with objective line or reactionless, "
+                             "or move the start");
+}
+
 }  // namespace
 
 Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task,
@@ -612,38 +649,7 @@ Plan plan_point_to_point(const DynamicModel& m, const StraightLineTask& task,
   plan.solve_seconds = seconds;
   plan.cost = nlp->cost;
   check(m, task, plan);
-  // The flight is what a replay does: one that misses the goal, or is not at rest at T, is
-  // refused, never a table. The solver holds the joints' rates at zero at T, and the base's
-  // follow through the momentum, zero and conserved, which its RK4 steps conserve only nearly:
-  // the flown rates at T (link side) may be at most kRestAtEnd of their peak.
-  const double scale =
-      std::max({1.0, task.start.cwiseAbs().maxCoeff(), task.goal.cwiseAbs().maxCoeff()});
-  const double at_end = link_side_rates(m, plan.qd.back()).cwiseAbs().maxCoeff();
-  double peak = 0;
-  for (const VectorXd& v : plan.qd)
-    peak = std::max(peak, link_side_rates(m, v).cwiseAbs().maxCoeff());
-  std::string missed;
-  if (!(plan.goal_error <= 1e-5 * scale))
-    missed = number_text(plan.goal_error, 3) + " m from the goal";
-  if (!(at_end <= kRestAtEnd * peak))
-    missed += (missed.empty() ? "" : " and ") + std::string("with rates up to ") +
-              number_text(at_end, 3) + " (" + number_text(at_end / peak, 3) +
-              " of their peak), not at rest";
-  if (!missed.empty())
-    throw std::runtime_error("planner, model " + m.name + ": the flown plan ends " + missed + " (" +
-                             number_text(plan.max_knot_error, 3) +
-                             " from the solver's knots: more knots make its steps finer)");
-  // Worse than the straight line at what it minimises: a poor local minimum, refused.
-  const bool rotation = task.objective == Objective::min_base_rotation;
-  const double got = rotation ? plan.max_base_rotation : plan_effort(plan),
-               line = rotation ? guess.line_rotation : guess.line_effort;
-  if (got > line)
-    throw std::runtime_error("planner, model " + m.name + ": the plan " +
-                             (rotation ? "turns the base by " + number_text(got, 3) + " rad"
-                                       : "takes an effort of " + number_text(got, 3)) +
-                             ", more than the straight line's " + number_text(line, 3) +
-                             " (a poor local minimum): plan with objective line or reactionless, "
-                             "or move the start");
+  refuse_a_poor_flight(m, task, plan, guess);
   return plan;
 }
 
