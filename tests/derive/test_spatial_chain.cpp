@@ -14,6 +14,7 @@
 #include "recursive_algorithms.hpp"
 #include "planar_scene.hpp"
 #include "support.hpp"
+#include "tangent_space.hpp"
 
 namespace spacearm::spatial {
 namespace {
@@ -627,20 +628,6 @@ TEST(SpatialChain, ForwardDynamicsIsTheArticulatedBodyAlgorithm) {
   }
 }
 
-// q ⊕ delta on the tangent space, written here with Eigen alone: the origin and the joints move
-// by delta, the base's quaternion turns by delta's omega in its own frame, q exp(omega / 2).
-Eigen::VectorXd moved_along_tangent(const Eigen::VectorXd& q, const Eigen::VectorXd& delta) {
-  Eigen::VectorXd out = q;
-  out.head<3>() += delta.head<3>();
-  const Eigen::Vector3d omega = delta.segment<3>(3);
-  const Eigen::Quaterniond turned =
-      Eigen::Quaterniond(q[3], q[4], q[5], q[6]) *
-      Eigen::Quaterniond(Eigen::AngleAxisd(omega.norm(), omega.normalized()));
-  out.segment<4>(3) << turned.w(), turned.x(), turned.y(), turned.z();
-  out.tail(q.size() - 7) += delta.tail(delta.size() - 6);
-  return out;
-}
-
 // The registry's outputs through recursive_algorithms.hpp, written once for any chain: forward
 // dynamics solves M qdd + b + f = Q (f: springs and dampers) with positive pivots, and the state
 // Jacobian (dual numbers; dqdd/dq on q's tangent space, nv x nv, the base's quaternion turned in
@@ -705,8 +692,8 @@ TEST(SpatialChain, GivesTheRegistrysRecursiveOutputs) {
     for (int k = 0; k < d.nv(); ++k) {
       State plus = s, minus = s;
       const Eigen::VectorXd step = h * Eigen::VectorXd::Unit(d.nv(), k);
-      plus.q = moved_along_tangent(s.q, step);
-      minus.q = moved_along_tangent(s.q, -step);
+      plus.q = test::moved_along_tangent(s.q, step);
+      minus.q = test::moved_along_tangent(s.q, -step);
       const Eigen::VectorXd column = (as_eigen(output(Output::forward_dynamics, plus)[0]) -
                                       as_eigen(output(Output::forward_dynamics, minus)[0])) /
                                      (2 * h);

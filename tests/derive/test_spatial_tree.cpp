@@ -3,15 +3,18 @@
 // coupled rotors on every branch, the joints that start a branch included: M, T and the momentum
 // against an independent world-frame computation (Eigen's rotations, each body from its parent's
 // world pose; no code shared with the chain's body-frame algebra), M's zeros between branches,
-// RNEA's invariants, ABA against M^-1, every end effector's pose and Jacobian, mirrored arms that
-// keep their symmetry, and momentum and energy over a long free motion.
+// RNEA's invariants, ABA against M^-1, the state Jacobian against differences, every end
+// effector's pose and Jacobian, mirrored arms that keep their symmetry, and momentum and energy
+// over a long free motion.
 #include <Eigen/Dense>
 
 #include <random>
 
 #include "recorded_scalar.hpp"
+#include "recursive_algorithms.hpp"
 #include "spatial_chain.hpp"
 #include "support.hpp"
+#include "tangent_space.hpp"
 
 namespace spacearm::spatial {
 namespace {
@@ -372,6 +375,46 @@ TEST(SpatialTree, ForwardDynamicsSolvesTheMassMatrix) {
       EXPECT_LT((as_eigen(fd[0]) - expected).norm(), 1e-10 * (1 + expected.norm()));
       EXPECT_GT(as_eigen(fd[1]).minCoeff(), 0);
     }
+  }
+}
+
+// The state Jacobian on trees is that of central differences of forward dynamics, along q ⊕ delta
+// and along v, under a random Q (the base's force included): the free base's columns come from
+// its symmetries (zeros along its velocity; its turns from qdd and one solve), the rest from the
+// recorded algorithms differentiated forward.
+TEST(SpatialTree, StateJacobianIsThatOfDifferences) {
+  std::mt19937 rng(91);
+  for (const TreeCase& c : tree_cases()) {
+    SCOPED_TRACE(c.name);
+    const ChainDescription d = random_tree(rng, c);
+    const State s = random_state(rng, d);
+    const Eigen::VectorXd Q = Eigen::VectorXd::Random(d.nv());
+    auto qdd = [&](const State& x) {
+      return as_eigen(chain_at(d, x).forward_dynamics(as_std(Q))[0]);
+    };
+    const auto J = evaluate_chain<Chain>(d, Output::forward_dynamics_derivatives,
+                                         [&](const std::string& a, int i) {
+                                           return a == "q" ? s.q[i] : a == "Q" ? Q[i] : s.v[i];
+                                         });
+    const int nv = d.nv();
+    const Eigen::MatrixXd dq = as_matrix(J[0], nv, nv), dv = as_matrix(J[1], nv, nv);
+    const double h = 1e-6, rounding = 1e-9 * qdd(s).norm();
+    for (int k = 0; k < nv; ++k) {
+      State plus = s, minus = s;
+      if (d.free_base) {
+        plus.q = test::moved_along_tangent(s.q, h * Eigen::VectorXd::Unit(nv, k));
+        minus.q = test::moved_along_tangent(s.q, -h * Eigen::VectorXd::Unit(nv, k));
+      } else {
+        plus.q[k] += h, minus.q[k] -= h;
+      }
+      const Eigen::VectorXd along_q = (qdd(plus) - qdd(minus)) / (2 * h);
+      EXPECT_LT((dq.col(k) - along_q).norm(), 1e-6 * (1 + along_q.norm()) + rounding) << "q " << k;
+      plus = s, minus = s;
+      plus.v[k] += h, minus.v[k] -= h;
+      const Eigen::VectorXd along_v = (qdd(plus) - qdd(minus)) / (2 * h);
+      EXPECT_LT((dv.col(k) - along_v).norm(), 1e-6 * (1 + along_v.norm()) + rounding) << "v " << k;
+    }
+    if (d.free_base) EXPECT_EQ(dv.leftCols(3).cwiseAbs().maxCoeff(), 0);
   }
 }
 
