@@ -82,14 +82,17 @@ std::vector<T> along_directions(const Description& d, const Values<T>& values, i
 }
 
 // dy/dx, row-major, of y = f(chain) with x the input array `x` (q: nq columns; qd: nv), one
-// forward pass per entry: each costs what the entry's dependents cost, so O(N) here.
+// forward pass per entry: each costs what the entry's dependents cost, so O(N) here. Entries in
+// [skip_from, skip_to) are not taken: their columns are zeros.
 template <template <class> class Chain, class T, class Description, class F>
-std::vector<T> jacobian(const Description& d, const Values<T>& values, Input x, const F& f) {
+std::vector<T> jacobian(const Description& d, const Values<T>& values, Input x, const F& f,
+                        int skip_from = 0, int skip_to = 0) {
   const char* name = info(x).name;
   return along_directions<Chain>(
       d, values, Chain<T>::dimensions(d)(info(x).size),
-      [&values, name](int k, const std::string& a, int i) {
-        return a == name && i == k ? values.number(1.0) : T{};
+      [&values, name, skip_from, skip_to](int k, const std::string& a, int i) {
+        const bool taken = k < skip_from || k >= skip_to;
+        return a == name && i == k && taken ? values.number(1.0) : T{};
       },
       f);
 }
@@ -131,27 +134,21 @@ std::vector<T> configuration_rate_matrix(const Description& d, const Values<T>& 
 // dy/dδ (row-major, nv columns) of y = f(chain) on the configuration's tangent space: q moves as
 // q ⊕ δ, its tangent G δ (G = d(qdot)/dv), so a base's quaternion turns by δω in the base's own
 // frame (MuJoCo's mj_integratePos, Pinocchio's integrate). One forward pass per velocity; where
-// nq = nv, G = 1 and this is jacobian(Input::q).
-// Directions in [skip_from, skip_to) are not taken: their columns are zeros.
+// nq = nv, G = 1 and this is jacobian(Input::q). Directions in [skip_from, skip_to) are not
+// taken: their columns are zeros.
 template <template <class> class Chain, class T, class Description, class F>
 std::vector<T> tangent_jacobian(const Description& d, const Values<T>& values, const F& f,
                                 int skip_from = 0, int skip_to = 0) {
   const Dimensions dims = Chain<T>::dimensions(d);
+  if (dims.nq == dims.nv) return jacobian<Chain>(d, values, Input::q, f, skip_from, skip_to);
+  const std::vector<T> G = configuration_rate_matrix<Chain>(d, values);
   const char* name = info(Input::q).name;
   const int nv = dims.nv;
-  auto taken = [skip_from, skip_to](int k) { return k < skip_from || k >= skip_to; };
-  if (dims.nq == dims.nv)
-    return along_directions<Chain>(
-        d, values, nv,
-        [&values, name, taken](int k, const std::string& a, int i) {
-          return a == name && i == k && taken(k) ? values.number(1.0) : T{};
-        },
-        f);
-  const std::vector<T> G = configuration_rate_matrix<Chain>(d, values);
   return along_directions<Chain>(
       d, values, nv,
-      [&G, name, nv, taken](int k, const std::string& a, int i) {
-        return a == name && taken(k) ? G[i * nv + k] : T{};
+      [&G, name, nv, skip_from, skip_to](int k, const std::string& a, int i) {
+        const bool taken = k < skip_from || k >= skip_to;
+        return a == name && taken ? G[i * nv + k] : T{};
       },
       f);
 }
@@ -232,14 +229,8 @@ std::vector<std::vector<T>> state_jacobian(const Description& d, const Values<T>
   for (int t = 0; t < turns; ++t)
     for (int i = 0; i < boosts; ++i)
       dqdd_dq[i * nv + boosts + t] = dqdd_dq[i * nv + boosts + t] + turned_qdd[t][i];
-  const char* qd = info(Input::qd).name;
-  const std::vector<T> dqdd_dqd = along_directions<Chain>(
-      d, values, nv,
-      [&values, qd, boosts](int k, const std::string& a, int i) {
-        return a == qd && i == k && k >= boosts ? values.number(1.0) : T{};
-      },
-      qdd_of);
-  return {dqdd_dq, dqdd_dqd, qdd, torque_jacobian<Chain>(d, values, chain, qdd_of)};
+  return {dqdd_dq, jacobian<Chain>(d, values, Input::qd, qdd_of, 0, boosts), qdd,
+          torque_jacobian<Chain>(d, values, chain, qdd_of)};
 }
 
 // The outputs made by differentiating the algorithms forward: Mdot = dM/dq qdot; with P =
