@@ -509,11 +509,10 @@ void check_start_in_range(const DynamicModel& m, const StraightLineTask& task,
           "other elbow)");
 }
 
-// A state's rates on the link side: a motor slot's rate is p q'.
-VectorXd link_side_rates(const DynamicModel& m, VectorXd v) {
-  for (int j = 0; j < m.num_links; ++j)
-    if (m.slot_holds_motor(j)) v[m.joint_v_offsets[j]] /= std::abs(m.gear_ratios[j]);
-  return v;
+// A state's largest rate on the link side: the base's, and the joints' (a motor slot's is p q').
+double largest_rate(const DynamicModel& m, const VectorXd& v) {
+  return std::max(v.head(m.num_base()).lpNorm<Eigen::Infinity>(),
+                  m.joint_rates(v).lpNorm<Eigen::Infinity>());  // 0 where empty (a fixed base)
 }
 constexpr double kRestAtEnd = 1e-3;  // a flown plan's rates at T, at most, of their peak
 
@@ -554,10 +553,9 @@ void refuse_a_poor_flight(const DynamicModel& m, const StraightLineTask& task, c
                           const Guess& guess) {
   const double scale =
       std::max({1.0, task.start.cwiseAbs().maxCoeff(), task.goal.cwiseAbs().maxCoeff()});
-  const double at_end = link_side_rates(m, plan.qd.back()).cwiseAbs().maxCoeff();
+  const double at_end = largest_rate(m, plan.qd.back());
   double peak = 0;
-  for (const VectorXd& v : plan.qd)
-    peak = std::max(peak, link_side_rates(m, v).cwiseAbs().maxCoeff());
+  for (const VectorXd& v : plan.qd) peak = std::max(peak, largest_rate(m, v));
   std::string missed;
   if (!(plan.goal_error <= 1e-5 * scale))
     missed = number_text(plan.goal_error, 3) + " m from the goal";
