@@ -350,17 +350,20 @@ void register_pinocchio(const Loaded& m) {
       m.model.name().c_str(), worst, worst_derivative,
       worst < 1e-12 && worst_derivative < 1e-9 ? "ok" : "DISAGREE");
   if (!(worst < 1e-12 && worst_derivative < 1e-9)) std::exit(1);
-  auto timed = [peer](bool derivatives) {
-    return [peer, derivatives](benchmark::State& st) {
+  // One of the peer's calls, timed over the states in turn.
+  auto timed = [peer](void (bench::PinocchioPeer::*call)(int)) {
+    return [peer, call](benchmark::State& st) {
       int k = 0;
       for (auto _ : st) {
-        derivatives ? peer->aba_derivatives(k) : peer->aba(k);
+        ((*peer).*call)(k);
         k = (k + 1) % kStates;
       }
     };
   };
-  benchmark::RegisterBenchmark(("pinocchio/FD/" + m.model.name()).c_str(), timed(false));
-  benchmark::RegisterBenchmark(("pinocchio/FD derivatives/" + m.model.name()).c_str(), timed(true));
+  using Peer = bench::PinocchioPeer;
+  benchmark::RegisterBenchmark(("pinocchio/FD/" + m.model.name()).c_str(), timed(&Peer::aba));
+  benchmark::RegisterBenchmark(("pinocchio/FD derivatives/" + m.model.name()).c_str(),
+                               timed(&Peer::aba_derivatives));
   // Its generated derivatives (CppADCodeGen), where built with them: equal to its analytical
   // ones to 1e-9 (relative) first.
   if (!peer->build_codegen()) return;
@@ -373,13 +376,7 @@ void register_pinocchio(const Loaded& m) {
       m.model.name().c_str(), worst_generated, worst_generated < 1e-9 ? "ok" : "DISAGREE");
   if (!(worst_generated < 1e-9)) std::exit(1);
   benchmark::RegisterBenchmark(("pinocchio/FD derivatives, generated/" + m.model.name()).c_str(),
-                               [peer](benchmark::State& st) {
-                                 int k = 0;
-                                 for (auto _ : st) {
-                                   peer->aba_derivatives_codegen(k);
-                                   k = (k + 1) % kStates;
-                                 }
-                               });
+                               timed(&Peer::aba_derivatives_codegen));
 }
 #endif
 

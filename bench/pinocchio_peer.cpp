@@ -78,7 +78,8 @@ PinocchioPeer::PinocchioPeer(const std::string& mjcf, const Eigen::VectorXd& rat
 PinocchioPeer::~PinocchioPeer() = default;
 
 // computeABADerivatives recorded on CppADCodeGen's scalars, printed as C and compiled by gcc
-// with Pinocchio's own flags (-Ofast) into a library in a fresh temporary folder, then loaded.
+// with Pinocchio's own flags (-Ofast) into a library in a fresh temporary folder, then loaded;
+// the folder is removed once the library is loaded (its mapping stays).
 bool PinocchioPeer::build_codegen() {
 #ifdef SPACEARM_PINOCCHIO_CODEGEN
   char folder[] = "/tmp/spacearm-pinocchio-cg-XXXXXX";
@@ -88,6 +89,7 @@ bool PinocchioPeer::build_codegen() {
       impl_->model, "partial_aba", std::string(folder) + "/cg_partial_aba_eval");
   impl_->codegen->initLib();
   impl_->codegen->loadLib(true);
+  std::filesystem::remove_all(folder);
   std::printf(
       "pinocchio peer: CppADCodeGen's ABA derivatives generated, compiled and loaded in "
       "%.1f s\n",
